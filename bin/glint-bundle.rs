@@ -1,0 +1,131 @@
+//! `glint-bundle`: inspect and check a baked bundle from the terminal.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::{Parser, Subcommand};
+use glint::bundle::Bundle;
+use glint::bundle::stats::{BundleStats, format_table, human_bytes};
+
+#[derive(Parser)]
+#[command(
+    name = "glint-bundle",
+    version,
+    about = "Inspect and verify a glint asset bundle (NAME.glint/)",
+    after_help = "Examples:\n  glint-bundle stats out/cornell-box.glint\n  glint-bundle stats out/cornell-box.glint --json | jq .total\n  glint-bundle verify out/cornell-box.glint && echo intact\n  glint-bundle ls out/cornell-box.glint"
+)]
+struct Args {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Bytes and file counts per stage and per asset kind, and each stage's figures.
+    Stats {
+        /// The bundle folder.
+        bundle: PathBuf,
+        /// Print JSON for scripts instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Check the manifest and every asset's size and BLAKE3 hash; exit 0 only if all match.
+    Verify {
+        /// The bundle folder.
+        bundle: PathBuf,
+        /// Print a JSON report.
+        #[arg(long)]
+        json: bool,
+    },
+    /// List every asset: stage, kind, size, path.
+    Ls {
+        /// The bundle folder.
+        bundle: PathBuf,
+        /// Print JSON for scripts.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+fn main() -> ExitCode {
+    glint::cli::init_logging();
+    glint::cli::exit_code(run(Args::parse()))
+}
+
+fn open(path: &PathBuf) -> anyhow::Result<Bundle> {
+    Bundle::open(path).with_context(|| format!("cannot open bundle {}", path.display()))
+}
+
+fn run(args: Args) -> anyhow::Result<ExitCode> {
+    let mut out = std::io::stdout().lock();
+    match args.command {
+        Command::Stats { bundle, json } => {
+            let stats = BundleStats::of(&open(&bundle)?);
+            if json {
+                writeln!(out, "{}", serde_json::to_string_pretty(&stats)?)?;
+            } else {
+                write!(out, "{}", stats.to_table())?;
+            }
+        }
+        Command::Verify { bundle, json } => {
+            let b = open(&bundle)?;
+            let problems = b.verify();
+            let assets = b.manifest().assets().count();
+            if json {
+                let report = serde_json::json!({
+                    "bundle": bundle.display().to_string(),
+                    "assets": assets,
+                    "ok": problems.is_empty(),
+                    "problems": problems.iter().map(|p| p.to_string()).collect::<Vec<_>>(),
+                });
+                writeln!(out, "{}", serde_json::to_string_pretty(&report)?)?;
+            } else if problems.is_empty() {
+                let bytes: u64 = b.manifest().assets().map(|(_, a)| a.bytes).sum();
+                writeln!(
+                    out,
+                    "ok: {} — manifest valid, {assets} assets ({}) match their hashes",
+                    bundle.display(),
+                    human_bytes(bytes)
+                )?;
+            } else {
+                for p in &problems {
+                    writeln!(out, "FAILED: {p}")?;
+                }
+                writeln!(
+                    out,
+                    "{} of {assets} assets failed verification",
+                    problems.len()
+                )?;
+            }
+            if !problems.is_empty() {
+                return Ok(ExitCode::FAILURE);
+            }
+        }
+        Command::Ls { bundle, json } => {
+            let b = open(&bundle)?;
+            if json {
+                let list: Vec<_> = b.manifest().assets().map(|(_, a)| a).collect();
+                writeln!(out, "{}", serde_json::to_string_pretty(&list)?)?;
+            } else {
+                let mut rows = vec![[
+                    "stage".to_string(),
+                    "kind".to_string(),
+                    "bytes".to_string(),
+                    "path".to_string(),
+                ]];
+                rows.extend(b.manifest().assets().map(|(stage, a)| {
+                    [
+                        stage.to_string(),
+                        a.kind.clone(),
+                        a.bytes.to_string(),
+                        a.path.clone(),
+                    ]
+                }));
+                write!(out, "{}", format_table(&rows, &[false, false, true, false]))?;
+            }
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}

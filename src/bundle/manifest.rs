@@ -1,0 +1,130 @@
+//! `manifest.json`: what a bundle holds, made by which glint from which scene.
+//!
+//! The types here generate `schemas/manifest.schema.json`. Within a major format version
+//! fields are only ever added, so readers accept unknown keys; a newer major is refused.
+
+use std::collections::BTreeMap;
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+/// Value of `format`.
+pub const FORMAT_NAME: &str = "glint-bundle";
+
+/// The format version this build writes; it reads any 1.x.y.
+pub const FORMAT_VERSION: FormatVersion = FormatVersion {
+    major: 1,
+    minor: 0,
+    patch: 0,
+};
+
+/// `generator`: the glint version that wrote a stage.
+pub fn generator() -> String {
+    format!("glint {}", env!("CARGO_PKG_VERSION"))
+}
+
+/// A semantic version `MAJOR.MINOR.PATCH`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub struct FormatVersion {
+    /// Incompatible changes.
+    pub major: u64,
+    /// Added fields or asset kinds.
+    pub minor: u64,
+    /// Fixes.
+    pub patch: u64,
+}
+
+impl std::fmt::Display for FormatVersion {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}.{}.{}", self.major, self.minor, self.patch)
+    }
+}
+
+impl std::str::FromStr for FormatVersion {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let parts: Vec<&str> = s.split('.').collect();
+        let num = |p: &str| {
+            p.parse::<u64>()
+                .map_err(|_| format!("{s:?} is not MAJOR.MINOR.PATCH"))
+        };
+        match parts.as_slice() {
+            [a, b, c] => Ok(FormatVersion {
+                major: num(a)?,
+                minor: num(b)?,
+                patch: num(c)?,
+            }),
+            _ => Err(format!("{s:?} is not MAJOR.MINOR.PATCH")),
+        }
+    }
+}
+
+/// Root of `manifest.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct Manifest {
+    /// Always `glint-bundle`.
+    pub format: String,
+    /// Semantic version of the bundle format, `MAJOR.MINOR.PATCH`.
+    pub format_version: String,
+    /// glint version that last wrote the manifest.
+    pub generator: String,
+    /// Name of the scene the bundle was baked from.
+    pub scene_name: String,
+    /// BLAKE3 (hex) of the scene's files (scene.json, glTF, buffers).
+    pub scene_hash: String,
+    /// Stages by name (`radiosity`, `materials`, `radiance`, `srdm`).
+    #[serde(default)]
+    pub stages: BTreeMap<String, StageRecord>,
+}
+
+/// What one stage wrote.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct StageRecord {
+    /// glint version that baked the stage.
+    pub generator: String,
+    /// Scene hash the stage was baked from.
+    pub scene_hash: String,
+    /// Settings used (stage-specific object).
+    pub settings: serde_json::Value,
+    /// Wall-clock bake time, seconds.
+    pub bake_seconds: f64,
+    /// Stage-specific figures (texel counts, rays cast, …).
+    #[serde(default)]
+    pub stats: BTreeMap<String, serde_json::Value>,
+    /// Files of the stage.
+    pub assets: Vec<AssetRecord>,
+}
+
+/// One file of a stage.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+pub struct AssetRecord {
+    /// Path relative to the bundle folder, `/`-separated, starting with the stage's folder.
+    pub path: String,
+    /// What the file is (e.g. `radiosity-exr`, `atlas`, `preview-png`).
+    pub kind: String,
+    /// Size in bytes.
+    pub bytes: u64,
+    /// BLAKE3 of the contents (hex).
+    pub blake3: String,
+}
+
+impl Manifest {
+    /// An empty manifest for a scene.
+    pub fn new(scene_name: &str, scene_hash: &str) -> Manifest {
+        Manifest {
+            format: FORMAT_NAME.into(),
+            format_version: FORMAT_VERSION.to_string(),
+            generator: generator(),
+            scene_name: scene_name.into(),
+            scene_hash: scene_hash.into(),
+            stages: BTreeMap::new(),
+        }
+    }
+
+    /// Every asset of every stage, in stage order.
+    pub fn assets(&self) -> impl Iterator<Item = (&str, &AssetRecord)> {
+        self.stages
+            .iter()
+            .flat_map(|(s, r)| r.assets.iter().map(move |a| (s.as_str(), a)))
+    }
+}

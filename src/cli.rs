@@ -1,0 +1,33 @@
+//! What every glint binary shares: logging set-up and turning a result into an exit code.
+
+use std::io::Write;
+use std::process::ExitCode;
+
+/// Logs to stderr at `info` (or `RUST_LOG`), without timestamps when stderr is not a terminal.
+pub fn init_logging() {
+    let env = env_logger::Env::default().default_filter_or("info");
+    let _ = env_logger::Builder::from_env(env)
+        .format_timestamp(None)
+        .format_target(false)
+        .try_init();
+}
+
+/// Maps a binary's result to its exit code: 0 on success, 1 on error (printed with its whole
+/// chain of causes). A closed pipe (`glint-bundle ls | head`) is not an error.
+pub fn exit_code(result: anyhow::Result<ExitCode>) -> ExitCode {
+    match result {
+        Ok(code) => code,
+        Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
+        Err(e) => {
+            let _ = writeln!(std::io::stderr(), "error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn is_broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}

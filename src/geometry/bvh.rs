@@ -1,0 +1,240 @@
+//! Ray casting over the scene's triangles with an obvhs compressed wide BVH (CWBVH).
+
+use std::time::Duration;
+
+use glam::{Vec2, Vec3, Vec3A};
+use obvhs::{
+    BvhBuildParams,
+    cwbvh::{CwBvh, builder::build_cwbvh_from_tris},
+    ray::{Ray, RayHit},
+    triangle::Triangle as BvhTriangle,
+};
+
+use super::{Aabb, Triangle};
+
+/// The nearest intersection along a ray.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Distance along the (unit) ray direction.
+    pub t: f32,
+    /// Index of the hit triangle in the scene's triangle list.
+    pub triangle: u32,
+    /// Barycentrics (u, v) of the hit: p = (1 − u − v)·p0 + u·p1 + v·p2.
+    pub bary: Vec2,
+}
+
+/// A BVH over a triangle list, answering closest-hit and occlusion queries.
+///
+/// Triangles are stored in the BVH's leaf order (obvhs hit ids index `primitive_indices`),
+/// which saves an indirection per intersection test.
+pub struct Bvh {
+    bvh: CwBvh,
+    /// Triangles in leaf order.
+    ordered: Vec<BvhTriangle>,
+    /// For each leaf-order slot, the index of the triangle in the caller's list.
+    original: Vec<u32>,
+    bounds: Aabb,
+    epsilon: f32,
+}
+
+impl Bvh {
+    /// Builds the BVH (in parallel with rayon). The result does not depend on the thread count.
+    pub fn build(triangles: &[Triangle]) -> Bvh {
+        let tris: Vec<BvhTriangle> = triangles
+            .iter()
+            .map(|t| BvhTriangle {
+                v0: t.p[0].into(),
+                v1: t.p[1].into(),
+                v2: t.p[2].into(),
+            })
+            .collect();
+        let bounds = Aabb::from_points(triangles.iter().flat_map(|t| t.p.iter()));
+        if tris.is_empty() {
+            return Bvh {
+                bvh: CwBvh::default(),
+                ordered: Vec::new(),
+                original: Vec::new(),
+                bounds,
+                epsilon: 0.0,
+            };
+        }
+        let epsilon = scene_epsilon(&bounds);
+        let bvh = build_cwbvh_from_tris(
+            &tris,
+            BvhBuildParams::medium_build(),
+            &mut Duration::default(),
+        );
+        let ordered = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| tris[i as usize])
+            .collect();
+        let original = bvh.primitive_indices.clone();
+        Bvh {
+            bvh,
+            ordered,
+            original,
+            bounds,
+            epsilon,
+        }
+    }
+
+    /// Bounds of all triangles.
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    /// Self-intersection offset for this scene: relative to its size, so a 1 mm scene and a
+    /// 1 km scene behave the same up to scale.
+    pub fn epsilon(&self) -> f32 {
+        self.epsilon
+    }
+
+    /// Moves a surface point off its surface along `normal` (towards the side the ray leaves
+    /// from), far enough that a ray from it does not hit the surface it starts on.
+    pub fn offset_origin(&self, p: Vec3, normal: Vec3) -> Vec3 {
+        // f32 spacing grows with |p|: keep the offset above a few ulps of the coordinates.
+        let eps = self
+            .epsilon
+            .max(p.abs().max_element() * 64.0 * f32::EPSILON);
+        p + normal * eps
+    }
+
+    /// The nearest hit along `dir` (unit length) from `origin` in (0, t_max).
+    pub fn closest_hit(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<Hit> {
+        if self.ordered.is_empty() {
+            return None;
+        }
+        let ray = make_ray(origin, dir, t_max);
+        let mut hit = RayHit::none();
+        if !self
+            .bvh
+            .ray_traverse(ray, &mut hit, |r, id| self.ordered[id].intersect(r))
+        {
+            return None;
+        }
+        let slot = hit.primitive_id as usize;
+        Some(Hit {
+            t: hit.t,
+            triangle: self.original[slot],
+            bary: barycentrics(&self.ordered[slot], origin.into(), dir.into()),
+        })
+    }
+
+    /// Whether anything blocks the segment from `origin` along `dir` (unit) up to `t_max`.
+    pub fn occluded(&self, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
+        if self.ordered.is_empty() {
+            return false;
+        }
+        let ray = make_ray(origin, dir, t_max);
+        !self
+            .bvh
+            .ray_traverse_miss(ray, |r, id| self.ordered[id].intersect(r))
+    }
+
+    /// Number of triangles (leaf slots) in the BVH.
+    pub fn len(&self) -> usize {
+        self.ordered.len()
+    }
+
+    /// Whether the BVH holds no triangle.
+    pub fn is_empty(&self) -> bool {
+        self.ordered.is_empty()
+    }
+}
+
+/// The default self-intersection offset for a scene of these bounds.
+pub fn scene_epsilon(bounds: &Aabb) -> f32 {
+    1e-5 * bounds.diagonal()
+}
+
+/// An obvhs ray. Negative zeros in the direction become positive: obvhs picks a node's near
+/// slab by `d < 0` but inverts −0 to −∞, so an axis-aligned ray such as −Z (−0, −0, −1)
+/// would miss every node.
+fn make_ray(origin: Vec3, dir: Vec3, t_max: f32) -> Ray {
+    let dir = dir + Vec3::ZERO; // IEEE: −0 + +0 = +0
+    Ray::new(origin.into(), dir.into(), 0.0, t_max)
+}
+
+/// Barycentrics of the ray's crossing of the triangle's plane (Möller–Trumbore), clamped
+/// into the triangle so attribute lookups at edges stay inside it.
+fn barycentrics(t: &BvhTriangle, o: Vec3A, d: Vec3A) -> Vec2 {
+    let e1 = t.v1 - t.v0;
+    let e2 = t.v2 - t.v0;
+    let pvec = d.cross(e2);
+    let inv_det = 1.0 / e1.dot(pvec);
+    let tvec = o - t.v0;
+    let u = (tvec.dot(pvec) * inv_det).clamp(0.0, 1.0);
+    let qvec = tvec.cross(e1);
+    let v = (d.dot(qvec) * inv_det).clamp(0.0, 1.0 - u);
+    Vec2::new(u, v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn quad(z: f32, size: f32, material: u32) -> [Triangle; 2] {
+        let p = [
+            Vec3::new(-size, -size, z),
+            Vec3::new(size, -size, z),
+            Vec3::new(size, size, z),
+            Vec3::new(-size, size, z),
+        ];
+        let mk = |a: usize, b: usize, c: usize| Triangle {
+            p: [p[a], p[b], p[c]],
+            n: [Vec3::Z; 3],
+            uv: [Vec2::ZERO; 3],
+            uv1: None,
+            material,
+            object: 0,
+        };
+        [mk(0, 1, 2), mk(0, 2, 3)]
+    }
+
+    #[test]
+    fn closest_hit_finds_the_nearer_of_two_planes() {
+        for scale in [1e-3_f32, 1.0, 1e3] {
+            let mut tris = quad(-2.0 * scale, scale, 0).to_vec();
+            tris.extend(quad(-5.0 * scale, scale, 1));
+            let bvh = Bvh::build(&tris);
+            let o = Vec3::new(0.25, 0.5, 0.0) * scale;
+            // −Z is (−0, −0, −1): the negative zeros must not make the ray miss.
+            let hit = bvh
+                .closest_hit(o, -Vec3::Z, f32::INFINITY)
+                .unwrap_or_else(|| panic!("miss at scale {scale}"));
+            assert!(
+                (hit.t - 2.0 * scale).abs() <= 1e-5 * scale,
+                "{scale}: {hit:?}"
+            );
+            let t = &tris[hit.triangle as usize];
+            assert_eq!(t.material, 0);
+            let p = t.point(hit.bary);
+            assert!((p - (o - Vec3::Z * hit.t)).length() < 1e-5 * scale);
+            // t_max before the first plane: no hit, and not occluded.
+            assert!(bvh.closest_hit(o, -Vec3::Z, 1.5 * scale).is_none());
+            assert!(!bvh.occluded(o, -Vec3::Z, 1.5 * scale));
+            assert!(bvh.occluded(o, -Vec3::Z, 2.5 * scale));
+            // Pointing away: nothing.
+            assert!(bvh.closest_hit(o, Vec3::Z, f32::INFINITY).is_none());
+        }
+    }
+
+    #[test]
+    fn offset_origin_avoids_self_intersection() {
+        let tris = quad(0.0, 1.0, 0).to_vec();
+        let bvh = Bvh::build(&tris);
+        let p = Vec3::new(0.3, 0.2, 0.0);
+        let o = bvh.offset_origin(p, Vec3::Z);
+        assert!(o.z > 0.0);
+        assert!(!bvh.occluded(o, Vec3::new(0.0, 0.6, 0.8), f32::INFINITY));
+    }
+
+    #[test]
+    fn empty_bvh_answers_misses() {
+        let bvh = Bvh::build(&[]);
+        assert!(bvh.is_empty());
+        assert!(bvh.closest_hit(Vec3::ZERO, Vec3::X, 1.0).is_none());
+        assert!(!bvh.occluded(Vec3::ZERO, Vec3::X, 1.0));
+    }
+}

@@ -1,0 +1,18 @@
+//! glint: precompute toolchain and viewer for globally illuminated walkthroughs with glossy
+//! reflections.
+//!
+//! The library holds everything; each binary in `bin/` is a thin command line over it.
+//! - [`scene`]: scene.json + glTF, validated; materials; camera paths.
+//! - [`geometry`]: world-space triangles and BVH ray casting (obvhs).
+//! - [`bundle`]: the versioned asset bundle (`NAME.glint/`) and its manifest.
+//! - `view` (feature `view`): the wgpu viewer.
+
+pub mod bundle;
+pub mod camera;
+pub mod cli;
+pub mod geometry;
+pub mod sampling;
+pub mod scene;
+
+#[cfg(feature = "view")]
+pub mod view;

@@ -1,0 +1,344 @@
+//! The `scene.json` file as written by users: serde types, defaults and presets.
+//!
+//! These types are the single source of `schemas/scene.schema.json` (generated with schemars;
+//! `tests/schemas.rs` keeps the file current). Unknown keys are errors everywhere.
+
+use std::collections::BTreeMap;
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+/// The scene-description version this build reads and writes.
+pub const SCENE_VERSION: u32 = 1;
+
+/// Root of `scene.json`.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SceneDesc {
+    /// Scene-description version; this build reads version 1.
+    pub version: u32,
+    /// Human-readable name (defaults to the file's folder name).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// Path of the glTF 2.0 file (`.gltf` or `.glb`), relative to scene.json.
+    pub geometry: String,
+    /// Per glTF material name: overrides of what is derived from the glTF material.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub materials: BTreeMap<String, MaterialOverride>,
+    /// Explicit area lights, for scenes whose glTF has no emitters.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub lights: Vec<AreaLightDesc>,
+    /// Surfaces that reflect the scene: glossy planes and curved objects.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub reflectors: Vec<ReflectorDesc>,
+    /// Objects replaced by depth-map impostors when seen in curved reflectors.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub impostors: Vec<ImpostorDesc>,
+    /// Camera paths replayed by the viewer.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub camera_paths: Vec<CameraPath>,
+    /// Bake settings: a quality preset and per-stage overrides.
+    #[serde(default)]
+    pub bake: BakeDesc,
+}
+
+/// Overrides for one material. Absent fields keep the value mapped from glTF.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialOverride {
+    /// Diffuse albedo (linear RGB, each in [0, 1)).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub albedo: Option<[f32; 3]>,
+    /// Emitted radiance (linear RGB, W·sr⁻¹·m⁻², ≥ 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub emission: Option<[f32; 3]>,
+    /// Glossy lobes of the Kurt et al. 2010 model; `[]` makes the material purely diffuse.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lobes: Option<Vec<KurtLobe>>,
+}
+
+/// One specular lobe of the Kurt et al. 2010 BRDF (regular-sampling paper, Eq. 1–5).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct KurtLobe {
+    /// Lobe reflectivity k_s (linear RGB; colour of metals lives here).
+    pub ks: [f32; 3],
+    /// Schlick Fresnel reflectance at normal incidence, in [0, 1].
+    pub r0: f32,
+    /// Beckmann roughness along the tangent, > 0 (1e-4 is a mirror).
+    pub mx: f32,
+    /// Beckmann roughness along the bitangent, > 0.
+    pub my: f32,
+    /// Shadowing exponent α in [0, 1] (0 keeps the directional albedo ≤ 1).
+    pub alpha: f32,
+}
+
+/// A one- or two-sided quad light: points `corner + s·edge_u + t·edge_v`, s, t ∈ [0, 1].
+/// It emits towards `edge_u × edge_v`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct AreaLightDesc {
+    /// Name used in messages and the bundle.
+    pub name: String,
+    /// One corner of the quad, world metres.
+    pub corner: [f32; 3],
+    /// First edge from the corner.
+    pub edge_u: [f32; 3],
+    /// Second edge from the corner.
+    pub edge_v: [f32; 3],
+    /// Emitted radiance (linear RGB, W·sr⁻¹·m⁻²).
+    pub radiance: [f32; 3],
+    /// Emit from both faces.
+    #[serde(default)]
+    pub two_sided: bool,
+}
+
+/// How a reflector reflects.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum ReflectorKind {
+    /// A plane: radiance maps with depth (Bastos) or recursive reflection maps (Nielsen).
+    Planar,
+    /// A curved object: cube/environment maps, regular sampling, impostor reflections.
+    Curved,
+}
+
+/// A reflector, selected by glTF mesh (or node) name or by material name: exactly one of the two.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ReflectorDesc {
+    /// Name in messages and the bundle (defaults to the selecting name).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// Select the triangles of the glTF meshes (or nodes) of this name.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mesh: Option<String>,
+    /// Select every triangle with this glTF material.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub material: Option<String>,
+    /// Planar or curved.
+    pub kind: ReflectorKind,
+    /// Largest distance of a vertex from the fitted plane, relative to the reflector's
+    /// bounding-box diagonal, for a `planar` reflector to be accepted.
+    #[serde(default = "default_planarity_tolerance")]
+    pub planarity_tolerance: f32,
+    /// Radiance-map overrides for this reflector (otherwise chosen from its glossiness).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radiance: Option<RadianceOverride>,
+}
+
+fn default_planarity_tolerance() -> f32 {
+    1e-3
+}
+
+/// Per-reflector radiance-map sampling overrides (Bastos §8.1.3).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct RadianceOverride {
+    /// Reflector elements along each of the plane's two axes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub elements: Option<[u32; 2]>,
+    /// Cameras per hemisphere.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cameras_per_hemisphere: Option<u32>,
+    /// Square map resolution in pixels.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub resolution: Option<u32>,
+}
+
+/// An object that gets a depth-map impostor, selected by glTF mesh (or node) name.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ImpostorDesc {
+    /// glTF mesh or node name.
+    pub mesh: String,
+    /// Number of capture views around the object.
+    #[serde(default = "default_views")]
+    pub views: u32,
+}
+
+fn default_views() -> u32 {
+    1
+}
+
+/// A named camera path: keyframes interpolated in time.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CameraPath {
+    /// Name to pick the path with `--replay NAME`.
+    pub name: String,
+    /// Frames per second at which the path is replayed.
+    #[serde(default = "default_fps")]
+    pub fps: f32,
+    /// At least one keyframe, times strictly increasing.
+    pub keyframes: Vec<Keyframe>,
+}
+
+fn default_fps() -> f32 {
+    30.0
+}
+
+/// One camera pose.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Keyframe {
+    /// Seconds from the start of the path.
+    pub time: f32,
+    /// Eye position, world metres.
+    pub position: [f32; 3],
+    /// Point looked at.
+    pub target: [f32; 3],
+    /// Up vector (need not be orthogonal to the view direction).
+    #[serde(default = "default_up")]
+    pub up: [f32; 3],
+    /// Vertical field of view in degrees, in (0, 180).
+    pub fov_y_deg: f32,
+}
+
+fn default_up() -> [f32; 3] {
+    [0.0, 1.0, 0.0]
+}
+
+/// Quality preset: the speed-for-accuracy point of every stage.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum Quality {
+    /// Fast previews.
+    Draft,
+    /// Everyday bakes.
+    #[default]
+    Default,
+    /// Final bakes.
+    High,
+}
+
+impl Quality {
+    /// All presets, fastest first.
+    pub const ALL: [Quality; 3] = [Quality::Draft, Quality::Default, Quality::High];
+
+    /// The preset's name as written in scene.json and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Quality::Draft => "draft",
+            Quality::Default => "default",
+            Quality::High => "high",
+        }
+    }
+}
+
+/// `bake` in scene.json: a preset and overrides of single settings per stage.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct BakeDesc {
+    /// Preset used when the command line names none.
+    #[serde(default)]
+    pub quality: Quality,
+    /// Radiosity overrides.
+    #[serde(default)]
+    pub radiosity: RadiosityOverride,
+    /// Radiance-map overrides (for every planar reflector).
+    #[serde(default)]
+    pub radiance: RadianceStageOverride,
+    /// Material-stage overrides.
+    #[serde(default)]
+    pub materials: MaterialsOverride,
+    /// SRDM overrides.
+    #[serde(default)]
+    pub srdm: SrdmOverride,
+}
+
+/// Radiosity settings that a scene may fix, whatever the preset.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct RadiosityOverride {
+    /// Lightmap texels per metre.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub texel_density: Option<f32>,
+    /// Gathering rays per texel and bounce.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rays: Option<u32>,
+    /// Largest number of bounces.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bounces: Option<u32>,
+}
+
+/// Radiance-map stage settings that a scene may fix, whatever the preset.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct RadianceStageOverride {
+    /// Multiplies the resolution chosen from glossiness.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub resolution_scale: Option<f32>,
+}
+
+/// Material-stage settings that a scene may fix, whatever the preset.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialsOverride {
+    /// Samples of the regular pattern per pixel.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sample_budget: Option<u32>,
+    /// Cube-map face size of prefiltered environment maps.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub env_map_size: Option<u32>,
+}
+
+/// SRDM settings that a scene may fix, whatever the preset.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SrdmOverride {
+    /// Number of rotated domains n.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub domains: Option<u32>,
+    /// Points per row m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub points: Option<u32>,
+    /// Depth-map resolution.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub resolution: Option<u32>,
+}
+
+/// Resolved radiosity settings (preset, then scene overrides, then command line).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct RadiositySettings {
+    /// Lightmap texels per metre.
+    pub texel_density: f32,
+    /// Gathering rays per texel and bounce.
+    pub rays: u32,
+    /// Largest number of bounces.
+    pub bounces: u32,
+    /// Stop when the largest relative change of a bounce falls below this.
+    pub tolerance: f32,
+}
+
+impl RadiositySettings {
+    /// The preset's values.
+    pub fn preset(quality: Quality) -> Self {
+        let (texel_density, rays, bounces, tolerance) = match quality {
+            Quality::Draft => (8.0, 64, 3, 1e-2),
+            Quality::Default => (16.0, 256, 6, 3e-3),
+            Quality::High => (32.0, 1024, 12, 1e-3),
+        };
+        RadiositySettings {
+            texel_density,
+            rays,
+            bounces,
+            tolerance,
+        }
+    }
+
+    /// The preset with the scene's overrides applied.
+    pub fn resolve(quality: Quality, over: &RadiosityOverride) -> Self {
+        let mut s = Self::preset(quality);
+        if let Some(v) = over.texel_density {
+            s.texel_density = v;
+        }
+        if let Some(v) = over.rays {
+            s.rays = v;
+        }
+        if let Some(v) = over.bounces {
+            s.bounces = v;
+        }
+        s
+    }
+}

@@ -1,0 +1,436 @@
+//! Headless GPU access: adapter and device selection, offscreen rendering and texture readback.
+//!
+//! Nothing here needs a window or a surface, so it runs on CI machines whose only GPU is a
+//! software Vulkan driver (Mesa lavapipe, from the Debian/Ubuntu package `mesa-vulkan-drivers`).
+//!
+//! Errors that wgpu reports through error scopes (validation, out of memory) are turned into
+//! [`GpuError`] values instead of the default panicking handler.
+
+use std::sync::mpsc;
+
+use thiserror::Error;
+
+/// Backends searched first: Vulkan (and Metal / DX12 on the platforms that have them).
+const PREFERRED_BACKENDS: wgpu::Backends = wgpu::Backends::PRIMARY;
+
+/// Backends searched only when no preferred backend exposes an adapter.
+const FALLBACK_BACKENDS: wgpu::Backends = wgpu::Backends::GL;
+
+/// Bytes per texel of the RGBA8 formats handled by [`read_texture_rgba8`].
+const RGBA8_BYTES_PER_PIXEL: u32 = 4;
+
+/// Pixel format of the offscreen target used by [`render_test_triangle`].
+const TEST_TRIANGLE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+
+/// Errors from GPU setup, rendering and readback.
+#[derive(Debug, Error)]
+pub enum GpuError {
+    /// No backend exposed an adapter.
+    #[error(
+        "no GPU adapter found (backends tried: {backends}): \
+         install mesa-vulkan-drivers for the software Vulkan adapter"
+    )]
+    NoAdapter {
+        /// The backends that were enumerated.
+        backends: String,
+    },
+
+    /// The adapter refused to create a device.
+    #[error("could not create a GPU device on adapter `{adapter}`: {source}")]
+    RequestDevice {
+        /// Name of the adapter the device was requested from.
+        adapter: String,
+        /// The error reported by wgpu.
+        #[source]
+        source: wgpu::RequestDeviceError,
+    },
+
+    /// A render target size of zero, or above the device's 2D texture limit.
+    #[error("invalid render target size {width}x{height} (each side must be 1..={max})")]
+    InvalidSize {
+        /// Requested width in pixels.
+        width: u32,
+        /// Requested height in pixels.
+        height: u32,
+        /// The device's `max_texture_dimension_2d`.
+        max: u32,
+    },
+
+    /// The texture given to [`read_texture_rgba8`] cannot be read back as RGBA8 pixels.
+    #[error("cannot read back texture as RGBA8: {0}")]
+    UnsupportedTexture(String),
+
+    /// wgpu reported a validation or out-of-memory error while doing `context`.
+    #[error("GPU error while {context}: {source}")]
+    Wgpu {
+        /// What was being done when the error was reported.
+        context: &'static str,
+        /// The error captured by the error scope.
+        #[source]
+        source: wgpu::Error,
+    },
+
+    /// Waiting for submitted GPU work failed.
+    #[error("waiting for the GPU failed: {0}")]
+    Poll(#[from] wgpu::PollError),
+
+    /// Mapping the readback buffer failed.
+    #[error("mapping the readback buffer failed: {0}")]
+    MapAsync(#[from] wgpu::BufferAsyncError),
+
+    /// The buffer-mapping callback was dropped without being called.
+    #[error("the readback buffer was never mapped (map callback dropped)")]
+    MapCallbackDropped,
+
+    /// Getting a view of the mapped readback buffer failed.
+    #[error("reading the mapped readback buffer failed: {0}")]
+    MapRange(#[from] wgpu::MapRangeError),
+}
+
+/// A wgpu adapter together with the device and queue created from it.
+pub struct Gpu {
+    /// The physical (or software) adapter the device runs on.
+    pub adapter: wgpu::Adapter,
+    /// The logical device.
+    pub device: wgpu::Device,
+    /// The device's command queue.
+    pub queue: wgpu::Queue,
+}
+
+impl Gpu {
+    /// Opens a GPU without any window or surface.
+    ///
+    /// Searches Vulkan/Metal/DX12 and GL (the `WGPU_BACKEND` environment variable can narrow
+    /// that down, e.g. `WGPU_BACKEND=gl`). Adapters from Vulkan/Metal/DX12 are preferred; GL is
+    /// used only when none of those has an adapter. Within a backend group, hardware GPUs win
+    /// over virtual and CPU adapters, but software adapters such as lavapipe are accepted, which
+    /// is what CI uses.
+    ///
+    /// The device is created with no optional features and with the adapter's own limits, so
+    /// texture sizes are bounded by the hardware rather than by wgpu's conservative defaults.
+    pub fn headless() -> Result<Gpu, GpuError> {
+        let backends = (PREFERRED_BACKENDS | FALLBACK_BACKENDS).with_env();
+        let adapter = select_adapter(backends)?;
+        let info = adapter.get_info();
+        log::info!(
+            "GPU adapter: {} ({} backend, {:?}, driver: {} {})",
+            info.name,
+            info.backend,
+            info.device_type,
+            info.driver,
+            info.driver_info
+        );
+
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("glint device"),
+            required_limits: adapter.limits(),
+            ..Default::default()
+        }))
+        .map_err(|source| GpuError::RequestDevice {
+            adapter: info.name.clone(),
+            source,
+        })?;
+
+        Ok(Gpu {
+            adapter,
+            device,
+            queue,
+        })
+    }
+
+    /// One-line description of the adapter: name, backend, device type and driver.
+    pub fn adapter_summary(&self) -> String {
+        let info = self.adapter.get_info();
+        let mut summary = format!(
+            "{} ({} backend, {:?})",
+            info.name, info.backend, info.device_type
+        );
+        let driver = format!("{} {}", info.driver, info.driver_info);
+        let driver = driver.trim();
+        if !driver.is_empty() {
+            summary.push_str(", driver: ");
+            summary.push_str(driver);
+        }
+        summary
+    }
+}
+
+/// Picks the best adapter among `backends`, trying [`PREFERRED_BACKENDS`] before the rest.
+///
+/// Each backend group gets its own instance, created only when the previous group had no
+/// adapter: initialising GL (EGL) is slow and logs driver-probing errors, so it is skipped
+/// entirely when Vulkan works.
+fn select_adapter(backends: wgpu::Backends) -> Result<wgpu::Adapter, GpuError> {
+    let groups = [backends & PREFERRED_BACKENDS, backends - PREFERRED_BACKENDS];
+    for group in groups.into_iter().filter(|group| !group.is_empty()) {
+        let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle().with_env();
+        descriptor.backends = group;
+        let instance = wgpu::Instance::new(descriptor);
+        let adapters = pollster::block_on(instance.enumerate_adapters(group));
+        for adapter in &adapters {
+            let info = adapter.get_info();
+            log::debug!(
+                "found GPU adapter: {} ({} backend, {:?})",
+                info.name,
+                info.backend,
+                info.device_type
+            );
+        }
+        if let Some(adapter) = adapters
+            .into_iter()
+            .min_by_key(|adapter| device_type_rank(adapter.get_info().device_type))
+        {
+            return Ok(adapter);
+        }
+    }
+    Err(GpuError::NoAdapter {
+        backends: format!("{backends:?}"),
+    })
+}
+
+/// Preference order of device types within one backend group (lower is better).
+fn device_type_rank(device_type: wgpu::DeviceType) -> u8 {
+    match device_type {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Other => 3,
+        wgpu::DeviceType::Cpu => 4,
+    }
+}
+
+/// Runs `work` inside validation and out-of-memory error scopes and reports the first error.
+///
+/// wgpu's default behaviour is to panic on such errors; this turns them into [`GpuError::Wgpu`].
+fn error_scoped<T>(
+    device: &wgpu::Device,
+    context: &'static str,
+    work: impl FnOnce() -> T,
+) -> Result<T, GpuError> {
+    let out_of_memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+    let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let value = work();
+    // Scopes must be popped in reverse order of pushing.
+    let validation_error = pollster::block_on(validation.pop());
+    let out_of_memory_error = pollster::block_on(out_of_memory.pop());
+    match validation_error.or(out_of_memory_error) {
+        Some(source) => Err(GpuError::Wgpu { context, source }),
+        None => Ok(value),
+    }
+}
+
+/// Copies mip level 0, layer 0 of an RGBA8 2D texture back to the CPU.
+///
+/// The texture must be `Rgba8Unorm` or `Rgba8UnormSrgb`, single-sampled and created with
+/// [`wgpu::TextureUsages::COPY_SRC`]. The GPU copy pads every row to
+/// [`wgpu::COPY_BYTES_PER_ROW_ALIGNMENT`] bytes; the returned vector has the padding removed:
+/// `width * height * 4` bytes, rows top to bottom, each pixel as R, G, B, A. sRGB textures are
+/// returned as stored (sRGB-encoded), not converted to linear.
+///
+/// Blocks until the copy has finished.
+pub fn read_texture_rgba8(gpu: &Gpu, texture: &wgpu::Texture) -> Result<Vec<u8>, GpuError> {
+    let format = texture.format();
+    if !matches!(
+        format,
+        wgpu::TextureFormat::Rgba8Unorm | wgpu::TextureFormat::Rgba8UnormSrgb
+    ) {
+        return Err(GpuError::UnsupportedTexture(format!(
+            "format is {format:?}, expected Rgba8Unorm or Rgba8UnormSrgb"
+        )));
+    }
+    if texture.dimension() != wgpu::TextureDimension::D2 {
+        return Err(GpuError::UnsupportedTexture(format!(
+            "dimension is {:?}, expected D2",
+            texture.dimension()
+        )));
+    }
+    if texture.sample_count() != 1 {
+        return Err(GpuError::UnsupportedTexture(format!(
+            "sample count is {}, expected 1 (resolve multisampled targets first)",
+            texture.sample_count()
+        )));
+    }
+    if !texture.usage().contains(wgpu::TextureUsages::COPY_SRC) {
+        return Err(GpuError::UnsupportedTexture(
+            "texture was not created with TextureUsages::COPY_SRC".to_owned(),
+        ));
+    }
+
+    let width = texture.width();
+    let height = texture.height();
+    let row_bytes = width * RGBA8_BYTES_PER_PIXEL;
+    let padded_row_bytes = row_bytes.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+    let buffer_size = u64::from(padded_row_bytes) * u64::from(height);
+
+    let (buffer, submission) = error_scoped(&gpu.device, "copying a texture for readback", || {
+        let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("glint readback buffer"),
+            size: buffer_size,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        let mut encoder = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("glint readback encoder"),
+            });
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(padded_row_bytes),
+                    rows_per_image: Some(height),
+                },
+            },
+            wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
+        );
+        let submission = gpu.queue.submit([encoder.finish()]);
+        (buffer, submission)
+    })?;
+
+    let slice = buffer.slice(..);
+    let (sender, receiver) = mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |result| {
+        // The receiver outlives the poll below; a failed send only means nobody is listening.
+        let _ = sender.send(result);
+    });
+    gpu.device.poll(wgpu::PollType::Wait {
+        submission_index: Some(submission),
+        timeout: None,
+    })?;
+    receiver
+        .recv()
+        .map_err(|_| GpuError::MapCallbackDropped)??;
+
+    let mut pixels = Vec::with_capacity(row_bytes as usize * height as usize);
+    {
+        let mapped = slice.get_mapped_range()?;
+        for row in mapped.chunks_exact(padded_row_bytes as usize) {
+            pixels.extend_from_slice(&row[..row_bytes as usize]);
+        }
+    }
+    buffer.unmap();
+    Ok(pixels)
+}
+
+/// Renders the smoke-test triangle offscreen and returns its RGBA8 pixels.
+///
+/// The target is a `width` x `height` `Rgba8Unorm` texture cleared to opaque black. The shader
+/// `shaders/test_triangle.wgsl` generates the vertices from the vertex index at clip coordinates
+/// (-0.5, -0.5), (0.5, -0.5), (0, 0.5) and fills the triangle with opaque red (1, 0, 0, 1).
+/// Pixels are returned as by [`read_texture_rgba8`], top row first.
+///
+/// This exercises shader compilation, pipeline creation, rasterisation and readback, which is
+/// enough to prove that an adapter (for example lavapipe on CI) can run the viewer.
+pub fn render_test_triangle(gpu: &Gpu, width: u32, height: u32) -> Result<Vec<u8>, GpuError> {
+    let max = gpu.device.limits().max_texture_dimension_2d;
+    if width == 0 || height == 0 || width > max || height > max {
+        return Err(GpuError::InvalidSize { width, height, max });
+    }
+
+    let texture = error_scoped(&gpu.device, "rendering the test triangle", || {
+        let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("glint test triangle target"),
+            size: wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: TEST_TRIANGLE_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
+
+        let shader = gpu
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("glint test triangle shader"),
+                source: wgpu::ShaderSource::Wgsl(
+                    include_str!("../../shaders/test_triangle.wgsl").into(),
+                ),
+            });
+        let layout = gpu
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("glint test triangle layout"),
+                bind_group_layouts: &[],
+                immediate_size: 0,
+            });
+        let pipeline = gpu
+            .device
+            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("glint test triangle pipeline"),
+                layout: Some(&layout),
+                vertex: wgpu::VertexState {
+                    module: &shader,
+                    entry_point: Some("vs_main"),
+                    compilation_options: wgpu::PipelineCompilationOptions::default(),
+                    buffers: &[],
+                },
+                primitive: wgpu::PrimitiveState {
+                    topology: wgpu::PrimitiveTopology::TriangleList,
+                    cull_mode: None,
+                    ..Default::default()
+                },
+                depth_stencil: None,
+                multisample: wgpu::MultisampleState::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &shader,
+                    entry_point: Some("fs_main"),
+                    compilation_options: wgpu::PipelineCompilationOptions::default(),
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format: TEST_TRIANGLE_FORMAT,
+                        blend: None,
+                        write_mask: wgpu::ColorWrites::ALL,
+                    })],
+                }),
+                multiview_mask: None,
+                cache: None,
+            });
+
+        let mut encoder = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("glint test triangle encoder"),
+            });
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("glint test triangle pass"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&pipeline);
+            pass.draw(0..3, 0..1);
+        }
+        gpu.queue.submit([encoder.finish()]);
+        texture
+    })?;
+
+    read_texture_rgba8(gpu, &texture)
+}

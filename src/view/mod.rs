@@ -1,0 +1,3 @@
+//! The wgpu viewer: GPU setup, offscreen rendering and frame readback.
+
+pub mod gpu;

@@ -1,0 +1,165 @@
+//! Test fixtures: tiny glTF files and scene.json files written into temporary folders.
+
+#![allow(dead_code)] // each test binary uses a different part of the fixtures
+
+use std::path::{Path, PathBuf};
+
+/// A mesh for [`write_gltf`]: a name (used for both the node and the mesh), a material index,
+/// positions and triangle indices.
+pub struct MeshSpec {
+    pub name: &'static str,
+    pub material: usize,
+    pub positions: Vec<[f32; 3]>,
+    pub indices: Vec<u32>,
+}
+
+/// A glTF material: name, base colour, metallic, roughness, emissive, emissive strength.
+pub struct MaterialSpec {
+    pub name: &'static str,
+    pub base: [f32; 4],
+    pub metallic: f32,
+    pub roughness: f32,
+    pub emissive: [f32; 3],
+    pub strength: f32,
+}
+
+impl MaterialSpec {
+    pub fn diffuse(name: &'static str, albedo: f32) -> Self {
+        MaterialSpec {
+            name,
+            base: [albedo, albedo, albedo, 1.0],
+            metallic: 0.0,
+            roughness: 1.0,
+            emissive: [0.0; 3],
+            strength: 1.0,
+        }
+    }
+}
+
+/// An axis-aligned quad in the plane `axis = offset`, spanning [-h, h] on the other two axes,
+/// with counter-clockwise winding seen from +axis.
+pub fn quad(name: &'static str, material: usize, axis: usize, offset: f32, h: f32) -> MeshSpec {
+    let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
+    let corner = |s: f32, t: f32| {
+        let mut p = [0.0; 3];
+        p[axis] = offset;
+        p[a] = s * h;
+        p[b] = t * h;
+        p
+    };
+    MeshSpec {
+        name,
+        material,
+        positions: vec![
+            corner(-1.0, -1.0),
+            corner(1.0, -1.0),
+            corner(1.0, 1.0),
+            corner(-1.0, 1.0),
+        ],
+        indices: vec![0, 1, 2, 0, 2, 3],
+    }
+}
+
+/// Writes `NAME.gltf` + `NAME.bin` into `dir` and returns the .gltf path.
+pub fn write_gltf(
+    dir: &Path,
+    name: &str,
+    meshes: &[MeshSpec],
+    materials: &[MaterialSpec],
+) -> PathBuf {
+    let mut bin: Vec<u8> = Vec::new();
+    let mut views = Vec::new();
+    let mut accessors = Vec::new();
+    let mut json_meshes = Vec::new();
+    let mut nodes = Vec::new();
+    for (i, m) in meshes.iter().enumerate() {
+        let pos_off = bin.len();
+        let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+        for p in &m.positions {
+            for k in 0..3 {
+                bin.extend_from_slice(&p[k].to_le_bytes());
+                if p[k].is_finite() {
+                    lo[k] = lo[k].min(p[k]);
+                    hi[k] = hi[k].max(p[k]);
+                }
+            }
+        }
+        let idx_off = bin.len();
+        for ix in &m.indices {
+            bin.extend_from_slice(&ix.to_le_bytes());
+        }
+        views.push(serde_json::json!({"buffer": 0, "byteOffset": pos_off, "byteLength": idx_off - pos_off}));
+        views.push(serde_json::json!({"buffer": 0, "byteOffset": idx_off, "byteLength": bin.len() - idx_off}));
+        accessors.push(serde_json::json!({"bufferView": 2 * i, "componentType": 5126, "count": m.positions.len(), "type": "VEC3", "min": lo, "max": hi}));
+        accessors.push(serde_json::json!({"bufferView": 2 * i + 1, "componentType": 5125, "count": m.indices.len(), "type": "SCALAR"}));
+        json_meshes.push(serde_json::json!({"name": m.name, "primitives": [{"attributes": {"POSITION": 2 * i}, "indices": 2 * i + 1, "material": m.material}]}));
+        nodes.push(serde_json::json!({"name": m.name, "mesh": i}));
+    }
+    let mats: Vec<_> = materials
+        .iter()
+        .map(|m| {
+            serde_json::json!({
+                "name": m.name,
+                "pbrMetallicRoughness": {"baseColorFactor": m.base, "metallicFactor": m.metallic, "roughnessFactor": m.roughness},
+                "emissiveFactor": m.emissive,
+                "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": m.strength}}
+            })
+        })
+        .collect();
+    let doc = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["KHR_materials_emissive_strength"],
+        "scene": 0,
+        "scenes": [{"nodes": (0..meshes.len()).collect::<Vec<_>>()}],
+        "nodes": nodes,
+        "meshes": json_meshes,
+        "materials": mats,
+        "accessors": accessors,
+        "bufferViews": views,
+        "buffers": [{"uri": format!("{name}.bin"), "byteLength": bin.len()}],
+    });
+    std::fs::write(dir.join(format!("{name}.bin")), &bin).unwrap();
+    let path = dir.join(format!("{name}.gltf"));
+    std::fs::write(&path, serde_json::to_string_pretty(&doc).unwrap()).unwrap();
+    path
+}
+
+/// A closed unit-ish room: floor (material 0), a glossy-capable panel (material 1) and an
+/// emissive ceiling (material 2). Returns the glTF path.
+pub fn write_room(dir: &Path) -> PathBuf {
+    write_gltf(
+        dir,
+        "room",
+        &[
+            quad("Floor", 0, 1, 0.0, 1.0),
+            quad("Panel", 1, 0, -0.9, 0.5),
+            quad("Ceiling", 2, 1, 2.0, 1.0),
+        ],
+        &[
+            MaterialSpec::diffuse("FloorMat", 0.5),
+            MaterialSpec {
+                name: "PanelMat",
+                base: [0.9, 0.9, 0.9, 1.0],
+                metallic: 1.0,
+                roughness: 0.05,
+                emissive: [0.0; 3],
+                strength: 1.0,
+            },
+            MaterialSpec {
+                name: "LightMat",
+                base: [0.0, 0.0, 0.0, 1.0],
+                metallic: 0.0,
+                roughness: 1.0,
+                emissive: [1.0, 1.0, 1.0],
+                strength: 10.0,
+            },
+        ],
+    )
+}
+
+/// Writes `scene.json` with the given JSON text into `dir` and returns its path.
+pub fn write_scene(dir: &Path, json: &str) -> PathBuf {
+    let path = dir.join("scene.json");
+    std::fs::write(&path, json).unwrap();
+    path
+}

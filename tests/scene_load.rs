@@ -1,0 +1,276 @@
+//! Loading scenes: the happy path and every kind of bad input, each with one clear error
+//! naming the file and field.
+
+mod common;
+
+use common::*;
+use glam::Vec3;
+use glint::scene::{ReflectorKind, Scene, SceneError};
+
+fn room_scene(extra: &str) -> (tempfile::TempDir, std::path::PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    write_room(dir.path());
+    let path = write_scene(
+        dir.path(),
+        &format!(r#"{{ "version": 1, "geometry": "room.gltf"{extra} }}"#),
+    );
+    (dir, path)
+}
+
+fn load_err(extra: &str) -> String {
+    let (_dir, path) = room_scene(extra);
+    match Scene::load(&path) {
+        Ok(_) => panic!("scene with {extra} loaded"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn room_loads_with_materials_reflectors_and_paths() {
+    let (_dir, path) = room_scene(
+        r#",
+        "reflectors": [ { "mesh": "Panel", "kind": "planar" }, { "material": "FloorMat", "kind": "planar" } ],
+        "materials": { "FloorMat": { "lobes": [ { "ks": [0.5, 0.5, 0.5], "r0": 0.05, "mx": 0.1, "my": 0.1, "alpha": 0 } ] } },
+        "camera_paths": [ { "name": "a", "keyframes": [
+            { "time": 0, "position": [0, 1, 0.9], "target": [0, 1, 0], "fov_y_deg": 60 },
+            { "time": 1, "position": [0.5, 1, 0.9], "target": [0, 1, 0], "fov_y_deg": 60 } ] } ]"#,
+    );
+    let scene = Scene::load(&path).unwrap();
+    assert_eq!(scene.triangles.len(), 6);
+    assert_eq!(scene.objects.len(), 3);
+    assert!(scene.has_emitters());
+    let light = &scene.materials[scene.triangles[4].material as usize];
+    assert_eq!(light.emission, Vec3::splat(10.0));
+    let panel = &scene.reflectors[0];
+    assert_eq!(
+        (panel.name.as_str(), panel.kind),
+        ("Panel", ReflectorKind::Planar)
+    );
+    assert!((panel.plane.unwrap().normal - Vec3::X).length() < 1e-6);
+    assert!(scene.materials[panel.material as usize].is_glossy());
+    let floor = &scene.reflectors[1];
+    assert_eq!(floor.triangles, vec![0, 1]);
+    assert!((floor.plane.unwrap().normal - Vec3::Y).length() < 1e-6);
+    assert_eq!(scene.materials[floor.material as usize].lobes[0].mx, 0.1);
+    assert_eq!(scene.camera_path(None).unwrap().name, "a");
+    assert_eq!(scene.content_hash.len(), 64);
+}
+
+#[test]
+fn content_hash_follows_every_input_file() {
+    let (dir, path) = room_scene("");
+    let a = Scene::load(&path).unwrap().content_hash;
+    assert_eq!(a, Scene::load(&path).unwrap().content_hash);
+    // Change one byte of the binary buffer: the hash must change.
+    let bin = dir.path().join("room.bin");
+    let mut bytes = std::fs::read(&bin).unwrap();
+    bytes[0] ^= 1;
+    std::fs::write(&bin, bytes).unwrap();
+    assert_ne!(a, Scene::load(&path).unwrap().content_hash);
+}
+
+#[test]
+fn malformed_json_names_file_line_and_column() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_scene(
+        dir.path(),
+        "{\n  \"version\": 1,\n  \"geometry\": \"room.gltf\",,\n}",
+    );
+    let e = Scene::load(&path).unwrap_err();
+    assert!(matches!(e, SceneError::Json { line: 3, .. }), "{e:?}");
+    assert!(
+        e.to_string().starts_with(&format!("{}:3:", path.display())),
+        "{e}"
+    );
+}
+
+#[test]
+fn unknown_field_is_an_error_naming_it() {
+    let e = load_err(r#", "refletcors": []"#);
+    assert!(e.contains("unknown field `refletcors`"), "{e}");
+    assert!(e.contains("scene.json"), "{e}");
+    let e = load_err(
+        r#", "lights": [ { "name": "l", "corner": [0,0,0], "edge_u": [1,0,0], "edge_v": [0,0,1], "radiance": [1,1,1], "colour": 1 } ]"#,
+    );
+    assert!(e.contains("unknown field `colour`"), "{e}");
+}
+
+#[test]
+fn wrong_or_missing_version_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    write_room(dir.path());
+    let path = write_scene(
+        dir.path(),
+        r#"{ "version": 2, "geometry": "room.gltf", "new_thing": 1 }"#,
+    );
+    let e = Scene::load(&path).unwrap_err().to_string();
+    assert!(
+        e.contains("field `version`: found 2") && e.contains("reads scene version 1"),
+        "{e}"
+    );
+    let path = write_scene(dir.path(), r#"{ "geometry": "room.gltf" }"#);
+    let e = Scene::load(&path).unwrap_err().to_string();
+    assert!(e.contains("field `version`: missing"), "{e}");
+}
+
+#[test]
+fn missing_gltf_or_buffer_names_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_scene(dir.path(), r#"{ "version": 1, "geometry": "nowhere.glb" }"#);
+    let e = Scene::load(&path).unwrap_err().to_string();
+    assert!(
+        e.contains("field `geometry`") && e.contains("nowhere.glb") && e.contains("does not exist"),
+        "{e}"
+    );
+
+    let (dir, path) = room_scene("");
+    std::fs::remove_file(dir.path().join("room.bin")).unwrap();
+    let e = Scene::load(&path).unwrap_err().to_string();
+    assert!(e.contains("room.gltf") && e.contains("room.bin"), "{e}");
+}
+
+#[test]
+fn reflector_name_matching_nothing_lists_what_exists() {
+    let e = load_err(r#", "reflectors": [ { "mesh": "Flor", "kind": "planar" } ]"#);
+    assert!(
+        e.contains("reflectors[0].mesh") && e.contains("\"Flor\" matches no glTF mesh"),
+        "{e}"
+    );
+    assert!(e.contains("\"Floor\""), "{e}");
+    let e = load_err(r#", "reflectors": [ { "material": "Chrome", "kind": "curved" } ]"#);
+    assert!(e.contains("reflectors[0].material"), "{e}");
+    let e = load_err(r#", "reflectors": [ { "kind": "curved" } ]"#);
+    assert!(e.contains("exactly one of `mesh` and `material`"), "{e}");
+    let e = load_err(r#", "impostors": [ { "mesh": "Bunny" } ]"#);
+    assert!(e.contains("impostors[0].mesh"), "{e}");
+    let e = load_err(r#", "materials": { "Gold": { "albedo": [0.5, 0.5, 0.5] } }"#);
+    assert!(
+        e.contains("materials.Gold") && e.contains("\"FloorMat\""),
+        "{e}"
+    );
+}
+
+#[test]
+fn non_planar_planar_reflector_is_refused_at_any_scale() {
+    for scale in [1e-3_f32, 1.0, 1e3] {
+        let dir = tempfile::tempdir().unwrap();
+        let bent = MeshSpec {
+            name: "Bent",
+            material: 0,
+            positions: vec![
+                [0.0, 0.0, 0.0],
+                [scale, 0.0, 0.0],
+                [scale, 0.0, scale],
+                [0.0, 0.05 * scale, scale],
+            ],
+            indices: vec![0, 2, 1, 0, 3, 2],
+        };
+        let flat = quad("Flat", 0, 1, 0.5 * scale, scale);
+        write_gltf(
+            dir.path(),
+            "bent",
+            &[bent, flat],
+            &[MaterialSpec::diffuse("m", 0.5)],
+        );
+        let path = write_scene(
+            dir.path(),
+            r#"{ "version": 1, "geometry": "bent.gltf", "reflectors": [ { "mesh": "Flat", "kind": "planar" }, { "mesh": "Bent", "kind": "planar" } ] }"#,
+        );
+        let e = Scene::load(&path).unwrap_err().to_string();
+        assert!(
+            e.contains("reflectors[1].kind") && e.contains("not planar")
+                || e.contains("declared planar"),
+            "{e}"
+        );
+        // Curved is fine, and so is a generous tolerance.
+        let path = write_scene(
+            dir.path(),
+            r#"{ "version": 1, "geometry": "bent.gltf", "reflectors": [ { "mesh": "Bent", "kind": "planar", "planarity_tolerance": 0.1 } ] }"#,
+        );
+        Scene::load(&path).unwrap();
+    }
+}
+
+#[test]
+fn non_finite_triangles_are_dropped_and_an_empty_scene_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bad = quad("Bad", 0, 1, 0.0, 1.0);
+    bad.positions[0] = [f32::NAN, 0.0, 0.0];
+    bad.positions[2] = [0.0, f32::INFINITY, 0.0];
+    let good = quad("Good", 0, 1, 1.0, 1.0);
+    write_gltf(
+        dir.path(),
+        "nan",
+        &[bad, good],
+        &[MaterialSpec::diffuse("m", 0.5)],
+    );
+    let path = write_scene(dir.path(), r#"{ "version": 1, "geometry": "nan.gltf" }"#);
+    let scene = Scene::load(&path).unwrap();
+    assert_eq!(scene.triangles.len(), 2);
+    assert_eq!(scene.dropped_triangles, 2);
+
+    let dir = tempfile::tempdir().unwrap();
+    let mut bad = quad("Bad", 0, 1, 0.0, 1.0);
+    bad.positions[0] = [f32::NAN, 0.0, 0.0];
+    bad.positions[2] = [0.0, f32::INFINITY, 0.0];
+    write_gltf(
+        dir.path(),
+        "nan",
+        &[bad],
+        &[MaterialSpec::diffuse("m", 0.5)],
+    );
+    let path = write_scene(dir.path(), r#"{ "version": 1, "geometry": "nan.gltf" }"#);
+    let e = Scene::load(&path).unwrap_err();
+    assert!(matches!(e, SceneError::Empty { dropped: 2, .. }), "{e:?}");
+    assert!(
+        e.to_string().contains("nan.gltf") && e.to_string().contains("no valid triangles"),
+        "{e}"
+    );
+}
+
+#[test]
+fn bad_values_name_their_field() {
+    let e = load_err(r#", "materials": { "FloorMat": { "albedo": [1.0, 0.5, 0.5] } }"#);
+    assert!(
+        e.contains("materials.FloorMat.albedo") && e.contains("cannot converge"),
+        "{e}"
+    );
+    let e = load_err(
+        r#", "materials": { "FloorMat": { "lobes": [ { "ks": [1,1,1], "r0": 0.04, "mx": 0, "my": 0.1, "alpha": 0 } ] } }"#,
+    );
+    assert!(e.contains("materials.FloorMat.lobes"), "{e}");
+    let e = load_err(
+        r#", "lights": [ { "name": "l", "corner": [0,0,0], "edge_u": [1,0,0], "edge_v": [2,0,0], "radiance": [1,1,1] } ]"#,
+    );
+    assert!(e.contains("lights[0]") && e.contains("no area"), "{e}");
+    let e = load_err(
+        r#", "camera_paths": [ { "name": "p", "keyframes": [ { "time": 0, "position": [0,1,0], "target": [0,1,-1], "fov_y_deg": 180 } ] } ]"#,
+    );
+    assert!(e.contains("camera_paths[0].keyframes[0].fov_y_deg"), "{e}");
+    let e = load_err(
+        r#", "camera_paths": [ { "name": "p", "keyframes": [ { "time": 0, "position": [0,1,0], "target": [0,2,0], "fov_y_deg": 60 } ] } ]"#,
+    );
+    assert!(e.contains("keyframes[0].up"), "{e}");
+    let e = load_err(
+        r#", "camera_paths": [ { "name": "p", "keyframes": [
+        { "time": 1, "position": [0,1,0], "target": [0,1,-1], "fov_y_deg": 60 },
+        { "time": 1, "position": [0,1,0], "target": [0,1,-1], "fov_y_deg": 60 } ] } ]"#,
+    );
+    assert!(e.contains("keyframes[1].time"), "{e}");
+}
+
+#[test]
+fn glb_with_default_material_and_white_albedo_loads() {
+    // A base colour of 1 is common in glTF; it is clamped below 1 with a warning, not refused.
+    let dir = tempfile::tempdir().unwrap();
+    write_gltf(
+        dir.path(),
+        "white",
+        &[quad("Q", 0, 1, 0.0, 1.0)],
+        &[MaterialSpec::diffuse("white", 1.0)],
+    );
+    let path = write_scene(dir.path(), r#"{ "version": 1, "geometry": "white.gltf" }"#);
+    let scene = Scene::load(&path).unwrap();
+    assert!(scene.materials[0].albedo.max_element() < 1.0);
+    assert!(!scene.has_emitters());
+}
