@@ -31,3 +31,30 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
             .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
     })
 }
+
+/// Options every bake tool takes (`#[command(flatten)]`).
+#[derive(clap::Args, Debug, Clone)]
+pub struct BakeArgs {
+    /// The scene description (scene.json).
+    #[arg(value_name = "SCENE.json")]
+    pub scene: std::path::PathBuf,
+    /// The bundle folder to write into (created if missing), e.g. out/cornell-box.glint.
+    #[arg(long, value_name = "OUT.glint")]
+    pub bundle: std::path::PathBuf,
+    /// Quality preset; default: the scene's `bake.quality`, else `default`.
+    #[arg(long, value_parser = parse_quality)]
+    pub quality: Option<crate::scene::Quality>,
+    /// Replace stages the bundle holds from another scene.
+    #[arg(long)]
+    pub force: bool,
+    /// Print a JSON report on stdout instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn parse_quality(s: &str) -> Result<crate::scene::Quality, String> {
+    crate::scene::Quality::ALL
+        .into_iter()
+        .find(|q| q.name() == s)
+        .ok_or_else(|| format!("{s:?} is not a preset: use draft, default or high"))
+}

@@ -7,6 +7,7 @@
 //! - [`bundle`]: the versioned asset bundle (`NAME.glint/`) and its manifest.
 //! - `view` (feature `view`): the wgpu viewer.
 
+pub mod bake;
 pub mod bundle;
 pub mod camera;
 pub mod cli;

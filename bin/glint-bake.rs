@@ -1,0 +1,111 @@
+//! `glint-bake`: bake every stage a scene requires into one bundle, skipping the rest.
+
+use std::io::Write;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::Parser;
+use glint::bake::{Stage, plan, scene_stage};
+use glint::bundle::Bundle;
+use glint::bundle::stats::format_table;
+use glint::cli::BakeArgs;
+use glint::scene::Scene;
+
+#[derive(Parser)]
+#[command(
+    name = "glint-bake",
+    version,
+    about = "Bake every stage a scene requires into a bundle, in dependency order; stages a scene does not need are skipped with the reason, stages already up to date are left alone",
+    after_help = "Example:\n  glint-bake scenes/cornell-box/scene.json --bundle out/cornell-box.glint\n  glint-bundle stats out/cornell-box.glint"
+)]
+struct Args {
+    #[command(flatten)]
+    bake: BakeArgs,
+}
+
+fn main() -> ExitCode {
+    glint::cli::init_logging();
+    glint::cli::exit_code(run(Args::parse().bake))
+}
+
+fn run(args: BakeArgs) -> anyhow::Result<ExitCode> {
+    let scene = Scene::load(&args.scene)?;
+    log::info!(
+        "{}: {} triangles, {} materials, {} reflectors, {} impostors",
+        scene.name,
+        scene.triangles.len(),
+        scene.materials.len(),
+        scene.reflectors.len(),
+        scene.impostors.len()
+    );
+    let mut report = Vec::new();
+    for p in plan(&scene) {
+        let status = if !p.needed {
+            "skipped".to_string()
+        } else {
+            match p.stage {
+                Stage::Scene => {
+                    if up_to_date(&args, &scene, p.stage) {
+                        "up to date".into()
+                    } else {
+                        let rec = scene_stage::bake(&scene, &args.bundle, args.force)
+                            .with_context(|| format!("stage {}", p.stage.name()))?;
+                        format!("baked in {:.2} s", rec.bake_seconds)
+                    }
+                }
+                // Each stage joins here as it lands (issues 3, 6, 7, 8).
+                _ => "not yet in this glint".into(),
+            }
+        };
+        report.push((p, status));
+    }
+    let mut out = std::io::stdout().lock();
+    if args.json {
+        let v: Vec<_> = report
+            .iter()
+            .map(|(p, s)| serde_json::json!({ "stage": p.stage, "needed": p.needed, "status": s, "reason": p.reason }))
+            .collect();
+        writeln!(
+            out,
+            "{}",
+            serde_json::to_string_pretty(
+                &serde_json::json!({ "bundle": args.bundle, "stages": v })
+            )?
+        )?;
+    } else {
+        let mut rows = vec![[
+            "stage".to_string(),
+            "needed".into(),
+            "status".into(),
+            "reason".into(),
+        ]];
+        rows.extend(report.iter().map(|(p, s)| {
+            [
+                p.stage.name().to_string(),
+                if p.needed { "yes" } else { "no" }.into(),
+                s.clone(),
+                p.reason.clone(),
+            ]
+        }));
+        writeln!(out, "{}: {}", scene.name, args.bundle.display())?;
+        write!(
+            out,
+            "{}",
+            format_table(&rows, &[false, false, false, false])
+        )?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Whether the bundle already holds `stage` from this scene, this glint, intact.
+fn up_to_date(args: &BakeArgs, scene: &Scene, stage: Stage) -> bool {
+    let Ok(bundle) = Bundle::open(&args.bundle) else {
+        return false;
+    };
+    let Some(rec) = bundle.stage(stage.name()) else {
+        return false;
+    };
+    rec.scene_hash == scene.content_hash
+        && rec.generator == glint::bundle::manifest::generator()
+        && rec.assets.iter().all(|a| bundle.verify_asset(a).is_ok())
+}

@@ -1,0 +1,154 @@
+//! `glint-bake` round trips: what it writes, what it skips, and that a bad scene writes nothing.
+
+mod common;
+
+use std::process::Command;
+
+use common::*;
+use glint::bundle::Bundle;
+
+fn glint_bake(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_glint-bake"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn bakes_the_scene_stage_then_finds_it_up_to_date() {
+    let dir = tempfile::tempdir().unwrap();
+    write_room(dir.path());
+    let scene = write_scene(
+        dir.path(),
+        r#"{ "version": 1, "geometry": "room.gltf", "reflectors": [ { "mesh": "Panel", "kind": "planar" } ] }"#,
+    );
+    let bundle = dir.path().join("out/room.glint");
+    let (s, b) = (scene.to_str().unwrap(), bundle.to_str().unwrap());
+    let (code, out, err) = glint_bake(&[s, "--bundle", b, "--json"]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let stage = |name: &str| {
+        v["stages"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|x| x["stage"] == name)
+            .unwrap()
+            .clone()
+    };
+    assert!(
+        stage("scene")["status"]
+            .as_str()
+            .unwrap()
+            .starts_with("baked"),
+        "{out}"
+    );
+    assert_eq!(
+        stage("radiance")["needed"],
+        true,
+        "the metal panel is a glossy planar reflector"
+    );
+    assert!(
+        stage("radiance")["reason"]
+            .as_str()
+            .unwrap()
+            .contains("Panel")
+    );
+    assert_eq!(stage("srdm")["needed"], false);
+
+    let opened = Bundle::open(&bundle).unwrap();
+    assert!(opened.verify().is_empty());
+    let paths: Vec<&str> = opened
+        .stage("scene")
+        .unwrap()
+        .assets
+        .iter()
+        .map(|a| a.path.as_str())
+        .collect();
+    assert_eq!(
+        paths,
+        ["scene/scene.json", "scene/room.gltf", "scene/room.bin"]
+    );
+    // The copy inside the bundle loads on its own, with the same geometry.
+    let copy = glint::scene::Scene::load(bundle.join("scene/scene.json")).unwrap();
+    assert_eq!(copy.triangles.len(), 6);
+
+    let (code, out, _) = glint_bake(&[s, "--bundle", b]);
+    assert_eq!(code, 0);
+    assert!(out.contains("up to date"), "{out}");
+}
+
+#[test]
+fn a_bad_scene_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    write_room(dir.path());
+    let scene = write_scene(
+        dir.path(),
+        r#"{ "version": 1, "geometry": "room.gltf", "reflectors": [ { "mesh": "Nope", "kind": "planar" } ] }"#,
+    );
+    let bundle = dir.path().join("bad.glint");
+    let (code, _, err) = glint_bake(&[
+        scene.to_str().unwrap(),
+        "--bundle",
+        bundle.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("scene.json") && err.contains("reflectors[0].mesh"),
+        "{err}"
+    );
+    assert!(!bundle.exists());
+
+    let (code, _, err) = glint_bake(&[
+        scene.to_str().unwrap(),
+        "--bundle",
+        bundle.to_str().unwrap(),
+        "--quality",
+        "ultra",
+    ]);
+    assert_eq!(code, 2);
+    assert!(
+        err.contains("--quality") && err.contains("draft, default or high"),
+        "{err}"
+    );
+}
+
+#[test]
+fn diffuse_scene_skips_glossy_stages_with_reasons() {
+    let dir = tempfile::tempdir().unwrap();
+    write_gltf(
+        dir.path(),
+        "box",
+        &[quad("Floor", 0, 1, 0.0, 1.0), quad("Light", 1, 1, 1.0, 0.2)],
+        &[
+            MaterialSpec::diffuse("white", 0.7),
+            MaterialSpec {
+                emissive: [1.0; 3],
+                strength: 5.0,
+                ..MaterialSpec::diffuse("lamp", 0.0)
+            },
+        ],
+    );
+    let scene = write_scene(dir.path(), r#"{ "version": 1, "geometry": "box.gltf" }"#);
+    let bundle = dir.path().join("box.glint");
+    let (code, out, _) = glint_bake(&[
+        scene.to_str().unwrap(),
+        "--bundle",
+        bundle.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0);
+    assert!(
+        out.contains("no material in use has a glossy lobe"),
+        "{out}"
+    );
+    assert!(
+        out.contains("no planar reflector has a glossy material"),
+        "{out}"
+    );
+    assert!(out.contains("no impostor objects declared"), "{out}");
+}
