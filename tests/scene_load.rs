@@ -274,3 +274,33 @@ fn glb_with_default_material_and_white_albedo_loads() {
     assert!(scene.materials[0].albedo.max_element() < 1.0);
     assert!(!scene.has_emitters());
 }
+
+#[test]
+fn duplicate_reflectors_and_impostors_are_refused() {
+    let e = load_err(
+        r#", "reflectors": [ { "mesh": "Panel", "kind": "planar" }, { "material": "PanelMat", "kind": "planar", "name": "Panel" } ]"#,
+    );
+    assert!(
+        e.contains("reflectors[1].name") && e.contains("earlier reflector"),
+        "{e}"
+    );
+    let e = load_err(r#", "impostors": [ { "mesh": "Panel" }, { "mesh": "Panel" } ]"#);
+    assert!(
+        e.contains("impostors[1].mesh") && e.contains("twice"),
+        "{e}"
+    );
+}
+
+#[test]
+fn scale_converts_gltf_units_to_metres() {
+    let (_dir, path) =
+        room_scene(r#", "scale": 0.25, "reflectors": [ { "mesh": "Panel", "kind": "planar" } ]"#);
+    let scene = Scene::load(&path).unwrap();
+    assert!(
+        (scene.bounds.max.y - 0.5).abs() < 1e-6,
+        "ceiling at 2 units = 0.5 m"
+    );
+    assert!((scene.reflectors[0].plane.unwrap().point.x - -0.225).abs() < 1e-6);
+    let e = load_err(r#", "scale": 0"#);
+    assert!(e.contains("field `scale`"), "{e}");
+}

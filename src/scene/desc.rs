@@ -22,6 +22,10 @@ pub struct SceneDesc {
     pub name: Option<String>,
     /// Path of the glTF 2.0 file (`.gltf` or `.glb`), relative to scene.json.
     pub geometry: String,
+    /// Metres per glTF unit, for files not modelled in metres (positions are multiplied by
+    /// it; lights and camera paths in this file are already in metres).
+    #[serde(default = "default_scale")]
+    pub scale: f32,
     /// Per glTF material name: overrides of what is derived from the glTF material.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub materials: BTreeMap<String, MaterialOverride>,
@@ -125,6 +129,10 @@ pub struct ReflectorDesc {
     /// Radiance-map overrides for this reflector (otherwise chosen from its glossiness).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub radiance: Option<RadianceOverride>,
+}
+
+fn default_scale() -> f32 {
+    1.0
 }
 
 fn default_planarity_tolerance() -> f32 {

@@ -28,7 +28,8 @@ pub struct Imported {
 const DEFAULT_ALBEDO: f32 = 0.8;
 
 /// Imports `path`. Materials are mapped with [`Material::from_gltf`]; overrides come later.
-pub fn import(path: &Path) -> Result<Imported, SceneError> {
+/// Positions are multiplied by `scale` (metres per glTF unit).
+pub fn import(path: &Path, scale: f32) -> Result<Imported, SceneError> {
     let err = |message: String| SceneError::Gltf {
         path: path.to_owned(),
         message,
@@ -114,7 +115,7 @@ pub fn import(path: &Path) -> Result<Imported, SceneError> {
     let mut stack: Vec<(gltf::Node, Mat4)> = roots
         .into_iter()
         .rev()
-        .map(|n| (n, Mat4::IDENTITY))
+        .map(|n| (n, Mat4::from_scale(Vec3::splat(scale))))
         .collect();
     while let Some((node, parent)) = stack.pop() {
         let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());

@@ -10,6 +10,9 @@ use super::desc::{KurtLobe, MaterialOverride};
 /// reflections to be worth baking.
 pub const GLOSSY_ROUGHNESS_MAX: f32 = 0.6;
 
+/// glTF's Fresnel reflectance at normal incidence for dielectrics.
+pub const DIELECTRIC_F0: f32 = 0.04;
+
 /// Smallest Beckmann roughness; below it a lobe is a mirror for every purpose.
 pub const MIN_BECKMANN_M: f32 = 1e-4;
 
@@ -47,7 +50,8 @@ impl Material {
 
     /// Maps a glTF metallic/roughness material to the Kurt model.
     ///
-    /// - k_d = base colour × (1 − metallic): metals have no diffuse term.
+    /// - k_d = base colour × (1 − metallic): metals have no diffuse term; × (1 − 0.04) when
+    ///   there is a lobe, so a white glossy dielectric conserves energy at normal incidence.
     /// - One lobe when the surface is smooth enough (roughness < [`GLOSSY_ROUGHNESS_MAX`]) or
     ///   metallic ≥ 0.5: k_s = mix(white, base colour, metallic) carries the metal's colour,
     ///   r0 = mix(0.04, 1, metallic) (0.04: the glTF dielectric F0), Beckmann m = roughness²
@@ -67,12 +71,15 @@ impl Material {
         let metallic = metallic.clamp(0.0, 1.0);
         let roughness = roughness.clamp(0.0, 1.0);
         let mut lobes = Vec::new();
+        let mut albedo = base * (1.0 - metallic);
         if roughness < GLOSSY_ROUGHNESS_MAX || metallic >= 0.5 {
+            // What the lobe reflects at normal incidence is not also diffused.
+            albedo *= 1.0 - DIELECTRIC_F0;
             let ks = Vec3::ONE.lerp(base, metallic);
             let m = (roughness * roughness).max(MIN_BECKMANN_M);
             lobes.push(KurtLobe {
                 ks: ks.to_array(),
-                r0: 0.04 + (1.0 - 0.04) * metallic,
+                r0: DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * metallic,
                 mx: m,
                 my: m,
                 alpha: 0.0,
@@ -80,7 +87,7 @@ impl Material {
         }
         Material {
             name: name.to_owned(),
-            albedo: base * (1.0 - metallic),
+            albedo,
             emission: Vec3::from_array(emissive) * emissive_strength,
             lobes,
         }
@@ -164,6 +171,14 @@ mod tests {
     fn roughness_zero_clamps_to_a_mirror_not_zero() {
         let m = Material::from_gltf("mirror", [1.0; 4], 1.0, 0.0, [0.0; 3], 1.0);
         assert_eq!(m.sharpest_roughness(), Some(MIN_BECKMANN_M));
+        assert!(m.check().is_ok());
+    }
+
+    #[test]
+    fn white_glossy_dielectric_leaves_room_for_its_lobe() {
+        let m = Material::from_gltf("plastic", [1.0; 4], 0.0, 0.3, [0.0; 3], 1.0);
+        assert!(m.is_glossy());
+        assert_eq!(m.albedo, Vec3::splat(0.96));
         assert!(m.check().is_ok());
     }
 

@@ -225,7 +225,13 @@ impl Scene {
                 format!("{} does not exist", gltf_path.display()),
             ));
         }
-        let imported = gltf_import::import(&gltf_path)?;
+        if !(desc.scale.is_finite() && desc.scale > 0.0) {
+            return Err(field(
+                "scale".into(),
+                format!("{} is not a finite number > 0", desc.scale),
+            ));
+        }
+        let imported = gltf_import::import(&gltf_path, desc.scale)?;
         if imported.dropped > 0 {
             log::warn!(
                 "{}: dropped {} degenerate or non-finite triangles",
@@ -340,6 +346,12 @@ impl Scene {
                 }
             };
             let name = r.name.clone().unwrap_or_else(|| name.clone());
+            if reflectors.iter().any(|o: &Reflector| o.name == name) {
+                return Err(field(
+                    at(".name"),
+                    format!("{name:?} names an earlier reflector too"),
+                ));
+            }
             let tol = r.planarity_tolerance;
             if !(tol.is_finite() && tol >= 0.0) {
                 return Err(field(
@@ -383,6 +395,12 @@ impl Scene {
                         imp.mesh,
                         list(objects.iter().map(|o| o.mesh_name.as_str()))
                     ),
+                ));
+            }
+            if impostors.iter().any(|o: &Impostor| o.name == imp.mesh) {
+                return Err(field(
+                    format!("impostors[{i}].mesh"),
+                    format!("{:?} is listed twice", imp.mesh),
                 ));
             }
             if imp.views == 0 {

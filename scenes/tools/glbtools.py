@@ -1,0 +1,223 @@
+"""Minimal, deterministic glTF 2.0 binary (.glb) reader and writer for the scene generators.
+
+Pure Python 3 standard library (json, struct, math). The same inputs always give the same
+bytes: no timestamps, no dict-order or float-formatting surprises (every float is rounded to
+float32 before it is written, and JSON keys keep insertion order).
+"""
+
+import json
+import math
+import struct
+
+GLB_MAGIC = 0x46546C67
+CHUNK_JSON = 0x4E4F534A
+CHUNK_BIN = 0x004E4942
+
+FLOAT = 5126
+UINT32 = 5125
+ARRAY_BUFFER = 34962
+ELEMENT_ARRAY_BUFFER = 34963
+
+
+def f32(x):
+    """x rounded to the nearest float32 (as a Python float)."""
+    return struct.unpack("<f", struct.pack("<f", x))[0]
+
+
+def sub(a, b):
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+def add(a, b):
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+def cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def normalize(a):
+    n = math.sqrt(dot(a, a))
+    return (a[0] / n, a[1] / n, a[2] / n)
+
+
+class Geometry:
+    """Positions, normals and triangle indices of one mesh, built from pieces."""
+
+    def __init__(self):
+        self.positions = []
+        self.normals = []
+        self.indices = []
+
+    def quad(self, corner, edge_u, edge_v):
+        """The quad corner + s·edge_u + t·edge_v (2 triangles), facing edge_u × edge_v."""
+        n = normalize(cross(edge_u, edge_v))
+        base = len(self.positions)
+        for p in (corner, add(corner, edge_u), add(add(corner, edge_u), edge_v), add(corner, edge_v)):
+            self.positions.append(p)
+            self.normals.append(n)
+        self.indices += [base, base + 1, base + 2, base, base + 2, base + 3]
+        return self
+
+    def box(self, lo, hi, faces="+x-x+y-y+z-z"):
+        """Outward faces of the axis-aligned box [lo, hi]; `faces` picks which (e.g. "+x-x+z-z")."""
+        x0, y0, z0 = lo
+        x1, y1, z1 = hi
+        dx, dy, dz = x1 - x0, y1 - y0, z1 - z0
+        table = {
+            "+x": ((x1, y0, z1), (0, 0, -dz), (0, dy, 0)),
+            "-x": ((x0, y0, z0), (0, 0, dz), (0, dy, 0)),
+            "+y": ((x0, y1, z1), (dx, 0, 0), (0, 0, -dz)),
+            "-y": ((x0, y0, z0), (dx, 0, 0), (0, 0, dz)),
+            "+z": ((x0, y0, z1), (dx, 0, 0), (0, dy, 0)),
+            "-z": ((x1, y0, z0), (-dx, 0, 0), (0, dy, 0)),
+        }
+        for key in ("+x", "-x", "+y", "-y", "+z", "-z"):
+            if key in faces:
+                self.quad(*table[key])
+        return self
+
+    def triangles(self):
+        return len(self.indices) // 3
+
+
+class GlbWriter:
+    """Collects materials and meshes (one node per mesh, same name, identity transform)."""
+
+    def __init__(self, generator, copyright=None):
+        asset = {"version": "2.0", "generator": generator}
+        if copyright:
+            asset["copyright"] = copyright
+        self.doc = {
+            "asset": asset,
+            "scene": 0,
+            "scenes": [{"name": "scene", "nodes": []}],
+            "nodes": [],
+            "meshes": [],
+            "materials": [],
+            "accessors": [],
+            "bufferViews": [],
+            "buffers": [],
+        }
+        self.bin = bytearray()
+        self.material_ids = {}
+        self.uses_emissive_strength = False
+
+    def material(self, name, base, metallic=0.0, roughness=1.0, emissive=None, strength=None):
+        """Adds a metallic/roughness material; `emissive` × `strength` is its radiance."""
+        m = {
+            "name": name,
+            "pbrMetallicRoughness": {
+                "baseColorFactor": [f32(c) for c in base] + [1.0],
+                "metallicFactor": f32(metallic),
+                "roughnessFactor": f32(roughness),
+            },
+        }
+        if emissive is not None:
+            m["emissiveFactor"] = [f32(c) for c in emissive]
+            if strength is not None and strength != 1.0:
+                m["extensions"] = {"KHR_materials_emissive_strength": {"emissiveStrength": f32(strength)}}
+                self.uses_emissive_strength = True
+        self.material_ids[name] = len(self.doc["materials"])
+        self.doc["materials"].append(m)
+        return self.material_ids[name]
+
+    def _view(self, data, target):
+        while len(self.bin) % 4:
+            self.bin.append(0)
+        view = {"buffer": 0, "byteOffset": len(self.bin), "byteLength": len(data), "target": target}
+        self.bin += data
+        self.doc["bufferViews"].append(view)
+        return len(self.doc["bufferViews"]) - 1
+
+    def _vec3(self, values, with_bounds):
+        flat = [f32(c) for v in values for c in v]
+        data = struct.pack("<%df" % len(flat), *flat)
+        acc = {"bufferView": self._view(data, ARRAY_BUFFER), "componentType": FLOAT, "count": len(values), "type": "VEC3"}
+        if with_bounds:
+            acc["min"] = [min(flat[i::3]) for i in range(3)]
+            acc["max"] = [max(flat[i::3]) for i in range(3)]
+        self.doc["accessors"].append(acc)
+        return len(self.doc["accessors"]) - 1
+
+    def mesh(self, name, geometry, material):
+        """Adds `geometry` (a Geometry) as mesh `name` with node `name`, using material `material`."""
+        normals = [normalize(n) for n in geometry.normals]
+        pos = self._vec3(geometry.positions, True)
+        nor = self._vec3(normals, False)
+        data = struct.pack("<%dI" % len(geometry.indices), *geometry.indices)
+        self.doc["accessors"].append(
+            {"bufferView": self._view(data, ELEMENT_ARRAY_BUFFER), "componentType": UINT32, "count": len(geometry.indices), "type": "SCALAR"}
+        )
+        idx = len(self.doc["accessors"]) - 1
+        prim = {"attributes": {"POSITION": pos, "NORMAL": nor}, "indices": idx, "material": self.material_ids[material], "mode": 4}
+        self.doc["meshes"].append({"name": name, "primitives": [prim]})
+        self.doc["nodes"].append({"name": name, "mesh": len(self.doc["meshes"]) - 1})
+        self.doc["scenes"][0]["nodes"].append(len(self.doc["nodes"]) - 1)
+
+    def to_bytes(self):
+        while len(self.bin) % 4:
+            self.bin.append(0)
+        self.doc["buffers"] = [{"byteLength": len(self.bin)}]
+        if self.uses_emissive_strength:
+            self.doc["extensionsUsed"] = ["KHR_materials_emissive_strength"]
+        text = json.dumps(self.doc, separators=(",", ":"), ensure_ascii=True, allow_nan=False).encode("ascii")
+        text += b" " * ((4 - len(text) % 4) % 4)
+        total = 12 + 8 + len(text) + 8 + len(self.bin)
+        out = bytearray(struct.pack("<III", GLB_MAGIC, 2, total))
+        out += struct.pack("<II", len(text), CHUNK_JSON) + text
+        out += struct.pack("<II", len(self.bin), CHUNK_BIN) + self.bin
+        return bytes(out)
+
+
+def read_glb_mesh(path):
+    """Positions, normals and indices of the first primitive of the first mesh of a .glb."""
+    with open(path, "rb") as f:
+        data = f.read()
+    magic, _version, length = struct.unpack_from("<III", data, 0)
+    if magic != GLB_MAGIC:
+        raise ValueError("%s is not a .glb file" % path)
+    offset, doc, blob = 12, None, None
+    while offset < length:
+        size, kind = struct.unpack_from("<II", data, offset)
+        chunk = data[offset + 8 : offset + 8 + size]
+        offset += 8 + size
+        if kind == CHUNK_JSON:
+            doc = json.loads(chunk)
+        elif kind == CHUNK_BIN:
+            blob = chunk
+    components = {5121: "B", 5123: "H", 5125: "I", 5126: "f"}
+    widths = {"SCALAR": 1, "VEC3": 3}
+
+    def accessor(i):
+        acc = doc["accessors"][i]
+        view = doc["bufferViews"][acc["bufferView"]]
+        fmt = components[acc["componentType"]]
+        n = widths[acc["type"]]
+        size = struct.calcsize(fmt)
+        stride = view.get("byteStride", size * n)
+        start = view.get("byteOffset", 0) + acc.get("byteOffset", 0)
+        rows = [struct.unpack_from("<%d%s" % (n, fmt), blob, start + k * stride) for k in range(acc["count"])]
+        return [r[0] for r in rows] if n == 1 else [tuple(r) for r in rows]
+
+    prim = doc["meshes"][0]["primitives"][0]
+    positions = accessor(prim["attributes"]["POSITION"])
+    normals = accessor(prim["attributes"]["NORMAL"])
+    indices = accessor(prim["indices"])
+    return positions, normals, indices
+
+
+def drop_degenerate(positions, indices, rel=1e-6):
+    """Indices without the triangles whose area is negligible against their longest edge²."""
+    kept = []
+    for t in range(0, len(indices), 3):
+        a, b, c = (positions[i] for i in indices[t : t + 3])
+        longest = max(dot(sub(b, a), sub(b, a)), dot(sub(c, b), sub(c, b)), dot(sub(a, c), sub(a, c)))
+        n = cross(sub(b, a), sub(c, a))
+        if longest > 0.0 and math.sqrt(dot(n, n)) > rel * longest:
+            kept += indices[t : t + 3]
+    return kept
