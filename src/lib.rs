@@ -12,6 +12,8 @@ pub mod bundle;
 pub mod camera;
 pub mod cli;
 pub mod geometry;
+pub mod image_io;
+pub mod progress;
 pub mod sampling;
 pub mod scene;
 
