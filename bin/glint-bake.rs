@@ -6,7 +6,6 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Parser;
 use glint::bake::{Stage, plan, scene_stage};
-use glint::bundle::Bundle;
 use glint::bundle::stats::format_table;
 use glint::cli::BakeArgs;
 use glint::scene::Scene;
@@ -45,7 +44,7 @@ fn run(args: BakeArgs) -> anyhow::Result<ExitCode> {
         } else {
             match p.stage {
                 Stage::Scene => {
-                    if up_to_date(&args, &scene, p.stage) {
+                    if glint::bake::up_to_date(&args.bundle, &scene, p.stage, None) {
                         "up to date".into()
                     } else {
                         let rec = scene_stage::bake(&scene, &args.bundle, args.force)
@@ -95,17 +94,4 @@ fn run(args: BakeArgs) -> anyhow::Result<ExitCode> {
         )?;
     }
     Ok(ExitCode::SUCCESS)
-}
-
-/// Whether the bundle already holds `stage` from this scene, this glint, intact.
-fn up_to_date(args: &BakeArgs, scene: &Scene, stage: Stage) -> bool {
-    let Ok(bundle) = Bundle::open(&args.bundle) else {
-        return false;
-    };
-    let Some(rec) = bundle.stage(stage.name()) else {
-        return false;
-    };
-    rec.scene_hash == scene.content_hash
-        && rec.generator == glint::bundle::manifest::generator()
-        && rec.assets.iter().all(|a| bundle.verify_asset(a).is_ok())
 }

@@ -1,6 +1,32 @@
 //! Bake stages: what a scene requires, and the stages that write into a bundle.
 
 pub mod plan;
+pub mod radiosity_stage;
 pub mod scene_stage;
 
+use std::path::Path;
+
 pub use plan::{Stage, StagePlan, plan};
+
+use crate::bundle::Bundle;
+use crate::scene::Scene;
+
+/// Whether the bundle at `dir` already holds `stage` baked from this scene by this glint,
+/// with `settings` (when given), every asset intact.
+pub fn up_to_date(
+    dir: &Path,
+    scene: &Scene,
+    stage: Stage,
+    settings: Option<&serde_json::Value>,
+) -> bool {
+    let Ok(bundle) = Bundle::open(dir) else {
+        return false;
+    };
+    let Some(rec) = bundle.stage(stage.name()) else {
+        return false;
+    };
+    rec.scene_hash == scene.content_hash
+        && rec.generator == crate::bundle::manifest::generator()
+        && settings.is_none_or(|s| *s == rec.settings)
+        && rec.assets.iter().all(|a| bundle.verify_asset(a).is_ok())
+}

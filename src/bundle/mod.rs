@@ -191,6 +191,22 @@ impl Bundle {
     }
 }
 
+/// Refuses early (before a long bake) when the bundle at `dir` holds stages of another
+/// scene and `force` is not set. A missing bundle is fine.
+pub fn check_scene(dir: &Path, scene_hash: &str, force: bool) -> Result<(), BundleError> {
+    let Some(m) = read_manifest(dir)? else {
+        return Ok(());
+    };
+    if !force && m.stages.values().any(|s| s.scene_hash != scene_hash) {
+        return Err(BundleError::SceneMismatch {
+            dir: dir.to_owned(),
+            found: m.scene_hash,
+            expected: scene_hash.to_owned(),
+        });
+    }
+    Ok(())
+}
+
 /// Reads and checks `dir/manifest.json`; `Ok(None)` when there is none.
 pub(crate) fn read_manifest(dir: &Path) -> Result<Option<Manifest>, BundleError> {
     let path = dir.join(MANIFEST);

@@ -313,23 +313,26 @@ pub struct RadiositySettings {
     pub texel_density: f32,
     /// Gathering rays per texel and bounce.
     pub rays: u32,
+    /// Emitter samples per texel, per area light and for the emissive triangles.
+    pub light_samples: u32,
     /// Largest number of bounces.
     pub bounces: u32,
-    /// Stop when the largest relative change of a bounce falls below this.
+    /// Stop when a bounce changes the total reflected radiance by less than this fraction.
     pub tolerance: f32,
 }
 
 impl RadiositySettings {
     /// The preset's values.
     pub fn preset(quality: Quality) -> Self {
-        let (texel_density, rays, bounces, tolerance) = match quality {
-            Quality::Draft => (8.0, 64, 3, 1e-2),
-            Quality::Default => (16.0, 256, 6, 3e-3),
-            Quality::High => (32.0, 1024, 12, 1e-3),
+        let (texel_density, rays, light_samples, bounces, tolerance) = match quality {
+            Quality::Draft => (8.0, 64, 8, 8, 1e-2),
+            Quality::Default => (16.0, 256, 32, 16, 3e-3),
+            Quality::High => (32.0, 1024, 128, 32, 1e-3),
         };
         RadiositySettings {
             texel_density,
             rays,
+            light_samples,
             bounces,
             tolerance,
         }

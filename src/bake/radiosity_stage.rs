@@ -1,0 +1,206 @@
+//! The `radiosity` stage: atlas, solve, and the bundle's `radiosity/` folder.
+//!
+//! Writes `radiosity/page{N}.exr` (RGB half, linear exitant radiance D), a tone-mapped
+//! `radiosity/page{N}.png` preview per page, and `radiosity/atlas.bin`
+//! ([`crate::radiosity::format`]).
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::time::Instant;
+
+use crate::bundle::{BundleError, StageInfo, StageRecord, StageWriter};
+use crate::image_io::{self, ImageError};
+use crate::progress::{Cancelled, Progress};
+use crate::radiosity::atlas::{self, AtlasError};
+use crate::radiosity::format;
+use crate::radiosity::solve::{SolveSettings, solve};
+use crate::scene::Scene;
+use crate::scene::desc::RadiositySettings;
+
+use super::Stage;
+
+/// Seed of every radiosity bake (recorded in the manifest).
+pub const SEED: u64 = 0x6c69_6e74;
+
+/// Why the radiosity stage failed.
+#[derive(Debug, thiserror::Error)]
+pub enum RadiosityError {
+    /// Nothing emits light.
+    #[error(
+        "{}: the scene has no emitters (no `lights` in scene.json and no emissive glTF material): its radiosity would be black; add an area light",
+        path.display()
+    )]
+    NoEmitters {
+        /// scene.json.
+        path: std::path::PathBuf,
+    },
+    /// The bake would not fit in memory.
+    #[error(
+        "texel density {density} texels/m with {rays} rays needs about {need_gib:.1} GiB ({texels:.0} texels), but {avail_gib:.1} GiB are available; lower --texel-density or --rays"
+    )]
+    TooBig {
+        /// Requested density.
+        density: f32,
+        /// Rays per texel.
+        rays: u32,
+        /// Estimated texels.
+        texels: f64,
+        /// Estimated memory.
+        need_gib: f64,
+        /// Memory available.
+        avail_gib: f64,
+    },
+    /// A setting out of range.
+    #[error("{0}")]
+    Setting(String),
+    /// The atlas cannot be made.
+    #[error(transparent)]
+    Atlas(#[from] AtlasError),
+    /// Encoding a page.
+    #[error(transparent)]
+    Image(#[from] ImageError),
+    /// Writing the bundle.
+    #[error(transparent)]
+    Bundle(#[from] BundleError),
+    /// Ctrl-C.
+    #[error(transparent)]
+    Cancelled(#[from] Cancelled),
+}
+
+/// Memory a bake needs, in bytes, for `texels` elements with `rays` cached hits each.
+pub fn memory_estimate(texels: f64, rays: u32) -> f64 {
+    // Cached hit ids (4 B per ray), per-element data, per-atlas-texel maps and the solution.
+    texels * (rays as f64 * 4.0 + 96.0) + texels * 2.0 * 40.0
+}
+
+/// Bytes of memory available to this process (Linux `MemAvailable`), if known.
+pub fn available_memory() -> Option<f64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024.0)
+}
+
+/// Checks settings and memory before anything is allocated.
+pub fn check(scene: &Scene, s: &RadiositySettings) -> Result<(), RadiosityError> {
+    if !scene.has_emitters() {
+        return Err(RadiosityError::NoEmitters {
+            path: scene.path.clone(),
+        });
+    }
+    if s.rays == 0 || s.light_samples == 0 {
+        return Err(RadiosityError::Setting(format!(
+            "rays ({}) and light samples ({}) must be ≥ 1",
+            s.rays, s.light_samples
+        )));
+    }
+    if !(s.tolerance.is_finite() && s.tolerance >= 0.0) {
+        return Err(RadiosityError::Setting(format!(
+            "tolerance {} must be ≥ 0",
+            s.tolerance
+        )));
+    }
+    if !(s.texel_density.is_finite() && s.texel_density > 0.0) {
+        return Err(RadiosityError::Setting(format!(
+            "texel density {} must be a finite number > 0",
+            s.texel_density
+        )));
+    }
+    let texels = atlas::estimate_texels(&scene.triangles, s.texel_density);
+    let need = memory_estimate(texels, s.rays);
+    if let Some(avail) = available_memory()
+        && need > avail
+    {
+        let gib = (1u64 << 30) as f64;
+        return Err(RadiosityError::TooBig {
+            density: s.texel_density,
+            rays: s.rays,
+            texels,
+            need_gib: need / gib,
+            avail_gib: avail / gib,
+        });
+    }
+    Ok(())
+}
+
+/// Bakes the radiosity of `scene` into the bundle at `bundle`.
+pub fn bake(
+    scene: &Scene,
+    bundle: &Path,
+    settings: &RadiositySettings,
+    force: bool,
+    progress: &dyn Progress,
+) -> Result<StageRecord, RadiosityError> {
+    let start = Instant::now();
+    check(scene, settings)?;
+    crate::bundle::check_scene(bundle, &scene.content_hash, force)?;
+    let bvh = scene.build_bvh();
+    let (atlas, samples) = atlas::build(&scene.triangles, settings.texel_density)?;
+    log::info!(
+        "atlas: {} charts on {} page(s), {} elements",
+        atlas.charts,
+        atlas.pages.len(),
+        samples.len()
+    );
+    let solve_settings = SolveSettings {
+        rays: settings.rays,
+        light_samples: settings.light_samples,
+        bounces: settings.bounces,
+        tolerance: settings.tolerance,
+        seed: SEED,
+    };
+    let solution = solve(scene, &bvh, &atlas, &samples, &solve_settings, progress)?;
+    if progress.cancelled() {
+        return Err(Cancelled.into());
+    }
+
+    let mut w = StageWriter::begin(bundle, Stage::Radiosity.name())?;
+    let mut offset = 0usize;
+    for (i, page) in atlas.pages.iter().enumerate() {
+        let n = (page.width * page.height) as usize;
+        let texels = &solution.radiance[offset..offset + n];
+        offset += n;
+        let exr = image_io::encode_rgb_exr(page.width as usize, page.height as usize, texels)?;
+        w.write(&format!("page{i}.exr"), "radiosity-exr", &exr)?;
+        let png = image_io::encode_png(
+            page.width,
+            page.height,
+            &image_io::tonemap_preview(texels),
+            false,
+        )?;
+        w.write(&format!("page{i}.png"), "preview-png", &png)?;
+    }
+    w.write("atlas.bin", "atlas", &format::encode(&atlas))?;
+
+    let st = &solution.stats;
+    let stats = BTreeMap::from([
+        ("pages".to_string(), atlas.pages.len().into()),
+        ("charts".into(), atlas.charts.into()),
+        ("atlas_texels".into(), atlas.texel_count().into()),
+        ("elements".into(), st.elements.into()),
+        ("elements_inside_geometry".into(), st.excluded.into()),
+        ("texels_filled".into(), st.filled.into()),
+        ("rays_cast".into(), st.rays_cast.into()),
+        ("bounces".into(), st.bounces.into()),
+        ("last_change".into(), st.last_change.into()),
+        (
+            "uv_source".into(),
+            if atlas.from_uv1 {
+                "TEXCOORD_1"
+            } else {
+                "generated"
+            }
+            .into(),
+        ),
+    ]);
+    let mut settings_json = serde_json::to_value(settings).expect("settings serialize");
+    settings_json["seed"] = SEED.into();
+    Ok(w.commit(StageInfo {
+        scene_name: scene.name.clone(),
+        scene_hash: scene.content_hash.clone(),
+        settings: settings_json,
+        stats,
+        bake_seconds: start.elapsed().as_secs_f64(),
+        force,
+    })?)
+}

@@ -1,0 +1,658 @@
+//! The lightmap atlas: every triangle gets lightmap coordinates in one of a few pages of
+//! texels, each texel a finite element of the radiosity solution.
+//!
+//! Charts are groups of edge-adjacent triangles of one object whose normals lie within
+//! [`CHART_MAX_ANGLE_DEG`] of the chart's first triangle; each chart is projected to that
+//! triangle's plane at the requested texel density, framed by [`BORDER`] texels of padding,
+//! and packed into pages by a deterministic shelf packer. A glTF `TEXCOORD_1` set is used
+//! instead when it is valid (inside [0, 1], no two triangles on one texel).
+
+use std::collections::HashMap;
+
+use glam::{Vec2, Vec3};
+
+use crate::geometry::Triangle;
+use crate::sampling::basis;
+
+/// Largest angle between a triangle's normal and its chart's projection normal. Projection
+/// shrinks lengths by at most cos 35° = 0.82: every chart's texel density lies within
+/// [0.82, 1] × the request along its most foreshortened direction.
+pub const CHART_MAX_ANGLE_DEG: f32 = 35.0;
+
+/// Padding around each chart, in texels: bicubic lookups read two texels beyond the last
+/// covered one, and the padding is dilated from the chart itself, never from a neighbour.
+pub const BORDER: u32 = 2;
+
+/// A texel is covered by a triangle when the triangle's point closest to the texel centre
+/// lies inside the texel (L∞ distance below half a texel, less a hair so that an edge lying
+/// on a texel boundary does not cover the texel beyond it).
+const COVER_HALF_WIDTH: f32 = 0.5 - 1e-4;
+
+/// Largest page side.
+pub const MAX_PAGE: u32 = 8192;
+
+/// Size of one atlas page in texels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PageSize {
+    /// Width.
+    pub width: u32,
+    /// Height.
+    pub height: u32,
+}
+
+/// A texel's finite-element sample: where on which triangle it lies.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TexelSample {
+    /// Global texel index (pages one after the other, row-major).
+    pub texel: u32,
+    /// The triangle the sample lies on.
+    pub triangle: u32,
+    /// Barycentrics of the sample on it.
+    pub bary: Vec2,
+}
+
+/// The lightmap atlas of a scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Atlas {
+    /// Texels per metre requested.
+    pub texel_density: f32,
+    /// Pages, in order.
+    pub pages: Vec<PageSize>,
+    /// Per triangle: its page.
+    pub tri_page: Vec<u32>,
+    /// Per triangle: its vertices' positions in page texel units (texel (i, j) spans
+    /// [i, i+1) × [j, j+1); divide by the page size for [0, 1] texture coordinates).
+    pub tri_coords: Vec<[Vec2; 3]>,
+    /// Per global texel: its chart (`u32::MAX` outside every chart).
+    pub texel_chart: Vec<u32>,
+    /// Number of charts (0 when the atlas comes from TEXCOORD_1: one chart per page).
+    pub charts: u32,
+    /// Whether the glTF's TEXCOORD_1 was used.
+    pub from_uv1: bool,
+}
+
+impl Atlas {
+    /// First global texel index of each page.
+    pub fn page_offsets(&self) -> Vec<u32> {
+        let mut off = 0;
+        self.pages
+            .iter()
+            .map(|p| {
+                let o = off;
+                off += p.width * p.height;
+                o
+            })
+            .collect()
+    }
+
+    /// Total texels over all pages.
+    pub fn texel_count(&self) -> usize {
+        self.pages
+            .iter()
+            .map(|p| (p.width * p.height) as usize)
+            .sum()
+    }
+
+    /// Global index of the texel holding barycentric point `bary` of `triangle`.
+    pub fn texel_at(&self, offsets: &[u32], triangle: u32, bary: Vec2) -> u32 {
+        let page = self.tri_page[triangle as usize] as usize;
+        let c = &self.tri_coords[triangle as usize];
+        let p = c[0] * (1.0 - bary.x - bary.y) + c[1] * bary.x + c[2] * bary.y;
+        let size = self.pages[page];
+        let x = (p.x.floor() as i64).clamp(0, size.width as i64 - 1) as u32;
+        let y = (p.y.floor() as i64).clamp(0, size.height as i64 - 1) as u32;
+        offsets[page] + y * size.width + x
+    }
+}
+
+/// Why an atlas cannot be made.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum AtlasError {
+    /// A chart is wider than the largest page.
+    #[error(
+        "a chart of {w}×{h} texels does not fit in a {MAX_PAGE}² page at {density} texels/m; lower the texel density"
+    )]
+    ChartTooLarge {
+        /// Chart width.
+        w: u32,
+        /// Chart height.
+        h: u32,
+        /// Requested density.
+        density: f32,
+    },
+    /// The density is not a positive finite number.
+    #[error("texel density {0} is not a finite number > 0")]
+    BadDensity(f32),
+}
+
+/// Estimated texels of the atlas for `triangles` at `density`, before building it: charted
+/// area plus the padding of one chart per triangle group (an upper bound for memory checks).
+pub fn estimate_texels(triangles: &[Triangle], density: f32) -> f64 {
+    let area: f64 = triangles.iter().map(|t| t.area() as f64).sum();
+    let d = density as f64;
+    // Every chart adds its border; assume one chart per 64 triangles (curved meshes).
+    let charts = (triangles.len() as f64 / 64.0).max(1.0);
+    area * d * d * 1.25 + charts * ((2 * BORDER + 2) as f64).powi(2)
+}
+
+/// Builds the atlas and the texel samples for `triangles` at `density` texels per metre.
+pub fn build(
+    triangles: &[Triangle],
+    density: f32,
+) -> Result<(Atlas, Vec<TexelSample>), AtlasError> {
+    if !(density.is_finite() && density > 0.0) {
+        return Err(AtlasError::BadDensity(density));
+    }
+    if let Some(result) = from_uv1(triangles, density) {
+        return Ok(result);
+    }
+    let charts = make_charts(triangles);
+    // Project each chart to its plane, in texels.
+    let mut projected: Vec<ProjectedChart> = charts
+        .iter()
+        .map(|c| project(triangles, c, density))
+        .collect();
+    for p in &projected {
+        if p.w > MAX_PAGE || p.h > MAX_PAGE {
+            return Err(AtlasError::ChartTooLarge {
+                w: p.w,
+                h: p.h,
+                density,
+            });
+        }
+    }
+    let pages = pack(&mut projected);
+
+    let mut atlas = Atlas {
+        texel_density: density,
+        pages,
+        tri_page: vec![0; triangles.len()],
+        tri_coords: vec![[Vec2::ZERO; 3]; triangles.len()],
+        texel_chart: Vec::new(),
+        charts: charts.len() as u32,
+        from_uv1: false,
+    };
+    atlas.texel_chart = vec![u32::MAX; atlas.texel_count()];
+    let offsets = atlas.page_offsets();
+    let mut samples = Vec::new();
+    for (ci, (chart, p)) in charts.iter().zip(&projected).enumerate() {
+        let size = atlas.pages[p.page as usize];
+        let origin = Vec2::new(p.x as f32, p.y as f32);
+        for (k, &t) in chart.iter().enumerate() {
+            atlas.tri_page[t as usize] = p.page;
+            atlas.tri_coords[t as usize] = p.coords[k].map(|c| c + origin);
+        }
+        for y in 0..p.h {
+            for x in 0..p.w {
+                atlas.texel_chart
+                    [(offsets[p.page as usize] + (p.y + y) * size.width + p.x + x) as usize] =
+                    ci as u32;
+            }
+        }
+        cover(&atlas, &offsets, chart, &mut samples);
+    }
+    samples.sort_by_key(|s| s.texel);
+    Ok((atlas, samples))
+}
+
+/// Groups triangles into charts (lists of triangle indices, in index order of their seeds).
+fn make_charts(triangles: &[Triangle]) -> Vec<Vec<u32>> {
+    // Weld vertices by exact position: glTF splits vertices at seams, positions stay equal.
+    let mut ids: HashMap<[u32; 3], u32> = HashMap::new();
+    let vid: Vec<[u32; 3]> = triangles
+        .iter()
+        .map(|t| {
+            t.p.map(|p| {
+                let key = p.to_array().map(f32::to_bits);
+                let n = ids.len() as u32;
+                *ids.entry(key).or_insert(n)
+            })
+        })
+        .collect();
+    let mut edges: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
+    for (t, v) in vid.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (v[k], v[(k + 1) % 3]);
+            edges
+                .entry((a.min(b), a.max(b)))
+                .or_default()
+                .push(t as u32);
+        }
+    }
+    let cos_max = CHART_MAX_ANGLE_DEG.to_radians().cos();
+    let normals: Vec<Vec3> = triangles.iter().map(|t| t.face_normal()).collect();
+    let mut chart_of = vec![u32::MAX; triangles.len()];
+    let mut charts = Vec::new();
+    for seed in 0..triangles.len() {
+        if chart_of[seed] != u32::MAX {
+            continue;
+        }
+        let id = charts.len() as u32;
+        let n = normals[seed];
+        let mut members = vec![seed as u32];
+        chart_of[seed] = id;
+        let mut head = 0;
+        while head < members.len() {
+            let t = members[head] as usize;
+            head += 1;
+            for k in 0..3 {
+                let (a, b) = (vid[t][k], vid[t][(k + 1) % 3]);
+                for &u in &edges[&(a.min(b), a.max(b))] {
+                    let u = u as usize;
+                    if chart_of[u] == u32::MAX
+                        && triangles[u].object == triangles[seed].object
+                        && normals[u].dot(n) >= cos_max
+                    {
+                        chart_of[u] = id;
+                        members.push(u as u32);
+                    }
+                }
+            }
+        }
+        members.sort_unstable();
+        charts.push(members);
+    }
+    charts
+}
+
+struct ProjectedChart {
+    /// Per member triangle, vertex coordinates in chart-local texels (border included).
+    coords: Vec<[Vec2; 3]>,
+    w: u32,
+    h: u32,
+    page: u32,
+    x: u32,
+    y: u32,
+}
+
+fn project(triangles: &[Triangle], chart: &[u32], density: f32) -> ProjectedChart {
+    let n = triangles[chart[0] as usize].face_normal();
+    let (t, b) = basis(n);
+    let raw: Vec<[Vec2; 3]> = chart
+        .iter()
+        .map(|&i| {
+            triangles[i as usize]
+                .p
+                .map(|p| Vec2::new(p.dot(t), p.dot(b)) * density)
+        })
+        .collect();
+    let min = raw.iter().flatten().fold(Vec2::INFINITY, |m, p| m.min(*p));
+    let max = raw
+        .iter()
+        .flatten()
+        .fold(Vec2::NEG_INFINITY, |m, p| m.max(*p));
+    let ext = (max - min).max(Vec2::splat(1e-3));
+    let shift = Vec2::splat(BORDER as f32) - min;
+    ProjectedChart {
+        coords: raw.iter().map(|c| c.map(|p| p + shift)).collect(),
+        w: ext.x.ceil() as u32 + 2 * BORDER,
+        h: ext.y.ceil() as u32 + 2 * BORDER,
+        page: 0,
+        x: 0,
+        y: 0,
+    }
+}
+
+/// Shelf packing, tallest charts first; deterministic (ties broken by chart index).
+fn pack(charts: &mut [ProjectedChart]) -> Vec<PageSize> {
+    let total: f64 = charts.iter().map(|c| (c.w * c.h) as f64).sum();
+    let widest = charts.iter().map(|c| c.w).max().unwrap_or(1);
+    let width = ((total * 1.15).sqrt().ceil() as u32)
+        .next_power_of_two()
+        .clamp(64, 4096)
+        .max(widest);
+    let mut order: Vec<usize> = (0..charts.len()).collect();
+    order.sort_by(|&a, &b| {
+        charts[b]
+            .h
+            .cmp(&charts[a].h)
+            .then(charts[b].w.cmp(&charts[a].w))
+            .then(a.cmp(&b))
+    });
+    let mut pages = Vec::new();
+    let (mut page, mut x, mut y, mut shelf) = (0u32, 0u32, 0u32, 0u32);
+    for i in order {
+        let c = &mut charts[i];
+        if x + c.w > width {
+            x = 0;
+            y += shelf;
+            shelf = 0;
+        }
+        if y + c.h > MAX_PAGE.min(width.max(4096)) {
+            pages.push(PageSize { width, height: y });
+            page += 1;
+            x = 0;
+            y = 0;
+            shelf = 0;
+        }
+        c.page = page;
+        c.x = x;
+        c.y = y;
+        x += c.w;
+        shelf = shelf.max(c.h);
+    }
+    pages.push(PageSize {
+        width,
+        height: (y + shelf).max(1),
+    });
+    pages
+}
+
+/// Adds a sample for every texel of the chart that one of its triangles covers: the point
+/// of the nearest triangle closest to the texel centre (the centre itself when inside).
+fn cover(atlas: &Atlas, offsets: &[u32], chart: &[u32], out: &mut Vec<TexelSample>) {
+    let page = atlas.tri_page[chart[0] as usize] as usize;
+    let size = atlas.pages[page];
+    let mut best: HashMap<u32, (f32, u32, Vec2)> = HashMap::new();
+    for &t in chart {
+        let c = atlas.tri_coords[t as usize];
+        let lo = c.iter().fold(Vec2::INFINITY, |m, p| m.min(*p)) - Vec2::ONE;
+        let hi = c.iter().fold(Vec2::NEG_INFINITY, |m, p| m.max(*p)) + Vec2::ONE;
+        let (x0, y0) = (lo.x.floor().max(0.0) as u32, lo.y.floor().max(0.0) as u32);
+        let (x1, y1) = (
+            (hi.x.ceil() as u32).min(size.width),
+            (hi.y.ceil() as u32).min(size.height),
+        );
+        for y in y0..y1 {
+            for x in x0..x1 {
+                let centre = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+                let (d, bary) = closest_point(c, centre);
+                let q = c[0] * (1.0 - bary.x - bary.y) + c[1] * bary.x + c[2] * bary.y;
+                if (q - centre).abs().max_element() >= COVER_HALF_WIDTH {
+                    continue;
+                }
+                let texel = offsets[page] + y * size.width + x;
+                let e = best
+                    .entry(texel)
+                    .or_insert((f32::INFINITY, u32::MAX, Vec2::ZERO));
+                if d < e.0 {
+                    *e = (d, t, bary);
+                }
+            }
+        }
+    }
+    out.extend(
+        best.into_iter()
+            .map(|(texel, (_, triangle, bary))| TexelSample {
+                texel,
+                triangle,
+                bary,
+            }),
+    );
+}
+
+/// Distance from `p` to the 2D triangle `c` (0 inside) and the barycentrics (u, v) of the
+/// closest point, with p = (1 − u − v)·c0 + u·c1 + v·c2.
+pub fn closest_point(c: [Vec2; 3], p: Vec2) -> (f32, Vec2) {
+    let (a, b, cc) = (c[0], c[1], c[2]);
+    let (e1, e2) = (b - a, cc - a);
+    let det = e1.perp_dot(e2);
+    if det.abs() > 1e-12 {
+        let d = p - a;
+        let u = d.perp_dot(e2) / det;
+        let v = e1.perp_dot(d) / det;
+        if u >= 0.0 && v >= 0.0 && u + v <= 1.0 {
+            return (0.0, Vec2::new(u, v));
+        }
+    }
+    // Outside (or degenerate in 2D): nearest point on the three edges.
+    let seg = |s: Vec2, e: Vec2| {
+        let d = e - s;
+        let t = if d.length_squared() > 0.0 {
+            ((p - s).dot(d) / d.length_squared()).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        (p.distance(s + d * t), t)
+    };
+    let (d0, t0) = seg(a, b);
+    let (d1, t1) = seg(b, cc);
+    let (d2, t2) = seg(cc, a);
+    if d0 <= d1 && d0 <= d2 {
+        (d0, Vec2::new(t0, 0.0))
+    } else if d1 <= d2 {
+        (d1, Vec2::new(1.0 - t1, t1))
+    } else {
+        (d2, Vec2::new(0.0, 1.0 - t2))
+    }
+}
+
+/// Uses TEXCOORD_1 when every triangle has it inside [0, 1] and no texel centre of a
+/// square page sized for `density` is covered by two triangles; `None` otherwise (logged).
+fn from_uv1(triangles: &[Triangle], density: f32) -> Option<(Atlas, Vec<TexelSample>)> {
+    let uv1: Vec<[Vec2; 3]> = triangles.iter().map(|t| t.uv1).collect::<Option<_>>()?;
+    if uv1
+        .iter()
+        .flatten()
+        .any(|p| !(p.is_finite() && p.cmpge(Vec2::ZERO).all() && p.cmple(Vec2::ONE).all()))
+    {
+        log::warn!("TEXCOORD_1 leaves [0, 1]: generating a lightmap atlas instead");
+        return None;
+    }
+    let area: f64 = triangles.iter().map(|t| t.area() as f64).sum();
+    let side = ((area.sqrt() * density as f64).ceil() as u32)
+        .next_power_of_two()
+        .clamp(16, MAX_PAGE);
+    let atlas = Atlas {
+        texel_density: density,
+        pages: vec![PageSize {
+            width: side,
+            height: side,
+        }],
+        tri_page: vec![0; triangles.len()],
+        tri_coords: uv1.iter().map(|c| c.map(|p| p * side as f32)).collect(),
+        texel_chart: vec![0; (side * side) as usize],
+        charts: 0,
+        from_uv1: true,
+    };
+    let offsets = [0];
+    // Texels whose centre lies inside a triangle: two different triangles on one is overlap.
+    let mut owner: HashMap<u32, u32> = HashMap::new();
+    for t in 0..triangles.len() as u32 {
+        let c = atlas.tri_coords[t as usize];
+        let lo = c.iter().fold(Vec2::INFINITY, |m, p| m.min(*p));
+        let hi = c.iter().fold(Vec2::NEG_INFINITY, |m, p| m.max(*p));
+        for y in lo.y.floor().max(0.0) as u32..(hi.y.ceil() as u32).min(side) {
+            for x in lo.x.floor().max(0.0) as u32..(hi.x.ceil() as u32).min(side) {
+                // Strictly inside: triangles sharing an edge through a texel centre don't overlap.
+                let (d, b) = closest_point(c, Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+                if d == 0.0
+                    && b.min_element().min(1.0 - b.x - b.y) > 1e-4
+                    && let Some(prev) = owner.insert(y * side + x, t)
+                    && prev != t
+                {
+                    log::warn!(
+                        "TEXCOORD_1 overlaps (triangles {prev} and {t} share a texel): generating a lightmap atlas instead"
+                    );
+                    return None;
+                }
+            }
+        }
+    }
+    let mut samples = Vec::new();
+    let all: Vec<u32> = (0..triangles.len() as u32).collect();
+    cover(&atlas, &offsets, &all, &mut samples);
+    samples.sort_by_key(|s| s.texel);
+    Some((atlas, samples))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tri(p: [Vec3; 3], object: u32) -> Triangle {
+        let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
+        Triangle {
+            p,
+            n: [n; 3],
+            uv: [Vec2::ZERO; 3],
+            uv1: None,
+            material: 0,
+            object,
+        }
+    }
+
+    /// A unit cube's 12 outward triangles, as object `object`, at `offset`.
+    fn cube(offset: Vec3, size: f32, object: u32) -> Vec<Triangle> {
+        let c = |x: f32, y: f32, z: f32| offset + Vec3::new(x, y, z) * size;
+        let faces = [
+            [c(0., 0., 0.), c(0., 1., 0.), c(1., 1., 0.), c(1., 0., 0.)],
+            [c(0., 0., 1.), c(1., 0., 1.), c(1., 1., 1.), c(0., 1., 1.)],
+            [c(0., 0., 0.), c(1., 0., 0.), c(1., 0., 1.), c(0., 0., 1.)],
+            [c(0., 1., 0.), c(0., 1., 1.), c(1., 1., 1.), c(1., 1., 0.)],
+            [c(0., 0., 0.), c(0., 0., 1.), c(0., 1., 1.), c(0., 1., 0.)],
+            [c(1., 0., 0.), c(1., 1., 0.), c(1., 1., 1.), c(1., 0., 1.)],
+        ];
+        faces
+            .iter()
+            .flat_map(|q| {
+                [
+                    tri([q[0], q[1], q[2]], object),
+                    tri([q[0], q[2], q[3]], object),
+                ]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn cube_faces_become_six_charts_and_no_texel_is_shared() {
+        let mut tris = cube(Vec3::ZERO, 1.0, 0);
+        tris.extend(cube(Vec3::new(3.0, 0.0, 0.0), 0.5, 1));
+        let (atlas, samples) = build(&tris, 16.0).unwrap();
+        assert_eq!(atlas.charts, 12);
+        // Distinct texels: every sample owns its texel, and each texel lies in its triangle's chart.
+        let mut seen = std::collections::HashSet::new();
+        let offsets = atlas.page_offsets();
+        for s in &samples {
+            assert!(seen.insert(s.texel), "texel {} sampled twice", s.texel);
+            let chart = atlas.texel_chart[s.texel as usize];
+            let centre_texel = atlas.texel_at(&offsets, s.triangle, s.bary);
+            assert_eq!(atlas.texel_chart[centre_texel as usize], chart);
+        }
+        // No two charts' rectangles share a texel: count texels per chart.
+        let mut per_chart = vec![0usize; atlas.charts as usize];
+        for &c in &atlas.texel_chart {
+            if c != u32::MAX {
+                per_chart[c as usize] += 1;
+            }
+        }
+        // A 1 m face at 16 texels/m: (16 + 2·2)² texels; a 0.5 m face: (8 + 4)².
+        assert_eq!(
+            per_chart.iter().filter(|&&n| n == 400).count(),
+            6,
+            "{per_chart:?}"
+        );
+        assert_eq!(
+            per_chart.iter().filter(|&&n| n == 144).count(),
+            6,
+            "{per_chart:?}"
+        );
+        // Covered texels of a 1 m face: exactly its 16×16 texels (edges lie on texel boundaries).
+        assert_eq!(samples.iter().filter(|s| s.triangle < 12).count(), 6 * 256);
+    }
+
+    #[test]
+    fn chart_density_is_within_tolerance_of_the_request() {
+        // A faceted cylinder: neighbouring facets 15° apart, so charts span several facets.
+        let mut tris = Vec::new();
+        let n = 24;
+        for i in 0..n {
+            let a0 = i as f32 / n as f32 * std::f32::consts::TAU;
+            let a1 = (i + 1) as f32 / n as f32 * std::f32::consts::TAU;
+            let p = |a: f32, y: f32| Vec3::new(a.cos(), y, -a.sin());
+            tris.push(tri([p(a0, 0.0), p(a1, 0.0), p(a1, 2.0)], 0));
+            tris.push(tri([p(a0, 0.0), p(a1, 2.0), p(a0, 2.0)], 0));
+        }
+        for density in [4.0, 32.0] {
+            let (atlas, _) = build(&tris, density).unwrap();
+            assert!(atlas.charts > 1 && atlas.charts < 24, "{}", atlas.charts);
+            // Per triangle: projected area (texels²) against true area × density².
+            for (t, c) in tris.iter().zip(&atlas.tri_coords) {
+                let projected = 0.5 * (c[1] - c[0]).perp_dot(c[2] - c[0]).abs();
+                let ratio = projected / (t.area() * density * density);
+                let min = CHART_MAX_ANGLE_DEG.to_radians().cos();
+                assert!(
+                    ratio >= min - 1e-3 && ratio <= 1.0 + 1e-3,
+                    "density ratio {ratio}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn tiny_triangle_still_gets_a_texel() {
+        let tris = vec![tri(
+            [
+                Vec3::ZERO,
+                Vec3::new(1e-4, 0.0, 0.0),
+                Vec3::new(0.0, 1e-4, 0.0),
+            ],
+            0,
+        )];
+        let (atlas, samples) = build(&tris, 16.0).unwrap();
+        assert_eq!(samples.len(), 1);
+        assert_eq!(
+            atlas.texel_chart.iter().filter(|&&c| c == 0).count(),
+            25,
+            "1 texel + a 2-texel border"
+        );
+    }
+
+    #[test]
+    fn valid_uv1_is_used_and_overlapping_uv1_is_not() {
+        let mut tris = vec![
+            tri([Vec3::ZERO, Vec3::X, Vec3::Y], 0),
+            tri([Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y], 0),
+        ];
+        tris[0].uv1 = Some([
+            Vec2::new(0.0, 0.0),
+            Vec2::new(1.0, 0.0),
+            Vec2::new(0.0, 1.0),
+        ]);
+        tris[1].uv1 = Some([
+            Vec2::new(1.0, 0.0),
+            Vec2::new(1.0, 1.0),
+            Vec2::new(0.0, 1.0),
+        ]);
+        let (atlas, _) = build(&tris, 16.0).unwrap();
+        assert!(atlas.from_uv1);
+        tris[1].uv1 = Some([
+            Vec2::new(0.0, 0.0),
+            Vec2::new(1.0, 0.0),
+            Vec2::new(0.0, 1.0),
+        ]);
+        let (atlas, _) = build(&tris, 16.0).unwrap();
+        assert!(!atlas.from_uv1, "overlapping UV1 must be replaced");
+        tris[1].uv1 = Some([
+            Vec2::new(1.0, 0.0),
+            Vec2::new(1.5, 1.0),
+            Vec2::new(0.0, 1.0),
+        ]);
+        let (atlas, _) = build(&tris, 16.0).unwrap();
+        assert!(!atlas.from_uv1, "UV1 outside [0, 1] must be replaced");
+    }
+
+    #[test]
+    fn closest_point_inside_on_edge_and_corner() {
+        let c = [Vec2::ZERO, Vec2::new(2.0, 0.0), Vec2::new(0.0, 2.0)];
+        assert_eq!(
+            closest_point(c, Vec2::new(0.5, 0.5)),
+            (0.0, Vec2::new(0.25, 0.25))
+        );
+        let (d, b) = closest_point(c, Vec2::new(1.0, -1.0));
+        assert!((d - 1.0).abs() < 1e-6 && (b - Vec2::new(0.5, 0.0)).length() < 1e-6);
+        let (d, b) = closest_point(c, Vec2::new(-1.0, -1.0));
+        assert!((d - 2f32.sqrt()).abs() < 1e-6 && b == Vec2::ZERO);
+    }
+
+    #[test]
+    fn bad_density_is_refused() {
+        let tris = cube(Vec3::ZERO, 1.0, 0);
+        assert!(build(&tris, 0.0).is_err());
+        assert!(build(&tris, f32::NAN).is_err());
+        assert!(matches!(
+            build(&tris, 1e5),
+            Err(AtlasError::ChartTooLarge { .. })
+        ));
+    }
+}

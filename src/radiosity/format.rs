@@ -1,0 +1,200 @@
+//! `radiosity/atlas.bin`: per-triangle lightmap coordinates.
+//!
+//! Little-endian:
+//! | bytes | field |
+//! |---|---|
+//! | 8 | magic `GLNTATLS` |
+//! | u16 | version (1) |
+//! | u16 | flags: bit 0 = coordinates come from the glTF's TEXCOORD_1 |
+//! | u32 | page count P |
+//! | u32 | triangle count T (the scene's triangles, in the order the scene stage loads them) |
+//! | f32 | texel density requested, texels per metre |
+//! | P × (u32, u32) | page width and height in texels |
+//! | T × (u32, 6 × f32) | page of the triangle, then (x, y) of its three vertices in texel units of that page (texel (i, j) spans [i, i+1) × [j, j+1); divide by the page size for UVs) |
+
+use glam::Vec2;
+
+use super::atlas::{Atlas, PageSize};
+
+/// File magic.
+pub const MAGIC: &[u8; 8] = b"GLNTATLS";
+/// Format version written.
+pub const VERSION: u16 = 1;
+
+/// Why an atlas file cannot be read.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum AtlasFormatError {
+    /// Not an atlas file.
+    #[error("not a glint atlas (bad magic)")]
+    Magic,
+    /// A version this build does not read.
+    #[error("atlas format version {found}, this glint reads version {VERSION}")]
+    Version {
+        /// Version in the file.
+        found: u16,
+    },
+    /// The file ends early or has bytes left over.
+    #[error("atlas file is truncated or has trailing bytes ({0})")]
+    Size(String),
+}
+
+/// Serializes the atlas (chart ids of texels are a bake-time detail and are not stored).
+pub fn encode(atlas: &Atlas) -> Vec<u8> {
+    let mut out = Vec::with_capacity(28 + atlas.pages.len() * 8 + atlas.tri_page.len() * 28);
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&VERSION.to_le_bytes());
+    out.extend_from_slice(&(atlas.from_uv1 as u16).to_le_bytes());
+    out.extend_from_slice(&(atlas.pages.len() as u32).to_le_bytes());
+    out.extend_from_slice(&(atlas.tri_page.len() as u32).to_le_bytes());
+    out.extend_from_slice(&atlas.texel_density.to_le_bytes());
+    for p in &atlas.pages {
+        out.extend_from_slice(&p.width.to_le_bytes());
+        out.extend_from_slice(&p.height.to_le_bytes());
+    }
+    for (page, c) in atlas.tri_page.iter().zip(&atlas.tri_coords) {
+        out.extend_from_slice(&page.to_le_bytes());
+        for v in c {
+            out.extend_from_slice(&v.x.to_le_bytes());
+            out.extend_from_slice(&v.y.to_le_bytes());
+        }
+    }
+    out
+}
+
+/// Reads an atlas written by [`encode`].
+pub fn decode(bytes: &[u8]) -> Result<Atlas, AtlasFormatError> {
+    let mut r = Reader { bytes, at: 0 };
+    if r.take(8)? != MAGIC {
+        return Err(AtlasFormatError::Magic);
+    }
+    let version = r.u16()?;
+    if version != VERSION {
+        return Err(AtlasFormatError::Version { found: version });
+    }
+    let flags = r.u16()?;
+    let pages = r.u32()? as usize;
+    let tris = r.u32()? as usize;
+    let density = r.f32()?;
+    let expected = 24 + pages * 8 + tris * 28;
+    if bytes.len() != expected {
+        return Err(AtlasFormatError::Size(format!(
+            "{} bytes, the header implies {expected}",
+            bytes.len()
+        )));
+    }
+    let pages = (0..pages)
+        .map(|_| {
+            Ok(PageSize {
+                width: r.u32()?,
+                height: r.u32()?,
+            })
+        })
+        .collect::<Result<Vec<_>, AtlasFormatError>>()?;
+    let mut tri_page = Vec::with_capacity(tris);
+    let mut tri_coords = Vec::with_capacity(tris);
+    for _ in 0..tris {
+        tri_page.push(r.u32()?);
+        let mut c = [Vec2::ZERO; 3];
+        for v in &mut c {
+            *v = Vec2::new(r.f32()?, r.f32()?);
+        }
+        tri_coords.push(c);
+    }
+    if let Some(&bad) = tri_page.iter().find(|&&p| p as usize >= pages.len()) {
+        return Err(AtlasFormatError::Size(format!(
+            "a triangle refers to page {bad} of {}",
+            pages.len()
+        )));
+    }
+    Ok(Atlas {
+        texel_density: density,
+        pages,
+        tri_page,
+        tri_coords,
+        texel_chart: Vec::new(),
+        charts: 0,
+        from_uv1: flags & 1 != 0,
+    })
+}
+
+struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl Reader<'_> {
+    fn take(&mut self, n: usize) -> Result<&[u8], AtlasFormatError> {
+        let s = self
+            .bytes
+            .get(self.at..self.at + n)
+            .ok_or_else(|| AtlasFormatError::Size(format!("ends at byte {}", self.bytes.len())))?;
+        self.at += n;
+        Ok(s)
+    }
+    fn u16(&mut self) -> Result<u16, AtlasFormatError> {
+        Ok(u16::from_le_bytes(
+            self.take(2)?.try_into().expect("2 bytes"),
+        ))
+    }
+    fn u32(&mut self) -> Result<u32, AtlasFormatError> {
+        Ok(u32::from_le_bytes(
+            self.take(4)?.try_into().expect("4 bytes"),
+        ))
+    }
+    fn f32(&mut self) -> Result<f32, AtlasFormatError> {
+        Ok(f32::from_le_bytes(
+            self.take(4)?.try_into().expect("4 bytes"),
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_trip_and_corruption() {
+        let atlas = Atlas {
+            texel_density: 16.0,
+            pages: vec![
+                PageSize {
+                    width: 64,
+                    height: 32,
+                },
+                PageSize {
+                    width: 8,
+                    height: 8,
+                },
+            ],
+            tri_page: vec![0, 1],
+            tri_coords: vec![
+                [
+                    Vec2::new(1.0, 2.0),
+                    Vec2::new(3.5, 2.0),
+                    Vec2::new(1.0, 9.25)
+                ];
+                2
+            ],
+            texel_chart: Vec::new(),
+            charts: 0,
+            from_uv1: true,
+        };
+        let bytes = encode(&atlas);
+        assert_eq!(decode(&bytes).unwrap(), atlas);
+        assert_eq!(
+            decode(&bytes[..bytes.len() - 1])
+                .unwrap_err()
+                .to_string()
+                .contains("truncated"),
+            true
+        );
+        let mut bad = bytes.clone();
+        bad[8] = 9;
+        assert_eq!(
+            decode(&bad).unwrap_err(),
+            AtlasFormatError::Version { found: 9 }
+        );
+        bad[0] = b'X';
+        assert_eq!(decode(&bad).unwrap_err(), AtlasFormatError::Magic);
+    }
+}

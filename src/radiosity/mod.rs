@@ -1,0 +1,9 @@
+//! Radiosity (Bastos et al. §7, after [2] there: radiosity textures): the view-independent
+//! diffuse light D, solved on lightmap texels and looked up by every other stage.
+
+pub mod atlas;
+pub mod format;
+pub mod map;
+pub mod solve;
+
+pub use map::RadiosityMap;

@@ -1,0 +1,400 @@
+//! Radiosity against exact answers: the white furnace, the analytic form factor of a
+//! parallel square, scale invariance, determinism across thread counts, geometry piercing a
+//! chart, cancellation and bad input.
+
+mod common;
+
+use std::path::Path;
+
+use common::*;
+use glam::{Vec2, Vec3};
+use glint::bake::radiosity_stage::{self, RadiosityError};
+use glint::progress::{Progress, Silent};
+use glint::radiosity::atlas;
+use glint::radiosity::solve::{Solution, SolveSettings, solve};
+use glint::scene::Scene;
+use glint::scene::desc::RadiositySettings;
+
+fn flip(mut m: MeshSpec) -> MeshSpec {
+    for t in m.indices.chunks_mut(3) {
+        t.swap(1, 2);
+    }
+    m
+}
+
+fn emissive(name: &'static str, albedo: f32, e: f32) -> MaterialSpec {
+    MaterialSpec {
+        emissive: [1.0; 3],
+        strength: e,
+        ..MaterialSpec::diffuse(name, albedo)
+    }
+}
+
+fn load(dir: &Path, meshes: &[MeshSpec], materials: &[MaterialSpec]) -> Scene {
+    write_gltf(dir, "s", meshes, materials);
+    Scene::load(write_scene(
+        dir,
+        r#"{ "version": 1, "geometry": "s.gltf" }"#,
+    ))
+    .unwrap()
+}
+
+fn run(
+    scene: &Scene,
+    density: f32,
+    rays: u32,
+    light_samples: u32,
+    bounces: u32,
+) -> (atlas::Atlas, Solution) {
+    let (atlas, samples) = atlas::build(&scene.triangles, density).unwrap();
+    let bvh = scene.build_bvh();
+    let set = SolveSettings {
+        rays,
+        light_samples,
+        bounces,
+        tolerance: 1e-7,
+        seed: 1,
+    };
+    let sol = solve(scene, &bvh, &atlas, &samples, &set, &Silent).unwrap();
+    (atlas, sol)
+}
+
+/// Exitant radiance at a point of a triangle, read from the texel holding it.
+fn at(scene: &Scene, atlas: &atlas::Atlas, sol: &Solution, p: Vec3) -> Vec3 {
+    let offsets = atlas.page_offsets();
+    for (i, t) in scene.triangles.iter().enumerate() {
+        let (d, b) = atlas::closest_point(
+            [
+                Vec2::new(0.0, 0.0),
+                Vec2::new(1.0, 0.0),
+                Vec2::new(0.0, 1.0),
+            ],
+            bary_of(t.p, p),
+        );
+        if d == 0.0 && (t.point(b) - p).length() < 1e-4 * (t.p[1] - t.p[0]).length() {
+            return sol.radiance[atlas.texel_at(&offsets, i as u32, b) as usize];
+        }
+    }
+    panic!("{p} lies on no triangle")
+}
+
+/// Barycentrics of p in the triangle's plane, as a point of the unit triangle.
+fn bary_of(t: [Vec3; 3], p: Vec3) -> Vec2 {
+    let (e1, e2, d) = (t[1] - t[0], t[2] - t[0], p - t[0]);
+    let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let (d1, d2) = (d.dot(e1), d.dot(e2));
+    let den = d11 * d22 - d12 * d12;
+    Vec2::new((d22 * d1 - d12 * d2) / den, (d11 * d2 - d12 * d1) / den)
+}
+
+/// Six inward-facing faces of a cube of half-size h, all of material 0.
+fn closed_box(h: f32) -> Vec<MeshSpec> {
+    let names = ["X0", "X1", "Y0", "Y1", "Z0", "Z1"];
+    (0..3)
+        .flat_map(|axis| {
+            [
+                quad(names[2 * axis], 0, axis, -h, h),
+                flip(quad(names[2 * axis + 1], 0, axis, h, h)),
+            ]
+        })
+        .collect()
+}
+
+#[test]
+fn white_furnace_converges_to_e_over_one_minus_rho() {
+    for rho in [0.0f32, 0.5, 0.95] {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = load(dir.path(), &closed_box(0.5), &[emissive("walls", rho, 1.0)]);
+        let (_, sol) = run(&scene, 6.0, 256, 64, 400);
+        let expected = 1.0 / (1.0 - rho);
+        let values: Vec<f32> = sol
+            .radiance
+            .iter()
+            .filter(|v| v.x > 0.0)
+            .map(|v| v.x)
+            .collect();
+        assert!(!values.is_empty());
+        let mean = values.iter().sum::<f32>() / values.len() as f32;
+        let worst = values
+            .iter()
+            .map(|v| (v / expected - 1.0).abs())
+            .fold(0.0f32, f32::max);
+        assert!(
+            (mean / expected - 1.0).abs() < 0.01,
+            "rho {rho}: mean {mean}, expected {expected}"
+        );
+        assert!(
+            worst < 0.01,
+            "rho {rho}: worst texel off by {:.2}% (expected {expected})",
+            worst * 100.0
+        );
+        assert_eq!(
+            sol.stats.excluded, 0,
+            "a closed box has no texel inside geometry"
+        );
+    }
+}
+
+/// Form factor from a differential area to a parallel a × b rectangle at distance c, the
+/// element below one corner (Howell's catalogue, configuration B-3).
+fn ff_corner(a: f64, b: f64, c: f64) -> f64 {
+    let (x, y) = (a / c, b / c);
+    let (sx, sy) = ((1.0 + x * x).sqrt(), (1.0 + y * y).sqrt());
+    (x / sx * (y / sx).atan() + y / sy * (x / sy).atan()) / (2.0 * std::f64::consts::PI)
+}
+
+/// Form factor from a point at (px, pz) below a square [−s, s]² at height c.
+fn ff_square(s: f64, c: f64, px: f64, pz: f64) -> f64 {
+    // Sum of the four rectangles that meet above the point.
+    [
+        (s - px, s - pz),
+        (s + px, s - pz),
+        (s - px, s + pz),
+        (s + px, s + pz),
+    ]
+    .iter()
+    .map(|&(a, b)| ff_corner(a, b, c))
+    .sum()
+}
+
+/// A receiver (albedo ρ, facing up at y = 0) under an emitter square (radiance L, facing
+/// down at height c, black). Returns (scene, s, c).
+fn parallel_squares(dir: &Path, scale: f32, s: f32, c: f32) -> Scene {
+    let receiver = quad("Receiver", 0, 1, 0.0, 1.0 * scale);
+    let emitter = flip(quad("Emitter", 1, 1, c * scale, s * scale));
+    load(
+        dir,
+        &[receiver, emitter],
+        &[
+            MaterialSpec::diffuse("grey", 0.5),
+            emissive("lamp", 0.0, 2.0),
+        ],
+    )
+}
+
+#[test]
+fn parallel_square_matches_the_analytic_form_factor() {
+    let dir = tempfile::tempdir().unwrap();
+    let (s, c) = (0.5f64, 0.5f64);
+    let scene = parallel_squares(dir.path(), 1.0, s as f32, c as f32);
+    let (atlas, sol) = run(&scene, 16.0, 1024, 256, 1);
+    for (px, pz) in [(0.0, 0.0), (0.3, -0.2), (-0.7, 0.6)] {
+        // Texel centres are at (i + 0.5)/16: evaluate the formula where the texel samples.
+        let snap = |v: f64| ((v * 16.0).floor() + 0.5) / 16.0;
+        let (px, pz) = (snap(px), snap(pz));
+        let got = at(&scene, &atlas, &sol, Vec3::new(px as f32, 0.0, pz as f32)).x as f64;
+        // L_r = ρ L F (the receiver emits nothing).
+        let want = 0.5 * 2.0 * ff_square(s, c, px, pz);
+        assert!(
+            (got / want - 1.0).abs() < 0.02,
+            "at ({px}, {pz}): {got} vs analytic {want}"
+        );
+    }
+}
+
+#[test]
+fn tiny_and_huge_scenes_give_the_same_answer_up_to_scale() {
+    let mut results = Vec::new();
+    for scale in [1e-3f32, 1.0, 1e3] {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = parallel_squares(dir.path(), scale, 0.5, 0.5);
+        let (_, sol) = run(&scene, 16.0 / scale, 128, 32, 2);
+        results.push(sol.radiance);
+    }
+    for r in &results[1..] {
+        assert_eq!(r.len(), results[0].len());
+        for (a, b) in r.iter().zip(&results[0]) {
+            assert!(
+                (*a - *b).abs().max_element() <= 0.02 * b.max_element().max(1e-3),
+                "{a} vs {b}"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_box_piercing_the_floor_neither_leaks_nor_darkens() {
+    let dir = tempfile::tempdir().unwrap();
+    // Floor 2 × 2 m; a 0.5 m closed box standing through it (from y = −0.25 to 0.25).
+    let mut meshes = vec![
+        quad("Floor", 0, 1, 0.0, 1.0),
+        flip(quad("Lamp", 1, 1, 2.0, 1.0)),
+    ];
+    let cube = closed_box(0.25).into_iter().map(flip); // outward faces
+    meshes.extend(cube.map(|mut m| {
+        m.material = 0;
+        m
+    }));
+    let scene = load(
+        dir.path(),
+        &meshes,
+        &[
+            MaterialSpec::diffuse("white", 0.5),
+            emissive("lamp", 0.0, 1.0),
+        ],
+    );
+    let (atlas, sol) = run(&scene, 16.0, 256, 64, 3);
+    // The 8 × 8 floor texels under the box are inside geometry.
+    assert!(sol.stats.excluded >= 64, "excluded {}", sol.stats.excluded);
+    // Under the box, the floor shows its neighbours' light, not black.
+    let under = at(&scene, &atlas, &sol, Vec3::new(0.03, 0.0, 0.03));
+    let beside = at(&scene, &atlas, &sol, Vec3::new(0.3, 0.0, 0.03));
+    assert!(under.x > 0.5 * beside.x, "under {under} vs beside {beside}");
+}
+
+/// Runs `f` on a rayon pool of `threads` threads.
+fn with_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
+}
+
+#[test]
+fn bakes_are_byte_identical_whatever_the_thread_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = parallel_squares(dir.path(), 1.0, 0.5, 0.5);
+    let settings = RadiositySettings {
+        texel_density: 8.0,
+        rays: 64,
+        light_samples: 8,
+        bounces: 3,
+        tolerance: 0.0,
+    };
+    let bundles: Vec<_> = [1, 2, 3]
+        .iter()
+        .map(|&n| {
+            let out = dir.path().join(format!("t{n}.glint"));
+            with_threads(n, || {
+                radiosity_stage::bake(&scene, &out, &settings, false, &Silent).unwrap()
+            });
+            out
+        })
+        .collect();
+    for file in [
+        "radiosity/page0.exr",
+        "radiosity/atlas.bin",
+        "radiosity/page0.png",
+    ] {
+        let first = std::fs::read(bundles[0].join(file)).unwrap();
+        for b in &bundles[1..] {
+            assert!(
+                first == std::fs::read(b.join(file)).unwrap(),
+                "{file} differs between thread counts"
+            );
+        }
+    }
+}
+
+struct CancelAfter(std::sync::atomic::AtomicU64);
+
+impl Progress for CancelAfter {
+    fn phase(&self, _: &str, _: u64) {}
+    fn advance(&self, n: u64) {
+        self.0.fetch_add(n, std::sync::atomic::Ordering::SeqCst);
+    }
+    fn cancelled(&self) -> bool {
+        self.0.load(std::sync::atomic::Ordering::SeqCst) > 0
+    }
+}
+
+#[test]
+fn cancelling_leaves_the_bundle_as_it_was() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = parallel_squares(dir.path(), 1.0, 0.5, 0.5);
+    let out = dir.path().join("c.glint");
+    let settings = RadiositySettings {
+        texel_density: 8.0,
+        rays: 16,
+        light_samples: 4,
+        bounces: 2,
+        tolerance: 0.0,
+    };
+    radiosity_stage::bake(&scene, &out, &settings, false, &Silent).unwrap();
+    let manifest = std::fs::read(out.join("manifest.json")).unwrap();
+    let page = std::fs::read(out.join("radiosity/page0.exr")).unwrap();
+    let denser = RadiositySettings {
+        texel_density: 32.0,
+        ..settings
+    };
+    let e =
+        radiosity_stage::bake(&scene, &out, &denser, false, &CancelAfter(0.into())).unwrap_err();
+    assert!(matches!(e, RadiosityError::Cancelled(_)), "{e}");
+    assert_eq!(std::fs::read(out.join("manifest.json")).unwrap(), manifest);
+    assert_eq!(
+        std::fs::read(out.join("radiosity/page0.exr")).unwrap(),
+        page
+    );
+    let names: Vec<_> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert!(
+        names.iter().all(|n| !n.to_string_lossy().contains("tmp")),
+        "{names:?}"
+    );
+}
+
+#[test]
+fn no_emitters_and_impossible_sizes_are_refused_clearly() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = load(
+        dir.path(),
+        &[quad("Floor", 0, 1, 0.0, 1.0)],
+        &[MaterialSpec::diffuse("grey", 0.5)],
+    );
+    let s = RadiositySettings::preset(glint::scene::Quality::Draft);
+    let e = radiosity_stage::check(&scene, &s).unwrap_err().to_string();
+    assert!(e.contains("scene.json") && e.contains("no emitters"), "{e}");
+
+    let scene = parallel_squares(dir.path(), 1.0, 0.5, 0.5);
+    let huge = RadiositySettings {
+        texel_density: 1e6,
+        ..s
+    };
+    let e = radiosity_stage::check(&scene, &huge)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("GiB") && e.contains("lower --texel-density"),
+        "{e}"
+    );
+}
+
+#[test]
+fn glint_radiosity_refuses_another_scenes_bundle_without_force() {
+    let dir = tempfile::tempdir().unwrap();
+    let bin = env!("CARGO_BIN_EXE_glint-radiosity");
+    let a = dir.path().join("a");
+    let b = dir.path().join("b");
+    std::fs::create_dir_all(&a).unwrap();
+    std::fs::create_dir_all(&b).unwrap();
+    parallel_squares(&a, 1.0, 0.5, 0.5);
+    parallel_squares(&b, 1.0, 0.25, 0.5);
+    let out = dir.path().join("x.glint");
+    let run = |scene: &Path, force: bool| {
+        let mut cmd = std::process::Command::new(bin);
+        cmd.arg(scene.join("scene.json"))
+            .arg("--bundle")
+            .arg(&out)
+            .args(["--quality", "draft", "--rays", "8"]);
+        if force {
+            cmd.arg("--force");
+        }
+        cmd.output().unwrap()
+    };
+    assert!(run(&a, false).status.success());
+    let second = run(&b, false);
+    assert_eq!(second.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&second.stderr);
+    assert!(err.contains("--force") && err.contains("x.glint"), "{err}");
+    assert!(run(&b, true).status.success());
+    let bundle = glint::bundle::Bundle::open(&out).unwrap();
+    assert!(bundle.verify().is_empty());
+    let map = glint::radiosity::RadiosityMap::load(&bundle)
+        .unwrap()
+        .unwrap();
+    // The receiver's centre is lit.
+    assert!(map.radiance(0, Vec2::new(0.3, 0.3)).x > 0.0);
+}
