@@ -5,10 +5,12 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Parser;
-use glint::bake::{Stage, plan, scene_stage};
+use glint::bake::{Stage, plan, radiosity_stage, scene_stage, up_to_date};
 use glint::bundle::stats::format_table;
 use glint::cli::BakeArgs;
+use glint::progress::TerminalProgress;
 use glint::scene::Scene;
+use glint::scene::desc::RadiositySettings;
 
 #[derive(Parser)]
 #[command(
@@ -37,6 +39,8 @@ fn run(args: BakeArgs) -> anyhow::Result<ExitCode> {
         scene.reflectors.len(),
         scene.impostors.len()
     );
+    let quality = args.quality.unwrap_or(scene.desc.bake.quality);
+    glint::bundle::check_scene(&args.bundle, &scene.content_hash, args.force)?;
     let mut report = Vec::new();
     for p in plan(&scene) {
         let status = if !p.needed {
@@ -44,7 +48,7 @@ fn run(args: BakeArgs) -> anyhow::Result<ExitCode> {
         } else {
             match p.stage {
                 Stage::Scene => {
-                    if glint::bake::up_to_date(&args.bundle, &scene, p.stage, None) {
+                    if up_to_date(&args.bundle, &scene, p.stage, None) {
                         "up to date".into()
                     } else {
                         let rec = scene_stage::bake(&scene, &args.bundle, args.force)
@@ -52,7 +56,30 @@ fn run(args: BakeArgs) -> anyhow::Result<ExitCode> {
                         format!("baked in {:.2} s", rec.bake_seconds)
                     }
                 }
-                // Each stage joins here as it lands (issues 3, 6, 7, 8).
+                Stage::Radiosity => {
+                    let settings = RadiositySettings::resolve(quality, &scene.desc.bake.radiosity);
+                    if up_to_date(
+                        &args.bundle,
+                        &scene,
+                        p.stage,
+                        Some(&radiosity_stage::settings_json(&settings)),
+                    ) {
+                        "up to date".into()
+                    } else {
+                        let progress = TerminalProgress::new();
+                        let rec = radiosity_stage::bake(
+                            &scene,
+                            &args.bundle,
+                            &settings,
+                            args.force,
+                            &progress,
+                        );
+                        progress.finish();
+                        let rec = rec.with_context(|| format!("stage {}", p.stage.name()))?;
+                        format!("baked in {:.2} s", rec.bake_seconds)
+                    }
+                }
+                // Each stage joins here as it lands (issues 6, 7, 8).
                 _ => "not yet in this glint".into(),
             }
         };

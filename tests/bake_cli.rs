@@ -60,6 +60,7 @@ fn bakes_the_scene_stage_then_finds_it_up_to_date() {
             .contains("Panel")
     );
     assert_eq!(stage("srdm")["needed"], false);
+    assert!(stage("radiosity")["status"].as_str().unwrap().starts_with("baked"), "{out}");
 
     let opened = Bundle::open(&bundle).unwrap();
     assert!(opened.verify().is_empty());
@@ -78,9 +79,16 @@ fn bakes_the_scene_stage_then_finds_it_up_to_date() {
     let copy = glint::scene::Scene::load(bundle.join("scene/scene.json")).unwrap();
     assert_eq!(copy.triangles.len(), 6);
 
+    assert!(opened.stage("radiosity").is_some());
+
     let (code, out, _) = glint_bake(&[s, "--bundle", b]);
     assert_eq!(code, 0);
-    assert!(out.contains("up to date"), "{out}");
+    let up_to_date = out.lines().filter(|l| l.contains("up to date")).count();
+    assert_eq!(up_to_date, 2, "scene and radiosity are up to date: {out}");
+    // Another preset is not up to date.
+    let (code, out, _) = glint_bake(&[s, "--bundle", b, "--quality", "draft"]);
+    assert_eq!(code, 0);
+    assert_eq!(out.lines().filter(|l| l.contains("up to date")).count(), 1, "{out}");
 }
 
 #[test]

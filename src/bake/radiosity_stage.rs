@@ -123,6 +123,13 @@ pub fn check(scene: &Scene, s: &RadiositySettings) -> Result<(), RadiosityError>
     Ok(())
 }
 
+/// The settings as recorded in the manifest (with the seed), for up-to-date checks.
+pub fn settings_json(settings: &RadiositySettings) -> serde_json::Value {
+    let mut v = serde_json::to_value(settings).expect("settings serialize");
+    v["seed"] = SEED.into();
+    v
+}
+
 /// Bakes the radiosity of `scene` into the bundle at `bundle`.
 pub fn bake(
     scene: &Scene,
@@ -193,12 +200,10 @@ pub fn bake(
             .into(),
         ),
     ]);
-    let mut settings_json = serde_json::to_value(settings).expect("settings serialize");
-    settings_json["seed"] = SEED.into();
     Ok(w.commit(StageInfo {
         scene_name: scene.name.clone(),
         scene_hash: scene.content_hash.clone(),
-        settings: settings_json,
+        settings: settings_json(settings),
         stats,
         bake_seconds: start.elapsed().as_secs_f64(),
         force,
