@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Parser;
-use glint::bake::{Stage, plan, radiosity_stage, scene_stage, up_to_date};
+use glint::bake::{Stage, plan, radiance_stage, radiosity_stage, scene_stage, up_to_date};
 use glint::bundle::stats::format_table;
 use glint::cli::BakeArgs;
 use glint::progress::TerminalProgress;
@@ -79,7 +79,25 @@ fn run(args: BakeArgs) -> anyhow::Result<ExitCode> {
                         format!("baked in {:.2} s", rec.bake_seconds)
                     }
                 }
-                // Each stage joins here as it lands (issues 6, 7, 8).
+                Stage::Radiance => {
+                    let settings = radiance_stage::settings_json(&scene, quality);
+                    if up_to_date(&args.bundle, &scene, p.stage, Some(&settings)) {
+                        "up to date".into()
+                    } else {
+                        let progress = TerminalProgress::new();
+                        let rec = radiance_stage::bake(
+                            &scene,
+                            &args.bundle,
+                            quality,
+                            args.force,
+                            &progress,
+                        );
+                        progress.finish();
+                        let rec = rec.with_context(|| format!("stage {}", p.stage.name()))?;
+                        format!("baked in {:.2} s", rec.bake_seconds)
+                    }
+                }
+                // Each stage joins here as it lands (issues 6, 8).
                 _ => "not yet in this glint".into(),
             }
         };

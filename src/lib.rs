@@ -14,6 +14,7 @@ pub mod cli;
 pub mod geometry;
 pub mod image_io;
 pub mod progress;
+pub mod radiance;
 pub mod radiosity;
 pub mod sampling;
 pub mod scene;

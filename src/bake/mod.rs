@@ -1,6 +1,7 @@
 //! Bake stages: what a scene requires, and the stages that write into a bundle.
 
 pub mod plan;
+pub mod radiance_stage;
 pub mod radiosity_stage;
 pub mod scene_stage;
 

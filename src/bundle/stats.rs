@@ -143,11 +143,64 @@ impl BundleStats {
         for s in self.stages.iter().filter(|s| !s.stats.is_empty()) {
             out += &format!("\n{}:\n", s.name);
             for (k, v) in &s.stats {
-                out += &format!("  {k:<24} {v}\n");
+                match object_rows(v) {
+                    Some(table) => out += &format!("  {k}:\n{}", indent(&table, "  ")),
+                    None => out += &format!("  {k:<24} {v}\n"),
+                }
             }
         }
         out
     }
+}
+
+/// A JSON array of flat objects as a table (columns in the first object's key order;
+/// `bytes` columns also shown in binary units), or `None` for any other value.
+fn object_rows(v: &serde_json::Value) -> Option<String> {
+    let rows = v.as_array()?;
+    let first = rows.first()?.as_object()?;
+    let keys: Vec<&String> = first.keys().collect();
+    let cell = |v: Option<&serde_json::Value>| match v {
+        Some(serde_json::Value::String(s)) => s.clone(),
+        Some(v) => v.to_string(),
+        None => String::new(),
+    };
+    let mut table = vec![keys.iter().map(|k| k.to_string()).collect::<Vec<_>>()];
+    for r in rows {
+        let r = r.as_object()?;
+        table.push(
+            keys.iter()
+                .map(|k| match (k.as_str(), r.get(*k).and_then(|v| v.as_u64())) {
+                    ("bytes", Some(b)) => format!("{b} ({})", human_bytes(b)),
+                    _ => cell(r.get(*k)),
+                })
+                .collect(),
+        );
+    }
+    let mut width = vec![0usize; keys.len()];
+    for r in &table {
+        for (i, c) in r.iter().enumerate() {
+            width[i] = width[i].max(c.chars().count());
+        }
+    }
+    let mut out = String::new();
+    for (n, r) in table.iter().enumerate() {
+        let line: Vec<String> = r
+            .iter()
+            .enumerate()
+            .map(|(i, c)| format!("{c:<w$}", w = width[i]))
+            .collect();
+        out += line.join("  ").trim_end();
+        out.push('\n');
+        if n == 0 {
+            out += &"-".repeat(width.iter().sum::<usize>() + 2 * (keys.len() - 1));
+            out.push('\n');
+        }
+    }
+    Some(out)
+}
+
+fn indent(text: &str, by: &str) -> String {
+    text.lines().map(|l| format!("{by}{l}\n")).collect()
 }
 
 /// Bytes in binary units with one decimal (`12.3 KiB`).

@@ -1,0 +1,282 @@
+//! The `radiance` stage: radiance maps with depth and their quadtrees for every planar
+//! reflector with a glossy (or mirror) material.
+//!
+//! Writes, per reflector `NAME`:
+//! - `radiance/NAME/e{i}_{j}_c{k}.exr`: map k of element (i, j): R, G, B (half, linear
+//!   radiance = D at the hit), Z (float, depth along the reflector normal from the map's
+//!   centre of projection) and A (half: 1 where the pixel's ray hit the scene, 0 where it saw
+//!   nothing). Row 0 is the element's edge at its corner.
+//! - `radiance/NAME/e{i}_{j}_c{k}.qtree`: its quadtree ([`crate::radiance::quadtree`]).
+//! - `radiance/NAME/cameras.json`: every map's file stem, element, camera index and
+//!   [`MapCamera`] (centre of projection, element corner and edges, normal, resolution).
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::time::Instant;
+
+use glam::Vec3;
+
+use crate::bundle::{Bundle, BundleError, StageInfo, StageRecord, StageWriter};
+use crate::image_io::{self, ChannelData, ExrCompression, ImageError, Precision};
+use crate::progress::{Cancelled, Progress};
+use crate::radiance::quadtree::{self, QuadtreeLimits};
+use crate::radiance::sampling::{MapCamera, ReflectorFrame, hemisphere_cameras};
+use crate::radiance::{MapPlan, RadianceMap, render};
+use crate::radiosity::RadiosityMap;
+use crate::radiosity::map::MapError;
+use crate::scene::{Quality, ReflectorKind, Scene};
+
+use super::Stage;
+
+/// Why the radiance stage failed.
+#[derive(Debug, thiserror::Error)]
+pub enum RadianceError {
+    /// D is needed to shade the maps.
+    #[error("{}: has no radiosity stage; the radiance maps are shaded with D: run glint-radiosity (or glint-bake) first", dir.display())]
+    NoRadiosity {
+        /// The bundle.
+        dir: std::path::PathBuf,
+    },
+    /// Reading D.
+    #[error(transparent)]
+    Map(#[from] MapError),
+    /// Encoding a map.
+    #[error(transparent)]
+    Image(#[from] ImageError),
+    /// Writing the bundle.
+    #[error(transparent)]
+    Bundle(#[from] BundleError),
+    /// Ctrl-C.
+    #[error(transparent)]
+    Cancelled(#[from] Cancelled),
+}
+
+/// Preset multiplier of map resolution and camera count.
+pub fn quality_scale(q: Quality) -> f32 {
+    match q {
+        Quality::Draft => 0.5,
+        Quality::Default => 1.0,
+        Quality::High => 2.0,
+    }
+}
+
+/// Quadtree limits for a scene: depth ranges relative to its size (1% of the diagonal), so
+/// tiny and huge scenes split alike; at least 16 points per splittable node.
+pub fn quadtree_limits(scene: &Scene) -> QuadtreeLimits {
+    QuadtreeLimits {
+        depth_range: 0.01 * scene.bounds.diagonal(),
+        min_points: 16,
+    }
+}
+
+/// The plan of each reflector that needs maps: (reflector index, frame, plan).
+pub fn plans(scene: &Scene, quality: Quality) -> Vec<(usize, ReflectorFrame, MapPlan)> {
+    let scale = quality_scale(quality) * scene.desc.bake.radiance.resolution_scale.unwrap_or(1.0);
+    scene
+        .reflectors
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| r.kind == ReflectorKind::Planar)
+        .filter_map(|(i, r)| {
+            let m = scene.materials[r.material as usize].sharpest_roughness()?;
+            let frame = ReflectorFrame::new(r.plane.as_ref()?, r, &scene.triangles);
+            let mut plan = MapPlan::for_roughness(m, frame.size, scale);
+            if let Some(o) = &scene.desc.reflectors[r.index].radiance {
+                if let Some(e) = o.elements {
+                    plan.elements = [e[0].max(1), e[1].max(1)];
+                }
+                if let Some(c) = o.cameras_per_hemisphere {
+                    plan.cameras = c.max(1);
+                }
+                if let Some(res) = o.resolution {
+                    plan.resolution = res.clamp(1, 4096);
+                }
+            }
+            Some((i, frame, plan))
+        })
+        .collect()
+}
+
+/// A file-system-safe version of a reflector name.
+fn file_name(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// Encodes a map as EXR: RGB half, Z float, A half (hit mask).
+pub fn encode_map(
+    res: u32,
+    map: &RadianceMap,
+    compression: ExrCompression,
+    depth: Precision,
+) -> Result<Vec<u8>, ImageError> {
+    let ch = |k: usize| map.rgb.iter().map(|c| c[k]).collect::<Vec<f32>>();
+    let (r, g, b) = (ch(0), ch(1), ch(2));
+    let a: Vec<f32> = map.hit.iter().map(|&h| if h { 1.0 } else { 0.0 }).collect();
+    image_io::encode_exr(
+        res as usize,
+        res as usize,
+        &[
+            ChannelData {
+                name: "R",
+                precision: Precision::Half,
+                samples: &r,
+            },
+            ChannelData {
+                name: "G",
+                precision: Precision::Half,
+                samples: &g,
+            },
+            ChannelData {
+                name: "B",
+                precision: Precision::Half,
+                samples: &b,
+            },
+            ChannelData {
+                name: "A",
+                precision: Precision::Half,
+                samples: &a,
+            },
+            ChannelData {
+                name: "Z",
+                precision: depth,
+                samples: &map.depth,
+            },
+        ],
+        compression,
+    )
+}
+
+/// Bakes the radiance maps of every glossy planar reflector into the bundle at `dir`.
+pub fn bake(
+    scene: &Scene,
+    dir: &Path,
+    quality: Quality,
+    force: bool,
+    progress: &dyn Progress,
+) -> Result<StageRecord, RadianceError> {
+    let start = Instant::now();
+    crate::bundle::check_scene(dir, &scene.content_hash, force)?;
+    let bundle = Bundle::open(dir).map_err(|_| RadianceError::NoRadiosity {
+        dir: dir.to_owned(),
+    })?;
+    let d = RadiosityMap::load(&bundle)?.ok_or_else(|| RadianceError::NoRadiosity {
+        dir: dir.to_owned(),
+    })?;
+    let bvh = scene.build_bvh();
+    let shade = |h: &crate::geometry::Hit| d.radiance(h.triangle, h.bary);
+    let limits = quadtree_limits(scene);
+    let plans = plans(scene, quality);
+    let total: u64 = plans
+        .iter()
+        .map(|(_, _, p)| (p.elements[0] * p.elements[1] * p.cameras) as u64)
+        .sum();
+    progress.phase("radiance maps", total);
+
+    let mut w = StageWriter::begin(dir, Stage::Radiance.name())?;
+    let mut table = Vec::new();
+    let mut rays = 0u64;
+    for (ri, frame, plan) in &plans {
+        let reflector = &scene.reflectors[*ri];
+        let folder = file_name(&reflector.name);
+        let mut cameras = Vec::new();
+        let mut bytes = 0u64;
+        for j in 0..plan.elements[1] {
+            for i in 0..plan.elements[0] {
+                let (corner, eu, ev) = frame.element(i, j, plan.elements[0], plan.elements[1]);
+                for (k, c) in hemisphere_cameras(corner, eu, ev, frame.normal, plan.cameras)
+                    .into_iter()
+                    .enumerate()
+                {
+                    if progress.cancelled() {
+                        return Err(Cancelled.into());
+                    }
+                    let cam = MapCamera {
+                        centre: c,
+                        corner,
+                        edge_u: eu,
+                        edge_v: ev,
+                        normal: frame.normal,
+                        resolution: plan.resolution,
+                    };
+                    let map = render(&cam, &bvh, 4.0 * bvh.epsilon(), &shade);
+                    rays += (plan.resolution * plan.resolution) as u64;
+                    let stem = format!("e{i}_{j}_c{k}");
+                    let exr = encode_map(
+                        plan.resolution,
+                        &map,
+                        ExrCompression::Zip16,
+                        Precision::Float,
+                    )?;
+                    let tree = quadtree::build(
+                        plan.resolution,
+                        &map.points,
+                        &map.depth,
+                        &map.hit,
+                        &limits,
+                    );
+                    let qt = quadtree::encode(plan.resolution, &tree);
+                    bytes += (exr.len() + qt.len()) as u64;
+                    w.write(&format!("{folder}/{stem}.exr"), "radiance-exr", &exr)?;
+                    w.write(&format!("{folder}/{stem}.qtree"), "quadtree", &qt)?;
+                    cameras.push(serde_json::json!({ "file": stem, "element": [i, j], "camera": k, "nodes": tree.len(), "view": cam }));
+                    progress.advance(1);
+                }
+            }
+        }
+        let json = serde_json::to_vec_pretty(
+            &serde_json::json!({ "reflector": reflector.name, "plan": plan, "maps": cameras }),
+        )
+        .expect("cameras serialize");
+        bytes += json.len() as u64;
+        w.write(&format!("{folder}/cameras.json"), "radiance-cameras", &json)?;
+        table.push(serde_json::json!({
+            "reflector": reflector.name,
+            "hemispheres": plan.elements[0] * plan.elements[1],
+            "maps_per_hemisphere": plan.cameras,
+            "resolution": format!("{0}x{0}", plan.resolution),
+            "bytes": bytes,
+        }));
+    }
+    let stats = BTreeMap::from([
+        ("reflectors".to_string(), serde_json::Value::Array(table)),
+        ("maps".into(), total.into()),
+        ("rays_cast".into(), rays.into()),
+    ]);
+    Ok(w.commit(StageInfo {
+        scene_name: scene.name.clone(),
+        scene_hash: scene.content_hash.clone(),
+        settings: settings_json(scene, quality),
+        stats,
+        bake_seconds: start.elapsed().as_secs_f64(),
+        force,
+    })?)
+}
+
+/// Settings as recorded in the manifest.
+pub fn settings_json(scene: &Scene, quality: Quality) -> serde_json::Value {
+    let plans: Vec<_> = plans(scene, quality)
+        .iter()
+        .map(|(i, _, p)| serde_json::json!({ "reflector": scene.reflectors[*i].name, "plan": p }))
+        .collect();
+    serde_json::json!({ "quality": quality.name(), "quadtree": quadtree_limits(scene), "reflectors": plans })
+}
+
+/// Mean radiance of a map's hit pixels (for reports and tests).
+pub fn mean_radiance(map: &RadianceMap) -> Vec3 {
+    let n = map.hit.iter().filter(|&&h| h).count().max(1);
+    map.rgb
+        .iter()
+        .zip(&map.hit)
+        .filter(|(_, h)| **h)
+        .map(|(c, _)| *c)
+        .sum::<Vec3>()
+        / n as f32
+}

@@ -1,0 +1,104 @@
+//! Radiance maps with depth (Bastos et al. §8.1.3): what each glossy planar reflector sees,
+//! sampled as images with depth from cameras on hemispheres behind it.
+
+pub mod quadtree;
+pub mod sampling;
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::geometry::{Bvh, Hit};
+use sampling::MapCamera;
+
+/// One rendered map: per pixel (row-major), radiance, depth, scene point and whether the
+/// pixel's ray hit anything.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RadianceMap {
+    /// Linear radiance (D at the hit, emission included); zero for misses.
+    pub rgb: Vec<Vec3>,
+    /// Depth along the reflector normal from the centre of projection; zero for misses.
+    pub depth: Vec<f32>,
+    /// Scene points; zero for misses.
+    pub points: Vec<Vec3>,
+    /// Whether the pixel saw something.
+    pub hit: Vec<bool>,
+}
+
+/// Ray casts one map: a ray per pixel from the element through the scene; `shade` gives the
+/// radiance of a hit (D looked up at it). Deterministic; parallel over rows.
+pub fn render(
+    cam: &MapCamera,
+    bvh: &Bvh,
+    normal_offset: f32,
+    shade: &(dyn Fn(&Hit) -> Vec3 + Sync),
+) -> RadianceMap {
+    let res = cam.resolution;
+    let rows: Vec<Vec<(Vec3, f32, Vec3, bool)>> = (0..res)
+        .into_par_iter()
+        .map(|y| {
+            (0..res)
+                .map(|x| {
+                    let (q, d) = cam.pixel_ray(x, y);
+                    // Start just in front of the reflector (so it does not see itself), moving
+                    // along the ray so every point stays on the camera's line of sight.
+                    let o = q + d * (normal_offset / d.dot(cam.normal).max(1e-3));
+                    match bvh.closest_hit(o, d, f32::INFINITY) {
+                        Some(h) => {
+                            let p = o + d * h.t;
+                            (shade(&h), cam.depth(p), p, true)
+                        }
+                        None => (Vec3::ZERO, 0.0, Vec3::ZERO, false),
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let px: Vec<_> = rows.into_iter().flatten().collect();
+    RadianceMap {
+        rgb: px.iter().map(|p| p.0).collect(),
+        depth: px.iter().map(|p| p.1).collect(),
+        points: px.iter().map(|p| p.2).collect(),
+        hit: px.iter().map(|p| p.3).collect(),
+    }
+}
+
+/// Sampling chosen for a reflector from its material's glossiness (Bastos Table 1 ranges
+/// from 32² to 128²): sharper lobes need finer maps, more elements and more cameras.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct MapPlan {
+    /// Reflector elements along the frame's two axes.
+    pub elements: [u32; 2],
+    /// Cameras per hemisphere.
+    pub cameras: u32,
+    /// Map resolution.
+    pub resolution: u32,
+}
+
+impl MapPlan {
+    /// The plan for a lobe of Beckmann roughness `m` on a reflector of `size` (metres along
+    /// its two axes), scaled by the preset's `scale` (0.5 draft, 1 default, 2 high).
+    pub fn for_roughness(m: f32, size: glam::Vec2, scale: f32) -> MapPlan {
+        // m ≤ 0.02: mirror; ≤ 0.1: glossy; rougher: blurry, coarse maps suffice.
+        let (res, long, cams) = if m <= 0.02 {
+            (128.0, 4.0, 9.0)
+        } else if m <= 0.1 {
+            (64.0, 3.0, 7.0)
+        } else {
+            (32.0, 2.0, 5.0)
+        };
+        let resolution = ((res * scale) as u32).clamp(16, 512).next_power_of_two();
+        let aspect = (size.x.min(size.y) / size.x.max(size.y).max(1e-9)).clamp(0.0, 1.0);
+        let short = ((long * aspect).round() as u32).max(1);
+        let long = long as u32;
+        let elements = if size.x >= size.y {
+            [long, short]
+        } else {
+            [short, long]
+        };
+        MapPlan {
+            elements,
+            cameras: ((cams * scale.sqrt()).round() as u32).max(1),
+            resolution,
+        }
+    }
+}

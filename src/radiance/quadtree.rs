@@ -1,0 +1,299 @@
+//! The quadtree over a radiance map's points (Bastos et al. §8.1.3, "Reconstruction"):
+//! nodes split until their points span less than a depth range or are fewer than a minimum
+//! count; each node keeps its pixel rectangle, its points' bounds and their mean, the
+//! representative point for Eq. 3 point sizes and for frustum culling.
+//!
+//! File format (`*.qtree`), little-endian:
+//! | bytes | field |
+//! |---|---|
+//! | 8 | magic `GLNTQTRE` |
+//! | u16 | version (1) |
+//! | u16 | reserved (0) |
+//! | u32 | node count N |
+//! | u32 | map resolution (pixels per side) |
+//! | N × 72 | nodes, root first, each node's children consecutive: u32 x0, y0, x1, y1 (pixel rectangle, end exclusive); u32 first child (index of the first of its consecutive children, `u32::MAX` for a leaf); u32 child count; u32 point count; f32 z min, z max; f32 × 3 bounds min; f32 × 3 bounds max; f32 × 3 mean point |
+//!
+//! Children with no points are not stored; the leaves partition the map's hit pixels.
+
+use glam::Vec3;
+
+/// A quadtree node.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Node {
+    /// Pixel rectangle [x0, x1) × [y0, y1).
+    pub rect: [u32; 4],
+    /// Index of the first child, `u32::MAX` for a leaf.
+    pub first_child: u32,
+    /// Number of children (0 for a leaf).
+    pub children: u32,
+    /// Points (hit pixels) inside.
+    pub count: u32,
+    /// Depth range of its points.
+    pub z: [f32; 2],
+    /// Bounds of its points.
+    pub min: Vec3,
+    /// Bounds of its points.
+    pub max: Vec3,
+    /// Mean of its points: the representative point.
+    pub mean: Vec3,
+}
+
+impl Node {
+    /// Whether the node is a leaf.
+    pub fn is_leaf(&self) -> bool {
+        self.first_child == u32::MAX
+    }
+}
+
+/// Split limits.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct QuadtreeLimits {
+    /// A node whose points span less depth than this is a leaf.
+    pub depth_range: f32,
+    /// A node with fewer points than this is a leaf.
+    pub min_points: u32,
+}
+
+/// Builds the quadtree of a `res × res` map. `points[i]` is the scene point of pixel i
+/// (row-major) and `depth[i]` its depth; `hit[i]` says whether the pixel saw anything.
+pub fn build(
+    res: u32,
+    points: &[Vec3],
+    depth: &[f32],
+    hit: &[bool],
+    limits: &QuadtreeLimits,
+) -> Vec<Node> {
+    let mut nodes = Vec::new();
+    if let Some(root) = summarize(res, [0, 0, res, res], points, depth, hit) {
+        nodes.push(root);
+        split(0, res, points, depth, hit, limits, &mut nodes);
+    }
+    nodes
+}
+
+fn summarize(
+    res: u32,
+    rect: [u32; 4],
+    points: &[Vec3],
+    depth: &[f32],
+    hit: &[bool],
+) -> Option<Node> {
+    let mut n = Node {
+        rect,
+        first_child: u32::MAX,
+        children: 0,
+        count: 0,
+        z: [f32::INFINITY, f32::NEG_INFINITY],
+        min: Vec3::INFINITY,
+        max: Vec3::NEG_INFINITY,
+        mean: Vec3::ZERO,
+    };
+    let mut sum = glam::DVec3::ZERO;
+    for y in rect[1]..rect[3] {
+        for x in rect[0]..rect[2] {
+            let i = (y * res + x) as usize;
+            if !hit[i] {
+                continue;
+            }
+            n.count += 1;
+            n.z = [n.z[0].min(depth[i]), n.z[1].max(depth[i])];
+            n.min = n.min.min(points[i]);
+            n.max = n.max.max(points[i]);
+            sum += points[i].as_dvec3();
+        }
+    }
+    if n.count == 0 {
+        return None;
+    }
+    n.mean = (sum / n.count as f64).as_vec3();
+    Some(n)
+}
+
+/// Splits node `i`: its children are appended together, then each is split in turn.
+fn split(
+    i: usize,
+    res: u32,
+    points: &[Vec3],
+    depth: &[f32],
+    hit: &[bool],
+    limits: &QuadtreeLimits,
+    nodes: &mut Vec<Node>,
+) {
+    let n = nodes[i];
+    let [x0, y0, x1, y1] = n.rect;
+    let small = x1 - x0 <= 1 && y1 - y0 <= 1;
+    if small || n.count < limits.min_points || n.z[1] - n.z[0] < limits.depth_range {
+        return;
+    }
+    let (xm, ym) = ((x0 + x1).div_ceil(2), (y0 + y1).div_ceil(2));
+    let quads = [
+        [x0, y0, xm, ym],
+        [xm, y0, x1, ym],
+        [x0, ym, xm, y1],
+        [xm, ym, x1, y1],
+    ];
+    let kids: Vec<Node> = quads
+        .iter()
+        .filter(|r| r[0] < r[2] && r[1] < r[3])
+        .filter_map(|r| summarize(res, *r, points, depth, hit))
+        .collect();
+    let first = nodes.len();
+    nodes[i].first_child = first as u32;
+    nodes[i].children = kids.len() as u32;
+    nodes.extend(kids);
+    for k in first..nodes.len().min(first + nodes[i].children as usize) {
+        split(k, res, points, depth, hit, limits, nodes);
+    }
+}
+
+/// File magic.
+pub const MAGIC: &[u8; 8] = b"GLNTQTRE";
+
+/// Serializes nodes (see the module docs for the layout).
+pub fn encode(res: u32, nodes: &[Node]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(20 + nodes.len() * 72);
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&1u16.to_le_bytes());
+    out.extend_from_slice(&0u16.to_le_bytes());
+    out.extend_from_slice(&(nodes.len() as u32).to_le_bytes());
+    out.extend_from_slice(&res.to_le_bytes());
+    for n in nodes {
+        for v in n.rect.iter().chain([&n.first_child, &n.children, &n.count]) {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+        for v in
+            n.z.iter()
+                .chain(n.min.as_ref())
+                .chain(n.max.as_ref())
+                .chain(n.mean.as_ref())
+        {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    out
+}
+
+/// Reads nodes written by [`encode`]: (resolution, nodes), or why not.
+pub fn decode(bytes: &[u8]) -> Result<(u32, Vec<Node>), String> {
+    if bytes.len() < 20 || &bytes[..8] != MAGIC {
+        return Err("not a glint quadtree (bad magic)".into());
+    }
+    let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
+    let f32_at = |o: usize| f32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
+    let version = u16::from_le_bytes([bytes[8], bytes[9]]);
+    if version != 1 {
+        return Err(format!(
+            "quadtree format version {version}, this glint reads version 1"
+        ));
+    }
+    let (count, res) = (u32_at(12) as usize, u32_at(16));
+    if bytes.len() != 20 + count * 72 {
+        return Err(format!(
+            "{} bytes, the header implies {}",
+            bytes.len(),
+            20 + count * 72
+        ));
+    }
+    let nodes = (0..count)
+        .map(|k| {
+            let o = 20 + k * 72;
+            let v3 = |o: usize| Vec3::new(f32_at(o), f32_at(o + 4), f32_at(o + 8));
+            Node {
+                rect: [u32_at(o), u32_at(o + 4), u32_at(o + 8), u32_at(o + 12)],
+                first_child: u32_at(o + 16),
+                children: u32_at(o + 20),
+                count: u32_at(o + 24),
+                z: [f32_at(o + 28), f32_at(o + 32)],
+                min: v3(o + 36),
+                max: v3(o + 48),
+                mean: v3(o + 60),
+            }
+        })
+        .collect();
+    Ok((res, nodes))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Rng;
+
+    /// A map with a step in depth and some misses.
+    fn map(res: u32) -> (Vec<Vec3>, Vec<f32>, Vec<bool>) {
+        let mut rng = Rng::new(3, 0);
+        let n = (res * res) as usize;
+        let mut pts = Vec::with_capacity(n);
+        let mut z = Vec::with_capacity(n);
+        let mut hit = Vec::with_capacity(n);
+        for i in 0..n {
+            let (x, y) = ((i as u32 % res) as f32, (i as u32 / res) as f32);
+            let d = if x < res as f32 / 3.0 {
+                1.0
+            } else {
+                5.0 + 0.01 * y
+            } + 0.001 * rng.uniform();
+            pts.push(Vec3::new(x, y, d));
+            z.push(d);
+            hit.push(rng.uniform() > 0.1);
+        }
+        (pts, z, hit)
+    }
+
+    #[test]
+    fn every_point_in_exactly_one_leaf_and_leaves_respect_their_bounds() {
+        let res = 37; // odd: uneven halves
+        let (pts, z, hit) = map(res);
+        let limits = QuadtreeLimits {
+            depth_range: 0.05,
+            min_points: 8,
+        };
+        let nodes = build(res, &pts, &z, &hit, &limits);
+        let mut owner = vec![0u32; pts.len()];
+        for n in nodes.iter().filter(|n| n.is_leaf()) {
+            assert!(
+                n.z[1] - n.z[0] < limits.depth_range
+                    || n.count < limits.min_points
+                    || (n.rect[2] - n.rect[0] <= 1 && n.rect[3] - n.rect[1] <= 1),
+                "{n:?}"
+            );
+            for y in n.rect[1]..n.rect[3] {
+                for x in n.rect[0]..n.rect[2] {
+                    owner[(y * res + x) as usize] += 1;
+                }
+            }
+        }
+        for (i, &h) in hit.iter().enumerate() {
+            if h {
+                assert_eq!(owner[i], 1, "hit pixel {i} in {} leaves", owner[i]);
+            }
+        }
+        // Counts add up; the mean lies inside the bounds.
+        assert_eq!(nodes[0].count as usize, hit.iter().filter(|&&h| h).count());
+        for n in &nodes {
+            assert!(n.mean.cmpge(n.min - 1e-4).all() && n.mean.cmple(n.max + 1e-4).all());
+            if !n.is_leaf() {
+                let kids = &nodes[n.first_child as usize..(n.first_child + n.children) as usize];
+                assert_eq!(kids.iter().map(|k| k.count).sum::<u32>(), n.count);
+            }
+        }
+        let bytes = encode(res, &nodes);
+        assert_eq!(decode(&bytes).unwrap(), (res, nodes));
+    }
+
+    #[test]
+    fn all_miss_map_has_no_nodes() {
+        let res = 8;
+        let nodes = build(
+            res,
+            &vec![Vec3::ZERO; 64],
+            &[0.0; 64],
+            &[false; 64],
+            &QuadtreeLimits {
+                depth_range: 1.0,
+                min_points: 4,
+            },
+        );
+        assert!(nodes.is_empty());
+        assert_eq!(decode(&encode(res, &nodes)).unwrap().1.len(), 0);
+    }
+}

@@ -1,0 +1,258 @@
+//! Radiance maps with depth: exact radiance and depth against a flat wall, reprojection into
+//! the map's own camera, all-miss reflectors, scale invariance, and the stage end to end.
+
+mod common;
+
+use std::path::Path;
+
+use common::*;
+use glam::{Vec2, Vec3};
+use glint::bake::{radiance_stage, radiosity_stage};
+use glint::bundle::Bundle;
+use glint::progress::Silent;
+use glint::radiance::sampling::{MapCamera, ReflectorFrame, hemisphere_cameras};
+use glint::radiance::{RadianceMap, render};
+use glint::scene::desc::RadiositySettings;
+use glint::scene::{Quality, Scene};
+
+fn flip(mut m: MeshSpec) -> MeshSpec {
+    for t in m.indices.chunks_mut(3) {
+        t.swap(1, 2);
+    }
+    m
+}
+
+/// A 1 m glossy floor reflector at y = 0 facing up, under an emissive ceiling "wall" of
+/// radiance 2 at height `h`, `wall` metres across; all scaled by `scale`.
+fn wall_scene(dir: &Path, scale: f32, h: f32, wall: f32) -> Scene {
+    let floor = quad("Floor", 0, 1, 0.0, 0.5 * scale);
+    let ceiling = flip(quad("Wall", 1, 1, h * scale, 0.5 * wall * scale));
+    write_gltf(
+        dir,
+        "w",
+        &[floor, ceiling],
+        &[
+            MaterialSpec {
+                metallic: 1.0,
+                roughness: 0.1,
+                ..MaterialSpec::diffuse("floor", 0.9)
+            },
+            MaterialSpec {
+                emissive: [1.0; 3],
+                strength: 2.0,
+                ..MaterialSpec::diffuse("lamp", 0.0)
+            },
+        ],
+    );
+    Scene::load(write_scene(dir, r#"{ "version": 1, "geometry": "w.gltf", "reflectors": [ { "mesh": "Floor", "kind": "planar" } ] }"#)).unwrap()
+}
+
+fn cameras(scene: &Scene, count: u32, res: u32) -> Vec<MapCamera> {
+    let r = &scene.reflectors[0];
+    let frame = ReflectorFrame::new(r.plane.as_ref().unwrap(), r, &scene.triangles);
+    let (corner, eu, ev) = frame.element(0, 0, 1, 1);
+    hemisphere_cameras(corner, eu, ev, frame.normal, count)
+        .into_iter()
+        .map(|c| MapCamera {
+            centre: c,
+            corner,
+            edge_u: eu,
+            edge_v: ev,
+            normal: frame.normal,
+            resolution: res,
+        })
+        .collect()
+}
+
+/// Radiance of the hit triangle's emission: exact D for a black emitter.
+fn render_with_emission(scene: &Scene, cam: &MapCamera) -> RadianceMap {
+    let bvh = scene.build_bvh();
+    let shade = |h: &glint::geometry::Hit| {
+        scene.materials[scene.triangles[h.triangle as usize].material as usize].emission
+    };
+    render(cam, &bvh, 4.0 * bvh.epsilon(), &shade)
+}
+
+#[test]
+fn a_flat_wall_gives_its_radiance_and_exact_depth_in_every_pixel() {
+    let dir = tempfile::tempdir().unwrap();
+    let h = 3.0;
+    let scene = wall_scene(dir.path(), 1.0, h, 2000.0);
+    for cam in cameras(&scene, 23, 32) {
+        let map = render_with_emission(&scene, &cam);
+        assert!(
+            map.hit.iter().all(|&x| x),
+            "camera {}: some pixel missed the wall",
+            cam.centre
+        );
+        let want_z = h - cam.centre.y; // depth along +Y from the centre of projection
+        for (i, (c, z)) in map.rgb.iter().zip(&map.depth).enumerate() {
+            assert_eq!(*c, Vec3::splat(2.0), "pixel {i}");
+            assert!(
+                (z - want_z).abs() <= 1e-4 * want_z,
+                "camera {}: pixel {i} depth {z}, exact {want_z}",
+                cam.centre
+            );
+        }
+    }
+}
+
+#[test]
+fn reprojecting_a_maps_points_into_its_own_camera_reproduces_the_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = wall_scene(dir.path(), 1.0, 0.7, 2000.0);
+    for cam in cameras(&scene, 9, 16) {
+        let map = render_with_emission(&scene, &cam);
+        for y in 0..16 {
+            for x in 0..16 {
+                let i = (y * 16 + x) as usize;
+                let (p, z) = cam.project(map.points[i]).unwrap();
+                assert!(
+                    (p - Vec2::new(x as f32 + 0.5, y as f32 + 0.5)).length() < 1e-2,
+                    "{p} for pixel ({x}, {y})"
+                );
+                assert!((z - map.depth[i]).abs() < 1e-4 * z);
+            }
+        }
+    }
+}
+
+#[test]
+fn a_reflector_facing_out_of_the_scene_gives_a_valid_all_miss_map() {
+    let dir = tempfile::tempdir().unwrap();
+    // The ceiling is below the floor's back: every ray from the floor goes up into nothing.
+    let floor = quad("Floor", 0, 1, 0.0, 0.5);
+    let below = quad("Below", 1, 1, -2.0, 5.0);
+    write_gltf(
+        dir.path(),
+        "m",
+        &[floor, below],
+        &[
+            MaterialSpec {
+                metallic: 1.0,
+                roughness: 0.01,
+                ..MaterialSpec::diffuse("mirror", 0.9)
+            },
+            MaterialSpec {
+                emissive: [1.0; 3],
+                ..MaterialSpec::diffuse("lamp", 0.0)
+            },
+        ],
+    );
+    let scene = Scene::load(write_scene(dir.path(), r#"{ "version": 1, "geometry": "m.gltf", "reflectors": [ { "mesh": "Floor", "kind": "planar" } ] }"#)).unwrap();
+    let cam = cameras(&scene, 5, 16)[4];
+    let map = render_with_emission(&scene, &cam);
+    assert!(map.hit.iter().all(|&h| !h));
+    assert!(map.rgb.iter().all(|c| *c == Vec3::ZERO) && map.depth.iter().all(|&z| z == 0.0));
+    let tree = glint::radiance::quadtree::build(
+        16,
+        &map.points,
+        &map.depth,
+        &map.hit,
+        &radiance_stage::quadtree_limits(&scene),
+    );
+    assert!(tree.is_empty());
+    let exr = radiance_stage::encode_map(
+        16,
+        &map,
+        glint::image_io::ExrCompression::Zip16,
+        glint::image_io::Precision::Float,
+    )
+    .unwrap();
+    let img = glint::image_io::decode_exr(&exr).unwrap();
+    assert!(img.channel("A").unwrap().iter().all(|&a| a == 0.0));
+}
+
+#[test]
+fn tiny_and_huge_reflectors_work_at_their_scale() {
+    let mut base: Option<(Vec<bool>, Vec<f32>)> = None;
+    for scale in [1e-3f32, 1.0, 1e3] {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = wall_scene(dir.path(), scale, 3.0, 40.0);
+        let cam = cameras(&scene, 9, 16)[8];
+        let map = render_with_emission(&scene, &cam);
+        let z: Vec<f32> = map.depth.iter().map(|z| z / scale).collect();
+        match &base {
+            None => base = Some((map.hit.clone(), z)),
+            Some((hit, zs)) => {
+                assert_eq!(&map.hit, hit, "scale {scale}: different pixels hit");
+                for (a, b) in z.iter().zip(zs) {
+                    assert!(
+                        (a - b).abs() <= 1e-3 * b.abs().max(1.0),
+                        "scale {scale}: depth {a} vs {b}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn stage_bakes_maps_quadtrees_and_table_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = wall_scene(dir.path(), 1.0, 2.0, 6.0);
+    let out = dir.path().join("r.glint");
+    // Without D the stage refuses, naming what to run.
+    let e = radiance_stage::bake(&scene, &out, Quality::Draft, false, &Silent)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("glint-radiosity"), "{e}");
+
+    let rs = RadiositySettings {
+        texel_density: 4.0,
+        rays: 16,
+        light_samples: 4,
+        bounces: 1,
+        tolerance: 0.0,
+    };
+    radiosity_stage::bake(&scene, &out, &rs, false, &Silent).unwrap();
+    let rec = radiance_stage::bake(&scene, &out, Quality::Draft, false, &Silent).unwrap();
+    let plan = &radiance_stage::plans(&scene, Quality::Draft)[0].2;
+    let maps = (plan.elements[0] * plan.elements[1] * plan.cameras) as usize;
+    assert_eq!(rec.stats["maps"], maps);
+    assert_eq!(
+        rec.assets
+            .iter()
+            .filter(|a| a.kind == "radiance-exr")
+            .count(),
+        maps
+    );
+    assert_eq!(
+        rec.assets.iter().filter(|a| a.kind == "quadtree").count(),
+        maps
+    );
+    let row = &rec.stats["reflectors"][0];
+    assert_eq!(row["reflector"], "Floor");
+    assert_eq!(row["maps_per_hemisphere"], plan.cameras);
+    // A map opens as EXR with its depth channel; its lit pixels show the lamp (D = 2).
+    let bundle = Bundle::open(&out).unwrap();
+    assert!(bundle.verify().is_empty());
+    let exr = rec
+        .assets
+        .iter()
+        .find(|a| a.kind == "radiance-exr")
+        .unwrap();
+    let img = glint::image_io::decode_exr(&bundle.read_asset(exr).unwrap()).unwrap();
+    assert_eq!(img.width as u32, plan.resolution);
+    let (a, r, z) = (
+        img.channel("A").unwrap(),
+        img.channel("R").unwrap(),
+        img.channel("Z").unwrap(),
+    );
+    let lit: Vec<usize> = (0..a.len()).filter(|&i| a[i] == 1.0).collect();
+    assert!(!lit.is_empty());
+    assert!(lit.iter().all(|&i| (r[i] - 2.0).abs() < 1e-3 && z[i] > 2.0));
+}
+
+#[test]
+fn maps_follow_glossiness() {
+    let size = Vec2::new(4.0, 2.0);
+    let mirror = glint::radiance::MapPlan::for_roughness(0.001, size, 1.0);
+    let glossy = glint::radiance::MapPlan::for_roughness(0.08, size, 1.0);
+    let rough = glint::radiance::MapPlan::for_roughness(0.3, size, 1.0);
+    assert!(mirror.resolution > glossy.resolution && glossy.resolution > rough.resolution);
+    assert!(mirror.cameras > glossy.cameras && glossy.cameras > rough.cameras);
+    assert_eq!(mirror.elements, [4, 2], "elements follow the aspect ratio");
+    assert_eq!(mirror.resolution, 128);
+    assert_eq!(rough.resolution, 32);
+}
