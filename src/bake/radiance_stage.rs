@@ -60,12 +60,12 @@ pub fn quality_scale(q: Quality) -> f32 {
     }
 }
 
-/// Quadtree limits for a scene: depth ranges relative to its size (1% of the diagonal), so
-/// tiny and huge scenes split alike; at least 16 points per splittable node.
-pub fn quadtree_limits(scene: &Scene) -> QuadtreeLimits {
+/// Quadtree limits: a leaf's depths lie within 10% of its nearest depth (its points' Eq. 3
+/// sizes within 10%), or it holds fewer than 64 points. Relative, so scale does not matter.
+pub fn quadtree_limits(_scene: &Scene) -> QuadtreeLimits {
     QuadtreeLimits {
-        depth_range: 0.01 * scene.bounds.diagonal(),
-        min_points: 16,
+        relative_depth_range: 0.1,
+        min_points: 64,
     }
 }
 

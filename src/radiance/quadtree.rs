@@ -1,6 +1,7 @@
 //! The quadtree over a radiance map's points (Bastos et al. §8.1.3, "Reconstruction"):
 //! nodes split until their points span less than a depth range or are fewer than a minimum
-//! count; each node keeps its pixel rectangle, its points' bounds and their mean, the
+//! count. The depth range is relative (z max − z min ≤ r · z min): Eq. 3's distance scale is a
+//! ratio of depths, so a node within r shares one point size to within r, at any scene scale; each node keeps its pixel rectangle, its points' bounds and their mean, the
 //! representative point for Eq. 3 point sizes and for frustum culling.
 //!
 //! File format (`*.qtree`), little-endian:
@@ -48,8 +49,8 @@ impl Node {
 /// Split limits.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct QuadtreeLimits {
-    /// A node whose points span less depth than this is a leaf.
-    pub depth_range: f32,
+    /// A node whose points span less than this fraction of their nearest depth is a leaf.
+    pub relative_depth_range: f32,
     /// A node with fewer points than this is a leaf.
     pub min_points: u32,
 }
@@ -122,7 +123,10 @@ fn split(
     let n = nodes[i];
     let [x0, y0, x1, y1] = n.rect;
     let small = x1 - x0 <= 1 && y1 - y0 <= 1;
-    if small || n.count < limits.min_points || n.z[1] - n.z[0] < limits.depth_range {
+    if small
+        || n.count < limits.min_points
+        || n.z[1] - n.z[0] <= limits.relative_depth_range * n.z[0]
+    {
         return;
     }
     let (xm, ym) = ((x0 + x1).div_ceil(2), (y0 + y1).div_ceil(2));
@@ -244,14 +248,14 @@ mod tests {
         let res = 37; // odd: uneven halves
         let (pts, z, hit) = map(res);
         let limits = QuadtreeLimits {
-            depth_range: 0.05,
+            relative_depth_range: 0.05,
             min_points: 8,
         };
         let nodes = build(res, &pts, &z, &hit, &limits);
         let mut owner = vec![0u32; pts.len()];
         for n in nodes.iter().filter(|n| n.is_leaf()) {
             assert!(
-                n.z[1] - n.z[0] < limits.depth_range
+                n.z[1] - n.z[0] <= limits.relative_depth_range * n.z[0]
                     || n.count < limits.min_points
                     || (n.rect[2] - n.rect[0] <= 1 && n.rect[3] - n.rect[1] <= 1),
                 "{n:?}"
@@ -289,7 +293,7 @@ mod tests {
             &[0.0; 64],
             &[false; 64],
             &QuadtreeLimits {
-                depth_range: 1.0,
+                relative_depth_range: 0.1,
                 min_points: 4,
             },
         );
