@@ -110,30 +110,32 @@ pub fn encode_exr(
 
 /// Encodes an RGB half-float EXR (ZIP16) from linear radiance.
 pub fn encode_rgb_exr(width: usize, height: usize, rgb: &[Vec3]) -> Result<Vec<u8>, ImageError> {
+    encode_rgb_exr_with(width, height, rgb, &[], ExrCompression::Zip16)
+}
+
+/// Encodes linear radiance as R, G, B half-float channels plus `extra` channels (a mask, a
+/// depth).
+pub fn encode_rgb_exr_with(
+    width: usize,
+    height: usize,
+    rgb: &[Vec3],
+    extra: &[ChannelData],
+    compression: ExrCompression,
+) -> Result<Vec<u8>, ImageError> {
     let split = |k: usize| rgb.iter().map(|c| c[k]).collect::<Vec<f32>>();
     let (r, g, b) = (split(0), split(1), split(2));
-    encode_exr(
-        width,
-        height,
-        &[
-            ChannelData {
-                name: "R",
-                precision: Precision::Half,
-                samples: &r,
-            },
-            ChannelData {
-                name: "G",
-                precision: Precision::Half,
-                samples: &g,
-            },
-            ChannelData {
-                name: "B",
-                precision: Precision::Half,
-                samples: &b,
-            },
-        ],
-        ExrCompression::Zip16,
-    )
+    let half = |name, samples| ChannelData {
+        name,
+        precision: Precision::Half,
+        samples,
+    };
+    let mut channels = vec![half("R", &r), half("G", &g), half("B", &b)];
+    channels.extend(extra.iter().map(|c| ChannelData {
+        name: c.name,
+        precision: c.precision,
+        samples: c.samples,
+    }));
+    encode_exr(width, height, &channels, compression)
 }
 
 /// A decoded EXR: its size and every channel as f32, by name.

@@ -117,28 +117,12 @@ pub fn encode_map(
     compression: ExrCompression,
     depth: Precision,
 ) -> Result<Vec<u8>, ImageError> {
-    let ch = |k: usize| map.rgb.iter().map(|c| c[k]).collect::<Vec<f32>>();
-    let (r, g, b) = (ch(0), ch(1), ch(2));
     let a: Vec<f32> = map.hit.iter().map(|&h| if h { 1.0 } else { 0.0 }).collect();
-    image_io::encode_exr(
+    image_io::encode_rgb_exr_with(
         res as usize,
         res as usize,
+        &map.rgb,
         &[
-            ChannelData {
-                name: "R",
-                precision: Precision::Half,
-                samples: &r,
-            },
-            ChannelData {
-                name: "G",
-                precision: Precision::Half,
-                samples: &g,
-            },
-            ChannelData {
-                name: "B",
-                precision: Precision::Half,
-                samples: &b,
-            },
             ChannelData {
                 name: "A",
                 precision: Precision::Half,
