@@ -60,7 +60,13 @@ fn bakes_the_scene_stage_then_finds_it_up_to_date() {
             .contains("Panel")
     );
     assert_eq!(stage("srdm")["needed"], false);
-    assert!(stage("radiosity")["status"].as_str().unwrap().starts_with("baked"), "{out}");
+    assert!(
+        stage("radiosity")["status"]
+            .as_str()
+            .unwrap()
+            .starts_with("baked"),
+        "{out}"
+    );
 
     let opened = Bundle::open(&bundle).unwrap();
     assert!(opened.verify().is_empty());
@@ -84,11 +90,18 @@ fn bakes_the_scene_stage_then_finds_it_up_to_date() {
     let (code, out, _) = glint_bake(&[s, "--bundle", b]);
     assert_eq!(code, 0);
     let up_to_date = out.lines().filter(|l| l.contains("up to date")).count();
-    assert_eq!(up_to_date, 2, "scene and radiosity are up to date: {out}");
+    assert_eq!(
+        up_to_date, 3,
+        "scene, radiosity and radiance are up to date: {out}"
+    );
     // Another preset is not up to date.
     let (code, out, _) = glint_bake(&[s, "--bundle", b, "--quality", "draft"]);
     assert_eq!(code, 0);
-    assert_eq!(out.lines().filter(|l| l.contains("up to date")).count(), 1, "{out}");
+    assert_eq!(
+        out.lines().filter(|l| l.contains("up to date")).count(),
+        1,
+        "{out}"
+    );
 }
 
 #[test]

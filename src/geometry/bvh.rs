@@ -109,7 +109,7 @@ impl Bvh {
         let mut hit = RayHit::none();
         if !self
             .bvh
-            .ray_traverse(ray, &mut hit, |r, id| self.ordered[id].intersect(r))
+            .ray_traverse(ray, &mut hit, |r, id| intersect(&self.ordered[id], r))
         {
             return None;
         }
@@ -129,7 +129,7 @@ impl Bvh {
         let ray = make_ray(origin, dir, t_max);
         !self
             .bvh
-            .ray_traverse_miss(ray, |r, id| self.ordered[id].intersect(r))
+            .ray_traverse_miss(ray, |r, id| intersect(&self.ordered[id], r))
     }
 
     /// Number of triangles (leaf slots) in the BVH.
@@ -154,6 +154,37 @@ pub fn scene_epsilon(bounds: &Aabb) -> f32 {
 fn make_ray(origin: Vec3, dir: Vec3, t_max: f32) -> Ray {
     let dir = dir + Vec3::ZERO; // IEEE: −0 + +0 = +0
     Ray::new(origin.into(), dir.into(), 0.0, t_max)
+}
+
+/// Ray–triangle distance (Möller–Trumbore), `f32::INFINITY` for a miss. Edges are inclusive
+/// with ordinary comparisons: obvhs' own test rejects a barycentric of −0.0 by its sign bit,
+/// so a ray through the shared edge of two triangles (a quad's diagonal) could miss both.
+#[inline(always)]
+fn intersect(t: &BvhTriangle, ray: &Ray) -> f32 {
+    let e1 = t.v1 - t.v0;
+    let e2 = t.v2 - t.v0;
+    let pvec = ray.direction.cross(e2);
+    let det = e1.dot(pvec);
+    if det == 0.0 || !det.is_finite() {
+        return f32::INFINITY;
+    }
+    let inv = 1.0 / det;
+    let tvec = ray.origin - t.v0;
+    let u = tvec.dot(pvec) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return f32::INFINITY;
+    }
+    let qvec = tvec.cross(e1);
+    let v = ray.direction.dot(qvec) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return f32::INFINITY;
+    }
+    let d = e2.dot(qvec) * inv;
+    if d > ray.tmin && d <= ray.tmax {
+        d
+    } else {
+        f32::INFINITY
+    }
 }
 
 /// Barycentrics of the ray's crossing of the triangle's plane (Möller–Trumbore), clamped
@@ -217,6 +248,22 @@ mod tests {
             assert!(bvh.occluded(o, -Vec3::Z, 2.5 * scale));
             // Pointing away: nothing.
             assert!(bvh.closest_hit(o, Vec3::Z, f32::INFINITY).is_none());
+        }
+    }
+
+    #[test]
+    fn rays_through_a_shared_edge_hit() {
+        // The quad's diagonal runs from (−1, −1) to (1, 1): rays straight down onto it.
+        let tris = quad(0.0, 1.0, 0).to_vec();
+        let bvh = Bvh::build(&tris);
+        for k in -9..=9 {
+            let x = k as f32 / 10.0;
+            let o = Vec3::new(x, x, 1.0);
+            assert!(
+                bvh.closest_hit(o, -Vec3::Z, f32::INFINITY).is_some(),
+                "miss at ({x}, {x})"
+            );
+            assert!(bvh.occluded(o, -Vec3::Z, 2.0), "not occluded at ({x}, {x})");
         }
     }
 
