@@ -5,6 +5,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Parser;
+use glint::bake::materials::{self, MaterialsSettings};
 use glint::bake::{Stage, plan, radiance_stage, radiosity_stage, scene_stage, up_to_date};
 use glint::bundle::stats::format_table;
 use glint::cli::BakeArgs;
@@ -97,7 +98,32 @@ fn run(args: BakeArgs) -> anyhow::Result<ExitCode> {
                         format!("baked in {:.2} s", rec.bake_seconds)
                     }
                 }
-                // Each stage joins here as it lands (issues 6, 8).
+                Stage::Materials => {
+                    let settings = MaterialsSettings::resolve(quality, &scene.desc.bake.materials)
+                        .map_err(|(field, why)| {
+                            anyhow::anyhow!("{}: field `{field}`: {why}", scene.path.display())
+                        })?;
+                    let recorded = materials::recorded_settings(
+                        &settings,
+                        materials::d_identity(&args.bundle, &scene).as_deref(),
+                    );
+                    if up_to_date(&args.bundle, &scene, p.stage, Some(&recorded)) {
+                        "up to date".into()
+                    } else {
+                        let progress = TerminalProgress::new();
+                        let start = std::time::Instant::now();
+                        let outcome =
+                            materials::bake(&scene, &args.bundle, &settings, args.force, &progress);
+                        progress.finish();
+                        match outcome.with_context(|| format!("stage {}", p.stage.name()))? {
+                            materials::Outcome::Skipped(why) => format!("skipped: {why}"),
+                            materials::Outcome::Baked(_) => {
+                                format!("baked in {:.2} s", start.elapsed().as_secs_f64())
+                            }
+                        }
+                    }
+                }
+                // Each stage joins here as it lands (issue 8).
                 _ => "not yet in this glint".into(),
             }
         };

@@ -8,6 +8,7 @@
 //! - `view` (feature `view`): the wgpu viewer.
 
 pub mod bake;
+pub mod brdf;
 pub mod bundle;
 pub mod camera;
 pub mod cli;

@@ -1,5 +1,6 @@
 //! Bake stages: what a scene requires, and the stages that write into a bundle.
 
+pub mod materials;
 pub mod plan;
 pub mod radiance_stage;
 pub mod radiosity_stage;
