@@ -109,8 +109,20 @@ impl Gpu {
     /// The device is created with no optional features and with the adapter's own limits, so
     /// texture sizes are bounded by the hardware rather than by wgpu's conservative defaults.
     pub fn headless() -> Result<Gpu, GpuError> {
+        Gpu::headless_with_features(wgpu::Features::empty())
+    }
+
+    /// As [`Gpu::headless`], also enabling those of the `optional` features the adapter has
+    /// (e.g. [`wgpu::Features::TIMESTAMP_QUERY`]); check [`wgpu::Device::features`] for which.
+    pub fn headless_with_features(optional: wgpu::Features) -> Result<Gpu, GpuError> {
         let backends = (PREFERRED_BACKENDS | FALLBACK_BACKENDS).with_env();
         let adapter = select_adapter(backends)?;
+        Gpu::from_adapter(adapter, optional)
+    }
+
+    /// Creates the device on a chosen adapter (a window picks one that can present to its
+    /// surface), with those of the `optional` features the adapter has and its own limits.
+    pub fn from_adapter(adapter: wgpu::Adapter, optional: wgpu::Features) -> Result<Gpu, GpuError> {
         let info = adapter.get_info();
         log::info!(
             "GPU adapter: {} ({} backend, {:?}, driver: {} {})",
@@ -123,6 +135,7 @@ impl Gpu {
 
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("glint device"),
+            required_features: optional & adapter.features(),
             required_limits: adapter.limits(),
             ..Default::default()
         }))
@@ -202,7 +215,7 @@ fn device_type_rank(device_type: wgpu::DeviceType) -> u8 {
 /// Runs `work` inside validation and out-of-memory error scopes and reports the first error.
 ///
 /// wgpu's default behaviour is to panic on such errors; this turns them into [`GpuError::Wgpu`].
-fn error_scoped<T>(
+pub(crate) fn error_scoped<T>(
     device: &wgpu::Device,
     context: &'static str,
     work: impl FnOnce() -> T,
@@ -217,6 +230,71 @@ fn error_scoped<T>(
         Some(source) => Err(GpuError::Wgpu { context, source }),
         None => Ok(value),
     }
+}
+
+/// Copies mip level 0, layer 0 of a single-sampled, uncompressed, colour 2D texture created
+/// with [`wgpu::TextureUsages::COPY_SRC`] back to the CPU: `width * height * texel size`
+/// bytes, rows top to bottom without padding, texels as the format stores them (e.g. four
+/// little-endian f16 per texel for `Rgba16Float`). Blocks until the copy has finished.
+pub fn read_texture(gpu: &Gpu, texture: &wgpu::Texture) -> Result<Vec<u8>, GpuError> {
+    let format = texture.format();
+    let Some(bytes_per_pixel) = format
+        .block_copy_size(None)
+        .filter(|_| format.block_dimensions() == (1, 1) && !format.has_depth_aspect())
+    else {
+        return Err(GpuError::UnsupportedTexture(format!(
+            "format {format:?} is not an uncompressed colour format"
+        )));
+    };
+    read_texture_bytes(gpu, texture, bytes_per_pixel)
+}
+
+/// Copies a whole buffer created with [`wgpu::BufferUsages::COPY_SRC`] back to the CPU,
+/// after all work submitted so far. Blocks until the copy has finished.
+pub fn read_buffer(gpu: &Gpu, source: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
+    let size = source.size();
+    let (buffer, submission) = error_scoped(&gpu.device, "copying a buffer for readback", || {
+        let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("glint buffer readback"),
+            size,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        let mut encoder = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("glint buffer readback encoder"),
+            });
+        encoder.copy_buffer_to_buffer(source, 0, &buffer, 0, size);
+        let submission = gpu.queue.submit([encoder.finish()]);
+        (buffer, submission)
+    })?;
+    let bytes = map_read(gpu, &buffer, submission)?;
+    Ok(bytes)
+}
+
+/// Waits for `submission`, maps `buffer` for reading and returns its contents.
+fn map_read(
+    gpu: &Gpu,
+    buffer: &wgpu::Buffer,
+    submission: wgpu::SubmissionIndex,
+) -> Result<Vec<u8>, GpuError> {
+    let slice = buffer.slice(..);
+    let (sender, receiver) = mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |result| {
+        // The receiver outlives the poll below; a failed send only means nobody is listening.
+        let _ = sender.send(result);
+    });
+    gpu.device.poll(wgpu::PollType::Wait {
+        submission_index: Some(submission),
+        timeout: None,
+    })?;
+    receiver
+        .recv()
+        .map_err(|_| GpuError::MapCallbackDropped)??;
+    let bytes = slice.get_mapped_range()?.to_vec();
+    buffer.unmap();
+    Ok(bytes)
 }
 
 /// Copies mip level 0, layer 0 of an RGBA8 2D texture back to the CPU.
@@ -238,6 +316,15 @@ pub fn read_texture_rgba8(gpu: &Gpu, texture: &wgpu::Texture) -> Result<Vec<u8>,
             "format is {format:?}, expected Rgba8Unorm or Rgba8UnormSrgb"
         )));
     }
+    read_texture_bytes(gpu, texture, RGBA8_BYTES_PER_PIXEL)
+}
+
+/// Readback of a 2D colour texture whose texels are `bytes_per_pixel` bytes.
+fn read_texture_bytes(
+    gpu: &Gpu,
+    texture: &wgpu::Texture,
+    bytes_per_pixel: u32,
+) -> Result<Vec<u8>, GpuError> {
     if texture.dimension() != wgpu::TextureDimension::D2 {
         return Err(GpuError::UnsupportedTexture(format!(
             "dimension is {:?}, expected D2",
@@ -258,7 +345,7 @@ pub fn read_texture_rgba8(gpu: &Gpu, texture: &wgpu::Texture) -> Result<Vec<u8>,
 
     let width = texture.width();
     let height = texture.height();
-    let row_bytes = width * RGBA8_BYTES_PER_PIXEL;
+    let row_bytes = width * bytes_per_pixel;
     let padded_row_bytes = row_bytes.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
     let buffer_size = u64::from(padded_row_bytes) * u64::from(height);
 
@@ -299,28 +386,11 @@ pub fn read_texture_rgba8(gpu: &Gpu, texture: &wgpu::Texture) -> Result<Vec<u8>,
         (buffer, submission)
     })?;
 
-    let slice = buffer.slice(..);
-    let (sender, receiver) = mpsc::channel();
-    slice.map_async(wgpu::MapMode::Read, move |result| {
-        // The receiver outlives the poll below; a failed send only means nobody is listening.
-        let _ = sender.send(result);
-    });
-    gpu.device.poll(wgpu::PollType::Wait {
-        submission_index: Some(submission),
-        timeout: None,
-    })?;
-    receiver
-        .recv()
-        .map_err(|_| GpuError::MapCallbackDropped)??;
-
+    let mapped = map_read(gpu, &buffer, submission)?;
     let mut pixels = Vec::with_capacity(row_bytes as usize * height as usize);
-    {
-        let mapped = slice.get_mapped_range()?;
-        for row in mapped.chunks_exact(padded_row_bytes as usize) {
-            pixels.extend_from_slice(&row[..row_bytes as usize]);
-        }
+    for row in mapped.chunks_exact(padded_row_bytes as usize) {
+        pixels.extend_from_slice(&row[..row_bytes as usize]);
     }
-    buffer.unmap();
     Ok(pixels)
 }
 

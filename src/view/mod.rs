@@ -1,3 +1,19 @@
-//! The wgpu viewer: GPU setup, offscreen rendering and frame readback.
+//! The wgpu viewer: a bundle's scene lit by its radiosity textures, in a window or headless.
+//!
+//! - [`load`]: bundle → scene + radiosity map, every check done first (clear errors, no panics).
+//! - [`bicubic`]: the cubic B-spline reconstruction of D, on the CPU (mirrored in the shader).
+//! - [`renderer`]: the wgpu pipeline (`shaders/view.wgsl`) and offscreen targets.
+//! - [`headless`]: offscreen frames, headless replay of camera paths with timings.
+//! - [`replay`]: frame scheduling and timing statistics (pure).
+//! - [`cpu_render`]: the CPU reference of a frame, for golden-image tests.
+//! - [`window`]: the interactive winit viewer (fly camera, path playback and recording).
+//! - [`gpu`]: adapter and device selection, readback.
 
+pub mod bicubic;
+pub mod cpu_render;
 pub mod gpu;
+pub mod headless;
+pub mod load;
+pub mod renderer;
+pub mod replay;
+pub mod window;

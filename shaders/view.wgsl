@@ -1,0 +1,122 @@
+// glint-view: the scene lit by its radiosity textures (Bastos et al. 1999 §7).
+//
+// One draw for the whole scene: every vertex carries its lightmap coordinates in texel units
+// of its atlas page and the page's layer in a 2D texture array of Rgba16Float radiosity
+// (linear exitant radiance D). The fragment shader reconstructs D with the uniform cubic
+// B-spline as four bilinear taps (Sigg and Hadwiger 2005); `src/view/bicubic.rs` is the same
+// filter on the CPU (`bspline_4tap`) and the definition it is tested against (`bspline`).
+//
+// Keep `FrameUniforms` in sync with `src/view/renderer.rs` (a test compares their layouts).
+
+struct FrameUniforms {
+    // World to clip: reverse-Z infinite perspective (depth 1 at the near plane, 0 at infinity).
+    view_proj: mat4x4<f32>,
+    // Width and height of a texture-array layer, in texels (pages are padded to it).
+    atlas_size: vec2<f32>,
+    // Multiplies D before output.
+    exposure: f32,
+    // 1: the colour target is not an sRGB format, so encode sRGB here; 0: the hardware does.
+    encode_srgb: u32,
+};
+
+@group(0) @binding(0) var<uniform> frame: FrameUniforms;
+@group(0) @binding(1) var radiosity: texture_2d_array<f32>;
+@group(0) @binding(2) var radiosity_sampler: sampler;
+
+struct VertexIn {
+    @location(0) position: vec3<f32>,
+    // Lightmap coordinates in texels of the vertex's page.
+    @location(1) lightmap: vec2<f32>,
+    @location(2) page: u32,
+};
+
+struct VertexOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) lightmap: vec2<f32>,
+    @location(1) @interpolate(flat) page: u32,
+};
+
+@vertex
+fn vs_main(v: VertexIn) -> VertexOut {
+    var out: VertexOut;
+    out.clip = frame.view_proj * vec4<f32>(v.position, 1.0);
+    out.lightmap = v.lightmap;
+    out.page = v.page;
+    return out;
+}
+
+// Cubic B-spline reconstruction at continuous texel coordinates `p` of layer `page`
+// (texel (i, j) spans [i, i+1) x [j, j+1)): per axis, weights (w0, w1) and (w2, w3) of the
+// four texels around p become one bilinear tap each, placed between the pair's two texel
+// centres where linear interpolation yields the pair's weighted mean.
+fn sample_radiosity(p: vec2<f32>, page: u32) -> vec3<f32> {
+    let q = p - vec2<f32>(0.5);
+    let i = floor(q);
+    let f = q - i;
+    let g = vec2<f32>(1.0) - f;
+    let f2 = f * f;
+    let f3 = f2 * f;
+    let w0 = g * g * g / 6.0;
+    let w1 = (vec2<f32>(4.0) - 6.0 * f2 + 3.0 * f3) / 6.0;
+    let w2 = (vec2<f32>(1.0) + 3.0 * f + 3.0 * f2 - 3.0 * f3) / 6.0;
+    let w3 = f3 / 6.0;
+    // g0, g1 >= 1/6 on [0, 1]: the divisions are safe.
+    let g0 = w0 + w1;
+    let g1 = w2 + w3;
+    let h0 = (i - vec2<f32>(0.5) + w1 / g0) / frame.atlas_size;
+    let h1 = (i + vec2<f32>(1.5) + w3 / g1) / frame.atlas_size;
+    let s00 = textureSampleLevel(radiosity, radiosity_sampler, vec2<f32>(h0.x, h0.y), page, 0.0).rgb;
+    let s10 = textureSampleLevel(radiosity, radiosity_sampler, vec2<f32>(h1.x, h0.y), page, 0.0).rgb;
+    let s01 = textureSampleLevel(radiosity, radiosity_sampler, vec2<f32>(h0.x, h1.y), page, 0.0).rgb;
+    let s11 = textureSampleLevel(radiosity, radiosity_sampler, vec2<f32>(h1.x, h1.y), page, 0.0).rgb;
+    return g0.y * (g0.x * s00 + g1.x * s10) + g1.y * (g0.x * s01 + g1.x * s11);
+}
+
+// The sRGB transfer curve (IEC 61966-2-1), as `glint::image_io::linear_to_srgb`.
+fn linear_to_srgb(c: vec3<f32>) -> vec3<f32> {
+    let v = clamp(c, vec3<f32>(0.0), vec3<f32>(1.0));
+    let lo = 12.92 * v;
+    let hi = 1.055 * pow(v, vec3<f32>(1.0 / 2.4)) - 0.055;
+    return select(hi, lo, v <= vec3<f32>(0.0031308));
+}
+
+struct FragmentOut {
+    // Display colour: linear, encoded to sRGB by the target format (or here).
+    @location(0) color: vec4<f32>,
+    // Linear radiance for HDR output (the pipeline leaves this target out when not wanted).
+    @location(1) hdr: vec4<f32>,
+};
+
+@fragment
+fn fs_main(in: VertexOut) -> FragmentOut {
+    let d = max(sample_radiosity(in.lightmap, in.page), vec3<f32>(0.0)) * frame.exposure;
+    var out: FragmentOut;
+    var color = d;
+    if frame.encode_srgb != 0u {
+        color = linear_to_srgb(d);
+    }
+    out.color = vec4<f32>(color, 1.0);
+    out.hdr = vec4<f32>(d, 1.0);
+    return out;
+}
+
+// Test entry: reconstructs D at given lightmap coordinates, to hold this shader's filter to
+// the CPU's (`bicubic_probe` in src/view/renderer.rs; tests/view.rs). Keep `ProbeInput` in sync
+// with `renderer::ProbeInput`.
+struct ProbeInput {
+    lightmap: vec2<f32>,
+    page: u32,
+    _pad: u32,
+};
+
+@group(1) @binding(0) var<storage, read> probe_in: array<ProbeInput>;
+@group(1) @binding(1) var<storage, read_write> probe_out: array<vec4<f32>>;
+
+@compute @workgroup_size(64)
+fn cs_probe(@builtin(global_invocation_id) id: vec3<u32>) {
+    let k = id.x;
+    if k >= arrayLength(&probe_in) {
+        return;
+    }
+    probe_out[k] = vec4<f32>(sample_radiosity(probe_in[k].lightmap, probe_in[k].page), 1.0);
+}

@@ -1,0 +1,918 @@
+//! The wgpu pipeline that draws a scene lit by its radiosity textures.
+//!
+//! - One indexed draw for the whole scene ([`SceneMesh`]): a vertex is a position, lightmap
+//!   coordinates in texels of its atlas page, and the page ([`Vertex`]); corners that agree on
+//!   all three are shared (within a chart they do), which lets the GPU's vertex cache work.
+//! - The atlas pages in one `Rgba16Float` 2D texture array, every layer the size of the largest
+//!   page; smaller pages are padded by repeating their edge texels, so the clamp-to-edge
+//!   sampler behaves at a page's edge exactly as the CPU's clamped lookups do.
+//! - The fragment shader reconstructs D with the cubic B-spline ([`super::bicubic`]).
+//! - Depth: `Depth32Float`, reverse Z with an infinite far plane (depth 1 at the near plane,
+//!   compare `Greater`), which keeps precision across scenes of any size.
+//! - Output: linear D × exposure to an sRGB colour target (`Rgba8UnormSrgb` offscreen; the
+//!   hardware encodes), optionally also linear to an `Rgba16Float` HDR target.
+//! - No back-face culling: the CPU reference's ray casts see both faces too.
+
+use bytemuck::{Pod, Zeroable};
+use exr::prelude::f16;
+use glam::{Mat4, Vec2, Vec3, Vec4};
+
+use super::gpu::{Gpu, GpuError, error_scoped, read_buffer};
+use crate::camera::Camera;
+use crate::radiosity::RadiosityMap;
+use crate::radiosity::atlas::Atlas;
+use crate::scene::Scene;
+
+/// WGSL source of the viewer's shaders.
+pub const SHADER_SOURCE: &str = include_str!("../../shaders/view.wgsl");
+
+/// Offscreen colour target format: the hardware encodes linear output to sRGB.
+pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+
+/// Format of the optional HDR target (linear radiance) and of the radiosity textures.
+pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+
+/// Depth buffer format.
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// Near plane as a fraction of the scene's bounding-box diagonal (the far plane is at
+/// infinity; reverse Z keeps depth precision even this close).
+pub const NEAR_FRACTION: f32 = 1e-4;
+
+/// Mirrors `FrameUniforms` in `shaders/view.wgsl` (80 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct FrameUniforms {
+    /// World to clip, column-major.
+    pub view_proj: [[f32; 4]; 4],
+    /// Size of a texture-array layer in texels.
+    pub atlas_size: [f32; 2],
+    /// Multiplies D before output.
+    pub exposure: f32,
+    /// 1 when the shader must encode sRGB itself (non-sRGB target), else 0.
+    pub encode_srgb: u32,
+}
+
+/// One vertex of the scene (24 bytes): `@location(0..=2)` of `VertexIn` in the shader.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct Vertex {
+    /// World position, metres.
+    pub position: [f32; 3],
+    /// Lightmap coordinates in texels of the page.
+    pub lightmap: [f32; 2],
+    /// Atlas page (texture-array layer).
+    pub page: u32,
+}
+
+/// Mirrors `ProbeInput` in `shaders/view.wgsl` (16 bytes): one lookup for [`bicubic_probe`].
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct ProbeInput {
+    /// Lightmap coordinates in texels.
+    pub lightmap: [f32; 2],
+    /// Page.
+    pub page: u32,
+    /// Padding to the WGSL struct's 8-byte alignment.
+    pub _pad: u32,
+}
+
+/// The vertex buffer layout matching [`Vertex`].
+const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 3] =
+    wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x2, 2 => Uint32];
+
+/// Why the scene cannot be drawn on this device.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    /// wgpu reported an error.
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    /// The atlas does not fit the device's texture limits.
+    #[error(
+        "the radiosity atlas ({width}×{height} texels × {layers} pages) exceeds this GPU's limits ({max_side} texels per side, {max_layers} layers)"
+    )]
+    AtlasTooLarge {
+        /// Layer width.
+        width: u32,
+        /// Layer height.
+        height: u32,
+        /// Pages.
+        layers: u32,
+        /// `max_texture_dimension_2d`.
+        max_side: u32,
+        /// `max_texture_array_layers`.
+        max_layers: u32,
+    },
+    /// The scene's vertex buffer exceeds the device's buffer limit.
+    #[error("the scene's {bytes} bytes of vertices exceed this GPU's buffer limit of {max} bytes")]
+    TooManyVertices {
+        /// Bytes needed.
+        bytes: u64,
+        /// `max_buffer_size`.
+        max: u64,
+    },
+}
+
+/// The scene as one indexed triangle list.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SceneMesh {
+    /// Distinct vertices, in order of first use.
+    pub vertices: Vec<Vertex>,
+    /// Three per triangle, in the scene's triangle order.
+    pub indices: Vec<u32>,
+}
+
+impl SceneMesh {
+    /// The mesh of `scene`'s triangles with `atlas`'s lightmap coordinates; corners equal in
+    /// position, lightmap coordinates and page (bit for bit) share a vertex.
+    pub fn new(scene: &Scene, atlas: &Atlas) -> SceneMesh {
+        let mut mesh = SceneMesh::default();
+        let mut ids: std::collections::HashMap<[u32; 6], u32> = std::collections::HashMap::new();
+        for (t, (&page, c)) in scene
+            .triangles
+            .iter()
+            .zip(atlas.tri_page.iter().zip(&atlas.tri_coords))
+        {
+            for (p, uv) in t.p.iter().zip(c) {
+                let v = Vertex {
+                    position: p.to_array(),
+                    lightmap: uv.to_array(),
+                    page,
+                };
+                let key = bytemuck::cast::<Vertex, [u32; 6]>(v);
+                let next = mesh.vertices.len() as u32;
+                let id = *ids.entry(key).or_insert(next);
+                if id == next {
+                    mesh.vertices.push(v);
+                }
+                mesh.indices.push(id);
+            }
+        }
+        mesh
+    }
+}
+
+/// World-to-clip matrix of `camera` for an image of `aspect` = width / height: a reverse-Z
+/// perspective with the far plane at infinity. Consistent with [`Camera::ray_direction`]: the
+/// centre of pixel (x, y) projects to [`Camera::pixel_ndc`]`(x, y)`.
+pub fn view_projection(camera: &Camera, aspect: f32, near: f32) -> Mat4 {
+    let (r, u, f) = (camera.right, camera.up, camera.forward);
+    let p = camera.position;
+    // World to view: rows right, up, −forward (the camera looks down its −Z).
+    let view = Mat4::from_cols(
+        Vec4::new(r.x, u.x, -f.x, 0.0),
+        Vec4::new(r.y, u.y, -f.y, 0.0),
+        Vec4::new(r.z, u.z, -f.z, 0.0),
+        Vec4::new(-r.dot(p), -u.dot(p), f.dot(p), 1.0),
+    );
+    // Infinite reverse-Z perspective: clip w = −z_view and clip z = near, so depth =
+    // near / −z_view is 1 at the near plane and falls towards 0 at infinity.
+    let s = 1.0 / (0.5 * camera.fov_y).tan();
+    let proj = Mat4::from_cols(
+        Vec4::new(s / aspect, 0.0, 0.0, 0.0),
+        Vec4::new(0.0, s, 0.0, 0.0),
+        Vec4::new(0.0, 0.0, 0.0, -1.0),
+        Vec4::new(0.0, 0.0, near, 0.0),
+    );
+    proj * view
+}
+
+/// The near plane for a scene: [`NEAR_FRACTION`] of its diagonal.
+pub fn near_plane(scene: &Scene) -> f32 {
+    (scene.bounds.diagonal() * NEAR_FRACTION).max(1e-6)
+}
+
+/// The radiosity pages on the GPU: a texture array with its sampler.
+pub struct RadiosityTextures {
+    /// The `Rgba16Float` texture array, one layer per page.
+    pub texture: wgpu::Texture,
+    view: wgpu::TextureView,
+    sampler: wgpu::Sampler,
+    /// Layer size in texels (the largest page's width and height).
+    pub layer_size: [u32; 2],
+}
+
+impl RadiosityTextures {
+    /// Uploads every page of `map`, padded to the largest page by repeating edge texels.
+    pub fn upload(gpu: &Gpu, map: &RadiosityMap) -> Result<RadiosityTextures, RenderError> {
+        let pages = &map.atlas.pages;
+        let width = pages.iter().map(|p| p.width).max().unwrap_or(1).max(1);
+        let height = pages.iter().map(|p| p.height).max().unwrap_or(1).max(1);
+        let layers = (pages.len() as u32).max(1);
+        let limits = gpu.device.limits();
+        if width > limits.max_texture_dimension_2d
+            || height > limits.max_texture_dimension_2d
+            || layers > limits.max_texture_array_layers
+        {
+            return Err(RenderError::AtlasTooLarge {
+                width,
+                height,
+                layers,
+                max_side: limits.max_texture_dimension_2d,
+                max_layers: limits.max_texture_array_layers,
+            });
+        }
+        let textures = error_scoped(&gpu.device, "uploading the radiosity textures", || {
+            let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("glint radiosity pages"),
+                size: wgpu::Extent3d {
+                    width,
+                    height,
+                    depth_or_array_layers: layers,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: HDR_FORMAT,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            });
+            for (layer, (size, texels)) in pages.iter().zip(&map.pages).enumerate() {
+                let bytes = padded_layer(texels, size.width, size.height, width, height);
+                gpu.queue.write_texture(
+                    wgpu::TexelCopyTextureInfo {
+                        texture: &texture,
+                        mip_level: 0,
+                        origin: wgpu::Origin3d {
+                            x: 0,
+                            y: 0,
+                            z: layer as u32,
+                        },
+                        aspect: wgpu::TextureAspect::All,
+                    },
+                    bytemuck::cast_slice(&bytes),
+                    wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(width * 8),
+                        rows_per_image: Some(height),
+                    },
+                    wgpu::Extent3d {
+                        width,
+                        height,
+                        depth_or_array_layers: 1,
+                    },
+                );
+            }
+            let view = texture.create_view(&wgpu::TextureViewDescriptor {
+                label: Some("glint radiosity pages view"),
+                dimension: Some(wgpu::TextureViewDimension::D2Array),
+                ..Default::default()
+            });
+            let sampler = gpu.device.create_sampler(&wgpu::SamplerDescriptor {
+                label: Some("glint radiosity sampler"),
+                address_mode_u: wgpu::AddressMode::ClampToEdge,
+                address_mode_v: wgpu::AddressMode::ClampToEdge,
+                address_mode_w: wgpu::AddressMode::ClampToEdge,
+                mag_filter: wgpu::FilterMode::Linear,
+                min_filter: wgpu::FilterMode::Linear,
+                mipmap_filter: wgpu::MipmapFilterMode::Nearest,
+                ..Default::default()
+            });
+            RadiosityTextures {
+                texture,
+                view,
+                sampler,
+                layer_size: [width, height],
+            }
+        })?;
+        Ok(textures)
+    }
+}
+
+/// A page as half-float RGBA texels, `layer_w` × `layer_h`, edge texels repeated beyond the
+/// page. An empty or short page gives black.
+fn padded_layer(texels: &[Vec3], w: u32, h: u32, layer_w: u32, layer_h: u32) -> Vec<u16> {
+    let mut out = Vec::with_capacity((layer_w * layer_h * 4) as usize);
+    let one = f16::from_f32(1.0).to_bits();
+    for y in 0..layer_h {
+        for x in 0..layer_w {
+            let v = if w == 0 || h == 0 {
+                Vec3::ZERO
+            } else {
+                let (xi, yi) = (x.min(w - 1) as usize, y.min(h - 1) as usize);
+                texels
+                    .get(yi * w as usize + xi)
+                    .copied()
+                    .unwrap_or(Vec3::ZERO)
+            };
+            out.extend(v.to_array().map(|c| f16::from_f32(c).to_bits()));
+            out.push(one);
+        }
+    }
+    out
+}
+
+/// Bind group 0 of every entry point: the frame uniforms, the pages and their sampler.
+fn frame_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    let visibility =
+        wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("glint frame bind group layout"),
+        entries: &[
+            wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: wgpu::BufferSize::new(
+                        std::mem::size_of::<FrameUniforms>() as u64
+                    ),
+                },
+                count: None,
+            },
+            wgpu::BindGroupLayoutEntry {
+                binding: 1,
+                visibility,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                    view_dimension: wgpu::TextureViewDimension::D2Array,
+                    multisampled: false,
+                },
+                count: None,
+            },
+            wgpu::BindGroupLayoutEntry {
+                binding: 2,
+                visibility,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                count: None,
+            },
+        ],
+    })
+}
+
+fn frame_bind_group(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    uniforms: &wgpu::Buffer,
+    textures: &RadiosityTextures,
+) -> wgpu::BindGroup {
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("glint frame bind group"),
+        layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: uniforms.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: wgpu::BindingResource::TextureView(&textures.view),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: wgpu::BindingResource::Sampler(&textures.sampler),
+            },
+        ],
+    })
+}
+
+fn uniform_buffer(device: &wgpu::Device) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("glint frame uniforms"),
+        size: std::mem::size_of::<FrameUniforms>() as u64,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+/// Target formats of a [`Renderer`]'s pipeline.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TargetFormats {
+    /// The display colour target. When it is not an sRGB format the shader encodes sRGB.
+    pub color: wgpu::TextureFormat,
+    /// Whether an [`HDR_FORMAT`] target receives linear radiance too.
+    pub hdr: bool,
+}
+
+/// The scene on the GPU and the pipeline that draws it.
+pub struct Renderer {
+    pipeline: wgpu::RenderPipeline,
+    bind_group: wgpu::BindGroup,
+    uniforms: wgpu::Buffer,
+    vertices: wgpu::Buffer,
+    indices: wgpu::Buffer,
+    index_count: u32,
+    textures: RadiosityTextures,
+    formats: TargetFormats,
+    near: f32,
+    /// Multiplies D before output (1: radiance as baked).
+    pub exposure: f32,
+}
+
+impl Renderer {
+    /// Uploads the scene's vertices and radiosity pages and builds the pipeline.
+    pub fn new(
+        gpu: &Gpu,
+        scene: &Scene,
+        map: &RadiosityMap,
+        formats: TargetFormats,
+    ) -> Result<Renderer, RenderError> {
+        let mesh = SceneMesh::new(scene, &map.atlas);
+        let bytes = std::mem::size_of_val(mesh.vertices.as_slice()) as u64;
+        let index_bytes = std::mem::size_of_val(mesh.indices.as_slice()) as u64;
+        let max = gpu.device.limits().max_buffer_size;
+        if bytes.max(index_bytes) > max {
+            return Err(RenderError::TooManyVertices {
+                bytes: bytes.max(index_bytes),
+                max,
+            });
+        }
+        let textures = RadiosityTextures::upload(gpu, map)?;
+        let device = &gpu.device;
+        let renderer = error_scoped(device, "creating the scene pipeline", || {
+            let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("glint view shader"),
+                source: wgpu::ShaderSource::Wgsl(SHADER_SOURCE.into()),
+            });
+            let bind_group_layout = frame_bind_group_layout(device);
+            let uniforms = uniform_buffer(device);
+            let bind_group = frame_bind_group(device, &bind_group_layout, &uniforms, &textures);
+            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("glint view pipeline layout"),
+                bind_group_layouts: &[Some(&bind_group_layout)],
+                immediate_size: 0,
+            });
+            let color_target = wgpu::ColorTargetState {
+                format: formats.color,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            };
+            let hdr_target = formats.hdr.then_some(wgpu::ColorTargetState {
+                format: HDR_FORMAT,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            });
+            let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("glint view pipeline"),
+                layout: Some(&layout),
+                vertex: wgpu::VertexState {
+                    module: &shader,
+                    entry_point: Some("vs_main"),
+                    compilation_options: wgpu::PipelineCompilationOptions::default(),
+                    buffers: &[Some(wgpu::VertexBufferLayout {
+                        array_stride: std::mem::size_of::<Vertex>() as u64,
+                        step_mode: wgpu::VertexStepMode::Vertex,
+                        attributes: &VERTEX_ATTRIBUTES,
+                    })],
+                },
+                primitive: wgpu::PrimitiveState {
+                    topology: wgpu::PrimitiveTopology::TriangleList,
+                    cull_mode: None,
+                    ..Default::default()
+                },
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: DEPTH_FORMAT,
+                    depth_write_enabled: Some(true),
+                    depth_compare: Some(wgpu::CompareFunction::Greater),
+                    stencil: wgpu::StencilState::default(),
+                    bias: wgpu::DepthBiasState::default(),
+                }),
+                multisample: wgpu::MultisampleState::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &shader,
+                    entry_point: Some("fs_main"),
+                    compilation_options: wgpu::PipelineCompilationOptions::default(),
+                    targets: &[Some(color_target), hdr_target],
+                }),
+                multiview_mask: None,
+                cache: None,
+            });
+            let vertex_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("glint scene vertices"),
+                size: bytes.max(std::mem::size_of::<Vertex>() as u64),
+                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            gpu.queue
+                .write_buffer(&vertex_buffer, 0, bytemuck::cast_slice(&mesh.vertices));
+            let index_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("glint scene indices"),
+                size: index_bytes.max(4),
+                usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            gpu.queue
+                .write_buffer(&index_buffer, 0, bytemuck::cast_slice(&mesh.indices));
+            (pipeline, bind_group, uniforms, vertex_buffer, index_buffer)
+        })?;
+        let (pipeline, bind_group, uniforms, vertex_buffer, index_buffer) = renderer;
+        Ok(Renderer {
+            pipeline,
+            bind_group,
+            uniforms,
+            vertices: vertex_buffer,
+            indices: index_buffer,
+            index_count: mesh.indices.len() as u32,
+            textures,
+            formats,
+            near: near_plane(scene),
+            exposure: 1.0,
+        })
+    }
+
+    /// The formats the pipeline renders to.
+    pub fn formats(&self) -> TargetFormats {
+        self.formats
+    }
+
+    /// The uniforms for `camera` on a `width` × `height` target.
+    pub fn uniforms(&self, camera: &Camera, width: u32, height: u32) -> FrameUniforms {
+        let aspect = width.max(1) as f32 / height.max(1) as f32;
+        FrameUniforms {
+            view_proj: view_projection(camera, aspect, self.near).to_cols_array_2d(),
+            atlas_size: self.textures.layer_size.map(|v| v as f32),
+            exposure: self.exposure,
+            encode_srgb: u32::from(!self.formats.color.is_srgb()),
+        }
+    }
+
+    /// Writes the uniforms of `camera` (the write lands before the next submission).
+    pub fn prepare(&self, gpu: &Gpu, camera: &Camera, width: u32, height: u32) {
+        let u = self.uniforms(camera, width, height);
+        gpu.queue
+            .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&u));
+    }
+
+    /// Records the scene's render pass: clears colour to black and depth to 0 (reverse Z),
+    /// draws every triangle. `hdr` must be given exactly when the pipeline has an HDR target.
+    pub fn draw(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        color: &wgpu::TextureView,
+        hdr: Option<&wgpu::TextureView>,
+        depth: &wgpu::TextureView,
+        timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
+    ) {
+        let attachment = |view| {
+            Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                    store: wgpu::StoreOp::Store,
+                },
+            })
+        };
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("glint scene pass"),
+            color_attachments: &[attachment(color), hdr.and_then(attachment)],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: depth,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(0.0),
+                    store: wgpu::StoreOp::Discard,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: timestamps,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.set_vertex_buffer(0, self.vertices.slice(..));
+        pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
+        pass.draw_indexed(0..self.index_count, 0, 0..1);
+    }
+}
+
+/// A depth buffer for a `width` × `height` target.
+pub fn depth_texture(gpu: &Gpu, width: u32, height: u32) -> wgpu::Texture {
+    gpu.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("glint depth"),
+        size: wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: DEPTH_FORMAT,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+        view_formats: &[],
+    })
+}
+
+/// An offscreen target: colour (readable), optional HDR (readable) and depth.
+pub struct OffscreenTarget {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// [`COLOR_FORMAT`] colour.
+    pub color: wgpu::Texture,
+    /// [`HDR_FORMAT`] linear radiance, when asked for.
+    pub hdr: Option<wgpu::Texture>,
+    /// The depth buffer (drawn through `depth_view`; held so the target owns what it uses).
+    _depth: wgpu::Texture,
+    color_view: wgpu::TextureView,
+    hdr_view: Option<wgpu::TextureView>,
+    depth_view: wgpu::TextureView,
+}
+
+impl OffscreenTarget {
+    /// Creates the textures; checks the size against the device's limit.
+    pub fn new(gpu: &Gpu, width: u32, height: u32, hdr: bool) -> Result<OffscreenTarget, GpuError> {
+        let max = gpu.device.limits().max_texture_dimension_2d;
+        if width == 0 || height == 0 || width > max || height > max {
+            return Err(GpuError::InvalidSize { width, height, max });
+        }
+        error_scoped(&gpu.device, "creating the offscreen target", || {
+            let colour = |format, label| {
+                gpu.device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size: wgpu::Extent3d {
+                        width,
+                        height,
+                        depth_or_array_layers: 1,
+                    },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format,
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+                    view_formats: &[],
+                })
+            };
+            let color = colour(COLOR_FORMAT, "glint offscreen colour");
+            let hdr = hdr.then(|| colour(HDR_FORMAT, "glint offscreen hdr"));
+            let depth = depth_texture(gpu, width, height);
+            let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
+            OffscreenTarget {
+                width,
+                height,
+                color_view: view(&color),
+                hdr_view: hdr.as_ref().map(view),
+                depth_view: view(&depth),
+                color,
+                hdr,
+                _depth: depth,
+            }
+        })
+    }
+
+    /// Records `renderer`'s pass into this target.
+    pub fn draw(
+        &self,
+        renderer: &Renderer,
+        encoder: &mut wgpu::CommandEncoder,
+        timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
+    ) {
+        renderer.draw(
+            encoder,
+            &self.color_view,
+            self.hdr_view.as_ref(),
+            &self.depth_view,
+            timestamps,
+        );
+    }
+}
+
+/// Reconstructs D at each of `points` (lightmap coordinates in texels, page) with the shader's
+/// `sample_radiosity`, in a compute pass: what the fragment shader sees. For tests that hold
+/// the WGSL filter to [`super::bicubic::bspline`].
+pub fn bicubic_probe(
+    gpu: &Gpu,
+    map: &RadiosityMap,
+    points: &[(Vec2, u32)],
+) -> Result<Vec<Vec3>, RenderError> {
+    if points.is_empty() {
+        return Ok(Vec::new());
+    }
+    let textures = RadiosityTextures::upload(gpu, map)?;
+    let device = &gpu.device;
+    let inputs: Vec<ProbeInput> = points
+        .iter()
+        .map(|(p, page)| ProbeInput {
+            lightmap: p.to_array(),
+            page: *page,
+            _pad: 0,
+        })
+        .collect();
+    let out_size = (points.len() * 16) as u64;
+    let output = error_scoped(device, "running the bicubic probe", || {
+        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("glint view shader (probe)"),
+            source: wgpu::ShaderSource::Wgsl(SHADER_SOURCE.into()),
+        });
+        let frame_layout = frame_bind_group_layout(device);
+        let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let probe_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("glint probe bind group layout"),
+            entries: &[storage(0, true), storage(1, false)],
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("glint probe pipeline layout"),
+            bind_group_layouts: &[Some(&frame_layout), Some(&probe_layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("glint probe pipeline"),
+            layout: Some(&layout),
+            module: &shader,
+            entry_point: Some("cs_probe"),
+            compilation_options: wgpu::PipelineCompilationOptions::default(),
+            cache: None,
+        });
+        let uniforms = uniform_buffer(device);
+        let u = FrameUniforms {
+            view_proj: Mat4::IDENTITY.to_cols_array_2d(),
+            atlas_size: textures.layer_size.map(|v| v as f32),
+            exposure: 1.0,
+            encode_srgb: 0,
+        };
+        gpu.queue.write_buffer(&uniforms, 0, bytemuck::bytes_of(&u));
+        let frame_group = frame_bind_group(device, &frame_layout, &uniforms, &textures);
+        let input = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("glint probe input"),
+            size: (inputs.len() * std::mem::size_of::<ProbeInput>()) as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        gpu.queue
+            .write_buffer(&input, 0, bytemuck::cast_slice(&inputs));
+        let output = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("glint probe output"),
+            size: out_size,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let probe_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("glint probe bind group"),
+            layout: &probe_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: input.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: output.as_entire_binding(),
+                },
+            ],
+        });
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("glint probe encoder"),
+        });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("glint probe pass"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&pipeline);
+            pass.set_bind_group(0, &frame_group, &[]);
+            pass.set_bind_group(1, &probe_group, &[]);
+            pass.dispatch_workgroups((points.len() as u32).div_ceil(64), 1, 1);
+        }
+        gpu.queue.submit([encoder.finish()]);
+        output
+    })?;
+    let bytes = read_buffer(gpu, &output)?;
+    let values: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
+    Ok(values.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use wgpu::naga;
+
+    /// Size and member offsets of a struct of `shaders/view.wgsl`, by naga's layouter.
+    fn wgsl_layout(name: &str) -> (u32, Vec<(String, u32)>) {
+        let module = naga::front::wgsl::parse_str(SHADER_SOURCE).expect("view.wgsl parses");
+        let mut layouter = naga::proc::Layouter::default();
+        layouter
+            .update(module.to_ctx())
+            .expect("view.wgsl has a layout");
+        let (handle, ty) = module
+            .types
+            .iter()
+            .find(|(_, t)| t.name.as_deref() == Some(name))
+            .unwrap_or_else(|| panic!("no struct {name} in view.wgsl"));
+        let naga::TypeInner::Struct { members, .. } = &ty.inner else {
+            panic!("{name} is not a struct");
+        };
+        (
+            layouter[handle].size,
+            members
+                .iter()
+                .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
+                .collect(),
+        )
+    }
+
+    #[test]
+    fn frame_uniforms_match_the_wgsl_struct() {
+        let (size, members) = wgsl_layout("FrameUniforms");
+        assert_eq!(size as usize, std::mem::size_of::<FrameUniforms>());
+        let want = [
+            ("view_proj", std::mem::offset_of!(FrameUniforms, view_proj)),
+            (
+                "atlas_size",
+                std::mem::offset_of!(FrameUniforms, atlas_size),
+            ),
+            ("exposure", std::mem::offset_of!(FrameUniforms, exposure)),
+            (
+                "encode_srgb",
+                std::mem::offset_of!(FrameUniforms, encode_srgb),
+            ),
+        ];
+        let got: Vec<(&str, usize)> = members
+            .iter()
+            .map(|(n, o)| (n.as_str(), *o as usize))
+            .collect();
+        assert_eq!(got, want);
+    }
+
+    #[test]
+    fn probe_input_matches_the_wgsl_struct() {
+        let (size, members) = wgsl_layout("ProbeInput");
+        assert_eq!(size as usize, std::mem::size_of::<ProbeInput>());
+        assert_eq!(members[0], ("lightmap".into(), 0));
+        assert_eq!(
+            members[1],
+            ("page".into(), std::mem::offset_of!(ProbeInput, page) as u32)
+        );
+    }
+
+    #[test]
+    fn vertex_layout_matches_the_attributes() {
+        assert_eq!(std::mem::size_of::<Vertex>(), 24);
+        let offsets: Vec<u64> = VERTEX_ATTRIBUTES.iter().map(|a| a.offset).collect();
+        assert_eq!(
+            offsets,
+            [
+                std::mem::offset_of!(Vertex, position) as u64,
+                std::mem::offset_of!(Vertex, lightmap) as u64,
+                std::mem::offset_of!(Vertex, page) as u64
+            ]
+        );
+        // And the shader's VertexIn takes them at those locations with those types.
+        let module = naga::front::wgsl::parse_str(SHADER_SOURCE).unwrap();
+        let (_, ty) = module
+            .types
+            .iter()
+            .find(|(_, t)| t.name.as_deref() == Some("VertexIn"))
+            .unwrap();
+        let naga::TypeInner::Struct { members, .. } = &ty.inner else {
+            panic!()
+        };
+        let locations: Vec<Option<u32>> = members
+            .iter()
+            .map(|m| match m.binding {
+                Some(naga::Binding::Location { location, .. }) => Some(location),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(locations, [Some(0), Some(1), Some(2)]);
+    }
+
+    #[test]
+    fn projection_agrees_with_camera_rays() {
+        let cam = Camera::look_at(
+            Vec3::new(0.3, 1.2, 4.0),
+            Vec3::new(-0.2, 0.9, 0.0),
+            Vec3::Y,
+            40f32.to_radians(),
+        );
+        let (w, h) = (720u32, 486u32);
+        let m = view_projection(&cam, w as f32 / h as f32, 1e-3);
+        for (x, y) in [(0, 0), (719, 485), (360, 100), (17, 400)] {
+            let ndc = Camera::pixel_ndc(x, y, w, h);
+            let p = cam.position + cam.ray_direction(ndc, w as f32 / h as f32) * 2.5;
+            let clip = m * p.extend(1.0);
+            let got = Vec2::new(clip.x / clip.w, clip.y / clip.w);
+            assert!((got - ndc).length() < 1e-4, "{x},{y}: {got} vs {ndc}");
+            let depth = clip.z / clip.w;
+            assert!(depth > 0.0 && depth < 1.0, "reverse-Z depth {depth}");
+        }
+    }
+
+    #[test]
+    fn layers_are_padded_by_repeating_edges() {
+        let texels = [
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(2.0, 0.0, 0.0),
+            Vec3::new(3.0, 0.0, 0.0),
+            Vec3::new(4.0, 0.0, 0.0),
+        ];
+        let out = padded_layer(&texels, 2, 2, 3, 3);
+        let red: Vec<f32> = out
+            .chunks(4)
+            .map(|t| f16::from_bits(t[0]).to_f32())
+            .collect();
+        assert_eq!(red, [1.0, 2.0, 2.0, 3.0, 4.0, 4.0, 3.0, 4.0, 4.0]);
+    }
+}

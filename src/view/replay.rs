@@ -1,0 +1,344 @@
+//! Replaying a camera path: which frames, at which times, which of them are written, and the
+//! per-frame timings with their summary (`timings.json`). No GPU here: the headless renderer
+//! ([`super::headless`]) fills these in.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::camera::{Camera, frame_count, frame_time, pose_at};
+use crate::scene::CameraPath;
+
+/// File name of the timings written next to the frames.
+pub const TIMINGS_FILE: &str = "timings.json";
+
+/// Value of `format` in timings.json.
+pub const TIMINGS_FORMAT: &str = "glint-view-timings";
+
+/// Version of the timings.json layout.
+pub const TIMINGS_VERSION: u32 = 1;
+
+/// One frame of a replay.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScheduledFrame {
+    /// Frame number, from 0.
+    pub index: usize,
+    /// Path time of the frame, seconds.
+    pub time: f32,
+    /// The camera at that time.
+    pub camera: Camera,
+}
+
+/// Every frame of `path` at its fps ([`frame_count`], [`frame_time`], [`pose_at`]).
+pub fn schedule(path: &CameraPath) -> Vec<ScheduledFrame> {
+    (0..frame_count(path))
+        .map(|index| {
+            let time = frame_time(path, index);
+            ScheduledFrame {
+                index,
+                time,
+                camera: pose_at(path, time),
+            }
+        })
+        .collect()
+}
+
+/// Whether frame `index` is written to disk when writing every `every`-th frame (frame 0 is
+/// always written; `every` = 0 writes none). Every frame is rendered and timed regardless.
+pub fn is_written(index: usize, every: usize) -> bool {
+    every != 0 && index.is_multiple_of(every)
+}
+
+/// File name of frame `index` with extension `ext` (`png`, `exr`): `frame_00042.png`.
+pub fn frame_file_name(index: usize, ext: &str) -> String {
+    format!("frame_{index:05}.{ext}")
+}
+
+/// Where the GPU time of a frame comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum GpuTimeSource {
+    /// Timestamp queries written at the start and end of the frame's render pass.
+    TimestampQuery,
+    /// The adapter has no timestamp queries: wall time from submitting the frame's commands
+    /// until the GPU reports them complete (an upper bound of the GPU time).
+    SubmitToComplete,
+}
+
+/// Timings of one frame, milliseconds.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FrameTiming {
+    /// Frame number.
+    pub frame: usize,
+    /// Path time, seconds.
+    pub time: f32,
+    /// GPU time of the frame's render pass (see [`Timings::gpu_time_source`]).
+    pub gpu_ms: f64,
+    /// CPU time to update the uniforms, record and submit the frame's commands.
+    pub cpu_ms: f64,
+    /// Wall time from the start of the frame until the GPU finished it (CPU + queueing + GPU);
+    /// readback and file writing are not included.
+    pub frame_ms: f64,
+    /// Files written for this frame, relative to the output folder.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub files: Vec<String>,
+}
+
+/// Median, 95th percentile and maximum of a series.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Stats {
+    /// 50th percentile.
+    pub median: f64,
+    /// 95th percentile.
+    pub p95: f64,
+    /// Largest value.
+    pub max: f64,
+}
+
+impl Stats {
+    /// Statistics of `values` (non-finite values are ignored; all zero for an empty series).
+    /// Percentiles interpolate linearly between the two nearest ranks (numpy's default).
+    pub fn of(values: &[f64]) -> Stats {
+        let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+        if v.is_empty() {
+            return Stats {
+                median: 0.0,
+                p95: 0.0,
+                max: 0.0,
+            };
+        }
+        v.sort_by(f64::total_cmp);
+        Stats {
+            median: percentile(&v, 0.5),
+            p95: percentile(&v, 0.95),
+            max: v[v.len() - 1],
+        }
+    }
+}
+
+/// The `q`-quantile (0..=1) of sorted values, linear between closest ranks.
+fn percentile(sorted: &[f64], q: f64) -> f64 {
+    let pos = q.clamp(0.0, 1.0) * (sorted.len() - 1) as f64;
+    let lo = pos.floor() as usize;
+    let hi = pos.ceil() as usize;
+    sorted[lo] + (sorted[hi] - sorted[lo]) * (pos - lo as f64)
+}
+
+/// Summary of a replay's frame times.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Summary {
+    /// Of [`FrameTiming::gpu_ms`].
+    pub gpu_ms: Stats,
+    /// Of [`FrameTiming::cpu_ms`].
+    pub cpu_ms: Stats,
+    /// Of [`FrameTiming::frame_ms`].
+    pub frame_ms: Stats,
+}
+
+impl Summary {
+    /// The summary of `frames`.
+    pub fn of(frames: &[FrameTiming]) -> Summary {
+        let col = |f: fn(&FrameTiming) -> f64| Stats::of(&frames.iter().map(f).collect::<Vec<_>>());
+        Summary {
+            gpu_ms: col(|f| f.gpu_ms),
+            cpu_ms: col(|f| f.cpu_ms),
+            frame_ms: col(|f| f.frame_ms),
+        }
+    }
+}
+
+/// Root of `timings.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Timings {
+    /// Always [`TIMINGS_FORMAT`].
+    pub format: String,
+    /// [`TIMINGS_VERSION`].
+    pub version: u32,
+    /// The bundle replayed.
+    pub bundle: PathBuf,
+    /// Its scene's name.
+    pub scene: String,
+    /// The camera path replayed.
+    pub path: String,
+    /// Frame width and height in pixels.
+    pub size: [u32; 2],
+    /// The adapter: name, backend, device type, driver.
+    pub adapter: String,
+    /// How `gpu_ms` was measured.
+    pub gpu_time_source: GpuTimeSource,
+    /// One untimed frame rendered before the first timed one (pipeline and shader
+    /// compilation, first uploads), milliseconds of wall time.
+    pub warmup_ms: f64,
+    /// Median, p95 and max of each column.
+    pub summary: Summary,
+    /// Every frame, in order.
+    pub frames: Vec<FrameTiming>,
+}
+
+impl Timings {
+    /// Writes `dir/timings.json` (atomically: temp file + rename).
+    pub fn write(&self, dir: &Path) -> Result<PathBuf, crate::bundle::BundleError> {
+        let path = dir.join(TIMINGS_FILE);
+        let json = serde_json::to_string_pretty(self).expect("timings serialize");
+        crate::bundle::write_atomic(&path, json.as_bytes())?;
+        Ok(path)
+    }
+
+    /// The summary as a small table for the terminal.
+    pub fn summary_table(&self) -> String {
+        let source = match self.gpu_time_source {
+            GpuTimeSource::TimestampQuery => "timestamp queries",
+            GpuTimeSource::SubmitToComplete => "submit to complete, no timestamp queries",
+        };
+        let row = |name: &str, s: &Stats| {
+            format!(
+                "{name:<10} {:>10.3} {:>10.3} {:>10.3}\n",
+                s.median, s.p95, s.max
+            )
+        };
+        let mut out = format!(
+            "{} frames of {}/{} at {}x{} on {}\n{:<10} {:>10} {:>10} {:>10}\n",
+            self.frames.len(),
+            self.scene,
+            self.path,
+            self.size[0],
+            self.size[1],
+            self.adapter,
+            "ms",
+            "median",
+            "p95",
+            "max"
+        );
+        out += &row("gpu", &self.summary.gpu_ms);
+        out += &row("cpu", &self.summary.cpu_ms);
+        out += &row("frame", &self.summary.frame_ms);
+        out += &format!(
+            "gpu time: {source}; warm-up frame {:.1} ms (not counted)\n",
+            self.warmup_ms
+        );
+        out
+    }
+}
+
+/// Parses `WIDTHxHEIGHT` (e.g. `720x486`), each side 1..=16384.
+pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("{s:?} is not WIDTHxHEIGHT, e.g. 720x486");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let w: u32 = w.trim().parse().map_err(|_| bad())?;
+    let h: u32 = h.trim().parse().map_err(|_| bad())?;
+    if !(1..=16384).contains(&w) || !(1..=16384).contains(&h) {
+        return Err(format!("{s:?}: each side must be 1..=16384 pixels"));
+    }
+    Ok((w, h))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Keyframe;
+
+    fn path(fps: f32, end: f32) -> CameraPath {
+        let key = |time: f32, x: f32| Keyframe {
+            time,
+            position: [x, 1.0, 5.0],
+            target: [x, 1.0, 0.0],
+            up: [0.0, 1.0, 0.0],
+            fov_y_deg: 50.0,
+        };
+        CameraPath {
+            name: "p".into(),
+            fps,
+            keyframes: vec![key(0.0, 0.0), key(end, 1.0)],
+        }
+    }
+
+    #[test]
+    fn schedule_covers_the_path_at_its_fps() {
+        let frames = schedule(&path(9.0, 1.0));
+        assert_eq!(frames.len(), 10);
+        assert_eq!(frames[0].time, 0.0);
+        assert!((frames[9].time - 1.0).abs() < 1e-6);
+        assert!((frames[9].camera.position.x - 1.0).abs() < 1e-5);
+        assert!(
+            frames
+                .iter()
+                .enumerate()
+                .all(|(i, f)| f.index == i && f.camera.position.x >= 0.0)
+        );
+    }
+
+    #[test]
+    fn every_k_writes_frame_zero_and_multiples() {
+        let written: Vec<usize> = (0..10).filter(|&i| is_written(i, 3)).collect();
+        assert_eq!(written, [0, 3, 6, 9]);
+        assert!((0..10).all(|i| is_written(i, 1)));
+        assert!((0..10).all(|i| !is_written(i, 0)));
+        assert_eq!(frame_file_name(42, "png"), "frame_00042.png");
+    }
+
+    #[test]
+    fn stats_median_p95_max() {
+        let v: Vec<f64> = (1..=100).map(f64::from).collect();
+        let s = Stats::of(&v);
+        assert_eq!(s.median, 50.5);
+        assert!((s.p95 - 95.05).abs() < 1e-9);
+        assert_eq!(s.max, 100.0);
+        // Order does not matter; NaN is ignored; one value is its own everything.
+        let s = Stats::of(&[3.0, f64::NAN, 1.0, 2.0]);
+        assert_eq!((s.median, s.max), (2.0, 3.0));
+        assert_eq!(
+            Stats::of(&[7.0]),
+            Stats {
+                median: 7.0,
+                p95: 7.0,
+                max: 7.0
+            }
+        );
+        assert_eq!(Stats::of(&[]).max, 0.0);
+    }
+
+    #[test]
+    fn timings_round_trip_through_json() {
+        let frames: Vec<FrameTiming> = (0..3)
+            .map(|i| FrameTiming {
+                frame: i,
+                time: i as f32 / 30.0,
+                gpu_ms: 1.0 + i as f64,
+                cpu_ms: 0.5,
+                frame_ms: 2.0 + i as f64,
+                files: if i == 0 {
+                    vec![frame_file_name(0, "png")]
+                } else {
+                    vec![]
+                },
+            })
+            .collect();
+        let t = Timings {
+            format: TIMINGS_FORMAT.into(),
+            version: TIMINGS_VERSION,
+            bundle: "out/x.glint".into(),
+            scene: "x".into(),
+            path: "orbit".into(),
+            size: [720, 486],
+            adapter: "llvmpipe".into(),
+            gpu_time_source: GpuTimeSource::SubmitToComplete,
+            warmup_ms: 40.0,
+            summary: Summary::of(&frames),
+            frames,
+        };
+        let json = serde_json::to_string(&t).unwrap();
+        assert!(json.contains("\"gpu_time_source\":\"submit-to-complete\""));
+        assert_eq!(serde_json::from_str::<Timings>(&json).unwrap(), t);
+        assert_eq!(t.summary.gpu_ms.median, 2.0);
+        assert!(t.summary_table().contains("3 frames of x/orbit at 720x486"));
+    }
+
+    #[test]
+    fn size_parses_and_names_the_problem() {
+        assert_eq!(parse_size("720x486"), Ok((720, 486)));
+        assert_eq!(parse_size("64X48"), Ok((64, 48)));
+        assert!(parse_size("720").unwrap_err().contains("WIDTHxHEIGHT"));
+        assert!(parse_size("0x10").unwrap_err().contains("1..=16384"));
+        assert!(parse_size("axb").is_err());
+    }
+}

@@ -1,0 +1,620 @@
+//! glint-view on the software Vulkan adapter (Mesa lavapipe in CI; package `mesa-vulkan-drivers`):
+//! golden images against the CPU reference, the WGSL bicubic filter against the CPU's,
+//! headless replay through the binary, and bad bundles refused with a clear message.
+//!
+//! Test bundles are baked here, from the shipped scenes, with reduced radiosity settings
+//! ([`test_settings`]): the comparisons hold GPU and CPU to the same bake, so its quality does
+//! not matter, only that it is deterministic.
+//!
+//! Golden images, two kinds:
+//! - **The CPU reference** (the real golden): the same view ray cast through the BVH, D looked
+//!   up at each hit with the same cubic B-spline. Metric: mean absolute difference over every
+//!   pixel and channel in 8-bit sRGB units, at most [`CPU_TOLERANCE`]. Rasterisation and ray
+//!   casting disagree only on pixels that straddle an edge (a different surface wins the
+//!   pixel); a mean over all pixels tolerates those without hiding a shading error, which
+//!   moves every pixel of a surface.
+//! - **Stored goldens** `tests/golden/NAME.png` (160×108, the GPU frame box-filtered 2×2):
+//!   catch a change that moves GPU and CPU alike (camera conventions, the filter, the atlas).
+//!   Tolerance [`STORED_TOLERANCE`]. They change when the radiosity solver does: regenerate
+//!   deliberately with `GLINT_UPDATE_GOLDENS=1 cargo test --test view`; a plain run never
+//!   writes them.
+//!
+//! On failure the GPU image, the CPU (or stored) image and the difference (×8) are written to
+//! `target/golden-failures/NAME/`.
+
+#![cfg(feature = "view")]
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+
+use glam::{Vec2, Vec3};
+use glint::bake::{radiosity_stage, scene_stage};
+use glint::camera::{Camera, pose_at};
+use glint::progress::Silent;
+use glint::radiosity::RadiosityMap;
+use glint::radiosity::atlas::{Atlas, PageSize};
+use glint::scene::Scene;
+use glint::scene::desc::RadiositySettings;
+use glint::view::bicubic;
+use glint::view::cpu_render;
+use glint::view::gpu::Gpu;
+use glint::view::headless::Offscreen;
+use glint::view::load::{LoadError, load};
+use glint::view::renderer::bicubic_probe;
+use glint::view::replay::Timings;
+
+/// Mean absolute difference (8-bit sRGB units, all pixels and channels) allowed between the
+/// GPU frame and the CPU reference. Measured on lavapipe: 0.06 (cornell-box, 0.02% of pixels
+/// off by more than 16: edges) and 0.21 (breakfast-room, 0.4%: many thin edges). Errors it
+/// must catch, measured the same way: radiance 10% too bright, 1.7 and 3.4; bilinear instead
+/// of the B-spline, 0.63 and 3.2 (the WGSL filter is also held to the CPU's exactly by
+/// `wgsl_bicubic_matches_the_cpu_filter`). Hardware adapters with 8-bit filter weights and
+/// other edge rules may need more room.
+const CPU_TOLERANCE: f64 = 0.5;
+
+/// Mean absolute difference (8-bit units) allowed against a stored golden.
+const STORED_TOLERANCE: f64 = 2.0;
+
+/// Size of the compared frames (the issue's 720×486 divided by 2.25).
+const GOLDEN_SIZE: (u32, u32) = (320, 216);
+
+/// Largest difference allowed between the WGSL filter and the CPU's, relative to the page's
+/// largest value: half-float texels are exact in both, so this is the GPU's filter-weight
+/// precision (lavapipe interpolates in f32; 8-bit weights on hardware stay below 1/256).
+const PROBE_TOLERANCE: f32 = 5e-3;
+
+fn repo(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
+}
+
+/// `target/` (integration tests get `target/tmp` as CARGO_TARGET_TMPDIR).
+fn target_dir() -> PathBuf {
+    Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .parent()
+        .map(Path::to_owned)
+        .unwrap_or_else(|| repo("target"))
+}
+
+fn gpu() -> Gpu {
+    let _ = env_logger::builder().is_test(true).try_init();
+    Gpu::headless_with_features(wgpu::Features::TIMESTAMP_QUERY).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Reduced radiosity: deterministic and quick in the dev profile.
+fn test_settings(texel_density: f32) -> RadiositySettings {
+    RadiositySettings {
+        texel_density,
+        rays: 32,
+        light_samples: 4,
+        bounces: 3,
+        tolerance: 1e-2,
+    }
+}
+
+/// Copies the shipped scene `name` into `dir`, adding `extra_paths` to its camera paths.
+fn copy_scene(name: &str, dir: &Path, extra_paths: serde_json::Value) -> PathBuf {
+    std::fs::create_dir_all(dir).unwrap();
+    let src = repo(&format!("scenes/{name}"));
+    for entry in std::fs::read_dir(&src).unwrap() {
+        let p = entry.unwrap().path();
+        if p.is_file() {
+            std::fs::copy(&p, dir.join(p.file_name().unwrap())).unwrap();
+        }
+    }
+    let json_path = dir.join("scene.json");
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json_path).unwrap()).unwrap();
+    if let Some(extra) = extra_paths.as_array() {
+        let paths = v["camera_paths"].as_array_mut().unwrap();
+        paths.extend(extra.iter().cloned());
+    }
+    std::fs::write(&json_path, serde_json::to_string_pretty(&v).unwrap()).unwrap();
+    json_path
+}
+
+/// Bakes the scene and radiosity stages of `scene_json` into `bundle` (replacing it).
+fn bake(scene_json: &Path, bundle: &Path, settings: &RadiositySettings) {
+    let _ = std::fs::remove_dir_all(bundle);
+    let scene = Scene::load(scene_json).unwrap_or_else(|e| panic!("{e}"));
+    scene_stage::bake(&scene, bundle, false).unwrap_or_else(|e| panic!("{e}"));
+    radiosity_stage::bake(&scene, bundle, settings, false, &Silent)
+        .unwrap_or_else(|e| panic!("{e}"));
+}
+
+/// The Cornell box with an extra 10-frame path `ten` (9 fps over 1 s: frames at 0, 1/9, …, 1).
+fn cornell_bundle() -> &'static Path {
+    static BUNDLE: OnceLock<PathBuf> = OnceLock::new();
+    BUNDLE.get_or_init(|| {
+        let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join("view-tests");
+        let ten = serde_json::json!([{
+            "name": "ten", "fps": 9,
+            "keyframes": [
+                { "time": 0.0, "position": [-0.5, 1.0, 3.8], "target": [0.0, 1.0, 0.0], "fov_y_deg": 39.3 },
+                { "time": 1.0, "position": [0.5, 1.0, 3.8], "target": [0.0, 1.0, 0.0], "fov_y_deg": 39.3 }
+            ]
+        }]);
+        let scene = copy_scene("cornell-box", &root.join("cornell-box"), ten);
+        let bundle = root.join("cornell-box.glint");
+        bake(&scene, &bundle, &test_settings(8.0));
+        bundle
+    })
+}
+
+fn breakfast_bundle() -> &'static Path {
+    static BUNDLE: OnceLock<PathBuf> = OnceLock::new();
+    BUNDLE.get_or_init(|| {
+        let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join("view-tests");
+        let scene = copy_scene(
+            "breakfast-room",
+            &root.join("breakfast-room"),
+            serde_json::json!([]),
+        );
+        let bundle = root.join("breakfast-room.glint");
+        bake(&scene, &bundle, &test_settings(8.0));
+        bundle
+    })
+}
+
+/// Copies a bundle folder (to corrupt the copy).
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap() {
+        let p = entry.unwrap().path();
+        let dest = to.join(p.file_name().unwrap());
+        if p.is_dir() {
+            copy_dir(&p, &dest);
+        } else {
+            std::fs::copy(&p, &dest).unwrap();
+        }
+    }
+}
+
+fn glint_view(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_glint-view"))
+        .args(args)
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// Mean absolute difference over RGB of two RGBA8 images, in 8-bit units, and the fraction
+/// of pixels whose largest channel difference exceeds 16.
+fn compare(a: &[u8], b: &[u8]) -> (f64, f64) {
+    assert_eq!(a.len(), b.len());
+    let (mut sum, mut big, mut n) = (0u64, 0usize, 0usize);
+    for (pa, pb) in a.chunks_exact(4).zip(b.chunks_exact(4)) {
+        let d: Vec<u8> = (0..3).map(|k| pa[k].abs_diff(pb[k])).collect();
+        sum += d.iter().map(|&x| u64::from(x)).sum::<u64>();
+        big += usize::from(d.iter().any(|&x| x > 16));
+        n += 1;
+    }
+    (sum as f64 / (3 * n) as f64, big as f64 / n as f64)
+}
+
+fn write_png(path: &Path, w: u32, h: u32, rgba: &[u8]) {
+    let rgb: Vec<u8> = rgba
+        .chunks_exact(4)
+        .flat_map(|p| [p[0], p[1], p[2]])
+        .collect();
+    std::fs::write(
+        path,
+        glint::image_io::encode_png(w, h, &rgb, false).unwrap(),
+    )
+    .unwrap();
+}
+
+fn read_png(path: &Path) -> Option<(u32, u32, Vec<u8>)> {
+    let img = image::open(path).ok()?.to_rgba8();
+    Some((img.width(), img.height(), img.into_raw()))
+}
+
+/// Writes `a`, `b` and |a − b| × 8 under target/golden-failures/`name`/; returns the folder.
+fn write_failure(name: &str, w: u32, h: u32, a: (&str, &[u8]), b: (&str, &[u8])) -> PathBuf {
+    let dir = target_dir().join("golden-failures").join(name);
+    std::fs::create_dir_all(&dir).unwrap();
+    write_png(&dir.join(format!("{}.png", a.0)), w, h, a.1);
+    write_png(&dir.join(format!("{}.png", b.0)), w, h, b.1);
+    let diff: Vec<u8> =
+        a.1.chunks_exact(4)
+            .zip(b.1.chunks_exact(4))
+            .flat_map(|(x, y)| {
+                let d = |k: usize| x[k].abs_diff(y[k]).saturating_mul(8);
+                [d(0), d(1), d(2), 255]
+            })
+            .collect();
+    write_png(&dir.join("difference-x8.png"), w, h, &diff);
+    dir
+}
+
+/// 2×2 box filter of an RGBA8 image (in 8-bit values: a regression check, not photometry).
+fn half_size(w: u32, h: u32, rgba: &[u8]) -> (u32, u32, Vec<u8>) {
+    let (hw, hh) = (w / 2, h / 2);
+    let mut out = Vec::with_capacity((hw * hh * 4) as usize);
+    for y in 0..hh {
+        for x in 0..hw {
+            for k in 0..4 {
+                let at = |dx: u32, dy: u32| {
+                    u32::from(rgba[(((2 * y + dy) * w + 2 * x + dx) * 4 + k) as usize])
+                };
+                out.push(((at(0, 0) + at(1, 0) + at(0, 1) + at(1, 1) + 2) / 4) as u8);
+            }
+        }
+    }
+    (hw, hh, out)
+}
+
+/// Renders the scene's `front` view on the GPU and on the CPU and compares them; then
+/// compares the GPU frame with the stored golden (or rewrites it in update mode).
+fn golden(name: &str, bundle: &Path) {
+    let data = load(bundle).unwrap_or_else(|e| panic!("{e}"));
+    let path = data
+        .scene
+        .camera_path(Some("front"))
+        .expect("a `front` path");
+    let camera: Camera = pose_at(path, path.keyframes[0].time);
+    let (w, h) = GOLDEN_SIZE;
+
+    let gpu = gpu();
+    let off = Offscreen::new(&gpu, &data, w, h, false).unwrap_or_else(|e| panic!("{e}"));
+    off.render(&gpu, &camera).unwrap();
+    let gpu_px = off.read_rgba8(&gpu).unwrap();
+
+    let bvh = data.scene.build_bvh();
+    let cpu_px = cpu_render::to_srgb8(&cpu_render::render(&bvh, &data.map, &camera, w, h, 1.0));
+
+    let (mad, edge) = compare(&gpu_px, &cpu_px);
+    println!(
+        "{name}: GPU vs CPU reference at {w}x{h}: mean |difference| {mad:.3} (8-bit units, tolerance {CPU_TOLERANCE}), {:.2}% of pixels differ by more than 16",
+        edge * 100.0
+    );
+    let lit = gpu_px
+        .chunks_exact(4)
+        .filter(|p| p[..3].iter().any(|&c| c > 8))
+        .count();
+    assert!(
+        lit * 2 > (w * h) as usize,
+        "{name}: only {lit} of {} pixels are lit; the view should be mostly scene",
+        w * h
+    );
+    if mad > CPU_TOLERANCE {
+        let dir = write_failure(name, w, h, ("gpu", &gpu_px), ("cpu", &cpu_px));
+        panic!(
+            "{name}: GPU frame differs from the CPU reference by {mad:.3} > {CPU_TOLERANCE}; images in {}",
+            dir.display()
+        );
+    }
+
+    let (gw, gh, small) = half_size(w, h, &gpu_px);
+    let stored = repo(&format!("tests/golden/{name}.png"));
+    if std::env::var_os("GLINT_UPDATE_GOLDENS").is_some_and(|v| v == "1") {
+        std::fs::create_dir_all(stored.parent().unwrap()).unwrap();
+        write_png(&stored, gw, gh, &small);
+        println!("{name}: golden rewritten: {}", stored.display());
+        return;
+    }
+    let Some((sw, sh, golden_px)) = read_png(&stored) else {
+        let dir = write_failure(name, gw, gh, ("gpu", &small), ("gpu-again", &small));
+        panic!(
+            "{name}: no stored golden {} (the frame is in {}); create it deliberately with GLINT_UPDATE_GOLDENS=1 cargo test --test view",
+            stored.display(),
+            dir.display()
+        );
+    };
+    assert_eq!((sw, sh), (gw, gh), "{}: size", stored.display());
+    let (mad, _) = compare(&small, &golden_px);
+    println!(
+        "{name}: GPU vs stored golden {}: mean |difference| {mad:.3} (tolerance {STORED_TOLERANCE})",
+        stored.display()
+    );
+    if mad > STORED_TOLERANCE {
+        let dir = write_failure(
+            &format!("{name}-stored"),
+            gw,
+            gh,
+            ("gpu", &small),
+            ("golden", &golden_px),
+        );
+        panic!(
+            "{name}: GPU frame differs from {} by {mad:.3} > {STORED_TOLERANCE}; images in {}. \
+             If the change is intended (e.g. the radiosity solver changed), regenerate with \
+             GLINT_UPDATE_GOLDENS=1 cargo test --test view",
+            stored.display(),
+            dir.display()
+        );
+    }
+}
+
+#[test]
+fn golden_cornell_box() {
+    golden("cornell-box", cornell_bundle());
+}
+
+#[test]
+fn golden_breakfast_room() {
+    golden("breakfast-room", breakfast_bundle());
+}
+
+/// The shader's `sample_radiosity` against `bicubic::bspline` on a random two-page atlas
+/// (pages of different sizes: the smaller is padded in the texture array), at texel centres,
+/// texel edges, arbitrary points, and past the page edges.
+#[test]
+fn wgsl_bicubic_matches_the_cpu_filter() {
+    let pages = [
+        PageSize {
+            width: 13,
+            height: 7,
+        },
+        PageSize {
+            width: 6,
+            height: 11,
+        },
+    ];
+    let mut s = 0x1234_5678_u32;
+    let mut next = || {
+        s = s.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (s >> 8) as f32 / (1u32 << 24) as f32
+    };
+    // Values exact in half float, up to 8 (HDR).
+    let texels: Vec<Vec<Vec3>> = pages
+        .iter()
+        .map(|p| {
+            (0..p.width * p.height)
+                .map(|_| {
+                    Vec3::new(next(), next(), next()).map(|v| (v * 8.0 * 256.0).round() / 256.0)
+                })
+                .collect()
+        })
+        .collect();
+    let map = RadiosityMap {
+        atlas: Atlas {
+            texel_density: 1.0,
+            pages: pages.to_vec(),
+            tri_page: vec![],
+            tri_coords: vec![],
+            texel_chart: vec![],
+            charts: 0,
+            from_uv1: false,
+        },
+        pages: texels.clone(),
+    };
+    let mut points = Vec::new();
+    for (page, size) in pages.iter().enumerate() {
+        for j in 0..=(size.height * 4 + 4) {
+            for i in 0..=(size.width * 4 + 4) {
+                let p = Vec2::new(i as f32 * 0.25 - 0.5, j as f32 * 0.25 - 0.5);
+                points.push((p, page as u32));
+            }
+        }
+        for _ in 0..200 {
+            let p = Vec2::new(next() * size.width as f32, next() * size.height as f32);
+            points.push((p, page as u32));
+        }
+    }
+    let gpu = gpu();
+    let got = bicubic_probe(&gpu, &map, &points).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(got.len(), points.len());
+    let mut worst = 0f32;
+    for ((p, page), g) in points.iter().zip(&got) {
+        let size = pages[*page as usize];
+        let want = bicubic::bspline(&texels[*page as usize], size.width, size.height, *p);
+        let err = (want - *g).abs().max_element() / 8.0;
+        worst = worst.max(err);
+        assert!(
+            err <= PROBE_TOLERANCE,
+            "page {page} at {p}: WGSL {g}, CPU {want} (relative error {err})"
+        );
+    }
+    println!(
+        "WGSL vs CPU B-spline: {} lookups, worst relative error {worst:.2e} (tolerance {PROBE_TOLERANCE})",
+        points.len()
+    );
+}
+
+#[test]
+fn replay_of_a_ten_frame_path_writes_ten_frames_and_timings() {
+    let bundle = cornell_bundle();
+    let out = tempfile::tempdir().unwrap();
+    let (code, stdout, stderr) = glint_view(&[
+        bundle.to_str().unwrap(),
+        "--replay",
+        "ten",
+        "--headless",
+        "--size",
+        "96x64",
+        "--out",
+        out.path().to_str().unwrap(),
+        "--hdr",
+    ]);
+    assert_eq!(code, 0, "stdout:\n{stdout}\nstderr:\n{stderr}");
+    assert!(
+        stdout.contains("median") && stdout.contains("p95"),
+        "{stdout}"
+    );
+    let names = |ext: &str| {
+        let mut v: Vec<String> = std::fs::read_dir(out.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.ends_with(ext))
+            .collect();
+        v.sort();
+        v
+    };
+    let pngs = names(".png");
+    assert_eq!(pngs.len(), 10, "{pngs:?}");
+    assert_eq!(pngs[0], "frame_00000.png");
+    assert_eq!(pngs[9], "frame_00009.png");
+    assert_eq!(names(".exr").len(), 10);
+    let (w, h, px) = read_png(&out.path().join("frame_00005.png")).unwrap();
+    assert_eq!((w, h), (96, 64));
+    assert!(
+        px.chunks_exact(4).any(|p| p[0] > 60 && p[1] < p[0] / 2),
+        "the red wall is in view"
+    );
+    let exr =
+        glint::image_io::decode_exr(&std::fs::read(out.path().join("frame_00005.exr")).unwrap())
+            .unwrap();
+    assert_eq!((exr.width, exr.height), (96, 64));
+    assert!(
+        exr.rgb().unwrap().iter().any(|c| c.max_element() > 1.0),
+        "the light is HDR"
+    );
+
+    let timings: Timings =
+        serde_json::from_str(&std::fs::read_to_string(out.path().join("timings.json")).unwrap())
+            .unwrap();
+    assert_eq!(timings.frames.len(), 10);
+    assert_eq!(timings.path, "ten");
+    assert_eq!(timings.size, [96, 64]);
+    assert!(
+        timings
+            .frames
+            .iter()
+            .enumerate()
+            .all(|(i, f)| f.frame == i && f.gpu_ms > 0.0 && f.frame_ms >= f.cpu_ms)
+    );
+    assert!(timings.summary.gpu_ms.max >= timings.summary.gpu_ms.p95);
+    assert!(timings.summary.gpu_ms.p95 >= timings.summary.gpu_ms.median);
+
+    // --every 4 writes frames 0, 4, 8; all ten are still timed.
+    let out2 = tempfile::tempdir().unwrap();
+    let (code, _, stderr) = glint_view(&[
+        bundle.to_str().unwrap(),
+        "--replay",
+        "ten",
+        "--headless",
+        "--size",
+        "48x32",
+        "--out",
+        out2.path().to_str().unwrap(),
+        "--every",
+        "4",
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let t: Timings =
+        serde_json::from_str(&std::fs::read_to_string(out2.path().join("timings.json")).unwrap())
+            .unwrap();
+    assert_eq!(t.frames.len(), 10);
+    let written: Vec<usize> = t
+        .frames
+        .iter()
+        .filter(|f| !f.files.is_empty())
+        .map(|f| f.frame)
+        .collect();
+    assert_eq!(written, [0, 4, 8]);
+}
+
+#[test]
+fn replay_of_an_unknown_path_names_the_ones_there_are() {
+    let out = tempfile::tempdir().unwrap();
+    let (code, _, stderr) = glint_view(&[
+        cornell_bundle().to_str().unwrap(),
+        "--replay",
+        "nope",
+        "--headless",
+        "--out",
+        out.path().to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1);
+    assert!(
+        stderr.contains("no camera path \"nope\"") && stderr.contains("orbit, front, ten"),
+        "{stderr}"
+    );
+}
+
+/// Runs the loader and the binary on a bad bundle; both must refuse with `expected` in the
+/// message, and the binary must exit 1 without panicking.
+fn refused(bundle: &Path, expected: &[&str]) -> LoadError {
+    let err = load(bundle).expect_err("a bad bundle must be refused");
+    let msg = err.to_string();
+    assert!(
+        msg.starts_with(&format!("bundle {}", bundle.display())),
+        "the message names the bundle: {msg}"
+    );
+    for e in expected {
+        assert!(msg.contains(e), "{msg:?} should contain {e:?}");
+    }
+    let out = tempfile::tempdir().unwrap();
+    let (code, _, stderr) = glint_view(&[
+        bundle.to_str().unwrap(),
+        "--replay",
+        "--headless",
+        "--out",
+        out.path().to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    for e in expected {
+        assert!(stderr.contains(e), "{stderr:?} should contain {e:?}");
+    }
+    err
+}
+
+#[test]
+fn newer_format_version_is_refused_naming_both_versions() {
+    let dir = tempfile::tempdir().unwrap();
+    let bundle = dir.path().join("newer.glint");
+    copy_dir(cornell_bundle(), &bundle);
+    let manifest = bundle.join("manifest.json");
+    let text = std::fs::read_to_string(&manifest).unwrap();
+    std::fs::write(
+        &manifest,
+        text.replace(
+            "\"format_version\": \"1.0.0\"",
+            "\"format_version\": \"2.0.0\"",
+        ),
+    )
+    .unwrap();
+    let err = refused(&bundle, &["format version 2.0.0 is newer", "1.0.0"]);
+    assert!(matches!(err, LoadError::Bundle { .. }));
+}
+
+#[test]
+fn corrupt_asset_is_refused_naming_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let bundle = dir.path().join("corrupt.glint");
+    copy_dir(cornell_bundle(), &bundle);
+    let page = bundle.join("radiosity/page0.exr");
+    let mut bytes = std::fs::read(&page).unwrap();
+    let mid = bytes.len() / 2;
+    bytes[mid] ^= 0x55;
+    std::fs::write(&page, bytes).unwrap();
+    let err = refused(&bundle, &["damaged", "page0.exr", "BLAKE3"]);
+    assert!(matches!(err, LoadError::Damaged { .. }));
+
+    // A truncated asset: the size differs.
+    let atlas = bundle.join("radiosity/atlas.bin");
+    let bytes = std::fs::read(&atlas).unwrap();
+    std::fs::write(&atlas, &bytes[..bytes.len() - 3]).unwrap();
+    refused(&bundle, &["2 asset(s) damaged", "atlas.bin", "size is"]);
+}
+
+#[test]
+fn missing_stage_and_missing_manifest_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let bundle = dir.path().join("nostage.glint");
+    copy_dir(cornell_bundle(), &bundle);
+    let manifest = bundle.join("manifest.json");
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&manifest).unwrap()).unwrap();
+    v["stages"].as_object_mut().unwrap().remove("radiosity");
+    std::fs::write(&manifest, serde_json::to_string_pretty(&v).unwrap()).unwrap();
+    let err = refused(
+        &bundle,
+        &["no `radiosity` stage", "it has: scene", "glint-bake"],
+    );
+    assert!(matches!(err, LoadError::MissingStage { .. }));
+
+    std::fs::remove_file(&manifest).unwrap();
+    refused(&bundle, &["not a glint bundle", "manifest.json is missing"]);
+
+    std::fs::write(&manifest, "{ not json").unwrap();
+    refused(&bundle, &["corrupt manifest"]);
+
+    refused(&dir.path().join("absent.glint"), &["no such folder"]);
+}
