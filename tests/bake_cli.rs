@@ -91,8 +91,8 @@ fn bakes_the_scene_stage_then_finds_it_up_to_date() {
     assert_eq!(code, 0);
     let up_to_date = out.lines().filter(|l| l.contains("up to date")).count();
     assert_eq!(
-        up_to_date, 3,
-        "scene, radiosity and radiance are up to date: {out}"
+        up_to_date, 4,
+        "scene, radiosity, materials and radiance are up to date: {out}"
     );
     // Another preset is not up to date.
     let (code, out, _) = glint_bake(&[s, "--bundle", b, "--quality", "draft"]);
