@@ -81,7 +81,9 @@ fn run(args: BakeArgs) -> anyhow::Result<ExitCode> {
                     }
                 }
                 Stage::Radiance => {
-                    let settings = radiance_stage::settings_json(&scene, quality);
+                    let d_source = materials::d_identity(&args.bundle, &scene);
+                    let settings =
+                        radiance_stage::settings_json(&scene, quality, d_source.as_deref());
                     if up_to_date(&args.bundle, &scene, p.stage, Some(&settings)) {
                         "up to date".into()
                     } else {

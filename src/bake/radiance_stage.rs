@@ -237,20 +237,25 @@ pub fn bake(
     Ok(w.commit(StageInfo {
         scene_name: scene.name.clone(),
         scene_hash: scene.content_hash.clone(),
-        settings: settings_json(scene, quality),
+        settings: settings_json(
+            scene,
+            quality,
+            crate::bake::materials::d_identity(dir, scene).as_deref(),
+        ),
         stats,
         bake_seconds: start.elapsed().as_secs_f64(),
         force,
     })?)
 }
 
-/// Settings as recorded in the manifest.
-pub fn settings_json(scene: &Scene, quality: Quality) -> serde_json::Value {
+/// Settings as recorded in the manifest, with `d_source`: the identity of the D the maps were
+/// shaded with ([`crate::bake::materials::d_identity`]), so a re-baked D makes them stale.
+pub fn settings_json(scene: &Scene, quality: Quality, d_source: Option<&str>) -> serde_json::Value {
     let plans: Vec<_> = plans(scene, quality)
         .iter()
         .map(|(i, _, p)| serde_json::json!({ "reflector": scene.reflectors[*i].name, "plan": p }))
         .collect();
-    serde_json::json!({ "quality": quality.name(), "quadtree": quadtree_limits(scene), "reflectors": plans })
+    serde_json::json!({ "quality": quality.name(), "quadtree": quadtree_limits(scene), "reflectors": plans, "d_source": d_source })
 }
 
 /// Mean radiance of a map's hit pixels (for reports and tests).
