@@ -6,6 +6,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Parser;
 use glint::bake::materials::{self, MaterialsSettings};
+use glint::bake::srdm_stage::{self, SrdmSettings};
 use glint::bake::{Stage, plan, radiance_stage, radiosity_stage, scene_stage, up_to_date};
 use glint::bundle::stats::format_table;
 use glint::cli::BakeArgs;
@@ -125,8 +126,34 @@ fn run(args: BakeArgs) -> anyhow::Result<ExitCode> {
                         }
                     }
                 }
-                // Each stage joins here as it lands (issue 8).
-                _ => "not yet in this glint".into(),
+                Stage::Srdm => {
+                    let settings =
+                        SrdmSettings::resolve(&scene.path, quality, &scene.desc.bake.srdm)?;
+                    let colour = srdm_stage::colour_source(&args.bundle, &scene)?;
+                    let recorded = srdm_stage::settings_json(&settings, colour.name());
+                    if up_to_date(&args.bundle, &scene, p.stage, Some(&recorded)) {
+                        "up to date".into()
+                    } else {
+                        let progress = TerminalProgress::new();
+                        let start = std::time::Instant::now();
+                        let outcome = srdm_stage::bake(
+                            &scene,
+                            &args.bundle,
+                            &settings,
+                            args.force,
+                            &progress,
+                        );
+                        progress.finish();
+                        match outcome.with_context(|| format!("stage {}", p.stage.name()))? {
+                            srdm_stage::SrdmOutcome::Skipped { reason } => {
+                                format!("skipped: {reason}")
+                            }
+                            srdm_stage::SrdmOutcome::Baked { .. } => {
+                                format!("baked in {:.2} s", start.elapsed().as_secs_f64())
+                            }
+                        }
+                    }
+                }
             }
         };
         report.push((p, status));

@@ -18,7 +18,7 @@ use glint::view::window::{WindowOptions, run_window};
     version,
     about = "View a bundle's scene lit by its radiosity textures: a window with a fly camera, or a headless replay of a camera path to frames and timings",
     after_help = "Window keys: WASD + Q/E move (Shift: faster, mouse wheel: speed), drag with the left mouse button to look, \
-1-9 play camera path N, Space pause/resume, R start/stop recording a path, P screenshot, H help, Esc quit.\n\n\
+1-9 play camera path N, Space pause/resume, R start/stop recording a path, P screenshot, G reflections off/geometry/image, H help, Esc quit.\n\n\
 Examples:\n  glint-view out/cornell-box.glint\n  glint-view out/cornell-box.glint --replay --headless --size 720x486 --out out/frames/cornell-box\n  glint-view out/breakfast-room.glint --replay walkthrough --headless --out out/frames/breakfast --every 10 --hdr"
 )]
 struct Args {
@@ -48,6 +48,17 @@ struct Args {
     /// Multiplies the radiance before display.
     #[arg(long, default_value_t = 1.0, value_parser = parse_exposure)]
     exposure: f32,
+    /// Glossy planar reflections: `geometry` (the mirrored scene re-rendered per reflector,
+    /// ks·R·M added to D), `image` (the baked radiance maps splatted; needs the radiance
+    /// stage) or `off`.
+    #[arg(long, value_name = "MODE", default_value = "off")]
+    reflections: glint::view::reflections::ReflectionMode,
+    /// Image-based reflections: radiance maps selected per reflector element.
+    #[arg(long, value_name = "N", default_value_t = 2)]
+    maps: usize,
+    /// Image-based reflections: select maps by `angle` (Bastos's default) or `distance`.
+    #[arg(long, value_name = "HOW", default_value = "angle")]
+    selection: glint::view::radiance_maps::Selection,
     /// Window: save a screenshot after N frames and exit (for automation, e.g. under xvfb-run).
     #[arg(long, value_name = "N", conflicts_with = "headless")]
     screenshot_after: Option<u64>,
@@ -80,6 +91,9 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                 every: args.every,
                 hdr: args.hdr,
                 exposure: args.exposure,
+                reflections: args.reflections,
+                selection: args.selection,
+                map_count: args.maps,
             },
             &progress,
         );
@@ -110,6 +124,7 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
             exposure: args.exposure,
             out: args.out.unwrap_or_else(|| PathBuf::from(".")),
             screenshot_after: args.screenshot_after,
+            reflections: args.reflections,
         },
     )?;
     Ok(ExitCode::SUCCESS)

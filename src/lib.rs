@@ -12,6 +12,7 @@ pub mod brdf;
 pub mod bundle;
 pub mod camera;
 pub mod cli;
+pub mod eval;
 pub mod geometry;
 pub mod image_io;
 pub mod progress;
@@ -19,6 +20,7 @@ pub mod radiance;
 pub mod radiosity;
 pub mod sampling;
 pub mod scene;
+pub mod srdm;
 
 #[cfg(feature = "view")]
 pub mod view;

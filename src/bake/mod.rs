@@ -5,6 +5,7 @@ pub mod plan;
 pub mod radiance_stage;
 pub mod radiosity_stage;
 pub mod scene_stage;
+pub mod srdm_stage;
 
 use std::path::Path;
 

@@ -10,6 +10,8 @@ use glam::Vec3;
 
 use super::gpu::{Gpu, GpuError, read_texture, read_texture_rgba8};
 use super::load::{LoadError, ViewData, load};
+use super::radiance_maps::Selection;
+use super::reflections::{GeometryReflections, ReflectionMode, Source};
 use super::renderer::{COLOR_FORMAT, OffscreenTarget, RenderError, Renderer, TargetFormats};
 use super::replay::{
     FrameTiming, GpuTimeSource, Summary, TIMINGS_FORMAT, TIMINGS_VERSION, Timings, frame_file_name,
@@ -83,6 +85,12 @@ pub struct ReplayOptions {
     pub hdr: bool,
     /// Multiplies D before display.
     pub exposure: f32,
+    /// Glossy planar reflections ([`ReflectionMode::Off`]: D only).
+    pub reflections: ReflectionMode,
+    /// Image-based mode: map selection.
+    pub selection: Selection,
+    /// Image-based mode: maps per reflector element.
+    pub map_count: usize,
 }
 
 impl Default for ReplayOptions {
@@ -95,6 +103,9 @@ impl Default for ReplayOptions {
             every: 1,
             hdr: false,
             exposure: 1.0,
+            reflections: ReflectionMode::Off,
+            selection: Selection::Angle,
+            map_count: 2,
         }
     }
 }
@@ -196,6 +207,13 @@ pub struct Offscreen {
     /// The target frames go to.
     pub target: OffscreenTarget,
     timer: Option<GpuTimer>,
+    reflections: Option<GeometryReflections>,
+    mode: ReflectionMode,
+    /// Image-based mode: how radiance maps are selected (takes effect at the next
+    /// [`Offscreen::set_reflections`]).
+    pub selection: Selection,
+    /// Image-based mode: maps selected per reflector element (likewise).
+    pub map_count: usize,
 }
 
 impl Offscreen {
@@ -221,7 +239,50 @@ impl Offscreen {
             renderer,
             target,
             timer: GpuTimer::new(gpu),
+            reflections: None,
+            mode: ReflectionMode::Off,
+            selection: Selection::Angle,
+            map_count: 2,
         })
+    }
+
+    /// Switches glossy reflections to `mode` (built for this target's size). The image-based
+    /// mode needs the bundle's `radiance` stage.
+    pub fn set_reflections(
+        &mut self,
+        gpu: &Gpu,
+        data: &ViewData,
+        mode: ReflectionMode,
+    ) -> Result<(), RenderError> {
+        self.mode = mode;
+        self.reflections = match mode {
+            ReflectionMode::Off => None,
+            ReflectionMode::Geometry => Some(GeometryReflections::new(
+                gpu,
+                &self.renderer,
+                data,
+                self.target.width,
+                self.target.height,
+                Source::Geometry,
+            )?),
+            ReflectionMode::Image => Some(GeometryReflections::new(
+                gpu,
+                &self.renderer,
+                data,
+                self.target.width,
+                self.target.height,
+                Source::Image {
+                    selection: self.selection,
+                    count: self.map_count,
+                },
+            )?),
+        };
+        Ok(())
+    }
+
+    /// The reflection mode in use.
+    pub fn reflection_mode(&self) -> ReflectionMode {
+        self.mode
     }
 
     /// How [`FrameTimes::gpu_ms`] is measured on this device.
@@ -249,6 +310,11 @@ impl Offscreen {
                 &mut encoder,
                 self.timer.as_ref().map(GpuTimer::writes),
             );
+            if let Some(r) = &self.reflections {
+                r.prepare(gpu, &self.renderer, camera);
+                let (color, hdr, depth) = self.target.views();
+                r.draw(&mut encoder, &self.renderer, camera, color, hdr, depth);
+            }
             if let Some(t) = &self.timer {
                 t.resolve(&mut encoder);
             }
@@ -364,6 +430,9 @@ pub fn replay_with(
     }
     let mut offscreen = Offscreen::new(gpu, data, options.width, options.height, options.hdr)?;
     offscreen.renderer.exposure = options.exposure;
+    offscreen.selection = options.selection;
+    offscreen.map_count = options.map_count;
+    offscreen.set_reflections(gpu, data, options.reflections)?;
     let frames = schedule(path);
 
     let warmup = offscreen.render(gpu, &frames[0].camera)?;

@@ -6,6 +6,9 @@
 //! - [`headless`]: offscreen frames, headless replay of camera paths with timings.
 //! - [`replay`]: frame scheduling and timing statistics (pure).
 //! - [`cpu_render`]: the CPU reference of a frame, for golden-image tests.
+//! - [`radiance_maps`]: the baked radiance maps of planar reflectors and their selection for
+//!   the reflected view (image-based mode, Bastos §8.1.3).
+//! - [`reflections`]: glossy planar reflections, geometry- and image-based (issue 9).
 //! - [`window`]: the interactive winit viewer (fly camera, path playback and recording).
 //! - [`gpu`]: adapter and device selection, readback.
 
@@ -14,6 +17,8 @@ pub mod cpu_render;
 pub mod gpu;
 pub mod headless;
 pub mod load;
+pub mod radiance_maps;
+pub mod reflections;
 pub mod renderer;
 pub mod replay;
 pub mod window;

@@ -103,6 +103,9 @@ pub enum RenderError {
         /// `max_texture_array_layers`.
         max_layers: u32,
     },
+    /// The reflection passes cannot be set up (a missing stage, an unreadable radiance map).
+    #[error("reflections: {0}")]
+    Reflections(String),
     /// The scene's vertex buffer exceeds the device's buffer limit.
     #[error("the scene's {bytes} bytes of vertices exceed this GPU's buffer limit of {max} bytes")]
     TooManyVertices {
@@ -303,7 +306,7 @@ fn padded_layer(texels: &[Vec3], w: u32, h: u32, layer_w: u32, layer_h: u32) -> 
 }
 
 /// Bind group 0 of every entry point: the frame uniforms, the pages and their sampler.
-fn frame_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+pub(crate) fn frame_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let visibility =
         wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -341,7 +344,7 @@ fn frame_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     })
 }
 
-fn frame_bind_group(
+pub(crate) fn frame_bind_group(
     device: &wgpu::Device,
     layout: &wgpu::BindGroupLayout,
     uniforms: &wgpu::Buffer,
@@ -367,7 +370,7 @@ fn frame_bind_group(
     })
 }
 
-fn uniform_buffer(device: &wgpu::Device) -> wgpu::Buffer {
+pub(crate) fn uniform_buffer(device: &wgpu::Device) -> wgpu::Buffer {
     device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("glint frame uniforms"),
         size: std::mem::size_of::<FrameUniforms>() as u64,
@@ -516,6 +519,31 @@ impl Renderer {
         self.formats
     }
 
+    /// The frame uniform buffer (written by [`Renderer::prepare`]).
+    pub(crate) fn frame_uniform_buffer(&self) -> &wgpu::Buffer {
+        &self.uniforms
+    }
+
+    /// The radiosity textures.
+    pub(crate) fn textures(&self) -> &RadiosityTextures {
+        &self.textures
+    }
+
+    /// The scene's vertex buffer ([`Vertex`]).
+    pub(crate) fn vertex_buffer(&self) -> &wgpu::Buffer {
+        &self.vertices
+    }
+
+    /// The scene's index buffer (`u32`, three per triangle in scene order).
+    pub(crate) fn index_buffer(&self) -> &wgpu::Buffer {
+        &self.indices
+    }
+
+    /// Indices in [`Renderer::index_buffer`].
+    pub(crate) fn index_count(&self) -> u32 {
+        self.index_count
+    }
+
     /// The uniforms for `camera` on a `width` × `height` target.
     pub fn uniforms(&self, camera: &Camera, width: u32, height: u32) -> FrameUniforms {
         let aspect = width.max(1) as f32 / height.max(1) as f32;
@@ -562,7 +590,8 @@ impl Renderer {
                 view: depth,
                 depth_ops: Some(wgpu::Operations {
                     load: wgpu::LoadOp::Clear(0.0),
-                    store: wgpu::StoreOp::Discard,
+                    // Kept: the reflection composite (`super::reflections`) depth-tests against it.
+                    store: wgpu::StoreOp::Store,
                 }),
                 stencil_ops: None,
             }),
@@ -652,6 +681,17 @@ impl OffscreenTarget {
                 _depth: depth,
             }
         })
+    }
+
+    /// The colour, optional HDR and depth views (for passes drawn after the scene's).
+    pub(crate) fn views(
+        &self,
+    ) -> (
+        &wgpu::TextureView,
+        Option<&wgpu::TextureView>,
+        &wgpu::TextureView,
+    ) {
+        (&self.color_view, self.hdr_view.as_ref(), &self.depth_view)
     }
 
     /// Records `renderer`'s pass into this target.

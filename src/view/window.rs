@@ -27,6 +27,8 @@ use winit::window::{Window, WindowId};
 use super::gpu::{Gpu, GpuError};
 use super::headless::{Offscreen, rgba_to_rgb};
 use super::load::ViewData;
+use super::radiance_maps::Selection;
+use super::reflections::{GeometryReflections, ReflectionMode, Source};
 use super::renderer::{RenderError, Renderer, TargetFormats, depth_texture};
 use crate::camera::{Camera, frame_count, pose_at};
 use crate::image_io;
@@ -93,6 +95,8 @@ pub struct WindowOptions {
     pub out: PathBuf,
     /// Save a screenshot after this many frames and exit (automation).
     pub screenshot_after: Option<u64>,
+    /// Glossy reflections at start (G switches).
+    pub reflections: ReflectionMode,
 }
 
 /// A free-flying camera: position, yaw about +Y (0 looks down −Z, positive turns right)
@@ -247,6 +251,27 @@ pub fn next_free_name(dir: &Path, prefix: &str, ext: &str) -> PathBuf {
         .expect("some index is free")
 }
 
+/// The reflection passes of `mode` for a `size` target (`None` when off).
+fn reflection_passes(
+    gpu: &Gpu,
+    renderer: &Renderer,
+    data: &ViewData,
+    mode: ReflectionMode,
+    size: (u32, u32),
+) -> Result<Option<GeometryReflections>, WindowError> {
+    let source = match mode {
+        ReflectionMode::Off => return Ok(None),
+        ReflectionMode::Geometry => Source::Geometry,
+        ReflectionMode::Image => Source::Image {
+            selection: Selection::Angle,
+            count: 2,
+        },
+    };
+    Ok(Some(GeometryReflections::new(
+        gpu, renderer, data, size.0, size.1, source,
+    )?))
+}
+
 /// A starting view: the first path's first pose, else the bounding box from its +Z side.
 pub fn initial_camera(data: &ViewData) -> Camera {
     if let Some(path) = data.scene.desc.camera_paths.first() {
@@ -323,7 +348,8 @@ pub fn run_window(data: ViewData, options: WindowOptions) -> Result<(), WindowEr
 }
 
 const HELP: &str = "keys: WASD + Q/E move (Shift faster, wheel: speed), left-drag look, \
-1-9 play path, Space pause/resume, R record path, P screenshot, H help, Esc quit";
+1-9 play path, Space pause/resume, R record path, P screenshot, G reflections off/geometry/image, \
+H help, Esc quit";
 
 /// The window's GPU side, created once the event loop runs.
 struct Running {
@@ -333,6 +359,7 @@ struct Running {
     gpu: Gpu,
     renderer: Renderer,
     depth_view: wgpu::TextureView,
+    reflections: Option<GeometryReflections>,
 }
 
 struct App {
@@ -414,6 +441,13 @@ impl App {
         renderer.exposure = self.options.exposure;
         let depth_view = depth_texture(&gpu, config.width, config.height)
             .create_view(&wgpu::TextureViewDescriptor::default());
+        let reflections = reflection_passes(
+            &gpu,
+            &renderer,
+            &self.data,
+            self.options.reflections,
+            (config.width, config.height),
+        )?;
         Ok(Running {
             window,
             surface,
@@ -421,6 +455,7 @@ impl App {
             gpu,
             renderer,
             depth_view,
+            reflections,
         })
     }
 
@@ -434,6 +469,41 @@ impl App {
         r.surface.configure(&r.gpu.device, &r.config);
         r.depth_view = depth_texture(&r.gpu, size.width, size.height)
             .create_view(&wgpu::TextureViewDescriptor::default());
+        match reflection_passes(
+            &r.gpu,
+            &r.renderer,
+            &self.data,
+            self.options.reflections,
+            (size.width, size.height),
+        ) {
+            Ok(passes) => r.reflections = passes,
+            Err(e) => {
+                log::error!("{e}; reflections off");
+                r.reflections = None;
+            }
+        }
+    }
+
+    /// Cycles reflections off → geometry → image (two maps per element, by angle) → off.
+    fn toggle_reflections(&mut self) -> Result<(), WindowError> {
+        self.options.reflections = match self.options.reflections {
+            ReflectionMode::Off => ReflectionMode::Geometry,
+            ReflectionMode::Geometry => ReflectionMode::Image,
+            ReflectionMode::Image => ReflectionMode::Off,
+        };
+        log::info!("reflections: {}", self.options.reflections);
+        self.screenshot = None;
+        let Some(r) = &mut self.running else {
+            return Ok(());
+        };
+        r.reflections = reflection_passes(
+            &r.gpu,
+            &r.renderer,
+            &self.data,
+            self.options.reflections,
+            (r.config.width, r.config.height),
+        )?;
+        Ok(())
     }
 
     /// The camera of this frame: the playing path's pose, else the fly camera moved by the
@@ -508,6 +578,17 @@ impl App {
             });
         r.renderer
             .draw(&mut encoder, &view, None, &r.depth_view, None);
+        if let Some(passes) = &r.reflections {
+            passes.prepare(&r.gpu, &r.renderer, &camera);
+            passes.draw(
+                &mut encoder,
+                &r.renderer,
+                &camera,
+                &view,
+                None,
+                &r.depth_view,
+            );
+        }
         r.gpu.queue.submit([encoder.finish()]);
         r.window.pre_present_notify();
         r.gpu.queue.present(frame);
@@ -543,10 +624,11 @@ impl App {
     fn title(&self) -> String {
         let paths = &self.data.scene.desc.camera_paths;
         let mut title = format!(
-            "glint-view — {} — {:.1} ms ({:.0} fps)",
+            "glint-view — {} — {:.1} ms ({:.0} fps) — reflections {}",
             self.data.scene.name,
             self.frame_ms,
-            1e3 / self.frame_ms.max(1e-3)
+            1e3 / self.frame_ms.max(1e-3),
+            self.options.reflections
         );
         if let Some(p) = &self.playback
             && let Some(path) = paths.get(p.path)
@@ -584,6 +666,7 @@ impl App {
         if stale {
             let mut off = Offscreen::new(&r.gpu, &self.data, w, h, false)?;
             off.renderer.exposure = self.options.exposure;
+            off.set_reflections(&r.gpu, &self.data, self.options.reflections)?;
             self.screenshot = Some(off);
         }
         let off = self.screenshot.as_ref().expect("created above");
@@ -688,6 +771,7 @@ impl App {
                 Ok(())
             }
             KeyCode::KeyR => self.toggle_recording(),
+            KeyCode::KeyG => self.toggle_reflections(),
             KeyCode::KeyP | KeyCode::F12 => {
                 let camera = self.fly.camera();
                 self.save_screenshot(&camera).map(|_| ())

@@ -1,0 +1,419 @@
+//! `glint-eval`: a CPU reference path tracer, probes of a bake, image metrics and
+//! speed-vs-accuracy sweeps.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::{Context, bail};
+use clap::{Args as ClapArgs, Parser, Subcommand};
+use glam::Vec3;
+use glint::bundle::Bundle;
+use glint::camera::{Camera, frame_time, pose_at};
+use glint::eval::reference::{self, RenderOptions};
+use glint::eval::{Image, compare, probe, sweep};
+use glint::progress::TerminalProgress;
+use glint::radiosity::RadiosityMap;
+use glint::scene::{Quality, Scene};
+
+#[derive(Parser)]
+#[command(
+    name = "glint-eval",
+    version,
+    about = "Reference renders, probes, image metrics and speed-vs-accuracy sweeps",
+    after_help = "Examples:\n  glint-eval reference scenes/cornell-box/scene.json --camera front --spp 256 --out out/ref.exr\n  glint-eval probe out/cornell-box.glint --points points.json --out values.json\n  glint-eval compare out/view.exr out/ref.exr --diff out/diff.png --json\n  glint-eval sweep scenes/cornell-box/scene.json --set radiosity.rays=64,256,1024 --camera front --out out/sweep"
+)]
+struct Args {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Path-trace a view of a scene to a linear RGB EXR (deterministic for a seed).
+    #[command(
+        after_help = "Example:\n  glint-eval reference scenes/cornell-box/scene.json --camera front --size 256x256 --spp 256 --out out/ref.exr"
+    )]
+    Reference {
+        /// The scene description.
+        scene: PathBuf,
+        #[command(flatten)]
+        view: ViewArgs,
+        #[command(flatten)]
+        render: RenderArgs,
+        /// Output EXR.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Look D up at world points: a JSON array of {"name"?, "position": [x,y,z], "normal": [x,y,z]}.
+    #[command(
+        after_help = "Example:\n  glint-eval probe out/cornell-box.glint --points points.json --out values.json"
+    )]
+    Probe {
+        /// A bundle with scene and radiosity stages.
+        bundle: PathBuf,
+        /// Probe points (JSON).
+        #[arg(long)]
+        points: PathBuf,
+        /// Output JSON (stdout when omitted).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// How far from each point the surface is looked for along its normal (metres;
+        /// default 1% of the scene's diagonal).
+        #[arg(long, value_parser = positive_f32)]
+        reach: Option<f32>,
+    },
+    /// RMSE, relative RMSE, PSNR and max error of A against the reference B.
+    #[command(
+        after_help = "Example:\n  glint-eval compare view.exr ref.exr --mask walls.png --diff diff.png --json"
+    )]
+    Compare {
+        /// The image tested (EXR).
+        a: PathBuf,
+        /// The reference (EXR).
+        b: PathBuf,
+        /// PNG of the same size: pixels whose first channel is ≥ 128 are compared.
+        #[arg(long)]
+        mask: Option<PathBuf>,
+        /// Write a false-colour PNG of |lum(A) − lum(B)| (red = the largest difference).
+        #[arg(long)]
+        diff: Option<PathBuf>,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Bake with each setting, render the same view and compare with a reference; writes
+    /// DIR/sweep.csv and DIR/sweep.svg.
+    #[command(
+        after_help = "Example:\n  glint-eval sweep scenes/cornell-box/scene.json --set radiosity.rays=64,256,1024 --set radiosity.texel_density=8,16,32 --camera front --out out/sweep"
+    )]
+    Sweep {
+        /// The scene description.
+        scene: PathBuf,
+        /// STAGE.FIELD=V1,V2,... (repeatable); fields as in scene.json's `bake.radiosity`.
+        #[arg(long = "set", required = true)]
+        set: Vec<String>,
+        #[command(flatten)]
+        view: ViewArgs,
+        #[command(flatten)]
+        render: RenderArgs,
+        /// Preset the knobs start from (default: the scene's).
+        #[arg(long, value_enum)]
+        quality: Option<QualityArg>,
+        /// Rays per pixel of the view of D (antialiasing).
+        #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=1024))]
+        view_spp: u32,
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+    },
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum QualityArg {
+    Draft,
+    Default,
+    High,
+}
+
+/// Which view: a camera path's first keyframe, or frame K of a path.
+#[derive(ClapArgs)]
+struct ViewArgs {
+    /// Camera path NAME (its first keyframe).
+    #[arg(long, conflicts_with = "path")]
+    camera: Option<String>,
+    /// Camera path P, with --frame.
+    #[arg(long)]
+    path: Option<String>,
+    /// Frame K of --path (at the path's fps).
+    #[arg(long, requires = "path", default_value_t = 0)]
+    frame: usize,
+}
+
+#[derive(ClapArgs)]
+struct RenderArgs {
+    /// Image size WxH.
+    #[arg(long, default_value = "256x256", value_parser = parse_size)]
+    size: (u32, u32),
+    /// Paths per pixel.
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    spp: u32,
+    /// Seed of the random streams.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Longest path, in bounces.
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    max_depth: u32,
+    /// Uniform sky radiance R,G,B for rays that leave the scene (default black).
+    #[arg(long, value_parser = parse_rgb)]
+    sky: Option<Vec3>,
+    /// Drop glossy lobes (the scene a radiosity bake represents).
+    #[arg(long)]
+    diffuse_only: bool,
+}
+
+impl RenderArgs {
+    fn options(&self) -> RenderOptions {
+        RenderOptions {
+            width: self.size.0,
+            height: self.size.1,
+            spp: self.spp,
+            seed: self.seed,
+            max_depth: self.max_depth,
+            background: self.sky.unwrap_or(Vec3::ZERO),
+            diffuse_only: self.diffuse_only,
+            ..RenderOptions::default()
+        }
+    }
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("`{s}`: expected WxH, e.g. 256x256"))?;
+    let p = |v: &str| {
+        v.parse::<u32>()
+            .ok()
+            .filter(|n| (1..=16384).contains(n))
+            .ok_or_else(|| format!("`{s}`: sizes are integers in 1..=16384"))
+    };
+    Ok((p(w)?, p(h)?))
+}
+
+fn parse_rgb(s: &str) -> Result<Vec3, String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|c| c.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("`{s}`: {e}"))?;
+    match v.as_slice() {
+        [r, g, b] if v.iter().all(|c| c.is_finite() && *c >= 0.0) => Ok(Vec3::new(*r, *g, *b)),
+        _ => Err(format!("`{s}`: expected three non-negative numbers R,G,B")),
+    }
+}
+
+fn positive_f32(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("`{s}`: expected a positive number")),
+    }
+}
+
+fn main() -> ExitCode {
+    glint::cli::init_logging();
+    glint::cli::exit_code(run(Args::parse()))
+}
+
+fn camera(scene: &Scene, v: &ViewArgs) -> anyhow::Result<Camera> {
+    let name = v.path.as_deref().or(v.camera.as_deref());
+    let Some(path) = scene.camera_path(name) else {
+        let known: Vec<&str> = scene
+            .desc
+            .camera_paths
+            .iter()
+            .map(|p| p.name.as_str())
+            .collect();
+        bail!(
+            "{}: camera_paths has no path named `{}` (known: {})",
+            scene.path.display(),
+            name.unwrap_or("<first>"),
+            if known.is_empty() {
+                "none".into()
+            } else {
+                known.join(", ")
+            }
+        );
+    };
+    let frames = glint::camera::frame_count(path);
+    if v.frame >= frames {
+        bail!(
+            "--frame {}: path `{}` has {frames} frames",
+            v.frame,
+            path.name
+        );
+    }
+    Ok(pose_at(path, frame_time(path, v.frame)))
+}
+
+fn write(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    std::fs::write(path, bytes).with_context(|| format!("writing {}", path.display()))
+}
+
+fn read_exr(path: &Path) -> anyhow::Result<Image> {
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    Image::from_exr(&bytes).with_context(|| format!("{}", path.display()))
+}
+
+fn render_reference(scene: &Scene, cam: &Camera, opts: &RenderOptions) -> anyhow::Result<Image> {
+    let bvh = scene.build_bvh();
+    let progress = TerminalProgress::new();
+    let start = std::time::Instant::now();
+    let r = reference::render(scene, &bvh, cam, opts, &progress);
+    progress.finish();
+    let r = r?;
+    log::info!(
+        "reference {}x{} at {} spp in {:.2} s",
+        opts.width,
+        opts.height,
+        opts.spp,
+        start.elapsed().as_secs_f64()
+    );
+    Ok(r.image)
+}
+
+fn run(args: Args) -> anyhow::Result<ExitCode> {
+    match args.command {
+        Command::Reference {
+            scene,
+            view,
+            render,
+            out,
+        } => {
+            let scene = Scene::load(&scene)?;
+            let cam = camera(&scene, &view)?;
+            let img = render_reference(&scene, &cam, &render.options())?;
+            write(&out, &img.to_exr()?)?;
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Probe {
+            bundle,
+            points,
+            out,
+            reach,
+        } => {
+            let text = std::fs::read_to_string(&points)
+                .with_context(|| format!("reading {}", points.display()))?;
+            let pts: Vec<probe::ProbePoint> = serde_json::from_str(&text).with_context(|| {
+                format!(
+                    "{}: expected a JSON array of {{\"position\", \"normal\"}}",
+                    points.display()
+                )
+            })?;
+            let b = Bundle::open(&bundle)?;
+            let scene_json = bundle.join("scene").join("scene.json");
+            let scene = Scene::load(&scene_json).with_context(|| {
+                format!(
+                    "{}: no scene stage (bake it with glint-bake)",
+                    bundle.display()
+                )
+            })?;
+            let map = RadiosityMap::load(&b)?.with_context(|| {
+                format!(
+                    "{}: no radiosity stage (bake it with glint-bake)",
+                    bundle.display()
+                )
+            })?;
+            let bvh = scene.build_bvh();
+            let reach = reach.unwrap_or_else(|| probe::default_reach(&scene));
+            let values = probe::probe(&scene, &bvh, &map, &pts, reach);
+            let missing = values.iter().filter(|v| !v.found).count();
+            if missing > 0 {
+                log::warn!("{missing} probe(s) found no surface within {reach} m");
+            }
+            let json = serde_json::to_string_pretty(&values)? + "\n";
+            match out {
+                Some(p) => write(&p, json.as_bytes())?,
+                None => print!("{json}"),
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Compare {
+            a,
+            b,
+            mask,
+            diff,
+            json,
+        } => {
+            let (ia, ib) = (read_exr(&a)?, read_exr(&b)?);
+            let mask = match mask {
+                Some(m) => {
+                    let img = image::open(&m)
+                        .with_context(|| format!("reading mask {}", m.display()))?
+                        .to_luma8();
+                    if (img.width() as usize, img.height() as usize) != (ia.width, ia.height) {
+                        bail!(
+                            "{}: mask is {}x{}, images are {}x{}",
+                            m.display(),
+                            img.width(),
+                            img.height(),
+                            ia.width,
+                            ia.height
+                        );
+                    }
+                    Some(compare::mask_from_pixels(img.as_raw(), 1))
+                }
+                None => None,
+            };
+            let m = compare::compare(&ia, &ib, mask.as_deref())
+                .with_context(|| format!("{} vs {}", a.display(), b.display()))?;
+            if let Some(d) = diff {
+                let px = compare::diff_image(&ia, &ib, mask.as_deref(), None);
+                let png =
+                    glint::image_io::encode_png(ia.width as u32, ia.height as u32, &px, false)?;
+                write(&d, &png)?;
+            }
+            if json {
+                println!("{}", serde_json::to_string_pretty(&m)?);
+            } else {
+                println!("pixels     {}", m.pixels);
+                println!("RMSE       {:.6}", m.rmse);
+                println!("rel. RMSE  {:.6}", m.rel_rmse);
+                println!("PSNR       {:.2} dB", m.psnr_db);
+                println!("max error  {:.6}", m.max_error);
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Sweep {
+            scene,
+            set,
+            view,
+            render,
+            quality,
+            view_spp,
+            out,
+        } => {
+            let knobs = set
+                .iter()
+                .map(|s| sweep::parse_knob(s))
+                .collect::<Result<Vec<_>, _>>()?;
+            let scene = Scene::load(&scene)?;
+            let cam = camera(&scene, &view)?;
+            let mut opts = render.options();
+            // The bake is diffuse: compare with the diffuse scene.
+            opts.diffuse_only = true;
+            std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+            let reference = render_reference(&scene, &cam, &opts)?;
+            write(&out.join("reference.exr"), &reference.to_exr()?)?;
+            let quality = match quality {
+                Some(QualityArg::Draft) => Quality::Draft,
+                Some(QualityArg::Default) => Quality::Default,
+                Some(QualityArg::High) => Quality::High,
+                None => scene.desc.bake.quality,
+            };
+            let progress = TerminalProgress::new();
+            let rows = sweep::sweep(
+                &scene,
+                &reference,
+                &sweep::SweepConfig {
+                    quality,
+                    knobs: &knobs,
+                    camera: &cam,
+                    view_spp,
+                    out: &out,
+                },
+                &progress,
+            );
+            progress.finish();
+            let rows = rows?;
+            print!("{}", sweep::to_csv(&rows));
+            eprintln!(
+                "wrote {} and {}",
+                out.join("sweep.csv").display(),
+                out.join("sweep.svg").display()
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+    }
+}

@@ -1,0 +1,194 @@
+//! The baked radiance maps of a planar reflector as the viewer's image-based mode (issue 9)
+//! reads them, and the selection of the maps closest to the reflected view
+//! (Bastos et al. 1999 §8.1.3): "we mirror the viewpoint and viewing direction about each
+//! reflection plane … a search for the minimal angle … [or] the distance from the reference
+//! of the radiance maps to the reflected camera".
+//!
+//! - [`load_cameras`]: `radiance/NAME/cameras.json` (every map's file stem, element, camera
+//!   index and [`MapCamera`]).
+//! - [`select`]: per reflector element (one hemisphere of cameras), the `count` maps whose
+//!   centre of projection is closest to the mirrored eye by angle seen from the element's
+//!   centre ([`Selection::Angle`], Bastos's default) or by distance ([`Selection::Distance`]).
+//!
+//! The maps are decoded and splatted by [`super::reflections`]; the quadtrees
+//! (`glint::radiance::quadtree::decode`, for Eq. 3 sizes per node) are not read yet.
+
+use std::path::Path;
+
+use glam::Vec3;
+use serde::Deserialize;
+
+use crate::radiance::sampling::MapCamera;
+
+/// How maps are selected for the reflected view.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Selection {
+    /// Smallest angle, at the element's centre, between the map's centre of projection and
+    /// the mirrored eye (Bastos's default).
+    #[default]
+    Angle,
+    /// Smallest distance from the map's centre of projection to the mirrored eye.
+    Distance,
+}
+
+impl std::str::FromStr for Selection {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "angle" => Ok(Selection::Angle),
+            "distance" => Ok(Selection::Distance),
+            _ => Err(format!("{s:?} is not one of angle, distance")),
+        }
+    }
+}
+
+/// One map of `cameras.json`.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+pub struct MapEntry {
+    /// File stem in the reflector's folder (`e{i}_{j}_c{k}`: `.exr`, `.qtree`).
+    pub file: String,
+    /// Reflector element (i, j).
+    pub element: [u32; 2],
+    /// Camera index on the element's hemisphere.
+    pub camera: u32,
+    /// The map's camera.
+    pub view: MapCamera,
+}
+
+/// `radiance/NAME/cameras.json` (fields the viewer reads).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+pub struct CamerasFile {
+    /// Reflector name.
+    pub reflector: String,
+    /// Every map.
+    pub maps: Vec<MapEntry>,
+}
+
+/// Reads `radiance/<reflector>/cameras.json` of the bundle at `bundle_dir`.
+pub fn load_cameras(bundle_dir: &Path, reflector: &str) -> Result<CamerasFile, String> {
+    let path = bundle_dir
+        .join("radiance")
+        .join(reflector)
+        .join("cameras.json");
+    let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    serde_json::from_slice(&bytes).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Centre of a map's element.
+pub fn element_centre(view: &MapCamera) -> Vec3 {
+    view.corner + 0.5 * (view.edge_u + view.edge_v)
+}
+
+/// The selection cost of `view` for the mirrored eye `eye` (smaller is better): the angle in
+/// radians at the element's centre, or the distance in metres.
+pub fn cost(view: &MapCamera, eye: Vec3, selection: Selection) -> f32 {
+    match selection {
+        Selection::Angle => {
+            let c = element_centre(view);
+            let (a, b) = (view.centre - c, eye - c);
+            let denom = (a.length() * b.length()).max(1e-20);
+            (a.dot(b) / denom).clamp(-1.0, 1.0).acos()
+        }
+        Selection::Distance => view.centre.distance(eye),
+    }
+}
+
+/// Indices into `maps` of the `count` best maps of every element for the mirrored eye `eye`
+/// (all of an element's maps when it has fewer), grouped by element in order of first
+/// appearance, best first within an element; ties keep file order.
+pub fn select(maps: &[MapEntry], eye: Vec3, selection: Selection, count: usize) -> Vec<usize> {
+    let mut elements: Vec<[u32; 2]> = Vec::new();
+    for m in maps {
+        if !elements.contains(&m.element) {
+            elements.push(m.element);
+        }
+    }
+    let mut out = Vec::new();
+    for e in elements {
+        let mut ids: Vec<(f32, usize)> = maps
+            .iter()
+            .enumerate()
+            .filter(|(_, m)| m.element == e)
+            .map(|(i, m)| (cost(&m.view, eye, selection), i))
+            .collect();
+        ids.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        out.extend(ids.into_iter().take(count).map(|(_, i)| i));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One element of the floor (y = 0, normal +y) with cameras below it at the given offsets.
+    fn maps(element: [u32; 2], centres: &[Vec3]) -> Vec<MapEntry> {
+        centres
+            .iter()
+            .enumerate()
+            .map(|(k, &c)| MapEntry {
+                file: format!("e{}_{}_c{k}", element[0], element[1]),
+                element,
+                camera: k as u32,
+                view: MapCamera {
+                    centre: c,
+                    corner: Vec3::new(-0.5, 0.0, 0.5),
+                    edge_u: Vec3::X,
+                    edge_v: -Vec3::Z,
+                    normal: Vec3::Y,
+                    resolution: 16,
+                },
+            })
+            .collect()
+    }
+
+    #[test]
+    fn angle_selection_picks_the_camera_towards_the_mirrored_eye() {
+        let m = maps(
+            [0, 0],
+            &[
+                Vec3::new(0.0, -1.0, 0.0),
+                Vec3::new(0.7, -0.7, 0.0),
+                Vec3::new(-0.7, -0.7, 0.0),
+            ],
+        );
+        // Eye above and to the −x side: mirrored below, still to the −x side.
+        let eye = Vec3::new(-3.0, -3.0, 0.0);
+        assert_eq!(select(&m, eye, Selection::Angle, 1), [2]);
+        assert_eq!(select(&m, eye, Selection::Angle, 2), [2, 0]);
+        assert_eq!(select(&m, eye, Selection::Angle, 10).len(), 3);
+        // Straight above: the central camera.
+        assert_eq!(
+            select(&m, Vec3::new(0.0, -5.0, 0.0), Selection::Angle, 1),
+            [0]
+        );
+    }
+
+    #[test]
+    fn distance_selection_can_differ_from_angle() {
+        // A far camera exactly in the eye's direction, a near one slightly off it.
+        let m = maps(
+            [0, 0],
+            &[Vec3::new(-4.0, -4.0, 0.0), Vec3::new(-0.5, -0.8, 0.0)],
+        );
+        let eye = Vec3::new(-0.6, -0.6, 0.0);
+        assert_eq!(select(&m, eye, Selection::Angle, 1), [0]);
+        assert_eq!(select(&m, eye, Selection::Distance, 1), [1]);
+    }
+
+    #[test]
+    fn selection_is_per_element() {
+        let mut m = maps(
+            [0, 0],
+            &[Vec3::new(0.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0)],
+        );
+        m.extend(maps(
+            [1, 0],
+            &[Vec3::new(0.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0)],
+        ));
+        let got = select(&m, Vec3::new(5.0, -5.0, 0.0), Selection::Angle, 1);
+        assert_eq!(got, [1, 3]);
+        assert_eq!("distance".parse(), Ok(Selection::Distance));
+        assert!("nearest".parse::<Selection>().is_err());
+    }
+}

@@ -1,0 +1,514 @@
+//! glint-eval against exact answers: the white furnace, a Lambertian plane under a uniform
+//! sky, the diffuse Cornell box against the radiosity bake, determinism across thread counts,
+//! image metrics, probes, a sweep's CSV and plot, and the command line.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use common::*;
+use glam::Vec3;
+use glint::bundle::Bundle;
+use glint::camera::Camera;
+use glint::eval::compare::{self, REL_EPSILON};
+use glint::eval::probe::{self, ProbePoint};
+use glint::eval::reference::{self, RenderOptions, Rendered};
+use glint::eval::sweep::{self, SweepConfig};
+use glint::eval::{Image, luminance};
+use glint::progress::Silent;
+use glint::radiosity::RadiosityMap;
+use glint::scene::Scene;
+use glint::scene::desc::{Quality, RadiositySettings};
+
+fn flip(mut m: MeshSpec) -> MeshSpec {
+    for t in m.indices.chunks_mut(3) {
+        t.swap(1, 2);
+    }
+    m
+}
+
+/// Six inward-facing faces of a cube of half-size h, all of material 0.
+fn closed_box(h: f32) -> Vec<MeshSpec> {
+    let names = ["X0", "X1", "Y0", "Y1", "Z0", "Z1"];
+    (0..3)
+        .flat_map(|axis| {
+            [
+                quad(names[2 * axis], 0, axis, -h, h),
+                flip(quad(names[2 * axis + 1], 0, axis, h, h)),
+            ]
+        })
+        .collect()
+}
+
+fn emissive(name: &'static str, albedo: f32, e: f32) -> MaterialSpec {
+    MaterialSpec {
+        emissive: [1.0; 3],
+        strength: e,
+        ..MaterialSpec::diffuse(name, albedo)
+    }
+}
+
+fn load(dir: &Path, meshes: &[MeshSpec], materials: &[MaterialSpec], extra: &str) -> Scene {
+    write_gltf(dir, "s", meshes, materials);
+    Scene::load(write_scene(
+        dir,
+        &format!(r#"{{ "version": 1, "geometry": "s.gltf"{extra} }}"#),
+    ))
+    .unwrap()
+}
+
+fn repo(p: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
+}
+
+/// Mean luminance of the pixels in `range` and its standard error (from the renderer's
+/// per-pixel variances; pixels are independent).
+fn mean_and_se(r: &Rendered, pixels: impl Iterator<Item = usize>) -> (f64, f64) {
+    let (mut s, mut v, mut n) = (0.0f64, 0.0f64, 0usize);
+    for i in pixels {
+        s += luminance(r.image.rgb[i]) as f64;
+        v += r.variance[i] as f64;
+        n += 1;
+    }
+    (s / n as f64, v.sqrt() / n as f64)
+}
+
+#[test]
+fn white_furnace_converges_to_e_over_one_minus_rho() {
+    // Every face emits E = 1 and reflects ρ = 0.5: L = E / (1 − ρ) = 2 everywhere.
+    let dir = tempfile::tempdir().unwrap();
+    let scene = load(dir.path(), &closed_box(1.0), &[emissive("W", 0.5, 1.0)], "");
+    let bvh = scene.build_bvh();
+    let cam = Camera::look_at(
+        Vec3::new(0.1, 0.2, 0.3),
+        Vec3::new(1.0, -0.3, -0.5),
+        Vec3::Y,
+        1.6,
+    );
+    let opts = RenderOptions {
+        width: 16,
+        height: 16,
+        spp: 16,
+        ..RenderOptions::default()
+    };
+    let r = reference::render(&scene, &bvh, &cam, &opts, &Silent).unwrap();
+    let expected = reference::furnace_radiance(1.0, 0.5) as f64;
+    let (mean, se) = mean_and_se(&r, 0..r.image.rgb.len());
+    // Tolerance: 4 standard errors of the mean (estimated from the paths) + 1e-3 for f32 sums.
+    assert!(
+        (mean - expected).abs() < 4.0 * se + 1e-3,
+        "furnace mean {mean} vs {expected} (standard error {se})"
+    );
+    // No pixel far off: each within 8 of its own standard errors + 2%.
+    for (i, p) in r.image.rgb.iter().enumerate() {
+        let d = (luminance(*p) as f64 - expected).abs();
+        assert!(
+            d < 8.0 * (r.variance[i] as f64).sqrt() + 0.02 * expected,
+            "pixel {i}: {p} vs {expected} (variance {})",
+            r.variance[i]
+        );
+    }
+}
+
+#[test]
+fn lambertian_plane_under_a_uniform_sky_returns_albedo_times_sky() {
+    // One bounce off a plane that cannot see itself: the cosine-sampled BRDF weight is exactly
+    // ρ and every continuation ray escapes, so every path returns ρ·sky (zero variance).
+    let dir = tempfile::tempdir().unwrap();
+    let scene = load(
+        dir.path(),
+        &[quad("Floor", 0, 1, 0.0, 1.0)],
+        &[MaterialSpec::diffuse("F", 0.6)],
+        "",
+    );
+    let bvh = scene.build_bvh();
+    let cam = Camera::look_at(Vec3::new(0.0, 1.0, 0.0), Vec3::ZERO, Vec3::Z, 0.5);
+    let sky = Vec3::new(1.0, 2.0, 3.0);
+    let opts = RenderOptions {
+        width: 8,
+        height: 8,
+        spp: 4,
+        background: sky,
+        ..RenderOptions::default()
+    };
+    let r = reference::render(&scene, &bvh, &cam, &opts, &Silent).unwrap();
+    let expected = 0.6 * sky;
+    for p in &r.image.rgb {
+        // Tolerance: f32 rounding only (1e-5 relative).
+        assert!(
+            (*p - expected).abs().max_element() < 1e-5 * expected.max_element(),
+            "{p} vs {expected}"
+        );
+    }
+}
+
+#[test]
+fn diffuse_cornell_box_agrees_with_converged_radiosity() {
+    let scene = Scene::load(repo("scenes/cornell-box/scene.json")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let bundle = dir.path().join("c.glint");
+    let settings = RadiositySettings {
+        texel_density: 8.0,
+        rays: 256,
+        light_samples: 32,
+        bounces: 16,
+        tolerance: 1e-3,
+    };
+    glint::bake::radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent).unwrap();
+    let map = RadiosityMap::load(&Bundle::open(&bundle).unwrap())
+        .unwrap()
+        .unwrap();
+    let bvh = scene.build_bvh();
+    let cam = glint::camera::pose_at(scene.camera_path(Some("front")).unwrap(), 0.0);
+    let (w, h) = (24u32, 24u32);
+    let opts = RenderOptions {
+        width: w,
+        height: h,
+        spp: 64,
+        diffuse_only: true,
+        ..RenderOptions::default()
+    };
+    let r = reference::render(&scene, &bvh, &cam, &opts, &Silent).unwrap();
+    let view = reference::render_radiosity(&scene, &bvh, &map, &cam, w, h, 4);
+    // Pixels within one pixel of a directly seen emitter are left out: at 8 texels per metre
+    // the bake blurs the light's edge into the ceiling's texels (a lightmap's resolution
+    // limit, not a disagreement about transport).
+    let sees_emitter = |x: i64, y: i64| {
+        let ndc = Camera::pixel_ndc(
+            x.clamp(0, w as i64 - 1) as u32,
+            y.clamp(0, h as i64 - 1) as u32,
+            w,
+            h,
+        );
+        let d = cam.ray_direction(ndc, w as f32 / h as f32);
+        bvh.closest_hit(cam.position, d, f32::INFINITY)
+            .is_some_and(|hit| {
+                let t = &scene.triangles[hit.triangle as usize];
+                scene.materials[t.material as usize].is_emissive()
+            })
+    };
+    let keep: Vec<bool> = (0..(w * h) as i64)
+        .map(|i| {
+            let (x, y) = (i % w as i64, i / w as i64);
+            !(-1..=1).any(|dy| (-1..=1).any(|dx| sees_emitter(x + dx, y + dy)))
+        })
+        .collect();
+    assert!(
+        keep.iter().filter(|k| !**k).count() > 0,
+        "the light is in view"
+    );
+    // Whole image and 3×3 blocks of 8×8 pixels. Tolerance: 4 standard errors of the
+    // reference's mean + a discretization allowance of the radiosity bake (8 texels per
+    // metre, bilinear): 3% of the whole image's mean, 8% of a block's.
+    let all = (0..(w * h) as usize).collect::<Vec<_>>();
+    let check = |pixels: &[usize], allowance: f64, what: &str| {
+        let pixels: Vec<usize> = pixels.iter().copied().filter(|&i| keep[i]).collect();
+        let (m_ref, se) = mean_and_se(&r, pixels.iter().copied());
+        let m_view = pixels
+            .iter()
+            .map(|&i| luminance(view.rgb[i]) as f64)
+            .sum::<f64>()
+            / pixels.len() as f64;
+        eprintln!("{what}: reference {m_ref:.4} ± {se:.4}, radiosity view {m_view:.4}");
+        assert!(
+            (m_view - m_ref).abs() < 4.0 * se + allowance * m_ref,
+            "{what}: radiosity {m_view} vs reference {m_ref} (standard error {se})"
+        );
+    };
+    check(&all, 0.03, "image");
+    for by in 0..3 {
+        for bx in 0..3 {
+            let block: Vec<usize> = (0..64)
+                .map(|k| (by * 8 + k / 8) * w as usize + bx * 8 + k % 8)
+                .collect();
+            check(&block, 0.08, &format!("block ({bx}, {by})"));
+        }
+    }
+}
+
+#[test]
+fn reference_is_deterministic_across_thread_counts() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = load(dir.path(), &closed_box(1.0), &[emissive("W", 0.7, 1.0)], "");
+    let bvh = scene.build_bvh();
+    let cam = Camera::look_at(Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0), Vec3::Y, 1.2);
+    let opts = RenderOptions {
+        width: 8,
+        height: 6,
+        spp: 4,
+        seed: 7,
+        ..RenderOptions::default()
+    };
+    let render = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| reference::render(&scene, &bvh, &cam, &opts, &Silent).unwrap())
+    };
+    let (a, b) = (render(1), render(3));
+    assert_eq!(a.image, b.image);
+    let other = reference::render(
+        &scene,
+        &bvh,
+        &cam,
+        &RenderOptions {
+            seed: 8,
+            ..opts.clone()
+        },
+        &Silent,
+    )
+    .unwrap();
+    assert_ne!(a.image, other.image, "the seed changes the noise");
+}
+
+fn flat(w: usize, h: usize, v: Vec3) -> Image {
+    Image {
+        width: w,
+        height: h,
+        rgb: vec![v; w * h],
+    }
+}
+
+#[test]
+fn metrics_of_known_differences() {
+    let b = flat(4, 2, Vec3::new(1.0, 0.5, 0.25));
+    let mut a = b.clone();
+    for p in &mut a.rgb {
+        *p += Vec3::splat(0.1);
+    }
+    let m = compare::compare(&a, &b, None).unwrap();
+    assert!((m.rmse - 0.1).abs() < 1e-6, "{m:?}");
+    assert!((m.max_error - 0.1).abs() < 1e-6);
+    assert!(
+        (m.psnr_db - 20.0).abs() < 1e-4,
+        "peak 1, RMSE 0.1: 20 dB, got {}",
+        m.psnr_db
+    );
+    let rel = ((0.01 / (1.0 + REL_EPSILON)
+        + 0.01 / (0.25 + REL_EPSILON)
+        + 0.01 / (0.0625 + REL_EPSILON))
+        / 3.0)
+        .sqrt();
+    assert!((m.rel_rmse - rel).abs() < 1e-6);
+    assert_eq!(m.pixels, 8);
+    // A mask that keeps only a pixel that differs by 1.
+    a.rgb[3] = b.rgb[3] + Vec3::ONE;
+    let mut mask = vec![false; 8];
+    mask[3] = true;
+    let m = compare::compare(&a, &b, Some(&mask)).unwrap();
+    assert_eq!(m.pixels, 1);
+    assert!((m.rmse - 1.0).abs() < 1e-6 && (m.max_error - 1.0).abs() < 1e-6);
+    assert!(compare::compare(&a, &b, None).unwrap().max_error > 0.99);
+    assert_eq!(
+        compare::compare(&b, &b, None).unwrap().psnr_db,
+        f64::INFINITY
+    );
+    assert!(compare::compare(&a, &flat(2, 2, Vec3::ONE), None).is_err());
+    assert!(compare::compare(&a, &b, Some(&[false; 8])).is_err());
+    let px = compare::diff_image(&a, &b, None, None);
+    assert_eq!(px.len(), 8 * 3);
+    assert_eq!(&px[9..12], &[255, 0, 0], "largest difference is red");
+}
+
+/// A floor that emits 2 (albedo 0.5) with nothing else: D = 2 everywhere on its top.
+fn emissive_floor(dir: &Path) -> (Scene, PathBuf) {
+    let scene = load(
+        dir,
+        &[quad("Floor", 0, 1, 0.0, 1.0)],
+        &[emissive("F", 0.5, 2.0)],
+        r#", "camera_paths": [ { "name": "top", "keyframes": [ { "time": 0, "position": [0, 2, 0.01], "target": [0, 0, 0], "fov_y_deg": 40 } ] } ]"#,
+    );
+    let bundle = dir.join("f.glint");
+    glint::bake::scene_stage::bake(&scene, &bundle, false).unwrap();
+    let s = RadiositySettings::preset(Quality::Draft);
+    glint::bake::radiosity_stage::bake(&scene, &bundle, &s, false, &Silent).unwrap();
+    (scene, bundle)
+}
+
+#[test]
+fn probes_find_the_surface_along_the_normal() {
+    let dir = tempfile::tempdir().unwrap();
+    let (scene, bundle) = emissive_floor(dir.path());
+    let map = RadiosityMap::load(&Bundle::open(&bundle).unwrap())
+        .unwrap()
+        .unwrap();
+    let bvh = scene.build_bvh();
+    let pts: Vec<ProbePoint> = serde_json::from_str(
+        r#"[ { "name": "on", "position": [0.2, 0.01, 0.3], "normal": [0, 1, 0] },
+             { "position": [0.2, 0.5, 0.3], "normal": [0, 1, 0] },
+             { "position": [0.2, 0.0, 0.3], "normal": [0, -1, 0] } ]"#,
+    )
+    .unwrap();
+    let v = probe::probe(&scene, &bvh, &map, &pts, 0.05);
+    assert!(v[0].found, "{v:?}");
+    assert_eq!(v[0].name.as_deref(), Some("on"));
+    assert!((v[0].offset.unwrap() - 0.01).abs() < 1e-4);
+    // D is exactly the emission (nothing to reflect); tolerance: half-float storage.
+    for c in v[0].radiance {
+        assert!((c - 2.0).abs() < 2e-3, "{:?}", v[0].radiance);
+    }
+    assert!(!v[1].found, "0.5 m above the floor is out of reach");
+    assert!(
+        !v[2].found,
+        "the floor's back face is not a surface seen from below"
+    );
+    assert!(
+        serde_json::from_str::<Vec<ProbePoint>>(r#"[{"position":[0,0,0],"normal":[0,1,0],"x":1}]"#)
+            .is_err(),
+        "unknown keys are errors"
+    );
+}
+
+#[test]
+fn sweep_writes_csv_and_plot() {
+    let dir = tempfile::tempdir().unwrap();
+    let (scene, _) = emissive_floor(dir.path());
+    let bvh = scene.build_bvh();
+    let cam = glint::camera::pose_at(scene.camera_path(None).unwrap(), 0.0);
+    let opts = RenderOptions {
+        width: 8,
+        height: 8,
+        spp: 4,
+        diffuse_only: true,
+        ..RenderOptions::default()
+    };
+    let reference = reference::render(&scene, &bvh, &cam, &opts, &Silent)
+        .unwrap()
+        .image;
+    let knobs = [
+        sweep::parse_knob("radiosity.rays=16,32").unwrap(),
+        sweep::parse_knob("radiosity.texel_density=4").unwrap(),
+    ];
+    let out = dir.path().join("sweep");
+    let rows = sweep::sweep(
+        &scene,
+        &reference,
+        &SweepConfig {
+            quality: Quality::Draft,
+            knobs: &knobs,
+            camera: &cam,
+            view_spp: 4,
+            out: &out,
+        },
+        &Silent,
+    )
+    .unwrap();
+    assert_eq!(rows.len(), 3);
+    for r in &rows {
+        assert!(r.bundle_bytes > 0 && r.bake_seconds > 0.0);
+        // D = emission = the path-traced value; tolerance: half-float storage.
+        assert!(r.metrics.max_error < 5e-3, "{r:?}");
+    }
+    let csv = std::fs::read_to_string(out.join("sweep.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines.len(), 4, "{csv}");
+    assert!(lines[0].starts_with("knob,value,bake_seconds,bundle_bytes,rmse"));
+    assert!(lines[1].starts_with("radiosity.rays,16,"));
+    assert!(lines[3].starts_with("radiosity.texel_density,4,"));
+    let svg = std::fs::read_to_string(out.join("sweep.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+    assert_eq!(svg.matches("<polyline").count(), 2, "one curve per knob");
+}
+
+#[test]
+fn knob_errors_name_the_setting() {
+    let e = sweep::parse_knob("radiosity.rayz=1")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("rayz") && e.contains("rays"), "{e}");
+    let e = sweep::parse_knob("materials.x=1").unwrap_err().to_string();
+    assert!(e.contains("materials"), "{e}");
+    let e = sweep::parse_knob("radiosity.rays=many")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("radiosity.rays"), "{e}");
+    assert!(sweep::parse_knob("radiosity.rays").is_err());
+}
+
+fn eval_cmd() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_glint-eval"))
+}
+
+#[test]
+fn cli_reference_compare_and_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, bundle) = emissive_floor(dir.path());
+    let scene = dir.path().join("scene.json");
+    let a = dir.path().join("a.exr");
+    let st = eval_cmd()
+        .args(["reference"])
+        .arg(&scene)
+        .args(["--camera", "top", "--size", "8x6", "--spp", "2", "--out"])
+        .arg(&a)
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let diff = dir.path().join("d.png");
+    let out = eval_cmd()
+        .arg("compare")
+        .arg(&a)
+        .arg(&a)
+        .arg("--diff")
+        .arg(&diff)
+        .arg("--json")
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let m: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(m["rmse"], 0.0);
+    assert_eq!(m["pixels"], 48);
+    assert!(diff.exists());
+
+    let points = dir.path().join("p.json");
+    std::fs::write(&points, r#"[{"position":[0,0.01,0],"normal":[0,1,0]}]"#).unwrap();
+    let out = eval_cmd()
+        .arg("probe")
+        .arg(&bundle)
+        .arg("--points")
+        .arg(&points)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v[0]["found"], true);
+
+    // Errors name the file or flag and exit non-zero.
+    let out = eval_cmd()
+        .arg("compare")
+        .arg(dir.path().join("missing.exr"))
+        .arg(&a)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("missing.exr"));
+    let out = eval_cmd()
+        .arg("reference")
+        .arg(&scene)
+        .args(["--camera", "nope", "--out"])
+        .arg(&a)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("nope") && err.contains("top"), "{err}");
+    let out = eval_cmd()
+        .arg("reference")
+        .arg(&scene)
+        .args(["--size", "8by6", "--out"])
+        .arg(&a)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--size"));
+    assert!(eval_cmd().arg("--help").output().unwrap().stdout.len() > 100);
+}
