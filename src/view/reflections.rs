@@ -32,8 +32,8 @@ use super::load::ViewData;
 use super::radiance_maps::{MapEntry, Selection, load_cameras, select};
 use super::renderer::RenderError;
 use super::renderer::{
-    DEPTH_FORMAT, HDR_FORMAT, Renderer, SceneMesh, Vertex, frame_bind_group,
-    frame_bind_group_layout, uniform_buffer,
+    HDR_FORMAT, Renderer, SceneMesh, Vertex, frame_bind_group, frame_bind_group_layout,
+    reverse_z_depth, uniform_buffer,
 };
 use crate::bake::materials::reflectance;
 use crate::camera::Camera;
@@ -544,13 +544,7 @@ impl GeometryReflections {
                     buffers: &vertex_buffers,
                 },
                 primitive,
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: DEPTH_FORMAT,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(wgpu::CompareFunction::Greater),
-                    stencil: wgpu::StencilState::default(),
-                    bias: wgpu::DepthBiasState::default(),
-                }),
+                depth_stencil: Some(reverse_z_depth(true, wgpu::CompareFunction::Greater)),
                 multisample: wgpu::MultisampleState::default(),
                 fragment: Some(wgpu::FragmentState {
                     module: &shader,
@@ -583,13 +577,7 @@ impl GeometryReflections {
                     cull_mode: None,
                     ..Default::default()
                 },
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: DEPTH_FORMAT,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(wgpu::CompareFunction::Greater),
-                    stencil: wgpu::StencilState::default(),
-                    bias: wgpu::DepthBiasState::default(),
-                }),
+                depth_stencil: Some(reverse_z_depth(true, wgpu::CompareFunction::Greater)),
                 multisample: wgpu::MultisampleState::default(),
                 fragment: Some(wgpu::FragmentState {
                     module: &shader,
@@ -636,13 +624,10 @@ impl GeometryReflections {
                         buffers: &vertex_buffers,
                     },
                     primitive,
-                    depth_stencil: Some(wgpu::DepthStencilState {
-                        format: DEPTH_FORMAT,
-                        depth_write_enabled: Some(false),
-                        depth_compare: Some(wgpu::CompareFunction::GreaterEqual),
-                        stencil: wgpu::StencilState::default(),
-                        bias: wgpu::DepthBiasState::default(),
-                    }),
+                    depth_stencil: Some(reverse_z_depth(
+                        false,
+                        wgpu::CompareFunction::GreaterEqual,
+                    )),
                     multisample: wgpu::MultisampleState::default(),
                     fragment: Some(wgpu::FragmentState {
                         module: &shader,
