@@ -57,36 +57,10 @@ fn glossy_scene(dir: &Path, extra: &str) -> PathBuf {
             7, 1, 2, 6, 1, 6, 5,
         ],
     };
-    write_gltf(
-        dir,
-        "room",
-        &[
-            quad("Floor", 0, 1, 0.0, 1.0),
-            quad("Panel", 1, 0, -0.9, 0.5),
-            quad("Ceiling", 2, 1, 2.0, 1.0),
-            ball,
-        ],
-        &[
-            MaterialSpec::diffuse("FloorMat", 0.5),
-            MaterialSpec {
-                name: "PanelMat",
-                base: [0.9, 0.9, 0.9, 1.0],
-                metallic: 1.0,
-                roughness: 0.05,
-                emissive: [0.0; 3],
-                strength: 1.0,
-            },
-            MaterialSpec {
-                name: "LightMat",
-                base: [0.0, 0.0, 0.0, 1.0],
-                metallic: 0.0,
-                roughness: 1.0,
-                emissive: [1.0, 1.0, 1.0],
-                strength: 10.0,
-            },
-            MaterialSpec::diffuse("Brushed", 0.5),
-        ],
-    );
+    let (mut meshes, mut materials) = room();
+    meshes.push(ball);
+    materials.push(MaterialSpec::diffuse("Brushed", 0.5));
+    write_gltf(dir, "room", &meshes, &materials);
     write_scene(
         dir,
         &format!(

@@ -124,37 +124,40 @@ pub fn write_gltf(
     path
 }
 
-/// A closed unit-ish room: floor (material 0), a glossy-capable panel (material 1) and an
-/// emissive ceiling (material 2). Returns the glTF path.
+/// The room of [`write_room`]: floor (material 0), a glossy-capable panel (material 1) and
+/// an emissive ceiling (material 2), as meshes and materials to extend.
+pub fn room() -> (Vec<MeshSpec>, Vec<MaterialSpec>) {
+    let meshes = vec![
+        quad("Floor", 0, 1, 0.0, 1.0),
+        quad("Panel", 1, 0, -0.9, 0.5),
+        quad("Ceiling", 2, 1, 2.0, 1.0),
+    ];
+    let materials = vec![
+        MaterialSpec::diffuse("FloorMat", 0.5),
+        MaterialSpec {
+            name: "PanelMat",
+            base: [0.9, 0.9, 0.9, 1.0],
+            metallic: 1.0,
+            roughness: 0.05,
+            emissive: [0.0; 3],
+            strength: 1.0,
+        },
+        MaterialSpec {
+            name: "LightMat",
+            base: [0.0, 0.0, 0.0, 1.0],
+            metallic: 0.0,
+            roughness: 1.0,
+            emissive: [1.0, 1.0, 1.0],
+            strength: 10.0,
+        },
+    ];
+    (meshes, materials)
+}
+
+/// Writes [`room`] as `room.gltf` + `room.bin` into `dir`. Returns the glTF path.
 pub fn write_room(dir: &Path) -> PathBuf {
-    write_gltf(
-        dir,
-        "room",
-        &[
-            quad("Floor", 0, 1, 0.0, 1.0),
-            quad("Panel", 1, 0, -0.9, 0.5),
-            quad("Ceiling", 2, 1, 2.0, 1.0),
-        ],
-        &[
-            MaterialSpec::diffuse("FloorMat", 0.5),
-            MaterialSpec {
-                name: "PanelMat",
-                base: [0.9, 0.9, 0.9, 1.0],
-                metallic: 1.0,
-                roughness: 0.05,
-                emissive: [0.0; 3],
-                strength: 1.0,
-            },
-            MaterialSpec {
-                name: "LightMat",
-                base: [0.0, 0.0, 0.0, 1.0],
-                metallic: 0.0,
-                roughness: 1.0,
-                emissive: [1.0, 1.0, 1.0],
-                strength: 10.0,
-            },
-        ],
-    )
+    let (meshes, materials) = room();
+    write_gltf(dir, "room", &meshes, &materials)
 }
 
 /// Writes `scene.json` with the given JSON text into `dir` and returns its path.
