@@ -21,13 +21,6 @@ use glint::radiosity::RadiosityMap;
 use glint::scene::Scene;
 use glint::scene::desc::{Quality, RadiositySettings};
 
-fn flip(mut m: MeshSpec) -> MeshSpec {
-    for t in m.indices.chunks_mut(3) {
-        t.swap(1, 2);
-    }
-    m
-}
-
 /// Six inward-facing faces of a cube of half-size h, all of material 0.
 fn closed_box(h: f32) -> Vec<MeshSpec> {
     let names = ["X0", "X1", "Y0", "Y1", "Z0", "Z1"];

@@ -15,13 +15,6 @@ use glint::radiance::{RadianceMap, render};
 use glint::scene::desc::RadiositySettings;
 use glint::scene::{Quality, Scene};
 
-fn flip(mut m: MeshSpec) -> MeshSpec {
-    for t in m.indices.chunks_mut(3) {
-        t.swap(1, 2);
-    }
-    m
-}
-
 /// A 1 m glossy floor reflector at y = 0 facing up, under an emissive ceiling "wall" of
 /// radiance 2 at height `h`, `wall` metres across; all scaled by `scale`.
 fn wall_scene(dir: &Path, scale: f32, h: f32, wall: f32) -> Scene {

@@ -15,13 +15,6 @@ use glint::radiosity::solve::{Solution, SolveSettings, solve};
 use glint::scene::Scene;
 use glint::scene::desc::RadiositySettings;
 
-fn flip(mut m: MeshSpec) -> MeshSpec {
-    for t in m.indices.chunks_mut(3) {
-        t.swap(1, 2);
-    }
-    m
-}
-
 fn emissive(name: &'static str, albedo: f32, e: f32) -> MaterialSpec {
     MaterialSpec {
         emissive: [1.0; 3],

@@ -97,19 +97,6 @@ pub fn plans(scene: &Scene, quality: Quality) -> Vec<(usize, ReflectorFrame, Map
         .collect()
 }
 
-/// A file-system-safe version of a reflector name.
-fn file_name(name: &str) -> String {
-    name.chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect()
-}
-
 /// Encodes a map as EXR: RGB half, Z float, A half (hit mask).
 pub fn encode_map(
     res: u32,
@@ -169,7 +156,7 @@ pub fn bake(
     let mut rays = 0u64;
     for (ri, frame, plan) in &plans {
         let reflector = &scene.reflectors[*ri];
-        let folder = file_name(&reflector.name);
+        let folder = crate::bake::materials::folder_name(&reflector.name);
         let mut cameras = Vec::new();
         let mut bytes = 0u64;
         for j in 0..plan.elements[1] {

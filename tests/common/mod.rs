@@ -36,6 +36,14 @@ impl MaterialSpec {
     }
 }
 
+/// The same mesh with every triangle's winding reversed (it faces the other way).
+pub fn flip(mut m: MeshSpec) -> MeshSpec {
+    for t in m.indices.chunks_mut(3) {
+        t.swap(1, 2);
+    }
+    m
+}
+
 /// An axis-aligned quad in the plane `axis = offset`, spanning [-h, h] on the other two axes,
 /// with counter-clockwise winding seen from +axis.
 pub fn quad(name: &'static str, material: usize, axis: usize, offset: f32, h: f32) -> MeshSpec {
