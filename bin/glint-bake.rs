@@ -43,6 +43,8 @@ fn run(args: BakeArgs) -> anyhow::Result<ExitCode> {
     );
     let quality = args.quality.unwrap_or(scene.desc.bake.quality);
     glint::bundle::check_scene(&args.bundle, &scene.content_hash, args.force)?;
+    // One reporter for the whole run: it owns the process's only Ctrl-C handler.
+    let progress = TerminalProgress::new();
     let mut report = Vec::new();
     for p in plan(&scene) {
         let status = if !p.needed {
@@ -68,7 +70,6 @@ fn run(args: BakeArgs) -> anyhow::Result<ExitCode> {
                     ) {
                         "up to date".into()
                     } else {
-                        let progress = TerminalProgress::new();
                         let rec = radiosity_stage::bake(
                             &scene,
                             &args.bundle,
@@ -76,7 +77,6 @@ fn run(args: BakeArgs) -> anyhow::Result<ExitCode> {
                             args.force,
                             &progress,
                         );
-                        progress.finish();
                         let rec = rec.with_context(|| format!("stage {}", p.stage.name()))?;
                         format!("baked in {:.2} s", rec.bake_seconds)
                     }
@@ -88,7 +88,6 @@ fn run(args: BakeArgs) -> anyhow::Result<ExitCode> {
                     if up_to_date(&args.bundle, &scene, p.stage, Some(&settings)) {
                         "up to date".into()
                     } else {
-                        let progress = TerminalProgress::new();
                         let rec = radiance_stage::bake(
                             &scene,
                             &args.bundle,
@@ -96,7 +95,6 @@ fn run(args: BakeArgs) -> anyhow::Result<ExitCode> {
                             args.force,
                             &progress,
                         );
-                        progress.finish();
                         let rec = rec.with_context(|| format!("stage {}", p.stage.name()))?;
                         format!("baked in {:.2} s", rec.bake_seconds)
                     }
@@ -113,11 +111,9 @@ fn run(args: BakeArgs) -> anyhow::Result<ExitCode> {
                     if up_to_date(&args.bundle, &scene, p.stage, Some(&recorded)) {
                         "up to date".into()
                     } else {
-                        let progress = TerminalProgress::new();
                         let start = std::time::Instant::now();
                         let outcome =
                             materials::bake(&scene, &args.bundle, &settings, args.force, &progress);
-                        progress.finish();
                         match outcome.with_context(|| format!("stage {}", p.stage.name()))? {
                             materials::Outcome::Skipped(why) => format!("skipped: {why}"),
                             materials::Outcome::Baked(_) => {
@@ -134,7 +130,6 @@ fn run(args: BakeArgs) -> anyhow::Result<ExitCode> {
                     if up_to_date(&args.bundle, &scene, p.stage, Some(&recorded)) {
                         "up to date".into()
                     } else {
-                        let progress = TerminalProgress::new();
                         let start = std::time::Instant::now();
                         let outcome = srdm_stage::bake(
                             &scene,
@@ -143,7 +138,6 @@ fn run(args: BakeArgs) -> anyhow::Result<ExitCode> {
                             args.force,
                             &progress,
                         );
-                        progress.finish();
                         match outcome.with_context(|| format!("stage {}", p.stage.name()))? {
                             srdm_stage::SrdmOutcome::Skipped { reason } => {
                                 format!("skipped: {reason}")
@@ -158,6 +152,7 @@ fn run(args: BakeArgs) -> anyhow::Result<ExitCode> {
         };
         report.push((p, status));
     }
+    progress.finish();
     let mut out = std::io::stdout().lock();
     if args.json {
         let v: Vec<_> = report

@@ -39,7 +39,8 @@ pub struct TerminalProgress {
 
 impl TerminalProgress {
     /// A reporter that also turns Ctrl-C into a cancellation request (a second Ctrl-C
-    /// is not needed: bakers stop between work items within moments).
+    /// is not needed: bakers stop between work items within moments). Make one per process:
+    /// only the first one's Ctrl-C handler is installed, so a later one is never cancelled.
     pub fn new() -> TerminalProgress {
         let stop = Arc::new(AtomicBool::new(false));
         let flag = stop.clone();
