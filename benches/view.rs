@@ -12,9 +12,10 @@
 //!
 //! A second table compares glossy reflections (issue 9) on glossy-room and breakfast-room in
 //! one run: off, geometry-based, and image-based with 1, 2 and 4 maps by angle (2 by
-//! distance): frame time, its ratio to the geometry-based mode, and the mean error against
-//! the CPU evaluation of the same equation. The frame time (start to GPU done) is the measure:
-//! the GPU timestamps bracket the scene pass only, not the reflection passes.
+//! distance): frame time, its ratio to the geometry-based mode, the GPU time (timestamps from
+//! the first pass's beginning to the last pass's end, reflection passes included), and the
+//! mean error against the reference path tracer and against the CPU evaluation of the same
+//! equation ([`reflection_table`]).
 //!
 //! `cargo bench --bench view` (the `view` feature, on by default). The adapter is the one
 //! `Gpu::headless` picks: a hardware GPU when there is one, else Mesa's lavapipe; `WGPU_BACKEND`
@@ -23,9 +24,10 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use glint::bake::radiance_stage;
 use glint::bake::{Stage, radiosity_stage, scene_stage, up_to_date};
+use glint::bake::{materials, radiance_stage};
 use glint::bundle::stats::format_table;
+use glint::eval::reference::{self, RenderOptions};
 use glint::geometry::Bvh;
 use glint::progress::Silent;
 use glint::scene::desc::RadiositySettings;
@@ -121,7 +123,8 @@ fn main() {
     println!(
         "GPU time: {}",
         match source {
-            Some(GpuTimeSource::TimestampQuery) => "timestamp queries around the render pass",
+            Some(GpuTimeSource::TimestampQuery) =>
+                "timestamp queries from the first pass's beginning to the last pass's end",
             _ => "submit to complete (the adapter has no timestamp queries)",
         }
     );
@@ -137,10 +140,13 @@ fn main() {
 }
 
 /// Glossy reflections on glossy-room and breakfast-room (their bundles also get the draft
-/// `radiance` stage): per mode, the median frame time over the first camera path and the
-/// mean error (8-bit sRGB units) at the path's first and middle frames against the CPU
-/// evaluation of the same equation ([`reflections::cpu_reference`]; the reference path
-/// tracer's image is not used yet). R = 1 here (no materials stage): the cost is the same.
+/// `materials` and `radiance` stages): per mode, in one run, the median frame time over every
+/// [`FRAME_STRIDE`]-th frame of the first camera path (best of `repeats`), its ratio to the
+/// geometry-based mode, the GPU time spanning all passes, and the mean error (8-bit sRGB
+/// units) at the path's middle frame against the reference path tracer
+/// ([`glint::eval::reference`], [`REFERENCE_SPP`] paths per pixel; both images box-filtered
+/// 2×2 against its noise) and against the CPU evaluation of the same equation
+/// ([`reflections::cpu_reference`]: reconstruction error alone).
 fn reflection_table(gpu: &Gpu, work: &Path, root: &Path, repeats: usize) {
     let mut rows = vec![
         [
@@ -149,7 +155,9 @@ fn reflection_table(gpu: &Gpu, work: &Path, root: &Path, repeats: usize) {
             "mode",
             "frame median ms",
             "× geometry",
-            "GPU scene pass ms",
+            "GPU all passes ms",
+            "splats drawn",
+            "error vs path tracer",
             "error vs CPU eq.",
         ]
         .map(String::from),
@@ -187,6 +195,11 @@ fn reflection_table(gpu: &Gpu, work: &Path, root: &Path, repeats: usize) {
         let scene_json = root.join(format!("scenes/{name}/scene.json"));
         let bundle = bake_if_needed(&scene_json, work, name);
         let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
+        if !up_to_date(&bundle, &scene, Stage::Materials, None) {
+            let settings = materials::MaterialsSettings::preset(Quality::Draft);
+            materials::bake(&scene, &bundle, &settings, true, &Silent)
+                .unwrap_or_else(|e| panic!("{e}"));
+        }
         if !up_to_date(&bundle, &scene, Stage::Radiance, None) {
             radiance_stage::bake(&scene, &bundle, Quality::Draft, true, &Silent)
                 .unwrap_or_else(|e| panic!("{e}"));
@@ -194,87 +207,134 @@ fn reflection_table(gpu: &Gpu, work: &Path, root: &Path, repeats: usize) {
         let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
         let path = data.scene.camera_path(None).expect("a camera path");
         let frames = schedule(path);
-        let views = [frames[0].camera, frames[frames.len() / 2].camera];
+        let timed: Vec<_> = frames
+            .iter()
+            .step_by(FRAME_STRIDE)
+            .map(|f| f.camera)
+            .collect();
+        let view = frames[frames.len() / 2].camera;
         let bvh = Bvh::build(&data.scene.triangles);
         let reflectors = reflections::reflectors_with_reflectance(&data);
-        let references: Vec<Vec<u8>> = views
-            .iter()
-            .map(|c| {
-                cpu_render::to_srgb8(&reflections::cpu_reference(
-                    &data.scene,
-                    &reflectors,
-                    &bvh,
-                    &data.map,
-                    c,
-                    SIZE.0,
-                    SIZE.1,
-                    1.0,
-                ))
-            })
-            .collect();
-        let mut geometry_ms = f64::NAN;
-        for (label, mode, selection, count) in modes {
-            let options = ReplayOptions {
-                path: None,
+        let start = Instant::now();
+        let traced = reference::render(
+            &data.scene,
+            &bvh,
+            &view,
+            &RenderOptions {
                 width: SIZE.0,
                 height: SIZE.1,
-                out: None,
-                every: 0,
-                hdr: false,
-                exposure: 1.0,
-                reflections: mode,
-                selection,
-                map_count: count,
-            };
-            let summary = (0..repeats)
-                .map(|_| {
-                    replay_with(gpu, &data, &options, &Silent).unwrap_or_else(|e| panic!("{e}"))
-                })
-                .min_by(|a, b| {
-                    a.summary
-                        .frame_ms
-                        .median
-                        .total_cmp(&b.summary.frame_ms.median)
-                })
-                .expect("at least one run")
-                .summary;
-            if mode == ReflectionMode::Geometry {
-                geometry_ms = summary.frame_ms.median;
-            }
+                spp: REFERENCE_SPP,
+                seed: 1,
+                ..RenderOptions::default()
+            },
+            &Silent,
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        eprintln!(
+            "{name}: path-traced reference in {:.1} s",
+            start.elapsed().as_secs_f64()
+        );
+        let traced = half_size(&cpu_render::to_srgb8(&traced.image.rgb));
+        let equation = cpu_render::to_srgb8(&reflections::cpu_reference(
+            &data.scene,
+            &reflectors,
+            &bvh,
+            &data.map,
+            &view,
+            SIZE.0,
+            SIZE.1,
+            1.0,
+        ));
+        let mut geometry_ms = f64::NAN;
+        for (label, mode, selection, count) in modes {
             let mut off =
                 Offscreen::new(gpu, &data, SIZE.0, SIZE.1, false).unwrap_or_else(|e| panic!("{e}"));
             off.selection = selection;
             off.map_count = count;
             off.set_reflections(gpu, &data, mode)
                 .unwrap_or_else(|e| panic!("{e}"));
-            let err: f64 = views
-                .iter()
-                .zip(&references)
-                .map(|(c, r)| {
-                    off.render(gpu, c).unwrap_or_else(|e| panic!("{e}"));
-                    mean_diff(&off.read_rgba8(gpu).unwrap_or_else(|e| panic!("{e}")), r)
-                })
-                .sum::<f64>()
-                / views.len() as f64;
+            off.render(gpu, &timed[0]).unwrap_or_else(|e| panic!("{e}")); // warm-up
+            let mut best: Option<(f64, f64, u64)> = None;
+            for _ in 0..repeats {
+                let (mut frame, mut gpu_ms, mut splats) = (Vec::new(), Vec::new(), 0u64);
+                for c in &timed {
+                    let t = off.render(gpu, c).unwrap_or_else(|e| panic!("{e}"));
+                    frame.push(t.frame_ms);
+                    gpu_ms.push(t.gpu_ms);
+                    splats += off.reflections().map_or(0, |r| {
+                        r.frame_stats().iter().map(|s| s.drawn_splats).sum::<u64>()
+                    });
+                }
+                let run = (
+                    median(&mut frame),
+                    median(&mut gpu_ms),
+                    splats / timed.len() as u64,
+                );
+                if best.is_none_or(|b| run.0 < b.0) {
+                    best = Some(run);
+                }
+            }
+            let (frame_ms, gpu_ms, splats) = best.expect("at least one run");
+            if mode == ReflectionMode::Geometry {
+                geometry_ms = frame_ms;
+            }
+            off.render(gpu, &view).unwrap_or_else(|e| panic!("{e}"));
+            let img = off.read_rgba8(gpu).unwrap_or_else(|e| panic!("{e}"));
             rows.push([
                 name.to_string(),
                 reflectors.len().to_string(),
                 label.to_string(),
-                format!("{:.2}", summary.frame_ms.median),
-                format!("{:.2}", summary.frame_ms.median / geometry_ms),
-                format!("{:.2}", summary.gpu_ms.median),
-                format!("{err:.2}"),
+                format!("{frame_ms:.2}"),
+                format!("{:.2}", frame_ms / geometry_ms),
+                format!("{gpu_ms:.2}"),
+                if mode == ReflectionMode::Image {
+                    splats.to_string()
+                } else {
+                    "-".to_string()
+                },
+                format!("{:.2}", mean_diff(&half_size(&img), &traced)),
+                format!("{:.2}", mean_diff(&img, &equation)),
             ]);
         }
     }
     println!(
-        "\nglossy reflections at {}x{}: frame time (start to GPU done; the GPU timestamps bracket the scene pass only) and mean error vs the CPU equation (8-bit units, 2 views), best of {repeats} runs\n",
+        "\nglossy reflections at {}x{}: median frame time over every {FRAME_STRIDE}th frame of the first path (best of {repeats} runs), GPU time from the first pass's beginning to the last pass's end, mean error (8-bit sRGB) at the middle frame vs the path tracer ({REFERENCE_SPP} spp, both box-filtered 2x2) and vs the CPU equation\n",
         SIZE.0, SIZE.1
     );
     print!(
         "{}",
-        format_table(&rows, &[false, true, false, true, true, true, true])
+        format_table(
+            &rows,
+            &[false, true, false, true, true, true, true, true, true]
+        )
     );
+}
+
+/// Every how many frames of a path the reflection table times.
+const FRAME_STRIDE: usize = 8;
+
+/// Paths per pixel of the reference images.
+const REFERENCE_SPP: u32 = 32;
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// An RGBA8 frame of [`SIZE`] box-filtered 2×2.
+fn half_size(rgba: &[u8]) -> Vec<u8> {
+    let (w, hw, hh) = (SIZE.0 as usize, SIZE.0 as usize / 2, SIZE.1 as usize / 2);
+    let mut out = Vec::with_capacity(hw * hh * 4);
+    for y in 0..hh {
+        for x in 0..hw {
+            for k in 0..4 {
+                let at =
+                    |dx: usize, dy: usize| u32::from(rgba[((2 * y + dy) * w + 2 * x + dx) * 4 + k]);
+                out.push(((at(0, 0) + at(1, 0) + at(0, 1) + at(1, 1) + 2) / 4) as u8);
+            }
+        }
+    }
+    out
 }
 
 /// Mean absolute difference over RGB of two RGBA8 images, 8-bit units.

@@ -18,7 +18,7 @@ use glint::view::window::{WindowOptions, run_window};
     version,
     about = "View a bundle's scene lit by its radiosity textures: a window with a fly camera, or a headless replay of a camera path to frames and timings",
     after_help = "Window keys: WASD + Q/E move (Shift: faster, mouse wheel: speed), drag with the left mouse button to look, \
-1-9 play camera path N, Space pause/resume, R start/stop recording a path, P screenshot, G reflections off/geometry/image, H help, Esc quit.\n\n\
+1-9 play camera path N, Space pause/resume, R start/stop recording a path, P screenshot, G reflections off/geometry/image, T reflectance sphere/1D map, H help, Esc quit.\n\n\
 Examples:\n  glint-view out/cornell-box.glint\n  glint-view out/cornell-box.glint --replay --headless --size 720x486 --out out/frames/cornell-box\n  glint-view out/breakfast-room.glint --replay walkthrough --headless --out out/frames/breakfast --every 10 --hdr"
 )]
 struct Args {
@@ -59,6 +59,14 @@ struct Args {
     /// Image-based reflections: select maps by `angle` (Bastos's default) or `distance`.
     #[arg(long, value_name = "HOW", default_value = "angle")]
     selection: glint::view::radiance_maps::Selection,
+    /// Reflections: read R from the `sphere` map (by reflected direction) or the `1d`
+    /// grazing-dense map (by view angle).
+    #[arg(long, value_name = "MAP", default_value = "1d")]
+    reflectance: glint::view::reflections::ReflectanceLayout,
+    /// Reflections: R's channel, `albedo` (directional albedo, matches the path tracer) or
+    /// `bastos` (F/(π cos²θ) as printed).
+    #[arg(long, value_name = "CHANNEL", default_value = "albedo")]
+    reflectance_channel: glint::view::reflections::ReflectanceChannel,
     /// Window: save a screenshot after N frames and exit (for automation, e.g. under xvfb-run).
     #[arg(long, value_name = "N", conflicts_with = "headless")]
     screenshot_after: Option<u64>,
@@ -94,6 +102,10 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                 reflections: args.reflections,
                 selection: args.selection,
                 map_count: args.maps,
+                reflectance: glint::view::reflections::ReflectanceSettings {
+                    layout: args.reflectance,
+                    channel: args.reflectance_channel,
+                },
             },
             &progress,
         );
@@ -125,6 +137,10 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
             out: args.out.unwrap_or_else(|| PathBuf::from(".")),
             screenshot_after: args.screenshot_after,
             reflections: args.reflections,
+            reflectance: glint::view::reflections::ReflectanceSettings {
+                layout: args.reflectance,
+                channel: args.reflectance_channel,
+            },
         },
     )?;
     Ok(ExitCode::SUCCESS)

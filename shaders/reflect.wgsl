@@ -1,18 +1,20 @@
-// glint-view: geometry-based planar reflections (issue 9, mode `geometry`).
+// glint-view: glossy planar reflections (issue 9), L = kd·D + ks·(M*K)·R (Bastos Eq. 2).
 //
-// Appended to `shaders/view.wgsl` at pipeline creation (`src/view/reflections.rs`): it uses
-// that file's `frame` uniforms, `VertexIn`, `VertexOut`, `FragmentOut` and `sample_radiosity`.
+// Appended to `shaders/view.wgsl` at pipeline creation (`src/view/reflections/passes.rs`): it
+// uses that file's `frame` uniforms, `VertexIn`, `FragmentOut` and `sample_radiosity`.
 //
 // Per glossy planar reflector and frame:
-// 1. `vs_mirror`/`fs_mirror`: the scene drawn from the viewpoint mirrored about the reflector's
-//    plane (`frame` holds the mirrored camera's matrix) into an Rgba16Float texture the size of
-//    the frame; whatever lies behind the plane (or on it: the reflector itself) is discarded,
-//    the clip plane of the mirrored view.
-// 2. `vs_main`/`fs_composite`: the reflector's triangles drawn again over the frame, depth
-//    tested (GreaterEqual, reverse Z) against the scene pass's depth so only its visible pixels
-//    are touched (the mask), adding ks·R(θ) × the reflected radiance at the same pixel
-//    (additive blend): L = D + ks·R·M, D being the baked exitant radiance (kd included), R the
-//    material's 1D reflectance map (its A channel) at the view angle θ from the normal.
+// 1. M, in the view mirrored about the reflector's plane (`frame` holds the mirrored camera's
+//    matrix), into an Rgba16Float texture the size of the frame; alpha = the fraction of the
+//    reflected ray beyond the plane (K's per-pixel scale), 0 where nothing is reflected:
+//    - `vs_mirror`/`fs_mirror` (geometry mode): the scene re-rendered, whatever lies behind
+//      the plane (or on it: the reflector itself) discarded, the clip plane;
+//    - `vs_splat`/`fs_splat` (image mode): radiance-map points as screen-aligned quads, their
+//      size per quadtree node from Eq. 3 (`splat_nodes`), lower-ranked maps pushed back.
+// 2. `vs_mirror`/`fs_composite`: the reflector's triangles drawn again over the frame, depth
+//    tested (GreaterEqual, reverse Z) against the scene pass's depth (the mask), adding
+//    ks·R × (M*K) at the same pixel (additive blend): K's taps gathered around the pixel,
+//    R from the 1D table (cos θ) or the sphere map (reflected direction).
 //
 // Keep `ReflectParams` in sync with `reflections::ReflectParams` (a test compares them).
 
@@ -24,15 +26,24 @@ struct ReflectParams {
     ks: vec4<f32>,
     // xyz: the eye (per frame); w: the 1D reflectance map's grazing bound C (cos θ).
     eye: vec4<f32>,
-    // The mirrored camera's right and up axes (splat billboards).
-    right: vec4<f32>,
-    up: vec4<f32>,
-    // ks·R at the 1D map's cosines C + (1 − C) s², s = k/63 (rgb): Σ_lobes ks × A(cos θ).
+    // xyz: the plane's tangent; w: 1 = R from the sphere map, 0 = from `modulation`.
+    tangent: vec4<f32>,
+    // xyz: the plane's bitangent; w: the sphere map's size in texels.
+    bitangent: vec4<f32>,
+    // x: screen pixels per kernel texel for a point wholly beyond the plane; y: tap count.
+    kernel: vec4<f32>,
+    // ks·R at the 1D map's cosines C + (1 − C) s², s = k/63 (rgb).
     modulation: array<vec4<f32>, 64>,
+    // K's significant taps: xy offset in texels (x right, y up), z weight (they sum to 1).
+    taps: array<vec4<f32>, 128>,
 };
 
 @group(1) @binding(2) var<uniform> reflect_params: ReflectParams;
 @group(1) @binding(3) var reflection: texture_2d<f32>;
+@group(1) @binding(4) var reflection_sampler: sampler;
+@group(1) @binding(5) var sphere_map: texture_2d<f32>;
+// Per quadtree node: xy half size in NDC, z clip-z scale (rank depth bias).
+@group(1) @binding(6) var<storage, read> splat_nodes: array<vec4<f32>>;
 
 struct MirrorOut {
     @builtin(position) clip: vec4<f32>,
@@ -51,14 +62,25 @@ fn vs_mirror(v: VertexIn) -> MirrorOut {
     return out;
 }
 
+fn side(p: vec3<f32>) -> f32 {
+    return dot(reflect_params.plane.xyz, p) - reflect_params.plane.w;
+}
+
+// The fraction of the mirrored eye's ray to `p` that lies beyond the plane
+// (`material::beyond_fraction`).
+fn beyond(p: vec3<f32>) -> f32 {
+    let s = max(side(p), 0.0);
+    let total = s + max(side(reflect_params.eye.xyz), 0.0);
+    return select(0.0, s / total, total > 0.0);
+}
+
 @fragment
 fn fs_mirror(in: MirrorOut) -> @location(0) vec4<f32> {
-    let side = dot(reflect_params.plane.xyz, in.world) - reflect_params.plane.w;
-    if side <= reflect_params.ks.a {
+    if side(in.world) <= reflect_params.ks.a {
         discard;
     }
     let d = max(sample_radiosity(in.lightmap, in.page), vec3<f32>(0.0)) * frame.exposure;
-    return vec4<f32>(d, 1.0);
+    return vec4<f32>(d, beyond(in.world));
 }
 
 // ks·R at view cosine c: linear in the 1D map's coordinate s = √((c − C)/(1 − C)), clamped
@@ -73,11 +95,52 @@ fn modulation(c: f32) -> vec3<f32> {
     return reflect_params.modulation[i].rgb * (1.0 - f) + reflect_params.modulation[j].rgb * f;
 }
 
+// ks·R from the sphere map at reflected direction r (tangent frame), nearest texel, the disk
+// point kept inside the rim (`material::sphere_texel`).
+fn sphere_modulation(r: vec3<f32>) -> vec3<f32> {
+    let size = reflect_params.bitangent.w;
+    let g = reflect_params.eye.w;
+    let rim = min(sqrt(1.0 - g * g), 1.0 - 1.5 / size);
+    var d = r.xy;
+    let len = length(d);
+    if len > rim {
+        d = d * (rim / len);
+    }
+    let x = clamp(floor((d.x + 1.0) * 0.5 * size), 0.0, size - 1.0);
+    let y = clamp(floor((1.0 - d.y) * 0.5 * size), 0.0, size - 1.0);
+    return textureLoad(sphere_map, vec2<i32>(i32(x), i32(y)), 0).rgb;
+}
+
 @fragment
 fn fs_composite(in: MirrorOut) -> FragmentOut {
-    let m = textureLoad(reflection, vec2<i32>(floor(in.clip.xy)), 0).rgb;
-    let cos_theta = dot(reflect_params.plane.xyz, normalize(reflect_params.eye.xyz - in.world));
-    let c = modulation(cos_theta) * m;
+    let centre = textureLoad(reflection, vec2<i32>(floor(in.clip.xy)), 0);
+    var m = centre.rgb;
+    let taps = u32(reflect_params.kernel.y);
+    // M*K: K's taps around the pixel, a texel spanning kernel.x × (beyond fraction) pixels.
+    if taps > 1u && centre.a > 0.0 {
+        let size = vec2<f32>(textureDimensions(reflection));
+        let scale = reflect_params.kernel.x * centre.a;
+        m = vec3<f32>(0.0);
+        for (var i = 0u; i < taps; i = i + 1u) {
+            let t = reflect_params.taps[i];
+            let p = in.clip.xy + vec2<f32>(t.x, -t.y) * scale;
+            m = m + t.z * textureSampleLevel(reflection, reflection_sampler, p / size, 0.0).rgb;
+        }
+    }
+    let n = reflect_params.plane.xyz;
+    let v = normalize(reflect_params.eye.xyz - in.world);
+    var k: vec3<f32>;
+    if reflect_params.tangent.w > 0.5 {
+        let r = reflect(-v, n);
+        k = sphere_modulation(vec3<f32>(
+            dot(r, reflect_params.tangent.xyz),
+            dot(r, reflect_params.bitangent.xyz),
+            dot(r, n),
+        ));
+    } else {
+        k = modulation(dot(n, v));
+    }
+    let c = k * m;
     var out: FragmentOut;
     // Added to the scene pass's colour by the blend state. A non-sRGB target (the shader
     // encodes there) gets the linear sum approximated by encoding the added term alone.
@@ -90,31 +153,34 @@ fn fs_composite(in: MirrorOut) -> FragmentOut {
     return out;
 }
 
-// Image-based mode: the selected radiance maps' points as camera-facing squares in the
+// Image-based mode: the selected radiance maps' points as screen-aligned quads in the
 // mirrored view (instanced triangle strips; WebGPU has no point size), nearest wins.
 struct SplatIn {
     @location(3) position: vec3<f32>,
-    @location(4) radius: f32,
+    @location(4) node: u32,
     @location(5) color: vec3<f32>,
 };
 
 struct SplatOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) color: vec3<f32>,
+    @location(1) @interpolate(flat) beyond: f32,
 };
 
 @vertex
 fn vs_splat(@builtin(vertex_index) vi: u32, s: SplatIn) -> SplatOut {
     let corner = vec2<f32>(f32(vi & 1u) * 2.0 - 1.0, f32((vi >> 1u) & 1u) * 2.0 - 1.0);
-    let w = s.position
-        + (corner.x * reflect_params.right.xyz + corner.y * reflect_params.up.xyz) * s.radius;
+    let node = splat_nodes[s.node];
+    let c = frame.view_proj * vec4<f32>(s.position, 1.0);
     var out: SplatOut;
-    out.clip = frame.view_proj * vec4<f32>(w, 1.0);
+    // Eq. 3, point size (per node); lower-ranked maps' depth scaled back (reverse Z).
+    out.clip = vec4<f32>(c.xy + corner * node.xy * c.w, c.z * node.z, c.w);
     out.color = s.color * frame.exposure;
+    out.beyond = beyond(s.position);
     return out;
 }
 
 @fragment
 fn fs_splat(in: SplatOut) -> @location(0) vec4<f32> {
-    return vec4<f32>(in.color, 1.0);
+    return vec4<f32>(in.color, in.beyond);
 }

@@ -11,7 +11,7 @@ use glam::Vec3;
 use super::gpu::{Gpu, GpuError, read_texture, read_texture_rgba8};
 use super::load::{LoadError, ViewData, load};
 use super::radiance_maps::Selection;
-use super::reflections::{GeometryReflections, ReflectionMode, Source};
+use super::reflections::{GeometryReflections, ReflectanceSettings, ReflectionMode, Source};
 use super::renderer::{COLOR_FORMAT, OffscreenTarget, RenderError, Renderer, TargetFormats};
 use super::replay::{
     FrameTiming, GpuTimeSource, Summary, TIMINGS_FORMAT, TIMINGS_VERSION, Timings, frame_file_name,
@@ -91,6 +91,8 @@ pub struct ReplayOptions {
     pub selection: Selection,
     /// Image-based mode: maps per reflector element.
     pub map_count: usize,
+    /// Reflections: where R is read from (sphere or 1D map) and which channel.
+    pub reflectance: ReflectanceSettings,
 }
 
 impl Default for ReplayOptions {
@@ -106,11 +108,13 @@ impl Default for ReplayOptions {
             reflections: ReflectionMode::Off,
             selection: Selection::Angle,
             map_count: 2,
+            reflectance: ReflectanceSettings::default(),
         }
     }
 }
 
-/// Timestamp queries around a render pass, when the device has them.
+/// Timestamp queries spanning a frame's render passes, when the device has them: the first
+/// pass's beginning (index 0) to the last pass's end (index 1).
 struct GpuTimer {
     queries: wgpu::QuerySet,
     resolve: wgpu::Buffer,
@@ -155,11 +159,12 @@ impl GpuTimer {
         })
     }
 
-    fn writes(&self) -> wgpu::RenderPassTimestampWrites<'_> {
+    /// The first pass's writes: its beginning, and its end too when it is the only pass.
+    fn writes(&self, only_pass: bool) -> wgpu::RenderPassTimestampWrites<'_> {
         wgpu::RenderPassTimestampWrites {
             query_set: &self.queries,
             beginning_of_pass_write_index: Some(0),
-            end_of_pass_write_index: Some(1),
+            end_of_pass_write_index: only_pass.then_some(1),
         }
     }
 
@@ -192,7 +197,8 @@ impl GpuTimer {
 /// Times of one rendered frame, milliseconds.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FrameTimes {
-    /// GPU time of the pass (or submit-to-complete without timestamp queries).
+    /// GPU time from the first pass's beginning to the last pass's end, reflection passes
+    /// included (or submit-to-complete without timestamp queries).
     pub gpu_ms: f64,
     /// Uniform update, command recording and submission.
     pub cpu_ms: f64,
@@ -214,6 +220,8 @@ pub struct Offscreen {
     pub selection: Selection,
     /// Image-based mode: maps selected per reflector element (likewise).
     pub map_count: usize,
+    /// Reflections: R's layout and channel (likewise).
+    pub reflectance: ReflectanceSettings,
 }
 
 impl Offscreen {
@@ -243,6 +251,7 @@ impl Offscreen {
             mode: ReflectionMode::Off,
             selection: Selection::Angle,
             map_count: 2,
+            reflectance: ReflectanceSettings::default(),
         })
     }
 
@@ -257,15 +266,16 @@ impl Offscreen {
         self.mode = mode;
         self.reflections = match mode {
             ReflectionMode::Off => None,
-            ReflectionMode::Geometry => Some(GeometryReflections::new(
+            ReflectionMode::Geometry => Some(GeometryReflections::with_reflectance(
                 gpu,
                 &self.renderer,
                 data,
                 self.target.width,
                 self.target.height,
                 Source::Geometry,
+                self.reflectance,
             )?),
-            ReflectionMode::Image => Some(GeometryReflections::new(
+            ReflectionMode::Image => Some(GeometryReflections::with_reflectance(
                 gpu,
                 &self.renderer,
                 data,
@@ -275,9 +285,15 @@ impl Offscreen {
                     selection: self.selection,
                     count: self.map_count,
                 },
+                self.reflectance,
             )?),
         };
         Ok(())
+    }
+
+    /// The reflection passes in use (`None` when off).
+    pub fn reflections(&self) -> Option<&GeometryReflections> {
+        self.reflections.as_ref()
     }
 
     /// The reflection mode in use.
@@ -305,15 +321,30 @@ impl Offscreen {
                 .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                     label: Some("glint frame encoder"),
                 });
+            let reflection_passes = self
+                .reflections
+                .as_ref()
+                .map_or(0, |r| r.pass_count(camera));
             self.target.draw(
                 &self.renderer,
                 &mut encoder,
-                self.timer.as_ref().map(GpuTimer::writes),
+                self.timer
+                    .as_ref()
+                    .map(|t| t.writes(reflection_passes == 0)),
             );
             if let Some(r) = &self.reflections {
                 r.prepare(gpu, &self.renderer, camera);
                 let (color, hdr, depth) = self.target.views();
-                r.draw(&mut encoder, &self.renderer, camera, color, hdr, depth);
+                // The last reflection pass ends the frame's timestamp span.
+                r.draw_timed(
+                    &mut encoder,
+                    &self.renderer,
+                    camera,
+                    color,
+                    hdr,
+                    depth,
+                    self.timer.as_ref().map(|t| (&t.queries, 1)),
+                );
             }
             if let Some(t) = &self.timer {
                 t.resolve(&mut encoder);
@@ -432,6 +463,7 @@ pub fn replay_with(
     offscreen.renderer.exposure = options.exposure;
     offscreen.selection = options.selection;
     offscreen.map_count = options.map_count;
+    offscreen.reflectance = options.reflectance;
     offscreen.set_reflections(gpu, data, options.reflections)?;
     let frames = schedule(path);
 

@@ -28,7 +28,9 @@ use super::gpu::{Gpu, GpuError};
 use super::headless::{Offscreen, rgba_to_rgb};
 use super::load::ViewData;
 use super::radiance_maps::Selection;
-use super::reflections::{GeometryReflections, ReflectionMode, Source};
+use super::reflections::{
+    GeometryReflections, ReflectanceLayout, ReflectanceSettings, ReflectionMode, Source,
+};
 use super::renderer::{RenderError, Renderer, TargetFormats, depth_texture};
 use crate::camera::{Camera, frame_count, pose_at};
 use crate::image_io;
@@ -97,6 +99,8 @@ pub struct WindowOptions {
     pub screenshot_after: Option<u64>,
     /// Glossy reflections at start (G switches).
     pub reflections: ReflectionMode,
+    /// Reflections: R's map and channel at start (T switches sphere/1D map).
+    pub reflectance: ReflectanceSettings,
 }
 
 /// A free-flying camera: position, yaw about +Y (0 looks down −Z, positive turns right)
@@ -257,6 +261,7 @@ fn reflection_passes(
     renderer: &Renderer,
     data: &ViewData,
     mode: ReflectionMode,
+    reflectance: ReflectanceSettings,
     size: (u32, u32),
 ) -> Result<Option<GeometryReflections>, WindowError> {
     let source = match mode {
@@ -267,8 +272,14 @@ fn reflection_passes(
             count: 2,
         },
     };
-    Ok(Some(GeometryReflections::new(
-        gpu, renderer, data, size.0, size.1, source,
+    Ok(Some(GeometryReflections::with_reflectance(
+        gpu,
+        renderer,
+        data,
+        size.0,
+        size.1,
+        source,
+        reflectance,
     )?))
 }
 
@@ -349,7 +360,7 @@ pub fn run_window(data: ViewData, options: WindowOptions) -> Result<(), WindowEr
 
 const HELP: &str = "keys: WASD + Q/E move (Shift faster, wheel: speed), left-drag look, \
 1-9 play path, Space pause/resume, R record path, P screenshot, G reflections off/geometry/image, \
-H help, Esc quit";
+T reflectance sphere/1D map, H help, Esc quit";
 
 /// The window's GPU side, created once the event loop runs.
 struct Running {
@@ -446,6 +457,7 @@ impl App {
             &renderer,
             &self.data,
             self.options.reflections,
+            self.options.reflectance,
             (config.width, config.height),
         )?;
         Ok(Running {
@@ -474,6 +486,7 @@ impl App {
             &r.renderer,
             &self.data,
             self.options.reflections,
+            self.options.reflectance,
             (size.width, size.height),
         ) {
             Ok(passes) => r.reflections = passes,
@@ -501,6 +514,30 @@ impl App {
             &r.renderer,
             &self.data,
             self.options.reflections,
+            self.options.reflectance,
+            (r.config.width, r.config.height),
+        )?;
+        Ok(())
+    }
+
+    /// Switches R between the sphere map and the 1D map (rebuilds the reflection passes).
+    fn toggle_reflectance(&mut self) -> Result<(), WindowError> {
+        let layout = &mut self.options.reflectance.layout;
+        *layout = match layout {
+            ReflectanceLayout::OneD => ReflectanceLayout::Sphere,
+            ReflectanceLayout::Sphere => ReflectanceLayout::OneD,
+        };
+        log::info!("reflectance map: {layout}");
+        self.screenshot = None;
+        let Some(r) = &mut self.running else {
+            return Ok(());
+        };
+        r.reflections = reflection_passes(
+            &r.gpu,
+            &r.renderer,
+            &self.data,
+            self.options.reflections,
+            self.options.reflectance,
             (r.config.width, r.config.height),
         )?;
         Ok(())
@@ -666,6 +703,7 @@ impl App {
         if stale {
             let mut off = Offscreen::new(&r.gpu, &self.data, w, h, false)?;
             off.renderer.exposure = self.options.exposure;
+            off.reflectance = self.options.reflectance;
             off.set_reflections(&r.gpu, &self.data, self.options.reflections)?;
             self.screenshot = Some(off);
         }
@@ -772,6 +810,7 @@ impl App {
             }
             KeyCode::KeyR => self.toggle_recording(),
             KeyCode::KeyG => self.toggle_reflections(),
+            KeyCode::KeyT => self.toggle_reflectance(),
             KeyCode::KeyP | KeyCode::F12 => {
                 let camera = self.fly.camera();
                 self.save_screenshot(&camera).map(|_| ())

@@ -1,0 +1,130 @@
+//! The CPU reference of the reflection passes, for the golden-image tests: the same
+//! equation, L = D + ks·R·(M*K), ray traced instead of rasterized.
+
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+
+use super::material::{beyond_fraction, texel_pixels};
+use super::splats::pixel_tangent;
+use super::{CLIP_FRACTION, PlanarReflector, mirror_camera, signed_distance};
+use crate::camera::Camera;
+use crate::geometry::Bvh;
+use crate::radiosity::RadiosityMap;
+use crate::scene::Scene;
+
+/// The CPU reference of the geometry-based mode. Per pixel, the view ray's nearest hit gives
+/// D; where it is a glossy planar reflector seen from its reflecting side, ks·R × (M*K) is
+/// added, with
+/// - M: the reflected view ([`mirror_camera`]) ray traced at every pixel, ignoring hits
+///   within `clip` of the plane as the GPU's clip plane does, with the fraction of the
+///   reflected ray beyond the plane ([`beyond_fraction`]);
+/// - M*K: K's taps at the pixel, bilinear between pixel centres, clamped to the frame, a
+///   texel spanning [`texel_pixels`] at the pixel's beyond-fraction (as `fs_composite`);
+/// - R: [`PlanarReflector::modulation_at`] at the hit.
+///
+/// Linear × `exposure`, row 0 at the top, black where nothing is hit.
+#[allow(clippy::too_many_arguments)]
+pub fn cpu_reference(
+    scene: &Scene,
+    reflectors: &[PlanarReflector],
+    bvh: &Bvh,
+    map: &RadiosityMap,
+    camera: &Camera,
+    width: u32,
+    height: u32,
+    exposure: f32,
+) -> Vec<Vec3> {
+    let mut of_triangle = vec![usize::MAX; scene.triangles.len()];
+    for (i, r) in reflectors.iter().enumerate() {
+        for &t in &r.triangles {
+            of_triangle[t as usize] = i;
+        }
+    }
+    let clip = (scene.bounds.diagonal() * CLIP_FRACTION).max(1e-5);
+    let aspect = width.max(1) as f32 / height.max(1) as f32;
+    let d = |t: u32, bary| crate::view::bicubic::radiance(map, t, bary).max(Vec3::ZERO);
+    let pixels = |f: &(dyn Fn(u32, u32) -> (Vec3, f32, Option<(usize, Vec3)>) + Sync)| {
+        (0..height)
+            .into_par_iter()
+            .flat_map_iter(|y| (0..width).map(move |x| f(x, y)))
+            .collect::<Vec<_>>()
+    };
+    // Primary: D, and the reflector hit (index, point).
+    let primary = pixels(&|x, y| {
+        let dir = camera.ray_direction(Camera::pixel_ndc(x, y, width, height), aspect);
+        let Some(hit) = bvh.closest_hit(camera.position, dir, f32::INFINITY) else {
+            return (Vec3::ZERO, 0.0, None);
+        };
+        let r = of_triangle[hit.triangle as usize];
+        let on = (r != usize::MAX && signed_distance(&reflectors[r].plane, camera.position) > 0.0)
+            .then(|| (r, camera.position + dir * hit.t));
+        (d(hit.triangle, hit.bary), 0.0, on)
+    });
+    let mut out: Vec<Vec3> = primary.iter().map(|p| p.0).collect();
+    let pitch = pixel_tangent(camera.fov_y, height);
+    for (ri, refl) in reflectors.iter().enumerate() {
+        if !primary.iter().any(|p| p.2.is_some_and(|(r, _)| r == ri)) {
+            continue;
+        }
+        let plane = &refl.plane;
+        let mirrored = mirror_camera(camera, plane);
+        let eye_side = signed_distance(plane, camera.position);
+        // M over the whole frame (K reads around each pixel), alpha = beyond fraction.
+        let m = pixels(&|x, y| {
+            let dir = mirrored.ray_direction(Camera::pixel_ndc(x, y, width, height), aspect);
+            let mut origin = mirrored.position;
+            let mut travelled = 0.0f32;
+            for _ in 0..64 {
+                let Some(h) = bvh.closest_hit(origin, dir, f32::INFINITY) else {
+                    break;
+                };
+                let q = origin + dir * h.t;
+                let s = signed_distance(plane, q);
+                if s > clip {
+                    return (d(h.triangle, h.bary), beyond_fraction(s, eye_side), None);
+                }
+                let step = h.t + 1e-4 * (1.0 + travelled);
+                travelled += step;
+                origin += dir * step;
+            }
+            (Vec3::ZERO, 0.0, None)
+        });
+        let at = |x: i64, y: i64| {
+            let x = x.clamp(0, width as i64 - 1) as usize;
+            let y = y.clamp(0, height as i64 - 1) as usize;
+            m[y * width as usize + x].0
+        };
+        // Bilinear at continuous pixel coordinates (centres at +½), clamp to edge.
+        let bilinear = |p: Vec2| {
+            let q = p - 0.5;
+            let (x0, y0) = (q.x.floor(), q.y.floor());
+            let (fx, fy) = (q.x - x0, q.y - y0);
+            let (x0, y0) = (x0 as i64, y0 as i64);
+            (at(x0, y0) * (1.0 - fx) + at(x0 + 1, y0) * fx) * (1.0 - fy)
+                + (at(x0, y0 + 1) * (1.0 - fx) + at(x0 + 1, y0 + 1) * fx) * fy
+        };
+        let texel = texel_pixels(refl.kernel.texel_angle, 1.0, pitch);
+        for (k, p) in primary.iter().enumerate() {
+            let Some((r, point)) = p.2 else { continue };
+            if r != ri {
+                continue;
+            }
+            let (centre, f, _) = m[k];
+            let mk = if refl.kernel.taps.len() > 1 && f > 0.0 {
+                let pixel =
+                    Vec2::new((k % width as usize) as f32, (k / width as usize) as f32) + 0.5;
+                refl.kernel
+                    .taps
+                    .iter()
+                    .map(|t| {
+                        t.weight * bilinear(pixel + Vec2::new(t.offset.x, -t.offset.y) * texel * f)
+                    })
+                    .sum()
+            } else {
+                centre
+            };
+            out[k] += refl.modulation_at(point, camera.position) * mk;
+        }
+    }
+    out.iter().map(|l| *l * exposure).collect()
+}

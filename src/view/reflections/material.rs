@@ -1,0 +1,415 @@
+//! How a reflector reflects (Bastos et al. 1999 §8.2), as the viewer reads it from the
+//! bundle's `materials` stage: the kernel K it convolves the reflected image with (M*K) and
+//! the reflectance modulation R it multiplies the result by. No wgpu here.
+//!
+//! - **K**: the lobe's kernel texture (normalized D·G, `texel_angle_rad` radians per texel at
+//!   the reflection point). The viewer keeps its most significant taps ([`significant_taps`]:
+//!   [`KERNEL_MASS`] of the weight, at most [`MAX_TAPS`], renormalized). On screen a texel
+//!   spans tan Δ · f / pitch pixels ([`texel_pixels`]), f = the fraction of the reflected
+//!   ray's length beyond the reflector: a lobe of angle Δ at the reflection point blurs the
+//!   reflected point over t_beyond · tan Δ, seen from the mirrored eye at t_total. Objects
+//!   touching the mirror stay sharp, far ones blur by the full lobe. Kernel columns run along
+//!   screen x, rows along screen up (exact for isotropic lobes, as Bastos's space-invariant
+//!   kernel is).
+//! - **R**: per view direction, Σ over lobes of ks × a channel of the baked map, from the
+//!   sphere map (indexed by the reflected direction in the reflector's tangent frame) or the
+//!   1D grazing-dense map (indexed by cos θ), switchable ([`ReflectanceLayout`]). Channel
+//!   ([`ReflectanceChannel`]): the directional albedo `A` by default (the modulation that
+//!   goes with a kernel normalized to 1; what the reference path tracer reproduces), or
+//!   Bastos's literal `R` = F/(π cos²θ).
+//!
+//! A material with several lobes uses the kernel of its strongest lobe (largest ks) for all
+//! of them; R sums all lobes.
+
+use std::path::Path;
+
+use glam::{Vec2, Vec3};
+
+use crate::bake::materials::reflectance;
+
+/// Entries of a 1D modulation table (the shader's `modulation` array).
+pub const MODULATION_SIZE: usize = 64;
+
+/// Most kernel taps the composite pass reads per pixel.
+pub const MAX_TAPS: usize = 128;
+
+/// Fraction of the kernel's weight its kept taps must hold.
+pub const KERNEL_MASS: f32 = 0.99;
+
+/// Which reflectance map R is read from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ReflectanceLayout {
+    /// The 1D map, texels dense towards grazing (isotropic lobes; Bastos §9).
+    #[default]
+    OneD,
+    /// The sphere map, indexed by the reflected direction (Bastos §8.2.2).
+    Sphere,
+}
+
+impl std::str::FromStr for ReflectanceLayout {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "1d" => Ok(ReflectanceLayout::OneD),
+            "sphere" => Ok(ReflectanceLayout::Sphere),
+            _ => Err(format!("{s:?} is not one of sphere, 1d")),
+        }
+    }
+}
+
+impl std::fmt::Display for ReflectanceLayout {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            ReflectanceLayout::OneD => "1d",
+            ReflectanceLayout::Sphere => "sphere",
+        })
+    }
+}
+
+/// Which channel of the reflectance maps modulates the reflection.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ReflectanceChannel {
+    /// `A`, the directional albedo: energy-consistent with a kernel normalized to 1.
+    #[default]
+    Albedo,
+    /// `R` = F/(π cos²θ), Bastos's modulation as printed (grows as 1/cos²θ towards grazing).
+    Bastos,
+}
+
+impl ReflectanceChannel {
+    /// The EXR channel name.
+    pub fn exr_channel(self) -> &'static str {
+        match self {
+            ReflectanceChannel::Albedo => "A",
+            ReflectanceChannel::Bastos => "R",
+        }
+    }
+}
+
+impl std::str::FromStr for ReflectanceChannel {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "albedo" => Ok(ReflectanceChannel::Albedo),
+            "bastos" => Ok(ReflectanceChannel::Bastos),
+            _ => Err(format!("{s:?} is not one of albedo, bastos")),
+        }
+    }
+}
+
+/// ks·R of a reflector, in one of the two layouts.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Modulation {
+    /// [`MODULATION_SIZE`] entries at the 1D map's cosines ([`reflectance::map_1d_cos`]).
+    OneD(Vec<Vec3>),
+    /// A `size`² sphere map (row 0 at +bitangent), 0 outside the disk.
+    Sphere {
+        /// Texels per side.
+        size: u32,
+        /// Row-major texels.
+        texels: Vec<Vec3>,
+    },
+}
+
+impl Modulation {
+    /// R = 1: ks at every direction.
+    pub fn constant(ks: Vec3) -> Modulation {
+        Modulation::OneD(vec![ks; MODULATION_SIZE])
+    }
+
+    /// ks·R for the reflected direction `r` = (r·tangent, r·bitangent, r·normal).
+    pub fn at(&self, r: Vec3) -> Vec3 {
+        match self {
+            Modulation::OneD(table) => sample_modulation(table, r.z),
+            Modulation::Sphere { size, texels } => {
+                let [x, y] = sphere_texel(r, *size);
+                texels[(y * size + x) as usize]
+            }
+        }
+    }
+}
+
+/// Linear lookup of a 1D modulation table at view cosine `cos_theta`, as the 1D map is read
+/// ([`reflectance::sample_1d`]; the shader's `modulation` is the same).
+pub fn sample_modulation(table: &[Vec3], cos_theta: f32) -> Vec3 {
+    let channel = |k: usize| -> Vec<f32> { table.iter().map(|v| v[k]).collect() };
+    Vec3::new(
+        reflectance::sample_1d(&channel(0), cos_theta),
+        reflectance::sample_1d(&channel(1), cos_theta),
+        reflectance::sample_1d(&channel(2), cos_theta),
+    )
+}
+
+/// The sphere-map texel of reflected direction `r` (tangent frame): the disk point (r_x, r_y)
+/// (Bastos §8.2.2), its cosine bounded by [`reflectance::C_GRAZING`] as the bake does, looked
+/// up nearest (the shader's `sphere_texel` is the same).
+pub fn sphere_texel(r: Vec3, size: u32) -> [u32; 2] {
+    let s = size.max(1) as f32;
+    let mut d = Vec2::new(r.x, r.y);
+    // Inside the last ring of texels whose centres are in the disk.
+    let rim = (1.0 - reflectance::C_GRAZING * reflectance::C_GRAZING)
+        .sqrt()
+        .min(1.0 - 1.5 / s);
+    if d.length() > rim {
+        d = d.normalize_or_zero() * rim;
+    }
+    let x = ((d.x + 1.0) * 0.5 * s).floor().clamp(0.0, s - 1.0);
+    let y = ((1.0 - d.y) * 0.5 * s).floor().clamp(0.0, s - 1.0);
+    [x as u32, y as u32]
+}
+
+/// One kernel tap: offset in kernel texels (x along screen right, y along screen up) and its
+/// weight.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tap {
+    /// Offset in texels.
+    pub offset: Vec2,
+    /// Weight (the kept taps sum to 1).
+    pub weight: f32,
+}
+
+/// K on screen: its kept taps and the angle of one texel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ScreenKernel {
+    /// Angle one texel subtends at the reflection point (radians).
+    pub texel_angle: f32,
+    /// The taps, heaviest first.
+    pub taps: Vec<Tap>,
+}
+
+impl ScreenKernel {
+    /// K = identity (a mirror).
+    pub fn identity() -> ScreenKernel {
+        ScreenKernel {
+            texel_angle: 0.0,
+            taps: vec![Tap {
+                offset: Vec2::ZERO,
+                weight: 1.0,
+            }],
+        }
+    }
+
+    /// Whether it is the identity.
+    pub fn is_identity(&self) -> bool {
+        self.taps.len() == 1 && self.taps[0].offset == Vec2::ZERO
+    }
+}
+
+/// The heaviest taps of a `size`² kernel (row-major, row 0 at +y, summing to about 1) that
+/// hold `mass` of its weight, at most `max_taps`, renormalized to sum to 1.
+pub fn significant_taps(weights: &[f32], size: u32, mass: f32, max_taps: usize) -> Vec<Tap> {
+    let r = (size / 2) as i32;
+    let mut taps: Vec<Tap> = weights
+        .iter()
+        .enumerate()
+        .filter(|(_, w)| **w > 0.0)
+        .map(|(k, &w)| {
+            let (i, j) = ((k as u32 % size) as i32, (k as u32 / size) as i32);
+            Tap {
+                offset: Vec2::new((i - r) as f32, (r - j) as f32),
+                weight: w,
+            }
+        })
+        .collect();
+    taps.sort_by(|a, b| b.weight.total_cmp(&a.weight));
+    let total: f32 = taps.iter().map(|t| t.weight).sum();
+    let mut kept = 0.0;
+    let mut n = 0;
+    for t in &taps {
+        if n >= max_taps.max(1) || (n > 0 && kept >= mass * total) {
+            break;
+        }
+        kept += t.weight;
+        n += 1;
+    }
+    taps.truncate(n);
+    if kept > 0.0 {
+        for t in &mut taps {
+            t.weight /= kept;
+        }
+    }
+    taps
+}
+
+/// Screen pixels per kernel texel for the reflected point at fraction `f` of the reflected
+/// ray beyond the reflector: tan Δ · f over the view's pixel pitch `pixel_tangent`.
+pub fn texel_pixels(texel_angle: f32, f: f32, pixel_tangent: f32) -> f32 {
+    texel_angle.tan() * f / pixel_tangent.max(1e-12)
+}
+
+/// The fraction of the ray from the mirrored eye to a reflected point beyond the plane:
+/// s_p / (s_p + s_e), the point's and the real eye's distances from the plane.
+pub fn beyond_fraction(point_side: f32, eye_side: f32) -> f32 {
+    let s = point_side.max(0.0);
+    let total = s + eye_side.max(0.0);
+    if total > 0.0 { s / total } else { 0.0 }
+}
+
+/// K and ks·R of material `name` from the materials stage in `dir` (with its parsed
+/// `index.json`).
+pub fn load_material(
+    dir: &Path,
+    index: &serde_json::Value,
+    name: &str,
+    layout: ReflectanceLayout,
+    channel: ReflectanceChannel,
+) -> Result<(ScreenKernel, Modulation), String> {
+    let material = index["materials"]
+        .as_array()
+        .and_then(|m| m.iter().find(|m| m["name"] == name))
+        .ok_or_else(|| format!("material {name:?} is not in materials/index.json"))?;
+    let lobes = material["lobes"]
+        .as_array()
+        .ok_or_else(|| format!("material {name:?} has no lobes"))?;
+    let read = |path: &str| -> Result<crate::image_io::ExrImage, String> {
+        let bytes = std::fs::read(dir.join(path)).map_err(|e| format!("{path}: {e}"))?;
+        crate::image_io::decode_exr(&bytes).map_err(|e| format!("{path}: {e}"))
+    };
+    let finite = |path: &str, v: &[f32]| -> Result<(), String> {
+        if v.is_empty() || !v.iter().all(|x| x.is_finite()) {
+            return Err(format!("{path}: empty or non-finite"));
+        }
+        Ok(())
+    };
+    let mut modulation: Option<Modulation> = None;
+    let mut strongest: Option<(f32, &serde_json::Value)> = None;
+    for lobe in lobes {
+        let ks = match lobe["ks"].as_array().map(|a| {
+            a.iter()
+                .filter_map(|v| v.as_f64())
+                .map(|v| v as f32)
+                .collect::<Vec<_>>()
+        }) {
+            Some(v) if v.len() == 3 => Vec3::new(v[0], v[1], v[2]),
+            _ => return Err(format!("material {name:?}: a lobe without ks")),
+        };
+        let weight = ks.x + ks.y + ks.z;
+        if strongest.is_none_or(|(w, _)| weight > w) {
+            strongest = Some((weight, lobe));
+        }
+        match layout {
+            ReflectanceLayout::OneD => {
+                let path = lobe["reflectance_1d"]["path"].as_str().ok_or_else(|| {
+                    format!("material {name:?}: a lobe has no 1D reflectance map (anisotropic?)")
+                })?;
+                let image = read(path)?;
+                let values = image
+                    .channel(channel.exr_channel())
+                    .map_err(|e| format!("{path}: {e}"))?;
+                finite(path, values)?;
+                let table = match modulation
+                    .get_or_insert_with(|| Modulation::OneD(vec![Vec3::ZERO; MODULATION_SIZE]))
+                {
+                    Modulation::OneD(t) => t,
+                    Modulation::Sphere { .. } => unreachable!("one layout per material"),
+                };
+                for (k, t) in table.iter_mut().enumerate() {
+                    let c = reflectance::map_1d_cos(k as u32, MODULATION_SIZE as u32);
+                    *t += ks * reflectance::sample_1d(values, c);
+                }
+            }
+            ReflectanceLayout::Sphere => {
+                let path = lobe["reflectance_sphere"]["path"]
+                    .as_str()
+                    .ok_or_else(|| format!("material {name:?}: a lobe has no sphere map"))?;
+                let image = read(path)?;
+                if image.width != image.height {
+                    return Err(format!("{path}: not square"));
+                }
+                let values = image
+                    .channel(channel.exr_channel())
+                    .map_err(|e| format!("{path}: {e}"))?;
+                finite(path, values)?;
+                let size = image.width as u32;
+                let m = modulation.get_or_insert_with(|| Modulation::Sphere {
+                    size,
+                    texels: vec![Vec3::ZERO; (size * size) as usize],
+                });
+                match m {
+                    Modulation::Sphere { size: s, texels } if *s == size => {
+                        for (t, v) in texels.iter_mut().zip(values) {
+                            *t += ks * *v;
+                        }
+                    }
+                    _ => return Err(format!("material {name:?}: sphere maps of different sizes")),
+                }
+            }
+        }
+    }
+    let (_, lobe) = strongest.ok_or_else(|| format!("material {name:?} has no lobes"))?;
+    let kernel = &lobe["kernel"];
+    let kernel = if kernel["identity"].as_bool() == Some(true) {
+        ScreenKernel::identity()
+    } else {
+        let path = kernel["path"]
+            .as_str()
+            .ok_or_else(|| format!("material {name:?}: a lobe has no kernel"))?;
+        let angle = kernel["texel_angle_rad"]
+            .as_f64()
+            .ok_or_else(|| format!("material {name:?}: kernel without texel_angle_rad"))?
+            as f32;
+        let image = read(path)?;
+        let w = image.channel("Y").map_err(|e| format!("{path}: {e}"))?;
+        finite(path, w)?;
+        if image.width != image.height || image.width % 2 == 0 {
+            return Err(format!("{path}: a kernel is square and odd-sized"));
+        }
+        ScreenKernel {
+            texel_angle: angle,
+            taps: significant_taps(w, image.width as u32, KERNEL_MASS, MAX_TAPS),
+        }
+    };
+    Ok((
+        kernel,
+        modulation.ok_or_else(|| format!("material {name:?} has no lobes"))?,
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn taps_keep_the_heaviest_mass_and_sum_to_one() {
+        // 3×3: centre 0.6, edges 0.08, corners 0.02.
+        let w = [0.02, 0.08, 0.02, 0.08, 0.6, 0.08, 0.02, 0.08, 0.02];
+        let t = significant_taps(&w, 3, 0.9, 64);
+        assert_eq!(t.len(), 5, "centre + 4 edges hold 0.92");
+        assert_eq!(t[0].offset, Vec2::ZERO);
+        assert!((t.iter().map(|t| t.weight).sum::<f32>() - 1.0).abs() < 1e-6);
+        // Row 0 is +y: index 1 is (0, +1).
+        let up = t.iter().find(|t| t.offset == Vec2::new(0.0, 1.0)).unwrap();
+        assert!((up.weight - 0.08 / 0.92).abs() < 1e-6);
+        assert_eq!(significant_taps(&w, 3, 1.0, 2).len(), 2);
+        assert_eq!(significant_taps(&[1.0], 1, 0.99, 64).len(), 1);
+    }
+
+    #[test]
+    fn kernel_scale_follows_the_reflected_distance() {
+        assert_eq!(beyond_fraction(0.0, 2.0), 0.0, "touching the mirror: sharp");
+        assert!((beyond_fraction(2.0, 2.0) - 0.5).abs() < 1e-6);
+        assert!(beyond_fraction(1e6, 1.0) > 0.999);
+        let p = texel_pixels(0.01, 0.5, 0.001);
+        assert!((p - 0.01f32.tan() * 500.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn sphere_texels_follow_the_reflected_direction() {
+        assert_eq!(sphere_texel(Vec3::Z, 64), [32, 32]);
+        // Towards +tangent: right of centre; towards +bitangent: above (smaller row).
+        assert!(sphere_texel(Vec3::new(0.9, 0.0, 0.43), 64)[0] > 56);
+        assert!(sphere_texel(Vec3::new(0.0, 0.9, 0.43), 64)[1] < 8);
+        // Grazing and beyond stay inside the disk.
+        let [x, y] = sphere_texel(Vec3::new(1.0, 0.0, 0.0), 64);
+        assert!(x == 63 && y == 32);
+        assert_eq!(
+            "sphere".parse::<ReflectanceLayout>(),
+            Ok(ReflectanceLayout::Sphere)
+        );
+        assert!("2d".parse::<ReflectanceLayout>().is_err());
+        assert_eq!(
+            "bastos".parse::<ReflectanceChannel>(),
+            Ok(ReflectanceChannel::Bastos)
+        );
+    }
+}

@@ -1,0 +1,350 @@
+//! Glossy planar reflections in the viewer (issue 9), Bastos et al. 1999 Eq. 2:
+//! L = kd·D + ks·(M*K)·R per glossy planar reflector, M the radiance reflected about the
+//! reflector's plane, K the material's kernel, R its reflectance modulation, D the baked
+//! radiosity (exitant radiance, kd already in it).
+//!
+//! Per reflector seen from its reflecting side and frame, two passes ([`passes`]):
+//! 1. M into an offscreen Rgba16Float texture in the reflected view (the viewpoint and its
+//!    axes mirrored about the plane, [`mirror_camera`]), alpha = the fraction of the
+//!    reflected ray beyond the plane (for K's scale), from one of two [`Source`]s:
+//!    - geometry-based ([`ReflectionMode::Geometry`], Bastos §6's comparison baseline): the
+//!      scene re-rendered, a clip plane discarding what lies behind the mirror;
+//!    - image-based ([`ReflectionMode::Image`], §8.1.3): per reflector element, the `count`
+//!      baked radiance maps closest to the mirrored eye ([`super::radiance_maps::select`],
+//!      by angle or distance) reprojected as splats (instanced quads: WebGPU has no point
+//!      size), sized by Eq. 3 per quadtree node, culled per node, points skipped when
+//!      minified ([`splats`]).
+//! 2. The composite: the reflector drawn again over the frame, depth-tested against the scene
+//!    pass (the mask), adding ks·R × (M*K) at the same pixel: the convolution with K is a
+//!    gather of K's significant taps, scaled per pixel ([`material`]), R from the sphere map
+//!    or the 1D map ([`ReflectanceLayout`]).
+//!
+//! [`cpu_reference`] is the same equation ray traced on the CPU, for the golden-image tests.
+
+use glam::Vec3;
+
+use super::load::ViewData;
+use crate::camera::Camera;
+use crate::scene::desc::ReflectorKind;
+use crate::scene::{Plane, Scene};
+
+mod cpu;
+pub mod material;
+mod passes;
+pub mod splats;
+
+pub use cpu::cpu_reference;
+pub use material::{
+    MODULATION_SIZE, Modulation, ReflectanceChannel, ReflectanceLayout, ScreenKernel,
+    sample_modulation,
+};
+pub use passes::{FrameStats, GeometryReflections, ReflectParams, shader_source};
+pub use splats::{SPLAT_OVERLAP, Splat};
+
+/// WGSL of the reflection passes (appended to [`super::renderer::SHADER_SOURCE`]).
+pub const REFLECT_SHADER_SOURCE: &str = include_str!("../../../shaders/reflect.wgsl");
+
+/// Clip distance of the mirrored view as a fraction of the scene's bounding-box diagonal:
+/// geometry closer to the plane than this (the reflector itself) is not reflected.
+pub const CLIP_FRACTION: f32 = 1e-3;
+
+/// How the viewer draws glossy reflections.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ReflectionMode {
+    /// Diffuse D only.
+    #[default]
+    Off,
+    /// The mirrored scene re-rendered per reflector (render to texture).
+    Geometry,
+    /// From the baked radiance maps (Bastos §8.1.3), splatted.
+    Image,
+}
+
+impl std::str::FromStr for ReflectionMode {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "off" => Ok(ReflectionMode::Off),
+            "geometry" => Ok(ReflectionMode::Geometry),
+            "image" => Ok(ReflectionMode::Image),
+            _ => Err(format!("{s:?} is not one of image, geometry, off")),
+        }
+    }
+}
+
+impl std::fmt::Display for ReflectionMode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            ReflectionMode::Off => "off",
+            ReflectionMode::Geometry => "geometry",
+            ReflectionMode::Image => "image",
+        })
+    }
+}
+
+/// Where R comes from and which of its channels.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ReflectanceSettings {
+    /// Sphere map or 1D map.
+    pub layout: ReflectanceLayout,
+    /// `A` (directional albedo, the default) or `R` (Bastos's F/(π cos²θ)).
+    pub channel: ReflectanceChannel,
+}
+
+/// Where the reflected image M comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Source {
+    /// The mirrored scene re-rendered (geometry-based mode).
+    Geometry,
+    /// The baked radiance maps splatted into the reflected view (image-based mode): per
+    /// element, the `count` maps closest to the mirrored eye by `selection`.
+    Image {
+        /// Angle (Bastos's default) or distance.
+        selection: super::radiance_maps::Selection,
+        /// Maps per reflector element.
+        count: usize,
+    },
+}
+
+/// A glossy planar reflector as the viewer draws it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlanarReflector {
+    /// Name from the scene.
+    pub name: String,
+    /// Its plane (normal: the reflecting side).
+    pub plane: Plane,
+    /// The plane's tangent frame (the sphere map's x and y axes).
+    pub tangent: Vec3,
+    /// Second in-plane axis.
+    pub bitangent: Vec3,
+    /// Its material (index into the scene's materials).
+    pub material: u32,
+    /// ks: the sum of its material's lobes' ks.
+    pub ks: Vec3,
+    /// ks·R per direction (R = 1 without a materials stage).
+    pub modulation: Modulation,
+    /// K (the identity without a materials stage).
+    pub kernel: ScreenKernel,
+    /// Its triangles (indices into the scene's triangles).
+    pub triangles: Vec<u32>,
+}
+
+impl PlanarReflector {
+    /// ks·R for a point `p` of the reflector seen from `eye`.
+    pub fn modulation_at(&self, p: Vec3, eye: Vec3) -> Vec3 {
+        let n = self.plane.normal;
+        let v = (eye - p).normalize_or_zero();
+        let r = mirror_direction(n, -v);
+        self.modulation.at(Vec3::new(
+            r.dot(self.tangent),
+            r.dot(self.bitangent),
+            r.dot(n),
+        ))
+    }
+}
+
+/// The scene's planar reflectors whose material has a glossy lobe, in scene order, with
+/// K = identity and R = 1.
+pub fn glossy_planar_reflectors(scene: &Scene) -> Vec<PlanarReflector> {
+    scene
+        .reflectors
+        .iter()
+        .filter(|r| r.kind == ReflectorKind::Planar)
+        .filter_map(|r| {
+            let plane = r.plane?;
+            let material = scene.materials.get(r.material as usize)?;
+            let ks = material
+                .lobes
+                .iter()
+                .fold(Vec3::ZERO, |a, l| a + Vec3::from_array(l.ks));
+            let (tangent, bitangent) = crate::sampling::basis(plane.normal);
+            (ks.max_element() > 0.0).then(|| PlanarReflector {
+                name: r.name.clone(),
+                plane,
+                tangent,
+                bitangent,
+                material: r.material,
+                ks,
+                modulation: Modulation::constant(ks),
+                kernel: ScreenKernel::identity(),
+                triangles: r.triangles.clone(),
+            })
+        })
+        .collect()
+}
+
+/// [`reflectors_with_materials`] with the default settings (1D map, albedo channel).
+pub fn reflectors_with_reflectance(data: &ViewData) -> Vec<PlanarReflector> {
+    reflectors_with_materials(data, ReflectanceSettings::default())
+}
+
+/// The scene's glossy planar reflectors with K and R from the bundle's `materials` stage when
+/// it has one ([`material::load_material`]); problems reading it are logged and leave K = I,
+/// R = 1 for that reflector.
+pub fn reflectors_with_materials(
+    data: &ViewData,
+    settings: ReflectanceSettings,
+) -> Vec<PlanarReflector> {
+    let mut reflectors = glossy_planar_reflectors(&data.scene);
+    if data.bundle.stage("materials").is_none() {
+        log::info!("no materials stage: reflections use K = I, R = 1 (ks only)");
+        return reflectors;
+    }
+    let dir = data.bundle.dir().join("materials");
+    let index: serde_json::Value = match std::fs::read(dir.join("index.json"))
+        .map_err(|e| e.to_string())
+        .and_then(|b| serde_json::from_slice(&b).map_err(|e| e.to_string()))
+    {
+        Ok(v) => v,
+        Err(e) => {
+            log::warn!("materials/index.json: {e}; reflections use K = I, R = 1");
+            return reflectors;
+        }
+    };
+    for r in &mut reflectors {
+        let name = &data.scene.materials[r.material as usize].name;
+        match material::load_material(&dir, &index, name, settings.layout, settings.channel) {
+            Ok((kernel, modulation)) => {
+                r.kernel = kernel;
+                r.modulation = modulation;
+            }
+            Err(e) => log::warn!("reflector {}: {e}; K = I, R = 1", r.name),
+        }
+    }
+    reflectors
+}
+
+/// Signed distance of `p` from `plane` (positive on the normal's side).
+pub fn signed_distance(plane: &Plane, p: Vec3) -> f32 {
+    plane.normal.dot(p - plane.point)
+}
+
+/// `p` mirrored about `plane`.
+pub fn mirror_point(plane: &Plane, p: Vec3) -> Vec3 {
+    p - 2.0 * signed_distance(plane, p) * plane.normal
+}
+
+/// Direction `d` mirrored about a plane of unit normal `n`.
+pub fn mirror_direction(n: Vec3, d: Vec3) -> Vec3 {
+    d - 2.0 * n.dot(d) * n
+}
+
+/// The reflected view: position and all three axes mirrored about `plane`. The mirrored frame
+/// is left-handed, which makes pixel (x, y) of the mirrored view show what the real view sees
+/// at (x, y) in the mirror: a point P projects in the mirrored view where its mirror image
+/// projects in the real one.
+pub fn mirror_camera(camera: &Camera, plane: &Plane) -> Camera {
+    let n = plane.normal;
+    Camera {
+        position: mirror_point(plane, camera.position),
+        forward: mirror_direction(n, camera.forward),
+        right: mirror_direction(n, camera.right),
+        up: mirror_direction(n, camera.up),
+        fov_y: camera.fov_y,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use wgpu::naga;
+
+    #[test]
+    fn reflect_params_match_the_wgsl_struct() {
+        let module = naga::front::wgsl::parse_str(&shader_source()).expect("reflect.wgsl parses");
+        let mut layouter = naga::proc::Layouter::default();
+        layouter.update(module.to_ctx()).unwrap();
+        let (handle, ty) = module
+            .types
+            .iter()
+            .find(|(_, t)| t.name.as_deref() == Some("ReflectParams"))
+            .unwrap();
+        let naga::TypeInner::Struct { members, .. } = &ty.inner else {
+            panic!()
+        };
+        assert_eq!(
+            layouter[handle].size as usize,
+            std::mem::size_of::<ReflectParams>()
+        );
+        let offsets = [
+            std::mem::offset_of!(ReflectParams, plane),
+            std::mem::offset_of!(ReflectParams, ks),
+            std::mem::offset_of!(ReflectParams, eye),
+            std::mem::offset_of!(ReflectParams, tangent),
+            std::mem::offset_of!(ReflectParams, bitangent),
+            std::mem::offset_of!(ReflectParams, kernel),
+            std::mem::offset_of!(ReflectParams, modulation),
+            std::mem::offset_of!(ReflectParams, taps),
+        ];
+        assert_eq!(members.len(), offsets.len());
+        for (m, o) in members.iter().zip(offsets) {
+            assert_eq!(m.offset as usize, o, "{:?}", m.name);
+        }
+    }
+
+    #[test]
+    fn mirrored_camera_sees_the_mirror_image_at_the_same_pixel() {
+        let plane = Plane {
+            normal: Vec3::new(0.2, 1.0, -0.1).normalize(),
+            point: Vec3::new(0.1, -0.3, 0.2),
+        };
+        let cam = Camera::look_at(
+            Vec3::new(0.3, 1.2, 4.0),
+            Vec3::new(-0.2, 0.0, 0.0),
+            Vec3::Y,
+            50f32.to_radians(),
+        );
+        let m = mirror_camera(&cam, &plane);
+        let (w, h) = (64.0f32, 48.0f32);
+        let a = super::super::renderer::view_projection(&cam, w / h, 1e-3);
+        let b = super::super::renderer::view_projection(&m, w / h, 1e-3);
+        for p in [
+            Vec3::new(0.5, 1.0, -1.0),
+            Vec3::new(-1.0, 2.0, 0.5),
+            Vec3::new(0.0, 0.3, -3.0),
+        ] {
+            let ca = a * mirror_point(&plane, p).extend(1.0);
+            let cb = b * p.extend(1.0);
+            assert!(((ca / ca.w) - (cb / cb.w)).length() < 1e-4, "{ca} vs {cb}");
+        }
+        assert!(
+            (mirror_point(&plane, mirror_point(&plane, cam.position)) - cam.position).length()
+                < 1e-5
+        );
+    }
+
+    #[test]
+    fn modes_parse() {
+        assert_eq!("geometry".parse(), Ok(ReflectionMode::Geometry));
+        assert_eq!("off".parse(), Ok(ReflectionMode::Off));
+        assert!("mirror".parse::<ReflectionMode>().is_err());
+    }
+
+    #[test]
+    fn modulation_is_indexed_by_the_reflected_direction() {
+        let plane = Plane {
+            normal: Vec3::Y,
+            point: Vec3::ZERO,
+        };
+        let (tangent, bitangent) = crate::sampling::basis(Vec3::Y);
+        // A 1D table growing towards normal incidence.
+        let table: Vec<Vec3> = (0..MODULATION_SIZE)
+            .map(|k| Vec3::splat(k as f32))
+            .collect();
+        let r = PlanarReflector {
+            name: "F".into(),
+            plane,
+            tangent,
+            bitangent,
+            material: 0,
+            ks: Vec3::ONE,
+            modulation: Modulation::OneD(table),
+            kernel: ScreenKernel::identity(),
+            triangles: vec![],
+        };
+        let above = r.modulation_at(Vec3::ZERO, Vec3::new(0.0, 2.0, 0.0));
+        let grazing = r.modulation_at(Vec3::ZERO, Vec3::new(5.0, 0.2, 0.0));
+        assert!((above.x - (MODULATION_SIZE - 1) as f32).abs() < 1e-3);
+        assert!(grazing.x < 0.5 * above.x);
+    }
+}

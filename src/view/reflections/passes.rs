@@ -1,0 +1,880 @@
+//! The reflection passes on the GPU (`shaders/reflect.wgsl`): the mirror pass (geometry
+//! re-rendered, or radiance-map splats) into M, and the composite that adds ks·(M*K)·R over
+//! the reflector. The math they use lives in [`super::splats`] and [`super::material`].
+
+use std::sync::Mutex;
+
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat4, Vec3};
+
+use super::material::{MAX_TAPS, MODULATION_SIZE, Modulation};
+use super::splats::{self, MapImage, MapSplats, NodeParams, Splat};
+use super::{
+    CLIP_FRACTION, PlanarReflector, ReflectanceSettings, Source, mirror_camera, mirror_point,
+    reflectors_with_materials, signed_distance,
+};
+use crate::bake::materials::reflectance;
+use crate::camera::Camera;
+use crate::view::gpu::{Gpu, GpuError, error_scoped};
+use crate::view::load::ViewData;
+use crate::view::radiance_maps::{MapEntry, load_cameras, select};
+use crate::view::renderer::{
+    HDR_FORMAT, RenderError, Renderer, Vertex, frame_bind_group, frame_bind_group_layout,
+    reverse_z_depth, uniform_buffer,
+};
+
+/// Mirrors `ReflectParams` in `shaders/reflect.wgsl` (3184 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct ReflectParams {
+    /// Normal xyz, w = normal · point.
+    pub plane: [f32; 4],
+    /// ks rgb, a = clip distance.
+    pub ks: [f32; 4],
+    /// The eye xyz (written per frame), w = the 1D map's grazing bound C.
+    pub eye: [f32; 4],
+    /// The plane's tangent xyz; w: 1 to read R from the sphere map, 0 from the 1D table.
+    pub tangent: [f32; 4],
+    /// The plane's bitangent xyz; w: the sphere map's size in texels.
+    pub bitangent: [f32; 4],
+    /// x: screen pixels per kernel texel at beyond-fraction 1 (per frame); y: tap count.
+    pub kernel: [f32; 4],
+    /// ks·R at the 1D map's cosines (rgb; a unused).
+    pub modulation: [[f32; 4]; MODULATION_SIZE],
+    /// K's taps: offset in texels (x right, y up), weight.
+    pub taps: [[f32; 4]; MAX_TAPS],
+}
+
+impl ReflectParams {
+    /// The parameters of `reflector` with clip distance `clip`, seen from `eye` (kernel
+    /// scale 0 until [`GeometryReflections::prepare`] sets it).
+    pub fn new(reflector: &PlanarReflector, clip: f32, eye: Vec3) -> ReflectParams {
+        let n = reflector.plane.normal;
+        let mut modulation = [[0.0; 4]; MODULATION_SIZE];
+        let mut sphere = (0.0, 0.0);
+        match &reflector.modulation {
+            Modulation::OneD(table) => {
+                for (m, v) in modulation.iter_mut().zip(table) {
+                    *m = v.extend(0.0).to_array();
+                }
+            }
+            Modulation::Sphere { size, .. } => sphere = (1.0, *size as f32),
+        }
+        let mut taps = [[0.0; 4]; MAX_TAPS];
+        for (t, k) in taps.iter_mut().zip(&reflector.kernel.taps) {
+            *t = [k.offset.x, k.offset.y, k.weight, 0.0];
+        }
+        ReflectParams {
+            plane: n.extend(n.dot(reflector.plane.point)).to_array(),
+            ks: reflector.ks.extend(clip).to_array(),
+            eye: eye.extend(reflectance::C_GRAZING).to_array(),
+            tangent: reflector.tangent.extend(sphere.0).to_array(),
+            bitangent: reflector.bitangent.extend(sphere.1).to_array(),
+            kernel: [
+                0.0,
+                reflector.kernel.taps.len().min(MAX_TAPS) as f32,
+                0.0,
+                0.0,
+            ],
+            modulation,
+            taps,
+        }
+    }
+}
+
+/// The full WGSL module of the reflection passes.
+pub fn shader_source() -> String {
+    format!(
+        "{}\n{}",
+        crate::view::renderer::SHADER_SOURCE,
+        super::REFLECT_SHADER_SOURCE
+    )
+}
+
+/// What the image-based mode drew for one reflector in the last prepared frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FrameStats {
+    /// Maps selected (all elements).
+    pub maps: usize,
+    /// Splats of the selected maps.
+    pub selected_splats: u64,
+    /// Splats drawn (after culling and minification skipping).
+    pub drawn_splats: u64,
+    /// Quadtree nodes culled.
+    pub culled_nodes: usize,
+    /// Draw calls.
+    pub draws: usize,
+}
+
+/// A reflector's maps on the GPU: every map's splats in one instance buffer, in quadtree
+/// order; the quadtrees stay on the CPU for per-frame culling and sizing.
+struct SplatMaps {
+    maps: Vec<MapEntry>,
+    /// Per map: its quadtree and node ranges (splats dropped after upload), node base.
+    trees: Vec<(MapSplats, u32)>,
+    node_count: usize,
+    instances: wgpu::Buffer,
+    nodes: wgpu::Buffer,
+    group: Option<wgpu::BindGroup>,
+    /// The last prepared frame's draws and statistics.
+    plan: Mutex<(Vec<splats::Draw>, FrameStats)>,
+}
+
+fn load_splat_maps(gpu: &Gpu, data: &ViewData, reflector: &str) -> Result<SplatMaps, String> {
+    let cams = load_cameras(data.bundle.dir(), reflector)?;
+    let dir = data.bundle.dir().join("radiance").join(reflector);
+    let mut all = Vec::new();
+    let mut trees = Vec::new();
+    let mut node_base = 0u32;
+    for m in &cams.maps {
+        let path = dir.join(format!("{}.exr", m.file));
+        let at = |e: String| format!("{}: {e}", path.display());
+        let bytes = std::fs::read(&path).map_err(|e| at(e.to_string()))?;
+        let image = crate::image_io::decode_exr(&bytes).map_err(|e| at(e.to_string()))?;
+        let ch = |n: &str| image.channel(n).map_err(|e| at(e.to_string()));
+        let qpath = dir.join(format!("{}.qtree", m.file));
+        let qbytes = std::fs::read(&qpath).map_err(|e| format!("{}: {e}", qpath.display()))?;
+        let (res, nodes) = crate::radiance::quadtree::decode(&qbytes)
+            .map_err(|e| format!("{}: {e}", qpath.display()))?;
+        if res != m.view.resolution || image.width != res as usize || image.height != res as usize {
+            return Err(at(format!(
+                "map is {}×{}, its quadtree {res}², its camera {}²",
+                image.width, image.height, m.view.resolution
+            )));
+        }
+        let map_image = MapImage {
+            rgb: [ch("R")?, ch("G")?, ch("B")?],
+            hit: ch("A")?,
+            z: ch("Z")?,
+        };
+        let count = nodes.len() as u32;
+        let mut tree = splats::map_splats(&m.view, &map_image, nodes, node_base).map_err(at)?;
+        let offset = all.len() as u32;
+        for r in &mut tree.ranges {
+            *r = r.start + offset..r.end + offset;
+        }
+        all.append(&mut tree.splats);
+        trees.push((tree, node_base));
+        node_base += count;
+    }
+    let instances = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("glint radiance-map splats"),
+        size: (std::mem::size_of_val(all.as_slice()) as u64).max(32),
+        usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    gpu.queue
+        .write_buffer(&instances, 0, bytemuck::cast_slice(&all));
+    let nodes = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("glint quadtree node params"),
+        size: (node_base as u64 * std::mem::size_of::<NodeParams>() as u64).max(16),
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    Ok(SplatMaps {
+        maps: cams.maps,
+        trees,
+        node_count: node_base as usize,
+        instances,
+        nodes,
+        group: None,
+        plan: Mutex::new((Vec::new(), FrameStats::default())),
+    })
+}
+
+struct ReflectorGpu {
+    splats: Option<SplatMaps>,
+    reflector: PlanarReflector,
+    params: wgpu::Buffer,
+    mirror_uniforms: wgpu::Buffer,
+    mirror_frame_group: wgpu::BindGroup,
+    mirror_params_group: wgpu::BindGroup,
+    composite_params_group: wgpu::BindGroup,
+    _sphere: wgpu::Texture,
+    indices: wgpu::Buffer,
+    index_count: u32,
+}
+
+/// The reflection passes (either source) of one [`Renderer`] at one frame size.
+pub struct GeometryReflections {
+    source: Source,
+    splat_pipeline: wgpu::RenderPipeline,
+    mirror_pipeline: wgpu::RenderPipeline,
+    composite_pipeline: wgpu::RenderPipeline,
+    composite_frame_group: wgpu::BindGroup,
+    reflectors: Vec<ReflectorGpu>,
+    clip: f32,
+    _texture: wgpu::Texture,
+    texture_view: wgpu::TextureView,
+    _depth: wgpu::Texture,
+    depth_view: wgpu::TextureView,
+    width: u32,
+    height: u32,
+}
+
+fn sphere_texture(gpu: &Gpu, modulation: &Modulation) -> wgpu::Texture {
+    let (size, texels) = match modulation {
+        Modulation::Sphere { size, texels } => (*size, texels.clone()),
+        Modulation::OneD(_) => (1, vec![Vec3::ZERO]),
+    };
+    let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("glint reflectance sphere map"),
+        size: wgpu::Extent3d {
+            width: size,
+            height: size,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::Rgba32Float,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    });
+    let data: Vec<[f32; 4]> = texels.iter().map(|v| v.extend(0.0).to_array()).collect();
+    gpu.queue.write_texture(
+        texture.as_image_copy(),
+        bytemuck::cast_slice(&data),
+        wgpu::TexelCopyBufferLayout {
+            offset: 0,
+            bytes_per_row: Some(size * 16),
+            rows_per_image: None,
+        },
+        texture.size(),
+    );
+    texture
+}
+
+impl GeometryReflections {
+    /// The passes for `renderer` (drawing `data`) on `width` × `height` targets, with K and R
+    /// from the bundle's materials stage, R from the 1D map's albedo channel.
+    pub fn new(
+        gpu: &Gpu,
+        renderer: &Renderer,
+        data: &ViewData,
+        width: u32,
+        height: u32,
+        source: Source,
+    ) -> Result<GeometryReflections, RenderError> {
+        Self::with_reflectance(
+            gpu,
+            renderer,
+            data,
+            width,
+            height,
+            source,
+            ReflectanceSettings::default(),
+        )
+    }
+
+    /// [`GeometryReflections::new`] with R read as `reflectance` says.
+    pub fn with_reflectance(
+        gpu: &Gpu,
+        renderer: &Renderer,
+        data: &ViewData,
+        width: u32,
+        height: u32,
+        source: Source,
+        reflectance: ReflectanceSettings,
+    ) -> Result<GeometryReflections, RenderError> {
+        let planar = reflectors_with_materials(data, reflectance);
+        let mut splats = Vec::new();
+        if let Source::Image { .. } = source
+            && !planar.is_empty()
+        {
+            if data.bundle.stage("radiance").is_none() {
+                return Err(RenderError::Reflections(format!(
+                    "bundle {}: image-based reflections need the `radiance` stage; bake it with glint-bake",
+                    data.bundle.dir().display()
+                )));
+            }
+            for r in &planar {
+                splats.push(Some(
+                    load_splat_maps(gpu, data, &r.name).map_err(RenderError::Reflections)?,
+                ));
+            }
+        }
+        splats.resize_with(planar.len(), || None);
+        let built = Self::build(gpu, renderer, data, width, height, source, planar, splats)?;
+        Ok(built)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn build(
+        gpu: &Gpu,
+        renderer: &Renderer,
+        data: &ViewData,
+        width: u32,
+        height: u32,
+        source: Source,
+        planar: Vec<PlanarReflector>,
+        splats: Vec<Option<SplatMaps>>,
+    ) -> Result<GeometryReflections, GpuError> {
+        let (scene, map) = (&data.scene, &data.map);
+        let device = &gpu.device;
+        let mesh = crate::view::renderer::SceneMesh::new(scene, &map.atlas);
+        let clip = (scene.bounds.diagonal() * CLIP_FRACTION).max(1e-5);
+        let formats = renderer.formats();
+        error_scoped(device, "creating the reflection passes", || {
+            let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("glint reflection shader"),
+                source: wgpu::ShaderSource::Wgsl(shader_source().into()),
+            });
+            let frame_layout = frame_bind_group_layout(device);
+            let params_entry = wgpu::BindGroupLayoutEntry {
+                binding: 2,
+                visibility: wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: wgpu::BufferSize::new(
+                        std::mem::size_of::<ReflectParams>() as u64
+                    ),
+                },
+                count: None,
+            };
+            let mirror_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("glint mirror params layout"),
+                entries: &[params_entry],
+            });
+            let splat_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("glint splat params layout"),
+                entries: &[
+                    params_entry,
+                    wgpu::BindGroupLayoutEntry {
+                        binding: 6,
+                        visibility: wgpu::ShaderStages::VERTEX,
+                        ty: wgpu::BindingType::Buffer {
+                            ty: wgpu::BufferBindingType::Storage { read_only: true },
+                            has_dynamic_offset: false,
+                            min_binding_size: None,
+                        },
+                        count: None,
+                    },
+                ],
+            });
+            let texture_entry = |binding, filterable| wgpu::BindGroupLayoutEntry {
+                binding,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable },
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: false,
+                },
+                count: None,
+            };
+            let composite_layout =
+                device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some("glint composite params layout"),
+                    entries: &[
+                        params_entry,
+                        texture_entry(3, true),
+                        wgpu::BindGroupLayoutEntry {
+                            binding: 4,
+                            visibility: wgpu::ShaderStages::FRAGMENT,
+                            ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                            count: None,
+                        },
+                        texture_entry(5, false),
+                    ],
+                });
+            let pipeline_layout = |params: &wgpu::BindGroupLayout, label| {
+                device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                    label: Some(label),
+                    bind_group_layouts: &[Some(&frame_layout), Some(params)],
+                    immediate_size: 0,
+                })
+            };
+            let vertex_buffers = [Some(wgpu::VertexBufferLayout {
+                array_stride: std::mem::size_of::<Vertex>() as u64,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x2, 2 => Uint32],
+            })];
+            let primitive = wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                cull_mode: None,
+                ..Default::default()
+            };
+            let m_target = [Some(wgpu::ColorTargetState {
+                format: HDR_FORMAT,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })];
+            let mirror_layout_p = pipeline_layout(&mirror_layout, "glint mirror pipeline layout");
+            let mirror_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("glint mirror pipeline"),
+                layout: Some(&mirror_layout_p),
+                vertex: wgpu::VertexState {
+                    module: &shader,
+                    entry_point: Some("vs_mirror"),
+                    compilation_options: wgpu::PipelineCompilationOptions::default(),
+                    buffers: &vertex_buffers,
+                },
+                primitive,
+                depth_stencil: Some(reverse_z_depth(true, wgpu::CompareFunction::Greater)),
+                multisample: wgpu::MultisampleState::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &shader,
+                    entry_point: Some("fs_mirror"),
+                    compilation_options: wgpu::PipelineCompilationOptions::default(),
+                    targets: &m_target,
+                }),
+                multiview_mask: None,
+                cache: None,
+            });
+            let splat_layout_p = pipeline_layout(&splat_layout, "glint splat pipeline layout");
+            let splat_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("glint splat pipeline"),
+                layout: Some(&splat_layout_p),
+                vertex: wgpu::VertexState {
+                    module: &shader,
+                    entry_point: Some("vs_splat"),
+                    compilation_options: wgpu::PipelineCompilationOptions::default(),
+                    buffers: &[Some(wgpu::VertexBufferLayout {
+                        array_stride: std::mem::size_of::<Splat>() as u64,
+                        step_mode: wgpu::VertexStepMode::Instance,
+                        attributes: &wgpu::vertex_attr_array![3 => Float32x3, 4 => Uint32, 5 => Float32x3],
+                    })],
+                },
+                primitive: wgpu::PrimitiveState {
+                    topology: wgpu::PrimitiveTopology::TriangleStrip,
+                    cull_mode: None,
+                    ..Default::default()
+                },
+                depth_stencil: Some(reverse_z_depth(true, wgpu::CompareFunction::Greater)),
+                multisample: wgpu::MultisampleState::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &shader,
+                    entry_point: Some("fs_splat"),
+                    compilation_options: wgpu::PipelineCompilationOptions::default(),
+                    targets: &m_target,
+                }),
+                multiview_mask: None,
+                cache: None,
+            });
+            let additive = wgpu::BlendState {
+                color: wgpu::BlendComponent {
+                    src_factor: wgpu::BlendFactor::One,
+                    dst_factor: wgpu::BlendFactor::One,
+                    operation: wgpu::BlendOperation::Add,
+                },
+                alpha: wgpu::BlendComponent {
+                    src_factor: wgpu::BlendFactor::Zero,
+                    dst_factor: wgpu::BlendFactor::One,
+                    operation: wgpu::BlendOperation::Add,
+                },
+            };
+            let target = |format| {
+                Some(wgpu::ColorTargetState {
+                    format,
+                    blend: Some(additive),
+                    write_mask: wgpu::ColorWrites::ALL,
+                })
+            };
+            let composite_layout_p =
+                pipeline_layout(&composite_layout, "glint composite pipeline layout");
+            let composite_pipeline =
+                device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                    label: Some("glint reflection composite pipeline"),
+                    layout: Some(&composite_layout_p),
+                    vertex: wgpu::VertexState {
+                        module: &shader,
+                        entry_point: Some("vs_mirror"),
+                        compilation_options: wgpu::PipelineCompilationOptions::default(),
+                        buffers: &vertex_buffers,
+                    },
+                    primitive,
+                    depth_stencil: Some(reverse_z_depth(
+                        false,
+                        wgpu::CompareFunction::GreaterEqual,
+                    )),
+                    multisample: wgpu::MultisampleState::default(),
+                    fragment: Some(wgpu::FragmentState {
+                        module: &shader,
+                        entry_point: Some("fs_composite"),
+                        compilation_options: wgpu::PipelineCompilationOptions::default(),
+                        targets: &[
+                            target(formats.color),
+                            if formats.hdr {
+                                target(HDR_FORMAT)
+                            } else {
+                                None
+                            },
+                        ],
+                    }),
+                    multiview_mask: None,
+                    cache: None,
+                });
+            let size = wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            };
+            let texture = device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("glint reflection texture"),
+                size,
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: HDR_FORMAT,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                    | wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            });
+            let texture_view = texture.create_view(&wgpu::TextureViewDescriptor::default());
+            let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+                label: Some("glint reflection sampler"),
+                mag_filter: wgpu::FilterMode::Linear,
+                min_filter: wgpu::FilterMode::Linear,
+                ..Default::default()
+            });
+            let depth = crate::view::renderer::depth_texture(gpu, width, height);
+            let depth_view = depth.create_view(&wgpu::TextureViewDescriptor::default());
+            let composite_frame_group = frame_bind_group(
+                device,
+                &frame_layout,
+                renderer.frame_uniform_buffer(),
+                renderer.textures(),
+            );
+            let reflectors = planar
+                .into_iter()
+                .zip(splats)
+                .map(|(reflector, mut splats)| {
+                    let indices: Vec<u32> = reflector
+                        .triangles
+                        .iter()
+                        .flat_map(|&t| {
+                            let t = t as usize * 3;
+                            mesh.indices[t..t + 3].iter().copied()
+                        })
+                        .collect();
+                    let index_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("glint reflector indices"),
+                        size: (indices.len() as u64 * 4).max(4),
+                        usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST,
+                        mapped_at_creation: false,
+                    });
+                    gpu.queue
+                        .write_buffer(&index_buffer, 0, bytemuck::cast_slice(&indices));
+                    let params = device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("glint reflector params"),
+                        size: std::mem::size_of::<ReflectParams>() as u64,
+                        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                        mapped_at_creation: false,
+                    });
+                    gpu.queue.write_buffer(
+                        &params,
+                        0,
+                        bytemuck::bytes_of(&ReflectParams::new(&reflector, clip, Vec3::ZERO)),
+                    );
+                    let mirror_uniforms = uniform_buffer(device);
+                    let mirror_frame_group = frame_bind_group(
+                        device,
+                        &frame_layout,
+                        &mirror_uniforms,
+                        renderer.textures(),
+                    );
+                    let params_entry = || wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: params.as_entire_binding(),
+                    };
+                    let mirror_params_group =
+                        device.create_bind_group(&wgpu::BindGroupDescriptor {
+                            label: Some("glint mirror params"),
+                            layout: &mirror_layout,
+                            entries: &[params_entry()],
+                        });
+                    if let Some(s) = &mut splats {
+                        s.group = Some(device.create_bind_group(&wgpu::BindGroupDescriptor {
+                            label: Some("glint splat params"),
+                            layout: &splat_layout,
+                            entries: &[
+                                params_entry(),
+                                wgpu::BindGroupEntry {
+                                    binding: 6,
+                                    resource: s.nodes.as_entire_binding(),
+                                },
+                            ],
+                        }));
+                    }
+                    let sphere = sphere_texture(gpu, &reflector.modulation);
+                    let sphere_view = sphere.create_view(&wgpu::TextureViewDescriptor::default());
+                    let composite_params_group =
+                        device.create_bind_group(&wgpu::BindGroupDescriptor {
+                            label: Some("glint composite params"),
+                            layout: &composite_layout,
+                            entries: &[
+                                params_entry(),
+                                wgpu::BindGroupEntry {
+                                    binding: 3,
+                                    resource: wgpu::BindingResource::TextureView(&texture_view),
+                                },
+                                wgpu::BindGroupEntry {
+                                    binding: 4,
+                                    resource: wgpu::BindingResource::Sampler(&sampler),
+                                },
+                                wgpu::BindGroupEntry {
+                                    binding: 5,
+                                    resource: wgpu::BindingResource::TextureView(&sphere_view),
+                                },
+                            ],
+                        });
+                    ReflectorGpu {
+                        splats,
+                        index_count: indices.len() as u32,
+                        reflector,
+                        params,
+                        mirror_uniforms,
+                        mirror_frame_group,
+                        mirror_params_group,
+                        composite_params_group,
+                        _sphere: sphere,
+                        indices: index_buffer,
+                    }
+                })
+                .collect();
+            GeometryReflections {
+                source,
+                splat_pipeline,
+                mirror_pipeline,
+                composite_pipeline,
+                composite_frame_group,
+                reflectors,
+                clip,
+                _texture: texture,
+                texture_view,
+                _depth: depth,
+                depth_view,
+                width,
+                height,
+            }
+        })
+    }
+
+    /// How many reflectors it draws.
+    pub fn reflector_count(&self) -> usize {
+        self.reflectors.len()
+    }
+
+    /// The reflectors it draws (with their K and R).
+    pub fn reflectors(&self) -> impl Iterator<Item = &PlanarReflector> {
+        self.reflectors.iter().map(|r| &r.reflector)
+    }
+
+    /// Per reflector, what the image-based mode drew in the last prepared frame (default
+    /// statistics in geometry mode).
+    pub fn frame_stats(&self) -> Vec<FrameStats> {
+        self.reflectors
+            .iter()
+            .map(|r| {
+                r.splats.as_ref().map_or_else(FrameStats::default, |s| {
+                    s.plan.lock().map(|p| p.1).unwrap_or_default()
+                })
+            })
+            .collect()
+    }
+
+    fn visible(&self, r: &ReflectorGpu, camera: &Camera) -> bool {
+        r.index_count > 0 && signed_distance(&r.reflector.plane, camera.position) > 0.0
+    }
+
+    /// How many render passes [`GeometryReflections::draw`] records for `camera` (two per
+    /// reflector seen from its reflecting side).
+    pub fn pass_count(&self, camera: &Camera) -> usize {
+        2 * self
+            .reflectors
+            .iter()
+            .filter(|r| self.visible(r, camera))
+            .count()
+    }
+
+    /// Writes each reflector's mirrored-view uniforms for `camera` and, in image mode, plans
+    /// its splats (map selection, Eq. 3 sizes, culling, skipping; the writes land before the
+    /// next submission).
+    pub fn prepare(&self, gpu: &Gpu, renderer: &Renderer, camera: &Camera) {
+        let pitch = splats::pixel_tangent(camera.fov_y, self.height);
+        for r in &self.reflectors {
+            let mirrored = mirror_camera(camera, &r.reflector.plane);
+            let u = renderer.uniforms(&mirrored, self.width, self.height);
+            gpu.queue
+                .write_buffer(&r.mirror_uniforms, 0, bytemuck::bytes_of(&u));
+            let mut p = ReflectParams::new(&r.reflector, self.clip, camera.position);
+            // Screen pixels per kernel texel at beyond-fraction 1 (scaled per pixel).
+            p.kernel[0] = super::material::texel_pixels(r.reflector.kernel.texel_angle, 1.0, pitch);
+            gpu.queue.write_buffer(&r.params, 0, bytemuck::bytes_of(&p));
+            if let (Source::Image { selection, count }, Some(maps)) = (self.source, &r.splats)
+                && self.visible(r, camera)
+            {
+                let view_proj = Mat4::from_cols_array_2d(&u.view_proj);
+                let planes = splats::frustum_planes(&view_proj);
+                let eye = mirror_point(&r.reflector.plane, camera.position);
+                let chosen = select(&maps.maps, eye, selection, count);
+                let mut params = vec![NodeParams::default(); maps.node_count];
+                let mut draws = Vec::new();
+                let mut stats = FrameStats {
+                    maps: chosen.len(),
+                    ..FrameStats::default()
+                };
+                let mut rank = 0;
+                for (k, &i) in chosen.iter().enumerate() {
+                    // `select` groups maps by element, best first.
+                    rank = if k > 0 && maps.maps[chosen[k - 1]].element == maps.maps[i].element {
+                        rank + 1
+                    } else {
+                        0
+                    };
+                    let (tree, base) = &maps.trees[i];
+                    stats.selected_splats += tree
+                        .ranges
+                        .first()
+                        .map_or(0, |r| u64::from(r.end - r.start));
+                    stats.culled_nodes += splats::plan_map(
+                        tree,
+                        *base,
+                        rank,
+                        &mirrored,
+                        &planes,
+                        self.width,
+                        self.height,
+                        &mut params,
+                        &mut draws,
+                    );
+                }
+                stats.draws = draws.len();
+                stats.drawn_splats = draws.iter().map(|d| u64::from(d.end - d.start)).sum();
+                gpu.queue
+                    .write_buffer(&maps.nodes, 0, bytemuck::cast_slice(&params));
+                if let Ok(mut plan) = maps.plan.lock() {
+                    *plan = (draws, stats);
+                }
+            }
+        }
+    }
+
+    /// Records, after the scene pass into `color`/`hdr`/`depth` (depth stored), each visible
+    /// reflector's mirror pass and composite. Reflectors seen from behind are skipped.
+    pub fn draw(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        renderer: &Renderer,
+        camera: &Camera,
+        color: &wgpu::TextureView,
+        hdr: Option<&wgpu::TextureView>,
+        depth: &wgpu::TextureView,
+    ) {
+        self.draw_timed(encoder, renderer, camera, color, hdr, depth, None);
+    }
+
+    /// [`GeometryReflections::draw`], the last pass writing its end timestamp into
+    /// `end_timestamp` (query set, index) when given.
+    #[allow(clippy::too_many_arguments)]
+    pub fn draw_timed(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        renderer: &Renderer,
+        camera: &Camera,
+        color: &wgpu::TextureView,
+        hdr: Option<&wgpu::TextureView>,
+        depth: &wgpu::TextureView,
+        end_timestamp: Option<(&wgpu::QuerySet, u32)>,
+    ) {
+        let visible: Vec<&ReflectorGpu> = self
+            .reflectors
+            .iter()
+            .filter(|r| self.visible(r, camera))
+            .collect();
+        for (k, r) in visible.iter().enumerate() {
+            {
+                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("glint mirror pass"),
+                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                        view: &self.texture_view,
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                            store: wgpu::StoreOp::Store,
+                        },
+                    })],
+                    depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                        view: &self.depth_view,
+                        depth_ops: Some(wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(0.0),
+                            store: wgpu::StoreOp::Discard,
+                        }),
+                        stencil_ops: None,
+                    }),
+                    timestamp_writes: None,
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                });
+                match (self.source, &r.splats) {
+                    (Source::Image { .. }, Some(maps)) => {
+                        pass.set_pipeline(&self.splat_pipeline);
+                        pass.set_bind_group(0, &r.mirror_frame_group, &[]);
+                        pass.set_bind_group(1, maps.group.as_ref(), &[]);
+                        pass.set_vertex_buffer(0, maps.instances.slice(..));
+                        if let Ok(plan) = maps.plan.lock() {
+                            for d in &plan.0 {
+                                pass.draw(0..4, d.clone());
+                            }
+                        }
+                    }
+                    _ => {
+                        pass.set_pipeline(&self.mirror_pipeline);
+                        pass.set_bind_group(0, &r.mirror_frame_group, &[]);
+                        pass.set_bind_group(1, &r.mirror_params_group, &[]);
+                        pass.set_vertex_buffer(0, renderer.vertex_buffer().slice(..));
+                        pass.set_index_buffer(
+                            renderer.index_buffer().slice(..),
+                            wgpu::IndexFormat::Uint32,
+                        );
+                        pass.draw_indexed(0..renderer.index_count(), 0, 0..1);
+                    }
+                }
+            }
+            let load = |view| {
+                Some(wgpu::RenderPassColorAttachment {
+                    view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Load,
+                        store: wgpu::StoreOp::Store,
+                    },
+                })
+            };
+            let timestamp_writes = match end_timestamp {
+                Some((query_set, index)) if k + 1 == visible.len() => {
+                    Some(wgpu::RenderPassTimestampWrites {
+                        query_set,
+                        beginning_of_pass_write_index: None,
+                        end_of_pass_write_index: Some(index),
+                    })
+                }
+                _ => None,
+            };
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("glint reflection composite pass"),
+                color_attachments: &[load(color), hdr.and_then(load)],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: depth,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Load,
+                        store: wgpu::StoreOp::Store,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&self.composite_pipeline);
+            pass.set_bind_group(0, &self.composite_frame_group, &[]);
+            pass.set_bind_group(1, &r.composite_params_group, &[]);
+            pass.set_vertex_buffer(0, renderer.vertex_buffer().slice(..));
+            pass.set_index_buffer(r.indices.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..r.index_count, 0, 0..1);
+        }
+    }
+}
