@@ -650,3 +650,45 @@ fn mirror_reflecting_a_flat_wall_matches_in_both_modes() {
         "{err:.3} > {MIRROR_TOLERANCE} × {effect:.3}"
     );
 }
+
+/// The frame's GPU time spans every pass (the scene pass's beginning to the last reflection
+/// composite's end): with timestamp queries it lies within the frame's wall time, and the
+/// reflection passes (the mirror pass and K's taps over the reflectors) make it longer than
+/// the scene pass alone (medians of 5 frames).
+#[test]
+fn gpu_time_spans_the_reflection_passes() {
+    use glint::view::replay::GpuTimeSource;
+    let data = load(glossy_bundle()).unwrap_or_else(|e| panic!("{e}"));
+    let gpu = gpu();
+    let camera = pose_at(data.scene.camera_path(None).unwrap(), 0.0);
+    let mut off = Offscreen::new(&gpu, &data, 640, 432, false).unwrap();
+    if off.gpu_time_source() != GpuTimeSource::TimestampQuery {
+        eprintln!("no timestamp queries on this adapter: nothing to check");
+        return;
+    }
+    let mut median_gpu = |mode| {
+        off.set_reflections(&gpu, &data, mode).unwrap();
+        off.render(&gpu, &camera).unwrap();
+        let mut t: Vec<f64> = (0..5)
+            .map(|_| {
+                let t = off.render(&gpu, &camera).unwrap();
+                assert!(
+                    t.gpu_ms > 0.0 && t.gpu_ms <= t.frame_ms,
+                    "{mode}: GPU span {} ms, frame {} ms",
+                    t.gpu_ms,
+                    t.frame_ms
+                );
+                t.gpu_ms
+            })
+            .collect();
+        t.sort_by(f64::total_cmp);
+        t[2]
+    };
+    let scene_only = median_gpu(ReflectionMode::Off);
+    let geometry = median_gpu(ReflectionMode::Geometry);
+    eprintln!("GPU ms: scene pass {scene_only:.2}, with geometry reflections {geometry:.2}");
+    assert!(
+        geometry > scene_only,
+        "{geometry:.2} ms with reflections vs {scene_only:.2} without"
+    );
+}

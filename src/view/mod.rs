@@ -8,7 +8,8 @@
 //! - [`cpu_render`]: the CPU reference of a frame, for golden-image tests.
 //! - [`radiance_maps`]: the baked radiance maps of planar reflectors and their selection for
 //!   the reflected view (image-based mode, Bastos §8.1.3).
-//! - [`reflections`]: glossy planar reflections, geometry- and image-based (issue 9).
+//! - [`reflections`]: glossy planar reflections, geometry- and image-based, L = kd·D +
+//!   ks·(M*K)·R (issue 9).
 //! - [`window`]: the interactive winit viewer (fly camera, path playback and recording).
 //! - [`gpu`]: adapter and device selection, readback.
 

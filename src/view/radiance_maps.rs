@@ -10,8 +10,8 @@
 //!   centre of projection is closest to the mirrored eye by angle seen from the element's
 //!   centre ([`Selection::Angle`], Bastos's default) or by distance ([`Selection::Distance`]).
 //!
-//! The maps are decoded and splatted by [`super::reflections`]; the quadtrees
-//! (`glint::radiance::quadtree::decode`, for Eq. 3 sizes per node) are not read yet.
+//! The maps and their quadtrees are decoded and splatted by [`super::reflections`]
+//! (Eq. 3 sizes per node, culling and skipping in [`super::reflections::splats`]).
 
 use std::path::Path;
 
