@@ -12,6 +12,9 @@ use crate::geometry::Bvh;
 use crate::radiosity::RadiosityMap;
 use crate::scene::Scene;
 
+/// Per pixel: radiance, beyond-fraction, and the reflector hit (index, point) if any.
+type Pixel = (Vec3, f32, Option<(usize, Vec3)>);
+
 /// The CPU reference of the geometry-based mode. Per pixel, the view ray's nearest hit gives
 /// D; where it is a glossy planar reflector seen from its reflecting side, ks·R × (M*K) is
 /// added, with
@@ -43,7 +46,7 @@ pub fn cpu_reference(
     let clip = (scene.bounds.diagonal() * CLIP_FRACTION).max(1e-5);
     let aspect = width.max(1) as f32 / height.max(1) as f32;
     let d = |t: u32, bary| crate::view::bicubic::radiance(map, t, bary).max(Vec3::ZERO);
-    let pixels = |f: &(dyn Fn(u32, u32) -> (Vec3, f32, Option<(usize, Vec3)>) + Sync)| {
+    let pixels = |f: &(dyn Fn(u32, u32) -> Pixel + Sync)| {
         (0..height)
             .into_par_iter()
             .flat_map_iter(|y| (0..width).map(move |x| f(x, y)))

@@ -150,7 +150,7 @@ fn fill(
         for (_, x, y) in pixels {
             let k = y as usize * res + x as usize;
             let z = image.z[k];
-            if image.hit[k] < 0.5 || !(z > 0.0) {
+            if image.hit[k] < 0.5 || z.is_nan() || z <= 0.0 {
                 continue;
             }
             let p = view.unproject(x as f32 + 0.5, y as f32 + 0.5, z);
@@ -212,7 +212,7 @@ pub fn point_size(view: &MapCamera, p: Vec3, camera: &Camera, height: u32) -> Op
 /// the points).
 pub fn step(size: Vec2) -> u32 {
     let s = size.max_element();
-    if !(s > 0.0) || s >= 0.5 {
+    if s.is_nan() || s <= 0.0 || s >= 0.5 {
         return 1;
     }
     let k = (1.0 / s).log2().floor().clamp(0.0, 15.0) as u32;
