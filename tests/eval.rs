@@ -433,7 +433,10 @@ fn sweep_writes_csv_and_plot() {
     assert_eq!(rows.len(), 3);
     for r in &rows {
         assert!(r.bundle_bytes > 0 && r.bake_seconds > 0.0);
-        assert!(r.stage_seconds.is_some_and(|s| s > 0.0 && s <= r.bake_seconds));
+        assert!(
+            r.stage_seconds
+                .is_some_and(|s| s > 0.0 && s <= r.bake_seconds)
+        );
         assert!(r.frame_ms.is_none(), "the CPU view is not timed");
         // D = emission = the path-traced value; tolerance: half-float storage.
         assert!(r.metrics.max_error < 5e-3, "{r:?}");
@@ -458,9 +461,15 @@ fn sweep_writes_csv_and_plot() {
         assert!(text.contains(name), "the plot names {name}: {text}");
     }
     for value in ["16", "32", "4"] {
-        assert!(text.lines().any(|l| l.trim() == value), "point labelled {value}");
+        assert!(
+            text.lines().any(|l| l.trim() == value),
+            "point labelled {value}"
+        );
     }
-    assert!(!text.contains("frame time"), "no frame-time panel without frame times");
+    assert!(
+        !text.contains("frame time"),
+        "no frame-time panel without frame times"
+    );
 }
 
 #[test]
@@ -486,7 +495,10 @@ fn unknown_knobs_and_bad_values_are_refused() {
         assert!(sweep::valid_knobs().iter().any(|v| v == k), "{k} is a knob");
     }
     let e = sweep::parse_knob("materials.x=1").unwrap_err().to_string();
-    assert!(e.contains("materials.x") && e.contains("materials.sample_budget"), "{e}");
+    assert!(
+        e.contains("materials.x") && e.contains("materials.sample_budget"),
+        "{e}"
+    );
     for (bad, says) in [
         ("radiosity.rays=many", "radiosity.rays"),
         ("radiosity.rays=0", "rays"),
@@ -509,7 +521,9 @@ fn unknown_knobs_and_bad_values_are_refused() {
         assert!(e.contains("off, geometry, image"), "{e}");
         let e = sweep::parse_knob("view.maps=0").unwrap_err().to_string();
         assert!(e.contains("1 ..= 16"), "{e}");
-        let e = sweep::parse_knob("view.selection=near").unwrap_err().to_string();
+        let e = sweep::parse_knob("view.selection=near")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("angle, distance"), "{e}");
         let k = sweep::parse_knob("view.reflections=off,geometry,image").unwrap();
         assert_eq!(k.values.len(), 3);
@@ -564,13 +578,12 @@ fn viewer_sweep_times_frames_and_sees_reflections() {
     let mut cfg = sweep_config(&knobs, &cam, &out, true);
     cfg.view.reflections = sweep::Reflections::Image;
     let rows = sweep::sweep(&scene, &reference, &cfg, &Silent).unwrap();
-    eprintln!("reference mean {:?}", reference.mean());
-    for r in &rows {
-        eprintln!("{r:?}");
-    }
     if std::env::var_os("KEEP").is_some() {
         let _ = std::fs::remove_dir_all("/tmp/i5sweep");
-        std::process::Command::new("cp").args(["-r", out.to_str().unwrap(), "/tmp/i5sweep"]).status().unwrap();
+        std::process::Command::new("cp")
+            .args(["-r", out.to_str().unwrap(), "/tmp/i5sweep"])
+            .status()
+            .unwrap();
     }
     assert_eq!(rows.len(), 6);
     for r in &rows {
@@ -702,4 +715,64 @@ fn cli_reference_compare_and_errors() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--size"));
     assert!(eval_cmd().arg("--help").output().unwrap().stdout.len() > 100);
+}
+
+/// `glint-bake` on shipped scenes (draft): every needed stage baked, then a second run finds
+/// every one up to date and changes no file.
+#[test]
+fn glint_bake_twice_on_shipped_scenes_bakes_nothing_the_second_time() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["cornell-box", "glossy-room"] {
+        let scene = repo(&format!("scenes/{name}/scene.json"));
+        let bundle = dir.path().join(format!("{name}.glint"));
+        let bake = || {
+            let out = Command::new(env!("CARGO_BIN_EXE_glint-bake"))
+                .arg(&scene)
+                .arg("--bundle")
+                .arg(&bundle)
+                .args(["--quality", "draft", "--json"])
+                .output()
+                .unwrap();
+            assert!(
+                out.status.success(),
+                "{}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+            v["stages"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|s| {
+                    (
+                        s["stage"].as_str().unwrap().to_string(),
+                        s["needed"].as_bool().unwrap(),
+                        s["status"].as_str().unwrap().to_string(),
+                    )
+                })
+                .collect::<Vec<_>>()
+        };
+        let first = bake();
+        let manifest = std::fs::read(bundle.join("manifest.json")).unwrap();
+        let second = bake();
+        for ((stage, needed, status), (_, _, again)) in first.iter().zip(&second) {
+            if *needed {
+                assert!(status.starts_with("baked"), "{name} {stage}: {status}");
+                assert_eq!(again, "up to date", "{name} {stage}");
+            } else {
+                assert!(again.starts_with("skipped"), "{name} {stage}: {again}");
+            }
+        }
+        let needed: Vec<&str> = first.iter().filter(|s| s.1).map(|s| s.0.as_str()).collect();
+        let expected: &[&str] = match name {
+            "cornell-box" => &["scene", "radiosity"],
+            _ => &["scene", "radiosity", "materials", "radiance"],
+        };
+        assert_eq!(needed, expected, "{name}");
+        assert_eq!(
+            std::fs::read(bundle.join("manifest.json")).unwrap(),
+            manifest,
+            "{name}: the second run rewrote the manifest"
+        );
+    }
 }

@@ -37,12 +37,13 @@ impl BakeSettings {
     /// and the field.
     pub fn resolve(scene: &Scene, quality: Quality) -> Result<BakeSettings, BakeError> {
         let over = &scene.desc.bake;
-        let materials = MaterialsSettings::resolve(quality, &over.materials).map_err(
-            |(field, why)| BakeError {
-                stage: Stage::Materials,
-                source: format!("{}: field `{field}`: {why}", scene.path.display()).into(),
-            },
-        )?;
+        let materials =
+            MaterialsSettings::resolve(quality, &over.materials).map_err(|(field, why)| {
+                BakeError {
+                    stage: Stage::Materials,
+                    source: format!("{}: field `{field}`: {why}", scene.path.display()).into(),
+                }
+            })?;
         let srdm =
             SrdmSettings::resolve(&scene.path, quality, &over.srdm).map_err(|e| BakeError {
                 stage: Stage::Srdm,
@@ -170,7 +171,10 @@ fn bake_stage(
         }
         Stage::Materials => {
             let d = materials::d_identity(bundle, scene);
-            if fresh(Some(&materials::recorded_settings(&s.materials, d.as_deref()))) {
+            if fresh(Some(&materials::recorded_settings(
+                &s.materials,
+                d.as_deref(),
+            ))) {
                 StageStatus::UpToDate
             } else {
                 match materials::bake(scene, bundle, &s.materials, force, progress)? {

@@ -531,10 +531,12 @@ pub fn sweep(
 /// bake's (the copy kept it).
 fn stage_seconds(report: &[StageReport], base: &[StageReport], stage: Stage) -> Option<f64> {
     let baked = |r: &[StageReport]| {
-        r.iter().find(|s| s.plan.stage == stage).and_then(|s| match s.status {
-            StageStatus::Baked { seconds } => Some(seconds),
-            _ => None,
-        })
+        r.iter()
+            .find(|s| s.plan.stage == stage)
+            .and_then(|s| match s.status {
+                StageStatus::Baked { seconds } => Some(seconds),
+                _ => None,
+            })
     };
     baked(report).or_else(|| baked(base))
 }
@@ -542,8 +544,8 @@ fn stage_seconds(report: &[StageReport], base: &[StageReport], stage: Stage) -> 
 /// The scene loaded again with `bake.radiance.resolution_scale` set (the radiance stage
 /// reads it from the scene).
 fn scene_with_radiance_scale(scene: &Scene, scale: f32) -> Result<Scene, SweepError> {
-    let mut s = Scene::load(&scene.path)
-        .map_err(|e| SweepError::Map(scene.path.clone(), e.to_string()))?;
+    let mut s =
+        Scene::load(&scene.path).map_err(|e| SweepError::Map(scene.path.clone(), e.to_string()))?;
     s.desc.bake.radiance.resolution_scale = Some(scale);
     Ok(s)
 }
@@ -740,8 +742,9 @@ pub fn plot_svg(title: &str, rows: &[Row]) -> Result<String, SweepError> {
         }
         if timed {
             let panels = root.split_evenly((1, 2));
+            // View knobs change no bake: they are plotted against frame time only.
             panel(&panels[0], rows, &knobs, "bake time (s, log)", |r| {
-                Some(r.bake_seconds)
+                r.stage_seconds.map(|_| r.bake_seconds)
             })?;
             panel(&panels[1], rows, &knobs, "frame time (ms, log)", |r| {
                 r.frame_ms
@@ -790,7 +793,10 @@ fn panel<DB: DrawingBackend>(
         .margin(16)
         .x_label_area_size(44)
         .y_label_area_size(64)
-        .build_cartesian_2d(xr.log_scale(), yr.log_scale())
+        .build_cartesian_2d(
+            xr.clone().log_scale().with_key_points(ticks(xr)),
+            yr.clone().log_scale().with_key_points(ticks(yr)),
+        )
         .map_err(plot_err)?;
     chart
         .configure_mesh()
@@ -817,7 +823,9 @@ fn panel<DB: DrawingBackend>(
             ))
             .map_err(plot_err)?
             .label(*name)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2)));
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+            });
         chart
             .draw_series(mine.iter().map(|&(x, y, v)| {
                 EmptyElement::at((x, y))
@@ -842,12 +850,35 @@ fn panel<DB: DrawingBackend>(
 
 /// A log axis range around the values: 30% beyond them, at least a factor 4 wide.
 fn log_range(v: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
-    let (lo, hi) = v.fold((f64::INFINITY, 0.0f64), |(lo, hi), x| (lo.min(x), hi.max(x)));
+    let (lo, hi) = v.fold((f64::INFINITY, 0.0f64), |(lo, hi), x| {
+        (lo.min(x), hi.max(x))
+    });
     if !lo.is_finite() {
         return 0.1..1.0;
     }
     let widen = (4.0 / (hi / lo)).sqrt().max(1.3);
     lo / widen..hi * widen
+}
+
+/// 1-2-5 ticks per decade inside `r`; 1 … 9 when that gives fewer than three.
+fn ticks(r: std::ops::Range<f64>) -> Vec<f64> {
+    let within = |mantissas: &[f64]| {
+        let mut v = Vec::new();
+        for d in (r.start.log10().floor() as i32)..=(r.end.log10().ceil() as i32) {
+            for &m in mantissas {
+                let t = m * 10f64.powi(d);
+                if r.contains(&t) {
+                    v.push(t);
+                }
+            }
+        }
+        v
+    };
+    let v = within(&[1.0, 2.0, 5.0]);
+    if v.len() >= 3 {
+        return v;
+    }
+    within(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0])
 }
 
 /// A tick label: a few significant digits, no trailing zeros.
