@@ -115,7 +115,9 @@ enum Command {
         /// Render D on the CPU even when the viewer is built (no frame times).
         #[arg(long)]
         cpu_view: bool,
-        /// Rays per pixel of the CPU view of D (antialiasing).
+        /// Samples per pixel of the compared view (antialiasing): rays of the CPU view of D; in
+        /// the viewer, the frame is rendered at ⌊√N⌋× the size and box-filtered (timed frames
+        /// stay at --size).
         #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=1024))]
         view_spp: u32,
         /// Output folder.

@@ -578,13 +578,6 @@ fn viewer_sweep_times_frames_and_sees_reflections() {
     let mut cfg = sweep_config(&knobs, &cam, &out, true);
     cfg.view.reflections = sweep::Reflections::Image;
     let rows = sweep::sweep(&scene, &reference, &cfg, &Silent).unwrap();
-    if std::env::var_os("KEEP").is_some() {
-        let _ = std::fs::remove_dir_all("/tmp/i5sweep");
-        std::process::Command::new("cp")
-            .args(["-r", out.to_str().unwrap(), "/tmp/i5sweep"])
-            .status()
-            .unwrap();
-    }
     assert_eq!(rows.len(), 6);
     for r in &rows {
         assert!(

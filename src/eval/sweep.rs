@@ -403,7 +403,8 @@ pub struct SweepConfig<'a> {
     pub use_viewer: bool,
     /// Timed frames per setting in the viewer (after one untimed warm-up frame).
     pub frames: usize,
-    /// Rays per pixel of the CPU view of D (stratified; antialiasing only).
+    /// Samples per pixel of the view, for antialiasing: stratified rays of the CPU view of D;
+    /// in the viewer, the compared frame is rendered at ⌊√spp⌋× the size and box-filtered.
     pub view_spp: u32,
     /// Output folder: `bundles/`, `views/`, `sweep.csv`, `sweep.svg`.
     pub out: &'a Path,
@@ -425,7 +426,7 @@ pub fn sweep(
     let bundles = cfg.out.join("bundles");
     let (w, h) = (reference.width as u32, reference.height as u32);
     let mut viewer = if cfg.use_viewer {
-        Viewer::open(w, h, cfg.frames)
+        Viewer::open(w, h, cfg.frames, cfg.view_spp)
     } else {
         None
     };
@@ -597,17 +598,21 @@ struct Viewer {
     width: u32,
     height: u32,
     frames: usize,
+    /// The compared frame is rendered at `supersample`× the size and box-filtered down, as
+    /// the reference's pixels are (timed frames are rendered at the real size).
+    supersample: u32,
 }
 
 #[cfg(feature = "view")]
 impl Viewer {
-    fn open(width: u32, height: u32, frames: usize) -> Option<Viewer> {
+    fn open(width: u32, height: u32, frames: usize, spp: u32) -> Option<Viewer> {
         match crate::view::gpu::Gpu::headless_with_features(wgpu::Features::TIMESTAMP_QUERY) {
             Ok(gpu) => Some(Viewer {
                 gpu,
                 width,
                 height,
                 frames: frames.max(1),
+                supersample: (spp.max(1) as f64).sqrt().floor() as u32,
             }),
             Err(e) => {
                 log::warn!("no GPU for the headless viewer ({e}): views are D on the CPU, untimed");
@@ -631,38 +636,79 @@ impl Viewer {
         let fail = |e: &dyn std::fmt::Display| SweepError::View(label.to_string(), e.to_string());
         let data = crate::view::load::load(dir).map_err(|e| fail(&e))?;
         let gpu = &self.gpu;
-        let mut off =
-            Offscreen::new(gpu, &data, self.width, self.height, true).map_err(|e| fail(&e))?;
-        off.selection = match view.selection {
-            MapSelection::Angle => Selection::Angle,
-            MapSelection::Distance => Selection::Distance,
+        let offscreen = |w: u32, h: u32| -> Result<Offscreen, SweepError> {
+            let mut off = Offscreen::new(gpu, &data, w, h, true).map_err(|e| fail(&e))?;
+            off.selection = match view.selection {
+                MapSelection::Angle => Selection::Angle,
+                MapSelection::Distance => Selection::Distance,
+            };
+            off.map_count = view.maps;
+            let mode = match view.reflections {
+                Reflections::Off => ReflectionMode::Off,
+                Reflections::Geometry => ReflectionMode::Geometry,
+                Reflections::Image => ReflectionMode::Image,
+            };
+            off.set_reflections(gpu, &data, mode)
+                .map_err(|e| fail(&e))?;
+            Ok(off)
         };
-        off.map_count = view.maps;
-        let mode = match view.reflections {
-            Reflections::Off => ReflectionMode::Off,
-            Reflections::Geometry => ReflectionMode::Geometry,
-            Reflections::Image => ReflectionMode::Image,
-        };
-        off.set_reflections(gpu, &data, mode)
-            .map_err(|e| fail(&e))?;
-        off.render(gpu, camera).map_err(|e| fail(&e))?;
+        let timed = offscreen(self.width, self.height)?;
+        timed.render(gpu, camera).map_err(|e| fail(&e))?;
         let mut frame = Vec::with_capacity(self.frames);
         let mut gpu_ms = Vec::with_capacity(self.frames);
         for _ in 0..self.frames {
-            let t = off.render(gpu, camera).map_err(|e| fail(&e))?;
+            let t = timed.render(gpu, camera).map_err(|e| fail(&e))?;
             frame.push(t.frame_ms);
             gpu_ms.push(t.gpu_ms);
         }
-        let rgb = off
+        let k = self.supersample;
+        let big;
+        let shown = if k > 1 {
+            big = offscreen(self.width * k, self.height * k)?;
+            big.render(gpu, camera).map_err(|e| fail(&e))?;
+            &big
+        } else {
+            &timed
+        };
+        let rgb = shown
             .read_hdr(gpu)
             .map_err(|e| fail(&e))?
             .expect("the target was made with HDR");
-        let img = Image {
-            width: self.width as usize,
-            height: self.height as usize,
-            rgb,
-        };
+        let img = box_down(
+            &Image {
+                width: (self.width * k) as usize,
+                height: (self.height * k) as usize,
+                rgb,
+            },
+            k as usize,
+        );
         Ok((img, Some(median(&mut frame)), Some(median(&mut gpu_ms))))
+    }
+}
+
+/// The mean of every `k` × `k` block.
+#[cfg(feature = "view")]
+fn box_down(img: &Image, k: usize) -> Image {
+    if k == 1 {
+        return img.clone();
+    }
+    let (w, h) = (img.width / k, img.height / k);
+    let mut rgb = Vec::with_capacity(w * h);
+    for y in 0..h {
+        for x in 0..w {
+            let mut sum = glam::DVec3::ZERO;
+            for j in 0..k {
+                for i in 0..k {
+                    sum += img.rgb[(y * k + j) * img.width + x * k + i].as_dvec3();
+                }
+            }
+            rgb.push((sum / (k * k) as f64).as_vec3());
+        }
+    }
+    Image {
+        width: w,
+        height: h,
+        rgb,
     }
 }
 
@@ -678,7 +724,7 @@ struct Viewer;
 
 #[cfg(not(feature = "view"))]
 impl Viewer {
-    fn open(_: u32, _: u32, _: usize) -> Option<Viewer> {
+    fn open(_: u32, _: u32, _: usize, _: u32) -> Option<Viewer> {
         None
     }
 
@@ -719,10 +765,14 @@ pub fn to_csv(rows: &[Row]) -> String {
     s
 }
 
-/// The plot as SVG (plotters): relative RMSE against bake time and, when frames were timed,
-/// against frame time; log axes, one curve per knob, each point labelled with its value.
+/// The plot as SVG (plotters): relative RMSE against bake time and, when view knobs were
+/// timed, against frame time; log axes, one curve per knob, each point labelled with its
+/// value.
 pub fn plot_svg(title: &str, rows: &[Row]) -> Result<String, SweepError> {
-    let timed = rows.iter().any(|r| r.frame_ms.is_some());
+    // Frame time is the cost of a view knob; stage knobs barely change it (it is in the CSV).
+    let timed = rows
+        .iter()
+        .any(|r| r.frame_ms.is_some() && r.knob.starts_with("view."));
     let mut svg = String::new();
     {
         let size = if timed { (1200, 480) } else { (640, 480) };
