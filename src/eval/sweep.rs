@@ -839,6 +839,8 @@ fn panel<DB: DrawingBackend>(
         .collect();
     let xr = log_range(pts.iter().map(|p| p.1));
     let yr = log_range(pts.iter().map(|p| p.2));
+    // Head room for the legend, one line per knob.
+    let yr = yr.start..yr.end * 1.25f64.powi(knobs.len() as i32);
     let mut chart = ChartBuilder::on(area)
         .margin(16)
         .x_label_area_size(44)
