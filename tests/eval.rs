@@ -539,17 +539,79 @@ fn unknown_knobs_and_bad_values_are_refused() {
 /// planar reflector, and a camera that sees the panel's reflection of the lit floor.
 #[cfg(feature = "view")]
 fn glossy_room(dir: &Path) -> Scene {
+    glossy_room_with(dir, "")
+}
+
+/// [`glossy_room`] with `extra` JSON members in scene.json.
+fn glossy_room_with(dir: &Path, extra: &str) -> Scene {
     let (mut meshes, materials) = room();
     let ceiling = meshes.pop().unwrap();
     meshes.push(flip(ceiling));
     write_gltf(dir, "room", &meshes, &materials);
     Scene::load(write_scene(
         dir,
-        r#"{ "version": 1, "geometry": "room.gltf",
-             "reflectors": [ { "mesh": "Panel", "kind": "planar" } ],
-             "camera_paths": [ { "name": "panel", "keyframes": [ { "time": 0, "position": [0.6, 1.0, 0.3], "target": [-0.9, 0.7, 0.0], "fov_y_deg": 60 } ] } ] }"#,
+        &format!(
+            r#"{{ "version": 1, "geometry": "room.gltf",
+                 "reflectors": [ {{ "mesh": "Panel", "kind": "planar" }} ],
+                 "camera_paths": [ {{ "name": "panel", "keyframes": [ {{ "time": 0, "position": [0.6, 1.0, 0.3], "target": [-0.9, 0.7, 0.0], "fov_y_deg": 60 }} ] }} ]{extra} }}"#
+        ),
     ))
     .unwrap()
+}
+
+#[test]
+fn stage_knobs_reach_their_stage_and_only_rebake_what_they_change() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = glossy_room_with(dir.path(), r#", "impostors": [ { "mesh": "Panel" } ]"#);
+    let bvh = scene.build_bvh();
+    let cam = glint::camera::pose_at(scene.camera_path(None).unwrap(), 0.0);
+    let opts = RenderOptions {
+        width: 16,
+        height: 12,
+        spp: 4,
+        diffuse_only: true,
+        ..RenderOptions::default()
+    };
+    let reference = reference::render(&scene, &bvh, &cam, &opts, &Silent)
+        .unwrap()
+        .image;
+    let knobs = [
+        sweep::parse_knob("materials.map_1d_size=16").unwrap(),
+        sweep::parse_knob("radiance.resolution_scale=0.5").unwrap(),
+        sweep::parse_knob("srdm.domains=7").unwrap(),
+    ];
+    let out = dir.path().join("sweep");
+    let rows = sweep::sweep(
+        &scene,
+        &reference,
+        &sweep_config(&knobs, &cam, &out, false),
+        &Silent,
+    )
+    .unwrap();
+    assert_eq!(rows.len(), 3);
+    let open = |label: &str| Bundle::open(out.join(format!("bundles/{label}.glint"))).unwrap();
+    let base = open("base");
+    let settings = |b: &Bundle, stage: &str| b.stage(stage).unwrap().settings.clone();
+    let m = open("materials.map_1d_size=16");
+    assert_eq!(settings(&m, "materials")["map_1d_size"], 16);
+    assert_eq!(settings(&m, "radiosity"), settings(&base, "radiosity"));
+    let r = open("radiance.resolution_scale=0.5");
+    assert_ne!(settings(&r, "radiance"), settings(&base, "radiance"));
+    assert_eq!(settings(&r, "materials"), settings(&base, "materials"));
+    let s = open("srdm.domains=7");
+    assert_eq!(settings(&s, "srdm")["domains"], 7);
+    // A stage the knob does not touch is the base bake's, copied: not baked again.
+    for (b, kept) in [(&m, "radiosity"), (&r, "materials"), (&s, "radiance")] {
+        assert_eq!(
+            b.stage(kept).unwrap().bake_seconds,
+            base.stage(kept).unwrap().bake_seconds,
+            "{kept}"
+        );
+    }
+    for r in &rows {
+        assert!(r.stage_seconds.is_some_and(|t| t > 0.0), "{r:?}");
+        assert!(r.bake_seconds >= r.stage_seconds.unwrap());
+    }
 }
 
 #[cfg(feature = "view")]
