@@ -81,15 +81,16 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Bake with each setting, render the same view and compare with a reference; writes
-    /// DIR/sweep.csv and DIR/sweep.svg.
+    /// Bake with each setting, render the same view (timed in the headless viewer when it is
+    /// built) and compare with a reference; writes DIR/sweep.csv and DIR/sweep.svg.
     #[command(
-        after_help = "Example:\n  glint-eval sweep scenes/cornell-box/scene.json --set radiosity.rays=64,256,1024 --set radiosity.texel_density=8,16,32 --camera front --out out/sweep"
+        after_help = "Knobs (STAGE.FIELD):\n  radiosity.texel_density|rays|light_samples|bounces|tolerance\n  materials.sample_budget|xi0|max_circles|kernel_texel_deg|kernel_max_radius|sphere_map_size|map_1d_size|albedo_steps|env_map_size|env_filter|env_supersample\n  radiance.resolution_scale\n  srdm.domains|points|resolution\n  view.reflections=off,geometry,image  view.maps=1,2,4  view.selection=angle,distance\n\nExamples:\n  glint-eval sweep scenes/cornell-box/scene.json --set radiosity.rays=64,256,1024 --set radiosity.texel_density=8,16,32 --camera front --out out/sweep\n  glint-eval sweep scenes/glossy-room/scene.json --reflections image --set radiance.resolution_scale=0.5,1,2 --set view.maps=1,2,4 --out out/sweep-glossy"
     )]
     Sweep {
         /// The scene description.
         scene: PathBuf,
-        /// STAGE.FIELD=V1,V2,... (repeatable); fields as in scene.json's `bake.radiosity`.
+        /// STAGE.FIELD=V1,V2,... (repeatable): a field of scene.json's `bake.STAGE`
+        /// settings, or a viewer setting `view.*`.
         #[arg(long = "set", required = true)]
         set: Vec<String>,
         #[command(flatten)]
@@ -99,13 +100,43 @@ enum Command {
         /// Preset the knobs start from (default: the scene's).
         #[arg(long, value_enum)]
         quality: Option<QualityArg>,
-        /// Rays per pixel of the view of D (antialiasing).
+        /// Glossy reflections in the view, for every setting but a view.reflections knob's.
+        #[arg(long, value_enum, default_value = "off")]
+        reflections: ReflectionsArg,
+        /// Image-based reflections: maps per reflector element (1..=16).
+        #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=16))]
+        maps: u8,
+        /// Image-based reflections: map selection.
+        #[arg(long, value_enum, default_value = "angle")]
+        selection: SelectionArg,
+        /// Timed frames per setting in the headless viewer (the median is reported).
+        #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=1000))]
+        frames: u32,
+        /// Render D on the CPU even when the viewer is built (no frame times).
+        #[arg(long)]
+        cpu_view: bool,
+        /// Samples per pixel of the compared view (antialiasing): rays of the CPU view of D; in
+        /// the viewer, the frame is rendered at ⌊√N⌋× the size and box-filtered (timed frames
+        /// stay at --size).
         #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=1024))]
         view_spp: u32,
         /// Output folder.
         #[arg(long)]
         out: PathBuf,
     },
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum ReflectionsArg {
+    Off,
+    Geometry,
+    Image,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum SelectionArg {
+    Angle,
+    Distance,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -371,6 +402,11 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
             view,
             render,
             quality,
+            reflections,
+            maps,
+            selection,
+            frames,
+            cpu_view,
             view_spp,
             out,
         } => {
@@ -378,11 +414,23 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                 .iter()
                 .map(|s| sweep::parse_knob(s))
                 .collect::<Result<Vec<_>, _>>()?;
+            let base_view = sweep::ViewSettings {
+                reflections: match reflections {
+                    ReflectionsArg::Off => sweep::Reflections::Off,
+                    ReflectionsArg::Geometry => sweep::Reflections::Geometry,
+                    ReflectionsArg::Image => sweep::Reflections::Image,
+                },
+                maps: maps as usize,
+                selection: match selection {
+                    SelectionArg::Angle => sweep::MapSelection::Angle,
+                    SelectionArg::Distance => sweep::MapSelection::Distance,
+                },
+            };
             let scene = Scene::load(&scene)?;
             let cam = camera(&scene, &view)?;
             let mut opts = render.options();
-            // The bake is diffuse: compare with the diffuse scene.
-            opts.diffuse_only = true;
+            // Without reflections the view is diffuse: compare with the diffuse scene.
+            opts.diffuse_only |= !sweep::shows_reflections(&base_view, &knobs);
             std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
             let reference = render_reference(&scene, &cam, &opts)?;
             write(&out.join("reference.exr"), &reference.to_exr()?)?;
@@ -400,6 +448,9 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                     quality,
                     knobs: &knobs,
                     camera: &cam,
+                    view: base_view,
+                    use_viewer: !cpu_view,
+                    frames: frames as usize,
                     view_spp,
                     out: &out,
                 },
@@ -408,6 +459,18 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
             progress.finish();
             let rows = rows?;
             print!("{}", sweep::to_csv(&rows));
+            if rows.iter().all(|r| r.frame_ms.is_none()) {
+                eprintln!(
+                    "frame_ms is empty: {}",
+                    if !sweep::VIEWER_BUILT {
+                        "this glint-eval was built without the viewer (`view` feature)"
+                    } else if cpu_view {
+                        "--cpu-view renders D on the CPU"
+                    } else {
+                        "no GPU adapter for the headless viewer"
+                    }
+                );
+            }
             eprintln!(
                 "wrote {} and {}",
                 out.join("sweep.csv").display(),

@@ -354,6 +354,54 @@ fn probes_find_the_surface_along_the_normal() {
     );
 }
 
+/// A sweep's config: `knobs`, the CPU view of D or the headless viewer.
+fn sweep_config<'a>(
+    knobs: &'a [sweep::Knob],
+    cam: &'a Camera,
+    out: &'a Path,
+    use_viewer: bool,
+) -> SweepConfig<'a> {
+    SweepConfig {
+        quality: Quality::Draft,
+        knobs,
+        camera: cam,
+        view: sweep::ViewSettings::default(),
+        use_viewer,
+        frames: 3,
+        view_spp: 4,
+        out,
+    }
+}
+
+/// Checks that `svg` is well-formed XML with an `<svg>` root, and returns its text content.
+fn svg_text(svg: &str) -> String {
+    use quick_xml::events::Event;
+    let mut reader = quick_xml::Reader::from_str(svg);
+    let (mut depth, mut root, mut text) = (0usize, None, String::new());
+    loop {
+        match reader.read_event() {
+            Ok(Event::Start(e)) => {
+                root.get_or_insert_with(|| e.name().as_ref().to_vec());
+                depth += 1;
+            }
+            Ok(Event::End(_)) => depth -= 1,
+            Ok(Event::Empty(e)) => {
+                root.get_or_insert_with(|| e.name().as_ref().to_vec());
+            }
+            Ok(Event::Text(t)) => {
+                text += &String::from_utf8_lossy(t.as_ref());
+                text.push('\n');
+            }
+            Ok(Event::Eof) => break,
+            Ok(_) => {}
+            Err(e) => panic!("the plot is not well-formed XML: {e}\n{svg}"),
+        }
+    }
+    assert_eq!(depth, 0, "unclosed elements");
+    assert_eq!(root.as_deref(), Some(&b"svg"[..]), "root element");
+    text
+}
+
 #[test]
 fn sweep_writes_csv_and_plot() {
     let dir = tempfile::tempdir().unwrap();
@@ -378,46 +426,264 @@ fn sweep_writes_csv_and_plot() {
     let rows = sweep::sweep(
         &scene,
         &reference,
-        &SweepConfig {
-            quality: Quality::Draft,
-            knobs: &knobs,
-            camera: &cam,
-            view_spp: 4,
-            out: &out,
-        },
+        &sweep_config(&knobs, &cam, &out, false),
         &Silent,
     )
     .unwrap();
     assert_eq!(rows.len(), 3);
     for r in &rows {
         assert!(r.bundle_bytes > 0 && r.bake_seconds > 0.0);
+        assert!(
+            r.stage_seconds
+                .is_some_and(|s| s > 0.0 && s <= r.bake_seconds)
+        );
+        assert!(r.frame_ms.is_none(), "the CPU view is not timed");
         // D = emission = the path-traced value; tolerance: half-float storage.
         assert!(r.metrics.max_error < 5e-3, "{r:?}");
     }
     let csv = std::fs::read_to_string(out.join("sweep.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines.len(), 4, "{csv}");
-    assert!(lines[0].starts_with("knob,value,bake_seconds,bundle_bytes,rmse"));
+    assert!(lines[0].starts_with("knob,value,bake_seconds,stage_seconds,bundle_bytes,frame_ms"));
     assert!(lines[1].starts_with("radiosity.rays,16,"));
     assert!(lines[3].starts_with("radiosity.texel_density,4,"));
+    // Every setting's bundle is complete and verifies.
+    let b = Bundle::open(out.join("bundles/radiosity.rays=32.glint")).unwrap();
+    assert!(b.verify().is_empty());
+    assert_eq!(
+        b.stage("radiosity").unwrap().settings["rays"],
+        32,
+        "the knob reached the bake"
+    );
     let svg = std::fs::read_to_string(out.join("sweep.svg")).unwrap();
-    assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
-    assert_eq!(svg.matches("<polyline").count(), 2, "one curve per knob");
+    let text = svg_text(&svg);
+    for name in ["radiosity.rays", "radiosity.texel_density", "bake time"] {
+        assert!(text.contains(name), "the plot names {name}: {text}");
+    }
+    for value in ["16", "32", "4"] {
+        assert!(
+            text.lines().any(|l| l.trim() == value),
+            "point labelled {value}"
+        );
+    }
+    assert!(
+        !text.contains("frame time"),
+        "no frame-time panel without frame times"
+    );
 }
 
 #[test]
-fn knob_errors_name_the_setting() {
+fn unknown_knobs_and_bad_values_are_refused() {
     let e = sweep::parse_knob("radiosity.rayz=1")
         .unwrap_err()
         .to_string();
-    assert!(e.contains("rayz") && e.contains("rays"), "{e}");
+    assert!(e.contains("unknown knob `radiosity.rayz`"), "{e}");
+    // The message lists every valid knob, of every stage and the viewer.
+    for k in sweep::valid_knobs() {
+        assert!(e.contains(&k), "{k} missing from: {e}");
+    }
+    for k in [
+        "radiosity.rays",
+        "materials.sample_budget",
+        "materials.map_1d_size",
+        "radiance.resolution_scale",
+        "srdm.domains",
+        "view.reflections",
+        "view.maps",
+        "view.selection",
+    ] {
+        assert!(sweep::valid_knobs().iter().any(|v| v == k), "{k} is a knob");
+    }
     let e = sweep::parse_knob("materials.x=1").unwrap_err().to_string();
-    assert!(e.contains("materials"), "{e}");
-    let e = sweep::parse_knob("radiosity.rays=many")
-        .unwrap_err()
-        .to_string();
-    assert!(e.contains("radiosity.rays"), "{e}");
+    assert!(
+        e.contains("materials.x") && e.contains("materials.sample_budget"),
+        "{e}"
+    );
+    for (bad, says) in [
+        ("radiosity.rays=many", "radiosity.rays"),
+        ("radiosity.rays=0", "rays"),
+        ("radiosity.texel_density=-1", "texel_density"),
+        ("materials.env_map_size=100", "power of two"),
+        ("materials.sample_budget=0", "sample_budget"),
+        ("srdm.domains=0", "domains"),
+        ("radiance.resolution_scale=0", "resolution_scale"),
+        ("radiance.resolution_scale=big", "number"),
+    ] {
+        let e = sweep::parse_knob(bad).unwrap_err().to_string();
+        assert!(e.contains(says), "{bad}: {e}");
+    }
     assert!(sweep::parse_knob("radiosity.rays").is_err());
+    assert!(sweep::parse_knob("radiosity.rays=").is_err());
+    if sweep::VIEWER_BUILT {
+        let e = sweep::parse_knob("view.reflections=shiny")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("off, geometry, image"), "{e}");
+        let e = sweep::parse_knob("view.maps=0").unwrap_err().to_string();
+        assert!(e.contains("1 ..= 16"), "{e}");
+        let e = sweep::parse_knob("view.selection=near")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("angle, distance"), "{e}");
+        let k = sweep::parse_knob("view.reflections=off,geometry,image").unwrap();
+        assert_eq!(k.values.len(), 3);
+    } else {
+        let e = sweep::parse_knob("view.maps=1").unwrap_err().to_string();
+        assert!(e.contains("`view` feature"), "{e}");
+    }
+    let k = sweep::parse_knob("materials.env_filter=box2,gauss6").unwrap();
+    assert_eq!(k.values.len(), 2);
+}
+
+/// The room of `tests/common`, its ceiling light turned to face the floor, its panel a
+/// planar reflector, and a camera that sees the panel's reflection of the lit floor.
+#[cfg(feature = "view")]
+fn glossy_room(dir: &Path) -> Scene {
+    glossy_room_with(dir, "")
+}
+
+/// [`glossy_room`] with `extra` JSON members in scene.json.
+fn glossy_room_with(dir: &Path, extra: &str) -> Scene {
+    let (mut meshes, materials) = room();
+    let ceiling = meshes.pop().unwrap();
+    meshes.push(flip(ceiling));
+    write_gltf(dir, "room", &meshes, &materials);
+    Scene::load(write_scene(
+        dir,
+        &format!(
+            r#"{{ "version": 1, "geometry": "room.gltf",
+                 "reflectors": [ {{ "mesh": "Panel", "kind": "planar" }} ],
+                 "camera_paths": [ {{ "name": "panel", "keyframes": [ {{ "time": 0, "position": [0.6, 1.0, 0.3], "target": [-0.9, 0.7, 0.0], "fov_y_deg": 60 }} ] }} ]{extra} }}"#
+        ),
+    ))
+    .unwrap()
+}
+
+#[test]
+fn stage_knobs_reach_their_stage_and_only_rebake_what_they_change() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = glossy_room_with(dir.path(), r#", "impostors": [ { "mesh": "Panel" } ]"#);
+    let bvh = scene.build_bvh();
+    let cam = glint::camera::pose_at(scene.camera_path(None).unwrap(), 0.0);
+    let opts = RenderOptions {
+        width: 16,
+        height: 12,
+        spp: 4,
+        diffuse_only: true,
+        ..RenderOptions::default()
+    };
+    let reference = reference::render(&scene, &bvh, &cam, &opts, &Silent)
+        .unwrap()
+        .image;
+    let knobs = [
+        sweep::parse_knob("materials.map_1d_size=16").unwrap(),
+        sweep::parse_knob("radiance.resolution_scale=0.5").unwrap(),
+        sweep::parse_knob("srdm.domains=7").unwrap(),
+    ];
+    let out = dir.path().join("sweep");
+    let rows = sweep::sweep(
+        &scene,
+        &reference,
+        &sweep_config(&knobs, &cam, &out, false),
+        &Silent,
+    )
+    .unwrap();
+    assert_eq!(rows.len(), 3);
+    let open = |label: &str| Bundle::open(out.join(format!("bundles/{label}.glint"))).unwrap();
+    let base = open("base");
+    let settings = |b: &Bundle, stage: &str| b.stage(stage).unwrap().settings.clone();
+    let m = open("materials.map_1d_size=16");
+    assert_eq!(settings(&m, "materials")["map_1d_size"], 16);
+    assert_eq!(settings(&m, "radiosity"), settings(&base, "radiosity"));
+    let r = open("radiance.resolution_scale=0.5");
+    assert_ne!(settings(&r, "radiance"), settings(&base, "radiance"));
+    assert_eq!(settings(&r, "materials"), settings(&base, "materials"));
+    let s = open("srdm.domains=7");
+    assert_eq!(settings(&s, "srdm")["domains"], 7);
+    // A stage the knob does not touch is the base bake's, copied: not baked again.
+    for (b, kept) in [(&m, "radiosity"), (&r, "materials"), (&s, "radiance")] {
+        assert_eq!(
+            b.stage(kept).unwrap().bake_seconds,
+            base.stage(kept).unwrap().bake_seconds,
+            "{kept}"
+        );
+    }
+    for r in &rows {
+        assert!(r.stage_seconds.is_some_and(|t| t > 0.0), "{r:?}");
+        assert!(r.bake_seconds >= r.stage_seconds.unwrap());
+    }
+}
+
+#[cfg(feature = "view")]
+#[test]
+fn viewer_sweep_times_frames_and_sees_reflections() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = glossy_room(dir.path());
+    let bvh = scene.build_bvh();
+    let cam = glint::camera::pose_at(scene.camera_path(None).unwrap(), 0.0);
+    // The full glossy scene: what the viewer's reflections approximate.
+    let opts = RenderOptions {
+        width: 48,
+        height: 32,
+        spp: 64,
+        ..RenderOptions::default()
+    };
+    let reference = reference::render(&scene, &bvh, &cam, &opts, &Silent)
+        .unwrap()
+        .image;
+    let knobs = [
+        sweep::parse_knob("radiosity.rays=16,64").unwrap(),
+        sweep::parse_knob("view.reflections=off,geometry").unwrap(),
+        sweep::parse_knob("view.maps=1,2").unwrap(),
+    ];
+    let out = dir.path().join("sweep");
+    let mut cfg = sweep_config(&knobs, &cam, &out, true);
+    cfg.view.reflections = sweep::Reflections::Image;
+    let rows = sweep::sweep(&scene, &reference, &cfg, &Silent).unwrap();
+    assert_eq!(rows.len(), 6);
+    for r in &rows {
+        assert!(
+            r.frame_ms.is_some_and(|f| f > 0.0) && r.gpu_ms.is_some_and(|g| g >= 0.0),
+            "timed in the viewer: {r:?}"
+        );
+        assert!(r.metrics.rel_rmse.is_finite());
+    }
+    let csv = std::fs::read_to_string(out.join("sweep.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let frame = header.iter().position(|h| *h == "frame_ms").unwrap();
+    for line in csv.lines().skip(1) {
+        let f: f64 = line.split(',').nth(frame).unwrap().parse().unwrap();
+        assert!(f > 0.0, "{line}");
+    }
+    let rel = |knob: &str, value: &str| {
+        rows.iter()
+            .find(|r| r.knob == knob && r.value == value)
+            .unwrap()
+            .metrics
+            .rel_rmse
+    };
+    let (off, geometry) = (
+        rel("view.reflections", "off"),
+        rel("view.reflections", "geometry"),
+    );
+    eprintln!("rel. RMSE against the glossy reference: off {off:.4}, geometry {geometry:.4}");
+    assert!(
+        geometry < off,
+        "reflections bring the view closer to the glossy reference"
+    );
+    // View knobs look at the base bundle: no bake of their own.
+    assert!(!out.join("bundles/view.maps=1.glint").exists());
+    assert!(out.join("bundles/radiosity.rays=16.glint").exists());
+    let text = svg_text(&std::fs::read_to_string(out.join("sweep.svg")).unwrap());
+    for name in [
+        "radiosity.rays",
+        "view.reflections",
+        "view.maps",
+        "frame time",
+        "geometry",
+    ] {
+        assert!(text.contains(name), "the plot names {name}: {text}");
+    }
 }
 
 fn eval_cmd() -> Command {
@@ -504,4 +770,64 @@ fn cli_reference_compare_and_errors() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--size"));
     assert!(eval_cmd().arg("--help").output().unwrap().stdout.len() > 100);
+}
+
+/// `glint-bake` on shipped scenes (draft): every needed stage baked, then a second run finds
+/// every one up to date and changes no file.
+#[test]
+fn glint_bake_twice_on_shipped_scenes_bakes_nothing_the_second_time() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["cornell-box", "glossy-room"] {
+        let scene = repo(&format!("scenes/{name}/scene.json"));
+        let bundle = dir.path().join(format!("{name}.glint"));
+        let bake = || {
+            let out = Command::new(env!("CARGO_BIN_EXE_glint-bake"))
+                .arg(&scene)
+                .arg("--bundle")
+                .arg(&bundle)
+                .args(["--quality", "draft", "--json"])
+                .output()
+                .unwrap();
+            assert!(
+                out.status.success(),
+                "{}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+            v["stages"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|s| {
+                    (
+                        s["stage"].as_str().unwrap().to_string(),
+                        s["needed"].as_bool().unwrap(),
+                        s["status"].as_str().unwrap().to_string(),
+                    )
+                })
+                .collect::<Vec<_>>()
+        };
+        let first = bake();
+        let manifest = std::fs::read(bundle.join("manifest.json")).unwrap();
+        let second = bake();
+        for ((stage, needed, status), (_, _, again)) in first.iter().zip(&second) {
+            if *needed {
+                assert!(status.starts_with("baked"), "{name} {stage}: {status}");
+                assert_eq!(again, "up to date", "{name} {stage}");
+            } else {
+                assert!(again.starts_with("skipped"), "{name} {stage}: {again}");
+            }
+        }
+        let needed: Vec<&str> = first.iter().filter(|s| s.1).map(|s| s.0.as_str()).collect();
+        let expected: &[&str] = match name {
+            "cornell-box" => &["scene", "radiosity"],
+            _ => &["scene", "radiosity", "materials", "radiance"],
+        };
+        assert_eq!(needed, expected, "{name}");
+        assert_eq!(
+            std::fs::read(bundle.join("manifest.json")).unwrap(),
+            manifest,
+            "{name}: the second run rewrote the manifest"
+        );
+    }
 }

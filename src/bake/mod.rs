@@ -4,12 +4,14 @@ pub mod materials;
 pub mod plan;
 pub mod radiance_stage;
 pub mod radiosity_stage;
+pub mod run;
 pub mod scene_stage;
 pub mod srdm_stage;
 
 use std::path::Path;
 
 pub use plan::{Stage, StagePlan, plan};
+pub use run::{BakeError, BakeSettings, StageReport, StageStatus, bake_all};
 
 use crate::bundle::Bundle;
 use crate::scene::Scene;

@@ -185,7 +185,7 @@ pub fn texel_solid_angle(size: usize, x: usize, y: usize) -> f32 {
 }
 
 /// A MIP filter of Luksch et al. Table 1.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum MipFilter {
     /// 2×2 box: the standard MIP map.

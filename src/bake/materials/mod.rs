@@ -49,7 +49,7 @@ use self::reflectance::{ReflectanceMap, map_1d, sphere_map};
 use super::{Stage, plan};
 
 /// Settings of the materials stage (a preset, then the scene's `bake.materials` overrides).
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
 pub struct MaterialsSettings {
     /// Samples per lobe the regular pattern should come closest to.
     pub sample_budget: u32,
