@@ -9,6 +9,7 @@ use exr::prelude::f16;
 use glam::Vec3;
 
 use super::gpu::{Gpu, GpuError, read_texture, read_texture_rgba8};
+use super::impostors::{ImpostorReflections, ImpostorSettings};
 use super::load::{LoadError, ViewData, load};
 use super::radiance_maps::Selection;
 use super::reflections::{GeometryReflections, ReflectionMode, Source};
@@ -91,6 +92,8 @@ pub struct ReplayOptions {
     pub selection: Selection,
     /// Image-based mode: maps per reflector element.
     pub map_count: usize,
+    /// Reflections of depth-map impostors through their SRDM (Popescu §4.3; `--impostors`).
+    pub impostors: bool,
 }
 
 impl Default for ReplayOptions {
@@ -106,6 +109,7 @@ impl Default for ReplayOptions {
             reflections: ReflectionMode::Off,
             selection: Selection::Angle,
             map_count: 2,
+            impostors: false,
         }
     }
 }
@@ -214,6 +218,7 @@ pub struct Offscreen {
     pub selection: Selection,
     /// Image-based mode: maps selected per reflector element (likewise).
     pub map_count: usize,
+    impostors: Option<ImpostorReflections>,
 }
 
 impl Offscreen {
@@ -243,7 +248,34 @@ impl Offscreen {
             mode: ReflectionMode::Off,
             selection: Selection::Angle,
             map_count: 2,
+            impostors: None,
         })
+    }
+
+    /// Switches reflections of impostors on or off (needs the bundle's `srdm` stage when the
+    /// scene has impostors).
+    pub fn set_impostors(
+        &mut self,
+        gpu: &Gpu,
+        data: &ViewData,
+        on: bool,
+    ) -> Result<(), RenderError> {
+        self.impostors = if on {
+            Some(ImpostorReflections::new(
+                gpu,
+                &self.renderer,
+                data,
+                ImpostorSettings::default(),
+            )?)
+        } else {
+            None
+        };
+        Ok(())
+    }
+
+    /// Uses `pass` for impostor reflections (benchmarks build it with other tables).
+    pub fn set_impostor_pass(&mut self, pass: Option<ImpostorReflections>) {
+        self.impostors = pass;
     }
 
     /// Switches glossy reflections to `mode` (built for this target's size). The image-based
@@ -314,6 +346,11 @@ impl Offscreen {
                 r.prepare(gpu, &self.renderer, camera);
                 let (color, hdr, depth) = self.target.views();
                 r.draw(&mut encoder, &self.renderer, camera, color, hdr, depth);
+            }
+            if let Some(r) = &self.impostors {
+                r.prepare(gpu, camera);
+                let (color, hdr, depth) = self.target.views();
+                r.draw(&mut encoder, &self.renderer, color, hdr, depth);
             }
             if let Some(t) = &self.timer {
                 t.resolve(&mut encoder);
@@ -433,6 +470,7 @@ pub fn replay_with(
     offscreen.selection = options.selection;
     offscreen.map_count = options.map_count;
     offscreen.set_reflections(gpu, data, options.reflections)?;
+    offscreen.set_impostors(gpu, data, options.impostors)?;
     let frames = schedule(path);
 
     let warmup = offscreen.render(gpu, &frames[0].camera)?;

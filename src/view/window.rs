@@ -26,6 +26,7 @@ use winit::window::{Window, WindowId};
 
 use super::gpu::{Gpu, GpuError};
 use super::headless::{Offscreen, rgba_to_rgb};
+use super::impostors::{ImpostorReflections, ImpostorSettings};
 use super::load::ViewData;
 use super::radiance_maps::Selection;
 use super::reflections::{GeometryReflections, ReflectionMode, Source};
@@ -97,6 +98,8 @@ pub struct WindowOptions {
     pub screenshot_after: Option<u64>,
     /// Glossy reflections at start (G switches).
     pub reflections: ReflectionMode,
+    /// Reflections of impostors at start (I switches).
+    pub impostors: bool,
 }
 
 /// A free-flying camera: position, yaw about +Y (0 looks down −Z, positive turns right)
@@ -348,7 +351,7 @@ pub fn run_window(data: ViewData, options: WindowOptions) -> Result<(), WindowEr
 }
 
 const HELP: &str = "keys: WASD + Q/E move (Shift faster, wheel: speed), left-drag look, \
-1-9 play path, Space pause/resume, R record path, P screenshot, G reflections off/geometry/image, \
+1-9 play path, Space pause/resume, R record path, P screenshot, G reflections off/geometry/image, I impostor reflections, \
 H help, Esc quit";
 
 /// The window's GPU side, created once the event loop runs.
@@ -360,6 +363,7 @@ struct Running {
     renderer: Renderer,
     depth_view: wgpu::TextureView,
     reflections: Option<GeometryReflections>,
+    impostors: Option<ImpostorReflections>,
 }
 
 struct App {
@@ -448,6 +452,16 @@ impl App {
             self.options.reflections,
             (config.width, config.height),
         )?;
+        let impostors = if self.options.impostors {
+            Some(ImpostorReflections::new(
+                &gpu,
+                &renderer,
+                &self.data,
+                ImpostorSettings::default(),
+            )?)
+        } else {
+            None
+        };
         Ok(Running {
             window,
             surface,
@@ -456,6 +470,7 @@ impl App {
             renderer,
             depth_view,
             reflections,
+            impostors,
         })
     }
 
@@ -482,6 +497,30 @@ impl App {
                 r.reflections = None;
             }
         }
+    }
+
+    /// Switches reflections of impostors on or off.
+    fn toggle_impostors(&mut self) -> Result<(), WindowError> {
+        self.options.impostors = !self.options.impostors;
+        log::info!(
+            "impostor reflections: {}",
+            if self.options.impostors { "on" } else { "off" }
+        );
+        self.screenshot = None;
+        let Some(r) = &mut self.running else {
+            return Ok(());
+        };
+        r.impostors = if self.options.impostors {
+            Some(ImpostorReflections::new(
+                &r.gpu,
+                &r.renderer,
+                &self.data,
+                ImpostorSettings::default(),
+            )?)
+        } else {
+            None
+        };
+        Ok(())
     }
 
     /// Cycles reflections off → geometry → image (two maps per element, by angle) → off.
@@ -589,6 +628,10 @@ impl App {
                 &r.depth_view,
             );
         }
+        if let Some(pass) = &r.impostors {
+            pass.prepare(&r.gpu, &camera);
+            pass.draw(&mut encoder, &r.renderer, &view, None, &r.depth_view);
+        }
         r.gpu.queue.submit([encoder.finish()]);
         r.window.pre_present_notify();
         r.gpu.queue.present(frame);
@@ -667,6 +710,7 @@ impl App {
             let mut off = Offscreen::new(&r.gpu, &self.data, w, h, false)?;
             off.renderer.exposure = self.options.exposure;
             off.set_reflections(&r.gpu, &self.data, self.options.reflections)?;
+            off.set_impostors(&r.gpu, &self.data, self.options.impostors)?;
             self.screenshot = Some(off);
         }
         let off = self.screenshot.as_ref().expect("created above");
@@ -772,6 +816,7 @@ impl App {
             }
             KeyCode::KeyR => self.toggle_recording(),
             KeyCode::KeyG => self.toggle_reflections(),
+            KeyCode::KeyI => self.toggle_impostors(),
             KeyCode::KeyP | KeyCode::F12 => {
                 let camera = self.fly.camera();
                 self.save_screenshot(&camera).map(|_| ())
