@@ -30,6 +30,7 @@ use glint::view::headless::Offscreen;
 use glint::view::impostor_tables::{ImpostorParams, SrdmTables, ViewSource, colour_at};
 use glint::view::impostors::{ProbeRay, SrdmProbe};
 use glint::view::load::load;
+use glint::view::reflections::ReflectionMode;
 
 fn gpu() -> Gpu {
     let _ = env_logger::builder().is_test(true).try_init();
@@ -309,6 +310,15 @@ fn bunny_bundle() -> &'static Path {
         scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
         radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent)
             .unwrap_or_else(|e| panic!("{e}"));
+        // R (the mirror's directional albedo, its Fresnel) for the modulation.
+        glint::bake::materials::bake(
+            &scene,
+            &bundle,
+            &glint::bake::materials::MaterialsSettings::preset(glint::scene::desc::Quality::Draft),
+            false,
+            &Silent,
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
         let srdm = SrdmSettings {
             domains: 30,
             points: 16,
@@ -360,12 +370,28 @@ fn predicted_mask(scene: &Scene, bvh: &Bvh, camera: &Camera) -> Vec<bool> {
 
 /// The frame's linear radiance with impostor reflections on or off.
 fn frame(gpu: &Gpu, impostors: bool) -> Vec<Vec3> {
+    frame_with(gpu, impostors, ReflectionMode::Off)
+}
+
+/// The frame with impostor reflections on or off and planar reflections in `mode`.
+fn frame_with(gpu: &Gpu, impostors: bool, mode: ReflectionMode) -> Vec<Vec3> {
     let data = load(bunny_bundle()).unwrap_or_else(|e| panic!("{e}"));
     let mut off = Offscreen::new(gpu, &data, SIZE.0, SIZE.1, true).unwrap();
     off.set_impostors(gpu, &data, impostors)
         .unwrap_or_else(|e| panic!("{e}"));
+    off.set_reflections(gpu, &data, mode)
+        .unwrap_or_else(|e| panic!("{e}"));
     off.render(gpu, &front_camera()).unwrap();
     off.read_hdr(gpu).unwrap().unwrap()
+}
+
+/// Writes a linear image as a tone-mapped PNG next to the test bundle (for inspection).
+fn dump(name: &str, rgb: &[Vec3]) {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("view-impostors-tests");
+    let _ = std::fs::create_dir_all(&dir);
+    let bytes = glint::image_io::tonemap_preview(rgb);
+    let png = glint::image_io::encode_png(SIZE.0, SIZE.1, &bytes, false).unwrap();
+    std::fs::write(dir.join(format!("{name}.png")), png).unwrap();
 }
 
 /// The pixels the impostor pass changed (luminance up by more than `threshold`).
@@ -413,12 +439,20 @@ fn reflected_bunny_appears_where_the_mirrored_geometry_predicts() {
     assert!(iou >= MIN_IOU, "IoU {iou:.3} < {MIN_IOU}");
 }
 
-/// Largest relative difference of the mean luminance over the reflected bunny between the
-/// viewer (impostor colour = the bake's D, reflected with ks) and the reference path tracer.
-/// Both the draft radiosity (its texel density and noise) and the impostor's nearest-texel
-/// colour differ from path-traced radiance, and the mirror's roughness 0.02 blurs the
-/// reference; 20% covers them (measured: see the test's output).
-const REFERENCE_TOLERANCE: f64 = 0.2;
+/// Largest relative difference of the mean luminance over the reflected bunny (the interior of
+/// the predicted mask) between the viewer with impostor reflections and the reference path
+/// tracer. Measured 45% on lavapipe (viewer darker). The pass is not what limits it: the same
+/// region drawn from the mirrored geometry with the same D and R (issue 9's geometry mode)
+/// differs from the reference just as much (see [`GEOMETRY_TOLERANCE`]). What does is what the
+/// viewer's equation leaves out: D is the diffuse radiosity only (the bunny seen directly is
+/// 26% darker than in the reference, its glossy lobe and the light the mirror throws onto its
+/// underside are missing), and ks·R from the draft materials stage.
+const REFERENCE_TOLERANCE: f64 = 0.5;
+
+/// Largest relative difference of the same mean between impostor reflections and the mirrored
+/// geometry (same D, same ks·R): the impostor's own error (a 128² draft capture from one view
+/// above the mirror, nearest-texel colour, m = 16). Measured 3%.
+const GEOMETRY_TOLERANCE: f64 = 0.1;
 
 #[test]
 fn golden_bunny_mirror_against_the_reference_path_tracer() {
@@ -465,15 +499,52 @@ fn golden_bunny_mirror_against_the_reference_path_tracer() {
             });
         (s / n.max(1) as f64, n)
     };
+    dump("reference", &reference.image.rgb);
+    dump("impostors-on", &on);
+    dump("impostors-off", &off);
+    // For the record: the bunny seen directly, D against the path tracer.
+    let bunny: std::collections::HashSet<u32> =
+        srdm_stage::impostor_triangles(&scene, &scene.impostors[0])
+            .into_iter()
+            .collect();
+    let direct: Vec<bool> = (0..w * h)
+        .map(|i| {
+            let ndc = Camera::pixel_ndc((i % w) as u32, (i / w) as u32, SIZE.0, SIZE.1);
+            let d = camera.ray_direction(ndc, SIZE.0 as f32 / SIZE.1 as f32);
+            bvh.closest_hit(camera.position, d, f32::INFINITY)
+                .is_some_and(|hit| bunny.contains(&hit.triangle))
+        })
+        .collect();
+    let direct_mean = |img: &[Vec3]| {
+        let v: Vec<f64> = img
+            .iter()
+            .zip(&direct)
+            .filter(|(_, m)| **m)
+            .map(|(c, _)| luminance(*c) as f64)
+            .collect();
+        v.iter().sum::<f64>() / v.len().max(1) as f64
+    };
+    eprintln!(
+        "bunny seen directly: reference {:.4}, viewer D {:.4}",
+        direct_mean(&reference.image.rgb),
+        direct_mean(&off)
+    );
+    let geometry = frame_with(&gpu, false, ReflectionMode::Geometry);
+    dump("geometry", &geometry);
+    let (g, _) = mean(&geometry);
     let (r, n) = mean(&reference.image.rgb);
     let (a, _) = mean(&on);
     let (b, _) = mean(&off);
     let err_on = (a - r).abs() / r;
     let err_off = (b - r).abs() / r;
+    let err_geometry = (a - g).abs() / g;
     eprintln!(
-        "bunny reflection, {n} px: reference {r:.4}, impostors on {a:.4} ({:.1}%), off {b:.4} ({:.1}%)",
+        "bunny reflection, {n} px: reference {r:.4}, impostors on {a:.4} ({:.1}%), off {b:.4} ({:.1}%), \
+         mirrored geometry {g:.4} ({:.1}% off the reference; impostors {:.1}% off it)",
         100.0 * err_on,
-        100.0 * err_off
+        100.0 * err_off,
+        100.0 * (g - r).abs() / r,
+        100.0 * err_geometry
     );
     assert!(n > 100, "mask too small ({n} px)");
     assert!(
@@ -482,7 +553,12 @@ fn golden_bunny_mirror_against_the_reference_path_tracer() {
         100.0 * err_on
     );
     assert!(
-        err_off > 2.0 * REFERENCE_TOLERANCE,
+        err_geometry <= GEOMETRY_TOLERANCE,
+        "impostor reflection is {:.1}% off the mirrored geometry",
+        100.0 * err_geometry
+    );
+    assert!(
+        err_off > 0.9,
         "without impostors the region is only {:.1}% off: the test would not notice a missing reflection",
         100.0 * err_off
     );

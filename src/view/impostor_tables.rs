@@ -256,3 +256,104 @@ impl ImpostorParams {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::Camera;
+    use crate::progress::Silent;
+    use crate::srdm::{DepthMap, ImpostorCamera, SrdmParams};
+
+    fn srdm(eye: Vec3, w: u32, n: u32, m: u32) -> Srdm {
+        let camera = ImpostorCamera {
+            view: Camera::look_at(eye, Vec3::ZERO, Vec3::Y, 0.5),
+            hither: 1.0,
+            yon: 3.0,
+            resolution: w,
+        };
+        let map = DepthMap::from_fn(w, |x, _| (x > 1).then_some(0.5)).unwrap();
+        Srdm::build(
+            &map,
+            camera,
+            SrdmParams {
+                domains: n,
+                points: m,
+            },
+            &Silent,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn views_are_packed_one_after_another() {
+        let a = srdm(Vec3::Z * 2.0, 8, 3, 4);
+        let b = srdm(Vec3::X * 2.0, 6, 5, 2);
+        let (ca, cb) = (vec![Vec3::ONE; 64], vec![Vec3::X; 36]);
+        let t = SrdmTables::pack(&[
+            ViewSource {
+                impostor: 0,
+                srdm: &a,
+                colour: &ca,
+            },
+            ViewSource {
+                impostor: 1,
+                srdm: &b,
+                colour: &cb,
+            },
+        ]);
+        assert_eq!(t.views[1].shape, [5, 2, 3 * 8 * 4, 3 * 8]);
+        assert_eq!(t.views[1].offsets, [3, 64, 1, 0]);
+        assert_eq!(t.points.len(), 3 * 8 * 4 + 5 * 6 * 2);
+        assert_eq!(t.counts.len(), 3 * 8 + 5 * 6);
+        assert_eq!(t.domains.len(), 8);
+        assert_eq!(t.impostors, vec![[0, 1, 0, 0], [1, 1, 0, 0]]);
+        assert_eq!(&t.points[24 * 4..], b.points());
+        assert_eq!(t.colours[64], [1.0, 0.0, 0.0, 1.0]);
+    }
+
+    #[test]
+    fn the_view_looking_along_the_ray_is_picked() {
+        let a = srdm(Vec3::Z * 2.0, 4, 1, 2);
+        let b = srdm(Vec3::X * 2.0, 4, 1, 2);
+        let c = vec![Vec3::ZERO; 16];
+        let t = SrdmTables::pack(&[
+            ViewSource {
+                impostor: 0,
+                srdm: &a,
+                colour: &c,
+            },
+            ViewSource {
+                impostor: 0,
+                srdm: &b,
+                colour: &c,
+            },
+        ]);
+        assert_eq!(t.impostors, vec![[0, 2, 0, 0]]);
+        // a looks along −Z, b along −X.
+        assert_eq!(t.pick_view(0, -Vec3::Z), 0);
+        assert_eq!(t.pick_view(0, Vec3::new(-1.0, 0.0, -0.2)), 1);
+    }
+
+    #[test]
+    fn split_keeps_every_triangle_once() {
+        let r = ImpostorReflector {
+            name: "m".into(),
+            triangles: (0..10).collect(),
+            normal: Some(Vec3::Y),
+            modulation: vec![Vec3::ONE; MODULATION_SIZE],
+        };
+        for parts in [1, 3, 4, 10, 20] {
+            let s = split_reflector(&r, parts);
+            assert!(!s.is_empty() && s.len() <= parts);
+            let all: Vec<u32> = s.iter().flat_map(|p| p.triangles.clone()).collect();
+            assert_eq!(all, r.triangles);
+        }
+    }
+
+    #[test]
+    fn attenuation_falls_with_distance_only_when_set() {
+        assert_eq!(attenuation(5.0, None), 1.0);
+        assert!((attenuation(2.0, Some(2.0)) - (-1.0f32).exp()).abs() < 1e-6);
+        assert!(attenuation(1.0, Some(0.5)) < attenuation(0.5, Some(0.5)));
+    }
+}
