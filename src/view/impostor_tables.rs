@@ -193,23 +193,6 @@ pub fn impostor_reflectors(scene: &Scene, planar: &[PlanarReflector]) -> Vec<Imp
     out
 }
 
-/// Splits a reflector into `parts` reflectors of consecutive triangles (for measuring the cost
-/// per reflector; the union draws the same pixels).
-pub fn split_reflector(r: &ImpostorReflector, parts: usize) -> Vec<ImpostorReflector> {
-    let parts = parts.clamp(1, r.triangles.len().max(1));
-    let per = r.triangles.len().div_ceil(parts).max(1);
-    r.triangles
-        .chunks(per)
-        .enumerate()
-        .map(|(i, tris)| ImpostorReflector {
-            name: format!("{}#{i}", r.name),
-            triangles: tris.to_vec(),
-            normal: r.normal,
-            modulation: r.modulation.clone(),
-        })
-        .collect()
-}
-
 /// `ImpostorParams` of `shaders/impostors.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
@@ -332,22 +315,6 @@ mod tests {
         // a looks along −Z, b along −X.
         assert_eq!(t.pick_view(0, -Vec3::Z), 0);
         assert_eq!(t.pick_view(0, Vec3::new(-1.0, 0.0, -0.2)), 1);
-    }
-
-    #[test]
-    fn split_keeps_every_triangle_once() {
-        let r = ImpostorReflector {
-            name: "m".into(),
-            triangles: (0..10).collect(),
-            normal: Some(Vec3::Y),
-            modulation: vec![Vec3::ONE; MODULATION_SIZE],
-        };
-        for parts in [1, 3, 4, 10, 20] {
-            let s = split_reflector(&r, parts);
-            assert!(!s.is_empty() && s.len() <= parts);
-            let all: Vec<u32> = s.iter().flat_map(|p| p.triangles.clone()).collect();
-            assert_eq!(all, r.triangles);
-        }
     }
 
     #[test]
