@@ -61,7 +61,7 @@ struct Args {
     selection: glint::view::radiance_maps::Selection,
     /// Reflections of impostors through their SRDM (Popescu §4.3; needs the srdm stage when
     /// the scene has impostors): `on` or `off`.
-    #[arg(long, value_name = "on|off", default_value = "off", value_parser = parse_on_off)]
+    #[arg(long, value_name = "on|off", default_value = "off", value_parser = parse_on_off, action = clap::ArgAction::Set)]
     impostors: bool,
     /// Window: save a screenshot after N frames and exit (for automation, e.g. under xvfb-run).
     #[arg(long, value_name = "N", conflicts_with = "headless")]
