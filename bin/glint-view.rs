@@ -18,7 +18,7 @@ use glint::view::window::{WindowOptions, run_window};
     version,
     about = "View a bundle's scene lit by its radiosity textures: a window with a fly camera, or a headless replay of a camera path to frames and timings",
     after_help = "Window keys: WASD + Q/E move (Shift: faster, mouse wheel: speed), drag with the left mouse button to look, \
-1-9 play camera path N, Space pause/resume, R start/stop recording a path, P screenshot, G reflections off/geometry/image, T reflectance sphere/1D map, H help, Esc quit.\n\n\
+1-9 play camera path N, Space pause/resume, R start/stop recording a path, P screenshot, G reflections off/geometry/image, T reflectance sphere/1D map, I impostor reflections, H help, Esc quit.\n\n\
 Examples:\n  glint-view out/cornell-box.glint\n  glint-view out/cornell-box.glint --replay --headless --size 720x486 --out out/frames/cornell-box\n  glint-view out/breakfast-room.glint --replay walkthrough --headless --out out/frames/breakfast --every 10 --hdr"
 )]
 struct Args {
@@ -67,9 +67,21 @@ struct Args {
     /// `bastos` (F/(π cos²θ) as printed).
     #[arg(long, value_name = "CHANNEL", default_value = "albedo")]
     reflectance_channel: glint::view::reflections::ReflectanceChannel,
+    /// Reflections of impostors through their SRDM (Popescu §4.3; needs the srdm stage when
+    /// the scene has impostors): `on` or `off`.
+    #[arg(long, value_name = "on|off", default_value = "off", value_parser = parse_on_off, action = clap::ArgAction::Set)]
+    impostors: bool,
     /// Window: save a screenshot after N frames and exit (for automation, e.g. under xvfb-run).
     #[arg(long, value_name = "N", conflicts_with = "headless")]
     screenshot_after: Option<u64>,
+}
+
+fn parse_on_off(s: &str) -> Result<bool, String> {
+    match s {
+        "on" => Ok(true),
+        "off" => Ok(false),
+        _ => Err(format!("{s:?} is not one of on, off")),
+    }
 }
 
 fn parse_exposure(s: &str) -> Result<f32, String> {
@@ -106,6 +118,7 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                     layout: args.reflectance,
                     channel: args.reflectance_channel,
                 },
+                impostors: args.impostors,
             },
             &progress,
         );
@@ -141,6 +154,7 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                 layout: args.reflectance,
                 channel: args.reflectance_channel,
             },
+            impostors: args.impostors,
         },
     )?;
     Ok(ExitCode::SUCCESS)

@@ -9,6 +9,7 @@ use exr::prelude::f16;
 use glam::Vec3;
 
 use super::gpu::{Gpu, GpuError, read_texture, read_texture_rgba8};
+use super::impostors::{ImpostorReflections, ImpostorSettings};
 use super::load::{LoadError, ViewData, load};
 use super::radiance_maps::Selection;
 use super::reflections::{GeometryReflections, ReflectanceSettings, ReflectionMode, Source};
@@ -93,6 +94,8 @@ pub struct ReplayOptions {
     pub map_count: usize,
     /// Reflections: where R is read from (sphere or 1D map) and which channel.
     pub reflectance: ReflectanceSettings,
+    /// Reflections of depth-map impostors through their SRDM (Popescu §4.3; `--impostors`).
+    pub impostors: bool,
 }
 
 impl Default for ReplayOptions {
@@ -109,6 +112,7 @@ impl Default for ReplayOptions {
             selection: Selection::Angle,
             map_count: 2,
             reflectance: ReflectanceSettings::default(),
+            impostors: false,
         }
     }
 }
@@ -222,6 +226,7 @@ pub struct Offscreen {
     pub map_count: usize,
     /// Reflections: R's layout and channel (likewise).
     pub reflectance: ReflectanceSettings,
+    impostors: Option<ImpostorReflections>,
 }
 
 impl Offscreen {
@@ -252,7 +257,34 @@ impl Offscreen {
             selection: Selection::Angle,
             map_count: 2,
             reflectance: ReflectanceSettings::default(),
+            impostors: None,
         })
+    }
+
+    /// Switches reflections of impostors on or off (needs the bundle's `srdm` stage when the
+    /// scene has impostors).
+    pub fn set_impostors(
+        &mut self,
+        gpu: &Gpu,
+        data: &ViewData,
+        on: bool,
+    ) -> Result<(), RenderError> {
+        self.impostors = if on {
+            Some(ImpostorReflections::new(
+                gpu,
+                &self.renderer,
+                data,
+                ImpostorSettings::default(),
+            )?)
+        } else {
+            None
+        };
+        Ok(())
+    }
+
+    /// Uses `pass` for impostor reflections (benchmarks build it with other tables).
+    pub fn set_impostor_pass(&mut self, pass: Option<ImpostorReflections>) {
+        self.impostors = pass;
     }
 
     /// Switches glossy reflections to `mode` (built for this target's size). The image-based
@@ -345,6 +377,11 @@ impl Offscreen {
                     depth,
                     self.timer.as_ref().map(|t| (&t.queries, 1)),
                 );
+            }
+            if let Some(r) = &self.impostors {
+                r.prepare(gpu, camera);
+                let (color, hdr, depth) = self.target.views();
+                r.draw(&mut encoder, &self.renderer, color, hdr, depth);
             }
             if let Some(t) = &self.timer {
                 t.resolve(&mut encoder);
@@ -465,6 +502,7 @@ pub fn replay_with(
     offscreen.map_count = options.map_count;
     offscreen.reflectance = options.reflectance;
     offscreen.set_reflections(gpu, data, options.reflections)?;
+    offscreen.set_impostors(gpu, data, options.impostors)?;
     let frames = schedule(path);
 
     let warmup = offscreen.render(gpu, &frames[0].camera)?;

@@ -10,6 +10,8 @@
 //!   the reflected view (image-based mode, Bastos §8.1.3).
 //! - [`reflections`]: glossy planar reflections, geometry- and image-based, L = kd·D +
 //!   ks·(M*K)·R (issue 9).
+//! - [`impostors`], [`impostor_tables`]: reflections of depth-map impostors through their SRDM
+//!   (Popescu §3.1, §4.3; issue 10), the WGSL intersection and its packed tables.
 //! - [`window`]: the interactive winit viewer (fly camera, path playback and recording).
 //! - [`gpu`]: adapter and device selection, readback.
 
@@ -17,6 +19,8 @@ pub mod bicubic;
 pub mod cpu_render;
 pub mod gpu;
 pub mod headless;
+pub mod impostor_tables;
+pub mod impostors;
 pub mod load;
 pub mod radiance_maps;
 pub mod reflections;

@@ -26,6 +26,7 @@ use winit::window::{Window, WindowId};
 
 use super::gpu::{Gpu, GpuError};
 use super::headless::{Offscreen, rgba_to_rgb};
+use super::impostors::{ImpostorReflections, ImpostorSettings};
 use super::load::ViewData;
 use super::radiance_maps::Selection;
 use super::reflections::{
@@ -101,6 +102,8 @@ pub struct WindowOptions {
     pub reflections: ReflectionMode,
     /// Reflections: R's map and channel at start (T switches sphere/1D map).
     pub reflectance: ReflectanceSettings,
+    /// Reflections of impostors at start (I switches).
+    pub impostors: bool,
 }
 
 /// A free-flying camera: position, yaw about +Y (0 looks down −Z, positive turns right)
@@ -360,7 +363,7 @@ pub fn run_window(data: ViewData, options: WindowOptions) -> Result<(), WindowEr
 
 const HELP: &str = "keys: WASD + Q/E move (Shift faster, wheel: speed), left-drag look, \
 1-9 play path, Space pause/resume, R record path, P screenshot, G reflections off/geometry/image, \
-T reflectance sphere/1D map, H help, Esc quit";
+T reflectance sphere/1D map, I impostor reflections, H help, Esc quit";
 
 /// The window's GPU side, created once the event loop runs.
 struct Running {
@@ -371,6 +374,7 @@ struct Running {
     renderer: Renderer,
     depth_view: wgpu::TextureView,
     reflections: Option<GeometryReflections>,
+    impostors: Option<ImpostorReflections>,
 }
 
 struct App {
@@ -460,6 +464,16 @@ impl App {
             self.options.reflectance,
             (config.width, config.height),
         )?;
+        let impostors = if self.options.impostors {
+            Some(ImpostorReflections::new(
+                &gpu,
+                &renderer,
+                &self.data,
+                ImpostorSettings::default(),
+            )?)
+        } else {
+            None
+        };
         Ok(Running {
             window,
             surface,
@@ -468,6 +482,7 @@ impl App {
             renderer,
             depth_view,
             reflections,
+            impostors,
         })
     }
 
@@ -495,6 +510,30 @@ impl App {
                 r.reflections = None;
             }
         }
+    }
+
+    /// Switches reflections of impostors on or off.
+    fn toggle_impostors(&mut self) -> Result<(), WindowError> {
+        self.options.impostors = !self.options.impostors;
+        log::info!(
+            "impostor reflections: {}",
+            if self.options.impostors { "on" } else { "off" }
+        );
+        self.screenshot = None;
+        let Some(r) = &mut self.running else {
+            return Ok(());
+        };
+        r.impostors = if self.options.impostors {
+            Some(ImpostorReflections::new(
+                &r.gpu,
+                &r.renderer,
+                &self.data,
+                ImpostorSettings::default(),
+            )?)
+        } else {
+            None
+        };
+        Ok(())
     }
 
     /// Cycles reflections off → geometry → image (two maps per element, by angle) → off.
@@ -626,6 +665,10 @@ impl App {
                 &r.depth_view,
             );
         }
+        if let Some(pass) = &r.impostors {
+            pass.prepare(&r.gpu, &camera);
+            pass.draw(&mut encoder, &r.renderer, &view, None, &r.depth_view);
+        }
         r.gpu.queue.submit([encoder.finish()]);
         r.window.pre_present_notify();
         r.gpu.queue.present(frame);
@@ -705,6 +748,7 @@ impl App {
             off.renderer.exposure = self.options.exposure;
             off.reflectance = self.options.reflectance;
             off.set_reflections(&r.gpu, &self.data, self.options.reflections)?;
+            off.set_impostors(&r.gpu, &self.data, self.options.impostors)?;
             self.screenshot = Some(off);
         }
         let off = self.screenshot.as_ref().expect("created above");
@@ -811,6 +855,7 @@ impl App {
             KeyCode::KeyR => self.toggle_recording(),
             KeyCode::KeyG => self.toggle_reflections(),
             KeyCode::KeyT => self.toggle_reflectance(),
+            KeyCode::KeyI => self.toggle_impostors(),
             KeyCode::KeyP | KeyCode::F12 => {
                 let camera = self.fly.camera();
                 self.save_screenshot(&camera).map(|_| ())
