@@ -8,6 +8,8 @@ use std::time::Instant;
 use exr::prelude::f16;
 use glam::Vec3;
 
+use super::curved::gpu::CurvedReflections;
+use super::curved::{CurvedMode, CurvedSettings};
 use super::gpu::{Gpu, GpuError, read_texture, read_texture_rgba8};
 use super::load::{LoadError, ViewData, load};
 use super::radiance_maps::Selection;
@@ -91,6 +93,11 @@ pub struct ReplayOptions {
     pub selection: Selection,
     /// Image-based mode: maps per reflector element.
     pub map_count: usize,
+    /// Curved reflectors ([`CurvedMode::Off`]: kd·D only).
+    pub curved: CurvedMode,
+    /// Curved reflectors: regular samples per pixel and lobe (0: one mirror lookup), cube-map
+    /// size and generations.
+    pub curved_settings: CurvedSettings,
 }
 
 impl Default for ReplayOptions {
@@ -106,6 +113,8 @@ impl Default for ReplayOptions {
             reflections: ReflectionMode::Off,
             selection: Selection::Angle,
             map_count: 2,
+            curved: CurvedMode::Off,
+            curved_settings: CurvedSettings::default(),
         }
     }
 }
@@ -214,6 +223,7 @@ pub struct Offscreen {
     pub selection: Selection,
     /// Image-based mode: maps selected per reflector element (likewise).
     pub map_count: usize,
+    curved: Option<CurvedReflections>,
 }
 
 impl Offscreen {
@@ -243,7 +253,29 @@ impl Offscreen {
             mode: ReflectionMode::Off,
             selection: Selection::Angle,
             map_count: 2,
+            curved: None,
         })
+    }
+
+    /// Switches curved reflectors to `mode` with `settings`; building them renders their
+    /// cube maps (every generation) before returning.
+    pub fn set_curved(
+        &mut self,
+        gpu: &Gpu,
+        data: &ViewData,
+        mode: CurvedMode,
+        settings: CurvedSettings,
+    ) -> Result<(), RenderError> {
+        self.curved = None;
+        if mode == CurvedMode::Cubemap {
+            self.curved = Some(CurvedReflections::new(gpu, &self.renderer, data, settings)?);
+        }
+        Ok(())
+    }
+
+    /// The curved-reflector passes in use, if any.
+    pub fn curved(&self) -> Option<&CurvedReflections> {
+        self.curved.as_ref()
     }
 
     /// Switches glossy reflections to `mode` (built for this target's size). The image-based
@@ -314,6 +346,11 @@ impl Offscreen {
                 r.prepare(gpu, &self.renderer, camera);
                 let (color, hdr, depth) = self.target.views();
                 r.draw(&mut encoder, &self.renderer, camera, color, hdr, depth);
+            }
+            if let Some(c) = &self.curved {
+                c.prepare(gpu, camera);
+                let (color, hdr, depth) = self.target.views();
+                c.draw(&mut encoder, color, hdr, depth);
             }
             if let Some(t) = &self.timer {
                 t.resolve(&mut encoder);
@@ -433,6 +470,7 @@ pub fn replay_with(
     offscreen.selection = options.selection;
     offscreen.map_count = options.map_count;
     offscreen.set_reflections(gpu, data, options.reflections)?;
+    offscreen.set_curved(gpu, data, options.curved, options.curved_settings)?;
     let frames = schedule(path);
 
     let warmup = offscreen.render(gpu, &frames[0].camera)?;

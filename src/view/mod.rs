@@ -9,11 +9,14 @@
 //! - [`radiance_maps`]: the baked radiance maps of planar reflectors and their selection for
 //!   the reflected view (image-based mode, Bastos §8.1.3).
 //! - [`reflections`]: glossy planar reflections, geometry- and image-based (issue 9).
+//! - [`curved`]: curved reflectors by cube maps (Nielsen §3.2) and glossy curved objects by
+//!   regular sampling (Luksch §6–7) (issue 10).
 //! - [`window`]: the interactive winit viewer (fly camera, path playback and recording).
 //! - [`gpu`]: adapter and device selection, readback.
 
 pub mod bicubic;
 pub mod cpu_render;
+pub mod curved;
 pub mod gpu;
 pub mod headless;
 pub mod load;
