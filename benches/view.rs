@@ -225,6 +225,7 @@ fn reflection_table(gpu: &Gpu, work: &Path, root: &Path, repeats: usize) {
                 reflections: mode,
                 selection,
                 map_count: count,
+                ..ReplayOptions::default()
             };
             let summary = (0..repeats)
                 .map(|_| {

@@ -59,9 +59,34 @@ struct Args {
     /// Image-based reflections: select maps by `angle` (Bastos's default) or `distance`.
     #[arg(long, value_name = "HOW", default_value = "angle")]
     selection: glint::view::radiance_maps::Selection,
+    /// Curved reflectors: `cubemap` (a view-independent cube map per reflector, Nielsen §3.2)
+    /// or `off`.
+    #[arg(long, value_name = "MODE", default_value = "off")]
+    curved: glint::view::curved::CurvedMode,
+    /// Curved reflectors: regular samples per pixel and lobe (Luksch §6–7; the pattern
+    /// closest to N); 0: one mirror lookup. The glossy term reads the baked MIP environment
+    /// map when the bundle's materials stage has one, else the live cube map.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    glossy_samples: u32,
+    /// Curved reflectors: face size of the live cube maps, texels.
+    #[arg(long, value_name = "N", default_value_t = glint::view::curved::DEFAULT_FACE_SIZE,
+          value_parser = clap::value_parser!(u32).range(1..=8192))]
+    cube_size: u32,
+    /// Curved reflectors: generations of cube maps (1: no interreflection between them).
+    #[arg(long, value_name = "N", default_value_t = glint::view::curved::DEFAULT_GENERATIONS,
+          value_parser = clap::value_parser!(u32).range(1..=8))]
+    cube_generations: u32,
     /// Window: save a screenshot after N frames and exit (for automation, e.g. under xvfb-run).
     #[arg(long, value_name = "N", conflicts_with = "headless")]
     screenshot_after: Option<u64>,
+}
+
+fn curved_settings(args: &Args) -> glint::view::curved::CurvedSettings {
+    glint::view::curved::CurvedSettings {
+        glossy_samples: args.glossy_samples,
+        face_size: args.cube_size,
+        generations: args.cube_generations,
+    }
 }
 
 fn parse_exposure(s: &str) -> Result<f32, String> {
@@ -94,6 +119,8 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                 reflections: args.reflections,
                 selection: args.selection,
                 map_count: args.maps,
+                curved: args.curved,
+                curved_settings: curved_settings(&args),
             },
             &progress,
         );
