@@ -18,7 +18,7 @@ use glint::view::window::{WindowOptions, run_window};
     version,
     about = "View a bundle's scene lit by its radiosity textures: a window with a fly camera, or a headless replay of a camera path to frames and timings",
     after_help = "Window keys: WASD + Q/E move (Shift: faster, mouse wheel: speed), drag with the left mouse button to look, \
-1-9 play camera path N, Space pause/resume, R start/stop recording a path, P screenshot, G reflections off/geometry/image, H help, Esc quit.\n\n\
+1-9 play camera path N, Space pause/resume, R start/stop recording a path, P screenshot, G reflections off/geometry/image, C curved reflectors off/cubemap, H help, Esc quit.\n\n\
 Examples:\n  glint-view out/cornell-box.glint\n  glint-view out/cornell-box.glint --replay --headless --size 720x486 --out out/frames/cornell-box\n  glint-view out/breakfast-room.glint --replay walkthrough --headless --out out/frames/breakfast --every 10 --hdr"
 )]
 struct Args {
@@ -103,6 +103,7 @@ fn main() -> ExitCode {
 
 fn run(args: Args) -> anyhow::Result<ExitCode> {
     let path = args.replay.clone().filter(|n| !n.is_empty());
+    let curved = curved_settings(&args);
     if args.headless {
         let out = args.out.clone().context("--headless needs --out DIR")?;
         let progress = TerminalProgress::new();
@@ -120,7 +121,7 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                 selection: args.selection,
                 map_count: args.maps,
                 curved: args.curved,
-                curved_settings: curved_settings(&args),
+                curved_settings: curved,
             },
             &progress,
         );
@@ -152,6 +153,8 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
             out: args.out.unwrap_or_else(|| PathBuf::from(".")),
             screenshot_after: args.screenshot_after,
             reflections: args.reflections,
+            curved: args.curved,
+            curved_settings: curved,
         },
     )?;
     Ok(ExitCode::SUCCESS)

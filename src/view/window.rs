@@ -24,6 +24,8 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::window::{Window, WindowId};
 
+use super::curved::gpu::CurvedReflections;
+use super::curved::{CurvedMode, CurvedSettings};
 use super::gpu::{Gpu, GpuError};
 use super::headless::{Offscreen, rgba_to_rgb};
 use super::load::ViewData;
@@ -97,6 +99,10 @@ pub struct WindowOptions {
     pub screenshot_after: Option<u64>,
     /// Glossy reflections at start (G switches).
     pub reflections: ReflectionMode,
+    /// Curved reflectors at start (C switches).
+    pub curved: CurvedMode,
+    /// Curved reflectors' settings.
+    pub curved_settings: CurvedSettings,
 }
 
 /// A free-flying camera: position, yaw about +Y (0 looks down −Z, positive turns right)
@@ -272,6 +278,21 @@ fn reflection_passes(
     )?))
 }
 
+/// The curved-reflector passes of `mode` (`None` when off); building them renders the cube
+/// maps.
+fn curved_passes(
+    gpu: &Gpu,
+    renderer: &Renderer,
+    data: &ViewData,
+    mode: CurvedMode,
+    settings: CurvedSettings,
+) -> Result<Option<CurvedReflections>, WindowError> {
+    Ok(match mode {
+        CurvedMode::Off => None,
+        CurvedMode::Cubemap => Some(CurvedReflections::new(gpu, renderer, data, settings)?),
+    })
+}
+
 /// A starting view: the first path's first pose, else the bounding box from its +Z side.
 pub fn initial_camera(data: &ViewData) -> Camera {
     if let Some(path) = data.scene.desc.camera_paths.first() {
@@ -349,7 +370,7 @@ pub fn run_window(data: ViewData, options: WindowOptions) -> Result<(), WindowEr
 
 const HELP: &str = "keys: WASD + Q/E move (Shift faster, wheel: speed), left-drag look, \
 1-9 play path, Space pause/resume, R record path, P screenshot, G reflections off/geometry/image, \
-H help, Esc quit";
+C curved reflectors off/cubemap, H help, Esc quit";
 
 /// The window's GPU side, created once the event loop runs.
 struct Running {
@@ -360,6 +381,7 @@ struct Running {
     renderer: Renderer,
     depth_view: wgpu::TextureView,
     reflections: Option<GeometryReflections>,
+    curved: Option<CurvedReflections>,
 }
 
 struct App {
@@ -448,6 +470,13 @@ impl App {
             self.options.reflections,
             (config.width, config.height),
         )?;
+        let curved = curved_passes(
+            &gpu,
+            &renderer,
+            &self.data,
+            self.options.curved,
+            self.options.curved_settings,
+        )?;
         Ok(Running {
             window,
             surface,
@@ -456,6 +485,7 @@ impl App {
             renderer,
             depth_view,
             reflections,
+            curved,
         })
     }
 
@@ -502,6 +532,24 @@ impl App {
             &self.data,
             self.options.reflections,
             (r.config.width, r.config.height),
+        )?;
+        Ok(())
+    }
+
+    /// Switches curved reflectors off ↔ cubemap (the cube maps are rendered when switched on).
+    fn toggle_curved(&mut self) -> Result<(), WindowError> {
+        self.options.curved = self.options.curved.next();
+        log::info!("curved reflectors: {}", self.options.curved);
+        self.screenshot = None;
+        let Some(r) = &mut self.running else {
+            return Ok(());
+        };
+        r.curved = curved_passes(
+            &r.gpu,
+            &r.renderer,
+            &self.data,
+            self.options.curved,
+            self.options.curved_settings,
         )?;
         Ok(())
     }
@@ -589,6 +637,10 @@ impl App {
                 &r.depth_view,
             );
         }
+        if let Some(passes) = &r.curved {
+            passes.prepare(&r.gpu, &camera);
+            passes.draw(&mut encoder, &view, None, &r.depth_view);
+        }
         r.gpu.queue.submit([encoder.finish()]);
         r.window.pre_present_notify();
         r.gpu.queue.present(frame);
@@ -667,6 +719,12 @@ impl App {
             let mut off = Offscreen::new(&r.gpu, &self.data, w, h, false)?;
             off.renderer.exposure = self.options.exposure;
             off.set_reflections(&r.gpu, &self.data, self.options.reflections)?;
+            off.set_curved(
+                &r.gpu,
+                &self.data,
+                self.options.curved,
+                self.options.curved_settings,
+            )?;
             self.screenshot = Some(off);
         }
         let off = self.screenshot.as_ref().expect("created above");
@@ -772,6 +830,7 @@ impl App {
             }
             KeyCode::KeyR => self.toggle_recording(),
             KeyCode::KeyG => self.toggle_reflections(),
+            KeyCode::KeyC => self.toggle_curved(),
             KeyCode::KeyP | KeyCode::F12 => {
                 let camera = self.fly.camera();
                 self.save_screenshot(&camera).map(|_| ())

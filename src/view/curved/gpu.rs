@@ -775,6 +775,23 @@ impl CurvedReflections {
             .collect()
     }
 
+    /// Per reflector, the regular samples per lobe (empty with mirror lookups).
+    pub fn pattern_samples(&self) -> Vec<Vec<u32>> {
+        self.reflectors
+            .iter()
+            .map(|r| {
+                let p = &r.base_params;
+                if p.info[1] == 0 {
+                    return Vec::new();
+                }
+                p.lobes[..p.info[0] as usize]
+                    .iter()
+                    .map(|l| l.samples[1])
+                    .collect()
+            })
+            .collect()
+    }
+
     /// Bytes of the live cube maps (both sets, every level).
     pub fn live_map_bytes(&self) -> u64 {
         let per_map: u64 = (0..CubeTexture::full_chain(self.settings.face_size))
