@@ -2,7 +2,9 @@
 //! per pixel, and the cost of Nielsen's cube maps.
 //!
 //! Table 1 — glossy-room at 720×486, the camera close to the curved teapot (it covers most of
-//! the frame, so the frame time is the glossy shader's): `--curved cubemap` with a mirror
+//! the frame, so the frame time is the glossy shader's), twice: as shipped (a near-mirror
+//! copper teapot, m = 0.01, where one sample is as good as many) and with the teapot's
+//! material overridden to m = 0.2 (`glossy-room-rough`, baked alike): `--curved cubemap` with a mirror
 //! lookup (0) and with regular patterns closest to 1, 4, 8, 16 and 32 samples per pixel
 //! (the baked MIP environment map), plus `--curved off`. Per row: the pattern's actual sample
 //! count, the frame time (median and p95 of [`FRAMES`] frames, start to GPU done: the GPU
@@ -49,18 +51,15 @@ fn main() {
         .unwrap_or_else(|e| panic!("{e}"));
     println!("adapter: {}", gpu.adapter_summary());
 
-    let glossy = bake_if_needed(
-        &root.join("scenes/glossy-room/scene.json"),
-        &work,
-        "glossy-room",
-    );
+    let glossy_json = root.join("scenes/glossy-room/scene.json");
+    let glossy = bake_if_needed(&glossy_json, &work, "glossy-room");
     let data = load(&glossy).unwrap_or_else(|e| panic!("{e}"));
-    samples_table(
-        &gpu,
-        &data,
-        &root.join("scenes/glossy-room/scene.json"),
-        &work,
-    );
+    samples_table(&gpu, &data, &glossy_json, &work, "teapot m = 0.01");
+    // The same room with a rough teapot, where the number of samples matters.
+    let rough_json = rough_teapot_scene(&glossy_json, &work);
+    let rough = bake_if_needed(&rough_json, &work, "glossy-room-rough");
+    let data = load(&rough).unwrap_or_else(|e| panic!("{e}"));
+    samples_table(&gpu, &data, &rough_json, &work, "teapot m = 0.2");
 
     let scenes: Vec<String> = std::env::var("GLINT_BENCH_SCENES")
         .map(|s| s.split(',').map(str::to_owned).collect())
@@ -119,8 +118,33 @@ fn main() {
     );
 }
 
+/// Roughness of the teapot in the second run of table 1.
+const ROUGH_M: f32 = 0.2;
+
+/// glossy-room's scene.json with the teapot's material (`PolishedMetal`) overridden to a
+/// rough copper lobe (m = [`ROUGH_M`]), written with a copy of the geometry into `work`.
+fn rough_teapot_scene(scene_json: &Path, work: &Path) -> PathBuf {
+    let dir = work.join("glossy-room-rough-scene");
+    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+    let mut v: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(scene_json).unwrap_or_else(|e| panic!("{e}")))
+            .unwrap_or_else(|e| panic!("{e}"));
+    let glb = v["geometry"].as_str().expect("a geometry file").to_owned();
+    std::fs::copy(scene_json.parent().unwrap().join(&glb), dir.join(&glb))
+        .unwrap_or_else(|e| panic!("{e}"));
+    v["name"] = "glossy-room-rough".into();
+    v["materials"]["PolishedMetal"] = serde_json::json!({
+        "albedo": [0.0, 0.0, 0.0],
+        "lobes": [{ "ks": [0.95, 0.64, 0.54], "r0": 1.0, "mx": ROUGH_M, "my": ROUGH_M, "alpha": 0.0 }]
+    });
+    let path = dir.join("scene.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&v).unwrap())
+        .unwrap_or_else(|e| panic!("{e}"));
+    path
+}
+
 /// Table 1: frame time and error against samples per pixel.
-fn samples_table(gpu: &Gpu, data: &ViewData, scene_json: &Path, work: &Path) {
+fn samples_table(gpu: &Gpu, data: &ViewData, scene_json: &Path, work: &Path, label: &str) {
     let teapot = curved_reflectors(&data.scene)
         .into_iter()
         .find(|r| r.name == "Teapot")
@@ -132,7 +156,7 @@ fn samples_table(gpu: &Gpu, data: &ViewData, scene_json: &Path, work: &Path) {
         38f32.to_radians(),
     );
     let (w, h) = SIZE;
-    let reference = reference_image(scene_json, work, &camera, teapot.triangles.len());
+    let reference = reference_image(scene_json, work, &camera, &data.scene.name);
     let mask = teapot_mask(data, &teapot.triangles, &camera);
     let count = mask.iter().filter(|&&m| m).count();
     let lum = |c: Vec3| f64::from(glint::eval::luminance(c));
@@ -207,7 +231,8 @@ fn samples_table(gpu: &Gpu, data: &ViewData, scene_json: &Path, work: &Path) {
         ]);
     }
     println!(
-        "\nglossy-room at {w}×{h}, camera on the teapot ({count} teapot pixels; reference {REFERENCE_SPP} paths/pixel)"
+        "\n{} ({label}) at {w}×{h}, camera on the teapot ({count} teapot pixels; reference {REFERENCE_SPP} paths/pixel)",
+        data.scene.name
     );
     print!(
         "{}",
@@ -263,9 +288,9 @@ fn teapot_mask(data: &ViewData, triangles: &[u32], camera: &Camera) -> Vec<bool>
 
 /// The reference of the scene the viewer represents (the teapot's lobes kept, every other
 /// material diffuse), cached in `work`.
-fn reference_image(scene_json: &Path, work: &Path, camera: &Camera, key: usize) -> Image {
+fn reference_image(scene_json: &Path, work: &Path, camera: &Camera, key: &str) -> Image {
     let path = work.join(format!(
-        "reference-{}x{}-{REFERENCE_SPP}spp-{key}.exr",
+        "reference-{key}-{}x{}-{REFERENCE_SPP}spp.exr",
         SIZE.0, SIZE.1
     ));
     if let Ok(bytes) = std::fs::read(&path)
