@@ -217,7 +217,7 @@ struct ReflectorGpu {
     composite_group: wgpu::BindGroup,
     source: EnvSource,
     _baked: Option<CubeTexture>,
-    _patterns: wgpu::Buffer,
+    patterns: wgpu::Buffer,
 }
 
 /// The curved-reflector passes of one [`Renderer`]: cube maps made at construction, the
@@ -637,7 +637,7 @@ impl CurvedReflections {
                         composite_group,
                         source,
                         _baked: baked,
-                        _patterns: pattern_buffer,
+                        patterns: pattern_buffer,
                         reflector,
                     }
                 })
@@ -707,7 +707,7 @@ impl CurvedReflections {
                                 device,
                                 &self.curved_layout,
                                 params,
-                                &rj._patterns,
+                                &rj.patterns,
                                 &self.maps[step.read][j].cube,
                                 &self.sampler,
                             )
@@ -877,7 +877,7 @@ impl CurvedReflections {
             gpu,
             "cs_env_probe",
             &r.base_params,
-            &r._patterns,
+            &r.patterns,
             &self.maps[self.final_set][index].cube,
             &inputs,
         )
