@@ -18,7 +18,7 @@ use glint::view::window::{WindowOptions, run_window};
     version,
     about = "View a bundle's scene lit by its radiosity textures: a window with a fly camera, or a headless replay of a camera path to frames and timings",
     after_help = "Window keys: WASD + Q/E move (Shift: faster, mouse wheel: speed), drag with the left mouse button to look, \
-1-9 play camera path N, Space pause/resume, R start/stop recording a path, P screenshot, G reflections off/geometry/image, T reflectance sphere/1D map, I impostor reflections, H help, Esc quit.\n\n\
+1-9 play camera path N, Space pause/resume, R start/stop recording a path, P screenshot, G reflections off/geometry/image, T reflectance sphere/1D map, I impostor reflections, C curved reflectors off/cubemap, H help, Esc quit.\n\n\
 Examples:\n  glint-view out/cornell-box.glint\n  glint-view out/cornell-box.glint --replay --headless --size 720x486 --out out/frames/cornell-box\n  glint-view out/breakfast-room.glint --replay walkthrough --headless --out out/frames/breakfast --every 10 --hdr"
 )]
 struct Args {
@@ -71,6 +71,23 @@ struct Args {
     /// the scene has impostors): `on` or `off`.
     #[arg(long, value_name = "on|off", default_value = "off", value_parser = parse_on_off, action = clap::ArgAction::Set)]
     impostors: bool,
+    /// Curved reflectors: `cubemap` (a view-independent cube map per reflector, Nielsen §3.2)
+    /// or `off`.
+    #[arg(long, value_name = "MODE", default_value = "off")]
+    curved: glint::view::curved::CurvedMode,
+    /// Curved reflectors: regular samples per pixel and lobe (Luksch §6–7; the pattern
+    /// closest to N); 0: one mirror lookup. The glossy term reads the baked MIP environment
+    /// map when the bundle's materials stage has one, else the live cube map.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    glossy_samples: u32,
+    /// Curved reflectors: face size of the live cube maps, texels.
+    #[arg(long, value_name = "N", default_value_t = glint::view::curved::DEFAULT_FACE_SIZE,
+          value_parser = clap::value_parser!(u32).range(1..=8192))]
+    cube_size: u32,
+    /// Curved reflectors: generations of cube maps (1: no interreflection between them).
+    #[arg(long, value_name = "N", default_value_t = glint::view::curved::DEFAULT_GENERATIONS,
+          value_parser = clap::value_parser!(u32).range(1..=8))]
+    cube_generations: u32,
     /// Window: save a screenshot after N frames and exit (for automation, e.g. under xvfb-run).
     #[arg(long, value_name = "N", conflicts_with = "headless")]
     screenshot_after: Option<u64>,
@@ -81,6 +98,14 @@ fn parse_on_off(s: &str) -> Result<bool, String> {
         "on" => Ok(true),
         "off" => Ok(false),
         _ => Err(format!("{s:?} is not one of on, off")),
+    }
+}
+
+fn curved_settings(args: &Args) -> glint::view::curved::CurvedSettings {
+    glint::view::curved::CurvedSettings {
+        glossy_samples: args.glossy_samples,
+        face_size: args.cube_size,
+        generations: args.cube_generations,
     }
 }
 
@@ -98,6 +123,7 @@ fn main() -> ExitCode {
 
 fn run(args: Args) -> anyhow::Result<ExitCode> {
     let path = args.replay.clone().filter(|n| !n.is_empty());
+    let curved = curved_settings(&args);
     if args.headless {
         let out = args.out.clone().context("--headless needs --out DIR")?;
         let progress = TerminalProgress::new();
@@ -119,6 +145,8 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                     channel: args.reflectance_channel,
                 },
                 impostors: args.impostors,
+                curved: args.curved,
+                curved_settings: curved,
             },
             &progress,
         );
@@ -155,6 +183,8 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                 channel: args.reflectance_channel,
             },
             impostors: args.impostors,
+            curved: args.curved,
+            curved_settings: curved,
         },
     )?;
     Ok(ExitCode::SUCCESS)

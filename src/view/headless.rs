@@ -8,6 +8,8 @@ use std::time::Instant;
 use exr::prelude::f16;
 use glam::Vec3;
 
+use super::curved::gpu::CurvedReflections;
+use super::curved::{CurvedMode, CurvedSettings};
 use super::gpu::{Gpu, GpuError, read_texture, read_texture_rgba8};
 use super::impostors::{ImpostorReflections, ImpostorSettings};
 use super::load::{LoadError, ViewData, load};
@@ -96,6 +98,11 @@ pub struct ReplayOptions {
     pub reflectance: ReflectanceSettings,
     /// Reflections of depth-map impostors through their SRDM (Popescu §4.3; `--impostors`).
     pub impostors: bool,
+    /// Curved reflectors ([`CurvedMode::Off`]: kd·D only).
+    pub curved: CurvedMode,
+    /// Curved reflectors: regular samples per pixel and lobe (0: one mirror lookup), cube-map
+    /// size and generations.
+    pub curved_settings: CurvedSettings,
 }
 
 impl Default for ReplayOptions {
@@ -113,6 +120,8 @@ impl Default for ReplayOptions {
             map_count: 2,
             reflectance: ReflectanceSettings::default(),
             impostors: false,
+            curved: CurvedMode::Off,
+            curved_settings: CurvedSettings::default(),
         }
     }
 }
@@ -227,6 +236,7 @@ pub struct Offscreen {
     /// Reflections: R's layout and channel (likewise).
     pub reflectance: ReflectanceSettings,
     impostors: Option<ImpostorReflections>,
+    curved: Option<CurvedReflections>,
 }
 
 impl Offscreen {
@@ -258,6 +268,7 @@ impl Offscreen {
             map_count: 2,
             reflectance: ReflectanceSettings::default(),
             impostors: None,
+            curved: None,
         })
     }
 
@@ -285,6 +296,27 @@ impl Offscreen {
     /// Uses `pass` for impostor reflections (benchmarks build it with other tables).
     pub fn set_impostor_pass(&mut self, pass: Option<ImpostorReflections>) {
         self.impostors = pass;
+    }
+
+    /// Switches curved reflectors to `mode` with `settings`; building them renders their
+    /// cube maps (every generation) before returning.
+    pub fn set_curved(
+        &mut self,
+        gpu: &Gpu,
+        data: &ViewData,
+        mode: CurvedMode,
+        settings: CurvedSettings,
+    ) -> Result<(), RenderError> {
+        self.curved = None;
+        if mode == CurvedMode::Cubemap {
+            self.curved = Some(CurvedReflections::new(gpu, &self.renderer, data, settings)?);
+        }
+        Ok(())
+    }
+
+    /// The curved-reflector passes in use, if any.
+    pub fn curved(&self) -> Option<&CurvedReflections> {
+        self.curved.as_ref()
     }
 
     /// Switches glossy reflections to `mode` (built for this target's size). The image-based
@@ -382,6 +414,11 @@ impl Offscreen {
                 r.prepare(gpu, camera);
                 let (color, hdr, depth) = self.target.views();
                 r.draw(&mut encoder, &self.renderer, color, hdr, depth);
+            }
+            if let Some(c) = &self.curved {
+                c.prepare(gpu, camera);
+                let (color, hdr, depth) = self.target.views();
+                c.draw(&mut encoder, color, hdr, depth);
             }
             if let Some(t) = &self.timer {
                 t.resolve(&mut encoder);
@@ -503,6 +540,7 @@ pub fn replay_with(
     offscreen.reflectance = options.reflectance;
     offscreen.set_reflections(gpu, data, options.reflections)?;
     offscreen.set_impostors(gpu, data, options.impostors)?;
+    offscreen.set_curved(gpu, data, options.curved, options.curved_settings)?;
     let frames = schedule(path);
 
     let warmup = offscreen.render(gpu, &frames[0].camera)?;

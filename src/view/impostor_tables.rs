@@ -166,7 +166,7 @@ pub fn impostor_reflectors(scene: &Scene, planar: &[PlanarReflector]) -> Vec<Imp
             name: r.name.clone(),
             triangles: r.triangles.clone(),
             normal: Some(r.plane.normal),
-            modulation: r.modulation.clone(),
+            modulation: r.modulation.table_1d(),
         })
         .collect();
     for r in scene

@@ -12,11 +12,14 @@
 //!   ks·(M*K)·R (issue 9).
 //! - [`impostors`], [`impostor_tables`]: reflections of depth-map impostors through their SRDM
 //!   (Popescu §3.1, §4.3; issue 10), the WGSL intersection and its packed tables.
+//! - [`curved`]: curved reflectors by cube maps (Nielsen §3.2) and glossy curved objects by
+//!   regular sampling (Luksch §6–7) (issue 10).
 //! - [`window`]: the interactive winit viewer (fly camera, path playback and recording).
 //! - [`gpu`]: adapter and device selection, readback.
 
 pub mod bicubic;
 pub mod cpu_render;
+pub mod curved;
 pub mod gpu;
 pub mod headless;
 pub mod impostor_tables;

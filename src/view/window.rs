@@ -24,6 +24,8 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::window::{Window, WindowId};
 
+use super::curved::gpu::CurvedReflections;
+use super::curved::{CurvedMode, CurvedSettings};
 use super::gpu::{Gpu, GpuError};
 use super::headless::{Offscreen, rgba_to_rgb};
 use super::impostors::{ImpostorReflections, ImpostorSettings};
@@ -104,6 +106,10 @@ pub struct WindowOptions {
     pub reflectance: ReflectanceSettings,
     /// Reflections of impostors at start (I switches).
     pub impostors: bool,
+    /// Curved reflectors at start (C switches).
+    pub curved: CurvedMode,
+    /// Curved reflectors' settings.
+    pub curved_settings: CurvedSettings,
 }
 
 /// A free-flying camera: position, yaw about +Y (0 looks down −Z, positive turns right)
@@ -286,6 +292,21 @@ fn reflection_passes(
     )?))
 }
 
+/// The curved-reflector passes of `mode` (`None` when off); building them renders the cube
+/// maps.
+fn curved_passes(
+    gpu: &Gpu,
+    renderer: &Renderer,
+    data: &ViewData,
+    mode: CurvedMode,
+    settings: CurvedSettings,
+) -> Result<Option<CurvedReflections>, WindowError> {
+    Ok(match mode {
+        CurvedMode::Off => None,
+        CurvedMode::Cubemap => Some(CurvedReflections::new(gpu, renderer, data, settings)?),
+    })
+}
+
 /// A starting view: the first path's first pose, else the bounding box from its +Z side.
 pub fn initial_camera(data: &ViewData) -> Camera {
     if let Some(path) = data.scene.desc.camera_paths.first() {
@@ -363,7 +384,8 @@ pub fn run_window(data: ViewData, options: WindowOptions) -> Result<(), WindowEr
 
 const HELP: &str = "keys: WASD + Q/E move (Shift faster, wheel: speed), left-drag look, \
 1-9 play path, Space pause/resume, R record path, P screenshot, G reflections off/geometry/image, \
-T reflectance sphere/1D map, I impostor reflections, H help, Esc quit";
+T reflectance sphere/1D map, I impostor reflections, \
+C curved reflectors off/cubemap, H help, Esc quit";
 
 /// The window's GPU side, created once the event loop runs.
 struct Running {
@@ -375,6 +397,7 @@ struct Running {
     depth_view: wgpu::TextureView,
     reflections: Option<GeometryReflections>,
     impostors: Option<ImpostorReflections>,
+    curved: Option<CurvedReflections>,
 }
 
 struct App {
@@ -474,6 +497,13 @@ impl App {
         } else {
             None
         };
+        let curved = curved_passes(
+            &gpu,
+            &renderer,
+            &self.data,
+            self.options.curved,
+            self.options.curved_settings,
+        )?;
         Ok(Running {
             window,
             surface,
@@ -483,6 +513,7 @@ impl App {
             depth_view,
             reflections,
             impostors,
+            curved,
         })
     }
 
@@ -582,6 +613,24 @@ impl App {
         Ok(())
     }
 
+    /// Switches curved reflectors off ↔ cubemap (the cube maps are rendered when switched on).
+    fn toggle_curved(&mut self) -> Result<(), WindowError> {
+        self.options.curved = self.options.curved.next();
+        log::info!("curved reflectors: {}", self.options.curved);
+        self.screenshot = None;
+        let Some(r) = &mut self.running else {
+            return Ok(());
+        };
+        r.curved = curved_passes(
+            &r.gpu,
+            &r.renderer,
+            &self.data,
+            self.options.curved,
+            self.options.curved_settings,
+        )?;
+        Ok(())
+    }
+
     /// The camera of this frame: the playing path's pose, else the fly camera moved by the
     /// held keys.
     fn update_camera(&mut self, dt: f32) -> Camera {
@@ -669,6 +718,10 @@ impl App {
             pass.prepare(&r.gpu, &camera);
             pass.draw(&mut encoder, &r.renderer, &view, None, &r.depth_view);
         }
+        if let Some(passes) = &r.curved {
+            passes.prepare(&r.gpu, &camera);
+            passes.draw(&mut encoder, &view, None, &r.depth_view);
+        }
         r.gpu.queue.submit([encoder.finish()]);
         r.window.pre_present_notify();
         r.gpu.queue.present(frame);
@@ -749,6 +802,12 @@ impl App {
             off.reflectance = self.options.reflectance;
             off.set_reflections(&r.gpu, &self.data, self.options.reflections)?;
             off.set_impostors(&r.gpu, &self.data, self.options.impostors)?;
+            off.set_curved(
+                &r.gpu,
+                &self.data,
+                self.options.curved,
+                self.options.curved_settings,
+            )?;
             self.screenshot = Some(off);
         }
         let off = self.screenshot.as_ref().expect("created above");
@@ -856,6 +915,7 @@ impl App {
             KeyCode::KeyG => self.toggle_reflections(),
             KeyCode::KeyT => self.toggle_reflectance(),
             KeyCode::KeyI => self.toggle_impostors(),
+            KeyCode::KeyC => self.toggle_curved(),
             KeyCode::KeyP | KeyCode::F12 => {
                 let camera = self.fly.camera();
                 self.save_screenshot(&camera).map(|_| ())

@@ -127,6 +127,20 @@ impl Modulation {
             }
         }
     }
+
+    /// The 1D form: ks·R at the 1D map's cosines, for passes that index R by view angle only
+    /// (a sphere map is read in the plane of incidence along the tangent).
+    pub fn table_1d(&self) -> Vec<Vec3> {
+        match self {
+            Modulation::OneD(table) => table.clone(),
+            Modulation::Sphere { .. } => (0..MODULATION_SIZE as u32)
+                .map(|k| {
+                    let c = reflectance::map_1d_cos(k, MODULATION_SIZE as u32);
+                    self.at(Vec3::new((1.0 - c * c).max(0.0).sqrt(), 0.0, c))
+                })
+                .collect(),
+        }
+    }
 }
 
 /// Linear lookup of a 1D modulation table at view cosine `cos_theta`, as the 1D map is read

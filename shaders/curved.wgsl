@@ -1,0 +1,287 @@
+// glint-view: curved reflectors by cube maps (Nielsen & Christensen 2002 §3.2) and glossy
+// curved objects by regular sampling (Luksch et al. §6–7).
+//
+// Appended to `shaders/view.wgsl` at pipeline creation (`src/view/curved/gpu.rs`): it uses
+// that file's `frame` uniforms, `VertexIn`, `VertexOut`, `FragmentOut`, `sample_radiosity`
+// and `linear_to_srgb`. Group 1 starts at binding 4 so it never meets view.wgsl's probe
+// bindings (group 1, bindings 0–1).
+//
+// Entry points:
+// - `vs_main`/`fs_env`: D into a cube face (linear Rgba16Float, the face camera in `frame`);
+// - `vs_curved`/`fs_curved_env`: another curved reflector's mirror term in that face, looked
+//   up in the previous generation's cube map (McReynolds' scheme, as Nielsen adopts it);
+// - `vs_curved`/`fs_curved`: a curved reflector's pixels in the frame, ks·(Fresnel)·cube(r)
+//   (mirror) or Eq. 9 with a regular pattern (glossy), added to kd·D of the scene pass;
+// - `vs_fullscreen`/`fs_downsample`: the next MIP level of a live cube face (2×2 box);
+// - `cs_glossy_probe`, `cs_env_probe`: the same functions on given inputs, for tests.
+//
+// Keep `CurvedParams` in sync with `curved::CurvedParams` (a test compares them).
+
+struct CurvedLobe {
+    // rgb: ks; a: r0 (Schlick's Fresnel at normal incidence).
+    ks: vec4<f32>,
+    // m_x, m_y (clamped as the pattern uses them), ξ₀, the shadowing exponent α.
+    rough: vec4<f32>,
+    // x: first sample in `pattern`, y: sample count, zw: unused.
+    samples: vec4<u32>,
+    // x: p_h, the pattern's half-vector density (Eq. 18); yzw: unused.
+    pdf: vec4<f32>,
+};
+
+struct CurvedParams {
+    // xyz: the eye (the camera, or the centre of the cube map being rendered); w: LOD bias.
+    eye: vec4<f32>,
+    // xyz: the reflector's centre (where its cube map was taken); w unused.
+    centre: vec4<f32>,
+    // x: lobes; y: 1 = regular sampling (Eq. 9), 0 = one mirror lookup; z: face size of the
+    // environment's level 0 (Eq. 16's N = z²); w: unused.
+    info: vec4<u32>,
+    lobes: array<CurvedLobe, 2>,
+};
+
+@group(1) @binding(4) var<uniform> curved: CurvedParams;
+@group(1) @binding(5) var<storage, read> pattern: array<vec4<f32>>;
+@group(1) @binding(6) var env: texture_cube<f32>;
+@group(1) @binding(7) var env_sampler: sampler;
+
+const CURVED_PI: f32 = 3.14159265358979;
+// `brdf::COS_FLOOR`.
+const COS_FLOOR: f32 = 1e-6;
+// `pattern::ALPHA_MAX`.
+const ALPHA_MAX: f32 = 1.5697963;
+
+// The tangent frame of `sampling::basis` (Duff et al. 2017): columns tangent, bitangent, n.
+fn curved_basis(n: vec3<f32>) -> mat3x3<f32> {
+    let sign = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    let t = vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+    let bt = vec3<f32>(b, sign + n.y * n.y * a, -n.y);
+    return mat3x3<f32>(t, bt, n);
+}
+
+// Eq. 3.
+fn fresnel_schlick(r0: f32, u: f32) -> f32 {
+    let c = 1.0 - clamp(u, 0.0, 1.0);
+    let c2 = c * c;
+    return r0 + (1.0 - r0) * c2 * c2 * c;
+}
+
+// Eq. 4–5: the normalized anisotropic Beckmann distribution.
+fn beckmann_d(h: vec3<f32>, mx: f32, my: f32) -> f32 {
+    if h.z <= 0.0 {
+        return 0.0;
+    }
+    let a = h.x / mx;
+    let b = h.y / my;
+    let e = (a * a + b * b) / (h.z * h.z);
+    if e >= 87.0 {
+        return 0.0;
+    }
+    let c2 = h.z * h.z;
+    return exp(-e) / (CURVED_PI * mx * my * c2 * c2);
+}
+
+// 2 (w·h) h − w.
+fn reflect_about(w: vec3<f32>, h: vec3<f32>) -> vec3<f32> {
+    return 2.0 * dot(w, h) * h - w;
+}
+
+// Eq. 2 without ks, in the tangent frame (`Lobe::eval`).
+fn lobe_eval(l: CurvedLobe, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
+    let s = wo + wi;
+    let len2 = dot(s, s);
+    if wo.z <= 0.0 || wi.z <= 0.0 || len2 <= 1e-30 {
+        return 0.0;
+    }
+    let h = s / sqrt(len2);
+    let d = beckmann_d(h, l.rough.x, l.rough.y);
+    if d == 0.0 {
+        return 0.0;
+    }
+    let oh = max(dot(wo, h), COS_FLOOR);
+    var shadow = 1.0;
+    if l.rough.w != 0.0 {
+        shadow = pow(max(wi.z, COS_FLOOR) * max(wo.z, COS_FLOOR), l.rough.w);
+    }
+    return fresnel_schlick(l.ks.a, oh) * d / (4.0 * oh * shadow);
+}
+
+// Eq. 14–15: the lobe's cross-section area A at unit distance (`pattern::lobe_area`).
+fn lobe_area(mx: f32, my: f32, xi0: f32, wo: vec3<f32>) -> f32 {
+    let r = sqrt(max(-log(xi0), 0.0));
+    let wc = vec3<f32>(-wo.x, -wo.y, wo.z);
+    let hu = normalize(vec3<f32>(r * mx, 0.0, 1.0));
+    let hv = normalize(vec3<f32>(0.0, r * my, 1.0));
+    let au = min(acos(clamp(dot(wc, reflect_about(wo, hu)), -1.0, 1.0)), ALPHA_MAX);
+    let av = min(acos(clamp(dot(wc, reflect_about(wo, hv)), -1.0, 1.0)), ALPHA_MAX);
+    return CURVED_PI * tan(au) * tan(av);
+}
+
+// Eq. 16: the MIP level of one of n samples (`pattern::mip_level`).
+fn mip_level(area: f32, face: f32, n: f32, wi: vec3<f32>, h: vec3<f32>) -> f32 {
+    let a = abs(wi);
+    let to_cube = length(wi) / max(max(a.x, max(a.y, a.z)), 1e-30);
+    let pixels = area * face * face / (4.0 * max(n, 1.0)) * to_cube / max(dot(wi, h), COS_FLOOR);
+    return max(0.5 * log2(max(pixels, 1.0)), 0.0);
+}
+
+// Eq. 9 with a regular pattern: (1/N) Σ L(ω_i) f(ω_i, ω_o) cos θ_i / p(ω_i), p from Eq. 17–18,
+// each L at its Eq. 16 level (`envmap::specular_regular`, ks included here).
+fn specular_regular(l: CurvedLobe, frame_m: mat3x3<f32>, wo_l: vec3<f32>) -> vec3<f32> {
+    let count = l.samples.y;
+    if wo_l.z <= 0.0 || count == 0u {
+        return vec3<f32>(0.0);
+    }
+    let n = f32(count);
+    let area = lobe_area(l.rough.x, l.rough.y, l.rough.z, wo_l); // Eq. 14–15
+    let face = f32(curved.info.z);
+    var sum = vec3<f32>(0.0);
+    for (var k = 0u; k < count; k++) {
+        let h = pattern[l.samples.x + k].xyz;
+        let wi = reflect_about(wo_l, h);
+        if wi.z <= 0.0 {
+            continue;
+        }
+        let wi_world = frame_m * wi;
+        let lod = mip_level(area, face, n, wi_world, frame_m * h) + curved.eye.w; // Eq. 16
+        let f = lobe_eval(l, wo_l, wi); // Eq. 2
+        let pdf = l.pdf.x / (4.0 * max(dot(h, wi), COS_FLOOR)); // Eq. 17
+        if pdf > 0.0 {
+            let radiance = textureSampleLevel(env, env_sampler, wi_world, lod).rgb;
+            sum += radiance * (f * wi.z / pdf);
+        }
+    }
+    return l.ks.rgb * sum / n;
+}
+
+// One lookup in the mirror direction, weighted by ks and Schlick's Fresnel at n·ω_o.
+fn specular_mirror(l: CurvedLobe, n: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
+    let c = dot(n, wo);
+    if c <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let r = reflect_about(wo, n);
+    return l.ks.rgb * fresnel_schlick(l.ks.a, c) * textureSampleLevel(env, env_sampler, r, 0.0).rgb;
+}
+
+// The specular radiance of every lobe at normal `n` seen from direction `wo` (unit, world).
+fn curved_specular(n: vec3<f32>, wo: vec3<f32>, regular: bool) -> vec3<f32> {
+    var sum = vec3<f32>(0.0);
+    let frame_m = curved_basis(n);
+    let wo_l = wo * frame_m; // to the tangent frame: dot with each column
+    for (var i = 0u; i < min(curved.info.x, 2u); i++) {
+        let l = curved.lobes[i];
+        if regular {
+            sum += specular_regular(l, frame_m, wo_l);
+        } else {
+            sum += specular_mirror(l, n, wo);
+        }
+    }
+    return sum;
+}
+
+struct CurvedVertexIn {
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+};
+
+struct CurvedOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+};
+
+@vertex
+fn vs_curved(v: CurvedVertexIn) -> CurvedOut {
+    var out: CurvedOut;
+    out.clip = frame.view_proj * vec4<f32>(v.position, 1.0);
+    out.world = v.position;
+    out.normal = v.normal;
+    return out;
+}
+
+// The shading normal facing the eye (reflectors are drawn two-sided, as the scene is).
+fn facing_normal(in: CurvedOut) -> vec3<f32> {
+    let n = normalize(in.normal);
+    let wo = normalize(curved.eye.xyz - in.world);
+    return select(-n, n, dot(n, wo) >= 0.0);
+}
+
+@fragment
+fn fs_curved(in: CurvedOut) -> FragmentOut {
+    let wo = normalize(curved.eye.xyz - in.world);
+    let c = curved_specular(facing_normal(in), wo, curved.info.y != 0u) * frame.exposure;
+    var out: FragmentOut;
+    // Added to kd·D of the scene pass by the blend state (as `fs_composite` of reflect.wgsl).
+    var color = c;
+    if frame.encode_srgb != 0u {
+        color = linear_to_srgb(c);
+    }
+    out.color = vec4<f32>(color, 0.0);
+    out.hdr = vec4<f32>(c, 0.0);
+    return out;
+}
+
+@fragment
+fn fs_env(in: VertexOut) -> @location(0) vec4<f32> {
+    return vec4<f32>(max(sample_radiosity(in.lightmap, in.page), vec3<f32>(0.0)) * frame.exposure, 1.0);
+}
+
+@fragment
+fn fs_curved_env(in: CurvedOut) -> @location(0) vec4<f32> {
+    let wo = normalize(curved.eye.xyz - in.world);
+    return vec4<f32>(curved_specular(facing_normal(in), wo, false), 0.0);
+}
+
+// MIP generation of live cube maps: one face of level ℓ from level ℓ − 1 (2×2 box).
+@group(1) @binding(8) var mip_source: texture_2d<f32>;
+
+@vertex
+fn vs_fullscreen(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+    let p = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
+    return vec4<f32>(p * 2.0 - 1.0, 0.0, 1.0);
+}
+
+@fragment
+fn fs_downsample(@builtin(position) p: vec4<f32>) -> @location(0) vec4<f32> {
+    let size = vec2<i32>(textureDimensions(mip_source));
+    let q = vec2<i32>(floor(p.xy)) * 2;
+    var sum = vec4<f32>(0.0);
+    for (var k = 0; k < 4; k++) {
+        let t = min(q + vec2<i32>(k & 1, k >> 1), size - 1);
+        sum += textureLoad(mip_source, t, 0);
+    }
+    return sum * 0.25;
+}
+
+// Test entries. `GlossyProbe`: a world normal (xyz) and the direction to the eye (xyz).
+struct GlossyProbe {
+    normal: vec4<f32>,
+    wo: vec4<f32>,
+};
+
+@group(2) @binding(0) var<storage, read> glossy_in: array<GlossyProbe>;
+@group(2) @binding(1) var<storage, read_write> glossy_out: array<vec4<f32>>;
+
+// Per input: the specular term (mode from `curved.info.y`); for `cs_env_probe`, the
+// environment at direction `normal.xyz` and level `normal.w`.
+@compute @workgroup_size(64)
+fn cs_glossy_probe(@builtin(global_invocation_id) id: vec3<u32>) {
+    let k = id.x;
+    if k >= arrayLength(&glossy_in) {
+        return;
+    }
+    let p = glossy_in[k];
+    glossy_out[k] = vec4<f32>(curved_specular(normalize(p.normal.xyz), normalize(p.wo.xyz), curved.info.y != 0u), 1.0);
+}
+
+@compute @workgroup_size(64)
+fn cs_env_probe(@builtin(global_invocation_id) id: vec3<u32>) {
+    let k = id.x;
+    if k >= arrayLength(&glossy_in) {
+        return;
+    }
+    let p = glossy_in[k];
+    glossy_out[k] = vec4<f32>(textureSampleLevel(env, env_sampler, p.normal.xyz, p.normal.w).rgb, 1.0);
+}

@@ -1,0 +1,443 @@
+//! Curved reflectors in the viewer (issue 10): view-independent cube maps (Nielsen &
+//! Christensen 2002 §3.2, Figure 6) and glossy curved objects by regular sampling (Luksch
+//! et al. §6–7).
+//!
+//! Per `curved` reflector whose material has a glossy lobe ([`curved_reflectors`]):
+//! - a cube map rendered from its centre (the area-weighted centroid, where the materials
+//!   stage captures its environment map) with six 90° cameras ([`face_camera`]) through the
+//!   scene pipeline (D), the reflector itself left out. Generated when the passes are built —
+//!   glint's scenes are static — and reused for every frame.
+//! - Interreflections between curved reflectors (McReynolds' scheme, as Nielsen adopts it):
+//!   generation g draws the other curved reflectors into each face with their mirror term
+//!   looked up in generation g − 1's maps. Two sets of maps alternate ([`generation_plan`]):
+//!   a generation writes one set and reads only the other, so a map is never sampled while
+//!   it is being written (wgpu would also reject a texture bound for sampling and rendering
+//!   in one pass). Generation 0 reads the zero-initialized set: no interreflection.
+//! - The reflector's pixels: kd·D from the scene pass plus, added by blending,
+//!   - `--glossy-samples 0`: Σ_lobes ks·F(n·ω_o)·cube(r), one lookup in the mirror direction
+//!     r (F: Schlick, Eq. 3); [`mirror_specular`] is the CPU form;
+//!   - `--glossy-samples N > 0`: per lobe, Eq. 9 over the regular pattern closest to N
+//!     samples ([`crate::brdf::pattern::closest_pattern`], the function the materials stage
+//!     bakes its pattern with, so at the bake's budget it is the baked pattern), the BRDF of
+//!     Eq. 2, the density of Eq. 17–18 and each sample's MIP level from Eq. 16;
+//!     [`crate::bake::materials::envmap::specular_regular`] is the CPU estimator the shader
+//!     is tested against.
+//! - Environment of the glossy term, chosen automatically per reflector: the materials
+//!   stage's baked MIP pyramid (`materials/env/<reflector>/`) when the bundle has it (the
+//!   scene is static), else the live cube map with MIP levels built on the GPU (2×2 box).
+//!   The mirror term always reads the live map (it holds the interreflections).
+//!
+//! The GPU half is [`gpu::CurvedReflections`] (`shaders/curved.wgsl`). Not here: the
+//! `impostor` mode of `--curved` (Popescu et al., another part of issue 10), and parallax
+//! correction of the lookups (Nielsen's maps assume a distant environment too).
+
+pub mod gpu;
+
+use bytemuck::{Pod, Zeroable};
+use glam::{DVec3, Vec3};
+
+use crate::brdf::kurt::fresnel_schlick;
+use crate::brdf::pattern::{Pattern, closest_pattern};
+use crate::brdf::{Lobe, reflect};
+use crate::camera::Camera;
+use crate::scene::{ReflectorKind, Scene};
+
+/// WGSL of the curved-reflector passes (appended to [`super::renderer::SHADER_SOURCE`]).
+pub const CURVED_SHADER_SOURCE: &str = include_str!("../../shaders/curved.wgsl");
+
+/// The full WGSL module of the curved-reflector passes.
+pub fn shader_source() -> String {
+    format!(
+        "{}\n{}",
+        super::renderer::SHADER_SOURCE,
+        CURVED_SHADER_SOURCE
+    )
+}
+
+/// How the viewer draws curved reflectors (`--curved`). Room is left for `impostor`
+/// (Popescu et al.), which another part of issue 10 adds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum CurvedMode {
+    /// kd·D only.
+    #[default]
+    Off,
+    /// View-independent cube maps per reflector (Nielsen §3.2).
+    Cubemap,
+}
+
+impl CurvedMode {
+    /// The next mode in the window's cycle (off → cubemap → off).
+    pub fn next(self) -> CurvedMode {
+        match self {
+            CurvedMode::Off => CurvedMode::Cubemap,
+            CurvedMode::Cubemap => CurvedMode::Off,
+        }
+    }
+}
+
+impl std::str::FromStr for CurvedMode {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "off" => Ok(CurvedMode::Off),
+            "cubemap" => Ok(CurvedMode::Cubemap),
+            _ => Err(format!("{s:?} is not one of cubemap, off")),
+        }
+    }
+}
+
+impl std::fmt::Display for CurvedMode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            CurvedMode::Off => "off",
+            CurvedMode::Cubemap => "cubemap",
+        })
+    }
+}
+
+/// Settings of the curved-reflector passes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CurvedSettings {
+    /// Regular samples per pixel and lobe (closest pattern); 0: one mirror lookup.
+    pub glossy_samples: u32,
+    /// Face size of the live cube maps, texels.
+    pub face_size: u32,
+    /// Generations of cube maps (1: no interreflection between curved reflectors).
+    pub generations: u32,
+}
+
+/// Face size of live cube maps unless set.
+pub const DEFAULT_FACE_SIZE: u32 = 128;
+
+/// Generations unless set: one bounce between curved reflectors.
+pub const DEFAULT_GENERATIONS: u32 = 2;
+
+impl Default for CurvedSettings {
+    fn default() -> Self {
+        CurvedSettings {
+            glossy_samples: 0,
+            face_size: DEFAULT_FACE_SIZE,
+            generations: DEFAULT_GENERATIONS,
+        }
+    }
+}
+
+/// Lobes per reflector the shader evaluates (further lobes are dropped with a warning).
+pub const MAX_LOBES: usize = 2;
+
+/// ξ₀ of the patterns when the bundle has no materials stage (the default preset's).
+pub const DEFAULT_XI0: f32 = 0.1;
+
+/// Most circles tried when matching a sample budget (the materials presets' value).
+pub const MAX_CIRCLES: u32 = 64;
+
+/// A glossy curved reflector as the viewer draws it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CurvedReflector {
+    /// Name from the scene.
+    pub name: String,
+    /// Its triangles (indices into the scene's triangles).
+    pub triangles: Vec<u32>,
+    /// Area-weighted centroid: where its cube map is taken.
+    pub centre: Vec3,
+    /// Its material's glossy lobes (at most [`MAX_LOBES`]).
+    pub lobes: Vec<Lobe>,
+}
+
+/// The scene's curved reflectors whose material has a glossy lobe, in scene order.
+pub fn curved_reflectors(scene: &Scene) -> Vec<CurvedReflector> {
+    scene
+        .reflectors
+        .iter()
+        .filter(|r| r.kind == ReflectorKind::Curved)
+        .filter_map(|r| {
+            let material = scene.materials.get(r.material as usize)?;
+            let mut lobes: Vec<Lobe> = material.lobes.iter().map(Lobe::from).collect();
+            lobes.retain(|l| l.ks.max_element() > 0.0);
+            if lobes.is_empty() {
+                return None;
+            }
+            if lobes.len() > MAX_LOBES {
+                log::warn!(
+                    "curved reflector {}: {} lobes, the viewer draws the first {MAX_LOBES}",
+                    r.name,
+                    lobes.len()
+                );
+                lobes.truncate(MAX_LOBES);
+            }
+            Some(CurvedReflector {
+                name: r.name.clone(),
+                triangles: r.triangles.clone(),
+                centre: centroid(scene, &r.triangles),
+                lobes,
+            })
+        })
+        .collect()
+}
+
+/// Area-weighted centroid of some triangles (f64 sums; the materials stage's capture point).
+pub fn centroid(scene: &Scene, triangles: &[u32]) -> Vec3 {
+    let (mut sum, mut area) = (DVec3::ZERO, 0.0f64);
+    for &t in triangles {
+        let tri = &scene.triangles[t as usize];
+        let a = tri.area() as f64;
+        sum += (tri.p[0] + tri.p[1] + tri.p[2]).as_dvec3() * (a / 3.0);
+        area += a;
+    }
+    if area > 0.0 {
+        (sum / area).as_vec3()
+    } else {
+        Vec3::ZERO
+    }
+}
+
+/// The 90° camera of cube face `face` (+X, −X, +Y, −Y, +Z, −Z) at `centre`, oriented as
+/// WebGPU samples cube maps (and as [`crate::bake::materials::envmap::face_direction`]
+/// stores them): pixel (x, y) of a square image from it looks along the direction of texel
+/// (x, y) of that face. The frames are left-handed; nothing is culled, so that is harmless.
+pub fn face_camera(centre: Vec3, face: usize) -> Camera {
+    // (forward, right, up): the direction of face coordinates (s, t) is F + s R − t U.
+    let (forward, right, up) = match face {
+        0 => (Vec3::X, Vec3::NEG_Z, Vec3::Y),
+        1 => (Vec3::NEG_X, Vec3::Z, Vec3::Y),
+        2 => (Vec3::Y, Vec3::X, Vec3::NEG_Z),
+        3 => (Vec3::NEG_Y, Vec3::X, Vec3::Z),
+        4 => (Vec3::Z, Vec3::X, Vec3::Y),
+        _ => (Vec3::NEG_Z, Vec3::NEG_X, Vec3::Y),
+    };
+    Camera {
+        position: centre,
+        forward,
+        right,
+        up,
+        fov_y: std::f32::consts::FRAC_PI_2,
+    }
+}
+
+/// One generation of cube maps: the set it renders into and the set it reads
+/// interreflections from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Generation {
+    /// Set written (0 or 1).
+    pub write: usize,
+    /// Set read (the previous generation's, or the cleared one for generation 0).
+    pub read: usize,
+}
+
+/// The double-buffered schedule of `generations` (≥ 1) generations: generation g writes set
+/// g mod 2 and reads the other. The last one's `write` set is what frames read.
+pub fn generation_plan(generations: u32) -> Vec<Generation> {
+    (0..generations.max(1) as usize)
+        .map(|g| Generation {
+            write: g % 2,
+            read: (g + 1) % 2,
+        })
+        .collect()
+}
+
+/// Σ_lobes ks·F(n·ω_o)·env(r), r the mirror direction of ω_o about n (unit, world; ω_o
+/// towards the eye): the mirror shading of `fs_curved` on the CPU. 0 from behind.
+pub fn mirror_specular(lobes: &[Lobe], n: Vec3, wo: Vec3, env: impl Fn(Vec3) -> Vec3) -> Vec3 {
+    let c = n.dot(wo);
+    if c <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let r = reflect(wo, n);
+    let l = env(r);
+    lobes.iter().fold(Vec3::ZERO, |a, lobe| {
+        a + lobe.ks * fresnel_schlick(lobe.r0, c) * l
+    })
+}
+
+/// The regular pattern per lobe for a budget of `samples` (the materials stage's
+/// [`closest_pattern`] with threshold `xi0`).
+pub fn patterns_for(lobes: &[Lobe], samples: u32, xi0: f32) -> Vec<Pattern> {
+    lobes
+        .iter()
+        .map(|l| {
+            let (mx, my) = l.roughness();
+            closest_pattern(mx, my, xi0, samples.max(1), MAX_CIRCLES)
+        })
+        .collect()
+}
+
+/// Mirrors `CurvedLobe` in `shaders/curved.wgsl` (64 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct CurvedLobe {
+    /// ks rgb, a = r0.
+    pub ks: [f32; 4],
+    /// m_x, m_y (the pattern's, clamped), ξ₀, α.
+    pub rough: [f32; 4],
+    /// First sample in the pattern buffer, sample count, unused × 2.
+    pub samples: [u32; 4],
+    /// p_h (Eq. 18), unused × 3.
+    pub pdf: [f32; 4],
+}
+
+/// Mirrors `CurvedParams` in `shaders/curved.wgsl` (176 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct CurvedParams {
+    /// The eye xyz, w = LOD bias added to Eq. 16.
+    pub eye: [f32; 4],
+    /// The reflector's centre xyz.
+    pub centre: [f32; 4],
+    /// Lobes, 1 = regular sampling, face size of the environment's level 0, unused.
+    pub info: [u32; 4],
+    /// Per lobe.
+    pub lobes: [CurvedLobe; MAX_LOBES],
+}
+
+impl CurvedParams {
+    /// The parameters of `reflector` seen from `eye`; with `patterns` (one per lobe, samples
+    /// at `offsets` in the pattern buffer) the glossy term is regular sampling, without them
+    /// one mirror lookup. `face_size`: level 0 of the environment it reads.
+    pub fn new(
+        reflector: &CurvedReflector,
+        patterns: Option<(&[Pattern], &[u32])>,
+        eye: Vec3,
+        face_size: u32,
+    ) -> CurvedParams {
+        let mut lobes = [CurvedLobe::default(); MAX_LOBES];
+        for (k, (out, l)) in lobes.iter_mut().zip(&reflector.lobes).enumerate() {
+            let (mx, my) = l.roughness();
+            out.ks = l.ks.extend(l.r0).to_array();
+            out.rough = [mx, my, DEFAULT_XI0, l.alpha];
+            if let Some((p, offsets)) = patterns {
+                let p = &p[k];
+                out.rough = [p.mx, p.my, p.xi0, l.alpha];
+                out.samples = [offsets[k], p.len() as u32, 0, 0];
+                out.pdf = [p.pdf_constant, 0.0, 0.0, 0.0];
+            }
+        }
+        CurvedParams {
+            eye: eye.extend(0.0).to_array(),
+            centre: reflector.centre.extend(0.0).to_array(),
+            info: [
+                reflector.lobes.len().min(MAX_LOBES) as u32,
+                u32::from(patterns.is_some()),
+                face_size,
+                0,
+            ],
+            lobes,
+        }
+    }
+}
+
+/// Every lobe's pattern in one buffer (h.xyz, 0 per sample) with each lobe's first index.
+pub fn pack_patterns(patterns: &[Pattern]) -> (Vec<[f32; 4]>, Vec<u32>) {
+    let mut samples = Vec::new();
+    let mut offsets = Vec::new();
+    for p in patterns {
+        offsets.push(samples.len() as u32);
+        samples.extend(p.half_vectors.iter().map(|h| h.extend(0.0).to_array()));
+    }
+    if samples.is_empty() {
+        samples.push([0.0; 4]); // a storage binding is never empty
+    }
+    (samples, offsets)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bake::materials::envmap::texel_direction;
+    use wgpu::naga;
+
+    #[test]
+    fn curved_params_match_the_wgsl_struct() {
+        let module = naga::front::wgsl::parse_str(&shader_source()).expect("curved.wgsl parses");
+        let mut layouter = naga::proc::Layouter::default();
+        layouter.update(module.to_ctx()).unwrap();
+        let find = |name: &str| {
+            let (handle, ty) = module
+                .types
+                .iter()
+                .find(|(_, t)| t.name.as_deref() == Some(name))
+                .unwrap();
+            let naga::TypeInner::Struct { members, .. } = &ty.inner else {
+                panic!()
+            };
+            let offsets: Vec<u32> = members.iter().map(|m| m.offset).collect();
+            (layouter[handle].size as usize, offsets)
+        };
+        let (size, offsets) = find("CurvedParams");
+        assert_eq!(size, std::mem::size_of::<CurvedParams>());
+        assert_eq!(
+            offsets,
+            [
+                std::mem::offset_of!(CurvedParams, eye) as u32,
+                std::mem::offset_of!(CurvedParams, centre) as u32,
+                std::mem::offset_of!(CurvedParams, info) as u32,
+                std::mem::offset_of!(CurvedParams, lobes) as u32,
+            ]
+        );
+        let (size, _) = find("CurvedLobe");
+        assert_eq!(size, std::mem::size_of::<CurvedLobe>());
+    }
+
+    #[test]
+    fn face_cameras_look_through_the_cube_texels() {
+        let size = 16;
+        for face in 0..6 {
+            let cam = face_camera(Vec3::new(0.3, -1.0, 2.0), face);
+            for (x, y) in [(0, 0), (15, 0), (3, 11), (15, 15), (8, 7)] {
+                let ndc = Camera::pixel_ndc(x, y, size, size);
+                let ray = cam.ray_direction(ndc, 1.0);
+                let want = texel_direction(size as usize, face, x as usize, y as usize);
+                assert!(
+                    (ray - want).length() < 1e-5,
+                    "face {face} texel ({x}, {y}): {ray} vs {want}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn generations_never_read_the_set_they_write() {
+        let plan = generation_plan(5);
+        assert_eq!(plan.len(), 5);
+        for (g, step) in plan.iter().enumerate() {
+            assert_ne!(step.write, step.read, "generation {g}");
+            if g > 0 {
+                assert_eq!(
+                    step.read,
+                    plan[g - 1].write,
+                    "generation {g} reads its predecessor"
+                );
+            }
+        }
+        assert_eq!(generation_plan(0).len(), 1);
+    }
+
+    #[test]
+    fn mirror_specular_is_ks_times_fresnel_times_the_mirror_direction() {
+        let lobe = Lobe {
+            ks: Vec3::new(0.9, 0.5, 0.2),
+            r0: 0.3,
+            mx: 0.01,
+            my: 0.01,
+            alpha: 0.0,
+        };
+        let n = Vec3::Y;
+        let wo = Vec3::new(1.0, 1.0, 0.0).normalize();
+        let got = mirror_specular(&[lobe], n, wo, |d| {
+            // The mirror of (1, 1, 0)/√2 about +Y is (−1, 1, 0)/√2.
+            assert!((d - Vec3::new(-1.0, 1.0, 0.0).normalize()).length() < 1e-6);
+            Vec3::splat(2.0)
+        });
+        let f = fresnel_schlick(0.3, wo.y);
+        assert!((got - lobe.ks * f * 2.0).length() < 1e-6);
+        assert_eq!(mirror_specular(&[lobe], n, -wo, |_| Vec3::ONE), Vec3::ZERO);
+    }
+
+    #[test]
+    fn modes_parse_and_cycle() {
+        assert_eq!("cubemap".parse(), Ok(CurvedMode::Cubemap));
+        assert_eq!("off".parse(), Ok(CurvedMode::Off));
+        assert!("impostor".parse::<CurvedMode>().is_err());
+        assert_eq!(CurvedMode::Off.next().next(), CurvedMode::Off);
+        assert_eq!(CurvedMode::Cubemap.to_string(), "cubemap");
+    }
+}
