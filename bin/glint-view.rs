@@ -67,6 +67,16 @@ struct Args {
     /// `bastos` (F/(π cos²θ) as printed).
     #[arg(long, value_name = "CHANNEL", default_value = "albedo")]
     reflectance_channel: glint::view::reflections::ReflectanceChannel,
+    /// Geometry reflections: recursion depth 0–4 (Nielsen & Christensen 2002 §3.1): 0 draws
+    /// no reflections (as `--reflections off`), 1 mirrors the scene once per reflector (the
+    /// default), 2–4 also draw the reflectors seen in each reflection, one reflection map per
+    /// level. Needs `--reflections geometry`; headless only for now.
+    #[arg(long, value_name = "N", value_parser = glint::view::reflections::recursive::parse_depth)]
+    recursion_depth: Option<u8>,
+    /// Recursive reflections: a branch stops when its accumulated specular weight (the product
+    /// of max ks·R along the path) falls below this.
+    #[arg(long, value_name = "W", default_value_t = glint::view::reflections::recursive::DEFAULT_WEIGHT_CUTOFF, value_parser = parse_cutoff)]
+    reflection_cutoff: f32,
     /// Window: save a screenshot after N frames and exit (for automation, e.g. under xvfb-run).
     #[arg(long, value_name = "N", conflicts_with = "headless")]
     screenshot_after: Option<u64>,
@@ -79,6 +89,13 @@ fn parse_exposure(s: &str) -> Result<f32, String> {
     }
 }
 
+fn parse_cutoff(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(v) if (0.0..=1.0).contains(&v) => Ok(v),
+        _ => Err(format!("{s:?} is not a weight from 0 to 1")),
+    }
+}
+
 fn main() -> ExitCode {
     glint::cli::init_logging();
     glint::cli::exit_code(run(Args::parse()))
@@ -86,6 +103,23 @@ fn main() -> ExitCode {
 
 fn run(args: Args) -> anyhow::Result<ExitCode> {
     let path = args.replay.clone().filter(|n| !n.is_empty());
+    if let Some(d) = args.recursion_depth {
+        if args.reflections != glint::view::reflections::ReflectionMode::Geometry {
+            anyhow::bail!(
+                "--recursion-depth {d} needs --reflections geometry (reflections are {})",
+                args.reflections
+            );
+        }
+        if !args.headless && d != 1 {
+            anyhow::bail!(
+                "--recursion-depth {d}: recursive reflections are headless only for now; add --replay --headless --out DIR"
+            );
+        }
+    }
+    let recursion = glint::view::reflections::RecursionSettings {
+        depth: args.recursion_depth.unwrap_or(1),
+        cutoff: args.reflection_cutoff,
+    };
     if args.headless {
         let out = args.out.clone().context("--headless needs --out DIR")?;
         let progress = TerminalProgress::new();
@@ -106,6 +140,7 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                     layout: args.reflectance,
                     channel: args.reflectance_channel,
                 },
+                recursion,
             },
             &progress,
         );

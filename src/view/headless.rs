@@ -11,7 +11,10 @@ use glam::Vec3;
 use super::gpu::{Gpu, GpuError, read_texture, read_texture_rgba8};
 use super::load::{LoadError, ViewData, load};
 use super::radiance_maps::Selection;
-use super::reflections::{GeometryReflections, ReflectanceSettings, ReflectionMode, Source};
+use super::reflections::{
+    GeometryReflections, RecursionSettings, RecursiveReflections, ReflectanceSettings,
+    ReflectionMode, Source,
+};
 use super::renderer::{COLOR_FORMAT, OffscreenTarget, RenderError, Renderer, TargetFormats};
 use super::replay::{
     FrameTiming, GpuTimeSource, Summary, TIMINGS_FORMAT, TIMINGS_VERSION, Timings, frame_file_name,
@@ -93,6 +96,9 @@ pub struct ReplayOptions {
     pub map_count: usize,
     /// Reflections: where R is read from (sphere or 1D map) and which channel.
     pub reflectance: ReflectanceSettings,
+    /// Geometry mode: recursion depth and specular-weight cutoff (issue 10; depth 1 is the
+    /// single mirror pass of issue 9, other depths [`RecursiveReflections`]).
+    pub recursion: RecursionSettings,
 }
 
 impl Default for ReplayOptions {
@@ -109,6 +115,7 @@ impl Default for ReplayOptions {
             selection: Selection::Angle,
             map_count: 2,
             reflectance: ReflectanceSettings::default(),
+            recursion: RecursionSettings::default(),
         }
     }
 }
@@ -222,6 +229,10 @@ pub struct Offscreen {
     pub map_count: usize,
     /// Reflections: R's layout and channel (likewise).
     pub reflectance: ReflectanceSettings,
+    /// Geometry mode's recursion (likewise): depth 1 uses [`GeometryReflections`], any other
+    /// depth [`RecursiveReflections`].
+    pub recursion: RecursionSettings,
+    recursive: Option<RecursiveReflections>,
 }
 
 impl Offscreen {
@@ -252,6 +263,8 @@ impl Offscreen {
             selection: Selection::Angle,
             map_count: 2,
             reflectance: ReflectanceSettings::default(),
+            recursion: RecursionSettings::default(),
+            recursive: None,
         })
     }
 
@@ -264,8 +277,27 @@ impl Offscreen {
         mode: ReflectionMode,
     ) -> Result<(), RenderError> {
         self.mode = mode;
+        self.recursive = None;
+        if mode != ReflectionMode::Geometry && self.recursion.depth != 1 {
+            return Err(RenderError::Reflections(format!(
+                "recursion depth {} needs geometry reflections (reflections are {mode})",
+                self.recursion.depth
+            )));
+        }
         self.reflections = match mode {
             ReflectionMode::Off => None,
+            ReflectionMode::Geometry if self.recursion.depth != 1 => {
+                self.recursive = Some(RecursiveReflections::new(
+                    gpu,
+                    &self.renderer,
+                    data,
+                    self.target.width,
+                    self.target.height,
+                    self.reflectance,
+                    self.recursion,
+                )?);
+                None
+            }
             ReflectionMode::Geometry => Some(GeometryReflections::with_reflectance(
                 gpu,
                 &self.renderer,
@@ -296,6 +328,11 @@ impl Offscreen {
         self.reflections.as_ref()
     }
 
+    /// The recursive reflection passes in use (geometry mode at a depth other than 1).
+    pub fn recursive(&self) -> Option<&RecursiveReflections> {
+        self.recursive.as_ref()
+    }
+
     /// The reflection mode in use.
     pub fn reflection_mode(&self) -> ReflectionMode {
         self.mode
@@ -321,10 +358,14 @@ impl Offscreen {
                 .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                     label: Some("glint frame encoder"),
                 });
+            if let Some(r) = &self.recursive {
+                r.prepare(gpu, &self.renderer, camera);
+            }
             let reflection_passes = self
                 .reflections
                 .as_ref()
-                .map_or(0, |r| r.pass_count(camera));
+                .map_or(0, |r| r.pass_count(camera))
+                + self.recursive.as_ref().map_or(0, |r| r.pass_count());
             self.target.draw(
                 &self.renderer,
                 &mut encoder,
@@ -340,6 +381,17 @@ impl Offscreen {
                     &mut encoder,
                     &self.renderer,
                     camera,
+                    color,
+                    hdr,
+                    depth,
+                    self.timer.as_ref().map(|t| (&t.queries, 1)),
+                );
+            }
+            if let Some(r) = &self.recursive {
+                let (color, hdr, depth) = self.target.views();
+                r.draw_timed(
+                    &mut encoder,
+                    &self.renderer,
                     color,
                     hdr,
                     depth,
@@ -464,6 +516,7 @@ pub fn replay_with(
     offscreen.selection = options.selection;
     offscreen.map_count = options.map_count;
     offscreen.reflectance = options.reflectance;
+    offscreen.recursion = options.recursion;
     offscreen.set_reflections(gpu, data, options.reflections)?;
     let frames = schedule(path);
 

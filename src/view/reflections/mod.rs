@@ -31,6 +31,7 @@ use crate::scene::{Plane, Scene};
 mod cpu;
 pub mod material;
 mod passes;
+pub mod recursive;
 pub mod splats;
 
 pub use cpu::cpu_reference;
@@ -39,6 +40,7 @@ pub use material::{
     sample_modulation,
 };
 pub use passes::{FrameStats, GeometryReflections, ReflectParams, shader_source};
+pub use recursive::{RecursionSettings, RecursionStats, RecursiveReflections};
 pub use splats::{SPLAT_OVERLAP, Splat};
 
 /// WGSL of the reflection passes (appended to [`super::renderer::SHADER_SOURCE`]).
