@@ -449,14 +449,15 @@ impl RecursiveReflections {
                 wgpu::CompareFunction::Greater,
                 &[hdr_target(None)],
             );
-            // A level-(k+1) map onto its reflector in map k (linear, `encode_srgb` = 0).
+            // A level-(k+1) map onto its reflector in map k (linear, `encode_srgb` = 0; the shader's
+            // HDR output has no target here).
             let map_composite_pipeline = pipeline(
                 "glint recursive map composite pipeline",
                 &composite_layout,
                 "fs_composite",
                 false,
                 wgpu::CompareFunction::GreaterEqual,
-                &[hdr_target(Some(additive)), None],
+                &[hdr_target(Some(additive))],
             );
             // A level-0 map onto its reflector in the frame (as issue 9's composite).
             let frame_target = |format| {
