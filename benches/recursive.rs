@@ -42,7 +42,7 @@ const SIZE: (u32, u32) = (720, 486);
 const FRAME_STRIDE: usize = 16;
 
 /// Paths per pixel of the reference images.
-const REFERENCE_SPP: u32 = 16;
+const REFERENCE_SPP: u32 = 32;
 
 fn env(name: &str, default: usize) -> usize {
     std::env::var(name)
@@ -69,6 +69,8 @@ fn main() {
             "depth",
             "maps/frame (mean)",
             "maps/frame (max)",
+            "culled frustum/frame",
+            "cut by weight/frame",
             "frame median ms",
             "GPU median ms",
             "texture MiB",
@@ -119,37 +121,46 @@ fn main() {
             };
             off.set_reflections(&gpu, &data, ReflectionMode::Geometry)
                 .unwrap_or_else(|e| panic!("{e}"));
+            // Maps, reflectors culled from the frustum, branches cut by the weight.
             let maps_now = |off: &Offscreen, c| match (off.recursive(), off.reflections()) {
-                (Some(r), _) => r.stats().maps,
-                (None, Some(g)) => g.pass_count(c) / 2,
-                (None, None) => 0,
+                (Some(r), _) => {
+                    let s = r.stats();
+                    (s.maps, s.culled_frustum, s.culled_weight)
+                }
+                (None, Some(g)) => (g.pass_count(c) / 2, 0, 0),
+                (None, None) => (0, 0, 0),
             };
             off.render(&gpu, &timed[0])
                 .unwrap_or_else(|e| panic!("{e}")); // warm-up
             source = Some(off.gpu_time_source());
-            let mut best: Option<(f64, f64, f64, usize)> = None;
+            let mut best: Option<(f64, f64, f64, usize, f64, f64)> = None;
             for _ in 0..repeats {
                 let (mut frame, mut gpu_ms, mut maps, mut most) =
                     (Vec::new(), Vec::new(), 0usize, 0usize);
+                let (mut frustum, mut weight) = (0usize, 0usize);
                 for c in &timed {
                     let t = off.render(&gpu, c).unwrap_or_else(|e| panic!("{e}"));
                     frame.push(t.frame_ms);
                     gpu_ms.push(t.gpu_ms);
-                    let m = maps_now(&off, c);
+                    let (m, f, w) = maps_now(&off, c);
                     maps += m;
                     most = most.max(m);
+                    frustum += f;
+                    weight += w;
                 }
                 let run = (
                     median(&mut frame),
                     median(&mut gpu_ms),
                     maps as f64 / timed.len() as f64,
                     most,
+                    frustum as f64 / timed.len() as f64,
+                    weight as f64 / timed.len() as f64,
                 );
                 if best.is_none_or(|b| run.0 < b.0) {
                     best = Some(run);
                 }
             }
-            let (frame_ms, gpu_ms, maps, most) = best.expect("at least one run");
+            let (frame_ms, gpu_ms, maps, most, frustum, weight) = best.expect("at least one run");
             off.render(&gpu, &view).unwrap_or_else(|e| panic!("{e}"));
             let hdr = off
                 .read_hdr(&gpu)
@@ -174,6 +185,16 @@ fn main() {
                 depth.to_string(),
                 format!("{maps:.2}"),
                 most.to_string(),
+                if depth > 1 {
+                    format!("{frustum:.2}")
+                } else {
+                    "-".into()
+                },
+                if depth > 1 {
+                    format!("{weight:.2}")
+                } else {
+                    "-".into()
+                },
                 format!("{frame_ms:.1}"),
                 format!("{gpu_ms:.1}"),
                 format!("{:.2}", bytes as f64 / (1024.0 * 1024.0)),
@@ -197,7 +218,7 @@ fn main() {
         format_table(
             &rows,
             &[
-                false, true, true, true, true, true, true, true, true, true, true
+                false, true, true, true, true, true, true, true, true, true, true, true, true
             ]
         )
     );

@@ -264,3 +264,20 @@ fn depth_needs_geometry_mode() {
         .unwrap_err();
     assert!(e.to_string().contains("geometry"), "{e}");
 }
+
+/// The recursion with every level-1 branch cut (ks 0.9: weights 0.9, then 0.81 < 0.85) draws
+/// what issue 9's single mirror pass (depth 1) draws.
+#[test]
+fn recursion_cut_after_one_level_matches_the_single_mirror_pass() {
+    let gpu = gpu();
+    let (one, _) = frame(&gpu, Some(1), recursive::DEFAULT_WEIGHT_CUTOFF);
+    let (cut, stats) = frame(&gpu, Some(3), 0.85);
+    let stats = stats.unwrap();
+    assert_eq!((stats.maps, stats.culled_weight), (1, 1), "{stats:?}");
+    let differing = one
+        .chunks_exact(4)
+        .zip(cut.chunks_exact(4))
+        .filter(|(a, b)| (0..3).any(|k| a[k].abs_diff(b[k]) > 1))
+        .count();
+    assert_eq!(differing, 0, "{differing} pixels differ by more than 1");
+}
