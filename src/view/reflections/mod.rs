@@ -20,6 +20,9 @@
 //!    or the 1D map ([`ReflectanceLayout`]).
 //!
 //! [`cpu_reference`] is the same equation ray traced on the CPU, for the golden-image tests.
+//!
+//! [`recursive`]: the geometry mode to recursion depths 0–4 (issue 10, Nielsen & Christensen
+//! 2002 §3.1): reflectors seen in reflections get their own maps, one render target per level.
 
 use glam::Vec3;
 
