@@ -18,7 +18,7 @@ use glint::view::window::{WindowOptions, run_window};
     version,
     about = "View a bundle's scene lit by its radiosity textures: a window with a fly camera, or a headless replay of a camera path to frames and timings",
     after_help = "Window keys: WASD + Q/E move (Shift: faster, mouse wheel: speed), drag with the left mouse button to look, \
-1-9 play camera path N, Space pause/resume, R start/stop recording a path, P screenshot, G reflections off/geometry/image, T reflectance sphere/1D map, H help, Esc quit.\n\n\
+1-9 play camera path N, Space pause/resume, R start/stop recording a path, P screenshot, G reflections off/geometry/image, T reflectance sphere/1D map, [ ] recursion depth (geometry reflections), H help, Esc quit.\n\n\
 Examples:\n  glint-view out/cornell-box.glint\n  glint-view out/cornell-box.glint --replay --headless --size 720x486 --out out/frames/cornell-box\n  glint-view out/breakfast-room.glint --replay walkthrough --headless --out out/frames/breakfast --every 10 --hdr"
 )]
 struct Args {
@@ -70,7 +70,7 @@ struct Args {
     /// Geometry reflections: recursion depth 0–4 (Nielsen & Christensen 2002 §3.1): 0 draws
     /// no reflections (as `--reflections off`), 1 mirrors the scene once per reflector (the
     /// default), 2–4 also draw the reflectors seen in each reflection, one reflection map per
-    /// level. Needs `--reflections geometry`; headless only for now.
+    /// level. Needs `--reflections geometry`. In the window, [ and ] change it.
     #[arg(long, value_name = "N", value_parser = glint::view::reflections::recursive::parse_depth)]
     recursion_depth: Option<u8>,
     /// Recursive reflections: a branch stops when its accumulated specular weight (the product
@@ -108,11 +108,6 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
             anyhow::bail!(
                 "--recursion-depth {d} needs --reflections geometry (reflections are {})",
                 args.reflections
-            );
-        }
-        if !args.headless && d != 1 {
-            anyhow::bail!(
-                "--recursion-depth {d}: recursive reflections are headless only for now; add --replay --headless --out DIR"
             );
         }
     }
@@ -176,6 +171,7 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                 layout: args.reflectance,
                 channel: args.reflectance_channel,
             },
+            recursion,
         },
     )?;
     Ok(ExitCode::SUCCESS)
