@@ -15,7 +15,8 @@
 //! Bundles (scene, draft radiosity, draft materials) are baked into
 //! `target/tmp/recursive-bench/NAME.glint` when missing or out of date.
 //!
-//! `cargo bench --bench recursive`.
+//! `cargo bench --bench recursive` (`GLINT_BENCH_CUTOFF` overrides the specular-weight cutoff,
+//! e.g. 0 for the whole tree).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -62,6 +63,11 @@ fn main() {
     let repeats = env("GLINT_BENCH_REPEATS", 1);
     let stride = env("GLINT_BENCH_STRIDE", FRAME_STRIDE);
     let spp = env("GLINT_BENCH_SPP", REFERENCE_SPP as usize) as u32;
+    // `GLINT_BENCH_CUTOFF=0` shows the tree without the specular-weight cutoff.
+    let cutoff = std::env::var("GLINT_BENCH_CUTOFF")
+        .ok()
+        .and_then(|v| v.parse::<f32>().ok())
+        .unwrap_or(recursive::DEFAULT_WEIGHT_CUTOFF);
     let mut rows = vec![
         [
             "scene",
@@ -115,10 +121,7 @@ fn main() {
         for depth in 0..=recursive::MAX_RECURSION_DEPTH {
             let mut off =
                 Offscreen::new(&gpu, &data, SIZE.0, SIZE.1, true).unwrap_or_else(|e| panic!("{e}"));
-            off.recursion = RecursionSettings {
-                depth,
-                ..RecursionSettings::default()
-            };
+            off.recursion = RecursionSettings { depth, cutoff };
             off.set_reflections(&gpu, &data, ReflectionMode::Geometry)
                 .unwrap_or_else(|e| panic!("{e}"));
             // Maps, reflectors culled from the frustum, branches cut by the weight.
@@ -211,7 +214,7 @@ fn main() {
         SIZE.1,
         gpu.adapter_summary(),
         source.expect("a frame was rendered"),
-        recursive::DEFAULT_WEIGHT_CUTOFF,
+        cutoff,
     );
     print!(
         "{}",
