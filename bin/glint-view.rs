@@ -18,7 +18,7 @@ use glint::view::window::{WindowOptions, run_window};
     version,
     about = "View a bundle's scene lit by its radiosity textures: a window with a fly camera, or a headless replay of a camera path to frames and timings",
     after_help = "Window keys: WASD + Q/E move (Shift: faster, mouse wheel: speed), drag with the left mouse button to look, \
-1-9 play camera path N, Space pause/resume, R start/stop recording a path, P screenshot, G reflections off/geometry/image, T reflectance sphere/1D map, I impostor reflections, C curved reflectors off/cubemap, H help, Esc quit.\n\n\
+1-9 play camera path N, Space pause/resume, R start/stop recording a path, P screenshot, G reflections off/geometry/image, T reflectance sphere/1D map, I impostor reflections, C curved reflectors off/cubemap, [ ] recursion depth (geometry reflections), H help, Esc quit.\n\n\
 Examples:\n  glint-view out/cornell-box.glint\n  glint-view out/cornell-box.glint --replay --headless --size 720x486 --out out/frames/cornell-box\n  glint-view out/breakfast-room.glint --replay walkthrough --headless --out out/frames/breakfast --every 10 --hdr"
 )]
 struct Args {
@@ -88,6 +88,16 @@ struct Args {
     #[arg(long, value_name = "N", default_value_t = glint::view::curved::DEFAULT_GENERATIONS,
           value_parser = clap::value_parser!(u32).range(1..=8))]
     cube_generations: u32,
+    /// Geometry reflections: recursion depth 0–4 (Nielsen & Christensen 2002 §3.1): 0 draws
+    /// no reflections (as `--reflections off`), 1 mirrors the scene once per reflector (the
+    /// default), 2–4 also draw the reflectors seen in each reflection, one reflection map per
+    /// level. Needs `--reflections geometry`. In the window, [ and ] change it.
+    #[arg(long, value_name = "N", value_parser = glint::view::reflections::recursive::parse_depth)]
+    recursion_depth: Option<u8>,
+    /// Recursive reflections: a branch stops when its accumulated specular weight (the product
+    /// of max ks·R along the path) falls below this.
+    #[arg(long, value_name = "W", default_value_t = glint::view::reflections::recursive::DEFAULT_WEIGHT_CUTOFF, value_parser = parse_cutoff)]
+    reflection_cutoff: f32,
     /// Window: save a screenshot after N frames and exit (for automation, e.g. under xvfb-run).
     #[arg(long, value_name = "N", conflicts_with = "headless")]
     screenshot_after: Option<u64>,
@@ -116,6 +126,13 @@ fn parse_exposure(s: &str) -> Result<f32, String> {
     }
 }
 
+fn parse_cutoff(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(v) if (0.0..=1.0).contains(&v) => Ok(v),
+        _ => Err(format!("{s:?} is not a weight from 0 to 1")),
+    }
+}
+
 fn main() -> ExitCode {
     glint::cli::init_logging();
     glint::cli::exit_code(run(Args::parse()))
@@ -124,6 +141,18 @@ fn main() -> ExitCode {
 fn run(args: Args) -> anyhow::Result<ExitCode> {
     let path = args.replay.clone().filter(|n| !n.is_empty());
     let curved = curved_settings(&args);
+    if let Some(d) = args.recursion_depth {
+        if args.reflections != glint::view::reflections::ReflectionMode::Geometry {
+            anyhow::bail!(
+                "--recursion-depth {d} needs --reflections geometry (reflections are {})",
+                args.reflections
+            );
+        }
+    }
+    let recursion = glint::view::reflections::RecursionSettings {
+        depth: args.recursion_depth.unwrap_or(1),
+        cutoff: args.reflection_cutoff,
+    };
     if args.headless {
         let out = args.out.clone().context("--headless needs --out DIR")?;
         let progress = TerminalProgress::new();
@@ -147,6 +176,7 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                 impostors: args.impostors,
                 curved: args.curved,
                 curved_settings: curved,
+                recursion,
             },
             &progress,
         );
@@ -185,6 +215,7 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
             impostors: args.impostors,
             curved: args.curved,
             curved_settings: curved,
+            recursion,
         },
     )?;
     Ok(ExitCode::SUCCESS)

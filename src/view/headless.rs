@@ -14,7 +14,10 @@ use super::gpu::{Gpu, GpuError, read_texture, read_texture_rgba8};
 use super::impostors::{ImpostorReflections, ImpostorSettings};
 use super::load::{LoadError, ViewData, load};
 use super::radiance_maps::Selection;
-use super::reflections::{GeometryReflections, ReflectanceSettings, ReflectionMode, Source};
+use super::reflections::{
+    GeometryReflections, RecursionSettings, RecursiveReflections, ReflectanceSettings,
+    ReflectionMode, Source,
+};
 use super::renderer::{COLOR_FORMAT, OffscreenTarget, RenderError, Renderer, TargetFormats};
 use super::replay::{
     FrameTiming, GpuTimeSource, Summary, TIMINGS_FORMAT, TIMINGS_VERSION, Timings, frame_file_name,
@@ -103,6 +106,9 @@ pub struct ReplayOptions {
     /// Curved reflectors: regular samples per pixel and lobe (0: one mirror lookup), cube-map
     /// size and generations.
     pub curved_settings: CurvedSettings,
+    /// Geometry mode: recursion depth and specular-weight cutoff (issue 10; depth 1 is the
+    /// single mirror pass of issue 9, other depths [`RecursiveReflections`]).
+    pub recursion: RecursionSettings,
 }
 
 impl Default for ReplayOptions {
@@ -122,6 +128,7 @@ impl Default for ReplayOptions {
             impostors: false,
             curved: CurvedMode::Off,
             curved_settings: CurvedSettings::default(),
+            recursion: RecursionSettings::default(),
         }
     }
 }
@@ -237,6 +244,10 @@ pub struct Offscreen {
     pub reflectance: ReflectanceSettings,
     impostors: Option<ImpostorReflections>,
     curved: Option<CurvedReflections>,
+    /// Geometry mode's recursion (likewise): depth 1 uses [`GeometryReflections`], any other
+    /// depth [`RecursiveReflections`].
+    pub recursion: RecursionSettings,
+    recursive: Option<RecursiveReflections>,
 }
 
 impl Offscreen {
@@ -269,6 +280,8 @@ impl Offscreen {
             reflectance: ReflectanceSettings::default(),
             impostors: None,
             curved: None,
+            recursion: RecursionSettings::default(),
+            recursive: None,
         })
     }
 
@@ -328,8 +341,27 @@ impl Offscreen {
         mode: ReflectionMode,
     ) -> Result<(), RenderError> {
         self.mode = mode;
+        self.recursive = None;
+        if mode != ReflectionMode::Geometry && self.recursion.depth != 1 {
+            return Err(RenderError::Reflections(format!(
+                "recursion depth {} needs geometry reflections (reflections are {mode})",
+                self.recursion.depth
+            )));
+        }
         self.reflections = match mode {
             ReflectionMode::Off => None,
+            ReflectionMode::Geometry if self.recursion.depth != 1 => {
+                self.recursive = Some(RecursiveReflections::new(
+                    gpu,
+                    &self.renderer,
+                    data,
+                    self.target.width,
+                    self.target.height,
+                    self.reflectance,
+                    self.recursion,
+                )?);
+                None
+            }
             ReflectionMode::Geometry => Some(GeometryReflections::with_reflectance(
                 gpu,
                 &self.renderer,
@@ -360,6 +392,11 @@ impl Offscreen {
         self.reflections.as_ref()
     }
 
+    /// The recursive reflection passes in use (geometry mode at a depth other than 1).
+    pub fn recursive(&self) -> Option<&RecursiveReflections> {
+        self.recursive.as_ref()
+    }
+
     /// The reflection mode in use.
     pub fn reflection_mode(&self) -> ReflectionMode {
         self.mode
@@ -385,10 +422,14 @@ impl Offscreen {
                 .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                     label: Some("glint frame encoder"),
                 });
+            if let Some(r) = &self.recursive {
+                r.prepare(gpu, &self.renderer, camera);
+            }
             let reflection_passes = self
                 .reflections
                 .as_ref()
-                .map_or(0, |r| r.pass_count(camera));
+                .map_or(0, |r| r.pass_count(camera))
+                + self.recursive.as_ref().map_or(0, |r| r.pass_count());
             self.target.draw(
                 &self.renderer,
                 &mut encoder,
@@ -419,6 +460,17 @@ impl Offscreen {
                 c.prepare(gpu, camera);
                 let (color, hdr, depth) = self.target.views();
                 c.draw(&mut encoder, color, hdr, depth);
+            }
+            if let Some(r) = &self.recursive {
+                let (color, hdr, depth) = self.target.views();
+                r.draw_timed(
+                    &mut encoder,
+                    &self.renderer,
+                    color,
+                    hdr,
+                    depth,
+                    self.timer.as_ref().map(|t| (&t.queries, 1)),
+                );
             }
             if let Some(t) = &self.timer {
                 t.resolve(&mut encoder);
@@ -538,6 +590,7 @@ pub fn replay_with(
     offscreen.selection = options.selection;
     offscreen.map_count = options.map_count;
     offscreen.reflectance = options.reflectance;
+    offscreen.recursion = options.recursion;
     offscreen.set_reflections(gpu, data, options.reflections)?;
     offscreen.set_impostors(gpu, data, options.impostors)?;
     offscreen.set_curved(gpu, data, options.curved, options.curved_settings)?;

@@ -31,8 +31,10 @@ use super::headless::{Offscreen, rgba_to_rgb};
 use super::impostors::{ImpostorReflections, ImpostorSettings};
 use super::load::ViewData;
 use super::radiance_maps::Selection;
+use super::reflections::recursive::MAX_RECURSION_DEPTH;
 use super::reflections::{
-    GeometryReflections, ReflectanceLayout, ReflectanceSettings, ReflectionMode, Source,
+    GeometryReflections, RecursionSettings, RecursiveReflections, ReflectanceLayout,
+    ReflectanceSettings, ReflectionMode, Source,
 };
 use super::renderer::{RenderError, Renderer, TargetFormats, depth_texture};
 use crate::camera::{Camera, frame_count, pose_at};
@@ -110,6 +112,8 @@ pub struct WindowOptions {
     pub curved: CurvedMode,
     /// Curved reflectors' settings.
     pub curved_settings: CurvedSettings,
+    /// Geometry reflections' recursion at start ([ and ] change the depth).
+    pub recursion: RecursionSettings,
 }
 
 /// A free-flying camera: position, yaw about +Y (0 looks down −Z, positive turns right)
@@ -307,6 +311,29 @@ fn curved_passes(
     })
 }
 
+/// Recursive reflections for a `size` target when geometry reflections are on at a depth other
+/// than 1 (issue 10; they replace the single mirror pass), else `None`.
+fn recursive_passes(
+    gpu: &Gpu,
+    renderer: &Renderer,
+    data: &ViewData,
+    options: &WindowOptions,
+    size: (u32, u32),
+) -> Result<Option<RecursiveReflections>, WindowError> {
+    if options.reflections != ReflectionMode::Geometry || options.recursion.depth == 1 {
+        return Ok(None);
+    }
+    Ok(Some(RecursiveReflections::new(
+        gpu,
+        renderer,
+        data,
+        size.0,
+        size.1,
+        options.reflectance,
+        options.recursion,
+    )?))
+}
+
 /// A starting view: the first path's first pose, else the bounding box from its +Z side.
 pub fn initial_camera(data: &ViewData) -> Camera {
     if let Some(path) = data.scene.desc.camera_paths.first() {
@@ -385,7 +412,7 @@ pub fn run_window(data: ViewData, options: WindowOptions) -> Result<(), WindowEr
 const HELP: &str = "keys: WASD + Q/E move (Shift faster, wheel: speed), left-drag look, \
 1-9 play path, Space pause/resume, R record path, P screenshot, G reflections off/geometry/image, \
 T reflectance sphere/1D map, I impostor reflections, \
-C curved reflectors off/cubemap, H help, Esc quit";
+C curved reflectors off/cubemap, [ ] recursion depth, H help, Esc quit";
 
 /// The window's GPU side, created once the event loop runs.
 struct Running {
@@ -398,6 +425,7 @@ struct Running {
     reflections: Option<GeometryReflections>,
     impostors: Option<ImpostorReflections>,
     curved: Option<CurvedReflections>,
+    recursive: Option<RecursiveReflections>,
 }
 
 struct App {
@@ -504,6 +532,13 @@ impl App {
             self.options.curved,
             self.options.curved_settings,
         )?;
+        let recursive = recursive_passes(
+            &gpu,
+            &renderer,
+            &self.data,
+            &self.options,
+            (config.width, config.height),
+        )?;
         Ok(Running {
             window,
             surface,
@@ -514,6 +549,7 @@ impl App {
             reflections,
             impostors,
             curved,
+            recursive,
         })
     }
 
@@ -541,6 +577,36 @@ impl App {
                 r.reflections = None;
             }
         }
+        r.recursive = recursive_passes(
+            &r.gpu,
+            &r.renderer,
+            &self.data,
+            &self.options,
+            (size.width, size.height),
+        )
+        .unwrap_or_else(|e| {
+            log::error!("{e}; recursive reflections off");
+            None
+        });
+    }
+
+    /// Changes the recursion depth of geometry reflections by `delta` (within 0–4).
+    fn change_depth(&mut self, delta: i8) -> Result<(), WindowError> {
+        let depth = &mut self.options.recursion.depth;
+        *depth = depth.saturating_add_signed(delta).min(MAX_RECURSION_DEPTH);
+        log::info!("recursion depth: {depth}");
+        self.screenshot = None;
+        let Some(r) = &mut self.running else {
+            return Ok(());
+        };
+        r.recursive = recursive_passes(
+            &r.gpu,
+            &r.renderer,
+            &self.data,
+            &self.options,
+            (r.config.width, r.config.height),
+        )?;
+        Ok(())
     }
 
     /// Switches reflections of impostors on or off.
@@ -587,6 +653,13 @@ impl App {
             self.options.reflectance,
             (r.config.width, r.config.height),
         )?;
+        r.recursive = recursive_passes(
+            &r.gpu,
+            &r.renderer,
+            &self.data,
+            &self.options,
+            (r.config.width, r.config.height),
+        )?;
         Ok(())
     }
 
@@ -608,6 +681,13 @@ impl App {
             &self.data,
             self.options.reflections,
             self.options.reflectance,
+            (r.config.width, r.config.height),
+        )?;
+        r.recursive = recursive_passes(
+            &r.gpu,
+            &r.renderer,
+            &self.data,
+            &self.options,
             (r.config.width, r.config.height),
         )?;
         Ok(())
@@ -703,7 +783,10 @@ impl App {
             });
         r.renderer
             .draw(&mut encoder, &view, None, &r.depth_view, None);
-        if let Some(passes) = &r.reflections {
+        if let Some(passes) = &r.recursive {
+            passes.prepare(&r.gpu, &r.renderer, &camera);
+            passes.draw_timed(&mut encoder, &r.renderer, &view, None, &r.depth_view, None);
+        } else if let Some(passes) = &r.reflections {
             passes.prepare(&r.gpu, &r.renderer, &camera);
             passes.draw(
                 &mut encoder,
@@ -800,6 +883,9 @@ impl App {
             let mut off = Offscreen::new(&r.gpu, &self.data, w, h, false)?;
             off.renderer.exposure = self.options.exposure;
             off.reflectance = self.options.reflectance;
+            if self.options.reflections == ReflectionMode::Geometry {
+                off.recursion = self.options.recursion;
+            }
             off.set_reflections(&r.gpu, &self.data, self.options.reflections)?;
             off.set_impostors(&r.gpu, &self.data, self.options.impostors)?;
             off.set_curved(
@@ -916,6 +1002,8 @@ impl App {
             KeyCode::KeyT => self.toggle_reflectance(),
             KeyCode::KeyI => self.toggle_impostors(),
             KeyCode::KeyC => self.toggle_curved(),
+            KeyCode::BracketLeft => self.change_depth(-1),
+            KeyCode::BracketRight => self.change_depth(1),
             KeyCode::KeyP | KeyCode::F12 => {
                 let camera = self.fly.camera();
                 self.save_screenshot(&camera).map(|_| ())

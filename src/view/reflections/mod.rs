@@ -20,6 +20,9 @@
 //!    or the 1D map ([`ReflectanceLayout`]).
 //!
 //! [`cpu_reference`] is the same equation ray traced on the CPU, for the golden-image tests.
+//!
+//! [`recursive`]: the geometry mode to recursion depths 0–4 (issue 10, Nielsen & Christensen
+//! 2002 §3.1): reflectors seen in reflections get their own maps, one render target per level.
 
 use glam::Vec3;
 
@@ -31,6 +34,7 @@ use crate::scene::{Plane, Scene};
 mod cpu;
 pub mod material;
 mod passes;
+pub mod recursive;
 pub mod splats;
 
 pub use cpu::cpu_reference;
@@ -39,6 +43,7 @@ pub use material::{
     sample_modulation,
 };
 pub use passes::{FrameStats, GeometryReflections, ReflectParams, shader_source};
+pub use recursive::{RecursionSettings, RecursionStats, RecursiveReflections};
 pub use splats::{SPLAT_OVERLAP, Splat};
 
 /// WGSL of the reflection passes (appended to [`super::renderer::SHADER_SOURCE`]).

@@ -212,7 +212,7 @@ pub struct GeometryReflections {
     height: u32,
 }
 
-fn sphere_texture(gpu: &Gpu, modulation: &Modulation) -> wgpu::Texture {
+pub(super) fn sphere_texture(gpu: &Gpu, modulation: &Modulation) -> wgpu::Texture {
     let (size, texels) = match modulation {
         Modulation::Sphere { size, texels } => (*size, texels.clone()),
         Modulation::OneD(_) => (1, vec![Vec3::ZERO]),

@@ -1,0 +1,655 @@
+//! The GPU half of the recursive planar reflections: per-level targets, the passes of a
+//! frame's reflection tree ([`super::plan`]) recorded depth first (Nielsen Figure 4).
+
+use std::sync::Mutex;
+
+use glam::Vec3;
+
+use super::super::passes::{ReflectParams, shader_source, sphere_texture};
+use super::super::splats::pixel_tangent;
+use super::super::{
+    CLIP_FRACTION, PlanarReflector, ReflectanceSettings, reflectors_with_materials,
+};
+use super::{
+    MAX_RECURSION_DEPTH, Node, Plan, RecursionSettings, RecursionStats, ViewGeometry, plan,
+    texture_bytes,
+};
+use crate::camera::Camera;
+use crate::view::gpu::{Gpu, GpuError, error_scoped};
+use crate::view::load::ViewData;
+use crate::view::renderer::{
+    DEPTH_FORMAT, HDR_FORMAT, RenderError, Renderer, Vertex, frame_bind_group,
+    frame_bind_group_layout, reverse_z_depth, uniform_buffer,
+};
+
+/// One recursion level's render target.
+struct Level {
+    _color: wgpu::Texture,
+    view: wgpu::TextureView,
+    _depth: wgpu::Texture,
+    depth_view: wgpu::TextureView,
+}
+
+/// Per-node GPU state, reused across frames (grown as needed).
+struct Slot {
+    /// The node's mirrored view (its scene pass, and its children's composites).
+    uniforms: wgpu::Buffer,
+    frame_group: wgpu::BindGroup,
+    /// The node's reflector seen from its parent's eye (clip plane, ks·R, K).
+    params: wgpu::Buffer,
+    params_group: wgpu::BindGroup,
+    /// Composite group for (reflector, level): the params, map `level`, R's sphere map.
+    composite: Option<((usize, usize), wgpu::BindGroup)>,
+}
+
+/// Recursive planar reflections of one [`Renderer`] at one frame size (geometry source).
+pub struct RecursiveReflections {
+    settings: RecursionSettings,
+    reflectors: Vec<PlanarReflector>,
+    vertices: Vec<Vec<Vec3>>,
+    indices: Vec<(wgpu::Buffer, u32)>,
+    _spheres: Vec<wgpu::Texture>,
+    sphere_views: Vec<wgpu::TextureView>,
+    mirror_pipeline: wgpu::RenderPipeline,
+    frame_composite_pipeline: wgpu::RenderPipeline,
+    map_composite_pipeline: wgpu::RenderPipeline,
+    frame_layout: wgpu::BindGroupLayout,
+    params_layout: wgpu::BindGroupLayout,
+    composite_layout: wgpu::BindGroupLayout,
+    composite_frame_group: wgpu::BindGroup,
+    sampler: wgpu::Sampler,
+    levels: Vec<Level>,
+    slots: Mutex<Vec<Slot>>,
+    plan: Mutex<Plan>,
+    clip: f32,
+    near: f32,
+    width: u32,
+    height: u32,
+}
+
+impl RecursiveReflections {
+    /// The passes for `renderer` drawing `data` on `width` × `height` targets, K and R read as
+    /// `reflectance` says.
+    pub fn new(
+        gpu: &Gpu,
+        renderer: &Renderer,
+        data: &ViewData,
+        width: u32,
+        height: u32,
+        reflectance: ReflectanceSettings,
+        settings: RecursionSettings,
+    ) -> Result<RecursiveReflections, RenderError> {
+        if settings.depth > MAX_RECURSION_DEPTH {
+            return Err(RenderError::Reflections(format!(
+                "recursion depth {} is over {MAX_RECURSION_DEPTH}",
+                settings.depth
+            )));
+        }
+        let reflectors = reflectors_with_materials(data, reflectance);
+        Ok(Self::build(
+            gpu, renderer, data, width, height, reflectors, settings,
+        )?)
+    }
+
+    fn build(
+        gpu: &Gpu,
+        renderer: &Renderer,
+        data: &ViewData,
+        width: u32,
+        height: u32,
+        reflectors: Vec<PlanarReflector>,
+        settings: RecursionSettings,
+    ) -> Result<RecursiveReflections, GpuError> {
+        let device = &gpu.device;
+        let mesh = crate::view::renderer::SceneMesh::new(&data.scene, &data.map.atlas);
+        let clip = (data.scene.bounds.diagonal() * CLIP_FRACTION).max(1e-5);
+        let formats = renderer.formats();
+        error_scoped(device, "creating the recursive reflection passes", || {
+            let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("glint recursive reflection shader"),
+                source: wgpu::ShaderSource::Wgsl(shader_source().into()),
+            });
+            let frame_layout = frame_bind_group_layout(device);
+            let params_entry = wgpu::BindGroupLayoutEntry {
+                binding: 2,
+                visibility: wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: wgpu::BufferSize::new(
+                        std::mem::size_of::<ReflectParams>() as u64
+                    ),
+                },
+                count: None,
+            };
+            let params_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("glint recursive params layout"),
+                entries: &[params_entry],
+            });
+            let texture_entry = |binding, filterable| wgpu::BindGroupLayoutEntry {
+                binding,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable },
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: false,
+                },
+                count: None,
+            };
+            let composite_layout =
+                device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some("glint recursive composite layout"),
+                    entries: &[
+                        params_entry,
+                        texture_entry(3, true),
+                        wgpu::BindGroupLayoutEntry {
+                            binding: 4,
+                            visibility: wgpu::ShaderStages::FRAGMENT,
+                            ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                            count: None,
+                        },
+                        texture_entry(5, false),
+                    ],
+                });
+            let layout = |params: &wgpu::BindGroupLayout| {
+                device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                    label: Some("glint recursive pipeline layout"),
+                    bind_group_layouts: &[Some(&frame_layout), Some(params)],
+                    immediate_size: 0,
+                })
+            };
+            let vertex_buffers = [Some(wgpu::VertexBufferLayout {
+                array_stride: std::mem::size_of::<Vertex>() as u64,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x2, 2 => Uint32],
+            })];
+            let primitive = wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                cull_mode: None,
+                ..Default::default()
+            };
+            let additive = wgpu::BlendState {
+                color: wgpu::BlendComponent {
+                    src_factor: wgpu::BlendFactor::One,
+                    dst_factor: wgpu::BlendFactor::One,
+                    operation: wgpu::BlendOperation::Add,
+                },
+                // Keeps the map's alpha (the beyond fraction its own composite reads).
+                alpha: wgpu::BlendComponent {
+                    src_factor: wgpu::BlendFactor::Zero,
+                    dst_factor: wgpu::BlendFactor::One,
+                    operation: wgpu::BlendOperation::Add,
+                },
+            };
+            let pipeline = |label,
+                            params: &wgpu::BindGroupLayout,
+                            fragment: &str,
+                            depth_write: bool,
+                            compare,
+                            targets: &[Option<wgpu::ColorTargetState>]| {
+                let l = layout(params);
+                device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                    label: Some(label),
+                    layout: Some(&l),
+                    vertex: wgpu::VertexState {
+                        module: &shader,
+                        entry_point: Some("vs_mirror"),
+                        compilation_options: wgpu::PipelineCompilationOptions::default(),
+                        buffers: &vertex_buffers,
+                    },
+                    primitive,
+                    depth_stencil: Some(reverse_z_depth(depth_write, compare)),
+                    multisample: wgpu::MultisampleState::default(),
+                    fragment: Some(wgpu::FragmentState {
+                        module: &shader,
+                        entry_point: Some(fragment),
+                        compilation_options: wgpu::PipelineCompilationOptions::default(),
+                        targets,
+                    }),
+                    multiview_mask: None,
+                    cache: None,
+                })
+            };
+            let hdr_target = |blend| {
+                Some(wgpu::ColorTargetState {
+                    format: HDR_FORMAT,
+                    blend,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })
+            };
+            // The scene in a mirrored view, clipped at the mirror (`fs_mirror`).
+            let mirror_pipeline = pipeline(
+                "glint recursive mirror pipeline",
+                &params_layout,
+                "fs_mirror",
+                true,
+                wgpu::CompareFunction::Greater,
+                &[hdr_target(None)],
+            );
+            // A level-(k+1) map onto its reflector in map k (linear, `encode_srgb` = 0; the shader's
+            // HDR output has no target here).
+            let map_composite_pipeline = pipeline(
+                "glint recursive map composite pipeline",
+                &composite_layout,
+                "fs_composite",
+                false,
+                wgpu::CompareFunction::GreaterEqual,
+                &[hdr_target(Some(additive))],
+            );
+            // A level-0 map onto its reflector in the frame (as issue 9's composite).
+            let frame_target = |format| {
+                Some(wgpu::ColorTargetState {
+                    format,
+                    blend: Some(additive),
+                    write_mask: wgpu::ColorWrites::ALL,
+                })
+            };
+            let frame_composite_pipeline = pipeline(
+                "glint recursive frame composite pipeline",
+                &composite_layout,
+                "fs_composite",
+                false,
+                wgpu::CompareFunction::GreaterEqual,
+                &[
+                    frame_target(formats.color),
+                    if formats.hdr {
+                        frame_target(HDR_FORMAT)
+                    } else {
+                        None
+                    },
+                ],
+            );
+            let size = wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            };
+            // Figure 3: one reflection map per recursion level.
+            let levels = (0..settings.depth)
+                .map(|_| {
+                    let color = device.create_texture(&wgpu::TextureDescriptor {
+                        label: Some("glint recursion level map"),
+                        size,
+                        mip_level_count: 1,
+                        sample_count: 1,
+                        dimension: wgpu::TextureDimension::D2,
+                        format: HDR_FORMAT,
+                        usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                            | wgpu::TextureUsages::TEXTURE_BINDING,
+                        view_formats: &[],
+                    });
+                    let depth = crate::view::renderer::depth_texture(gpu, width, height);
+                    debug_assert_eq!(depth.format(), DEPTH_FORMAT);
+                    Level {
+                        view: color.create_view(&wgpu::TextureViewDescriptor::default()),
+                        _color: color,
+                        depth_view: depth.create_view(&wgpu::TextureViewDescriptor::default()),
+                        _depth: depth,
+                    }
+                })
+                .collect();
+            let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+                label: Some("glint recursive reflection sampler"),
+                mag_filter: wgpu::FilterMode::Linear,
+                min_filter: wgpu::FilterMode::Linear,
+                ..Default::default()
+            });
+            let composite_frame_group = frame_bind_group(
+                device,
+                &frame_layout,
+                renderer.frame_uniform_buffer(),
+                renderer.textures(),
+            );
+            let mut vertices = Vec::new();
+            let mut indices = Vec::new();
+            for r in &reflectors {
+                let idx: Vec<u32> = r
+                    .triangles
+                    .iter()
+                    .flat_map(|&t| {
+                        let t = t as usize * 3;
+                        mesh.indices[t..t + 3].iter().copied()
+                    })
+                    .collect();
+                let mut v: Vec<Vec3> = idx
+                    .iter()
+                    .map(|&i| Vec3::from_array(mesh.vertices[i as usize].position))
+                    .collect();
+                v.dedup();
+                vertices.push(v);
+                let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("glint recursive reflector indices"),
+                    size: (idx.len() as u64 * 4).max(4),
+                    usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                });
+                gpu.queue
+                    .write_buffer(&buffer, 0, bytemuck::cast_slice(&idx));
+                indices.push((buffer, idx.len() as u32));
+            }
+            let spheres: Vec<wgpu::Texture> = reflectors
+                .iter()
+                .map(|r| sphere_texture(gpu, &r.modulation))
+                .collect();
+            let sphere_views = spheres
+                .iter()
+                .map(|s| s.create_view(&wgpu::TextureViewDescriptor::default()))
+                .collect();
+            RecursiveReflections {
+                settings,
+                reflectors,
+                vertices,
+                indices,
+                _spheres: spheres,
+                sphere_views,
+                mirror_pipeline,
+                frame_composite_pipeline,
+                map_composite_pipeline,
+                frame_layout,
+                params_layout,
+                composite_layout,
+                composite_frame_group,
+                sampler,
+                levels,
+                slots: Mutex::new(Vec::new()),
+                plan: Mutex::new(Plan::default()),
+                clip,
+                near: crate::view::renderer::near_plane(&data.scene),
+                width,
+                height,
+            }
+        })
+    }
+
+    /// The settings it was built with.
+    pub fn settings(&self) -> RecursionSettings {
+        self.settings
+    }
+
+    /// The reflectors it draws.
+    pub fn reflectors(&self) -> &[PlanarReflector] {
+        &self.reflectors
+    }
+
+    /// Bytes of its per-level render targets.
+    pub fn texture_bytes(&self) -> u64 {
+        texture_bytes(self.levels.len() as u8, self.width, self.height)
+    }
+
+    /// The last prepared frame's reflection tree.
+    pub fn last_plan(&self) -> Plan {
+        self.plan.lock().map(|p| p.clone()).unwrap_or_default()
+    }
+
+    /// The last prepared frame's counts.
+    pub fn stats(&self) -> RecursionStats {
+        self.plan.lock().map(|p| p.stats).unwrap_or_default()
+    }
+
+    /// Render passes [`RecursiveReflections::draw_timed`] records for the last prepared frame
+    /// (a scene pass and a composite per map).
+    pub fn pass_count(&self) -> usize {
+        2 * self.plan.lock().map(|p| p.nodes.len()).unwrap_or(0)
+    }
+
+    fn new_slot(&self, gpu: &Gpu, renderer: &Renderer) -> Slot {
+        let device = &gpu.device;
+        let uniforms = uniform_buffer(device);
+        let frame_group =
+            frame_bind_group(device, &self.frame_layout, &uniforms, renderer.textures());
+        let params = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("glint recursive node params"),
+            size: std::mem::size_of::<ReflectParams>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let params_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("glint recursive node params"),
+            layout: &self.params_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 2,
+                resource: params.as_entire_binding(),
+            }],
+        });
+        Slot {
+            uniforms,
+            frame_group,
+            params,
+            params_group,
+            composite: None,
+        }
+    }
+
+    /// Plans the reflection tree for `camera` and writes every node's uniforms (the writes
+    /// land before the next submission).
+    pub fn prepare(&self, gpu: &Gpu, renderer: &Renderer, camera: &Camera) {
+        let view = ViewGeometry {
+            aspect: self.width.max(1) as f32 / self.height.max(1) as f32,
+            near: self.near,
+            clip: self.clip,
+        };
+        let plan = plan(
+            camera,
+            view,
+            &self.reflectors,
+            &self.vertices,
+            self.settings,
+        );
+        let pitch = pixel_tangent(camera.fov_y, self.height);
+        let Ok(mut slots) = self.slots.lock() else {
+            return;
+        };
+        while slots.len() < plan.nodes.len() {
+            let slot = self.new_slot(gpu, renderer);
+            slots.push(slot);
+        }
+        for (node, slot) in plan.nodes.iter().zip(slots.iter_mut()) {
+            let r = &self.reflectors[node.reflector];
+            let mut u = renderer.uniforms(&node.camera, self.width, self.height);
+            // Maps hold linear radiance.
+            u.encode_srgb = 0;
+            gpu.queue
+                .write_buffer(&slot.uniforms, 0, bytemuck::bytes_of(&u));
+            let mut p = ReflectParams::new(r, self.clip, node.eye);
+            p.kernel[0] = super::super::material::texel_pixels(r.kernel.texel_angle, 1.0, pitch);
+            gpu.queue
+                .write_buffer(&slot.params, 0, bytemuck::bytes_of(&p));
+            let key = (node.reflector, node.level);
+            if slot.composite.as_ref().is_none_or(|(k, _)| *k != key) {
+                let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("glint recursive composite"),
+                    layout: &self.composite_layout,
+                    entries: &[
+                        wgpu::BindGroupEntry {
+                            binding: 2,
+                            resource: slot.params.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 3,
+                            resource: wgpu::BindingResource::TextureView(
+                                &self.levels[node.level].view,
+                            ),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 4,
+                            resource: wgpu::BindingResource::Sampler(&self.sampler),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 5,
+                            resource: wgpu::BindingResource::TextureView(
+                                &self.sphere_views[node.reflector],
+                            ),
+                        },
+                    ],
+                });
+                slot.composite = Some((key, group));
+            }
+        }
+        if let Ok(mut p) = self.plan.lock() {
+            *p = plan;
+        }
+    }
+
+    /// Records, after the scene pass into `color`/`hdr`/`depth` (depth stored), the last
+    /// prepared frame's reflection tree depth first (Figure 4), the last pass writing its end
+    /// timestamp into `end_timestamp` when given.
+    #[allow(clippy::too_many_arguments)]
+    pub fn draw_timed(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        renderer: &Renderer,
+        color: &wgpu::TextureView,
+        hdr: Option<&wgpu::TextureView>,
+        depth: &wgpu::TextureView,
+        end_timestamp: Option<(&wgpu::QuerySet, u32)>,
+    ) {
+        let (Ok(plan), Ok(slots)) = (self.plan.lock(), self.slots.lock()) else {
+            return;
+        };
+        let load = |view| {
+            Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Load,
+                    store: wgpu::StoreOp::Store,
+                },
+            })
+        };
+        for (k, &root) in plan.roots.iter().enumerate() {
+            self.draw_node(encoder, renderer, &plan, &slots, root);
+            let timestamp_writes = match end_timestamp {
+                Some((query_set, index)) if k + 1 == plan.roots.len() => {
+                    Some(wgpu::RenderPassTimestampWrites {
+                        query_set,
+                        beginning_of_pass_write_index: None,
+                        end_of_pass_write_index: Some(index),
+                    })
+                }
+                _ => None,
+            };
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("glint recursive frame composite"),
+                color_attachments: &[load(color), hdr.and_then(load)],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: depth,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Load,
+                        store: wgpu::StoreOp::Store,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            self.composite(
+                &mut pass,
+                renderer,
+                &self.frame_composite_pipeline,
+                &self.composite_frame_group,
+                &plan.nodes[root],
+                &slots[root],
+            );
+        }
+    }
+
+    fn composite(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        renderer: &Renderer,
+        pipeline: &wgpu::RenderPipeline,
+        frame_group: &wgpu::BindGroup,
+        node: &Node,
+        slot: &Slot,
+    ) {
+        let (indices, count) = &self.indices[node.reflector];
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, frame_group, &[]);
+        pass.set_bind_group(1, slot.composite.as_ref().map(|c| &c.1), &[]);
+        pass.set_vertex_buffer(0, renderer.vertex_buffer().slice(..));
+        pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
+        pass.draw_indexed(0..*count, 0, 0..1);
+    }
+
+    /// Figure 4's `DrawScene(mirror_view, depth + 1)`: node `id`'s mirrored view into its
+    /// level's map, then each reflector it sees, recursively, composited into that map.
+    fn draw_node(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        renderer: &Renderer,
+        plan: &Plan,
+        slots: &[Slot],
+        id: usize,
+    ) {
+        let node = &plan.nodes[id];
+        let level = &self.levels[node.level];
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("glint recursive mirror pass"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &level.view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &level.depth_view,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(0.0),
+                        store: wgpu::StoreOp::Store,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&self.mirror_pipeline);
+            pass.set_bind_group(0, &slots[id].frame_group, &[]);
+            pass.set_bind_group(1, &slots[id].params_group, &[]);
+            pass.set_vertex_buffer(0, renderer.vertex_buffer().slice(..));
+            pass.set_index_buffer(renderer.index_buffer().slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..renderer.index_count(), 0, 0..1);
+        }
+        for &child in &node.children {
+            // Map level + 1 is overwritten per child: generated, applied, discarded (§3.1).
+            self.draw_node(encoder, renderer, plan, slots, child);
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("glint recursive map composite"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &level.view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Load,
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &level.depth_view,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Load,
+                        store: wgpu::StoreOp::Store,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            self.composite(
+                &mut pass,
+                renderer,
+                &self.map_composite_pipeline,
+                &slots[id].frame_group,
+                &plan.nodes[child],
+                &slots[child],
+            );
+        }
+    }
+}
