@@ -491,6 +491,10 @@ fn unknown_knobs_and_bad_values_are_refused() {
         "view.reflections",
         "view.maps",
         "view.selection",
+        "view.recursion_depth",
+        "view.curved",
+        "view.glossy_samples",
+        "view.impostors",
     ] {
         assert!(sweep::valid_knobs().iter().any(|v| v == k), "{k} is a knob");
     }
@@ -527,6 +531,22 @@ fn unknown_knobs_and_bad_values_are_refused() {
         assert!(e.contains("angle, distance"), "{e}");
         let k = sweep::parse_knob("view.reflections=off,geometry,image").unwrap();
         assert_eq!(k.values.len(), 3);
+        for (bad, says) in [
+            ("view.recursion_depth=5", "0 ..= 4"),
+            ("view.recursion_depth=1.5", "0 ..= 4"),
+            ("view.curved=sphere", "off, cubemap"),
+            ("view.impostors=yes", "off, on"),
+            ("view.glossy_samples=-1", "0 ..= 256"),
+        ] {
+            let e = sweep::parse_knob(bad).unwrap_err().to_string();
+            assert!(e.contains(says), "{bad}: {e}");
+        }
+        let k = sweep::parse_knob("view.curved=off,cubemap").unwrap();
+        assert_eq!(k.values.len(), 2);
+        assert!(sweep::shows_reflections(
+            &sweep::ViewSettings::default(),
+            &[k]
+        ));
     } else {
         let e = sweep::parse_knob("view.maps=1").unwrap_err().to_string();
         assert!(e.contains("`view` feature"), "{e}");

@@ -35,11 +35,15 @@ pub const VIEWER_BUILT: bool = cfg!(feature = "view");
 
 /// Knobs that are not fields of a stage's settings struct: `radiance.resolution_scale`
 /// (scene.json's `bake.radiance`) and the viewer's settings.
-const OTHER_KNOBS: [&str; 4] = [
+const OTHER_KNOBS: [&str; 8] = [
     "radiance.resolution_scale",
     "view.reflections",
     "view.maps",
     "view.selection",
+    "view.recursion_depth",
+    "view.curved",
+    "view.glossy_samples",
+    "view.impostors",
 ];
 
 /// Every knob name a sweep accepts, `STAGE.FIELD`, in stage order.
@@ -102,6 +106,14 @@ pub struct ViewSettings {
     pub maps: usize,
     /// Image mode: map selection.
     pub selection: MapSelection,
+    /// Geometry mode: recursion depth (0 ..= 4; 1 is the single mirror pass).
+    pub recursion_depth: u8,
+    /// Curved reflectors by cube maps (the viewer's `--curved cubemap`).
+    pub curved: bool,
+    /// Curved reflectors: regular samples per pixel (0: one mirror lookup).
+    pub glossy_samples: u32,
+    /// Reflections of depth-map impostors (the viewer's `--impostors on`).
+    pub impostors: bool,
 }
 
 impl Default for ViewSettings {
@@ -110,6 +122,10 @@ impl Default for ViewSettings {
             reflections: Reflections::Off,
             maps: 2,
             selection: MapSelection::Angle,
+            recursion_depth: 1,
+            curved: false,
+            glossy_samples: 0,
+            impostors: false,
         }
     }
 }
@@ -224,7 +240,12 @@ pub fn parse_knob(text: &str) -> Result<Knob, SweepError> {
 /// Whether the sweep's view shows glossy reflections somewhere (then the reference must be
 /// the full glossy scene, not the diffuse one a radiosity bake represents).
 pub fn shows_reflections(base: &ViewSettings, knobs: &[Knob]) -> bool {
-    base.reflections != Reflections::Off || knobs.iter().any(|k| k.name() == "view.reflections")
+    base.reflections != Reflections::Off
+        || base.curved
+        || base.impostors
+        || knobs.iter().any(|k| {
+            ["view.reflections", "view.curved", "view.impostors"].contains(&k.name().as_str())
+        })
 }
 
 /// One point of a sweep: every stage's settings and the view.
@@ -303,6 +324,26 @@ impl Point {
                             "angle" => MapSelection::Angle,
                             _ => MapSelection::Distance,
                         }
+                    }
+                    "recursion_depth" => {
+                        let v = number()?;
+                        if v.fract() != 0.0 || !(0.0..=4.0).contains(&v) {
+                            return Err(
+                                err("recursion_depth must be an integer in 0 ..= 4".into()),
+                            );
+                        }
+                        p.view.recursion_depth = v as u8;
+                    }
+                    "curved" => p.view.curved = word(&["off", "cubemap"])? == "cubemap",
+                    "impostors" => p.view.impostors = word(&["off", "on"])? == "on",
+                    "glossy_samples" => {
+                        let v = number()?;
+                        if v.fract() != 0.0 || !(0.0..=256.0).contains(&v) {
+                            return Err(err(
+                                "glossy_samples must be an integer in 0 ..= 256".into()
+                            ));
+                        }
+                        p.view.glossy_samples = v as u32;
                     }
                     _ => {
                         let v = number()?;
@@ -648,7 +689,23 @@ impl Viewer {
                 Reflections::Geometry => ReflectionMode::Geometry,
                 Reflections::Image => ReflectionMode::Image,
             };
+            if mode == ReflectionMode::Geometry {
+                off.recursion.depth = view.recursion_depth;
+            }
             off.set_reflections(gpu, &data, mode)
+                .map_err(|e| fail(&e))?;
+            off.set_impostors(gpu, &data, view.impostors)
+                .map_err(|e| fail(&e))?;
+            let curved = if view.curved {
+                crate::view::curved::CurvedMode::Cubemap
+            } else {
+                crate::view::curved::CurvedMode::Off
+            };
+            let settings = crate::view::curved::CurvedSettings {
+                glossy_samples: view.glossy_samples,
+                ..Default::default()
+            };
+            off.set_curved(gpu, &data, curved, settings)
                 .map_err(|e| fail(&e))?;
             Ok(off)
         };
