@@ -109,6 +109,10 @@ enum Command {
         /// Image-based reflections: map selection.
         #[arg(long, value_enum, default_value = "angle")]
         selection: SelectionArg,
+        /// Curved reflectors by cube maps in the view (`off` or `cubemap`), for every setting
+        /// but a view.curved knob's; view.glossy_samples needs `cubemap`.
+        #[arg(long, value_enum, default_value = "off")]
+        curved: CurvedArg,
         /// Timed frames per setting in the headless viewer (the median is reported).
         #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=1000))]
         frames: u32,
@@ -137,6 +141,12 @@ enum ReflectionsArg {
 enum SelectionArg {
     Angle,
     Distance,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum CurvedArg {
+    Off,
+    Cubemap,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -405,6 +415,7 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
             reflections,
             maps,
             selection,
+            curved,
             frames,
             cpu_view,
             view_spp,
@@ -425,6 +436,7 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                     SelectionArg::Angle => sweep::MapSelection::Angle,
                     SelectionArg::Distance => sweep::MapSelection::Distance,
                 },
+                curved: curved == CurvedArg::Cubemap,
                 ..Default::default()
             };
             let scene = Scene::load(&scene)?;
