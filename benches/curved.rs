@@ -24,18 +24,19 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use glam::Vec3;
-use glint::bake::{Stage, materials, radiosity_stage, scene_stage, up_to_date};
 use glint::bundle::stats::format_table;
 use glint::camera::Camera;
 use glint::eval::Image;
 use glint::eval::reference::{RenderOptions, render};
 use glint::progress::Silent;
-use glint::scene::desc::RadiositySettings;
-use glint::scene::{Quality, Scene};
+use glint::scene::Scene;
 use glint::view::curved::{CurvedMode, CurvedSettings, curved_reflectors};
 use glint::view::gpu::Gpu;
 use glint::view::headless::Offscreen;
 use glint::view::load::{ViewData, load};
+
+mod common;
+use common::bake_if_needed;
 
 const SIZE: (u32, u32) = (720, 486);
 const FRAMES: usize = 10;
@@ -52,12 +53,12 @@ fn main() {
     println!("adapter: {}", gpu.adapter_summary());
 
     let glossy_json = root.join("scenes/glossy-room/scene.json");
-    let glossy = bake_if_needed(&glossy_json, &work, "glossy-room");
+    let glossy = bake_if_needed(&glossy_json, &work, "glossy-room", true);
     let data = load(&glossy).unwrap_or_else(|e| panic!("{e}"));
     samples_table(&gpu, &data, &glossy_json, &work, "teapot m = 0.01");
     // The same room with a rough teapot, where the number of samples matters.
     let rough_json = rough_teapot_scene(&glossy_json, &work);
-    let rough = bake_if_needed(&rough_json, &work, "glossy-room-rough");
+    let rough = bake_if_needed(&rough_json, &work, "glossy-room-rough", true);
     let data = load(&rough).unwrap_or_else(|e| panic!("{e}"));
     samples_table(&gpu, &data, &rough_json, &work, "teapot m = 0.2");
 
@@ -77,7 +78,12 @@ fn main() {
         .map(String::from),
     ];
     for name in &scenes {
-        let bundle = bake_if_needed(&root.join(format!("scenes/{name}/scene.json")), &work, name);
+        let bundle = bake_if_needed(
+            &root.join(format!("scenes/{name}/scene.json")),
+            &work,
+            name,
+            true,
+        );
         let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
         let mut off = Offscreen::new(&gpu, &data, 64, 64, false).unwrap_or_else(|e| panic!("{e}"));
         for face_size in [64u32, 128, 256] {
@@ -334,35 +340,4 @@ fn reference_image(scene_json: &Path, work: &Path, camera: &Camera, key: &str) -
     std::fs::write(&path, image.to_exr().unwrap_or_else(|e| panic!("{e}")))
         .unwrap_or_else(|e| panic!("{e}"));
     image
-}
-
-/// The scene, radiosity (draft) and materials (draft) stages of `scene_json` in `work`.
-fn bake_if_needed(scene_json: &Path, work: &Path, name: &str) -> PathBuf {
-    let bundle = work.join(format!("{name}.glint"));
-    let scene = Scene::load(scene_json).unwrap_or_else(|e| panic!("{e}"));
-    let settings = RadiositySettings::resolve(Quality::Draft, &scene.desc.bake.radiosity);
-    let settings_json = radiosity_stage::settings_json(&settings);
-    if !up_to_date(&bundle, &scene, Stage::Scene, None) {
-        scene_stage::bake(&scene, &bundle, true).unwrap_or_else(|e| panic!("{e}"));
-    }
-    if !up_to_date(&bundle, &scene, Stage::Radiosity, Some(&settings_json)) {
-        let start = Instant::now();
-        radiosity_stage::bake(&scene, &bundle, &settings, true, &Silent)
-            .unwrap_or_else(|e| panic!("{e}"));
-        eprintln!(
-            "baked {name} (draft) in {:.1} s",
-            start.elapsed().as_secs_f64()
-        );
-    }
-    if !bundle.join("materials").join("index.json").exists() {
-        materials::bake(
-            &scene,
-            &bundle,
-            &materials::MaterialsSettings::preset(Quality::Draft),
-            true,
-            &Silent,
-        )
-        .unwrap_or_else(|e| panic!("{e}"));
-    }
-    bundle
 }

@@ -18,24 +18,24 @@
 //! `cargo bench --bench recursive` (`GLINT_BENCH_CUTOFF` overrides the specular-weight cutoff,
 //! e.g. 0 for the whole tree).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
 
-use glint::bake::{Stage, materials, radiosity_stage, scene_stage, up_to_date};
 use glint::bundle::stats::format_table;
 use glint::eval::Image;
 use glint::eval::compare::compare;
 use glint::eval::reference::{self, RenderOptions};
 use glint::geometry::Bvh;
 use glint::progress::Silent;
-use glint::scene::desc::RadiositySettings;
-use glint::scene::{Quality, Scene};
 use glint::view::cpu_render;
 use glint::view::gpu::Gpu;
 use glint::view::headless::Offscreen;
 use glint::view::load::load;
 use glint::view::reflections::{self, RecursionSettings, ReflectionMode, recursive};
 use glint::view::replay::schedule;
+
+mod common;
+use common::{bake_if_needed, half_size, mean_diff, median};
 
 const SIZE: (u32, u32) = (720, 486);
 
@@ -89,7 +89,7 @@ fn main() {
     let mut source = None;
     for name in ["glossy-room", "breakfast-room"] {
         let scene_json = root.join(format!("scenes/{name}/scene.json"));
-        let bundle = bake_if_needed(&scene_json, &work, name);
+        let bundle = bake_if_needed(&scene_json, &work, name, true);
         let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
         let path = data.scene.camera_path(None).expect("a camera path");
         let frames = schedule(path);
@@ -116,7 +116,7 @@ fn main() {
             "{name}: path-traced reference ({spp} spp) in {:.1} s",
             start.elapsed().as_secs_f64()
         );
-        let traced_srgb = half_size(&cpu_render::to_srgb8(&traced.rgb));
+        let traced_srgb = half_size(&cpu_render::to_srgb8(&traced.rgb), SIZE.0, SIZE.1);
         let planar = reflections::reflectors_with_reflectance(&data).len();
         for depth in 0..=recursive::MAX_RECURSION_DEPTH {
             let mut off =
@@ -203,7 +203,10 @@ fn main() {
                 format!("{:.2}", bytes as f64 / (1024.0 * 1024.0)),
                 format!("{:.4}", metrics.rmse),
                 format!("{:.4}", metrics.rel_rmse),
-                format!("{:.2}", mean_diff(&half_size(&srgb), &traced_srgb)),
+                format!(
+                    "{:.2}",
+                    mean_diff(&half_size(&srgb, SIZE.0, SIZE.1), &traced_srgb)
+                ),
             ]);
             eprintln!("{name} depth {depth}: done");
         }
@@ -225,64 +228,4 @@ fn main() {
             ]
         )
     );
-}
-
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
-
-/// An RGBA8 frame of [`SIZE`] box-filtered 2×2.
-fn half_size(rgba: &[u8]) -> Vec<u8> {
-    let (w, hw, hh) = (SIZE.0 as usize, SIZE.0 as usize / 2, SIZE.1 as usize / 2);
-    let mut out = Vec::with_capacity(hw * hh * 4);
-    for y in 0..hh {
-        for x in 0..hw {
-            for k in 0..4 {
-                let at =
-                    |dx: usize, dy: usize| u32::from(rgba[((2 * y + dy) * w + 2 * x + dx) * 4 + k]);
-                out.push(((at(0, 0) + at(1, 0) + at(0, 1) + at(1, 1) + 2) / 4) as u8);
-            }
-        }
-    }
-    out
-}
-
-/// Mean absolute difference over RGB of two RGBA8 images, 8-bit units.
-fn mean_diff(a: &[u8], b: &[u8]) -> f64 {
-    let (mut sum, mut n) = (0u64, 0u64);
-    for (pa, pb) in a.chunks_exact(4).zip(b.chunks_exact(4)) {
-        for k in 0..3 {
-            sum += u64::from(pa[k].abs_diff(pb[k]));
-            n += 1;
-        }
-    }
-    sum as f64 / n.max(1) as f64
-}
-
-/// The scene's bundle with the scene, draft radiosity and draft materials stages, baked
-/// unless up to date.
-fn bake_if_needed(scene_json: &Path, work: &Path, name: &str) -> PathBuf {
-    let bundle = work.join(format!("{name}.glint"));
-    let scene = Scene::load(scene_json).unwrap_or_else(|e| panic!("{e}"));
-    let settings = RadiositySettings::resolve(Quality::Draft, &scene.desc.bake.radiosity);
-    let settings_json = radiosity_stage::settings_json(&settings);
-    if !up_to_date(&bundle, &scene, Stage::Scene, None) {
-        scene_stage::bake(&scene, &bundle, true).unwrap_or_else(|e| panic!("{e}"));
-    }
-    if !up_to_date(&bundle, &scene, Stage::Radiosity, Some(&settings_json)) {
-        let start = Instant::now();
-        radiosity_stage::bake(&scene, &bundle, &settings, true, &Silent)
-            .unwrap_or_else(|e| panic!("{e}"));
-        eprintln!(
-            "baked {name} (draft) in {:.1} s",
-            start.elapsed().as_secs_f64()
-        );
-    }
-    if !up_to_date(&bundle, &scene, Stage::Materials, None) {
-        let settings = materials::MaterialsSettings::preset(Quality::Draft);
-        materials::bake(&scene, &bundle, &settings, true, &Silent)
-            .unwrap_or_else(|e| panic!("{e}"));
-    }
-    bundle
 }

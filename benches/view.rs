@@ -21,16 +21,15 @@
 //! `Gpu::headless` picks: a hardware GPU when there is one, else Mesa's lavapipe; `WGPU_BACKEND`
 //! narrows the choice. The table says which, and how the GPU time was measured.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
 
-use glint::bake::{Stage, radiosity_stage, scene_stage, up_to_date};
+use glint::bake::{Stage, up_to_date};
 use glint::bake::{materials, radiance_stage};
 use glint::bundle::stats::format_table;
 use glint::eval::reference::{self, RenderOptions};
 use glint::geometry::Bvh;
 use glint::progress::Silent;
-use glint::scene::desc::RadiositySettings;
 use glint::scene::{Quality, Scene};
 use glint::view::cpu_render;
 use glint::view::gpu::Gpu;
@@ -41,6 +40,9 @@ use glint::view::radiance_maps::Selection;
 use glint::view::reflections::{self, ReflectionMode};
 use glint::view::replay::GpuTimeSource;
 use glint::view::replay::schedule;
+
+mod common;
+use common::{bake_if_needed, half_size, mean_diff, median};
 
 const SCENES: [&str; 4] = [
     "cornell-box",
@@ -81,7 +83,12 @@ fn main() {
     ];
     let mut source = None;
     for name in SCENES {
-        let bundle = bake_if_needed(&root.join(format!("scenes/{name}/scene.json")), &work, name);
+        let bundle = bake_if_needed(
+            &root.join(format!("scenes/{name}/scene.json")),
+            &work,
+            name,
+            false,
+        );
         let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
         let options = ReplayOptions {
             path: None,
@@ -193,7 +200,7 @@ fn reflection_table(gpu: &Gpu, work: &Path, root: &Path, repeats: usize) {
     ];
     for name in ["glossy-room", "breakfast-room"] {
         let scene_json = root.join(format!("scenes/{name}/scene.json"));
-        let bundle = bake_if_needed(&scene_json, work, name);
+        let bundle = bake_if_needed(&scene_json, work, name, false);
         let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
         if !up_to_date(&bundle, &scene, Stage::Materials, None) {
             let settings = materials::MaterialsSettings::preset(Quality::Draft);
@@ -234,7 +241,7 @@ fn reflection_table(gpu: &Gpu, work: &Path, root: &Path, repeats: usize) {
             "{name}: path-traced reference in {:.1} s",
             start.elapsed().as_secs_f64()
         );
-        let traced = half_size(&cpu_render::to_srgb8(&traced.image.rgb));
+        let traced = half_size(&cpu_render::to_srgb8(&traced.image.rgb), SIZE.0, SIZE.1);
         let equation = cpu_render::to_srgb8(&reflections::cpu_reference(
             &data.scene,
             &reflectors,
@@ -292,7 +299,10 @@ fn reflection_table(gpu: &Gpu, work: &Path, root: &Path, repeats: usize) {
                 } else {
                     "-".to_string()
                 },
-                format!("{:.2}", mean_diff(&half_size(&img), &traced)),
+                format!(
+                    "{:.2}",
+                    mean_diff(&half_size(&img, SIZE.0, SIZE.1), &traced)
+                ),
                 format!("{:.2}", mean_diff(&img, &equation)),
             ]);
         }
@@ -315,57 +325,3 @@ const FRAME_STRIDE: usize = 8;
 
 /// Paths per pixel of the reference images.
 const REFERENCE_SPP: u32 = 32;
-
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
-
-/// An RGBA8 frame of [`SIZE`] box-filtered 2×2.
-fn half_size(rgba: &[u8]) -> Vec<u8> {
-    let (w, hw, hh) = (SIZE.0 as usize, SIZE.0 as usize / 2, SIZE.1 as usize / 2);
-    let mut out = Vec::with_capacity(hw * hh * 4);
-    for y in 0..hh {
-        for x in 0..hw {
-            for k in 0..4 {
-                let at =
-                    |dx: usize, dy: usize| u32::from(rgba[((2 * y + dy) * w + 2 * x + dx) * 4 + k]);
-                out.push(((at(0, 0) + at(1, 0) + at(0, 1) + at(1, 1) + 2) / 4) as u8);
-            }
-        }
-    }
-    out
-}
-
-/// Mean absolute difference over RGB of two RGBA8 images, 8-bit units.
-fn mean_diff(a: &[u8], b: &[u8]) -> f64 {
-    let (mut sum, mut n) = (0u64, 0u64);
-    for (pa, pb) in a.chunks_exact(4).zip(b.chunks_exact(4)) {
-        for k in 0..3 {
-            sum += u64::from(pa[k].abs_diff(pb[k]));
-            n += 1;
-        }
-    }
-    sum as f64 / n.max(1) as f64
-}
-
-/// The scene's bundle with the scene and draft radiosity stages, baked unless up to date.
-fn bake_if_needed(scene_json: &Path, work: &Path, name: &str) -> PathBuf {
-    let bundle = work.join(format!("{name}.glint"));
-    let scene = Scene::load(scene_json).unwrap_or_else(|e| panic!("{e}"));
-    let settings = RadiositySettings::resolve(Quality::Draft, &scene.desc.bake.radiosity);
-    let settings_json = radiosity_stage::settings_json(&settings);
-    if !up_to_date(&bundle, &scene, Stage::Scene, None) {
-        scene_stage::bake(&scene, &bundle, true).unwrap_or_else(|e| panic!("{e}"));
-    }
-    if !up_to_date(&bundle, &scene, Stage::Radiosity, Some(&settings_json)) {
-        let start = Instant::now();
-        radiosity_stage::bake(&scene, &bundle, &settings, true, &Silent)
-            .unwrap_or_else(|e| panic!("{e}"));
-        eprintln!(
-            "baked {name} (draft) in {:.1} s",
-            start.elapsed().as_secs_f64()
-        );
-    }
-    bundle
-}

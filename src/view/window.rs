@@ -595,10 +595,24 @@ impl App {
         let depth = &mut self.options.recursion.depth;
         *depth = depth.saturating_add_signed(delta).min(MAX_RECURSION_DEPTH);
         log::info!("recursion depth: {depth}");
+        self.rebuild_reflections()
+    }
+
+    /// Rebuilds the planar reflection passes (single mirror and recursive) for the current
+    /// options, after a switch changed them.
+    fn rebuild_reflections(&mut self) -> Result<(), WindowError> {
         self.screenshot = None;
         let Some(r) = &mut self.running else {
             return Ok(());
         };
+        r.reflections = reflection_passes(
+            &r.gpu,
+            &r.renderer,
+            &self.data,
+            self.options.reflections,
+            self.options.reflectance,
+            (r.config.width, r.config.height),
+        )?;
         r.recursive = recursive_passes(
             &r.gpu,
             &r.renderer,
@@ -641,26 +655,7 @@ impl App {
             ReflectionMode::Image => ReflectionMode::Off,
         };
         log::info!("reflections: {}", self.options.reflections);
-        self.screenshot = None;
-        let Some(r) = &mut self.running else {
-            return Ok(());
-        };
-        r.reflections = reflection_passes(
-            &r.gpu,
-            &r.renderer,
-            &self.data,
-            self.options.reflections,
-            self.options.reflectance,
-            (r.config.width, r.config.height),
-        )?;
-        r.recursive = recursive_passes(
-            &r.gpu,
-            &r.renderer,
-            &self.data,
-            &self.options,
-            (r.config.width, r.config.height),
-        )?;
-        Ok(())
+        self.rebuild_reflections()
     }
 
     /// Switches R between the sphere map and the 1D map (rebuilds the reflection passes).
@@ -671,26 +666,7 @@ impl App {
             ReflectanceLayout::Sphere => ReflectanceLayout::OneD,
         };
         log::info!("reflectance map: {layout}");
-        self.screenshot = None;
-        let Some(r) = &mut self.running else {
-            return Ok(());
-        };
-        r.reflections = reflection_passes(
-            &r.gpu,
-            &r.renderer,
-            &self.data,
-            self.options.reflections,
-            self.options.reflectance,
-            (r.config.width, r.config.height),
-        )?;
-        r.recursive = recursive_passes(
-            &r.gpu,
-            &r.renderer,
-            &self.data,
-            &self.options,
-            (r.config.width, r.config.height),
-        )?;
-        Ok(())
+        self.rebuild_reflections()
     }
 
     /// Switches curved reflectors off ↔ cubemap (the cube maps are rendered when switched on).

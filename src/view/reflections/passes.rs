@@ -321,18 +321,7 @@ impl GeometryReflections {
                 source: wgpu::ShaderSource::Wgsl(shader_source().into()),
             });
             let frame_layout = frame_bind_group_layout(device);
-            let params_entry = wgpu::BindGroupLayoutEntry {
-                binding: 2,
-                visibility: wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: false,
-                    min_binding_size: wgpu::BufferSize::new(
-                        std::mem::size_of::<ReflectParams>() as u64
-                    ),
-                },
-                count: None,
-            };
+            let params_entry = params_layout_entry();
             let mirror_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("glint mirror params layout"),
                 entries: &[params_entry],
@@ -353,31 +342,8 @@ impl GeometryReflections {
                     },
                 ],
             });
-            let texture_entry = |binding, filterable| wgpu::BindGroupLayoutEntry {
-                binding,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Texture {
-                    sample_type: wgpu::TextureSampleType::Float { filterable },
-                    view_dimension: wgpu::TextureViewDimension::D2,
-                    multisampled: false,
-                },
-                count: None,
-            };
             let composite_layout =
-                device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                    label: Some("glint composite params layout"),
-                    entries: &[
-                        params_entry,
-                        texture_entry(3, true),
-                        wgpu::BindGroupLayoutEntry {
-                            binding: 4,
-                            visibility: wgpu::ShaderStages::FRAGMENT,
-                            ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                            count: None,
-                        },
-                        texture_entry(5, false),
-                    ],
-                });
+                composite_bind_group_layout(device, "glint composite params layout");
             let pipeline_layout = |params: &wgpu::BindGroupLayout, label| {
                 device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                     label: Some(label),
@@ -452,18 +418,7 @@ impl GeometryReflections {
                 multiview_mask: None,
                 cache: None,
             });
-            let additive = wgpu::BlendState {
-                color: wgpu::BlendComponent {
-                    src_factor: wgpu::BlendFactor::One,
-                    dst_factor: wgpu::BlendFactor::One,
-                    operation: wgpu::BlendOperation::Add,
-                },
-                alpha: wgpu::BlendComponent {
-                    src_factor: wgpu::BlendFactor::Zero,
-                    dst_factor: wgpu::BlendFactor::One,
-                    operation: wgpu::BlendOperation::Add,
-                },
-            };
+            let additive = ADDITIVE_KEEP_ALPHA;
             let target = |format| {
                 Some(wgpu::ColorTargetState {
                     format,
@@ -878,3 +833,64 @@ impl GeometryReflections {
         }
     }
 }
+
+/// The `ReflectParams` uniform (binding 2) every reflection pass reads.
+pub(super) fn params_layout_entry() -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding: 2,
+        visibility: wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: wgpu::BufferSize::new(std::mem::size_of::<ReflectParams>() as u64),
+        },
+        count: None,
+    }
+}
+
+/// The composite's bindings: params, the reflected image M (filterable), its sampler and the
+/// sphere-map R (read by texel).
+pub(super) fn composite_bind_group_layout(
+    device: &wgpu::Device,
+    label: &str,
+) -> wgpu::BindGroupLayout {
+    let texture_entry = |binding, filterable| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable },
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    };
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(label),
+        entries: &[
+            params_layout_entry(),
+            texture_entry(3, true),
+            wgpu::BindGroupLayoutEntry {
+                binding: 4,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                count: None,
+            },
+            texture_entry(5, false),
+        ],
+    })
+}
+
+/// Adds the reflection to the target's colour and keeps the target's alpha (a map's alpha is
+/// the beyond-plane share its own composite reads).
+pub(super) const ADDITIVE_KEEP_ALPHA: wgpu::BlendState = wgpu::BlendState {
+    color: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::One,
+        dst_factor: wgpu::BlendFactor::One,
+        operation: wgpu::BlendOperation::Add,
+    },
+    alpha: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::Zero,
+        dst_factor: wgpu::BlendFactor::One,
+        operation: wgpu::BlendOperation::Add,
+    },
+};

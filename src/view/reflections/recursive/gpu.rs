@@ -5,7 +5,10 @@ use std::sync::Mutex;
 
 use glam::Vec3;
 
-use super::super::passes::{ReflectParams, shader_source, sphere_texture};
+use super::super::passes::{
+    ADDITIVE_KEEP_ALPHA, ReflectParams, composite_bind_group_layout, params_layout_entry,
+    shader_source, sphere_texture,
+};
 use super::super::splats::pixel_tangent;
 use super::super::{
     CLIP_FRACTION, PlanarReflector, ReflectanceSettings, reflectors_with_materials,
@@ -110,47 +113,13 @@ impl RecursiveReflections {
                 source: wgpu::ShaderSource::Wgsl(shader_source().into()),
             });
             let frame_layout = frame_bind_group_layout(device);
-            let params_entry = wgpu::BindGroupLayoutEntry {
-                binding: 2,
-                visibility: wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: false,
-                    min_binding_size: wgpu::BufferSize::new(
-                        std::mem::size_of::<ReflectParams>() as u64
-                    ),
-                },
-                count: None,
-            };
+            let params_entry = params_layout_entry();
             let params_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("glint recursive params layout"),
                 entries: &[params_entry],
             });
-            let texture_entry = |binding, filterable| wgpu::BindGroupLayoutEntry {
-                binding,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Texture {
-                    sample_type: wgpu::TextureSampleType::Float { filterable },
-                    view_dimension: wgpu::TextureViewDimension::D2,
-                    multisampled: false,
-                },
-                count: None,
-            };
             let composite_layout =
-                device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                    label: Some("glint recursive composite layout"),
-                    entries: &[
-                        params_entry,
-                        texture_entry(3, true),
-                        wgpu::BindGroupLayoutEntry {
-                            binding: 4,
-                            visibility: wgpu::ShaderStages::FRAGMENT,
-                            ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                            count: None,
-                        },
-                        texture_entry(5, false),
-                    ],
-                });
+                composite_bind_group_layout(device, "glint recursive composite layout");
             let layout = |params: &wgpu::BindGroupLayout| {
                 device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                     label: Some("glint recursive pipeline layout"),
@@ -168,19 +137,7 @@ impl RecursiveReflections {
                 cull_mode: None,
                 ..Default::default()
             };
-            let additive = wgpu::BlendState {
-                color: wgpu::BlendComponent {
-                    src_factor: wgpu::BlendFactor::One,
-                    dst_factor: wgpu::BlendFactor::One,
-                    operation: wgpu::BlendOperation::Add,
-                },
-                // Keeps the map's alpha (the beyond fraction its own composite reads).
-                alpha: wgpu::BlendComponent {
-                    src_factor: wgpu::BlendFactor::Zero,
-                    dst_factor: wgpu::BlendFactor::One,
-                    operation: wgpu::BlendOperation::Add,
-                },
-            };
+            let additive = ADDITIVE_KEEP_ALPHA;
             let pipeline = |label,
                             params: &wgpu::BindGroupLayout,
                             fragment: &str,

@@ -1,0 +1,73 @@
+//! Helpers the viewer benchmarks share: draft bundles baked when missing or stale, medians and
+//! 8-bit image differences.
+
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use glint::bake::{Stage, materials, radiosity_stage, scene_stage, up_to_date};
+use glint::progress::Silent;
+use glint::scene::desc::RadiositySettings;
+use glint::scene::{Quality, Scene};
+
+/// The median of `v` (sorted in place; the upper one of an even count).
+pub fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// An RGBA8 frame of `width` pixels per row box-filtered 2×2 (the path tracer's noise).
+pub fn half_size(rgba: &[u8], width: u32, height: u32) -> Vec<u8> {
+    let (w, hw, hh) = (width as usize, width as usize / 2, height as usize / 2);
+    let mut out = Vec::with_capacity(hw * hh * 4);
+    for y in 0..hh {
+        for x in 0..hw {
+            for k in 0..4 {
+                let at =
+                    |dx: usize, dy: usize| u32::from(rgba[((2 * y + dy) * w + 2 * x + dx) * 4 + k]);
+                out.push(((at(0, 0) + at(1, 0) + at(0, 1) + at(1, 1) + 2) / 4) as u8);
+            }
+        }
+    }
+    out
+}
+
+/// Mean absolute difference over RGB of two RGBA8 images, 8-bit units.
+pub fn mean_diff(a: &[u8], b: &[u8]) -> f64 {
+    let (mut sum, mut n) = (0u64, 0u64);
+    for (pa, pb) in a.chunks_exact(4).zip(b.chunks_exact(4)) {
+        for k in 0..3 {
+            sum += u64::from(pa[k].abs_diff(pb[k]));
+            n += 1;
+        }
+    }
+    sum as f64 / n.max(1) as f64
+}
+
+/// The scene's bundle in `work` with the scene and draft radiosity stages (and the draft
+/// materials stage when `with_materials`), each baked unless up to date.
+pub fn bake_if_needed(scene_json: &Path, work: &Path, name: &str, with_materials: bool) -> PathBuf {
+    let bundle = work.join(format!("{name}.glint"));
+    let scene = Scene::load(scene_json).unwrap_or_else(|e| panic!("{e}"));
+    let settings = RadiositySettings::resolve(Quality::Draft, &scene.desc.bake.radiosity);
+    let settings_json = radiosity_stage::settings_json(&settings);
+    if !up_to_date(&bundle, &scene, Stage::Scene, None) {
+        scene_stage::bake(&scene, &bundle, true).unwrap_or_else(|e| panic!("{e}"));
+    }
+    if !up_to_date(&bundle, &scene, Stage::Radiosity, Some(&settings_json)) {
+        let start = Instant::now();
+        radiosity_stage::bake(&scene, &bundle, &settings, true, &Silent)
+            .unwrap_or_else(|e| panic!("{e}"));
+        eprintln!(
+            "baked {name} (draft) in {:.1} s",
+            start.elapsed().as_secs_f64()
+        );
+    }
+    if with_materials && !up_to_date(&bundle, &scene, Stage::Materials, None) {
+        let settings = materials::MaterialsSettings::preset(Quality::Draft);
+        materials::bake(&scene, &bundle, &settings, true, &Silent)
+            .unwrap_or_else(|e| panic!("{e}"));
+    }
+    bundle
+}
