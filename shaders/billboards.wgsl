@@ -6,7 +6,8 @@
 //    tested; the nearest opaque texel wins (`bb_nearest`);
 // 2. a diffuse billboard gives its texel; a reflective one (per-texel normals) gives its texel
 //    plus ks × what the tertiary ray, reflected about the texel's normal, finds among the
-//    diffuse billboards made for that object, else its environment (second order);
+//    diffuse billboards made for that object, else its environment (second order); the
+//    tertiary ray leaves from the captured surface (the texel's stored offset from the plane);
 // 3. no hit: the environment map EM(r) of the group, when there is one;
 // §3.2: a billboard connected to the environment has transition walls of height H on its
 // edges; a ray hitting one at height h reads EM along the blend of r_a (from E to the hit)
@@ -207,8 +208,15 @@ fn bb_trace(g: u32, o: vec3<f32>, d: vec3<f32>, t_max: f32) -> BbResult {
         return res;
     }
     // Second order: the tertiary ray from the reflective billboard's texel normal.
-    let n = bb_normals[b.info.z + (hit.texel - b.info.y)].xyz;
-    let p = o + d * hit.t;
+    let nw = bb_normals[b.info.z + (hit.texel - b.info.y)];
+    let n = nw.xyz;
+    // Leave from the captured surface: back along the ray to the texel's offset from the plane.
+    let dn = dot(d, cross(b.right.xyz, b.up.xyz));
+    var back = 0.0;
+    if abs(dn) > 1e-6 {
+        back = nw.w / dn;
+    }
+    let p = o + d * (hit.t + back);
     var d2 = d - 2.0 * dot(d, n) * n;
     if length(d2) > 0.0 {
         d2 = normalize(d2);

@@ -75,7 +75,8 @@ pub struct BillboardTables {
     pub groups: Vec<GpuGroup>,
     /// Colour (rgb) and alpha per texel, row 0 at the top.
     pub texels: Vec<[f32; 4]>,
-    /// Unit normal (xyz) per texel of reflective billboards.
+    /// Per texel of reflective billboards: unit normal (xyz) and the captured surface's
+    /// offset from the billboard's plane along its normal (w).
     pub normals: Vec<[f32; 4]>,
     /// Environment cube maps, faces in [`crate::bake::materials::envmap::FACE_NAMES`] order,
     /// rgb per texel.
@@ -99,8 +100,9 @@ pub struct Billboard {
     pub resolution: u32,
     /// Colour and alpha per texel (w², row 0 at the top).
     pub colour: Vec<[f32; 4]>,
-    /// Per-texel normals of a reflective billboard, with its ks and tertiary group.
-    pub reflective: Option<(Vec<Vec3>, Vec3, usize)>,
+    /// Per-texel normals of a reflective billboard (xyz; w: the surface's offset from the
+    /// plane along its normal), with its ks and tertiary group.
+    pub reflective: Option<(Vec<glam::Vec4>, Vec3, usize)>,
     /// Transition wall height H (§3.2), 0 when not connected to the environment.
     pub wall: f32,
 }
@@ -118,7 +120,7 @@ impl BillboardTables {
                     Some((n, ks, g)) => {
                         assert_eq!(n.len(), (w * w) as usize, "normals are w² texels");
                         let first = t.normals.len() as u32;
-                        t.normals.extend(n.iter().map(|v| v.extend(0.0).to_array()));
+                        t.normals.extend(n.iter().map(|v| v.to_array()));
                         (first, *ks, *g as u32)
                     }
                     None => (NONE, Vec3::ZERO, NONE),
@@ -326,8 +328,14 @@ impl BillboardTables {
         }
         // Second order: the tertiary ray from the reflective billboard's texel.
         let local = hit.texel - b.info[1];
-        let n = v3(self.normals[(b.info[2] + local) as usize]);
-        let p = o + d * hit.t;
+        let nw = self.normals[(b.info[2] + local) as usize];
+        let n = v3(nw);
+        // The tertiary ray leaves from the captured surface, not the plane: back along the
+        // ray to the texel's offset w from the plane (0 for a flat object).
+        let np = v3(b.right).cross(v3(b.up));
+        let dn = d.dot(np);
+        let back = if dn.abs() > 1e-6 { nw[3] / dn } else { 0.0 };
+        let p = o + d * (hit.t + back);
         let d2 = (d - 2.0 * d.dot(n) * n).normalize_or_zero();
         let g2 = b.info[3] as usize;
         let second = match self.nearest(g2, p, d2, t_max, true) {
@@ -374,7 +382,7 @@ pub fn capture(
     resolution: u32,
     colour: &ColourSource,
     normals: bool,
-) -> (Billboard, Option<Vec<Vec3>>) {
+) -> (Billboard, Option<Vec<glam::Vec4>>) {
     let tris: Vec<Triangle> = ids.iter().map(|&t| scene.triangles[t as usize]).collect();
     let b = centroid(&tris);
     let radius = tris
@@ -394,7 +402,7 @@ pub fn capture(
     let bvh = Bvh::build(&tris);
     let w = resolution as usize;
     let mut col = vec![[0.0f32; 4]; w * w];
-    let mut nrm = vec![Vec3::ZERO; w * w];
+    let mut nrm = vec![glam::Vec4::ZERO; w * w];
     for y in 0..w {
         for x in 0..w {
             let u = ((x as f32 + 0.5) / w as f32) * 2.0 - 1.0;
@@ -412,7 +420,8 @@ pub fn capture(
                 if n.dot(dir) > 0.0 {
                     n = -n;
                 }
-                nrm[y * w + x] = n;
+                let offset = (eye + dir * hit.t - b).dot(axis);
+                nrm[y * w + x] = n.extend(offset);
             }
         }
     }
