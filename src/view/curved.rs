@@ -443,8 +443,10 @@ mod tests {
     fn modes_parse_and_cycle() {
         assert_eq!("cubemap".parse(), Ok(CurvedMode::Cubemap));
         assert_eq!("off".parse(), Ok(CurvedMode::Off));
-        assert!("impostor".parse::<CurvedMode>().is_err());
-        assert_eq!(CurvedMode::Off.next().next(), CurvedMode::Off);
+        assert_eq!("impostor".parse(), Ok(CurvedMode::Impostor));
+        assert!("billboard".parse::<CurvedMode>().is_err());
+        assert_eq!(CurvedMode::Off.next().next().next(), CurvedMode::Off);
+        assert_eq!(CurvedMode::Impostor.to_string(), "impostor");
         assert_eq!(CurvedMode::Cubemap.to_string(), "cubemap");
     }
 }

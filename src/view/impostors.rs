@@ -960,3 +960,17 @@ impl ImpostorReflections {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn kinds_parse_and_print() {
+        assert_eq!("srdm".parse(), Ok(ImpostorKind::Srdm));
+        assert_eq!("billboard".parse(), Ok(ImpostorKind::Billboard));
+        assert!("depth".parse::<ImpostorKind>().is_err());
+        assert_eq!(ImpostorKind::Billboard.to_string(), "billboard");
+        assert_eq!(ImpostorSettings::default().reflectors, ReflectorSet::All);
+    }
+}
