@@ -436,7 +436,11 @@ fn main() {
             "{:<34} {:>3} {:>10.2} {:>8.2} {:>12.4} {:>12.4} {:>13.3}",
             r.label,
             r.billboards.map_or("-".to_string(), |n| n.to_string()),
-            r.frame_ms, r.best_ms, r.mirror_rmse, r.bunny_rmse, r.bunny_rel
+            r.frame_ms,
+            r.best_ms,
+            r.mirror_rmse,
+            r.bunny_rmse,
+            r.bunny_rel
         );
     }
 }

@@ -39,7 +39,14 @@ fn gpu() -> Gpu {
     Gpu::headless().unwrap_or_else(|e| panic!("{e}"))
 }
 
-fn bb(centre: Vec3, right: Vec3, up: Vec3, half: f32, w: u32, f: impl Fn(u32, u32) -> [f32; 4]) -> Billboard {
+fn bb(
+    centre: Vec3,
+    right: Vec3,
+    up: Vec3,
+    half: f32,
+    w: u32,
+    f: impl Fn(u32, u32) -> [f32; 4],
+) -> Billboard {
     Billboard {
         impostor: 0,
         centre,
@@ -55,7 +62,9 @@ fn bb(centre: Vec3, right: Vec3, up: Vec3, half: f32, w: u32, f: impl Fn(u32, u3
 
 /// A smooth environment: colour from direction.
 fn env_map(size: usize) -> CubeMap {
-    CubeMap::from_fn(size, |d| Vec3::new(0.5 + 0.5 * d.x, 0.5 + 0.5 * d.y, 0.5 + 0.5 * d.z))
+    CubeMap::from_fn(size, |d| {
+        Vec3::new(0.5 + 0.5 * d.x, 0.5 + 0.5 * d.y, 0.5 + 0.5 * d.z)
+    })
 }
 
 /// Two groups: group 0 (a reflector's) with three diffuse billboards (alpha holes, one tilted)
@@ -67,21 +76,56 @@ fn tables() -> BillboardTables {
         let a = if (x / 3 + y / 3) % 2 == 0 { 1.0 } else { 0.0 };
         [x as f32 / 16.0, y as f32 / 16.0, 0.3, a]
     };
-    let a = bb(Vec3::new(0.0, 0.0, -3.0), Vec3::X, Vec3::Y, 1.0, 16, checker);
+    let a = bb(
+        Vec3::new(0.0, 0.0, -3.0),
+        Vec3::X,
+        Vec3::Y,
+        1.0,
+        16,
+        checker,
+    );
     let b = bb(
         Vec3::new(0.8, 0.3, -5.0),
         Vec3::new(1.0, 0.0, 0.4),
         Vec3::Y,
         1.5,
         12,
-        |x, y| [0.9, x as f32 / 12.0, y as f32 / 12.0, if x + y > 4 { 1.0 } else { 0.2 }],
+        |x, y| {
+            [
+                0.9,
+                x as f32 / 12.0,
+                y as f32 / 12.0,
+                if x + y > 4 { 1.0 } else { 0.2 },
+            ]
+        },
     );
-    let c = bb(Vec3::new(-1.5, -0.5, -4.0), Vec3::new(0.7, 0.2, 0.3), Vec3::new(-0.1, 1.0, 0.2), 0.8, 8, |x, _| {
-        [0.2, 0.8, x as f32 / 8.0, 1.0]
-    });
-    let mut m = bb(Vec3::new(1.8, -1.2, -2.5), Vec3::new(0.0, 0.0, 1.0), Vec3::Y, 0.7, 16, |x, y| {
-        [0.1, 0.1, 0.1, if (x as i32 - 8).pow(2) + (y as i32 - 8).pow(2) < 56 { 1.0 } else { 0.0 }]
-    });
+    let c = bb(
+        Vec3::new(-1.5, -0.5, -4.0),
+        Vec3::new(0.7, 0.2, 0.3),
+        Vec3::new(-0.1, 1.0, 0.2),
+        0.8,
+        8,
+        |x, _| [0.2, 0.8, x as f32 / 8.0, 1.0],
+    );
+    let mut m = bb(
+        Vec3::new(1.8, -1.2, -2.5),
+        Vec3::new(0.0, 0.0, 1.0),
+        Vec3::Y,
+        0.7,
+        16,
+        |x, y| {
+            [
+                0.1,
+                0.1,
+                0.1,
+                if (x as i32 - 8).pow(2) + (y as i32 - 8).pow(2) < 56 {
+                    1.0
+                } else {
+                    0.0
+                },
+            ]
+        },
+    );
     // A convex mirror: normals tilting away from the centre.
     let normals = (0..16 * 16)
         .map(|i| {
@@ -92,12 +136,22 @@ fn tables() -> BillboardTables {
         })
         .collect();
     m.reflective = Some((normals, Vec3::splat(0.8), 1));
-    let d = bb(Vec3::new(4.0, -1.0, -1.0), Vec3::new(0.0, 0.0, 1.0), Vec3::Y, 1.2, 10, |x, y| {
-        [x as f32 / 10.0, 0.5, y as f32 / 10.0, 1.0]
-    });
-    let mut floor = bb(Vec3::new(0.0, -2.0, -2.0), Vec3::X, -Vec3::Z, 2.0, 32, |x, y| {
-        [0.4 + 0.01 * x as f32, 0.4, 0.4 + 0.01 * y as f32, 1.0]
-    });
+    let d = bb(
+        Vec3::new(4.0, -1.0, -1.0),
+        Vec3::new(0.0, 0.0, 1.0),
+        Vec3::Y,
+        1.2,
+        10,
+        |x, y| [x as f32 / 10.0, 0.5, y as f32 / 10.0, 1.0],
+    );
+    let mut floor = bb(
+        Vec3::new(0.0, -2.0, -2.0),
+        Vec3::X,
+        -Vec3::Z,
+        2.0,
+        32,
+        |x, y| [0.4 + 0.01 * x as f32, 0.4, 0.4 + 0.01 * y as f32, 1.0],
+    );
     floor.wall = 0.5;
     BillboardTables::pack(&[
         (vec![a, b, c, m], Some((&env, Vec3::ZERO))),
@@ -120,7 +174,11 @@ fn wgsl_billboard_trace_agrees_with_the_cpu() {
     let probe = BillboardProbe::new(&gpu, &t).unwrap_or_else(|e| panic!("{e}"));
     let mut rays = Vec::new();
     for g in 0..2u32 {
-        for origin in [Vec3::ZERO, Vec3::new(0.3, 0.2, 0.5), Vec3::new(1.0, -1.5, -1.0)] {
+        for origin in [
+            Vec3::ZERO,
+            Vec3::new(0.3, 0.2, 0.5),
+            Vec3::new(1.0, -1.5, -1.0),
+        ] {
             for iy in 0..48 {
                 for ix in 0..48 {
                     let u = ix as f32 / 47.0 * 2.0 - 1.0;
@@ -135,7 +193,9 @@ fn wgsl_billboard_trace_agrees_with_the_cpu() {
         .iter()
         .map(|(g, o, d)| BillboardRay::new(*o, *d, 1e6, *g))
         .collect();
-    let hits = probe.trace(&gpu, &gpu_rays).unwrap_or_else(|e| panic!("{e}"));
+    let hits = probe
+        .trace(&gpu, &gpu_rays)
+        .unwrap_or_else(|e| panic!("{e}"));
     let (mut mismatch, mut kinds) = (0usize, [0usize; 5]);
     let (mut worst_c, mut worst_t) = (0.0f32, 0.0f32);
     for ((g, o, d), h) in rays.iter().zip(&hits) {
@@ -170,12 +230,41 @@ fn second_order_reflection_lands_where_geometry_predicts() {
     // a tilted mirror C; a diffuse target B with a texel-position colour. A ray from the
     // origin reflects off A and must hit B at the analytic point.
     let w = 32u32;
-    let mut a = bb(Vec3::new(0.0, 0.0, -2.0), Vec3::X, Vec3::Y, 1.0, w, |_, _| [0.0, 0.0, 0.0, 1.0]);
-    a.reflective = Some((vec![Vec3::Z.extend(0.0); (w * w) as usize], Vec3::splat(0.5), 1));
-    let mut c = bb(Vec3::new(-3.0, 0.0, -2.0), Vec3::X, Vec3::Y, 1.0, w, |_, _| [0.0, 0.0, 0.0, 1.0]);
-    c.reflective = Some((vec![Vec3::new(0.3, 0.0, 1.0).normalize().extend(0.0); (w * w) as usize], Vec3::splat(0.5), 1));
+    let mut a = bb(
+        Vec3::new(0.0, 0.0, -2.0),
+        Vec3::X,
+        Vec3::Y,
+        1.0,
+        w,
+        |_, _| [0.0, 0.0, 0.0, 1.0],
+    );
+    a.reflective = Some((
+        vec![Vec3::Z.extend(0.0); (w * w) as usize],
+        Vec3::splat(0.5),
+        1,
+    ));
+    let mut c = bb(
+        Vec3::new(-3.0, 0.0, -2.0),
+        Vec3::X,
+        Vec3::Y,
+        1.0,
+        w,
+        |_, _| [0.0, 0.0, 0.0, 1.0],
+    );
+    c.reflective = Some((
+        vec![Vec3::new(0.3, 0.0, 1.0).normalize().extend(0.0); (w * w) as usize],
+        Vec3::splat(0.5),
+        1,
+    ));
     let target = |x: u32, y: u32| [x as f32 / 64.0, y as f32 / 64.0, 1.0, 1.0];
-    let b = bb(Vec3::new(1.05, 0.0, -0.5), Vec3::X, Vec3::Y, 0.4, 64, target);
+    let b = bb(
+        Vec3::new(1.05, 0.0, -0.5),
+        Vec3::X,
+        Vec3::Y,
+        0.4,
+        64,
+        target,
+    );
     let t = BillboardTables::pack(&[(vec![a, c], None), (vec![b], None)]);
     let gpu = gpu();
     let probe = BillboardProbe::new(&gpu, &t).unwrap();
@@ -209,7 +298,10 @@ fn second_order_reflection_lands_where_geometry_predicts() {
             Some(w) => {
                 seen += 1;
                 assert_eq!(h.kind[0], 2, "reflective billboard hit");
-                assert!((c - *w).abs().max_element() < 1.0 / 64.0 * 0.5 + 1e-4, "{c} vs {w}");
+                assert!(
+                    (c - *w).abs().max_element() < 1.0 / 64.0 * 0.5 + 1e-4,
+                    "{c} vs {w}"
+                );
             }
             None => assert!(c.max_element() < 1e-6, "nothing beyond the target: {c}"),
         }
@@ -223,7 +315,9 @@ fn the_billboard_to_environment_morph_is_continuous() {
     // the paper does ("the color texture of the billboard is stored in the environment map"):
     // each texel holds EM along E → texel centre. A sweep of rays from above the floor crosses
     // quad → transition wall → clear of the walls.
-    let env = CubeMap::from_fn(64, |d| Vec3::new(0.5 + 0.5 * d.x, 0.5 + 0.5 * d.y, 0.5 + 0.5 * d.z));
+    let env = CubeMap::from_fn(64, |d| {
+        Vec3::new(0.5 + 0.5 * d.x, 0.5 + 0.5 * d.y, 0.5 + 0.5 * d.z)
+    });
     let e = Vec3::new(0.0, -0.5, 0.0);
     let w = 64u32;
     let centre = Vec3::new(0.0, -1.0, 0.0);
@@ -233,7 +327,10 @@ fn the_billboard_to_environment_morph_is_continuous() {
             let u = (x as f32 + 0.5) / w as f32 * 2.0 - 1.0;
             let v = 1.0 - (y as f32 + 0.5) / w as f32 * 2.0;
             let p = centre + Vec3::X * u - Vec3::Z * v;
-            envt.env(0, (p - e).normalize()).unwrap().extend(1.0).to_array()
+            envt.env(0, (p - e).normalize())
+                .unwrap()
+                .extend(1.0)
+                .to_array()
         });
         f.wall = wall;
         f
@@ -260,8 +357,15 @@ fn the_billboard_to_environment_morph_is_continuous() {
     };
     let (m, p) = (sweep(&morph), sweep(&plain));
     let kinds: std::collections::BTreeSet<u32> = m.iter().map(|s| s.0).collect();
-    eprintln!("morph sweep kinds {kinds:?}: largest step {:.4} (no walls: {:.4})", jumps(&m), jumps(&p));
-    assert!(kinds.contains(&1) && kinds.contains(&4) && kinds.contains(&3), "{kinds:?}");
+    eprintln!(
+        "morph sweep kinds {kinds:?}: largest step {:.4} (no walls: {:.4})",
+        jumps(&m),
+        jumps(&p)
+    );
+    assert!(
+        kinds.contains(&1) && kinds.contains(&4) && kinds.contains(&3),
+        "{kinds:?}"
+    );
     // Continuous: no step larger than a few env/billboard texels' change.
     assert!(jumps(&m) < MORPH_STEP, "{}", jumps(&m));
     assert!(jumps(&p) > 2.0 * jumps(&m), "without walls the edge jumps");
@@ -312,7 +416,11 @@ fn uv_sphere(name: &'static str, material: usize, centre: Vec3) -> MeshSpec {
         let theta = std::f32::consts::PI * i as f32 / rings as f32;
         for j in 0..segments {
             let phi = 2.0 * std::f32::consts::PI * j as f32 / segments as f32;
-            let d = Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin());
+            let d = Vec3::new(
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            );
             positions.push((centre + d * RADIUS).to_array());
         }
     }
@@ -330,7 +438,12 @@ fn uv_sphere(name: &'static str, material: usize, centre: Vec3) -> MeshSpec {
             }
         }
     }
-    MeshSpec { name, material, positions, indices }
+    MeshSpec {
+        name,
+        material,
+        positions,
+        indices,
+    }
 }
 
 fn cube(name: &'static str, material: usize, c: Vec3, h: f32) -> MeshSpec {
@@ -341,7 +454,14 @@ fn cube(name: &'static str, material: usize, c: Vec3, h: f32) -> MeshSpec {
         })
         .collect();
     // Two triangles per face, wound counter-clockwise seen from outside.
-    let faces = [[0, 2, 6, 4], [1, 5, 7, 3], [0, 4, 5, 1], [2, 3, 7, 6], [0, 1, 3, 2], [4, 6, 7, 5]];
+    let faces = [
+        [0, 2, 6, 4],
+        [1, 5, 7, 3],
+        [0, 4, 5, 1],
+        [2, 3, 7, 6],
+        [0, 1, 3, 2],
+        [4, 6, 7, 5],
+    ];
     let mut indices = Vec::new();
     for f in faces {
         for t in [[f[0], f[1], f[2]], [f[0], f[2], f[3]]] {
@@ -354,7 +474,12 @@ fn cube(name: &'static str, material: usize, c: Vec3, h: f32) -> MeshSpec {
             }
         }
     }
-    MeshSpec { name, material, positions, indices }
+    MeshSpec {
+        name,
+        material,
+        positions,
+        indices,
+    }
 }
 
 fn box_scene(root: &Path) -> (Scene, std::path::PathBuf) {
@@ -451,12 +576,19 @@ fn curved_impostor_switch_reflects_billboards_headless() {
     // The SRDM kind needs the srdm stage: the switch reports it rather than drawing nothing.
     let mut o = Offscreen::new(&gpu, &data, SIZE.0, SIZE.1, true).unwrap();
     o.impostor_kind = ImpostorKind::Srdm;
-    assert!(o.set_curved(&gpu, &data, CurvedMode::Impostor, CurvedSettings::default()).is_err());
+    assert!(
+        o.set_curved(&gpu, &data, CurvedMode::Impostor, CurvedSettings::default())
+            .is_err()
+    );
 
     // Prediction by ray casting the real triangles.
     let bvh = Bvh::build(&scene.triangles);
     let of = |name: &str| -> std::collections::HashSet<u32> {
-        let o = scene.objects.iter().position(|o| o.mesh_name == name).unwrap();
+        let o = scene
+            .objects
+            .iter()
+            .position(|o| o.mesh_name == name)
+            .unwrap();
         scene.objects[o].triangles.clone().collect()
     };
     let (sa, sb, block) = (of("SphereA"), of("SphereB"), of("Block"));
@@ -466,14 +598,18 @@ fn curved_impostor_switch_reflects_billboards_headless() {
     let mut second = vec![false; (w * h) as usize];
     for i in 0..w * h {
         let d = camera.ray_direction(Camera::pixel_ndc(i % w, i / w, w, h), aspect);
-        let Some(hit) = bvh.closest_hit(camera.position, d, f32::INFINITY) else { continue };
+        let Some(hit) = bvh.closest_hit(camera.position, d, f32::INFINITY) else {
+            continue;
+        };
         if !sa.contains(&hit.triangle) {
             continue;
         }
         let p = camera.position + d * hit.t;
         let n = (p - Vec3::new(-SPHERE_X, 0.0, 0.0)).normalize();
         let r = d - 2.0 * d.dot(n) * n;
-        let Some(h2) = bvh.closest_hit(p + r * 1e-4, r, f32::INFINITY) else { continue };
+        let Some(h2) = bvh.closest_hit(p + r * 1e-4, r, f32::INFINITY) else {
+            continue;
+        };
         if block.contains(&h2.triangle) {
             first[i as usize] = true;
         } else if sb.contains(&h2.triangle) {

@@ -138,7 +138,8 @@ impl BillboardTables {
                 Some((map, e)) => {
                     let first = t.env.len() as u32;
                     for f in 0..6 {
-                        t.env.extend(map.face(f).iter().map(|c| c.extend(1.0).to_array()));
+                        t.env
+                            .extend(map.face(f).iter().map(|c| c.extend(1.0).to_array()));
                     }
                     (first, map.size as u32, *e)
                 }
@@ -159,8 +160,12 @@ impl BillboardTables {
             return None;
         }
         let (face, s, t) = locate(d);
-        let x = ((s * 0.5 + 0.5) * size as f32).floor().clamp(0.0, size as f32 - 1.0) as u32;
-        let y = ((t * 0.5 + 0.5) * size as f32).floor().clamp(0.0, size as f32 - 1.0) as u32;
+        let x = ((s * 0.5 + 0.5) * size as f32)
+            .floor()
+            .clamp(0.0, size as f32 - 1.0) as u32;
+        let y = ((t * 0.5 + 0.5) * size as f32)
+            .floor()
+            .clamp(0.0, size as f32 - 1.0) as u32;
         let i = first + (face as u32 * size + y) * size + x;
         Some(Vec3::from_slice(&self.env[i as usize][..3]))
     }
@@ -228,8 +233,12 @@ impl BillboardTables {
                     let (x, y) = (p.dot(r) / s, p.dot(u) / s);
                     if x.abs() <= 1.0 && y.abs() <= 1.0 {
                         let w = b.info[0];
-                        let tx = ((x * 0.5 + 0.5) * w as f32).floor().clamp(0.0, w as f32 - 1.0);
-                        let ty = ((0.5 - y * 0.5) * w as f32).floor().clamp(0.0, w as f32 - 1.0);
+                        let tx = ((x * 0.5 + 0.5) * w as f32)
+                            .floor()
+                            .clamp(0.0, w as f32 - 1.0);
+                        let ty = ((0.5 - y * 0.5) * w as f32)
+                            .floor()
+                            .clamp(0.0, w as f32 - 1.0);
                         let texel = b.info[1] + ty as u32 * w + tx as u32;
                         if self.texels[texel as usize][3] >= ALPHA_CUTOFF {
                             best_t = t;
@@ -441,6 +450,31 @@ pub fn capture(
     )
 }
 
+/// Where the billboard of an object at `b` looks for a planar reflector with normal `n` and
+/// centroid `towards`. §3's line from B to the reflector's centroid is nearly along the normal
+/// for an object standing on a mirror (bunny-mirror's bunny sits over the floor's centre),
+/// which lays the billboard flat, seen from under the floor, while the floor's reflected
+/// rays meet the object from the side. So the line is projected into the reflector's plane;
+/// when that leaves nothing, the direction to the scene's first camera keyframe (projected
+/// likewise, as the SRDM bake's first view), else +Z.
+pub fn planar_target(b: Vec3, towards: Vec3, n: Vec3, camera: Option<Vec3>) -> Vec3 {
+    let flat = |v: Vec3| v - n * v.dot(n);
+    let candidates = [
+        Some(towards - b),
+        camera.map(|c| c - b),
+        Some(Vec3::Z),
+        Some(Vec3::X),
+    ];
+    for v in candidates.into_iter().flatten() {
+        let v = v.normalize_or_zero();
+        let f = flat(v);
+        if f.length() > 0.2 {
+            return b + f.normalize();
+        }
+    }
+    b + Vec3::Z
+}
+
 /// The billboards of every impostor object for every reflector in `reflectors` (groups in
 /// reflector order), with each reflector's environment map from `env` (by index, with its
 /// centre). An impostor object that is itself one of `reflectors` (shares a triangle) gets a
@@ -479,13 +513,28 @@ pub fn build(
             .collect();
         let towards = centroid(&rtris);
         let mut bbs = Vec::new();
+        let first_camera = scene
+            .desc
+            .camera_paths
+            .first()
+            .and_then(|p| p.keyframes.first())
+            .map(|k| Vec3::from(k.position));
         for (k, ids) in objects.iter().enumerate() {
             if ids.is_empty() || as_reflector[k].is_some_and(|(jj, _)| jj == j) {
                 continue;
             }
             let reflective = as_reflector[k];
+            let target = match r.normal {
+                Some(n) => {
+                    let tris: Vec<Triangle> =
+                        ids.iter().map(|&t| scene.triangles[t as usize]).collect();
+                    let b = centroid(&tris);
+                    planar_target(b, towards, n, first_camera)
+                }
+                None => towards,
+            };
             let (mut bb, normals) =
-                capture(scene, ids, towards, resolution, colour, reflective.is_some());
+                capture(scene, ids, target, resolution, colour, reflective.is_some());
             bb.impostor = k;
             if let (Some((jj, ks)), Some(n)) = (reflective, normals) {
                 bb.reflective = Some((n, ks, jj));
@@ -531,8 +580,19 @@ mod tests {
         // Beside the near one, through the far one's transparent texel (1, 1): nothing.
         let s = t.trace(0, Vec3::new(-0.3, 0.3, 0.0), -Vec3::Z, 1e6);
         assert_eq!(s.kind, 1, "{s:?}");
-        let t2 = BillboardTables::pack(&[(vec![square(Vec3::new(0.0, 0.0, -3.0), [0.0; 4], 4)], None)]);
+        let t2 =
+            BillboardTables::pack(&[(vec![square(Vec3::new(0.0, 0.0, -3.0), [0.0; 4], 4)], None)]);
         assert_eq!(t2.trace(0, Vec3::ZERO, -Vec3::Z, 1e6).kind, 0);
+    }
+
+    #[test]
+    fn planar_reflectors_get_upright_billboards() {
+        // An object right above the floor's centroid: the camera's side.
+        let t = planar_target(Vec3::Y, Vec3::ZERO, Vec3::Y, Some(Vec3::new(0.0, 2.0, 3.0)));
+        assert!((t - Vec3::new(0.0, 1.0, 1.0)).length() < 1e-6, "{t}");
+        // Off-centre: the projected line to the centroid.
+        let t = planar_target(Vec3::new(2.0, 1.0, 0.0), Vec3::ZERO, Vec3::Y, None);
+        assert!((t - Vec3::new(1.0, 1.0, 0.0)).length() < 1e-6, "{t}");
     }
 
     #[test]

@@ -22,6 +22,7 @@
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
+use super::billboard_tables::{self, BillboardTables};
 use super::gpu::{Gpu, GpuError, error_scoped, read_buffer};
 use super::impostor_tables::{
     ImpostorParams, ImpostorReflector, SrdmTables, ViewSource, impostor_reflectors,
@@ -32,7 +33,6 @@ use super::renderer::{
     HDR_FORMAT, Renderer, SHADER_SOURCE, SceneMesh, Vertex, frame_bind_group,
     frame_bind_group_layout, reverse_z_depth,
 };
-use super::billboard_tables::{self, BillboardTables};
 use crate::bake::srdm_stage;
 use crate::camera::Camera;
 
@@ -378,11 +378,31 @@ impl BillboardBuffers {
                 entries: &(0..5).map(|b| storage_entry(b, true)).collect::<Vec<_>>(),
             });
             let buffers = vec![
-                storage_buffer(gpu, "glint billboards", bytemuck::cast_slice(&tables.billboards)),
-                storage_buffer(gpu, "glint billboard groups", bytemuck::cast_slice(&tables.groups)),
-                storage_buffer(gpu, "glint billboard texels", bytemuck::cast_slice(&tables.texels)),
-                storage_buffer(gpu, "glint billboard normals", bytemuck::cast_slice(&tables.normals)),
-                storage_buffer(gpu, "glint billboard env", bytemuck::cast_slice(&tables.env)),
+                storage_buffer(
+                    gpu,
+                    "glint billboards",
+                    bytemuck::cast_slice(&tables.billboards),
+                ),
+                storage_buffer(
+                    gpu,
+                    "glint billboard groups",
+                    bytemuck::cast_slice(&tables.groups),
+                ),
+                storage_buffer(
+                    gpu,
+                    "glint billboard texels",
+                    bytemuck::cast_slice(&tables.texels),
+                ),
+                storage_buffer(
+                    gpu,
+                    "glint billboard normals",
+                    bytemuck::cast_slice(&tables.normals),
+                ),
+                storage_buffer(
+                    gpu,
+                    "glint billboard env",
+                    bytemuck::cast_slice(&tables.env),
+                ),
             ];
             let entries: Vec<wgpu::BindGroupEntry> = buffers
                 .iter()
@@ -498,7 +518,11 @@ impl BillboardProbe {
         }
         let device = &gpu.device;
         let out = error_scoped(device, "tracing rays through the billboards", || {
-            let input = storage_buffer(gpu, "glint billboard probe rays", bytemuck::cast_slice(rays));
+            let input = storage_buffer(
+                gpu,
+                "glint billboard probe rays",
+                bytemuck::cast_slice(rays),
+            );
             let out = device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("glint billboard probe hits"),
                 size: (rays.len() * std::mem::size_of::<BillboardProbeHit>()) as u64,
@@ -578,9 +602,10 @@ pub fn build_billboards(
             .iter()
             .map(|&t| data.scene.triangles[t as usize])
             .collect();
-        env.push(map.and_then(|p| p.levels.into_iter().next()).map(|m| {
-            (m, billboard_tables::centroid(&tris))
-        }));
+        env.push(
+            map.and_then(|p| p.levels.into_iter().next())
+                .map(|m| (m, billboard_tables::centroid(&tris))),
+        );
     }
     let w = if resolution == 0 {
         billboard_tables::DEFAULT_RESOLUTION
@@ -672,7 +697,15 @@ impl ImpostorReflections {
             kind: ImpostorKind::Billboard,
             ..settings
         };
-        Self::build(gpu, renderer, data, SrdmBuffers::new(gpu, &SrdmTables::default())?, Some(bb), reflectors, settings)
+        Self::build(
+            gpu,
+            renderer,
+            data,
+            SrdmBuffers::new(gpu, &SrdmTables::default())?,
+            Some(bb),
+            reflectors,
+            settings,
+        )
     }
 
     /// The pass over given tables and reflectors (benchmarks re-build the SRDM with other m

@@ -320,12 +320,24 @@ fn impostor_passes(
     kind: ImpostorKind,
 ) -> Result<(Option<ImpostorReflections>, Option<ImpostorReflections>), WindowError> {
     let a = if planar {
-        Some(impostor_pass(gpu, renderer, data, kind, ReflectorSet::Planar)?)
+        Some(impostor_pass(
+            gpu,
+            renderer,
+            data,
+            kind,
+            ReflectorSet::Planar,
+        )?)
     } else {
         None
     };
     let b = if curved == CurvedMode::Impostor {
-        Some(impostor_pass(gpu, renderer, data, kind, ReflectorSet::Curved)?)
+        Some(impostor_pass(
+            gpu,
+            renderer,
+            data,
+            kind,
+            ReflectorSet::Curved,
+        )?)
     } else {
         None
     };
