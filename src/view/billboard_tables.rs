@@ -454,14 +454,15 @@ pub fn capture(
 /// centroid `towards`. §3's line from B to the reflector's centroid is nearly along the normal
 /// for an object standing on a mirror (bunny-mirror's bunny sits over the floor's centre),
 /// which lays the billboard flat, seen from under the floor, while the floor's reflected
-/// rays meet the object from the side. So the line is projected into the reflector's plane;
-/// when that leaves nothing, the direction to the scene's first camera keyframe (projected
-/// likewise, as the SRDM bake's first view), else +Z.
+/// rays meet the object from the side, from the viewer's side of it. So the billboard stands
+/// upright in the reflector's frame, facing the scene's first camera keyframe (as the SRDM
+/// bake's first view), the direction projected into the reflector's plane; without a camera,
+/// the projected line to the centroid, else +Z.
 pub fn planar_target(b: Vec3, towards: Vec3, n: Vec3, camera: Option<Vec3>) -> Vec3 {
     let flat = |v: Vec3| v - n * v.dot(n);
     let candidates = [
-        Some(towards - b),
         camera.map(|c| c - b),
+        Some(towards - b),
         Some(Vec3::Z),
         Some(Vec3::X),
     ];
@@ -590,7 +591,7 @@ mod tests {
         // An object right above the floor's centroid: the camera's side.
         let t = planar_target(Vec3::Y, Vec3::ZERO, Vec3::Y, Some(Vec3::new(0.0, 2.0, 3.0)));
         assert!((t - Vec3::new(0.0, 1.0, 1.0)).length() < 1e-6, "{t}");
-        // Off-centre: the projected line to the centroid.
+        // Without a camera, off-centre: the projected line to the centroid.
         let t = planar_target(Vec3::new(2.0, 1.0, 0.0), Vec3::ZERO, Vec3::Y, None);
         assert!((t - Vec3::new(1.0, 1.0, 0.0)).length() < 1e-6, "{t}");
     }

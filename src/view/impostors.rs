@@ -592,8 +592,14 @@ pub fn build_billboards(
     reflectors: &[ImpostorReflector],
     resolution: u32,
 ) -> Result<BillboardTables, String> {
-    let colour = srdm_stage::colour_source(data.bundle.dir(), &data.scene)
-        .map_err(|e| format!("billboard colour: {e}"))?;
+    // D from the bundle the viewer opened (its scene stage and radiosity stage were checked
+    // together by `load`), as the SRDM stage's captures; the albedo without it.
+    let colour = match crate::radiosity::RadiosityMap::load(&data.bundle)
+        .map_err(|e| format!("billboard colour: {e}"))?
+    {
+        Some(map) => srdm_stage::ColourSource::Radiosity(Box::new(map)),
+        None => srdm_stage::ColourSource::Albedo,
+    };
     let mut env = Vec::new();
     for r in reflectors {
         let map = super::curved::gpu::load_baked_pyramid(data, &r.name)?;
