@@ -73,7 +73,11 @@ fn env_map(size: usize) -> CubeMap {
 fn tables() -> BillboardTables {
     let env = env_map(16);
     let checker = |x: u32, y: u32| {
-        let a = if (x / 3 + y / 3) % 2 == 0 { 1.0 } else { 0.0 };
+        let a = if (x / 3 + y / 3).is_multiple_of(2) {
+            1.0
+        } else {
+            0.0
+        };
         [x as f32 / 16.0, y as f32 / 16.0, 0.3, a]
     };
     let a = bb(
@@ -654,5 +658,6 @@ fn curved_impostor_switch_reflects_billboards_headless() {
     // holds the second-order path to the prediction.
 }
 
-/// Luminance increase counted as a reflection of the block (albedo colour 0.9 × ks 0.9).
+/// Luminance increase counted as a reflection of the block (its D × ks 0.9; the walls glow
+/// 0.05–0.3 and light it).
 const BRIGHTER: f32 = 0.02;

@@ -83,6 +83,10 @@ pub struct BillboardTables {
     pub env: Vec<[f32; 4]>,
 }
 
+/// One group to pack: the billboards made for a reflector, and its environment map with the
+/// map's centre E.
+pub type Group<'a> = (Vec<Billboard>, Option<(&'a CubeMap, Vec3)>);
+
 /// One billboard before packing.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Billboard {
@@ -109,7 +113,7 @@ pub struct Billboard {
 
 impl BillboardTables {
     /// Packs `groups[g]` = (billboards made for reflector g, its environment map and centre).
-    pub fn pack(groups: &[(Vec<Billboard>, Option<(&CubeMap, Vec3)>)]) -> BillboardTables {
+    pub fn pack(groups: &[Group<'_>]) -> BillboardTables {
         let mut t = BillboardTables::default();
         for (bbs, env) in groups {
             let first = t.billboards.len() as u32;
@@ -544,7 +548,7 @@ pub fn build(
         }
         groups.push((bbs, env.get(j).and_then(|e| e.as_ref())));
     }
-    let refs: Vec<(Vec<Billboard>, Option<(&CubeMap, Vec3)>)> = groups
+    let refs: Vec<Group<'_>> = groups
         .into_iter()
         .map(|(b, e)| (b, e.map(|(m, c)| (m, *c))))
         .collect();

@@ -647,10 +647,11 @@ pub struct ImpostorReflections {
 }
 
 impl ImpostorReflections {
-    /// The pass for `renderer` drawing `data`, with the bundle's `srdm` stage and every glossy
-    /// reflector of the scene (R from the materials stage where baked). Errors when the
-    /// bundle has no `srdm` stage but the scene declares impostors; a scene without impostors
-    /// gets a pass that draws nothing.
+    /// The pass for `renderer` drawing `data` over the glossy reflectors `settings.reflectors`
+    /// selects (R from the materials stage where baked). Depth maps: the bundle's `srdm`
+    /// stage; errors when it is missing but the scene declares impostors (a scene without
+    /// impostors gets a pass that draws nothing). Billboards: made here from the scene and D
+    /// (§3), with each reflector's baked environment map for misses.
     pub fn new(
         gpu: &Gpu,
         renderer: &Renderer,
