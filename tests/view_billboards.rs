@@ -10,7 +10,8 @@
 //!    same sweep jumps).
 //! 4. `--curved impostor --impostor-kind billboard` headless on a box with two mirror spheres,
 //!    one of them also an impostor (a reflective billboard), and a white block: the block
-//!    appears on sphere A where CPU ray casting of the real geometry predicts.
+//!    appears on sphere A where CPU ray casting of the real geometry predicts; and the same
+//!    switches through `glint-view --headless` (the srdm kind without the stage is refused).
 
 #![cfg(feature = "view")]
 
@@ -522,7 +523,10 @@ fn box_scene(root: &Path) -> (Scene, std::path::PathBuf) {
         root,
         r#"{ "version": 1, "geometry": "box.gltf",
             "reflectors": [ { "mesh": "SphereA", "kind": "curved" }, { "mesh": "SphereB", "kind": "curved" } ],
-            "impostors": [ { "mesh": "SphereB" }, { "mesh": "Block" } ] }"#,
+            "impostors": [ { "mesh": "SphereB" }, { "mesh": "Block" } ],
+            "camera_paths": [ { "name": "look", "fps": 30, "keyframes": [
+                { "time": 0.0, "position": [-0.3, 0.02, 0.9], "target": [-0.27, 0.0, 0.12], "fov_y_deg": 12.0 },
+                { "time": 0.1, "position": [-0.25, 0.02, 0.9], "target": [-0.27, 0.0, 0.12], "fov_y_deg": 12.0 } ] } ] }"#,
     );
     let scene = Scene::load(&scene_path).unwrap_or_else(|e| panic!("{e}"));
     let bundle = root.join("box.glint");
@@ -650,6 +654,32 @@ fn curved_impostor_switch_reflects_billboards_headless() {
     );
     assert!(n1 > 20 && n2 > 5, "the view shows both orders ({n1}, {n2})");
     assert!(iou_all >= MIN_IOU, "IoU {iou_all:.3}");
+    // The same switches on the command line, headless.
+    let out = dir.path().join("frames");
+    let run = |args: &[&str]| {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_glint-view"))
+            .arg(&bundle)
+            .args(["--headless", "--replay", "--size", "64x48", "--out"])
+            .arg(&out)
+            .args(args)
+            .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+            .output()
+            .unwrap();
+        (
+            o.status.success(),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        )
+    };
+    let (ok, err) = run(&["--curved", "impostor", "--impostor-kind", "billboard"]);
+    assert!(ok, "{err}");
+    assert!(out.join("frame_00000.png").is_file());
+    let (ok, err) = run(&["--curved", "impostor", "--impostor-kind", "srdm"]);
+    assert!(!ok && err.contains("srdm"), "{err}");
+    let (ok, err) = run(&["--curved", "billboard"]);
+    assert!(!ok && err.contains("cubemap, impostor, off"), "{err}");
+    let (ok, err) = run(&["--impostors", "on", "--impostor-kind", "billboard"]);
+    assert!(ok, "{err}");
+
     // Second order is not asserted here: measured 0 of 231 predicted pixels. The rays sphere
     // B sends towards the block are steep to the block's billboard, which stands 0.2–0.3 m
     // behind the block's near faces, so they pass above its cut-out (the billboard parallax
