@@ -9,6 +9,9 @@
 //! `FRAMES` times per configuration and prints a table. Errors are over two masks:
 //! `mirror` (every pixel whose view ray meets the mirror floor first) and `bunny` (the pixels
 //! whose mirrored ray then meets the bunny first, where impostor reflections are drawn).
+//! Billboard rows (§3, `--impostor-kind billboard`): the same view with one billboard per
+//! impostor object and reflector, against the billboard resolution (64, 128, 256) and the
+//! number of reflectors (1, 2, 4, 6: as many billboards); the column `bb` counts them.
 //! Environment variables: `GLINT_BENCH_FRAMES` (default 30), `GLINT_BENCH_SPP` (reference,
 //! default 16).
 
@@ -33,13 +36,14 @@ use glint::view::headless::Offscreen;
 use glint::view::impostor_tables::{
     ImpostorReflector, SrdmTables, ViewSource, impostor_reflectors,
 };
-use glint::view::impostors::{ImpostorReflections, ImpostorSettings};
+use glint::view::impostors::{ImpostorReflections, ImpostorSettings, build_billboards};
 use glint::view::load::{ViewData, load};
 use glint::view::reflections::{MODULATION_SIZE, ReflectionMode, reflectors_with_reflectance};
 
 const SIZE: (u32, u32) = (720, 486);
 const M_VALUES: [u32; 4] = [6, 8, 12, 16];
 const REFLECTOR_COUNTS: [usize; 4] = [1, 2, 4, 6];
+const BILLBOARD_RESOLUTIONS: [u32; 3] = [64, 128, 256];
 
 fn env_usize(name: &str, default: usize) -> usize {
     std::env::var(name)
@@ -168,6 +172,7 @@ fn masks(scene: &Scene, bvh: &Bvh) -> (Vec<bool>, Vec<bool>) {
 
 struct Row {
     label: String,
+    billboards: Option<usize>,
     frame_ms: f64,
     best_ms: f64,
     mirror_rmse: f64,
@@ -204,6 +209,7 @@ fn measure(
     let b = compare(&img, reference, Some(bunny)).unwrap();
     Row {
         label,
+        billboards: None,
         frame_ms: median(times),
         best_ms: best,
         mirror_rmse: m.rmse,
@@ -354,6 +360,59 @@ fn main() {
         ));
     }
 
+    // §3: billboards instead of depth maps.
+    for res in BILLBOARD_RESOLUTIONS {
+        let tables = build_billboards(&data, &reflectors, res).unwrap();
+        let count = tables.billboards.len();
+        let pass = ImpostorReflections::with_billboards(
+            &gpu,
+            &off.renderer,
+            &data,
+            &tables,
+            reflectors.clone(),
+            settings,
+        )
+        .unwrap();
+        off.set_impostor_pass(Some(pass));
+        let mut row = measure(
+            &gpu,
+            &off,
+            format!("billboards {res}², 1 reflector"),
+            frames,
+            &reference,
+            masks,
+        );
+        row.billboards = Some(count);
+        rows.push(row);
+    }
+    for k in REFLECTOR_COUNTS.iter().skip(1) {
+        let mut more = reflectors.clone();
+        more.extend(extra_mirrors(&data.scene).into_iter().take(k - 1));
+        let n = more.len();
+        let tables = build_billboards(&data, &more, 128).unwrap();
+        let count = tables.billboards.len();
+        let pass = ImpostorReflections::with_billboards(
+            &gpu,
+            &off.renderer,
+            &data,
+            &tables,
+            more,
+            settings,
+        )
+        .unwrap();
+        off.set_impostor_pass(Some(pass));
+        let mut row = measure(
+            &gpu,
+            &off,
+            format!("billboards 128², {n} reflectors"),
+            frames,
+            &reference,
+            masks,
+        );
+        row.billboards = Some(count);
+        rows.push(row);
+    }
+
     let (index, _) = srdm_stage::load(&data.bundle).unwrap().unwrap();
     println!(
         "\nbunny-mirror, front view, {}×{}, {} ({frames} frames, median); SRDM n = {}, w = {}; reference {spp} spp",
@@ -369,13 +428,19 @@ fn main() {
         bunny.iter().filter(|m| **m).count()
     );
     println!(
-        "{:<34} {:>10} {:>8} {:>12} {:>12} {:>13}",
-        "configuration", "median ms", "min ms", "mirror RMSE", "bunny RMSE", "bunny relRMSE"
+        "{:<34} {:>3} {:>10} {:>8} {:>12} {:>12} {:>13}",
+        "configuration", "bb", "median ms", "min ms", "mirror RMSE", "bunny RMSE", "bunny relRMSE"
     );
     for r in &rows {
         println!(
-            "{:<34} {:>10.2} {:>8.2} {:>12.4} {:>12.4} {:>13.3}",
-            r.label, r.frame_ms, r.best_ms, r.mirror_rmse, r.bunny_rmse, r.bunny_rel
+            "{:<34} {:>3} {:>10.2} {:>8.2} {:>12.4} {:>12.4} {:>13.3}",
+            r.label,
+            r.billboards.map_or("-".to_string(), |n| n.to_string()),
+            r.frame_ms,
+            r.best_ms,
+            r.mirror_rmse,
+            r.bunny_rmse,
+            r.bunny_rel
         );
     }
 }

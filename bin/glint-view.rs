@@ -18,7 +18,7 @@ use glint::view::window::{WindowOptions, run_window};
     version,
     about = "View a bundle's scene lit by its radiosity textures: a window with a fly camera, or a headless replay of a camera path to frames and timings",
     after_help = "Window keys: WASD + Q/E move (Shift: faster, mouse wheel: speed), drag with the left mouse button to look, \
-1-9 play camera path N, Space pause/resume, R start/stop recording a path, P screenshot, G reflections off/geometry/image, T reflectance sphere/1D map, I impostor reflections, C curved reflectors off/cubemap, [ ] recursion depth (geometry reflections), H help, Esc quit.\n\n\
+1-9 play camera path N, Space pause/resume, R start/stop recording a path, P screenshot, G reflections off/geometry/image, T reflectance sphere/1D map, I impostor reflections (planar), K impostors srdm/billboard, C curved reflectors off/cubemap/impostor, [ ] recursion depth (geometry reflections), H help, Esc quit.\n\n\
 Examples:\n  glint-view out/cornell-box.glint\n  glint-view out/cornell-box.glint --replay --headless --size 720x486 --out out/frames/cornell-box\n  glint-view out/breakfast-room.glint --replay walkthrough --headless --out out/frames/breakfast --every 10 --hdr"
 )]
 struct Args {
@@ -67,12 +67,18 @@ struct Args {
     /// `bastos` (F/(π cos²θ) as printed).
     #[arg(long, value_name = "CHANNEL", default_value = "albedo")]
     reflectance_channel: glint::view::reflections::ReflectanceChannel,
-    /// Reflections of impostors through their SRDM (Popescu §4.3; needs the srdm stage when
-    /// the scene has impostors): `on` or `off`.
+    /// Reflections of impostors in planar reflectors (Popescu §3–4): `on` or `off`. Curved
+    /// reflectors reflect impostors with `--curved impostor` instead.
     #[arg(long, value_name = "on|off", default_value = "off", value_parser = parse_on_off, action = clap::ArgAction::Set)]
     impostors: bool,
-    /// Curved reflectors: `cubemap` (a view-independent cube map per reflector, Nielsen §3.2)
-    /// or `off`.
+    /// What stands for impostor objects in reflections (`--impostors on`, `--curved
+    /// impostor`): `srdm` (depth maps through their SRDM rows, §4.3; needs the srdm stage) or
+    /// `billboard` (one billboard per object and reflector, §3, made at load time; misses
+    /// read the reflector's baked environment map when the materials stage has one).
+    #[arg(long, value_name = "KIND", default_value = "srdm")]
+    impostor_kind: glint::view::impostors::ImpostorKind,
+    /// Curved reflectors: `cubemap` (a view-independent cube map per reflector, Nielsen §3.2),
+    /// `impostor` (reflected rays against the impostors only, Popescu §3–4) or `off`.
     #[arg(long, value_name = "MODE", default_value = "off")]
     curved: glint::view::curved::CurvedMode,
     /// Curved reflectors: regular samples per pixel and lobe (Luksch §6–7; the pattern
@@ -174,6 +180,7 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                     channel: args.reflectance_channel,
                 },
                 impostors: args.impostors,
+                impostor_kind: args.impostor_kind,
                 curved: args.curved,
                 curved_settings: curved,
                 recursion,
@@ -213,6 +220,7 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                 channel: args.reflectance_channel,
             },
             impostors: args.impostors,
+            impostor_kind: args.impostor_kind,
             curved: args.curved,
             curved_settings: curved,
             recursion,

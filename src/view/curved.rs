@@ -63,14 +63,19 @@ pub enum CurvedMode {
     Off,
     /// View-independent cube maps per reflector (Nielsen §3.2).
     Cubemap,
+    /// The impostor pass (Popescu §3–4): reflected rays of curved reflectors against the
+    /// impostors (depth maps or billboards, `--impostor-kind`), misses reading the baked
+    /// environment map with billboards. The rest of the scene is not reflected.
+    Impostor,
 }
 
 impl CurvedMode {
-    /// The next mode in the window's cycle (off → cubemap → off).
+    /// The next mode in the window's cycle (off → cubemap → impostor → off).
     pub fn next(self) -> CurvedMode {
         match self {
             CurvedMode::Off => CurvedMode::Cubemap,
-            CurvedMode::Cubemap => CurvedMode::Off,
+            CurvedMode::Cubemap => CurvedMode::Impostor,
+            CurvedMode::Impostor => CurvedMode::Off,
         }
     }
 }
@@ -81,7 +86,8 @@ impl std::str::FromStr for CurvedMode {
         match s {
             "off" => Ok(CurvedMode::Off),
             "cubemap" => Ok(CurvedMode::Cubemap),
-            _ => Err(format!("{s:?} is not one of cubemap, off")),
+            "impostor" => Ok(CurvedMode::Impostor),
+            _ => Err(format!("{s:?} is not one of cubemap, impostor, off")),
         }
     }
 }
@@ -91,6 +97,7 @@ impl std::fmt::Display for CurvedMode {
         f.write_str(match self {
             CurvedMode::Off => "off",
             CurvedMode::Cubemap => "cubemap",
+            CurvedMode::Impostor => "impostor",
         })
     }
 }
@@ -436,8 +443,10 @@ mod tests {
     fn modes_parse_and_cycle() {
         assert_eq!("cubemap".parse(), Ok(CurvedMode::Cubemap));
         assert_eq!("off".parse(), Ok(CurvedMode::Off));
-        assert!("impostor".parse::<CurvedMode>().is_err());
-        assert_eq!(CurvedMode::Off.next().next(), CurvedMode::Off);
+        assert_eq!("impostor".parse(), Ok(CurvedMode::Impostor));
+        assert!("billboard".parse::<CurvedMode>().is_err());
+        assert_eq!(CurvedMode::Off.next().next().next(), CurvedMode::Off);
+        assert_eq!(CurvedMode::Impostor.to_string(), "impostor");
         assert_eq!(CurvedMode::Cubemap.to_string(), "cubemap");
     }
 }

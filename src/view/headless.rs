@@ -11,7 +11,7 @@ use glam::Vec3;
 use super::curved::gpu::CurvedReflections;
 use super::curved::{CurvedMode, CurvedSettings};
 use super::gpu::{Gpu, GpuError, read_texture, read_texture_rgba8};
-use super::impostors::{ImpostorReflections, ImpostorSettings};
+use super::impostors::{ImpostorKind, ImpostorReflections, ReflectorSet, impostor_pass};
 use super::load::{LoadError, ViewData, load};
 use super::radiance_maps::Selection;
 use super::reflections::{
@@ -99,8 +99,10 @@ pub struct ReplayOptions {
     pub map_count: usize,
     /// Reflections: where R is read from (sphere or 1D map) and which channel.
     pub reflectance: ReflectanceSettings,
-    /// Reflections of depth-map impostors through their SRDM (Popescu §4.3; `--impostors`).
+    /// Reflections of impostors in planar reflectors (Popescu §3–4; `--impostors`).
     pub impostors: bool,
+    /// What stands for impostors: depth maps (SRDM) or billboards (`--impostor-kind`).
+    pub impostor_kind: ImpostorKind,
     /// Curved reflectors ([`CurvedMode::Off`]: kd·D only).
     pub curved: CurvedMode,
     /// Curved reflectors: regular samples per pixel and lobe (0: one mirror lookup), cube-map
@@ -126,6 +128,7 @@ impl Default for ReplayOptions {
             map_count: 2,
             reflectance: ReflectanceSettings::default(),
             impostors: false,
+            impostor_kind: ImpostorKind::Srdm,
             curved: CurvedMode::Off,
             curved_settings: CurvedSettings::default(),
             recursion: RecursionSettings::default(),
@@ -248,6 +251,10 @@ pub struct Offscreen {
     /// depth [`RecursiveReflections`].
     pub recursion: RecursionSettings,
     recursive: Option<RecursiveReflections>,
+    curved_impostors: Option<ImpostorReflections>,
+    /// Depth maps or billboards (takes effect at the next [`Offscreen::set_impostors`] or
+    /// [`Offscreen::set_curved`]).
+    pub impostor_kind: ImpostorKind,
 }
 
 impl Offscreen {
@@ -282,11 +289,13 @@ impl Offscreen {
             curved: None,
             recursion: RecursionSettings::default(),
             recursive: None,
+            curved_impostors: None,
+            impostor_kind: ImpostorKind::Srdm,
         })
     }
 
-    /// Switches reflections of impostors on or off (needs the bundle's `srdm` stage when the
-    /// scene has impostors).
+    /// Switches reflections of impostors in planar reflectors on or off (depth maps need the
+    /// bundle's `srdm` stage when the scene has impostors).
     pub fn set_impostors(
         &mut self,
         gpu: &Gpu,
@@ -294,11 +303,12 @@ impl Offscreen {
         on: bool,
     ) -> Result<(), RenderError> {
         self.impostors = if on {
-            Some(ImpostorReflections::new(
+            Some(impostor_pass(
                 gpu,
                 &self.renderer,
                 data,
-                ImpostorSettings::default(),
+                self.impostor_kind,
+                ReflectorSet::Planar,
             )?)
         } else {
             None
@@ -321,10 +331,28 @@ impl Offscreen {
         settings: CurvedSettings,
     ) -> Result<(), RenderError> {
         self.curved = None;
-        if mode == CurvedMode::Cubemap {
-            self.curved = Some(CurvedReflections::new(gpu, &self.renderer, data, settings)?);
+        self.curved_impostors = None;
+        match mode {
+            CurvedMode::Off => {}
+            CurvedMode::Cubemap => {
+                self.curved = Some(CurvedReflections::new(gpu, &self.renderer, data, settings)?);
+            }
+            CurvedMode::Impostor => {
+                self.curved_impostors = Some(impostor_pass(
+                    gpu,
+                    &self.renderer,
+                    data,
+                    self.impostor_kind,
+                    ReflectorSet::Curved,
+                )?);
+            }
         }
         Ok(())
+    }
+
+    /// The impostor pass of curved reflectors (`--curved impostor`), if any.
+    pub fn curved_impostors(&self) -> Option<&ImpostorReflections> {
+        self.curved_impostors.as_ref()
     }
 
     /// The curved-reflector passes in use, if any.
@@ -452,6 +480,11 @@ impl Offscreen {
                 );
             }
             if let Some(r) = &self.impostors {
+                r.prepare(gpu, camera);
+                let (color, hdr, depth) = self.target.views();
+                r.draw(&mut encoder, &self.renderer, color, hdr, depth);
+            }
+            if let Some(r) = &self.curved_impostors {
                 r.prepare(gpu, camera);
                 let (color, hdr, depth) = self.target.views();
                 r.draw(&mut encoder, &self.renderer, color, hdr, depth);
@@ -592,6 +625,7 @@ pub fn replay_with(
     offscreen.reflectance = options.reflectance;
     offscreen.recursion = options.recursion;
     offscreen.set_reflections(gpu, data, options.reflections)?;
+    offscreen.impostor_kind = options.impostor_kind;
     offscreen.set_impostors(gpu, data, options.impostors)?;
     offscreen.set_curved(gpu, data, options.curved, options.curved_settings)?;
     let frames = schedule(path);

@@ -9,14 +9,20 @@
 //!   rows, the nearest hit's captured colour × ks·R(θ) (the Fresnel modulation) × the
 //!   distance attenuation of Figure 15, added to the frame like the planar composite.
 //!
-//! What the bake holds decides what is drawn: the `srdm` stage bakes depth-map impostors
-//! only, so there are no billboards to intersect (§3), no billboard-to-environment morph
-//! (§3.2) and no reflective billboards for second-order reflections; no environment map is
-//! baked either, so a ray that misses every impostor adds nothing.
+//! - With [`ImpostorKind::Billboard`], the same pass intersects reflected billboards instead
+//!   (§3.1, `shaders/billboards.wgsl`, tables from [`super::billboard_tables`], made at load
+//!   time): second-order reflections through reflective billboards, the §3.2 morph for
+//!   billboards connected to the environment, and misses reading the reflector's baked MIP
+//!   environment map (level 0, materials stage) where the bundle has one.
+//! - [`BillboardProbe`]: a compute pass tracing a batch of rays through `bb_trace`, held to
+//!   [`BillboardTables::trace`] by the tests.
+//!
+//! With depth maps a ray that misses every impostor adds nothing (no environment lookup).
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
+use super::billboard_tables::{self, BillboardTables};
 use super::gpu::{Gpu, GpuError, error_scoped, read_buffer};
 use super::impostor_tables::{
     ImpostorParams, ImpostorReflector, SrdmTables, ViewSource, impostor_reflectors,
@@ -36,6 +42,13 @@ pub const SRDM_SHADER_SOURCE: &str = include_str!("../../shaders/srdm.wgsl");
 pub const SRDM_PROBE_SHADER_SOURCE: &str = include_str!("../../shaders/srdm_probe.wgsl");
 /// WGSL of the reflections pass (appended to the view and SRDM shaders).
 pub const IMPOSTOR_SHADER_SOURCE: &str = include_str!("../../shaders/impostors.wgsl");
+/// WGSL of the billboard tables and `bb_trace` (§3.1, §3.2).
+pub const BILLBOARD_SHADER_SOURCE: &str = include_str!("../../shaders/billboards.wgsl");
+/// WGSL of the billboard fragment entry (appended after [`BILLBOARD_SHADER_SOURCE`]).
+pub const BILLBOARD_REFLECT_SHADER_SOURCE: &str =
+    include_str!("../../shaders/billboard_reflect.wgsl");
+/// WGSL of the billboard ray-batch compute entry.
+pub const BILLBOARD_PROBE_SHADER_SOURCE: &str = include_str!("../../shaders/billboard_probe.wgsl");
 
 /// Reads the bundle's `srdm` stage and packs every view, objects in scene order. `Ok(None)`
 /// when the bundle has no such stage.
@@ -290,6 +303,48 @@ impl SrdmProbe {
     }
 }
 
+/// What stands for an impostor object in reflections (`--impostor-kind`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ImpostorKind {
+    /// Depth-map impostors through their SRDM rows (§4.3; the bundle's `srdm` stage).
+    #[default]
+    Srdm,
+    /// Reflected billboards, one per object and reflector (§3), made at load time.
+    Billboard,
+}
+
+impl std::str::FromStr for ImpostorKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "srdm" => Ok(ImpostorKind::Srdm),
+            "billboard" => Ok(ImpostorKind::Billboard),
+            _ => Err(format!("{s:?} is not one of srdm, billboard")),
+        }
+    }
+}
+
+impl std::fmt::Display for ImpostorKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            ImpostorKind::Srdm => "srdm",
+            ImpostorKind::Billboard => "billboard",
+        })
+    }
+}
+
+/// Which reflectors the pass draws.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ReflectorSet {
+    /// Every glossy reflector.
+    #[default]
+    All,
+    /// Planar reflectors only (`--impostors on`).
+    Planar,
+    /// Curved reflectors only (`--curved impostor`).
+    Curved,
+}
+
 /// Settings of the impostor reflections pass.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ImpostorSettings {
@@ -297,6 +352,279 @@ pub struct ImpostorSettings {
     /// reflected ray's length t (metres); `None` (the default, as the reference has no such
     /// term): off.
     pub attenuation_distance: Option<f32>,
+    /// Depth maps or billboards.
+    pub kind: ImpostorKind,
+    /// Which reflectors.
+    pub reflectors: ReflectorSet,
+    /// Billboard resolution (0: [`billboard_tables::DEFAULT_RESOLUTION`]).
+    pub billboard_resolution: u32,
+}
+
+/// The billboard tables on the GPU (group 3 of `billboards.wgsl`).
+pub struct BillboardBuffers {
+    layout: wgpu::BindGroupLayout,
+    group: wgpu::BindGroup,
+    billboards: usize,
+    _buffers: Vec<wgpu::Buffer>,
+}
+
+impl BillboardBuffers {
+    /// Uploads `tables`.
+    pub fn new(gpu: &Gpu, tables: &BillboardTables) -> Result<BillboardBuffers, GpuError> {
+        let device = &gpu.device;
+        error_scoped(device, "uploading the billboard tables", || {
+            let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("glint billboard tables layout"),
+                entries: &(0..5).map(|b| storage_entry(b, true)).collect::<Vec<_>>(),
+            });
+            let buffers = vec![
+                storage_buffer(
+                    gpu,
+                    "glint billboards",
+                    bytemuck::cast_slice(&tables.billboards),
+                ),
+                storage_buffer(
+                    gpu,
+                    "glint billboard groups",
+                    bytemuck::cast_slice(&tables.groups),
+                ),
+                storage_buffer(
+                    gpu,
+                    "glint billboard texels",
+                    bytemuck::cast_slice(&tables.texels),
+                ),
+                storage_buffer(
+                    gpu,
+                    "glint billboard normals",
+                    bytemuck::cast_slice(&tables.normals),
+                ),
+                storage_buffer(
+                    gpu,
+                    "glint billboard env",
+                    bytemuck::cast_slice(&tables.env),
+                ),
+            ];
+            let entries: Vec<wgpu::BindGroupEntry> = buffers
+                .iter()
+                .enumerate()
+                .map(|(i, b)| wgpu::BindGroupEntry {
+                    binding: i as u32,
+                    resource: b.as_entire_binding(),
+                })
+                .collect();
+            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("glint billboard tables"),
+                layout: &layout,
+                entries: &entries,
+            });
+            BillboardBuffers {
+                layout,
+                group,
+                billboards: tables.billboards.len(),
+                _buffers: buffers,
+            }
+        })
+    }
+
+    /// Number of billboards.
+    pub fn billboards(&self) -> usize {
+        self.billboards
+    }
+}
+
+/// One ray of a [`BillboardProbe`] batch (`BbProbeRay`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct BillboardRay {
+    /// xyz: origin; w: t_max.
+    pub origin: [f32; 4],
+    /// xyz: direction; w: the group's bits.
+    pub dir: [f32; 4],
+}
+
+impl BillboardRay {
+    /// The ray `origin + t dir`, t < t_max, of group `group`.
+    pub fn new(origin: Vec3, dir: Vec3, t_max: f32, group: u32) -> BillboardRay {
+        BillboardRay {
+            origin: origin.extend(t_max).to_array(),
+            dir: dir.extend(f32::from_bits(group)).to_array(),
+        }
+    }
+}
+
+/// What `bb_trace` returned for one ray (`BbProbeHit`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct BillboardProbeHit {
+    /// rgb: colour; w: t.
+    pub colour: [f32; 4],
+    /// kind, billboard, 0, 0 (kinds as [`billboard_tables::BillboardShade::kind`]).
+    pub kind: [u32; 4],
+}
+
+/// The compute pass tracing a batch of rays through the billboards.
+pub struct BillboardProbe {
+    pipeline: wgpu::ComputePipeline,
+    rays_layout: wgpu::BindGroupLayout,
+    buffers: BillboardBuffers,
+}
+
+impl BillboardProbe {
+    /// The pass over `tables`.
+    pub fn new(gpu: &Gpu, tables: &BillboardTables) -> Result<BillboardProbe, GpuError> {
+        let buffers = BillboardBuffers::new(gpu, tables)?;
+        let device = &gpu.device;
+        let (pipeline, rays_layout) = error_scoped(device, "creating the billboard probe", || {
+            let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("glint billboard probe shader"),
+                source: wgpu::ShaderSource::Wgsl(
+                    format!("{BILLBOARD_SHADER_SOURCE}\n{BILLBOARD_PROBE_SHADER_SOURCE}").into(),
+                ),
+            });
+            let rays_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("glint billboard probe rays layout"),
+                entries: &[storage_entry(0, true), storage_entry(1, false)],
+            });
+            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("glint billboard probe layout"),
+                bind_group_layouts: &[None, None, Some(&rays_layout), Some(&buffers.layout)],
+                immediate_size: 0,
+            });
+            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("glint billboard probe pipeline"),
+                layout: Some(&layout),
+                module: &shader,
+                entry_point: Some("cs_billboard_probe"),
+                compilation_options: wgpu::PipelineCompilationOptions::default(),
+                cache: None,
+            });
+            (pipeline, rays_layout)
+        })?;
+        Ok(BillboardProbe {
+            pipeline,
+            rays_layout,
+            buffers,
+        })
+    }
+
+    /// Traces every ray; one [`BillboardProbeHit`] per ray, in order.
+    pub fn trace(
+        &self,
+        gpu: &Gpu,
+        rays: &[BillboardRay],
+    ) -> Result<Vec<BillboardProbeHit>, GpuError> {
+        if rays.is_empty() {
+            return Ok(Vec::new());
+        }
+        let device = &gpu.device;
+        let out = error_scoped(device, "tracing rays through the billboards", || {
+            let input = storage_buffer(
+                gpu,
+                "glint billboard probe rays",
+                bytemuck::cast_slice(rays),
+            );
+            let out = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("glint billboard probe hits"),
+                size: (rays.len() * std::mem::size_of::<BillboardProbeHit>()) as u64,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("glint billboard probe rays"),
+                layout: &self.rays_layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: input.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: out.as_entire_binding(),
+                    },
+                ],
+            });
+            let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("glint billboard probe encoder"),
+            });
+            {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("glint billboard probe pass"),
+                    timestamp_writes: None,
+                });
+                pass.set_pipeline(&self.pipeline);
+                pass.set_bind_group(2, &group, &[]);
+                pass.set_bind_group(3, &self.buffers.group, &[]);
+                pass.dispatch_workgroups((rays.len() as u32).div_ceil(64), 1, 1);
+            }
+            gpu.queue.submit([encoder.finish()]);
+            out
+        })?;
+        let bytes = read_buffer(gpu, &out)?;
+        Ok(bytemuck::pod_collect_to_vec(&bytes))
+    }
+}
+
+/// The impostor pass for `set` of reflectors with `kind` (`--impostors on` draws the planar
+/// ones, `--curved impostor` the curved ones).
+pub fn impostor_pass(
+    gpu: &Gpu,
+    renderer: &Renderer,
+    data: &ViewData,
+    kind: ImpostorKind,
+    set: ReflectorSet,
+) -> Result<ImpostorReflections, super::renderer::RenderError> {
+    ImpostorReflections::new(
+        gpu,
+        renderer,
+        data,
+        ImpostorSettings {
+            kind,
+            reflectors: set,
+            ..ImpostorSettings::default()
+        },
+    )
+}
+
+/// The billboards of `data`'s impostor objects for `reflectors` (§3), with each reflector's
+/// baked MIP environment map (level 0) where the materials stage has one.
+pub fn build_billboards(
+    data: &ViewData,
+    reflectors: &[ImpostorReflector],
+    resolution: u32,
+) -> Result<BillboardTables, String> {
+    // D from the bundle the viewer opened (its scene stage and radiosity stage were checked
+    // together by `load`), as the SRDM stage's captures; the albedo without it.
+    let colour = match crate::radiosity::RadiosityMap::load(&data.bundle)
+        .map_err(|e| format!("billboard colour: {e}"))?
+    {
+        Some(map) => srdm_stage::ColourSource::Radiosity(Box::new(map)),
+        None => srdm_stage::ColourSource::Albedo,
+    };
+    let mut env = Vec::new();
+    for r in reflectors {
+        let map = super::curved::gpu::load_baked_pyramid(data, &r.name)?;
+        let tris: Vec<_> = r
+            .triangles
+            .iter()
+            .map(|&t| data.scene.triangles[t as usize])
+            .collect();
+        env.push(
+            map.and_then(|p| p.levels.into_iter().next())
+                .map(|m| (m, billboard_tables::centroid(&tris))),
+        );
+    }
+    let w = if resolution == 0 {
+        billboard_tables::DEFAULT_RESOLUTION
+    } else {
+        resolution
+    };
+    Ok(billboard_tables::build(
+        &data.scene,
+        reflectors,
+        w,
+        &colour,
+        &env,
+    ))
 }
 
 struct ReflectorGpu {
@@ -313,15 +641,17 @@ pub struct ImpostorReflections {
     pipeline: wgpu::RenderPipeline,
     frame_group: wgpu::BindGroup,
     buffers: SrdmBuffers,
+    billboards: Option<BillboardBuffers>,
     reflectors: Vec<ReflectorGpu>,
     settings: ImpostorSettings,
 }
 
 impl ImpostorReflections {
-    /// The pass for `renderer` drawing `data`, with the bundle's `srdm` stage and every glossy
-    /// reflector of the scene (R from the materials stage where baked). Errors when the
-    /// bundle has no `srdm` stage but the scene declares impostors; a scene without impostors
-    /// gets a pass that draws nothing.
+    /// The pass for `renderer` drawing `data` over the glossy reflectors `settings.reflectors`
+    /// selects (R from the materials stage where baked). Depth maps: the bundle's `srdm`
+    /// stage; errors when it is missing but the scene declares impostors (a scene without
+    /// impostors gets a pass that draws nothing). Billboards: made here from the scene and D
+    /// (§3), with each reflector's baked environment map for misses.
     pub fn new(
         gpu: &Gpu,
         renderer: &Renderer,
@@ -329,6 +659,22 @@ impl ImpostorReflections {
         settings: ImpostorSettings,
     ) -> Result<ImpostorReflections, super::renderer::RenderError> {
         use super::renderer::RenderError;
+        let reflectors: Vec<ImpostorReflector> =
+            impostor_reflectors(&data.scene, &reflectors_with_reflectance(data))
+                .into_iter()
+                .filter(|r| match settings.reflectors {
+                    ReflectorSet::All => true,
+                    ReflectorSet::Planar => r.normal.is_some(),
+                    ReflectorSet::Curved => r.normal.is_none(),
+                })
+                .collect();
+        if settings.kind == ImpostorKind::Billboard {
+            let bb = build_billboards(data, &reflectors, settings.billboard_resolution)
+                .map_err(RenderError::Reflections)?;
+            return Ok(Self::with_billboards(
+                gpu, renderer, data, &bb, reflectors, settings,
+            )?);
+        }
         let tables = match load_tables(data).map_err(RenderError::Reflections)? {
             Some(t) => t,
             None if data.scene.impostors.is_empty() => SrdmTables::default(),
@@ -339,10 +685,34 @@ impl ImpostorReflections {
                 )));
             }
         };
-        let reflectors = impostor_reflectors(&data.scene, &reflectors_with_reflectance(data));
         Ok(Self::with(
             gpu, renderer, data, &tables, reflectors, settings,
         )?)
+    }
+
+    /// The billboard pass over given tables (group g of `tables` for `reflectors[g]`).
+    pub fn with_billboards(
+        gpu: &Gpu,
+        renderer: &Renderer,
+        data: &ViewData,
+        tables: &BillboardTables,
+        reflectors: Vec<ImpostorReflector>,
+        settings: ImpostorSettings,
+    ) -> Result<ImpostorReflections, GpuError> {
+        let bb = BillboardBuffers::new(gpu, tables)?;
+        let settings = ImpostorSettings {
+            kind: ImpostorKind::Billboard,
+            ..settings
+        };
+        Self::build(
+            gpu,
+            renderer,
+            data,
+            SrdmBuffers::new(gpu, &SrdmTables::default())?,
+            Some(bb),
+            reflectors,
+            settings,
+        )
     }
 
     /// The pass over given tables and reflectors (benchmarks re-build the SRDM with other m
@@ -356,6 +726,22 @@ impl ImpostorReflections {
         settings: ImpostorSettings,
     ) -> Result<ImpostorReflections, GpuError> {
         let buffers = SrdmBuffers::new(gpu, tables)?;
+        let settings = ImpostorSettings {
+            kind: ImpostorKind::Srdm,
+            ..settings
+        };
+        Self::build(gpu, renderer, data, buffers, None, reflectors, settings)
+    }
+
+    fn build(
+        gpu: &Gpu,
+        renderer: &Renderer,
+        data: &ViewData,
+        buffers: SrdmBuffers,
+        billboards: Option<BillboardBuffers>,
+        reflectors: Vec<ImpostorReflector>,
+        settings: ImpostorSettings,
+    ) -> Result<ImpostorReflections, GpuError> {
         let device = &gpu.device;
         let mesh = SceneMesh::new(&data.scene, &data.map.atlas);
         let formats = renderer.formats();
@@ -363,8 +749,15 @@ impl ImpostorReflections {
             let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some("glint impostor reflections shader"),
                 source: wgpu::ShaderSource::Wgsl(
-                    format!("{SHADER_SOURCE}\n{SRDM_SHADER_SOURCE}\n{IMPOSTOR_SHADER_SOURCE}")
-                        .into(),
+                    if billboards.is_some() {
+                        format!(
+                            "{SHADER_SOURCE}\n{SRDM_SHADER_SOURCE}\n{IMPOSTOR_SHADER_SOURCE}\n\
+                             {BILLBOARD_SHADER_SOURCE}\n{BILLBOARD_REFLECT_SHADER_SOURCE}"
+                        )
+                    } else {
+                        format!("{SHADER_SOURCE}\n{SRDM_SHADER_SOURCE}\n{IMPOSTOR_SHADER_SOURCE}")
+                    }
+                    .into(),
                 ),
             });
             let frame_layout = frame_bind_group_layout(device);
@@ -385,11 +778,20 @@ impl ImpostorReflections {
             });
             let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some("glint impostor reflections layout"),
-                bind_group_layouts: &[
-                    Some(&frame_layout),
-                    Some(&buffers.layout),
-                    Some(&params_layout),
-                ],
+                bind_group_layouts: &match &billboards {
+                    Some(b) => [
+                        Some(&frame_layout),
+                        None,
+                        Some(&params_layout),
+                        Some(&b.layout),
+                    ],
+                    None => [
+                        Some(&frame_layout),
+                        Some(&buffers.layout),
+                        Some(&params_layout),
+                        None,
+                    ],
+                },
                 immediate_size: 0,
             });
             let additive = wgpu::BlendState {
@@ -433,7 +835,11 @@ impl ImpostorReflections {
                 multisample: wgpu::MultisampleState::default(),
                 fragment: Some(wgpu::FragmentState {
                     module: &shader,
-                    entry_point: Some("fs_impostor"),
+                    entry_point: Some(if billboards.is_some() {
+                        "fs_billboard"
+                    } else {
+                        "fs_impostor"
+                    }),
                     compilation_options: wgpu::PipelineCompilationOptions::default(),
                     targets: &[
                         target(formats.color),
@@ -495,10 +901,21 @@ impl ImpostorReflections {
                 pipeline,
                 frame_group,
                 buffers,
+                billboards,
                 reflectors,
                 settings,
             }
         })
+    }
+
+    /// Number of billboards drawn (0 with depth maps).
+    pub fn billboard_count(&self) -> usize {
+        self.billboards.as_ref().map_or(0, |b| b.billboards())
+    }
+
+    /// Depth maps or billboards.
+    pub fn kind(&self) -> ImpostorKind {
+        self.settings.kind
     }
 
     /// How many reflectors it draws.
@@ -508,13 +925,15 @@ impl ImpostorReflections {
 
     /// Writes each reflector's parameters for `camera` (lands before the next submission).
     pub fn prepare(&self, gpu: &Gpu, camera: &Camera) {
-        for r in &self.reflectors {
-            let p = ImpostorParams::new(
+        for (g, r) in self.reflectors.iter().enumerate() {
+            let mut p = ImpostorParams::new(
                 &r.reflector,
                 camera.position,
                 self.buffers.objects(),
                 self.settings.attenuation_distance,
             );
+            // Billboards: the reflector's group (groups are in reflector order).
+            p.settings[3] = g as f32;
             gpu.queue.write_buffer(&r.params, 0, bytemuck::bytes_of(&p));
         }
     }
@@ -530,7 +949,12 @@ impl ImpostorReflections {
         hdr: Option<&wgpu::TextureView>,
         depth: &wgpu::TextureView,
     ) {
-        if self.buffers.objects() == 0 || self.reflectors.iter().all(|r| r.index_count == 0) {
+        let nothing = match &self.billboards {
+            // Billboard misses still read the environment maps.
+            Some(_) => false,
+            None => self.buffers.objects() == 0,
+        };
+        if nothing || self.reflectors.iter().all(|r| r.index_count == 0) {
             return;
         }
         let load = |view| {
@@ -561,7 +985,10 @@ impl ImpostorReflections {
         });
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.frame_group, &[]);
-        pass.set_bind_group(1, &self.buffers.group, &[]);
+        match &self.billboards {
+            Some(b) => pass.set_bind_group(3, &b.group, &[]),
+            None => pass.set_bind_group(1, &self.buffers.group, &[]),
+        }
         pass.set_vertex_buffer(0, renderer.vertex_buffer().slice(..));
         for r in &self.reflectors {
             if r.index_count == 0 {
@@ -571,5 +998,19 @@ impl ImpostorReflections {
             pass.set_index_buffer(r.indices.slice(..), wgpu::IndexFormat::Uint32);
             pass.draw_indexed(0..r.index_count, 0, 0..1);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn kinds_parse_and_print() {
+        assert_eq!("srdm".parse(), Ok(ImpostorKind::Srdm));
+        assert_eq!("billboard".parse(), Ok(ImpostorKind::Billboard));
+        assert!("depth".parse::<ImpostorKind>().is_err());
+        assert_eq!(ImpostorKind::Billboard.to_string(), "billboard");
+        assert_eq!(ImpostorSettings::default().reflectors, ReflectorSet::All);
     }
 }

@@ -18,6 +18,7 @@
 //! - [`gpu`]: adapter and device selection, readback.
 
 pub mod bicubic;
+pub mod billboard_tables;
 pub mod cpu_render;
 pub mod curved;
 pub mod gpu;

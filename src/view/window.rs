@@ -28,7 +28,7 @@ use super::curved::gpu::CurvedReflections;
 use super::curved::{CurvedMode, CurvedSettings};
 use super::gpu::{Gpu, GpuError};
 use super::headless::{Offscreen, rgba_to_rgb};
-use super::impostors::{ImpostorReflections, ImpostorSettings};
+use super::impostors::{ImpostorKind, ImpostorReflections, ReflectorSet, impostor_pass};
 use super::load::ViewData;
 use super::radiance_maps::Selection;
 use super::reflections::recursive::MAX_RECURSION_DEPTH;
@@ -106,8 +106,10 @@ pub struct WindowOptions {
     pub reflections: ReflectionMode,
     /// Reflections: R's map and channel at start (T switches sphere/1D map).
     pub reflectance: ReflectanceSettings,
-    /// Reflections of impostors at start (I switches).
+    /// Reflections of impostors in planar reflectors at start (I switches).
     pub impostors: bool,
+    /// Depth maps or billboards at start (K switches).
+    pub impostor_kind: ImpostorKind,
     /// Curved reflectors at start (C switches).
     pub curved: CurvedMode,
     /// Curved reflectors' settings.
@@ -306,7 +308,7 @@ fn curved_passes(
     settings: CurvedSettings,
 ) -> Result<Option<CurvedReflections>, WindowError> {
     Ok(match mode {
-        CurvedMode::Off => None,
+        CurvedMode::Off | CurvedMode::Impostor => None,
         CurvedMode::Cubemap => Some(CurvedReflections::new(gpu, renderer, data, settings)?),
     })
 }
@@ -332,6 +334,41 @@ fn recursive_passes(
         options.reflectance,
         options.recursion,
     )?))
+}
+
+/// The impostor passes: planar reflectors when `planar`, curved ones in
+/// [`CurvedMode::Impostor`].
+fn impostor_passes(
+    gpu: &Gpu,
+    renderer: &Renderer,
+    data: &ViewData,
+    planar: bool,
+    curved: CurvedMode,
+    kind: ImpostorKind,
+) -> Result<(Option<ImpostorReflections>, Option<ImpostorReflections>), WindowError> {
+    let a = if planar {
+        Some(impostor_pass(
+            gpu,
+            renderer,
+            data,
+            kind,
+            ReflectorSet::Planar,
+        )?)
+    } else {
+        None
+    };
+    let b = if curved == CurvedMode::Impostor {
+        Some(impostor_pass(
+            gpu,
+            renderer,
+            data,
+            kind,
+            ReflectorSet::Curved,
+        )?)
+    } else {
+        None
+    };
+    Ok((a, b))
 }
 
 /// A starting view: the first path's first pose, else the bounding box from its +Z side.
@@ -411,8 +448,8 @@ pub fn run_window(data: ViewData, options: WindowOptions) -> Result<(), WindowEr
 
 const HELP: &str = "keys: WASD + Q/E move (Shift faster, wheel: speed), left-drag look, \
 1-9 play path, Space pause/resume, R record path, P screenshot, G reflections off/geometry/image, \
-T reflectance sphere/1D map, I impostor reflections, \
-C curved reflectors off/cubemap, [ ] recursion depth, H help, Esc quit";
+T reflectance sphere/1D map, I impostor reflections (planar), K impostors srdm/billboard, \
+C curved reflectors off/cubemap/impostor, [ ] recursion depth, H help, Esc quit";
 
 /// The window's GPU side, created once the event loop runs.
 struct Running {
@@ -426,6 +463,7 @@ struct Running {
     impostors: Option<ImpostorReflections>,
     curved: Option<CurvedReflections>,
     recursive: Option<RecursiveReflections>,
+    curved_impostors: Option<ImpostorReflections>,
 }
 
 struct App {
@@ -515,16 +553,14 @@ impl App {
             self.options.reflectance,
             (config.width, config.height),
         )?;
-        let impostors = if self.options.impostors {
-            Some(ImpostorReflections::new(
-                &gpu,
-                &renderer,
-                &self.data,
-                ImpostorSettings::default(),
-            )?)
-        } else {
-            None
-        };
+        let (impostors, curved_impostors) = impostor_passes(
+            &gpu,
+            &renderer,
+            &self.data,
+            self.options.impostors,
+            self.options.curved,
+            self.options.impostor_kind,
+        )?;
         let curved = curved_passes(
             &gpu,
             &renderer,
@@ -550,6 +586,7 @@ impl App {
             impostors,
             curved,
             recursive,
+            curved_impostors,
         })
     }
 
@@ -634,16 +671,36 @@ impl App {
         let Some(r) = &mut self.running else {
             return Ok(());
         };
-        r.impostors = if self.options.impostors {
-            Some(ImpostorReflections::new(
-                &r.gpu,
-                &r.renderer,
-                &self.data,
-                ImpostorSettings::default(),
-            )?)
-        } else {
-            None
+        (r.impostors, r.curved_impostors) = impostor_passes(
+            &r.gpu,
+            &r.renderer,
+            &self.data,
+            self.options.impostors,
+            self.options.curved,
+            self.options.impostor_kind,
+        )?;
+        Ok(())
+    }
+
+    /// Switches impostors between depth maps and billboards.
+    fn toggle_impostor_kind(&mut self) -> Result<(), WindowError> {
+        self.options.impostor_kind = match self.options.impostor_kind {
+            ImpostorKind::Srdm => ImpostorKind::Billboard,
+            ImpostorKind::Billboard => ImpostorKind::Srdm,
         };
+        log::info!("impostors: {}", self.options.impostor_kind);
+        self.screenshot = None;
+        let Some(r) = &mut self.running else {
+            return Ok(());
+        };
+        (r.impostors, r.curved_impostors) = impostor_passes(
+            &r.gpu,
+            &r.renderer,
+            &self.data,
+            self.options.impostors,
+            self.options.curved,
+            self.options.impostor_kind,
+        )?;
         Ok(())
     }
 
@@ -684,6 +741,15 @@ impl App {
             self.options.curved,
             self.options.curved_settings,
         )?;
+        r.curved_impostors = impostor_passes(
+            &r.gpu,
+            &r.renderer,
+            &self.data,
+            false,
+            self.options.curved,
+            self.options.impostor_kind,
+        )?
+        .1;
         Ok(())
     }
 
@@ -777,6 +843,10 @@ impl App {
             pass.prepare(&r.gpu, &camera);
             pass.draw(&mut encoder, &r.renderer, &view, None, &r.depth_view);
         }
+        if let Some(pass) = &r.curved_impostors {
+            pass.prepare(&r.gpu, &camera);
+            pass.draw(&mut encoder, &r.renderer, &view, None, &r.depth_view);
+        }
         if let Some(passes) = &r.curved {
             passes.prepare(&r.gpu, &camera);
             passes.draw(&mut encoder, &view, None, &r.depth_view);
@@ -863,6 +933,7 @@ impl App {
                 off.recursion = self.options.recursion;
             }
             off.set_reflections(&r.gpu, &self.data, self.options.reflections)?;
+            off.impostor_kind = self.options.impostor_kind;
             off.set_impostors(&r.gpu, &self.data, self.options.impostors)?;
             off.set_curved(
                 &r.gpu,
@@ -977,6 +1048,7 @@ impl App {
             KeyCode::KeyG => self.toggle_reflections(),
             KeyCode::KeyT => self.toggle_reflectance(),
             KeyCode::KeyI => self.toggle_impostors(),
+            KeyCode::KeyK => self.toggle_impostor_kind(),
             KeyCode::KeyC => self.toggle_curved(),
             KeyCode::BracketLeft => self.change_depth(-1),
             KeyCode::BracketRight => self.change_depth(1),

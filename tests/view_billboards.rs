@@ -1,0 +1,693 @@
+//! Reflected billboards in glint-view (issue 10 item 4, Popescu et al. 2006 §3, §3.1, §3.2),
+//! on the software Vulkan adapter.
+//!
+//! 1. `bb_trace` (`shaders/billboards.wgsl`) against [`BillboardTables::trace`] on a grid of
+//!    rays: alpha-tested hits, misses to the environment map, reflective billboards and
+//!    transition walls.
+//! 2. A second-order reflection through a reflective billboard lands on the texel the
+//!    geometry predicts (synthetic billboards, GPU).
+//! 3. The §3.2 morph is continuous across a connected billboard's edge (and without walls the
+//!    same sweep jumps).
+//! 4. `--curved impostor --impostor-kind billboard` headless on a box with two mirror spheres,
+//!    one of them also an impostor (a reflective billboard), and a white block: the block
+//!    appears on sphere A where CPU ray casting of the real geometry predicts; and the same
+//!    switches through `glint-view --headless` (the srdm kind without the stage is refused).
+
+#![cfg(feature = "view")]
+
+mod common;
+
+use std::path::Path;
+
+use common::*;
+use glam::Vec3;
+use glint::bake::materials::envmap::CubeMap;
+use glint::bake::{radiosity_stage, scene_stage};
+use glint::camera::Camera;
+use glint::geometry::Bvh;
+use glint::progress::Silent;
+use glint::scene::Scene;
+use glint::scene::desc::RadiositySettings;
+use glint::view::billboard_tables::{Billboard, BillboardTables};
+use glint::view::curved::{CurvedMode, CurvedSettings};
+use glint::view::gpu::Gpu;
+use glint::view::headless::Offscreen;
+use glint::view::impostors::{BillboardProbe, BillboardRay, ImpostorKind};
+use glint::view::load::load;
+
+fn gpu() -> Gpu {
+    let _ = env_logger::builder().is_test(true).try_init();
+    Gpu::headless().unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn bb(
+    centre: Vec3,
+    right: Vec3,
+    up: Vec3,
+    half: f32,
+    w: u32,
+    f: impl Fn(u32, u32) -> [f32; 4],
+) -> Billboard {
+    Billboard {
+        impostor: 0,
+        centre,
+        right: right.normalize(),
+        up: up.normalize(),
+        half,
+        resolution: w,
+        colour: (0..w * w).map(|i| f(i % w, i / w)).collect(),
+        reflective: None,
+        wall: 0.0,
+    }
+}
+
+/// A smooth environment: colour from direction.
+fn env_map(size: usize) -> CubeMap {
+    CubeMap::from_fn(size, |d| {
+        Vec3::new(0.5 + 0.5 * d.x, 0.5 + 0.5 * d.y, 0.5 + 0.5 * d.z)
+    })
+}
+
+/// Two groups: group 0 (a reflector's) with three diffuse billboards (alpha holes, one tilted)
+/// and a reflective one whose tertiary rays search group 1; group 1 with a diffuse billboard
+/// and a connected floor with transition walls. Both with environment maps.
+fn tables() -> BillboardTables {
+    let env = env_map(16);
+    let checker = |x: u32, y: u32| {
+        let a = if (x / 3 + y / 3).is_multiple_of(2) {
+            1.0
+        } else {
+            0.0
+        };
+        [x as f32 / 16.0, y as f32 / 16.0, 0.3, a]
+    };
+    let a = bb(
+        Vec3::new(0.0, 0.0, -3.0),
+        Vec3::X,
+        Vec3::Y,
+        1.0,
+        16,
+        checker,
+    );
+    let b = bb(
+        Vec3::new(0.8, 0.3, -5.0),
+        Vec3::new(1.0, 0.0, 0.4),
+        Vec3::Y,
+        1.5,
+        12,
+        |x, y| {
+            [
+                0.9,
+                x as f32 / 12.0,
+                y as f32 / 12.0,
+                if x + y > 4 { 1.0 } else { 0.2 },
+            ]
+        },
+    );
+    let c = bb(
+        Vec3::new(-1.5, -0.5, -4.0),
+        Vec3::new(0.7, 0.2, 0.3),
+        Vec3::new(-0.1, 1.0, 0.2),
+        0.8,
+        8,
+        |x, _| [0.2, 0.8, x as f32 / 8.0, 1.0],
+    );
+    let mut m = bb(
+        Vec3::new(1.8, -1.2, -2.5),
+        Vec3::new(0.0, 0.0, 1.0),
+        Vec3::Y,
+        0.7,
+        16,
+        |x, y| {
+            [
+                0.1,
+                0.1,
+                0.1,
+                if (x as i32 - 8).pow(2) + (y as i32 - 8).pow(2) < 56 {
+                    1.0
+                } else {
+                    0.0
+                },
+            ]
+        },
+    );
+    // A convex mirror: normals tilting away from the centre.
+    let normals = (0..16 * 16)
+        .map(|i| {
+            let (x, y) = ((i % 16) as f32 / 8.0 - 1.0, 1.0 - (i / 16) as f32 / 8.0);
+            (Vec3::new(-1.0, 0.0, 0.0) + Vec3::new(0.0, 0.5 * y, 0.5 * x))
+                .normalize()
+                .extend(0.1 * (1.0 - x * x))
+        })
+        .collect();
+    m.reflective = Some((normals, Vec3::splat(0.8), 1));
+    let d = bb(
+        Vec3::new(4.0, -1.0, -1.0),
+        Vec3::new(0.0, 0.0, 1.0),
+        Vec3::Y,
+        1.2,
+        10,
+        |x, y| [x as f32 / 10.0, 0.5, y as f32 / 10.0, 1.0],
+    );
+    let mut floor = bb(
+        Vec3::new(0.0, -2.0, -2.0),
+        Vec3::X,
+        -Vec3::Z,
+        2.0,
+        32,
+        |x, y| [0.4 + 0.01 * x as f32, 0.4, 0.4 + 0.01 * y as f32, 1.0],
+    );
+    floor.wall = 0.5;
+    BillboardTables::pack(&[
+        (vec![a, b, c, m], Some((&env, Vec3::ZERO))),
+        (vec![d, floor], Some((&env, Vec3::new(1.0, -1.0, -2.0)))),
+    ])
+}
+
+/// Largest fraction of rays whose kind or billboard differs between WGSL and CPU: rays within
+/// rounding of a texel, alpha or quad edge (FMA contraction, division rounding).
+const MAX_MISMATCH: f64 = 0.01;
+/// Largest colour difference where both agree (f32 rounding; nearest texels are exact).
+const COLOUR_TOLERANCE: f32 = 1e-4;
+/// Largest relative t difference where both agree.
+const T_TOLERANCE: f32 = 1e-4;
+
+#[test]
+fn wgsl_billboard_trace_agrees_with_the_cpu() {
+    let gpu = gpu();
+    let t = tables();
+    let probe = BillboardProbe::new(&gpu, &t).unwrap_or_else(|e| panic!("{e}"));
+    let mut rays = Vec::new();
+    for g in 0..2u32 {
+        for origin in [
+            Vec3::ZERO,
+            Vec3::new(0.3, 0.2, 0.5),
+            Vec3::new(1.0, -1.5, -1.0),
+        ] {
+            for iy in 0..48 {
+                for ix in 0..48 {
+                    let u = ix as f32 / 47.0 * 2.0 - 1.0;
+                    let v = iy as f32 / 47.0 * 2.0 - 1.0;
+                    let d = Vec3::new(1.3 * u, 1.3 * v, -1.0).normalize();
+                    rays.push((g, origin, d));
+                }
+            }
+        }
+    }
+    let gpu_rays: Vec<BillboardRay> = rays
+        .iter()
+        .map(|(g, o, d)| BillboardRay::new(*o, *d, 1e6, *g))
+        .collect();
+    let hits = probe
+        .trace(&gpu, &gpu_rays)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let (mut mismatch, mut kinds) = (0usize, [0usize; 5]);
+    let (mut worst_c, mut worst_t) = (0.0f32, 0.0f32);
+    for ((g, o, d), h) in rays.iter().zip(&hits) {
+        let cpu = t.trace(*g as usize, *o, *d, 1e6);
+        kinds[cpu.kind as usize] += 1;
+        if cpu.kind != h.kind[0] || cpu.billboard != h.kind[1] {
+            mismatch += 1;
+            continue;
+        }
+        let c = Vec3::from_slice(&h.colour[..3]);
+        worst_c = worst_c.max((c - cpu.colour).abs().max_element());
+        if cpu.t > 0.0 {
+            worst_t = worst_t.max((h.colour[3] - cpu.t).abs() / cpu.t);
+        }
+    }
+    let frac = mismatch as f64 / rays.len() as f64;
+    eprintln!(
+        "{} rays, kinds (none, diffuse, reflective, env, wall) {kinds:?}, mismatch {frac:.4}, \
+         worst colour {worst_c:.2e}, worst t {worst_t:.2e}",
+        rays.len()
+    );
+    // Every path is exercised.
+    assert!(kinds[1..].iter().all(|k| *k > 20), "{kinds:?}");
+    assert!(frac <= MAX_MISMATCH, "{frac}");
+    assert!(worst_c <= COLOUR_TOLERANCE, "{worst_c}");
+    assert!(worst_t <= T_TOLERANCE, "{worst_t}");
+}
+
+#[test]
+fn second_order_reflection_lands_where_geometry_predicts() {
+    // Two reflective objects' billboards: a flat mirror A facing +z at z = −2 (normals +z) and
+    // a tilted mirror C; a diffuse target B with a texel-position colour. A ray from the
+    // origin reflects off A and must hit B at the analytic point.
+    let w = 32u32;
+    let mut a = bb(
+        Vec3::new(0.0, 0.0, -2.0),
+        Vec3::X,
+        Vec3::Y,
+        1.0,
+        w,
+        |_, _| [0.0, 0.0, 0.0, 1.0],
+    );
+    a.reflective = Some((
+        vec![Vec3::Z.extend(0.0); (w * w) as usize],
+        Vec3::splat(0.5),
+        1,
+    ));
+    let mut c = bb(
+        Vec3::new(-3.0, 0.0, -2.0),
+        Vec3::X,
+        Vec3::Y,
+        1.0,
+        w,
+        |_, _| [0.0, 0.0, 0.0, 1.0],
+    );
+    c.reflective = Some((
+        vec![Vec3::new(0.3, 0.0, 1.0).normalize().extend(0.0); (w * w) as usize],
+        Vec3::splat(0.5),
+        1,
+    ));
+    let target = |x: u32, y: u32| [x as f32 / 64.0, y as f32 / 64.0, 1.0, 1.0];
+    let b = bb(
+        Vec3::new(1.05, 0.0, -0.5),
+        Vec3::X,
+        Vec3::Y,
+        0.4,
+        64,
+        target,
+    );
+    let t = BillboardTables::pack(&[(vec![a, c], None), (vec![b], None)]);
+    let gpu = gpu();
+    let probe = BillboardProbe::new(&gpu, &t).unwrap();
+    let mut rays = Vec::new();
+    let mut expected = Vec::new();
+    for k in 0..40 {
+        let sx = 0.15 + 0.3 * k as f32 / 39.0;
+        let sy = -0.2 + 0.4 * ((k * 7) % 40) as f32 / 39.0;
+        let d = Vec3::new(sx, sy, -1.0).normalize();
+        // Analytic: hit A at z = −2, mirror z, then reach B's plane z = −0.5.
+        let p = d * (2.0 / -d.z);
+        let d2 = Vec3::new(d.x, d.y, -d.z);
+        let q = p + d2 * (1.5 / d2.z);
+        let local = q - Vec3::new(1.05, 0.0, -0.5);
+        let (u, v) = (local.x / 0.4, local.y / 0.4);
+        let want = if u.abs() < 1.0 && v.abs() < 1.0 {
+            let tx = ((u * 0.5 + 0.5) * 64.0).floor() as u32;
+            let ty = ((0.5 - v * 0.5) * 64.0).floor() as u32;
+            Some(Vec3::from_slice(&target(tx, ty)[..3]) * 0.5)
+        } else {
+            None
+        };
+        rays.push(BillboardRay::new(Vec3::ZERO, d, 1e6, 0));
+        expected.push(want);
+    }
+    let hits = probe.trace(&gpu, &rays).unwrap();
+    let mut seen = 0;
+    for (h, want) in hits.iter().zip(&expected) {
+        let c = Vec3::from_slice(&h.colour[..3]);
+        match want {
+            Some(w) => {
+                seen += 1;
+                assert_eq!(h.kind[0], 2, "reflective billboard hit");
+                assert!(
+                    (c - *w).abs().max_element() < 1.0 / 64.0 * 0.5 + 1e-4,
+                    "{c} vs {w}"
+                );
+            }
+            None => assert!(c.max_element() < 1e-6, "nothing beyond the target: {c}"),
+        }
+    }
+    assert!(seen >= 10, "{seen} rays reach the target");
+}
+
+#[test]
+fn the_billboard_to_environment_morph_is_continuous() {
+    // A floor billboard connected to the environment (§3.2), its colour stored in the EM as
+    // the paper does ("the color texture of the billboard is stored in the environment map"):
+    // each texel holds EM along E → texel centre. A sweep of rays from above the floor crosses
+    // quad → transition wall → clear of the walls.
+    let env = CubeMap::from_fn(64, |d| {
+        Vec3::new(0.5 + 0.5 * d.x, 0.5 + 0.5 * d.y, 0.5 + 0.5 * d.z)
+    });
+    let e = Vec3::new(0.0, -0.5, 0.0);
+    let w = 64u32;
+    let centre = Vec3::new(0.0, -1.0, 0.0);
+    let envt = BillboardTables::pack(&[(vec![], Some((&env, e)))]);
+    let floor = |wall: f32| {
+        let mut f = bb(centre, Vec3::X, -Vec3::Z, 1.0, w, |x, y| {
+            let u = (x as f32 + 0.5) / w as f32 * 2.0 - 1.0;
+            let v = 1.0 - (y as f32 + 0.5) / w as f32 * 2.0;
+            let p = centre + Vec3::X * u - Vec3::Z * v;
+            envt.env(0, (p - e).normalize())
+                .unwrap()
+                .extend(1.0)
+                .to_array()
+        });
+        f.wall = wall;
+        f
+    };
+    // From a reflector point R away from the map's centre E (at E itself r₁ᵈ = r_a and
+    // nothing would need morphing).
+    let o = Vec3::new(0.5, -0.2, 0.4);
+    let sweep = |t: &BillboardTables| -> Vec<(u32, Vec3)> {
+        (0..2000)
+            .map(|k| {
+                let a = -1.2 + 1.4 * k as f32 / 1999.0;
+                let d = Vec3::new(0.3, a.sin(), -a.cos()).normalize();
+                let s = t.trace(0, o, d, 1e6);
+                (s.kind, s.colour)
+            })
+            .collect()
+    };
+    let morph = BillboardTables::pack(&[(vec![floor(0.6)], Some((&env, e)))]);
+    let plain = BillboardTables::pack(&[(vec![floor(0.0)], Some((&env, e)))]);
+    let jumps = |s: &[(u32, Vec3)]| {
+        s.windows(2)
+            .map(|p| (p[1].1 - p[0].1).abs().max_element())
+            .fold(0.0f32, f32::max)
+    };
+    let (m, p) = (sweep(&morph), sweep(&plain));
+    let kinds: std::collections::BTreeSet<u32> = m.iter().map(|s| s.0).collect();
+    eprintln!(
+        "morph sweep kinds {kinds:?}: largest step {:.4} (no walls: {:.4})",
+        jumps(&m),
+        jumps(&p)
+    );
+    assert!(
+        kinds.contains(&1) && kinds.contains(&4) && kinds.contains(&3),
+        "{kinds:?}"
+    );
+    // Continuous: no step larger than a few env/billboard texels' change.
+    assert!(jumps(&m) < MORPH_STEP, "{}", jumps(&m));
+    assert!(jumps(&p) > 2.0 * jumps(&m), "without walls the edge jumps");
+
+    // The shader agrees along the same sweep.
+    let gpu = gpu();
+    let probe = BillboardProbe::new(&gpu, &morph).unwrap();
+    let rays: Vec<BillboardRay> = (0..2000)
+        .map(|k| {
+            let a = -1.2 + 1.4 * k as f32 / 1999.0;
+            let d = Vec3::new(0.3, a.sin(), -a.cos()).normalize();
+            BillboardRay::new(o, d, 1e6, 0)
+        })
+        .collect();
+    let hits = probe.trace(&gpu, &rays).unwrap();
+    let g: Vec<(u32, Vec3)> = hits
+        .iter()
+        .map(|h| (h.kind[0], Vec3::from_slice(&h.colour[..3])))
+        .collect();
+    eprintln!("GPU sweep largest step {:.4}", jumps(&g));
+    assert!(jumps(&g) < MORPH_STEP, "{}", jumps(&g));
+}
+
+/// Largest colour step between neighbouring rays of the morph sweep (0.0007 rad apart): a few
+/// texels of the 64² maps (a texel spans ~1/32 of the map's colour range 1, 0.016 per
+/// channel, ×2 for the nearest-texel rounding on both sides of the edge).
+const MORPH_STEP: f32 = 0.05;
+
+// ─────────────────────────── headless: --curved impostor ───────────────────────────
+
+const WALLS: [[f32; 3]; 6] = [
+    [0.3, 0.05, 0.05],
+    [0.05, 0.3, 0.05],
+    [0.05, 0.05, 0.3],
+    [0.3, 0.3, 0.05],
+    [0.3, 0.05, 0.3],
+    [0.05, 0.3, 0.3],
+];
+const RADIUS: f32 = 0.25;
+const SPHERE_X: f32 = 0.45;
+const BLOCK: Vec3 = Vec3::new(0.1, 0.0, 0.7);
+const BLOCK_HALF: f32 = 0.2;
+
+fn uv_sphere(name: &'static str, material: usize, centre: Vec3) -> MeshSpec {
+    let (rings, segments) = (24u32, 48u32);
+    let mut positions = Vec::new();
+    for i in 0..=rings {
+        let theta = std::f32::consts::PI * i as f32 / rings as f32;
+        for j in 0..segments {
+            let phi = 2.0 * std::f32::consts::PI * j as f32 / segments as f32;
+            let d = Vec3::new(
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            );
+            positions.push((centre + d * RADIUS).to_array());
+        }
+    }
+    let mut indices = Vec::new();
+    for i in 0..rings {
+        for j in 0..segments {
+            let a = i * segments + j;
+            let b = i * segments + (j + 1) % segments;
+            let (c, d) = (a + segments, b + segments);
+            if i > 0 {
+                indices.extend([a, b, c]);
+            }
+            if i + 1 < rings {
+                indices.extend([b, d, c]);
+            }
+        }
+    }
+    MeshSpec {
+        name,
+        material,
+        positions,
+        indices,
+    }
+}
+
+fn cube(name: &'static str, material: usize, c: Vec3, h: f32) -> MeshSpec {
+    let positions: Vec<[f32; 3]> = (0..8)
+        .map(|k| {
+            let s = |b: u32| if k & b == 0 { -h } else { h };
+            (c + Vec3::new(s(1), s(2), s(4))).to_array()
+        })
+        .collect();
+    // Two triangles per face, wound counter-clockwise seen from outside.
+    let faces = [
+        [0, 2, 6, 4],
+        [1, 5, 7, 3],
+        [0, 4, 5, 1],
+        [2, 3, 7, 6],
+        [0, 1, 3, 2],
+        [4, 6, 7, 5],
+    ];
+    let mut indices = Vec::new();
+    for f in faces {
+        for t in [[f[0], f[1], f[2]], [f[0], f[2], f[3]]] {
+            let p = t.map(|i: u32| Vec3::from(positions[i as usize]));
+            let n = (p[1] - p[0]).cross(p[2] - p[0]);
+            if n.dot((p[0] + p[1] + p[2]) / 3.0 - c) >= 0.0 {
+                indices.extend(t);
+            } else {
+                indices.extend([t[0], t[2], t[1]]);
+            }
+        }
+    }
+    MeshSpec {
+        name,
+        material,
+        positions,
+        indices,
+    }
+}
+
+fn box_scene(root: &Path) -> (Scene, std::path::PathBuf) {
+    let wall = |i: usize| MaterialSpec {
+        name: ["Xp", "Xn", "Yp", "Yn", "Zp", "Zn"][i],
+        base: [0.0, 0.0, 0.0, 1.0],
+        metallic: 0.0,
+        roughness: 1.0,
+        emissive: WALLS[i],
+        strength: 1.0,
+    };
+    let mut materials: Vec<MaterialSpec> = (0..6).map(wall).collect();
+    materials.push(MaterialSpec {
+        name: "Chrome",
+        base: [0.9, 0.9, 0.9, 1.0],
+        metallic: 1.0,
+        roughness: 0.05,
+        emissive: [0.0; 3],
+        strength: 1.0,
+    });
+    // The block: white, lit by the glowing walls.
+    materials.push(MaterialSpec::diffuse("White", 0.9));
+    let meshes = vec![
+        flip(quad("WallXp", 0, 0, 1.0, 1.0)),
+        quad("WallXn", 1, 0, -1.0, 1.0),
+        flip(quad("WallYp", 2, 1, 1.0, 1.0)),
+        quad("WallYn", 3, 1, -1.0, 1.0),
+        flip(quad("WallZp", 4, 2, 1.0, 1.0)),
+        quad("WallZn", 5, 2, -1.0, 1.0),
+        uv_sphere("SphereA", 6, Vec3::new(-SPHERE_X, 0.0, 0.0)),
+        uv_sphere("SphereB", 6, Vec3::new(SPHERE_X, 0.0, 0.0)),
+        cube("Block", 7, BLOCK, BLOCK_HALF),
+    ];
+    write_gltf(root, "box", &meshes, &materials);
+    let scene_path = write_scene(
+        root,
+        r#"{ "version": 1, "geometry": "box.gltf",
+            "reflectors": [ { "mesh": "SphereA", "kind": "curved" }, { "mesh": "SphereB", "kind": "curved" } ],
+            "impostors": [ { "mesh": "SphereB" }, { "mesh": "Block" } ],
+            "camera_paths": [ { "name": "look", "fps": 30, "keyframes": [
+                { "time": 0.0, "position": [-0.3, 0.02, 0.9], "target": [-0.27, 0.0, 0.12], "fov_y_deg": 12.0 },
+                { "time": 0.1, "position": [-0.25, 0.02, 0.9], "target": [-0.27, 0.0, 0.12], "fov_y_deg": 12.0 } ] } ] }"#,
+    );
+    let scene = Scene::load(&scene_path).unwrap_or_else(|e| panic!("{e}"));
+    let bundle = root.join("box.glint");
+    scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
+    let settings = RadiositySettings {
+        texel_density: 8.0,
+        rays: 32,
+        light_samples: 4,
+        bounces: 2,
+        tolerance: 1e-2,
+    };
+    radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent)
+        .unwrap_or_else(|e| panic!("{e}"));
+    (scene, bundle)
+}
+
+const SIZE: (u32, u32) = (240, 180);
+
+/// Smallest intersection-over-union of the pixels the pass brightens on sphere A with those
+/// where ray casting the real geometry reaches the block (first order, or second order via
+/// sphere B): billboards are flat cut-outs, so the reflection of the block (first order) and
+/// of sphere B (a flat card with the sphere's normals) shift by up to their depth.
+const MIN_IOU: f64 = 0.5;
+
+#[test]
+fn curved_impostor_switch_reflects_billboards_headless() {
+    let dir = tempfile::tempdir().unwrap();
+    let (scene, bundle) = box_scene(dir.path());
+    let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
+    let gpu = gpu();
+    let camera = Camera::look_at(
+        Vec3::new(-0.3, 0.02, 0.9),
+        Vec3::new(-0.27, 0.0, 0.12),
+        Vec3::Y,
+        12f32.to_radians(),
+    );
+    let frame = |mode: CurvedMode, kind: ImpostorKind| {
+        let mut off = Offscreen::new(&gpu, &data, SIZE.0, SIZE.1, true).unwrap();
+        off.impostor_kind = kind;
+        off.set_curved(&gpu, &data, mode, CurvedSettings::default())
+            .unwrap_or_else(|e| panic!("{e}"));
+        if mode == CurvedMode::Impostor {
+            let pass = off.curved_impostors().expect("the impostor pass");
+            assert_eq!(pass.kind(), kind);
+            if kind == ImpostorKind::Billboard {
+                // Sphere A: SphereB's and Block's; sphere B: Block's.
+                assert_eq!(pass.billboard_count(), 3);
+            }
+        }
+        off.render(&gpu, &camera).unwrap();
+        off.read_hdr(&gpu).unwrap().unwrap()
+    };
+    let off = frame(CurvedMode::Off, ImpostorKind::Billboard);
+    let on = frame(CurvedMode::Impostor, ImpostorKind::Billboard);
+    // The SRDM kind needs the srdm stage: the switch reports it rather than drawing nothing.
+    let mut o = Offscreen::new(&gpu, &data, SIZE.0, SIZE.1, true).unwrap();
+    o.impostor_kind = ImpostorKind::Srdm;
+    assert!(
+        o.set_curved(&gpu, &data, CurvedMode::Impostor, CurvedSettings::default())
+            .is_err()
+    );
+
+    // Prediction by ray casting the real triangles.
+    let bvh = Bvh::build(&scene.triangles);
+    let of = |name: &str| -> std::collections::HashSet<u32> {
+        let o = scene
+            .objects
+            .iter()
+            .position(|o| o.mesh_name == name)
+            .unwrap();
+        scene.objects[o].triangles.clone().collect()
+    };
+    let (sa, sb, block) = (of("SphereA"), of("SphereB"), of("Block"));
+    let (w, h) = SIZE;
+    let aspect = w as f32 / h as f32;
+    let mut first = vec![false; (w * h) as usize];
+    let mut second = vec![false; (w * h) as usize];
+    for i in 0..w * h {
+        let d = camera.ray_direction(Camera::pixel_ndc(i % w, i / w, w, h), aspect);
+        let Some(hit) = bvh.closest_hit(camera.position, d, f32::INFINITY) else {
+            continue;
+        };
+        if !sa.contains(&hit.triangle) {
+            continue;
+        }
+        let p = camera.position + d * hit.t;
+        let n = (p - Vec3::new(-SPHERE_X, 0.0, 0.0)).normalize();
+        let r = d - 2.0 * d.dot(n) * n;
+        let Some(h2) = bvh.closest_hit(p + r * 1e-4, r, f32::INFINITY) else {
+            continue;
+        };
+        if block.contains(&h2.triangle) {
+            first[i as usize] = true;
+        } else if sb.contains(&h2.triangle) {
+            let q = p + r * h2.t;
+            let n2 = (q - Vec3::new(SPHERE_X, 0.0, 0.0)).normalize();
+            let r2 = r - 2.0 * r.dot(n2) * n2;
+            if bvh
+                .closest_hit(q + r2 * 1e-4, r2, f32::INFINITY)
+                .is_some_and(|h3| block.contains(&h3.triangle))
+            {
+                second[i as usize] = true;
+            }
+        }
+    }
+    let seen: Vec<bool> = on
+        .iter()
+        .zip(&off)
+        .map(|(a, b)| glint::eval::luminance(*a) - glint::eval::luminance(*b) > BRIGHTER)
+        .collect();
+    let iou = |pred: &[bool]| {
+        let i = pred.iter().zip(&seen).filter(|(a, b)| **a && **b).count();
+        let u = pred.iter().zip(&seen).filter(|(a, b)| **a || **b).count();
+        (i as f64 / u.max(1) as f64, i)
+    };
+    let both: Vec<bool> = first.iter().zip(&second).map(|(a, b)| *a || *b).collect();
+    let n1 = first.iter().filter(|v| **v).count();
+    let n2 = second.iter().filter(|v| **v).count();
+    let (iou_all, _) = iou(&both);
+    let (_, hit2) = iou(&second);
+    eprintln!(
+        "predicted {n1} first-order and {n2} second-order px, {} brightened, IoU {iou_all:.3}, \
+         second order recalled {hit2}/{n2}",
+        seen.iter().filter(|v| **v).count()
+    );
+    assert!(n1 > 20 && n2 > 5, "the view shows both orders ({n1}, {n2})");
+    assert!(iou_all >= MIN_IOU, "IoU {iou_all:.3}");
+    // The same switches on the command line, headless.
+    let out = dir.path().join("frames");
+    let run = |args: &[&str]| {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_glint-view"))
+            .arg(&bundle)
+            .args(["--headless", "--replay", "--size", "64x48", "--out"])
+            .arg(&out)
+            .args(args)
+            .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+            .output()
+            .unwrap();
+        (
+            o.status.success(),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        )
+    };
+    let (ok, err) = run(&["--curved", "impostor", "--impostor-kind", "billboard"]);
+    assert!(ok, "{err}");
+    assert!(out.join("frame_00000.png").is_file());
+    let (ok, err) = run(&["--curved", "impostor", "--impostor-kind", "srdm"]);
+    assert!(!ok && err.contains("srdm"), "{err}");
+    let (ok, err) = run(&["--curved", "billboard"]);
+    assert!(!ok && err.contains("cubemap, impostor, off"), "{err}");
+    let (ok, err) = run(&["--impostors", "on", "--impostor-kind", "billboard"]);
+    assert!(ok, "{err}");
+
+    // Second order is not asserted here: measured 0 of 231 predicted pixels. The rays sphere
+    // B sends towards the block are steep to the block's billboard, which stands 0.2–0.3 m
+    // behind the block's near faces, so they pass above its cut-out (the billboard parallax
+    // §3 accepts; it is largest for an object this close to its reflector). Where the
+    // geometry is what billboards model, `second_order_reflection_lands_where_geometry_predicts`
+    // holds the second-order path to the prediction.
+}
+
+/// Luminance increase counted as a reflection of the block (its D × ks 0.9; the walls glow
+/// 0.05–0.3 and light it).
+const BRIGHTER: f32 = 0.02;
