@@ -110,6 +110,11 @@ fn every_reflection_switch_runs_in_the_window() {
     );
     let bunny_off = shot(&bunny, "bunny-off", &[]);
     let bunny_impostors = shot(&bunny, "bunny-impostors", &["--impostors", "on"]);
+    let bunny_billboards = shot(
+        &bunny,
+        "bunny-billboards",
+        &["--impostors", "on", "--impostor-kind", "billboard"],
+    );
 
     // Each switch changes what is drawn (the screenshot uses the window's start options).
     // Thresholds are about a third of what lavapipe draws at the start pose (the teapot is
@@ -119,6 +124,7 @@ fn every_reflection_switch_runs_in_the_window() {
         ("image", &image, &off, 3.0),
         ("curved", &curved, &off, 0.08),
         ("impostors", &bunny_impostors, &bunny_off, 1.0),
+        ("billboards", &bunny_billboards, &bunny_off, 1.0),
     ] {
         let d = mean_diff(img, against);
         eprintln!("{name}: mean change {d:.2} (8-bit units)");
