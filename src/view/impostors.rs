@@ -30,8 +30,8 @@ use super::impostor_tables::{
 use super::load::ViewData;
 use super::reflections::reflectors_with_reflectance;
 use super::renderer::{
-    HDR_FORMAT, Renderer, SHADER_SOURCE, SceneMesh, Vertex, frame_bind_group,
-    frame_bind_group_layout, reverse_z_depth,
+    HDR_FORMAT, Renderer, SHADER_SOURCE, SceneMesh, frame_bind_group, frame_bind_group_layout,
+    reverse_z_depth,
 };
 use crate::bake::srdm_stage;
 use crate::camera::Camera;
@@ -794,18 +794,7 @@ impl ImpostorReflections {
                 },
                 immediate_size: 0,
             });
-            let additive = wgpu::BlendState {
-                color: wgpu::BlendComponent {
-                    src_factor: wgpu::BlendFactor::One,
-                    dst_factor: wgpu::BlendFactor::One,
-                    operation: wgpu::BlendOperation::Add,
-                },
-                alpha: wgpu::BlendComponent {
-                    src_factor: wgpu::BlendFactor::Zero,
-                    dst_factor: wgpu::BlendFactor::One,
-                    operation: wgpu::BlendOperation::Add,
-                },
-            };
+            let additive = crate::view::renderer::ADDITIVE_KEEP_ALPHA;
             let target = |format| {
                 Some(wgpu::ColorTargetState {
                     format,
@@ -820,11 +809,7 @@ impl ImpostorReflections {
                     module: &shader,
                     entry_point: Some("vs_impostor"),
                     compilation_options: wgpu::PipelineCompilationOptions::default(),
-                    buffers: &[Some(wgpu::VertexBufferLayout {
-                        array_stride: std::mem::size_of::<Vertex>() as u64,
-                        step_mode: wgpu::VertexStepMode::Vertex,
-                        attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x2, 2 => Uint32],
-                    })],
+                    buffers: &[Some(crate::view::renderer::scene_vertex_layout())],
                 },
                 primitive: wgpu::PrimitiveState {
                     topology: wgpu::PrimitiveTopology::TriangleList,
@@ -843,7 +828,11 @@ impl ImpostorReflections {
                     compilation_options: wgpu::PipelineCompilationOptions::default(),
                     targets: &[
                         target(formats.color),
-                        if formats.hdr { target(HDR_FORMAT) } else { None },
+                        if formats.hdr {
+                            target(HDR_FORMAT)
+                        } else {
+                            None
+                        },
                     ],
                 }),
                 multiview_mask: None,

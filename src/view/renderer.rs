@@ -91,9 +91,33 @@ pub struct ProbeInput {
     pub _pad: u32,
 }
 
-/// The vertex buffer layout matching [`Vertex`].
+/// The vertex attributes of [`Vertex`].
 const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 3] =
     wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x2, 2 => Uint32];
+
+/// The vertex buffer layout of a [`SceneMesh`], for every pass that draws scene triangles.
+pub(crate) fn scene_vertex_layout() -> wgpu::VertexBufferLayout<'static> {
+    wgpu::VertexBufferLayout {
+        array_stride: std::mem::size_of::<Vertex>() as u64,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &VERTEX_ATTRIBUTES,
+    }
+}
+
+/// Adds a pass's colour to the target and keeps the target's alpha (reflections, curved and
+/// impostor passes drawn over the scene; a reflection map's alpha is read by its composite).
+pub(crate) const ADDITIVE_KEEP_ALPHA: wgpu::BlendState = wgpu::BlendState {
+    color: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::One,
+        dst_factor: wgpu::BlendFactor::One,
+        operation: wgpu::BlendOperation::Add,
+    },
+    alpha: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::Zero,
+        dst_factor: wgpu::BlendFactor::One,
+        operation: wgpu::BlendOperation::Add,
+    },
+};
 
 /// Why the scene cannot be drawn on this device.
 #[derive(Debug, thiserror::Error)]
@@ -467,11 +491,7 @@ impl Renderer {
                     module: &shader,
                     entry_point: Some("vs_main"),
                     compilation_options: wgpu::PipelineCompilationOptions::default(),
-                    buffers: &[Some(wgpu::VertexBufferLayout {
-                        array_stride: std::mem::size_of::<Vertex>() as u64,
-                        step_mode: wgpu::VertexStepMode::Vertex,
-                        attributes: &VERTEX_ATTRIBUTES,
-                    })],
+                    buffers: &[Some(scene_vertex_layout())],
                 },
                 primitive: wgpu::PrimitiveState {
                     topology: wgpu::PrimitiveTopology::TriangleList,

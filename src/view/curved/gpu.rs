@@ -398,19 +398,6 @@ fn pipeline(
     })
 }
 
-const ADDITIVE: wgpu::BlendState = wgpu::BlendState {
-    color: wgpu::BlendComponent {
-        src_factor: wgpu::BlendFactor::One,
-        dst_factor: wgpu::BlendFactor::One,
-        operation: wgpu::BlendOperation::Add,
-    },
-    alpha: wgpu::BlendComponent {
-        src_factor: wgpu::BlendFactor::Zero,
-        dst_factor: wgpu::BlendFactor::One,
-        operation: wgpu::BlendOperation::Add,
-    },
-};
-
 impl CurvedReflections {
     /// The passes for `renderer` drawing `data`, with every generation of cube maps rendered
     /// (this blocks until the GPU has finished them).
@@ -500,7 +487,7 @@ impl CurvedReflections {
             let additive = |format| {
                 Some(wgpu::ColorTargetState {
                     format,
-                    blend: Some(ADDITIVE),
+                    blend: Some(crate::view::renderer::ADDITIVE_KEEP_ALPHA),
                     write_mask: wgpu::ColorWrites::ALL,
                 })
             };
@@ -911,11 +898,7 @@ impl GenerationPipelines {
                 write_mask: wgpu::ColorWrites::ALL,
             })
         };
-        let scene_buffers = [Some(wgpu::VertexBufferLayout {
-            array_stride: std::mem::size_of::<crate::view::renderer::Vertex>() as u64,
-            step_mode: wgpu::VertexStepMode::Vertex,
-            attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x2, 2 => Uint32],
-        })];
+        let scene_buffers = [Some(crate::view::renderer::scene_vertex_layout())];
         let env = pipeline(
             device,
             shader,
@@ -935,7 +918,7 @@ impl GenerationPipelines {
             "vs_curved",
             "fs_curved_env",
             curved_buffers,
-            &[hdr(Some(ADDITIVE))],
+            &[hdr(Some(crate::view::renderer::ADDITIVE_KEEP_ALPHA))],
             Some(reverse_z_depth(false, wgpu::CompareFunction::GreaterEqual)),
         );
         let mip_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {

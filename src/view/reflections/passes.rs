@@ -19,8 +19,8 @@ use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
 use crate::view::radiance_maps::{MapEntry, load_cameras, select};
 use crate::view::renderer::{
-    HDR_FORMAT, RenderError, Renderer, Vertex, frame_bind_group, frame_bind_group_layout,
-    reverse_z_depth, uniform_buffer,
+    HDR_FORMAT, RenderError, Renderer, frame_bind_group, frame_bind_group_layout, reverse_z_depth,
+    uniform_buffer,
 };
 
 /// Mirrors `ReflectParams` in `shaders/reflect.wgsl` (3184 bytes).
@@ -351,11 +351,7 @@ impl GeometryReflections {
                     immediate_size: 0,
                 })
             };
-            let vertex_buffers = [Some(wgpu::VertexBufferLayout {
-                array_stride: std::mem::size_of::<Vertex>() as u64,
-                step_mode: wgpu::VertexStepMode::Vertex,
-                attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x2, 2 => Uint32],
-            })];
+            let vertex_buffers = [Some(crate::view::renderer::scene_vertex_layout())];
             let primitive = wgpu::PrimitiveState {
                 topology: wgpu::PrimitiveTopology::TriangleList,
                 cull_mode: None,
@@ -418,7 +414,7 @@ impl GeometryReflections {
                 multiview_mask: None,
                 cache: None,
             });
-            let additive = ADDITIVE_KEEP_ALPHA;
+            let additive = crate::view::renderer::ADDITIVE_KEEP_ALPHA;
             let target = |format| {
                 Some(wgpu::ColorTargetState {
                     format,
@@ -879,18 +875,3 @@ pub(super) fn composite_bind_group_layout(
         ],
     })
 }
-
-/// Adds the reflection to the target's colour and keeps the target's alpha (a map's alpha is
-/// the beyond-plane share its own composite reads).
-pub(super) const ADDITIVE_KEEP_ALPHA: wgpu::BlendState = wgpu::BlendState {
-    color: wgpu::BlendComponent {
-        src_factor: wgpu::BlendFactor::One,
-        dst_factor: wgpu::BlendFactor::One,
-        operation: wgpu::BlendOperation::Add,
-    },
-    alpha: wgpu::BlendComponent {
-        src_factor: wgpu::BlendFactor::Zero,
-        dst_factor: wgpu::BlendFactor::One,
-        operation: wgpu::BlendOperation::Add,
-    },
-};

@@ -6,8 +6,7 @@ use std::sync::Mutex;
 use glam::Vec3;
 
 use super::super::passes::{
-    ADDITIVE_KEEP_ALPHA, ReflectParams, composite_bind_group_layout, params_layout_entry,
-    shader_source, sphere_texture,
+    ReflectParams, composite_bind_group_layout, params_layout_entry, shader_source, sphere_texture,
 };
 use super::super::splats::pixel_tangent;
 use super::super::{
@@ -21,8 +20,8 @@ use crate::camera::Camera;
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
 use crate::view::renderer::{
-    DEPTH_FORMAT, HDR_FORMAT, RenderError, Renderer, Vertex, frame_bind_group,
-    frame_bind_group_layout, reverse_z_depth, uniform_buffer,
+    DEPTH_FORMAT, HDR_FORMAT, RenderError, Renderer, frame_bind_group, frame_bind_group_layout,
+    reverse_z_depth, uniform_buffer,
 };
 
 /// One recursion level's render target.
@@ -127,17 +126,13 @@ impl RecursiveReflections {
                     immediate_size: 0,
                 })
             };
-            let vertex_buffers = [Some(wgpu::VertexBufferLayout {
-                array_stride: std::mem::size_of::<Vertex>() as u64,
-                step_mode: wgpu::VertexStepMode::Vertex,
-                attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x2, 2 => Uint32],
-            })];
+            let vertex_buffers = [Some(crate::view::renderer::scene_vertex_layout())];
             let primitive = wgpu::PrimitiveState {
                 topology: wgpu::PrimitiveTopology::TriangleList,
                 cull_mode: None,
                 ..Default::default()
             };
-            let additive = ADDITIVE_KEEP_ALPHA;
+            let additive = crate::view::renderer::ADDITIVE_KEEP_ALPHA;
             let pipeline = |label,
                             params: &wgpu::BindGroupLayout,
                             fragment: &str,
