@@ -438,7 +438,9 @@ impl Scene {
                         Some(h) => {
                             return Err(field(
                                 format!("impostors[{i}].billboard.wall_height"),
-                                format!("{h} is not a finite height > 0 in metres (leave it out for a billboard not connected to the environment)"),
+                                format!(
+                                    "{h} is not a finite height > 0 in metres (leave it out for a billboard not connected to the environment)"
+                                ),
                             ));
                         }
                     };

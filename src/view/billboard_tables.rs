@@ -527,6 +527,31 @@ pub fn capture(
             }
         }
     }
+    // Centroid placement: the plane moves along the axis to the captured surface's mean depth
+    // (the texels' mean offset), where the reflector's rays meet the object, so the parallax
+    // of a deep object (a block whose near faces stand 0.2 m before its centroid) halves. The
+    // capture rays are the same, so the quad shrinks to where they cross the moved plane.
+    let mut frame = frame;
+    if let Some(e) = eye {
+        let covered: Vec<f32> = col
+            .iter()
+            .zip(&nrm)
+            .filter(|(c, _)| c[3] > 0.0)
+            .map(|(_, n)| n.w)
+            .collect();
+        let distance = (e - frame.centre).length();
+        if !covered.is_empty() {
+            let depth = covered.iter().sum::<f32>() / covered.len() as f32;
+            let depth = depth.clamp(-radius, radius).min(0.9 * distance);
+            let scale = (distance - depth) / distance;
+            frame.centre += axis * depth;
+            frame.half *= scale;
+            frame.half_up *= scale;
+            for n in &mut nrm {
+                n.w -= depth;
+            }
+        }
+    }
     (
         Billboard {
             impostor: 0,
