@@ -358,7 +358,7 @@ fn impostor_billboards_resolve_and_bad_ones_are_refused() {
         dir.path(),
         r#"{ "version": 1, "geometry": "fold.gltf", "impostors": [ { "mesh": "Fold", "billboard": { "placement": "surface" } } ] }"#,
     );
-    let e = Scene::load(&path).err().expect("refused").to_string();
+    let e = Scene::load(&path).expect_err("refused").to_string();
     assert!(
         e.contains("impostors[0].billboard.placement") && e.contains("flat"),
         "{e}"
