@@ -110,6 +110,7 @@ fn bb_nearest(g: u32, o: vec3<f32>, d: vec3<f32>, t_max: f32, diffuse_only: bool
         }
         let c = b.centre.xyz;
         let s = b.centre.w;
+        let su = b.up.w;
         let r = b.right.xyz;
         let u = b.up.xyz;
         let n = cross(r, u);
@@ -119,7 +120,7 @@ fn bb_nearest(g: u32, o: vec3<f32>, d: vec3<f32>, t_max: f32, diffuse_only: bool
             if t > BB_T_MIN && t < best.t {
                 let p = o + d * t - c;
                 let x = dot(p, r) / s;
-                let y = dot(p, u) / s;
+                let y = dot(p, u) / su;
                 if abs(x) <= 1.0 && abs(y) <= 1.0 {
                     let w = f32(b.info.x);
                     let tx = clamp(floor((x * 0.5 + 0.5) * w), 0.0, w - 1.0);
@@ -141,20 +142,22 @@ fn bb_nearest(g: u32, o: vec3<f32>, d: vec3<f32>, t_max: f32, diffuse_only: bool
             for (var e = 0u; e < 4u; e++) {
                 var axis = r;
                 var along = u;
+                var off = s;
+                var ext = su;
                 if e == 1u { axis = -r; }
-                if e == 2u { axis = u; along = r; }
-                if e == 3u { axis = -u; along = r; }
+                if e == 2u { axis = u; along = r; off = su; ext = s; }
+                if e == 3u { axis = -u; along = r; off = su; ext = s; }
                 let den = dot(d, axis);
                 if abs(den) <= 1e-8 {
                     continue;
                 }
-                let t = (s - dot(o - c, axis)) / den;
+                let t = (off - dot(o - c, axis)) / den;
                 if !(t > BB_T_MIN && t < best.t) {
                     continue;
                 }
                 let p = o + d * t - c;
                 let h = dot(p, n);
-                if abs(dot(p, along)) <= s && h >= 0.0 && h <= height {
+                if abs(dot(p, along)) <= ext && h >= 0.0 && h <= height {
                     best.found = true;
                     best.t = t;
                     best.billboard = i;

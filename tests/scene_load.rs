@@ -304,3 +304,63 @@ fn scale_converts_gltf_units_to_metres() {
     let e = load_err(r#", "scale": 0"#);
     assert!(e.contains("field `scale`"), "{e}");
 }
+
+#[test]
+fn impostor_billboards_resolve_and_bad_ones_are_refused() {
+    // Popescu §3/§3.2: a flat object's billboard in its own plane, connected by walls H.
+    let (_dir, path) = room_scene(
+        r#", "impostors": [ { "mesh": "Panel", "billboard": { "placement": "surface", "wall_height": 0.25 } }, { "mesh": "Floor" } ]"#,
+    );
+    let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let b = scene.impostors[0].billboard;
+    assert_eq!(b.wall, 0.25);
+    let plane = b.surface.expect("surface placement");
+    assert!(
+        plane.normal.x.abs() > 0.999 && (plane.point.x + 0.9).abs() < 1e-5,
+        "{plane:?}"
+    );
+    assert_eq!(scene.impostors[1].billboard, Default::default());
+
+    for h in ["0", "-1"] {
+        let e = load_err(&format!(
+            r#", "impostors": [ {{ "mesh": "Panel", "billboard": {{ "wall_height": {h} }} }} ]"#
+        ));
+        assert!(
+            e.contains("impostors[0].billboard.wall_height") && e.contains("> 0"),
+            "{e}"
+        );
+    }
+    let e = load_err(
+        r#", "impostors": [ { "mesh": "Panel", "billboard": { "placement": "plane" } } ]"#,
+    );
+    assert!(e.contains("centroid") && e.contains("surface"), "{e}");
+
+    // A folded object cannot have a surface billboard.
+    let dir = tempfile::tempdir().unwrap();
+    let folded = MeshSpec {
+        name: "Fold",
+        material: 0,
+        positions: vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [0.0, 1.0, 0.0],
+        ],
+        indices: vec![0, 2, 1, 0, 1, 3],
+    };
+    write_gltf(
+        dir.path(),
+        "fold",
+        &[folded],
+        &[MaterialSpec::diffuse("M", 0.5)],
+    );
+    let path = write_scene(
+        dir.path(),
+        r#"{ "version": 1, "geometry": "fold.gltf", "impostors": [ { "mesh": "Fold", "billboard": { "placement": "surface" } } ] }"#,
+    );
+    let e = Scene::load(&path).expect_err("refused").to_string();
+    assert!(
+        e.contains("impostors[0].billboard.placement") && e.contains("flat"),
+        "{e}"
+    );
+}

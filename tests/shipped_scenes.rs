@@ -261,7 +261,7 @@ fn glossy_room() {
                 ("TableTop", ReflectorKind::Planar, Some(UP)),
                 ("Teapot", ReflectorKind::Curved, None),
             ],
-            impostors: &[],
+            impostors: &["TableTop"],
             paths: &[("walkthrough", 5), ("front", 1)],
             cameras_inside: true,
         },

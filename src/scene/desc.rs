@@ -163,6 +163,38 @@ pub struct ImpostorDesc {
     /// Number of capture views around the object.
     #[serde(default = "default_views")]
     pub views: u32,
+    /// How the object's reflected billboards are made (Popescu et al. 2006 §3, §3.2);
+    /// absent: through the centroid, facing each reflector, not connected.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub billboard: Option<BillboardDesc>,
+}
+
+/// The reflected billboards of one impostor object (Popescu et al. 2006 §3, §3.2).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct BillboardDesc {
+    /// Where the billboard's plane lies.
+    #[serde(default)]
+    pub placement: BillboardPlacement,
+    /// Connects the billboard to the reflector's environment map (§3.2) with transition
+    /// walls of this height H, metres (finite, > 0), rising from its edges on the reflector's
+    /// side. Absent: not connected.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wall_height: Option<f32>,
+}
+
+/// Where an impostor object's billboard plane lies.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum BillboardPlacement {
+    /// §3: through the object's centroid, perpendicular to the line to each reflector (one
+    /// billboard per reflector).
+    #[default]
+    Centroid,
+    /// §3: in the object's own plane, for flat objects the billboard approximates tightly
+    /// (a floor, a table top): one plane for every reflector, the object's outline as its
+    /// rectangle. The object's triangles must lie in one plane.
+    Surface,
 }
 
 fn default_views() -> u32 {

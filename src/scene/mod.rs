@@ -156,7 +156,24 @@ pub struct Impostor {
     pub views: u32,
     /// Bounds of its triangles.
     pub bounds: Aabb,
+    /// How its reflected billboards are made (Popescu et al. 2006 §3, §3.2).
+    pub billboard: ImpostorBillboard,
 }
+
+/// The resolved `billboard` of an impostor.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ImpostorBillboard {
+    /// `placement: "surface"`: the object's own plane (normal: its triangles' side), the same
+    /// for every reflector; `None`: through the centroid, facing each reflector (§3).
+    pub surface: Option<Plane>,
+    /// Transition wall height H of a billboard connected to the environment (§3.2), metres;
+    /// 0: not connected.
+    pub wall: f32,
+}
+
+/// Largest distance of a vertex from a `surface` billboard's fitted plane, relative to the
+/// object's bounding-box diagonal.
+pub const SURFACE_PLANARITY: f32 = 1e-2;
 
 /// A loaded, validated scene.
 pub struct Scene {
@@ -412,11 +429,51 @@ impl Scene {
                     .clone()
                     .flat_map(|t| triangles[t as usize].p.iter())
             }));
+            let billboard = match &imp.billboard {
+                None => ImpostorBillboard::default(),
+                Some(b) => {
+                    let wall = match b.wall_height {
+                        None => 0.0,
+                        Some(h) if h.is_finite() && h > 0.0 => h,
+                        Some(h) => {
+                            return Err(field(
+                                format!("impostors[{i}].billboard.wall_height"),
+                                format!(
+                                    "{h} is not a finite height > 0 in metres (leave it out for a billboard not connected to the environment)"
+                                ),
+                            ));
+                        }
+                    };
+                    let surface = match b.placement {
+                        desc::BillboardPlacement::Centroid => None,
+                        desc::BillboardPlacement::Surface => {
+                            let tris: Vec<u32> = ids
+                                .iter()
+                                .flat_map(|&o| objects[o as usize].triangles.clone())
+                                .collect();
+                            Some(fit_plane(&triangles, &tris, SURFACE_PLANARITY).map_err(|m| {
+                                field(
+                                    format!("impostors[{i}].billboard.placement"),
+                                    format!(
+                                        "\"surface\" needs a flat object, but {:?}: {}; use \"centroid\"",
+                                        imp.mesh,
+                                        m.replace("declared planar, but ", "")
+                                            .replace("; declare it \"curved\" or raise planarity_tolerance", "")
+                                            .replace("; declare it \"curved\"", "")
+                                    ),
+                                )
+                            })?)
+                        }
+                    };
+                    ImpostorBillboard { surface, wall }
+                }
+            };
             impostors.push(Impostor {
                 name: imp.mesh.clone(),
                 objects: ids,
                 views: imp.views,
                 bounds,
+                billboard,
             });
         }
 

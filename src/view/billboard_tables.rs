@@ -43,11 +43,12 @@ pub const NONE: u32 = u32::MAX;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuBillboard {
-    /// xyz: centre B; w: half size s (metres).
+    /// xyz: centre B; w: half size s along the right axis (metres).
     pub centre: [f32; 4],
     /// xyz: right axis (unit); w: transition wall height H (§3.2; 0: not connected).
     pub right: [f32; 4],
-    /// xyz: up axis (unit); w: 0. The quad's normal is right × up; walls rise along it.
+    /// xyz: up axis (unit); w: half size along it (metres; a surface billboard is a
+    /// rectangle). The quad's normal is right × up; walls rise along it.
     pub up: [f32; 4],
     /// rgb: ks of a reflective object's mirror lobe; w: 0.
     pub spec: [f32; 4],
@@ -98,8 +99,10 @@ pub struct Billboard {
     pub right: Vec3,
     /// Up axis (unit).
     pub up: Vec3,
-    /// Half size, metres.
+    /// Half size along `right`, metres.
     pub half: f32,
+    /// Half size along `up`, metres (= `half` for a square billboard).
+    pub half_up: f32,
     /// Resolution.
     pub resolution: u32,
     /// Colour and alpha per texel (w², row 0 at the top).
@@ -132,7 +135,7 @@ impl BillboardTables {
                 t.billboards.push(GpuBillboard {
                     centre: b.centre.extend(b.half).to_array(),
                     right: b.right.extend(b.wall).to_array(),
-                    up: b.up.extend(0.0).to_array(),
+                    up: b.up.extend(b.half_up).to_array(),
                     spec: spec.extend(0.0).to_array(),
                     info: [w, t.texels.len() as u32, normals, tertiary],
                 });
@@ -226,7 +229,7 @@ impl BillboardTables {
             if diffuse_only && b.info[2] != NONE {
                 continue;
             }
-            let (c, s) = (v3(b.centre), b.centre[3]);
+            let (c, s, su) = (v3(b.centre), b.centre[3], b.up[3]);
             let (r, u) = (v3(b.right), v3(b.up));
             let n = r.cross(u);
             let denom = d.dot(n);
@@ -234,7 +237,7 @@ impl BillboardTables {
                 let t = (c - o).dot(n) / denom;
                 if t > T_MIN && t < best_t {
                     let p = o + d * t - c;
-                    let (x, y) = (p.dot(r) / s, p.dot(u) / s);
+                    let (x, y) = (p.dot(r) / s, p.dot(u) / su);
                     if x.abs() <= 1.0 && y.abs() <= 1.0 {
                         let w = b.info[0];
                         let tx = ((x * 0.5 + 0.5) * w as f32)
@@ -259,18 +262,20 @@ impl BillboardTables {
             // §3.2: the transition walls of height H on the quad's four edges.
             let height = b.right[3];
             if height > 0.0 {
-                for (axis, along) in [(r, u), (-r, u), (u, r), (-u, r)] {
+                for (axis, along, off, ext) in
+                    [(r, u, s, su), (-r, u, s, su), (u, r, su, s), (-u, r, su, s)]
+                {
                     let den = d.dot(axis);
                     if den.abs() <= 1e-8 {
                         continue;
                     }
-                    let t = (s - (o - c).dot(axis)) / den;
+                    let t = (off - (o - c).dot(axis)) / den;
                     if !(t > T_MIN && t < best_t) {
                         continue;
                     }
                     let p = o + d * t - c;
                     let h = p.dot(n);
-                    if p.dot(along).abs() <= s && (0.0..=height).contains(&h) {
+                    if p.dot(along).abs() <= ext && (0.0..=height).contains(&h) {
                         best_t = t;
                         best = Some(BillboardHit {
                             t,
@@ -383,15 +388,79 @@ pub fn centroid(tris: &[Triangle]) -> Vec3 {
     }
 }
 
-/// §3: the billboard of `object` (its triangles) for a reflector with centroid `towards`: the
-/// plane through the object's centroid B perpendicular to B→reflector, captured by casting one
-/// ray per texel from a camera on that line with a 10° field of view holding the object's
-/// bounding sphere. Colour is `colour` at the hit (D or the albedo, as the SRDM stage),
-/// alpha the coverage; `normals` asks for per-texel normals (a reflective object).
+/// The billboard's frame: centre, right, up (right × up faces the reflector), half sizes.
+struct Frame {
+    centre: Vec3,
+    right: Vec3,
+    up: Vec3,
+    half: f32,
+    half_up: f32,
+}
+
+/// §3 "a billboard that tightly approximates" a flat object (a floor, a table top): the
+/// object's own plane, facing the side of `towards`, as the rectangle of its outline (axes
+/// along the outline's principal directions), so every reflector sees the same billboard and
+/// the texels lie on the surface itself (no parallax).
+fn surface_frame(tris: &[Triangle], plane: &crate::scene::Plane, towards: Vec3) -> Frame {
+    let n = plane.normal;
+    let axis = if (towards - plane.point).dot(n) >= 0.0 {
+        n
+    } else {
+        -n
+    };
+    let helper = if axis.y.abs() < 0.9 { Vec3::Y } else { Vec3::X };
+    let e1 = helper.cross(axis).normalize();
+    let e2 = axis.cross(e1);
+    let points: Vec<Vec3> = tris.iter().flat_map(|t| t.p).collect();
+    // Principal in-plane direction of the surface: its area second moments (a triangle's is
+    // A/12 (Σ vᵢvᵢᵀ + s sᵀ), s = Σ vᵢ), so shared vertices do not bias it.
+    let (mut cxx, mut cxy, mut cyy) = (0.0f32, 0.0f32, 0.0f32);
+    for t in tris {
+        let v = t.p.map(|p| {
+            let q = p - plane.point;
+            Vec2::new(q.dot(e1), q.dot(e2))
+        });
+        let area = 0.5 * (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).length();
+        let s = v[0] + v[1] + v[2];
+        let k = area / 12.0;
+        cxx += k * (v.iter().map(|q| q.x * q.x).sum::<f32>() + s.x * s.x);
+        cxy += k * (v.iter().map(|q| q.x * q.y).sum::<f32>() + s.x * s.y);
+        cyy += k * (v.iter().map(|q| q.y * q.y).sum::<f32>() + s.y * s.y);
+    }
+    let theta = 0.5 * (2.0 * cxy).atan2(cxx - cyy);
+    let right = (e1 * theta.cos() + e2 * theta.sin()).normalize();
+    let up = axis.cross(right);
+    let (mut lo, mut hi) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
+    for p in &points {
+        let q = *p - plane.point;
+        let v = Vec2::new(q.dot(right), q.dot(up));
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    let mid = 0.5 * (lo + hi);
+    // A hair larger than the outline so its edges are inside.
+    let half = (0.5 * (hi - lo)).max(Vec2::splat(1e-6)) * (1.0 + 1e-4);
+    Frame {
+        centre: plane.point + right * mid.x + up * mid.y,
+        right,
+        up,
+        half: half.x,
+        half_up: half.y,
+    }
+}
+
+/// §3: the billboard of `object` (its triangles) for a reflector with centroid `towards`.
+/// Centroid placement (`surface` `None`): the plane through the object's centroid B
+/// perpendicular to B→reflector, captured by casting one ray per texel from a camera on that
+/// line with a 10° field of view holding the object's bounding sphere. Surface placement: the
+/// flat object's own plane ([`surface_frame`]), captured by rays along its normal. Colour is
+/// `colour` at the hit (D or the albedo, as the SRDM stage), alpha the coverage; `normals`
+/// asks for per-texel normals (a reflective object).
 pub fn capture(
     scene: &Scene,
     ids: &[u32],
     towards: Vec3,
+    surface: Option<&crate::scene::Plane>,
     resolution: u32,
     colour: &ColourSource,
     normals: bool,
@@ -403,15 +472,31 @@ pub fn capture(
         .flat_map(|t| t.p)
         .map(|p| (p - b).length())
         .fold(1e-6f32, f32::max);
-    let axis = (towards - b).try_normalize().unwrap_or(Vec3::Z);
-    let helper = if axis.y.abs() < 0.9 { Vec3::Y } else { Vec3::X };
-    let right = helper.cross(axis).normalize();
-    let up = axis.cross(right);
-    // Seen from the reflector's side: right × up = axis.
-    let half_angle = (0.5 * CAPTURE_FOV_DEGREES).to_radians();
-    let distance = radius / half_angle.sin();
-    let eye = b + axis * distance;
-    let half = radius * distance / (distance * distance - radius * radius).max(1e-12).sqrt();
+    // Centroid placement: the perspective camera's eye; surface: none (parallel rays).
+    let (frame, eye) = match surface {
+        Some(plane) => (surface_frame(&tris, plane, towards), None),
+        None => {
+            let axis = (towards - b).try_normalize().unwrap_or(Vec3::Z);
+            let helper = if axis.y.abs() < 0.9 { Vec3::Y } else { Vec3::X };
+            let right = helper.cross(axis).normalize();
+            // Seen from the reflector's side: right × up = axis.
+            let up = axis.cross(right);
+            let half_angle = (0.5 * CAPTURE_FOV_DEGREES).to_radians();
+            let distance = radius / half_angle.sin();
+            let half =
+                radius * distance / (distance * distance - radius * radius).max(1e-12).sqrt();
+            let frame = Frame {
+                centre: b,
+                right,
+                up,
+                half,
+                half_up: half,
+            };
+            (frame, Some(b + axis * distance))
+        }
+    };
+    let axis = frame.right.cross(frame.up);
+    let lift = 1e-3 * radius + 1e-4;
     let bvh = Bvh::build(&tris);
     let w = resolution as usize;
     let mut col = vec![[0.0f32; 4]; w * w];
@@ -420,9 +505,13 @@ pub fn capture(
         for x in 0..w {
             let u = ((x as f32 + 0.5) / w as f32) * 2.0 - 1.0;
             let v = 1.0 - ((y as f32 + 0.5) / w as f32) * 2.0;
-            let target = b + right * (u * half) + up * (v * half);
-            let dir = (target - eye).normalize();
-            if let Some(hit) = bvh.closest_hit(eye, dir, f32::INFINITY) {
+            let target =
+                frame.centre + frame.right * (u * frame.half) + frame.up * (v * frame.half_up);
+            let (origin, dir) = match eye {
+                Some(e) => (e, (target - e).normalize()),
+                None => (target + axis * lift, -axis),
+            };
+            if let Some(hit) = bvh.closest_hit(origin, dir, f32::INFINITY) {
                 let c = colour.colour(scene, ids[hit.triangle as usize], hit.bary);
                 col[y * w + x] = [c.x, c.y, c.z, 1.0];
                 let t = &tris[hit.triangle as usize];
@@ -433,18 +522,44 @@ pub fn capture(
                 if n.dot(dir) > 0.0 {
                     n = -n;
                 }
-                let offset = (eye + dir * hit.t - b).dot(axis);
+                let offset = (origin + dir * hit.t - frame.centre).dot(axis);
                 nrm[y * w + x] = n.extend(offset);
+            }
+        }
+    }
+    // Centroid placement: the plane moves along the axis to the captured surface's mean depth
+    // (the texels' mean offset), where the reflector's rays meet the object, so the parallax
+    // of a deep object (a block whose near faces stand 0.2 m before its centroid) halves. The
+    // capture rays are the same, so the quad shrinks to where they cross the moved plane.
+    let mut frame = frame;
+    if let Some(e) = eye {
+        let covered: Vec<f32> = col
+            .iter()
+            .zip(&nrm)
+            .filter(|(c, _)| c[3] > 0.0)
+            .map(|(_, n)| n.w)
+            .collect();
+        let distance = (e - frame.centre).length();
+        if !covered.is_empty() {
+            let depth = covered.iter().sum::<f32>() / covered.len() as f32;
+            let depth = depth.clamp(-radius, radius).min(0.9 * distance);
+            let scale = (distance - depth) / distance;
+            frame.centre += axis * depth;
+            frame.half *= scale;
+            frame.half_up *= scale;
+            for n in &mut nrm {
+                n.w -= depth;
             }
         }
     }
     (
         Billboard {
             impostor: 0,
-            centre: b,
-            right,
-            up,
-            half,
+            centre: frame.centre,
+            right: frame.right,
+            up: frame.up,
+            half: frame.half,
+            half_up: frame.half_up,
             resolution,
             colour: col,
             reflective: None,
@@ -529,7 +644,9 @@ pub fn build(
                 continue;
             }
             let reflective = as_reflector[k];
+            let spec = scene.impostors[k].billboard;
             let target = match r.normal {
+                _ if spec.surface.is_some() => towards,
                 Some(n) => {
                     let tris: Vec<Triangle> =
                         ids.iter().map(|&t| scene.triangles[t as usize]).collect();
@@ -538,9 +655,18 @@ pub fn build(
                 }
                 None => towards,
             };
-            let (mut bb, normals) =
-                capture(scene, ids, target, resolution, colour, reflective.is_some());
+            let (mut bb, normals) = capture(
+                scene,
+                ids,
+                target,
+                spec.surface.as_ref(),
+                resolution,
+                colour,
+                reflective.is_some(),
+            );
             bb.impostor = k;
+            // §3.2: connected to the environment by walls of height H.
+            bb.wall = spec.wall;
             if let (Some((jj, ks)), Some(n)) = (reflective, normals) {
                 bb.reflective = Some((n, ks, jj));
             }
@@ -566,6 +692,7 @@ mod tests {
             right: Vec3::X,
             up: Vec3::Y,
             half: 1.0,
+            half_up: 1.0,
             resolution: w,
             colour: vec![colour; (w * w) as usize],
             reflective: None,

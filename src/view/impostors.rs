@@ -592,14 +592,10 @@ pub fn build_billboards(
     reflectors: &[ImpostorReflector],
     resolution: u32,
 ) -> Result<BillboardTables, String> {
-    // D from the bundle the viewer opened (its scene stage and radiosity stage were checked
-    // together by `load`), as the SRDM stage's captures; the albedo without it.
-    let colour = match crate::radiosity::RadiosityMap::load(&data.bundle)
-        .map_err(|e| format!("billboard colour: {e}"))?
-    {
-        Some(map) => srdm_stage::ColourSource::Radiosity(Box::new(map)),
-        None => srdm_stage::ColourSource::Albedo,
-    };
+    // D where the bundle's radiosity stage was baked from this scene, as the SRDM stage's
+    // captures (the one place that choice is made); the albedo otherwise.
+    let colour = srdm_stage::colour_source(data.bundle.dir(), &data.scene)
+        .map_err(|e| format!("billboard colour: {e}"))?;
     let mut env = Vec::new();
     for r in reflectors {
         let map = super::curved::gpu::load_baked_pyramid(data, &r.name)?;

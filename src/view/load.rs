@@ -192,10 +192,17 @@ pub fn load(dir: &Path) -> Result<ViewData, LoadError> {
         .iter()
         .find(|a| a.kind == "scene-json")
         .ok_or_else(|| inconsistent("stage `scene` has no scene-json asset".into()))?;
-    let scene = Scene::load(bundle.asset_path(scene_json)).map_err(|source| LoadError::Scene {
-        bundle: bundle_path.clone(),
-        source,
-    })?;
+    let mut scene =
+        Scene::load(bundle.asset_path(scene_json)).map_err(|source| LoadError::Scene {
+            bundle: bundle_path.clone(),
+            source,
+        })?;
+    // The copy is scene.json re-serialized (geometry renamed, name filled in), so its text,
+    // and with it `content_hash`, differ from the source's. Its assets were verified above:
+    // it is the scene every stage recorded as `scene_hash`, so it takes that identity, and
+    // the stages' own freshness checks (e.g. `srdm_stage::colour_source` choosing D) agree
+    // with what the viewer loaded.
+    scene.content_hash = scene_stage.scene_hash.clone();
 
     let map = RadiosityMap::load(&bundle)
         .map_err(|source| LoadError::Radiosity {
