@@ -4,15 +4,8 @@
 // billboards made for this reflector (settings.w), whose misses read its environment map.
 @fragment
 fn fs_billboard(in: ImpostorOut) -> FragmentOut {
-    let derived = cross(dpdx(in.world), dpdy(in.world));
     let to_pixel = normalize(in.world - impostor_params.eye.xyz);
-    var n = impostor_params.normal.xyz;
-    if impostor_params.normal.w == 0.0 {
-        n = normalize(derived);
-    }
-    if dot(n, to_pixel) > 0.0 {
-        n = -n;
-    }
+    let n = impostor_normal(in, to_pixel);
     let dir = reflect(to_pixel, n);
     let res = bb_trace(u32(impostor_params.settings.w), in.world, dir, impostor_params.settings.z);
     var out: FragmentOut;

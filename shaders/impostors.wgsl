@@ -6,8 +6,8 @@
 // (GreaterEqual, reverse Z) against the scene pass so only its visible pixels run, and each
 // pixel:
 // 1. computes its reflected ray from its world position and normal (§3.1 step 1; the
-//    reflector's plane normal, or the triangle's normal from screen derivatives for curved
-//    reflectors, so the method is per pixel and needs no ray coherence, §5);
+//    reflector's plane normal, or the interpolated vertex normal for curved reflectors, so
+//    the method is per pixel and needs no ray coherence, §5);
 // 2. intersects it with every impostor object through its SRDM rows (§4.3), picking per object
 //    the view captured most nearly along the ray; the nearest hit wins;
 // 3. adds ks·R(θ) × the captured colour × the distance attenuation (Figure 15) to the frame
@@ -30,17 +30,45 @@ struct ImpostorParams {
 
 @group(2) @binding(0) var<uniform> impostor_params: ImpostorParams;
 
+// A reflector's vertex: position and vertex normal (`CurvedVertex`).
+struct ImpostorIn {
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+};
+
 struct ImpostorOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) world: vec3<f32>,
+    @location(1) normal: vec3<f32>,
 };
 
 @vertex
-fn vs_impostor(v: VertexIn) -> ImpostorOut {
+fn vs_impostor(v: ImpostorIn) -> ImpostorOut {
     var out: ImpostorOut;
     out.clip = frame.view_proj * vec4<f32>(v.position, 1.0);
     out.world = v.position;
+    out.normal = v.normal;
     return out;
+}
+
+// The reflecting normal at a pixel: the reflector's plane normal, or for curved reflectors the
+// interpolated vertex normal (the facets of a tessellated sphere turn reflected rays by up to
+// ~15°, which loses second-order hits), falling back to the facet's normal where the vertex
+// normals cancel. Faces the eye.
+fn impostor_normal(in: ImpostorOut, to_pixel: vec3<f32>) -> vec3<f32> {
+    let facet = cross(dpdx(in.world), dpdy(in.world));
+    var n = impostor_params.normal.xyz;
+    if impostor_params.normal.w == 0.0 {
+        if dot(in.normal, in.normal) > 1e-12 {
+            n = normalize(in.normal);
+        } else {
+            n = normalize(facet);
+        }
+    }
+    if dot(n, to_pixel) > 0.0 {
+        n = -n;
+    }
+    return n;
 }
 
 // ks·R at view cosine c, linear in the 1D map's coordinate s = √((c − C)/(1 − C)).
@@ -62,15 +90,8 @@ fn impostor_attenuation(t: f32) -> f32 {
 
 @fragment
 fn fs_impostor(in: ImpostorOut) -> FragmentOut {
-    let derived = cross(dpdx(in.world), dpdy(in.world));
     let to_pixel = normalize(in.world - impostor_params.eye.xyz);
-    var n = impostor_params.normal.xyz;
-    if impostor_params.normal.w == 0.0 {
-        n = normalize(derived);
-    }
-    if dot(n, to_pixel) > 0.0 {
-        n = -n;
-    }
+    let n = impostor_normal(in, to_pixel);
     // §3.1 step 1: the reflected ray.
     let dir = reflect(to_pixel, n);
     let objects = u32(impostor_params.settings.y);

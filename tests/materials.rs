@@ -559,6 +559,7 @@ fn mip_filters_keep_constants_and_the_mean() {
 fn box_scene(dir: &std::path::Path) -> Scene {
     let a = 0.25f32;
     let ball = MeshSpec {
+        normals: Vec::new(),
         name: "Ball",
         material: 6,
         positions: vec![

@@ -40,6 +40,7 @@ fn repo(rel: &str) -> PathBuf {
 fn glossy_scene(dir: &Path, extra: &str) -> PathBuf {
     let a = 0.2f32;
     let ball = MeshSpec {
+        normals: Vec::new(),
         name: "Ball",
         material: 3,
         positions: vec![

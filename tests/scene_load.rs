@@ -155,6 +155,7 @@ fn non_planar_planar_reflector_is_refused_at_any_scale() {
     for scale in [1e-3_f32, 1.0, 1e3] {
         let dir = tempfile::tempdir().unwrap();
         let bent = MeshSpec {
+            normals: Vec::new(),
             name: "Bent",
             material: 0,
             positions: vec![
@@ -338,6 +339,7 @@ fn impostor_billboards_resolve_and_bad_ones_are_refused() {
     // A folded object cannot have a surface billboard.
     let dir = tempfile::tempdir().unwrap();
     let folded = MeshSpec {
+        normals: Vec::new(),
         name: "Fold",
         material: 0,
         positions: vec![

@@ -230,43 +230,6 @@ const KS: f32 = 0.9;
 const SPHERE_RADIUS: f32 = 0.25;
 const SPHERE_X: f32 = 0.45;
 
-fn uv_sphere(name: &'static str, material: usize, centre: Vec3) -> MeshSpec {
-    let (rings, segments) = (24u32, 48u32);
-    let mut positions = Vec::new();
-    for i in 0..=rings {
-        let theta = std::f32::consts::PI * i as f32 / rings as f32;
-        for j in 0..segments {
-            let phi = 2.0 * std::f32::consts::PI * j as f32 / segments as f32;
-            let d = Vec3::new(
-                theta.sin() * phi.cos(),
-                theta.cos(),
-                theta.sin() * phi.sin(),
-            );
-            positions.push((centre + d * SPHERE_RADIUS).to_array());
-        }
-    }
-    let mut indices = Vec::new();
-    for i in 0..rings {
-        for j in 0..segments {
-            let a = i * segments + j;
-            let b = i * segments + (j + 1) % segments;
-            let (c, d) = (a + segments, b + segments);
-            if i > 0 {
-                indices.extend([a, b, c]);
-            }
-            if i + 1 < rings {
-                indices.extend([b, d, c]);
-            }
-        }
-    }
-    MeshSpec {
-        name,
-        material,
-        positions,
-        indices,
-    }
-}
-
 /// The box (half size 1) with two mirror spheres on the x axis, baked (scene + radiosity).
 fn box_bundle(root: &Path) -> PathBuf {
     let wall = |i: usize| MaterialSpec {
@@ -294,8 +257,8 @@ fn box_bundle(root: &Path) -> PathBuf {
         quad("WallYn", 3, 1, -1.0, 1.0),
         flip(quad("WallZp", 4, 2, 1.0, 1.0)),
         quad("WallZn", 5, 2, -1.0, 1.0),
-        uv_sphere("SphereA", 6, Vec3::new(-SPHERE_X, 0.0, 0.0)),
-        uv_sphere("SphereB", 6, Vec3::new(SPHERE_X, 0.0, 0.0)),
+        common::uv_sphere("SphereA", 6, [-SPHERE_X, 0.0, 0.0], SPHERE_RADIUS, false),
+        common::uv_sphere("SphereB", 6, [SPHERE_X, 0.0, 0.0], SPHERE_RADIUS, false),
     ];
     write_gltf(root, "box", &meshes, &materials);
     let scene_path = write_scene(

@@ -53,6 +53,7 @@ fn corridor() -> &'static ViewData {
         let h = 0.12;
         let (x, y, z) = (EMITTER.x, EMITTER.y, EMITTER.z);
         let emitter = common::MeshSpec {
+            normals: Vec::new(),
             name: "Emitter",
             material: 1,
             positions: vec![

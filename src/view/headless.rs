@@ -482,12 +482,12 @@ impl Offscreen {
             if let Some(r) = &self.impostors {
                 r.prepare(gpu, camera);
                 let (color, hdr, depth) = self.target.views();
-                r.draw(&mut encoder, &self.renderer, color, hdr, depth);
+                r.draw(&mut encoder, color, hdr, depth);
             }
             if let Some(r) = &self.curved_impostors {
                 r.prepare(gpu, camera);
                 let (color, hdr, depth) = self.target.views();
-                r.draw(&mut encoder, &self.renderer, color, hdr, depth);
+                r.draw(&mut encoder, color, hdr, depth);
             }
             if let Some(c) = &self.curved {
                 c.prepare(gpu, camera);

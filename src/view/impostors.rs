@@ -30,8 +30,7 @@ use super::impostor_tables::{
 use super::load::ViewData;
 use super::reflections::reflectors_with_reflectance;
 use super::renderer::{
-    HDR_FORMAT, Renderer, SHADER_SOURCE, SceneMesh, frame_bind_group, frame_bind_group_layout,
-    reverse_z_depth,
+    HDR_FORMAT, Renderer, SHADER_SOURCE, frame_bind_group, frame_bind_group_layout, reverse_z_depth,
 };
 use crate::bake::srdm_stage;
 use crate::camera::Camera;
@@ -627,8 +626,9 @@ struct ReflectorGpu {
     reflector: ImpostorReflector,
     params: wgpu::Buffer,
     group: wgpu::BindGroup,
-    indices: wgpu::Buffer,
-    index_count: u32,
+    /// Three (position, normal) vertices per triangle.
+    vertices: wgpu::Buffer,
+    vertex_count: u32,
 }
 
 /// The impostor reflections pass of one [`Renderer`] (new / prepare / draw, like
@@ -739,7 +739,6 @@ impl ImpostorReflections {
         settings: ImpostorSettings,
     ) -> Result<ImpostorReflections, GpuError> {
         let device = &gpu.device;
-        let mesh = SceneMesh::new(&data.scene, &data.map.atlas);
         let formats = renderer.formats();
         error_scoped(device, "creating the impostor reflections pass", || {
             let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -805,7 +804,9 @@ impl ImpostorReflections {
                     module: &shader,
                     entry_point: Some("vs_impostor"),
                     compilation_options: wgpu::PipelineCompilationOptions::default(),
-                    buffers: &[Some(crate::view::renderer::scene_vertex_layout())],
+                    // Position and vertex normal: curved reflectors reflect about the
+                    // interpolated normal, as the cube-map composite does.
+                    buffers: &[Some(crate::view::curved::gpu::CurvedVertex::layout())],
                 },
                 primitive: wgpu::PrimitiveState {
                     topology: wgpu::PrimitiveTopology::TriangleList,
@@ -843,22 +844,18 @@ impl ImpostorReflections {
             let reflectors = reflectors
                 .into_iter()
                 .map(|reflector| {
-                    let indices: Vec<u32> = reflector
-                        .triangles
-                        .iter()
-                        .flat_map(|&t| {
-                            let t = t as usize * 3;
-                            mesh.indices[t..t + 3].iter().copied()
-                        })
-                        .collect();
-                    let index_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-                        label: Some("glint impostor reflector indices"),
-                        size: (indices.len() as u64 * 4).max(4),
-                        usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST,
+                    let vertices = crate::view::curved::gpu::reflector_vertices(
+                        &data.scene,
+                        &reflector.triangles,
+                    );
+                    let vertex_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("glint impostor reflector vertices"),
+                        size: (std::mem::size_of_val(vertices.as_slice()) as u64).max(4),
+                        usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
                         mapped_at_creation: false,
                     });
                     gpu.queue
-                        .write_buffer(&index_buffer, 0, bytemuck::cast_slice(&indices));
+                        .write_buffer(&vertex_buffer, 0, bytemuck::cast_slice(&vertices));
                     let params = device.create_buffer(&wgpu::BufferDescriptor {
                         label: Some("glint impostor reflector params"),
                         size: std::mem::size_of::<ImpostorParams>() as u64,
@@ -874,11 +871,11 @@ impl ImpostorReflections {
                         }],
                     });
                     ReflectorGpu {
-                        index_count: indices.len() as u32,
+                        vertex_count: vertices.len() as u32,
                         reflector,
                         params,
                         group,
-                        indices: index_buffer,
+                        vertices: vertex_buffer,
                     }
                 })
                 .collect();
@@ -924,12 +921,11 @@ impl ImpostorReflections {
     }
 
     /// Records, after the scene pass into `color`/`hdr`/`depth` (depth stored), one pass that
-    /// draws every reflector's visible pixels with their impostor reflections added.
-    /// `renderer` must be the one the pass was built for (its frame uniforms are used).
+    /// draws every reflector's visible pixels with their impostor reflections added. The frame
+    /// uniforms are those of the renderer the pass was built for.
     pub fn draw(
         &self,
         encoder: &mut wgpu::CommandEncoder,
-        renderer: &Renderer,
         color: &wgpu::TextureView,
         hdr: Option<&wgpu::TextureView>,
         depth: &wgpu::TextureView,
@@ -939,7 +935,7 @@ impl ImpostorReflections {
             Some(_) => false,
             None => self.buffers.objects() == 0,
         };
-        if nothing || self.reflectors.iter().all(|r| r.index_count == 0) {
+        if nothing || self.reflectors.iter().all(|r| r.vertex_count == 0) {
             return;
         }
         let load = |view| {
@@ -974,14 +970,13 @@ impl ImpostorReflections {
             Some(b) => pass.set_bind_group(3, &b.group, &[]),
             None => pass.set_bind_group(1, &self.buffers.group, &[]),
         }
-        pass.set_vertex_buffer(0, renderer.vertex_buffer().slice(..));
         for r in &self.reflectors {
-            if r.index_count == 0 {
+            if r.vertex_count == 0 {
                 continue;
             }
             pass.set_bind_group(2, &r.group, &[]);
-            pass.set_index_buffer(r.indices.slice(..), wgpu::IndexFormat::Uint32);
-            pass.draw_indexed(0..r.index_count, 0, 0..1);
+            pass.set_vertex_buffer(0, r.vertices.slice(..));
+            pass.draw(0..r.vertex_count, 0..1);
         }
     }
 }

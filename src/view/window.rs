@@ -841,11 +841,11 @@ impl App {
         }
         if let Some(pass) = &r.impostors {
             pass.prepare(&r.gpu, &camera);
-            pass.draw(&mut encoder, &r.renderer, &view, None, &r.depth_view);
+            pass.draw(&mut encoder, &view, None, &r.depth_view);
         }
         if let Some(pass) = &r.curved_impostors {
             pass.prepare(&r.gpu, &camera);
-            pass.draw(&mut encoder, &r.renderer, &view, None, &r.depth_view);
+            pass.draw(&mut encoder, &view, None, &r.depth_view);
         }
         if let Some(passes) = &r.curved {
             passes.prepare(&r.gpu, &camera);

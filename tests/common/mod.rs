@@ -11,6 +11,8 @@ pub struct MeshSpec {
     pub material: usize,
     pub positions: Vec<[f32; 3]>,
     pub indices: Vec<u32>,
+    /// Vertex normals; empty: none in the glTF (the loader takes face normals).
+    pub normals: Vec<[f32; 3]>,
 }
 
 /// A glTF material: name, base colour, metallic, roughness, emissive, emissive strength.
@@ -56,6 +58,7 @@ pub fn quad(name: &'static str, material: usize, axis: usize, offset: f32, h: f3
         p
     };
     MeshSpec {
+        normals: Vec::new(),
         name,
         material,
         positions: vec![
@@ -96,11 +99,32 @@ pub fn write_gltf(
         for ix in &m.indices {
             bin.extend_from_slice(&ix.to_le_bytes());
         }
+        let (pos, idx) = (views.len(), views.len() + 1);
         views.push(serde_json::json!({"buffer": 0, "byteOffset": pos_off, "byteLength": idx_off - pos_off}));
         views.push(serde_json::json!({"buffer": 0, "byteOffset": idx_off, "byteLength": bin.len() - idx_off}));
-        accessors.push(serde_json::json!({"bufferView": 2 * i, "componentType": 5126, "count": m.positions.len(), "type": "VEC3", "min": lo, "max": hi}));
-        accessors.push(serde_json::json!({"bufferView": 2 * i + 1, "componentType": 5125, "count": m.indices.len(), "type": "SCALAR"}));
-        json_meshes.push(serde_json::json!({"name": m.name, "primitives": [{"attributes": {"POSITION": 2 * i}, "indices": 2 * i + 1, "material": m.material}]}));
+        accessors.push(serde_json::json!({"bufferView": pos, "componentType": 5126, "count": m.positions.len(), "type": "VEC3", "min": lo, "max": hi}));
+        accessors.push(serde_json::json!({"bufferView": idx, "componentType": 5125, "count": m.indices.len(), "type": "SCALAR"}));
+        let mut attributes = serde_json::json!({"POSITION": pos});
+        if !m.normals.is_empty() {
+            assert_eq!(
+                m.normals.len(),
+                m.positions.len(),
+                "{}: a normal per vertex",
+                m.name
+            );
+            let off = bin.len();
+            for n in &m.normals {
+                for c in n {
+                    bin.extend_from_slice(&c.to_le_bytes());
+                }
+            }
+            attributes["NORMAL"] = accessors.len().into();
+            views.push(
+                serde_json::json!({"buffer": 0, "byteOffset": off, "byteLength": bin.len() - off}),
+            );
+            accessors.push(serde_json::json!({"bufferView": views.len() - 1, "componentType": 5126, "count": m.normals.len(), "type": "VEC3"}));
+        }
+        json_meshes.push(serde_json::json!({"name": m.name, "primitives": [{"attributes": attributes, "indices": idx, "material": m.material}]}));
         nodes.push(serde_json::json!({"name": m.name, "mesh": i}));
     }
     let mats: Vec<_> = materials
@@ -173,4 +197,56 @@ pub fn write_scene(dir: &Path, json: &str) -> PathBuf {
     let path = dir.join("scene.json");
     std::fs::write(&path, json).unwrap();
     path
+}
+
+/// A UV sphere (24 rings × 48 segments) of `radius` about `centre`, with its exact vertex
+/// normals when `smooth` (else none: the loader's face normals).
+pub fn uv_sphere(
+    name: &'static str,
+    material: usize,
+    centre: [f32; 3],
+    radius: f32,
+    smooth: bool,
+) -> MeshSpec {
+    let (rings, segments) = (24u32, 48u32);
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    for i in 0..=rings {
+        let theta = std::f32::consts::PI * i as f32 / rings as f32;
+        for j in 0..segments {
+            let phi = 2.0 * std::f32::consts::PI * j as f32 / segments as f32;
+            let d = [
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            ];
+            positions.push([
+                centre[0] + d[0] * radius,
+                centre[1] + d[1] * radius,
+                centre[2] + d[2] * radius,
+            ]);
+            normals.push(d);
+        }
+    }
+    let mut indices = Vec::new();
+    for i in 0..rings {
+        for j in 0..segments {
+            let a = i * segments + j;
+            let b = i * segments + (j + 1) % segments;
+            let (c, d) = (a + segments, b + segments);
+            if i > 0 {
+                indices.extend([a, b, c]);
+            }
+            if i + 1 < rings {
+                indices.extend([b, d, c]);
+            }
+        }
+    }
+    MeshSpec {
+        name,
+        material,
+        positions,
+        indices,
+        normals: if smooth { normals } else { Vec::new() },
+    }
 }

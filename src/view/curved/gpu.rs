@@ -31,6 +31,17 @@ pub struct CurvedVertex {
 const CURVED_ATTRIBUTES: [wgpu::VertexAttribute; 2] =
     wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
 
+impl CurvedVertex {
+    /// The vertex buffer layout of `CurvedVertexIn` (and of the impostor pass's `ImpostorIn`).
+    pub fn layout() -> wgpu::VertexBufferLayout<'static> {
+        wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<CurvedVertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &CURVED_ATTRIBUTES,
+        }
+    }
+}
+
 /// A cube texture with every MIP level, and the views the passes need.
 pub struct CubeTexture {
     /// The texture (6 layers).
@@ -479,11 +490,7 @@ impl CurvedReflections {
             let plan = generation_plan(settings.generations);
             let final_set = plan.last().expect("at least one generation").write;
             let formats = renderer.formats();
-            let curved_buffers = [Some(wgpu::VertexBufferLayout {
-                array_stride: std::mem::size_of::<CurvedVertex>() as u64,
-                step_mode: wgpu::VertexStepMode::Vertex,
-                attributes: &CURVED_ATTRIBUTES,
-            })];
+            let curved_buffers = [Some(CurvedVertex::layout())];
             let additive = |format| {
                 Some(wgpu::ColorTargetState {
                     format,
