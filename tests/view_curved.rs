@@ -803,12 +803,7 @@ fn glossy_room_teapot_seen_in_the_mirror_gets_its_specular_term() {
         .expect("glossy-room has a planar mirror panel");
     // From beside the table, looking at the teapot's mirror image past the teapot itself.
     let image = mirror_point(&panel.plane, teapot.centre);
-    let camera = Camera::look_at(
-        Vec3::new(0.9, 1.2, 0.5),
-        image,
-        Vec3::Y,
-        12f32.to_radians(),
-    );
+    let camera = Camera::look_at(Vec3::new(0.9, 1.2, 0.5), image, Vec3::Y, 12f32.to_radians());
     let (w, h) = (160u32, 120u32);
     let face = 64u32;
     let bvh = data.scene.build_bvh();
@@ -922,7 +917,10 @@ fn glossy_room_teapot_seen_in_the_mirror_gets_its_specular_term() {
         want_sum / count.max(1) as f64,
     );
     assert!(count > 300, "{count} pixels show the teapot in the mirror");
-    assert!(others > 300, "{others} pixels show the rest of the room in the mirror");
+    assert!(
+        others > 300,
+        "{others} pixels show the rest of the room in the mirror"
+    );
     // Not vacuous: the specular term is most of the teapot's mirror image (a metal: kd·D is
     // about 0, so without this pass the teapot is black in the mirror).
     assert!(

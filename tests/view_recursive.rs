@@ -439,7 +439,12 @@ fn nested_composite_is_clipped_at_the_parent_mirror() {
             })
         })
     };
-    let diff = |i: usize| (0..3).map(|k| one[4 * i + k].abs_diff(two[4 * i + k])).max().unwrap();
+    let diff = |i: usize| {
+        (0..3)
+            .map(|k| one[4 * i + k].abs_diff(two[4 * i + k]))
+            .max()
+            .unwrap()
+    };
     let (mut hidden, mut worst, mut legit, mut legit_sum) = (0usize, 0u8, 0usize, 0u64);
     for i in 0..class.len() {
         if interior(i, 1) {
@@ -457,8 +462,14 @@ fn nested_composite_is_clipped_at_the_parent_mirror() {
     assert!(hidden > 100, "{hidden} pixels look through the hidden part");
     assert!(legit > 50, "{legit} pixels see the shelf in A");
     // Not vacuous: the shelf's second bounce shows where it is in front of A.
-    assert!(legit_mean > 10.0, "depth 2 adds {legit_mean:.1} on the visible shelf");
-    assert!(worst <= 1, "the hidden part leaks: a pixel changed by {worst}");
+    assert!(
+        legit_mean > 10.0,
+        "depth 2 adds {legit_mean:.1} on the visible shelf"
+    );
+    assert!(
+        worst <= 1,
+        "the hidden part leaks: a pixel changed by {worst}"
+    );
 }
 
 // ─────────────────────── depth 2 against the reference path tracer ───────────────────────
@@ -557,5 +568,8 @@ fn depth_two_approaches_the_path_tracer_where_the_second_image_is() {
         "depth 2: {w2:.2} > {SECOND_IMAGE_TOLERANCE} around the second image"
     );
     assert!(w2 < 0.5 * w1, "depth 2 {w2:.2} vs depth 1 {w1:.2}");
-    assert!(f2 <= f1, "depth 2 {f2:.2} worse than depth 1 {f1:.2} over the frame");
+    assert!(
+        f2 <= f1,
+        "depth 2 {f2:.2} worse than depth 1 {f1:.2} over the frame"
+    );
 }

@@ -295,9 +295,9 @@ pub struct CurvedParams {
     pub centre: [f32; 4],
     /// Lobes, 1 = regular sampling, face size of the environment's level 0, unused.
     pub info: [u32; 4],
-    /// Inside a planar mirror's pass: the mirror's plane, normal xyz and w = normal · point
-    /// + clip distance; fragments p with xyz · p ≤ w (behind the mirror) are discarded.
-    /// [`NO_CLIP`] elsewhere.
+    /// Inside a planar mirror's pass: the mirror's plane, normal xyz and w the sum of
+    /// normal · point and the clip distance; fragments p with xyz · p ≤ w (behind the
+    /// mirror) are discarded. [`NO_CLIP`] elsewhere.
     pub clip: [f32; 4],
     /// Per lobe.
     pub lobes: [CurvedLobe; MAX_LOBES],
