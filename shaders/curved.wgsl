@@ -12,6 +12,8 @@
 //   up in the previous generation's cube map (McReynolds' scheme, as Nielsen adopts it);
 // - `vs_curved`/`fs_curved`: a curved reflector's pixels in the frame, ks·(Fresnel)·cube(r)
 //   (mirror) or Eq. 9 with a regular pattern (glossy), added to kd·D of the scene pass;
+// - `vs_curved`/`fs_curved_mirror`: the same inside a planar mirror's pass (mirrored view),
+//   clipped at the mirror's plane;
 // - `vs_fullscreen`/`fs_downsample`: the next MIP level of a live cube face (2×2 box);
 // - `cs_glossy_probe`, `cs_env_probe`: the same functions on given inputs, for tests.
 //
@@ -36,6 +38,9 @@ struct CurvedParams {
     // x: lobes; y: 1 = regular sampling (Eq. 9), 0 = one mirror lookup; z: face size of the
     // environment's level 0 (Eq. 16's N = z²); w: unused.
     info: vec4<u32>,
+    // Inside a planar mirror's pass (`fs_curved_mirror`): the mirror's plane, xyz its normal,
+    // w = normal · point + clip distance; fragments p with xyz · p ≤ w are discarded.
+    clip: vec4<f32>,
     lobes: array<CurvedLobe, 2>,
 };
 
@@ -221,6 +226,22 @@ fn fs_curved(in: CurvedOut) -> FragmentOut {
     out.color = vec4<f32>(color, 0.0);
     out.hdr = vec4<f32>(c, 0.0);
     return out;
+}
+
+// A curved reflector seen in a planar mirror (Nielsen §3.1 and §3.2 together): inside the
+// planar mirror pass of `reflect.wgsl` (`frame` holds the mirrored camera, `curved.eye` the
+// mirrored eye), its specular term is added to the kd·D that `fs_mirror` wrote into the
+// reflection map M (linear, × exposure as there; alpha, the beyond fraction, kept by the
+// blend), depth tested against the mirrored scene. Whatever lies behind the mirror's plane is
+// discarded, as `fs_mirror` does.
+@fragment
+fn fs_curved_mirror(in: CurvedOut) -> @location(0) vec4<f32> {
+    if dot(curved.clip.xyz, in.world) <= curved.clip.w {
+        discard;
+    }
+    let wo = normalize(curved.eye.xyz - in.world);
+    let c = curved_specular(facing_normal(in), wo, curved.info.y != 0u) * frame.exposure;
+    return vec4<f32>(c, 0.0);
 }
 
 @fragment

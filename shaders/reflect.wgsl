@@ -32,6 +32,10 @@ struct ReflectParams {
     bitangent: vec4<f32>,
     // x: screen pixels per kernel texel for a point wholly beyond the plane; y: tap count.
     kernel: vec4<f32>,
+    // The composite's clip (`fs_composite`): in a recursive map (Nielsen §3.1), the parent
+    // mirror's plane, xyz its normal, w = normal · point + clip distance; fragments p with
+    // xyz · p ≤ w (behind the parent mirror) are discarded. (0, 0, 0, −1) into the frame.
+    parent: vec4<f32>,
     // ks·R at the 1D map's cosines C + (1 − C) s², s = k/63 (rgb).
     modulation: array<vec4<f32>, 64>,
     // K's significant taps: xy offset in texels (x right, y up), z weight (they sum to 1).
@@ -113,6 +117,12 @@ fn sphere_modulation(r: vec3<f32>) -> vec3<f32> {
 
 @fragment
 fn fs_composite(in: MirrorOut) -> FragmentOut {
+    // A child reflector straddling its parent mirror's plane: the part behind the parent was
+    // clipped from the parent's map by `fs_mirror`, and must not get a reflection either (it
+    // lies nearer the mirrored eye than anything in the map, so the depth test keeps it).
+    if dot(reflect_params.parent.xyz, in.world) <= reflect_params.parent.w {
+        discard;
+    }
     let centre = textureLoad(reflection, vec2<i32>(floor(in.clip.xy)), 0);
     var m = centre.rgb;
     let taps = u32(reflect_params.kernel.y);

@@ -282,7 +282,10 @@ pub struct CurvedLobe {
     pub pdf: [f32; 4],
 }
 
-/// Mirrors `CurvedParams` in `shaders/curved.wgsl` (176 bytes).
+/// The clip plane of a view that clips nothing ([`CurvedParams::clip`]).
+pub const NO_CLIP: [f32; 4] = [0.0, 0.0, 0.0, -1.0];
+
+/// Mirrors `CurvedParams` in `shaders/curved.wgsl` (192 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct CurvedParams {
@@ -292,6 +295,10 @@ pub struct CurvedParams {
     pub centre: [f32; 4],
     /// Lobes, 1 = regular sampling, face size of the environment's level 0, unused.
     pub info: [u32; 4],
+    /// Inside a planar mirror's pass: the mirror's plane, normal xyz and w the sum of
+    /// normal · point and the clip distance; fragments p with xyz · p ≤ w (behind the
+    /// mirror) are discarded. [`NO_CLIP`] elsewhere.
+    pub clip: [f32; 4],
     /// Per lobe.
     pub lobes: [CurvedLobe; MAX_LOBES],
 }
@@ -327,6 +334,7 @@ impl CurvedParams {
                 face_size,
                 0,
             ],
+            clip: NO_CLIP,
             lobes,
         }
     }
@@ -377,6 +385,7 @@ mod tests {
                 std::mem::offset_of!(CurvedParams, eye) as u32,
                 std::mem::offset_of!(CurvedParams, centre) as u32,
                 std::mem::offset_of!(CurvedParams, info) as u32,
+                std::mem::offset_of!(CurvedParams, clip) as u32,
                 std::mem::offset_of!(CurvedParams, lobes) as u32,
             ]
         );

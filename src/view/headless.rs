@@ -451,7 +451,7 @@ impl Offscreen {
                     label: Some("glint frame encoder"),
                 });
             if let Some(r) = &self.recursive {
-                r.prepare(gpu, &self.renderer, camera);
+                r.prepare(gpu, &self.renderer, camera, self.curved.as_ref());
             }
             let reflection_passes = self
                 .reflections
@@ -466,7 +466,7 @@ impl Offscreen {
                     .map(|t| t.writes(reflection_passes == 0)),
             );
             if let Some(r) = &self.reflections {
-                r.prepare(gpu, &self.renderer, camera);
+                r.prepare(gpu, &self.renderer, camera, self.curved.as_ref());
                 let (color, hdr, depth) = self.target.views();
                 // The last reflection pass ends the frame's timestamp span.
                 r.draw_timed(
@@ -477,6 +477,7 @@ impl Offscreen {
                     hdr,
                     depth,
                     self.timer.as_ref().map(|t| (&t.queries, 1)),
+                    self.curved.as_ref(),
                 );
             }
             if let Some(r) = &self.impostors {
@@ -503,6 +504,7 @@ impl Offscreen {
                     hdr,
                     depth,
                     self.timer.as_ref().map(|t| (&t.queries, 1)),
+                    self.curved.as_ref(),
                 );
             }
             if let Some(t) = &self.timer {

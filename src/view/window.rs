@@ -826,17 +826,27 @@ impl App {
         r.renderer
             .draw(&mut encoder, &view, None, &r.depth_view, None);
         if let Some(passes) = &r.recursive {
-            passes.prepare(&r.gpu, &r.renderer, &camera);
-            passes.draw_timed(&mut encoder, &r.renderer, &view, None, &r.depth_view, None);
+            passes.prepare(&r.gpu, &r.renderer, &camera, r.curved.as_ref());
+            passes.draw_timed(
+                &mut encoder,
+                &r.renderer,
+                &view,
+                None,
+                &r.depth_view,
+                None,
+                r.curved.as_ref(),
+            );
         } else if let Some(passes) = &r.reflections {
-            passes.prepare(&r.gpu, &r.renderer, &camera);
-            passes.draw(
+            passes.prepare(&r.gpu, &r.renderer, &camera, r.curved.as_ref());
+            passes.draw_timed(
                 &mut encoder,
                 &r.renderer,
                 &camera,
                 &view,
                 None,
                 &r.depth_view,
+                None,
+                r.curved.as_ref(),
             );
         }
         if let Some(pass) = &r.impostors {

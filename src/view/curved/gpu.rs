@@ -2,8 +2,10 @@
 //! generations), their MIP levels, baked MIP pyramids as cube textures, and the composite
 //! pass that shades the reflectors' pixels (see [`super`] for the equations).
 
+use std::sync::Mutex;
+
 use exr::prelude::f16;
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 
 use super::{
     CurvedParams, CurvedReflector, CurvedSettings, DEFAULT_XI0, curved_reflectors, face_camera,
@@ -231,8 +233,19 @@ struct ReflectorGpu {
     patterns: wgpu::Buffer,
 }
 
+/// One mirrored view of the curved reflectors (a planar mirror's pass): its frame uniforms
+/// and, per reflector, its parameters (mirrored eye, the mirror's clip plane).
+struct MirrorView {
+    uniforms: wgpu::Buffer,
+    frame_group: wgpu::BindGroup,
+    /// Per reflector: parameters and the composite group reading them.
+    reflectors: Vec<(wgpu::Buffer, wgpu::BindGroup)>,
+}
+
 /// The curved-reflector passes of one [`Renderer`]: cube maps made at construction, the
-/// composite recorded per frame ([`CurvedReflections::prepare`], [`CurvedReflections::draw`]).
+/// composite recorded per frame ([`CurvedReflections::prepare`], [`CurvedReflections::draw`])
+/// and inside planar mirrors' passes ([`CurvedReflections::prepare_mirror`],
+/// [`CurvedReflections::draw_mirror`]).
 pub struct CurvedReflections {
     settings: CurvedSettings,
     reflectors: Vec<ReflectorGpu>,
@@ -241,6 +254,11 @@ pub struct CurvedReflections {
     final_set: usize,
     composite_pipeline: wgpu::RenderPipeline,
     composite_frame_group: wgpu::BindGroup,
+    /// The composite inside a planar mirror's pass (`fs_curved_mirror`, the HDR map M).
+    mirror_pipeline: wgpu::RenderPipeline,
+    /// Mirrored views, by the slot the planar passes give them (grown as needed).
+    mirror_views: Mutex<Vec<MirrorView>>,
+    frame_layout: wgpu::BindGroupLayout,
     curved_layout: wgpu::BindGroupLayout,
     sampler: wgpu::Sampler,
     /// Seconds the cube maps took (all generations, submit to complete).
@@ -516,6 +534,18 @@ impl CurvedReflections {
                 ],
                 Some(reverse_z_depth(false, wgpu::CompareFunction::GreaterEqual)),
             );
+            // Inside a mirror pass: one linear HDR target (M), depth tested, not written.
+            let mirror_pipeline = pipeline(
+                device,
+                &shader,
+                "glint curved composite in a mirror",
+                &[Some(&frame_layout), Some(&curved_layout)],
+                "vs_curved",
+                "fs_curved_mirror",
+                &curved_buffers,
+                &[additive(HDR_FORMAT)],
+                Some(reverse_z_depth(false, wgpu::CompareFunction::GreaterEqual)),
+            );
             let generation = GenerationPipelines::new(
                 device,
                 &shader,
@@ -644,6 +674,9 @@ impl CurvedReflections {
                     final_set,
                     composite_pipeline,
                     composite_frame_group,
+                    mirror_pipeline,
+                    mirror_views: Mutex::new(Vec::new()),
+                    frame_layout,
                     curved_layout,
                     sampler,
                     generation_seconds: 0.0,
@@ -849,6 +882,106 @@ impl CurvedReflections {
         pass.set_bind_group(0, &self.composite_frame_group, &[]);
         for r in &self.reflectors {
             pass.set_bind_group(1, &r.composite_group, &[]);
+            pass.set_vertex_buffer(0, r.vertices.slice(..));
+            pass.draw(0..r.vertex_count, 0..1);
+        }
+    }
+
+    /// The environment reflector `index` reads (the baked pyramid, else the final live map).
+    fn env_view(&self, index: usize) -> &wgpu::TextureView {
+        match &self.reflectors[index]._baked {
+            Some(t) => &t.cube,
+            None => &self.maps[self.final_set][index].cube,
+        }
+    }
+
+    fn new_mirror_view(&self, gpu: &Gpu, renderer: &Renderer) -> MirrorView {
+        let device = &gpu.device;
+        let uniforms = uniform_buffer(device);
+        let frame_group =
+            frame_bind_group(device, &self.frame_layout, &uniforms, renderer.textures());
+        let reflectors = self
+            .reflectors
+            .iter()
+            .enumerate()
+            .map(|(i, r)| {
+                let params = buffer_with(
+                    gpu,
+                    "glint curved params in a mirror",
+                    wgpu::BufferUsages::UNIFORM,
+                    bytemuck::bytes_of(&r.base_params),
+                );
+                let group = curved_group(
+                    device,
+                    &self.curved_layout,
+                    &params,
+                    &r.patterns,
+                    self.env_view(i),
+                    &self.sampler,
+                );
+                (params, group)
+            })
+            .collect();
+        MirrorView {
+            uniforms,
+            frame_group,
+            reflectors,
+        }
+    }
+
+    /// Writes mirrored view `slot` (the planar passes number their mirror passes): `mirrored`
+    /// is the camera mirrored about a planar reflector (its frame uniforms at `width` ×
+    /// `height`, and the eye of every curved reflector's term), `clip` that reflector's plane
+    /// (normal xyz, w = normal · point + clip distance): fragments behind it are discarded.
+    /// The writes land before the next submission.
+    #[allow(clippy::too_many_arguments)]
+    pub fn prepare_mirror(
+        &self,
+        gpu: &Gpu,
+        renderer: &Renderer,
+        slot: usize,
+        mirrored: &Camera,
+        width: u32,
+        height: u32,
+        clip: Vec4,
+    ) {
+        if self.reflectors.is_empty() {
+            return;
+        }
+        let Ok(mut views) = self.mirror_views.lock() else {
+            return;
+        };
+        while views.len() <= slot {
+            let view = self.new_mirror_view(gpu, renderer);
+            views.push(view);
+        }
+        let view = &views[slot];
+        let mut u = renderer.uniforms(mirrored, width, height);
+        u.encode_srgb = 0; // M holds linear radiance
+        gpu.queue
+            .write_buffer(&view.uniforms, 0, bytemuck::bytes_of(&u));
+        for (r, (params, _)) in self.reflectors.iter().zip(&view.reflectors) {
+            let mut p = r.base_params;
+            p.eye = mirrored.position.extend(0.0).to_array();
+            p.clip = clip.to_array();
+            gpu.queue.write_buffer(params, 0, bytemuck::bytes_of(&p));
+        }
+    }
+
+    /// Records, inside a planar mirror's pass (its HDR map M bound as the only colour target,
+    /// the mirrored scene's depth), the curved reflectors' specular term of mirrored view
+    /// `slot` ([`CurvedReflections::prepare_mirror`]), added to their kd·D there.
+    pub fn draw_mirror(&self, pass: &mut wgpu::RenderPass<'_>, slot: usize) {
+        let Ok(views) = self.mirror_views.lock() else {
+            return;
+        };
+        let Some(view) = views.get(slot) else {
+            return;
+        };
+        pass.set_pipeline(&self.mirror_pipeline);
+        pass.set_bind_group(0, &view.frame_group, &[]);
+        for (r, (_, group)) in self.reflectors.iter().zip(&view.reflectors) {
+            pass.set_bind_group(1, group, &[]);
             pass.set_vertex_buffer(0, r.vertices.slice(..));
             pass.draw(0..r.vertex_count, 0..1);
         }

@@ -278,6 +278,7 @@ mod tests {
             std::mem::offset_of!(ReflectParams, tangent),
             std::mem::offset_of!(ReflectParams, bitangent),
             std::mem::offset_of!(ReflectParams, kernel),
+            std::mem::offset_of!(ReflectParams, parent),
             std::mem::offset_of!(ReflectParams, modulation),
             std::mem::offset_of!(ReflectParams, taps),
         ];

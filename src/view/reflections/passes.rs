@@ -15,6 +15,7 @@ use super::{
 };
 use crate::bake::materials::reflectance;
 use crate::camera::Camera;
+use crate::view::curved::gpu::CurvedReflections;
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
 use crate::view::radiance_maps::{MapEntry, load_cameras, select};
@@ -23,7 +24,10 @@ use crate::view::renderer::{
     uniform_buffer,
 };
 
-/// Mirrors `ReflectParams` in `shaders/reflect.wgsl` (3184 bytes).
+/// The parent clip of a composite that clips nothing ([`ReflectParams::parent`]).
+pub const NO_PARENT_CLIP: [f32; 4] = [0.0, 0.0, 0.0, -1.0];
+
+/// Mirrors `ReflectParams` in `shaders/reflect.wgsl` (3200 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct ReflectParams {
@@ -39,6 +43,10 @@ pub struct ReflectParams {
     pub bitangent: [f32; 4],
     /// x: screen pixels per kernel texel at beyond-fraction 1 (per frame); y: tap count.
     pub kernel: [f32; 4],
+    /// The composite's clip: in a recursive map, the parent mirror's plane (normal xyz,
+    /// w = normal · point + clip distance), fragments p with xyz · p ≤ w discarded;
+    /// [`NO_PARENT_CLIP`] for a composite into the frame.
+    pub parent: [f32; 4],
     /// ks·R at the 1D map's cosines (rgb; a unused).
     pub modulation: [[f32; 4]; MODULATION_SIZE],
     /// K's taps: offset in texels (x right, y up), weight.
@@ -76,6 +84,7 @@ impl ReflectParams {
                 0.0,
                 0.0,
             ],
+            parent: NO_PARENT_CLIP,
             modulation,
             taps,
         }
@@ -641,11 +650,36 @@ impl GeometryReflections {
 
     /// Writes each reflector's mirrored-view uniforms for `camera` and, in image mode, plans
     /// its splats (map selection, Eq. 3 sizes, culling, skipping; the writes land before the
-    /// next submission).
-    pub fn prepare(&self, gpu: &Gpu, renderer: &Renderer, camera: &Camera) {
+    /// next submission). With `curved`, also the curved reflectors' mirrored views (geometry
+    /// mode: slot = the reflector's index), which [`GeometryReflections::draw_timed`] draws
+    /// into each mirror pass.
+    pub fn prepare(
+        &self,
+        gpu: &Gpu,
+        renderer: &Renderer,
+        camera: &Camera,
+        curved: Option<&CurvedReflections>,
+    ) {
         let pitch = splats::pixel_tangent(camera.fov_y, self.height);
-        for r in &self.reflectors {
+        for (slot, r) in self.reflectors.iter().enumerate() {
             let mirrored = mirror_camera(camera, &r.reflector.plane);
+            if let (Some(c), Source::Geometry) = (curved, self.source)
+                && self.visible(r, camera)
+            {
+                let plane = &r.reflector.plane;
+                let clip = plane
+                    .normal
+                    .extend(plane.normal.dot(plane.point) + self.clip);
+                c.prepare_mirror(
+                    gpu,
+                    renderer,
+                    slot,
+                    &mirrored,
+                    self.width,
+                    self.height,
+                    clip,
+                );
+            }
             let u = renderer.uniforms(&mirrored, self.width, self.height);
             gpu.queue
                 .write_buffer(&r.mirror_uniforms, 0, bytemuck::bytes_of(&u));
@@ -713,11 +747,15 @@ impl GeometryReflections {
         hdr: Option<&wgpu::TextureView>,
         depth: &wgpu::TextureView,
     ) {
-        self.draw_timed(encoder, renderer, camera, color, hdr, depth, None);
+        self.draw_timed(encoder, renderer, camera, color, hdr, depth, None, None);
     }
 
     /// [`GeometryReflections::draw`], the last pass writing its end timestamp into
-    /// `end_timestamp` (query set, index) when given.
+    /// `end_timestamp` (query set, index) when given. With `curved` (prepared by
+    /// [`GeometryReflections::prepare`] with the same passes), geometry mode's mirror passes
+    /// also draw the curved reflectors' specular term in the mirrored view, so a curved
+    /// reflector seen in a planar mirror is not kd·D alone. Image mode has no scene pass in
+    /// the mirrored view (its M is splatted from radiance maps), so it draws none.
     #[allow(clippy::too_many_arguments)]
     pub fn draw_timed(
         &self,
@@ -728,13 +766,15 @@ impl GeometryReflections {
         hdr: Option<&wgpu::TextureView>,
         depth: &wgpu::TextureView,
         end_timestamp: Option<(&wgpu::QuerySet, u32)>,
+        curved: Option<&CurvedReflections>,
     ) {
-        let visible: Vec<&ReflectorGpu> = self
+        let visible: Vec<(usize, &ReflectorGpu)> = self
             .reflectors
             .iter()
-            .filter(|r| self.visible(r, camera))
+            .enumerate()
+            .filter(|(_, r)| self.visible(r, camera))
             .collect();
-        for (k, r) in visible.iter().enumerate() {
+        for (k, &(slot, r)) in visible.iter().enumerate() {
             {
                 let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                     label: Some("glint mirror pass"),
@@ -781,6 +821,9 @@ impl GeometryReflections {
                             wgpu::IndexFormat::Uint32,
                         );
                         pass.draw_indexed(0..renderer.index_count(), 0, 0..1);
+                        if let (Some(c), Source::Geometry) = (curved, self.source) {
+                            c.draw_mirror(&mut pass, slot);
+                        }
                     }
                 }
             }

@@ -17,6 +17,7 @@ use super::{
     texture_bytes,
 };
 use crate::camera::Camera;
+use crate::view::curved::gpu::CurvedReflections;
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
 use crate::view::renderer::{
@@ -372,9 +373,25 @@ impl RecursiveReflections {
         }
     }
 
+    /// Clip plane of reflector `index` (normal xyz, w = normal · point + clip distance).
+    fn clip_plane(&self, index: usize) -> glam::Vec4 {
+        let plane = &self.reflectors[index].plane;
+        plane
+            .normal
+            .extend(plane.normal.dot(plane.point) + self.clip)
+    }
+
     /// Plans the reflection tree for `camera` and writes every node's uniforms (the writes
-    /// land before the next submission).
-    pub fn prepare(&self, gpu: &Gpu, renderer: &Renderer, camera: &Camera) {
+    /// land before the next submission). With `curved`, also the curved reflectors' view of
+    /// every node (slot = the node's index), drawn into its map by
+    /// [`RecursiveReflections::draw_timed`].
+    pub fn prepare(
+        &self,
+        gpu: &Gpu,
+        renderer: &Renderer,
+        camera: &Camera,
+        curved: Option<&CurvedReflections>,
+    ) {
         let view = ViewGeometry {
             aspect: self.width.max(1) as f32 / self.height.max(1) as f32,
             near: self.near,
@@ -395,7 +412,18 @@ impl RecursiveReflections {
             let slot = self.new_slot(gpu, renderer);
             slots.push(slot);
         }
-        for (node, slot) in plan.nodes.iter().zip(slots.iter_mut()) {
+        for (id, (node, slot)) in plan.nodes.iter().zip(slots.iter_mut()).enumerate() {
+            if let Some(c) = curved {
+                c.prepare_mirror(
+                    gpu,
+                    renderer,
+                    id,
+                    &node.camera,
+                    self.width,
+                    self.height,
+                    self.clip_plane(node.reflector),
+                );
+            }
             let r = &self.reflectors[node.reflector];
             let mut u = renderer.uniforms(&node.camera, self.width, self.height);
             // Maps hold linear radiance.
@@ -404,6 +432,11 @@ impl RecursiveReflections {
                 .write_buffer(&slot.uniforms, 0, bytemuck::bytes_of(&u));
             let mut p = ReflectParams::new(r, self.clip, node.eye);
             p.kernel[0] = super::super::material::texel_pixels(r.kernel.texel_angle, 1.0, pitch);
+            // Nielsen §3.1: a map shows only what lies in front of its mirror, so the
+            // composite of a child into its parent's map is clipped at the parent's plane too.
+            if let Some(parent) = node.parent {
+                p.parent = self.clip_plane(plan.nodes[parent].reflector).to_array();
+            }
             gpu.queue
                 .write_buffer(&slot.params, 0, bytemuck::bytes_of(&p));
             let key = (node.reflector, node.level);
@@ -444,7 +477,8 @@ impl RecursiveReflections {
 
     /// Records, after the scene pass into `color`/`hdr`/`depth` (depth stored), the last
     /// prepared frame's reflection tree depth first (Figure 4), the last pass writing its end
-    /// timestamp into `end_timestamp` when given.
+    /// timestamp into `end_timestamp` when given; with `curved` (prepared with the same
+    /// passes), each map also gets the curved reflectors' specular term in its view.
     #[allow(clippy::too_many_arguments)]
     pub fn draw_timed(
         &self,
@@ -454,6 +488,7 @@ impl RecursiveReflections {
         hdr: Option<&wgpu::TextureView>,
         depth: &wgpu::TextureView,
         end_timestamp: Option<(&wgpu::QuerySet, u32)>,
+        curved: Option<&CurvedReflections>,
     ) {
         let (Ok(plan), Ok(slots)) = (self.plan.lock(), self.slots.lock()) else {
             return;
@@ -470,7 +505,7 @@ impl RecursiveReflections {
             })
         };
         for (k, &root) in plan.roots.iter().enumerate() {
-            self.draw_node(encoder, renderer, &plan, &slots, root);
+            self.draw_node(encoder, renderer, &plan, &slots, root, curved);
             let timestamp_writes = match end_timestamp {
                 Some((query_set, index)) if k + 1 == plan.roots.len() => {
                     Some(wgpu::RenderPassTimestampWrites {
@@ -534,6 +569,7 @@ impl RecursiveReflections {
         plan: &Plan,
         slots: &[Slot],
         id: usize,
+        curved: Option<&CurvedReflections>,
     ) {
         let node = &plan.nodes[id];
         let level = &self.levels[node.level];
@@ -567,10 +603,14 @@ impl RecursiveReflections {
             pass.set_vertex_buffer(0, renderer.vertex_buffer().slice(..));
             pass.set_index_buffer(renderer.index_buffer().slice(..), wgpu::IndexFormat::Uint32);
             pass.draw_indexed(0..renderer.index_count(), 0, 0..1);
+            // Curved reflectors seen in this mirror: their specular term in the mirrored view.
+            if let Some(c) = curved {
+                c.draw_mirror(&mut pass, id);
+            }
         }
         for &child in &node.children {
             // Map level + 1 is overwritten per child: generated, applied, discarded (§3.1).
-            self.draw_node(encoder, renderer, plan, slots, child);
+            self.draw_node(encoder, renderer, plan, slots, child, curved);
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("glint recursive map composite"),
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {
