@@ -297,6 +297,7 @@ fn straddling() -> &'static ViewData {
         std::fs::create_dir_all(&dir).unwrap();
         let (y, z) = (SHELF_Y, 0.6);
         let shelf = common::MeshSpec {
+            normals: Vec::new(),
             name: "Shelf",
             material: 0,
             positions: vec![
@@ -312,6 +313,7 @@ fn straddling() -> &'static ViewData {
             shelf,
             common::flip(common::quad("Wall", 1, 0, 2.0, 3.0)),
             common::flip(common::MeshSpec {
+                normals: Vec::new(),
                 name: "Lamp",
                 material: 1,
                 positions: vec![
