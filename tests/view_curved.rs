@@ -641,6 +641,31 @@ fn glossy_room_teapot_matches_the_reference_path_tracer() {
 /// (64² texels, bilinear), rasterised vs ray-cast visibility at edges in the map, f16.
 const CPU_MIRROR_TOLERANCE: f64 = 0.08;
 
+/// The cube map of D (bicubic, as the viewer filters it) seen from `teapot`'s centre through
+/// its own triangles: what the mirror equation reflects.
+fn d_cube(
+    data: &glint::view::load::ViewData,
+    bvh: &glint::geometry::Bvh,
+    teapot: &CurvedReflector,
+    face: u32,
+) -> CubeMap {
+    envmap::capture_cube(
+        &data.scene,
+        bvh,
+        teapot.centre,
+        &envmap::CaptureSettings {
+            face_size: face as usize,
+            supersample: 2,
+        },
+        &teapot.triangles,
+        &|hit: &glint::geometry::Hit| {
+            glint::view::bicubic::radiance(&data.map, hit.triangle, hit.bary).max(Vec3::ZERO)
+        },
+        &Silent,
+    )
+    .unwrap()
+}
+
 #[test]
 fn glossy_room_teapot_matches_the_cpu_mirror_equation() {
     let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join("view-curved-cpu");
@@ -665,21 +690,7 @@ fn glossy_room_teapot_matches_the_cpu_mirror_equation() {
     let (w, h) = (96u32, 72u32);
     let face = 64u32;
     let bvh = data.scene.build_bvh();
-    let cube = envmap::capture_cube(
-        &data.scene,
-        &bvh,
-        teapot.centre,
-        &envmap::CaptureSettings {
-            face_size: face as usize,
-            supersample: 2,
-        },
-        &teapot.triangles,
-        &|hit: &glint::geometry::Hit| {
-            glint::view::bicubic::radiance(&data.map, hit.triangle, hit.bary).max(Vec3::ZERO)
-        },
-        &Silent,
-    )
-    .unwrap();
+    let cube = d_cube(&data, &bvh, &teapot, face);
     let mut is_teapot = vec![false; data.scene.triangles.len()];
     for &t in &teapot.triangles {
         is_teapot[t as usize] = true;
@@ -770,21 +781,7 @@ fn glossy_room_teapot_seen_in_the_mirror_gets_its_specular_term() {
     let (w, h) = (160u32, 120u32);
     let face = 64u32;
     let bvh = data.scene.build_bvh();
-    let cube = envmap::capture_cube(
-        &data.scene,
-        &bvh,
-        teapot.centre,
-        &envmap::CaptureSettings {
-            face_size: face as usize,
-            supersample: 2,
-        },
-        &teapot.triangles,
-        &|hit: &glint::geometry::Hit| {
-            glint::view::bicubic::radiance(&data.map, hit.triangle, hit.bary).max(Vec3::ZERO)
-        },
-        &Silent,
-    )
-    .unwrap();
+    let cube = d_cube(&data, &bvh, &teapot, face);
     let mut of_triangle = vec![0u8; data.scene.triangles.len()];
     for &t in &teapot.triangles {
         of_triangle[t as usize] = 1;

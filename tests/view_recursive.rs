@@ -71,14 +71,7 @@ fn corridor() -> &'static ViewData {
         ];
         let materials = vec![
             common::MaterialSpec::diffuse("MirrorMat", 0.02),
-            common::MaterialSpec {
-                name: "RedMat",
-                base: [0.0, 0.0, 0.0, 1.0],
-                metallic: 0.0,
-                roughness: 1.0,
-                emissive: [1.0, 0.0, 0.0],
-                strength: 2.0,
-            },
+            common::MaterialSpec::emitter("RedMat", [1.0, 0.0, 0.0], 2.0),
         ];
         common::write_gltf(&dir, "corridor", &meshes, &materials);
         let scene_json = common::write_scene(
@@ -327,14 +320,7 @@ fn straddling() -> &'static ViewData {
         ];
         let materials = vec![
             common::MaterialSpec::diffuse("MirrorMat", 0.02),
-            common::MaterialSpec {
-                name: "Light",
-                base: [0.0, 0.0, 0.0, 1.0],
-                metallic: 0.0,
-                roughness: 1.0,
-                emissive: [1.0, 1.0, 1.0],
-                strength: 1.0,
-            },
+            common::MaterialSpec::emitter("Light", [1.0, 1.0, 1.0], 1.0),
         ];
         common::write_gltf(&dir, "straddle", &meshes, &materials);
         let scene_json = common::write_scene(

@@ -36,6 +36,15 @@ impl MaterialSpec {
             strength: 1.0,
         }
     }
+
+    /// A black, rough emitter of colour `emissive` × `strength`.
+    pub fn emitter(name: &'static str, emissive: [f32; 3], strength: f32) -> Self {
+        MaterialSpec {
+            emissive,
+            strength,
+            ..Self::diffuse(name, 0.0)
+        }
+    }
 }
 
 /// The same mesh with every triangle's winding reversed (it faces the other way).
