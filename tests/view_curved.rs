@@ -893,4 +893,31 @@ fn glossy_room_teapot_seen_in_the_mirror_gets_its_specular_term() {
     );
     // Nothing else in the mirror changes (half-float rounding at most).
     assert!(leak <= 2e-3, "other mirror pixels changed by {leak:.2e}");
+
+    // The recursive passes (depth 2: the panel's map is a level-1 node) draw the same term.
+    off.recursion = glint::view::reflections::RecursionSettings {
+        depth: 2,
+        cutoff: 0.0,
+    };
+    off.set_reflections(&gpu, &data, ReflectionMode::Geometry)
+        .unwrap();
+    assert!(off.recursive().is_some());
+    off.render(&gpu, &camera).unwrap();
+    let with2 = off.read_hdr(&gpu).unwrap().unwrap();
+    off.set_curved(&gpu, &data, CurvedMode::Off, settings)
+        .unwrap();
+    off.render(&gpu, &camera).unwrap();
+    let without2 = off.read_hdr(&gpu).unwrap().unwrap();
+    let (mut abs2, mut want2) = (0.0f64, 0.0f64);
+    for i in (0..pixels.len()).filter(|&i| interior(i, 1)) {
+        let want = lum(pixels[i].1);
+        abs2 += (lum(with2[i]) - lum(without2[i]) - want).abs();
+        want2 += want;
+    }
+    let rel2 = abs2 / want2;
+    eprintln!("depth 2: teapot in the mirror, relative MAE {rel2:.4}");
+    assert!(
+        rel2 <= MIRRORED_TEAPOT_TOLERANCE,
+        "depth 2: relative MAE {rel2:.4} > {MIRRORED_TEAPOT_TOLERANCE}"
+    );
 }
