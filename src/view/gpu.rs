@@ -232,6 +232,94 @@ pub(crate) fn error_scoped<T>(
     }
 }
 
+/// The bind-group layout of a compute probe's own buffers: binding 0 the input items
+/// (read-only storage), binding 1 one output item per input (storage).
+pub(crate) fn probe_io_layout(device: &wgpu::Device, label: &str) -> wgpu::BindGroupLayout {
+    let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(label),
+        entries: &[storage(0, true), storage(1, false)],
+    })
+}
+
+/// Runs a compute probe (what a shader computes, for tests against the CPU): uploads
+/// `input` (`count` items), binds it with an output buffer of `output_size` bytes as group
+/// `io_group` (layout [`probe_io_layout`]) beside `groups`, dispatches one invocation per
+/// item in workgroups of 64 and returns the output's bytes.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn run_probe(
+    gpu: &Gpu,
+    context: &'static str,
+    pipeline: &wgpu::ComputePipeline,
+    io_layout: &wgpu::BindGroupLayout,
+    io_group: u32,
+    groups: &[(u32, &wgpu::BindGroup)],
+    input: &[u8],
+    count: usize,
+    output_size: u64,
+) -> Result<Vec<u8>, GpuError> {
+    let device = &gpu.device;
+    let output = error_scoped(device, context, || {
+        let input_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("glint probe input"),
+            // A binding must not be empty; pad to one 16-byte element.
+            size: (input.len() as u64).max(16).next_multiple_of(4),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        gpu.queue.write_buffer(&input_buffer, 0, input);
+        let output = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("glint probe output"),
+            size: output_size.max(16),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let io = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("glint probe buffers"),
+            layout: io_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: input_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: output.as_entire_binding(),
+                },
+            ],
+        });
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("glint probe encoder"),
+        });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(context),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(pipeline);
+            for (index, group) in groups {
+                pass.set_bind_group(*index, *group, &[]);
+            }
+            pass.set_bind_group(io_group, &io, &[]);
+            pass.dispatch_workgroups((count as u32).div_ceil(64), 1, 1);
+        }
+        gpu.queue.submit([encoder.finish()]);
+        output
+    })?;
+    let mut bytes = read_buffer(gpu, &output)?;
+    bytes.truncate(output_size as usize);
+    Ok(bytes)
+}
+
 /// Copies mip level 0, layer 0 of a single-sampled, uncompressed, colour 2D texture created
 /// with [`wgpu::TextureUsages::COPY_SRC`] back to the CPU: `width * height * texel size`
 /// bytes, rows top to bottom without padding, texels as the format stores them (e.g. four

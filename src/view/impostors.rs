@@ -23,7 +23,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use super::billboard_tables::{self, BillboardTables};
-use super::gpu::{Gpu, GpuError, error_scoped, read_buffer};
+use super::gpu::{Gpu, GpuError, error_scoped, probe_io_layout, run_probe};
 use super::impostor_tables::{
     ImpostorParams, ImpostorReflector, SrdmTables, ViewSource, impostor_reflectors,
 };
@@ -227,10 +227,7 @@ impl SrdmProbe {
                     format!("{SRDM_SHADER_SOURCE}\n{SRDM_PROBE_SHADER_SOURCE}").into(),
                 ),
             });
-            let rays_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("glint SRDM probe rays layout"),
-                entries: &[storage_entry(0, true), storage_entry(1, false)],
-            });
+            let rays_layout = probe_io_layout(device, "glint SRDM probe rays layout");
             let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some("glint SRDM probe layout"),
                 bind_group_layouts: &[None, Some(&buffers.layout), Some(&rays_layout)],
@@ -258,46 +255,17 @@ impl SrdmProbe {
         if rays.is_empty() {
             return Ok(Vec::new());
         }
-        let device = &gpu.device;
-        let out = error_scoped(device, "intersecting rays with the SRDM", || {
-            let input = storage_buffer(gpu, "glint SRDM probe rays", bytemuck::cast_slice(rays));
-            let out = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("glint SRDM probe hits"),
-                size: (rays.len() * std::mem::size_of::<ProbeHit>()) as u64,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            });
-            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("glint SRDM probe rays"),
-                layout: &self.rays_layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: input.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: out.as_entire_binding(),
-                    },
-                ],
-            });
-            let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("glint SRDM probe encoder"),
-            });
-            {
-                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("glint SRDM probe pass"),
-                    timestamp_writes: None,
-                });
-                pass.set_pipeline(&self.pipeline);
-                pass.set_bind_group(1, &self.buffers.group, &[]);
-                pass.set_bind_group(2, &group, &[]);
-                pass.dispatch_workgroups((rays.len() as u32).div_ceil(64), 1, 1);
-            }
-            gpu.queue.submit([encoder.finish()]);
-            out
-        })?;
-        let bytes = read_buffer(gpu, &out)?;
+        let bytes = run_probe(
+            gpu,
+            "intersecting rays with the SRDM",
+            &self.pipeline,
+            &self.rays_layout,
+            2,
+            &[(1, &self.buffers.group)],
+            bytemuck::cast_slice(rays),
+            rays.len(),
+            (rays.len() * std::mem::size_of::<ProbeHit>()) as u64,
+        )?;
         Ok(bytemuck::pod_collect_to_vec(&bytes))
     }
 }
@@ -480,10 +448,7 @@ impl BillboardProbe {
                     format!("{BILLBOARD_SHADER_SOURCE}\n{BILLBOARD_PROBE_SHADER_SOURCE}").into(),
                 ),
             });
-            let rays_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("glint billboard probe rays layout"),
-                entries: &[storage_entry(0, true), storage_entry(1, false)],
-            });
+            let rays_layout = probe_io_layout(device, "glint billboard probe rays layout");
             let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some("glint billboard probe layout"),
                 bind_group_layouts: &[None, None, Some(&rays_layout), Some(&buffers.layout)],
@@ -515,50 +480,17 @@ impl BillboardProbe {
         if rays.is_empty() {
             return Ok(Vec::new());
         }
-        let device = &gpu.device;
-        let out = error_scoped(device, "tracing rays through the billboards", || {
-            let input = storage_buffer(
-                gpu,
-                "glint billboard probe rays",
-                bytemuck::cast_slice(rays),
-            );
-            let out = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("glint billboard probe hits"),
-                size: (rays.len() * std::mem::size_of::<BillboardProbeHit>()) as u64,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            });
-            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("glint billboard probe rays"),
-                layout: &self.rays_layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: input.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: out.as_entire_binding(),
-                    },
-                ],
-            });
-            let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("glint billboard probe encoder"),
-            });
-            {
-                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("glint billboard probe pass"),
-                    timestamp_writes: None,
-                });
-                pass.set_pipeline(&self.pipeline);
-                pass.set_bind_group(2, &group, &[]);
-                pass.set_bind_group(3, &self.buffers.group, &[]);
-                pass.dispatch_workgroups((rays.len() as u32).div_ceil(64), 1, 1);
-            }
-            gpu.queue.submit([encoder.finish()]);
-            out
-        })?;
-        let bytes = read_buffer(gpu, &out)?;
+        let bytes = run_probe(
+            gpu,
+            "tracing rays through the billboards",
+            &self.pipeline,
+            &self.rays_layout,
+            2,
+            &[(3, &self.buffers.group)],
+            bytemuck::cast_slice(rays),
+            rays.len(),
+            (rays.len() * std::mem::size_of::<BillboardProbeHit>()) as u64,
+        )?;
         Ok(bytemuck::pod_collect_to_vec(&bytes))
     }
 }
@@ -938,32 +870,14 @@ impl ImpostorReflections {
         if nothing || self.reflectors.iter().all(|r| r.vertex_count == 0) {
             return;
         }
-        let load = |view| {
-            Some(wgpu::RenderPassColorAttachment {
-                view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Load,
-                    store: wgpu::StoreOp::Store,
-                },
-            })
-        };
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("glint impostor reflections pass"),
-            color_attachments: &[load(color), hdr.and_then(load)],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: depth,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Load,
-                    store: wgpu::StoreOp::Store,
-                }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        let mut pass = crate::view::renderer::overlay_pass(
+            encoder,
+            "glint impostor reflections pass",
+            color,
+            hdr,
+            depth,
+            None,
+        );
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.frame_group, &[]);
         match &self.billboards {

@@ -17,7 +17,7 @@ use bytemuck::{Pod, Zeroable};
 use exr::prelude::f16;
 use glam::{Mat4, Vec2, Vec3, Vec4};
 
-use super::gpu::{Gpu, GpuError, error_scoped, read_buffer};
+use super::gpu::{Gpu, GpuError, error_scoped, probe_io_layout, run_probe};
 use crate::camera::Camera;
 use crate::radiosity::RadiosityMap;
 use crate::radiosity::atlas::Atlas;
@@ -635,6 +635,49 @@ impl Renderer {
     }
 }
 
+/// Begins a pass that draws over a finished frame: it loads and keeps `color`, `hdr` (when
+/// given) and `depth`, so its fragments add to the scene and are depth tested against it.
+/// With `end_timestamp` (query set, index), the pass writes its end time there.
+pub fn overlay_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    color: &wgpu::TextureView,
+    hdr: Option<&wgpu::TextureView>,
+    depth: &wgpu::TextureView,
+    end_timestamp: Option<(&wgpu::QuerySet, u32)>,
+) -> wgpu::RenderPass<'e> {
+    let load = |view| {
+        Some(wgpu::RenderPassColorAttachment {
+            view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Load,
+                store: wgpu::StoreOp::Store,
+            },
+        })
+    };
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: &[load(color), hdr.and_then(load)],
+        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+            view: depth,
+            depth_ops: Some(wgpu::Operations {
+                load: wgpu::LoadOp::Load,
+                store: wgpu::StoreOp::Store,
+            }),
+            stencil_ops: None,
+        }),
+        timestamp_writes: end_timestamp.map(|(query_set, index)| wgpu::RenderPassTimestampWrites {
+            query_set,
+            beginning_of_pass_write_index: None,
+            end_of_pass_write_index: Some(index),
+        }),
+        occlusion_query_set: None,
+        multiview_mask: None,
+    })
+}
+
 /// A depth buffer for a `width` × `height` target.
 pub fn depth_texture(gpu: &Gpu, width: u32, height: u32) -> wgpu::Texture {
     gpu.device.create_texture(&wgpu::TextureDescriptor {
@@ -761,93 +804,49 @@ pub fn bicubic_probe(
         })
         .collect();
     let out_size = (points.len() * 16) as u64;
-    let output = error_scoped(device, "running the bicubic probe", || {
-        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("glint view shader (probe)"),
-            source: wgpu::ShaderSource::Wgsl(SHADER_SOURCE.into()),
-        });
-        let frame_layout = frame_bind_group_layout(device);
-        let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let probe_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("glint probe bind group layout"),
-            entries: &[storage(0, true), storage(1, false)],
-        });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("glint probe pipeline layout"),
-            bind_group_layouts: &[Some(&frame_layout), Some(&probe_layout)],
-            immediate_size: 0,
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("glint probe pipeline"),
-            layout: Some(&layout),
-            module: &shader,
-            entry_point: Some("cs_probe"),
-            compilation_options: wgpu::PipelineCompilationOptions::default(),
-            cache: None,
-        });
-        let uniforms = uniform_buffer(device);
-        let u = FrameUniforms {
-            view_proj: Mat4::IDENTITY.to_cols_array_2d(),
-            atlas_size: textures.layer_size.map(|v| v as f32),
-            exposure: 1.0,
-            encode_srgb: 0,
-        };
-        gpu.queue.write_buffer(&uniforms, 0, bytemuck::bytes_of(&u));
-        let frame_group = frame_bind_group(device, &frame_layout, &uniforms, &textures);
-        let input = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("glint probe input"),
-            size: (inputs.len() * std::mem::size_of::<ProbeInput>()) as u64,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        gpu.queue
-            .write_buffer(&input, 0, bytemuck::cast_slice(&inputs));
-        let output = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("glint probe output"),
-            size: out_size,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let probe_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("glint probe bind group"),
-            layout: &probe_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: input.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: output.as_entire_binding(),
-                },
-            ],
-        });
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("glint probe encoder"),
-        });
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("glint probe pass"),
-                timestamp_writes: None,
+    let (pipeline, probe_layout, frame_group) =
+        error_scoped(device, "creating the bicubic probe", || {
+            let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("glint view shader (probe)"),
+                source: wgpu::ShaderSource::Wgsl(SHADER_SOURCE.into()),
             });
-            pass.set_pipeline(&pipeline);
-            pass.set_bind_group(0, &frame_group, &[]);
-            pass.set_bind_group(1, &probe_group, &[]);
-            pass.dispatch_workgroups((points.len() as u32).div_ceil(64), 1, 1);
-        }
-        gpu.queue.submit([encoder.finish()]);
-        output
-    })?;
-    let bytes = read_buffer(gpu, &output)?;
+            let frame_layout = frame_bind_group_layout(device);
+            let probe_layout = probe_io_layout(device, "glint probe bind group layout");
+            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("glint probe pipeline layout"),
+                bind_group_layouts: &[Some(&frame_layout), Some(&probe_layout)],
+                immediate_size: 0,
+            });
+            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("glint probe pipeline"),
+                layout: Some(&layout),
+                module: &shader,
+                entry_point: Some("cs_probe"),
+                compilation_options: wgpu::PipelineCompilationOptions::default(),
+                cache: None,
+            });
+            let uniforms = uniform_buffer(device);
+            let u = FrameUniforms {
+                view_proj: Mat4::IDENTITY.to_cols_array_2d(),
+                atlas_size: textures.layer_size.map(|v| v as f32),
+                exposure: 1.0,
+                encode_srgb: 0,
+            };
+            gpu.queue.write_buffer(&uniforms, 0, bytemuck::bytes_of(&u));
+            let frame_group = frame_bind_group(device, &frame_layout, &uniforms, &textures);
+            (pipeline, probe_layout, frame_group)
+        })?;
+    let bytes = run_probe(
+        gpu,
+        "running the bicubic probe",
+        &pipeline,
+        &probe_layout,
+        1,
+        &[(0, &frame_group)],
+        bytemuck::cast_slice(&inputs),
+        inputs.len(),
+        out_size,
+    )?;
     let values: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
     Ok(values.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())
 }

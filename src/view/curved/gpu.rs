@@ -13,7 +13,7 @@ use super::{
 };
 use crate::bake::materials::envmap::{CubeMap, MipPyramid};
 use crate::camera::Camera;
-use crate::view::gpu::{Gpu, GpuError, error_scoped, read_buffer};
+use crate::view::gpu::{Gpu, GpuError, error_scoped, probe_io_layout, run_probe};
 use crate::view::load::ViewData;
 use crate::view::renderer::{
     HDR_FORMAT, RenderError, Renderer, SceneMesh, frame_bind_group, frame_bind_group_layout,
@@ -852,32 +852,14 @@ impl CurvedReflections {
         if self.reflectors.is_empty() {
             return;
         }
-        let load = |view| {
-            Some(wgpu::RenderPassColorAttachment {
-                view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Load,
-                    store: wgpu::StoreOp::Store,
-                },
-            })
-        };
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("glint curved composite pass"),
-            color_attachments: &[load(color), hdr.and_then(load)],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: depth,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Load,
-                    store: wgpu::StoreOp::Store,
-                }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        let mut pass = crate::view::renderer::overlay_pass(
+            encoder,
+            "glint curved composite pass",
+            color,
+            hdr,
+            depth,
+            None,
+        );
         pass.set_pipeline(&self.composite_pipeline);
         pass.set_bind_group(0, &self.composite_frame_group, &[]);
         for r in &self.reflectors {
@@ -1000,7 +982,7 @@ impl CurvedReflections {
             .iter()
             .map(|d| [d[0], d[1], d[2], d[3], 0.0, 0.0, 0.0, 0.0])
             .collect();
-        run_probe(
+        curved_probe(
             gpu,
             "cs_env_probe",
             &r.base_params,
@@ -1146,7 +1128,7 @@ impl GenerationPipelines {
 
 /// Runs `entry` (`cs_glossy_probe` or `cs_env_probe`) of `shaders/curved.wgsl` over `inputs`
 /// (normal or direction xyzw, ω_o xyzw) with `params`, `patterns` and environment `env`.
-fn run_probe(
+fn curved_probe(
     gpu: &Gpu,
     entry: &'static str,
     params: &CurvedParams,
@@ -1158,100 +1140,57 @@ fn run_probe(
         return Ok(Vec::new());
     }
     let device = &gpu.device;
-    let output = error_scoped(device, "running a curved-shader probe", || {
-        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("glint curved probe"),
-            source: wgpu::ShaderSource::Wgsl(shader_source().into()),
-        });
-        let curved_layout = curved_layout(device);
-        let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let probe_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("glint curved probe layout"),
-            entries: &[storage(0, true), storage(1, false)],
-        });
-        let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("glint empty layout"),
-            entries: &[],
-        });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("glint curved probe pipeline layout"),
-            bind_group_layouts: &[Some(&empty), Some(&curved_layout), Some(&probe_layout)],
-            immediate_size: 0,
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("glint curved probe"),
-            layout: Some(&layout),
-            module: &shader,
-            entry_point: Some(entry),
-            compilation_options: wgpu::PipelineCompilationOptions::default(),
-            cache: None,
-        });
-        let sampler = trilinear_sampler(device);
-        let params = buffer_with(
-            gpu,
-            "glint probe params",
-            wgpu::BufferUsages::UNIFORM,
-            bytemuck::bytes_of(params),
-        );
-        let group1 = curved_group(device, &curved_layout, &params, patterns, env, &sampler);
-        let input = buffer_with(
-            gpu,
-            "glint curved probe input",
-            wgpu::BufferUsages::STORAGE,
-            bytemuck::cast_slice(inputs),
-        );
-        let output = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("glint curved probe output"),
-            size: (inputs.len() * 16) as u64,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let group2 = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("glint curved probe group"),
-            layout: &probe_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: input.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: output.as_entire_binding(),
-                },
-            ],
-        });
-        let group0 = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("glint empty group"),
-            layout: &empty,
-            entries: &[],
-        });
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("glint curved probe"),
-        });
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+    let (pipeline, probe_layout, group0, group1) =
+        error_scoped(device, "creating a curved-shader probe", || {
+            let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some("glint curved probe"),
-                timestamp_writes: None,
+                source: wgpu::ShaderSource::Wgsl(shader_source().into()),
             });
-            pass.set_pipeline(&pipeline);
-            pass.set_bind_group(0, &group0, &[]);
-            pass.set_bind_group(1, &group1, &[]);
-            pass.set_bind_group(2, &group2, &[]);
-            pass.dispatch_workgroups((inputs.len() as u32).div_ceil(64), 1, 1);
-        }
-        gpu.queue.submit([encoder.finish()]);
-        output
-    })?;
-    let bytes = read_buffer(gpu, &output)?;
+            let curved_layout = curved_layout(device);
+            let probe_layout = probe_io_layout(device, "glint curved probe layout");
+            let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("glint empty layout"),
+                entries: &[],
+            });
+            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("glint curved probe pipeline layout"),
+                bind_group_layouts: &[Some(&empty), Some(&curved_layout), Some(&probe_layout)],
+                immediate_size: 0,
+            });
+            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("glint curved probe"),
+                layout: Some(&layout),
+                module: &shader,
+                entry_point: Some(entry),
+                compilation_options: wgpu::PipelineCompilationOptions::default(),
+                cache: None,
+            });
+            let sampler = trilinear_sampler(device);
+            let params = buffer_with(
+                gpu,
+                "glint probe params",
+                wgpu::BufferUsages::UNIFORM,
+                bytemuck::bytes_of(params),
+            );
+            let group1 = curved_group(device, &curved_layout, &params, patterns, env, &sampler);
+            let group0 = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("glint empty group"),
+                layout: &empty,
+                entries: &[],
+            });
+            (pipeline, probe_layout, group0, group1)
+        })?;
+    let bytes = run_probe(
+        gpu,
+        "running a curved-shader probe",
+        &pipeline,
+        &probe_layout,
+        2,
+        &[(0, &group0), (1, &group1)],
+        bytemuck::cast_slice(inputs),
+        inputs.len(),
+        (inputs.len() * 16) as u64,
+    )?;
     let values: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
     Ok(values.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())
 }
@@ -1285,7 +1224,7 @@ pub fn glossy_probe(
         .iter()
         .map(|(n, wo)| [n.x, n.y, n.z, 0.0, wo.x, wo.y, wo.z, 0.0])
         .collect();
-    run_probe(
+    curved_probe(
         gpu,
         "cs_glossy_probe",
         &params,

@@ -827,42 +827,15 @@ impl GeometryReflections {
                     }
                 }
             }
-            let load = |view| {
-                Some(wgpu::RenderPassColorAttachment {
-                    view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
-                    },
-                })
-            };
-            let timestamp_writes = match end_timestamp {
-                Some((query_set, index)) if k + 1 == visible.len() => {
-                    Some(wgpu::RenderPassTimestampWrites {
-                        query_set,
-                        beginning_of_pass_write_index: None,
-                        end_of_pass_write_index: Some(index),
-                    })
-                }
-                _ => None,
-            };
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("glint reflection composite pass"),
-                color_attachments: &[load(color), hdr.and_then(load)],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: depth,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let end = end_timestamp.filter(|_| k + 1 == visible.len());
+            let mut pass = crate::view::renderer::overlay_pass(
+                encoder,
+                "glint reflection composite pass",
+                color,
+                hdr,
+                depth,
+                end,
+            );
             pass.set_pipeline(&self.composite_pipeline);
             pass.set_bind_group(0, &self.composite_frame_group, &[]);
             pass.set_bind_group(1, &r.composite_params_group, &[]);

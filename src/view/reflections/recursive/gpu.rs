@@ -493,44 +493,17 @@ impl RecursiveReflections {
         let (Ok(plan), Ok(slots)) = (self.plan.lock(), self.slots.lock()) else {
             return;
         };
-        let load = |view| {
-            Some(wgpu::RenderPassColorAttachment {
-                view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Load,
-                    store: wgpu::StoreOp::Store,
-                },
-            })
-        };
         for (k, &root) in plan.roots.iter().enumerate() {
             self.draw_node(encoder, renderer, &plan, &slots, root, curved);
-            let timestamp_writes = match end_timestamp {
-                Some((query_set, index)) if k + 1 == plan.roots.len() => {
-                    Some(wgpu::RenderPassTimestampWrites {
-                        query_set,
-                        beginning_of_pass_write_index: None,
-                        end_of_pass_write_index: Some(index),
-                    })
-                }
-                _ => None,
-            };
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("glint recursive frame composite"),
-                color_attachments: &[load(color), hdr.and_then(load)],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: depth,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let end = end_timestamp.filter(|_| k + 1 == plan.roots.len());
+            let mut pass = crate::view::renderer::overlay_pass(
+                encoder,
+                "glint recursive frame composite",
+                color,
+                hdr,
+                depth,
+                end,
+            );
             self.composite(
                 &mut pass,
                 renderer,
