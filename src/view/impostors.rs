@@ -176,22 +176,50 @@ impl SrdmBuffers {
     }
 }
 
-/// One ray of a [`SrdmProbe`] batch (`ProbeRay` in `shaders/srdm_probe.wgsl`).
+/// A compute pipeline running `entry` of `source` over bind groups `layouts`.
+fn probe_pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    source: &str,
+    layouts: &[Option<&wgpu::BindGroupLayout>],
+    entry: &str,
+) -> wgpu::ComputePipeline {
+    let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(label),
+        bind_group_layouts: layouts,
+        immediate_size: 0,
+    });
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(label),
+        layout: Some(&layout),
+        module: &shader,
+        entry_point: Some(entry),
+        compilation_options: wgpu::PipelineCompilationOptions::default(),
+        cache: None,
+    })
+}
+
+/// One ray of a compute probe batch (`ProbeRay` in `shaders/srdm_probe.wgsl`, `BbProbeRay`
+/// in `shaders/billboard_probe.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct ProbeRay {
     /// xyz: origin; w: t_max.
     pub origin: [f32; 4],
-    /// xyz: direction; w: the view index's bits.
+    /// xyz: direction; w: the bits of `tag` (SRDM: the view index; billboards: the group).
     pub dir: [f32; 4],
 }
 
 impl ProbeRay {
-    /// The ray `origin + t dir`, t ∈ [0, t_max], against view `view`.
-    pub fn new(origin: Vec3, dir: Vec3, t_max: f32, view: u32) -> ProbeRay {
+    /// The ray `origin + t dir`, t ∈ [0, t_max], tagged with `tag`.
+    pub fn new(origin: Vec3, dir: Vec3, t_max: f32, tag: u32) -> ProbeRay {
         ProbeRay {
             origin: origin.extend(t_max).to_array(),
-            dir: dir.extend(f32::from_bits(view)).to_array(),
+            dir: dir.extend(f32::from_bits(tag)).to_array(),
         }
     }
 }
@@ -221,26 +249,14 @@ impl SrdmProbe {
         let buffers = SrdmBuffers::new(gpu, tables)?;
         let device = &gpu.device;
         let (pipeline, rays_layout) = error_scoped(device, "creating the SRDM probe", || {
-            let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("glint SRDM probe shader"),
-                source: wgpu::ShaderSource::Wgsl(
-                    format!("{SRDM_SHADER_SOURCE}\n{SRDM_PROBE_SHADER_SOURCE}").into(),
-                ),
-            });
             let rays_layout = probe_io_layout(device, "glint SRDM probe rays layout");
-            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("glint SRDM probe layout"),
-                bind_group_layouts: &[None, Some(&buffers.layout), Some(&rays_layout)],
-                immediate_size: 0,
-            });
-            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("glint SRDM probe pipeline"),
-                layout: Some(&layout),
-                module: &shader,
-                entry_point: Some("cs_srdm_probe"),
-                compilation_options: wgpu::PipelineCompilationOptions::default(),
-                cache: None,
-            });
+            let pipeline = probe_pipeline(
+                device,
+                "glint SRDM probe",
+                &format!("{SRDM_SHADER_SOURCE}\n{SRDM_PROBE_SHADER_SOURCE}"),
+                &[None, Some(&buffers.layout), Some(&rays_layout)],
+                "cs_srdm_probe",
+            );
             (pipeline, rays_layout)
         })?;
         Ok(SrdmProbe {
@@ -399,25 +415,9 @@ impl BillboardBuffers {
     }
 }
 
-/// One ray of a [`BillboardProbe`] batch (`BbProbeRay`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-pub struct BillboardRay {
-    /// xyz: origin; w: t_max.
-    pub origin: [f32; 4],
-    /// xyz: direction; w: the group's bits.
-    pub dir: [f32; 4],
-}
-
-impl BillboardRay {
-    /// The ray `origin + t dir`, t < t_max, of group `group`.
-    pub fn new(origin: Vec3, dir: Vec3, t_max: f32, group: u32) -> BillboardRay {
-        BillboardRay {
-            origin: origin.extend(t_max).to_array(),
-            dir: dir.extend(f32::from_bits(group)).to_array(),
-        }
-    }
-}
+/// One ray of a [`BillboardProbe`] batch (`BbProbeRay`): the same layout as [`ProbeRay`],
+/// w of `dir` holding the billboard group.
+pub type BillboardRay = ProbeRay;
 
 /// What `bb_trace` returned for one ray (`BbProbeHit`).
 #[repr(C)]
@@ -442,26 +442,14 @@ impl BillboardProbe {
         let buffers = BillboardBuffers::new(gpu, tables)?;
         let device = &gpu.device;
         let (pipeline, rays_layout) = error_scoped(device, "creating the billboard probe", || {
-            let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("glint billboard probe shader"),
-                source: wgpu::ShaderSource::Wgsl(
-                    format!("{BILLBOARD_SHADER_SOURCE}\n{BILLBOARD_PROBE_SHADER_SOURCE}").into(),
-                ),
-            });
             let rays_layout = probe_io_layout(device, "glint billboard probe rays layout");
-            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("glint billboard probe layout"),
-                bind_group_layouts: &[None, None, Some(&rays_layout), Some(&buffers.layout)],
-                immediate_size: 0,
-            });
-            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("glint billboard probe pipeline"),
-                layout: Some(&layout),
-                module: &shader,
-                entry_point: Some("cs_billboard_probe"),
-                compilation_options: wgpu::PipelineCompilationOptions::default(),
-                cache: None,
-            });
+            let pipeline = probe_pipeline(
+                device,
+                "glint billboard probe",
+                &format!("{BILLBOARD_SHADER_SOURCE}\n{BILLBOARD_PROBE_SHADER_SOURCE}"),
+                &[None, None, Some(&rays_layout), Some(&buffers.layout)],
+                "cs_billboard_probe",
+            );
             (pipeline, rays_layout)
         })?;
         Ok(BillboardProbe {
