@@ -776,29 +776,13 @@ impl GeometryReflections {
             .collect();
         for (k, &(slot, r)) in visible.iter().enumerate() {
             {
-                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("glint mirror pass"),
-                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                        view: &self.texture_view,
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations {
-                            load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                            store: wgpu::StoreOp::Store,
-                        },
-                    })],
-                    depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                        view: &self.depth_view,
-                        depth_ops: Some(wgpu::Operations {
-                            load: wgpu::LoadOp::Clear(0.0),
-                            store: wgpu::StoreOp::Discard,
-                        }),
-                        stencil_ops: None,
-                    }),
-                    timestamp_writes: None,
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                });
+                let mut pass = mirror_target_pass(
+                    encoder,
+                    "glint mirror pass",
+                    &self.texture_view,
+                    &self.depth_view,
+                    false,
+                );
                 match (self.source, &r.splats) {
                     (Source::Image { .. }, Some(maps)) => {
                         pass.set_pipeline(&self.splat_pipeline);
@@ -844,6 +828,45 @@ impl GeometryReflections {
             pass.draw_indexed(0..r.index_count, 0, 0..1);
         }
     }
+}
+
+/// Begins a pass drawing a mirrored view into a reflection map: `view` cleared to
+/// transparent (alpha 0 marks texels nothing was drawn to), reverse-Z `depth` cleared to 0 and
+/// kept afterwards only when `keep_depth` (nested composites test against it).
+pub(super) fn mirror_target_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    view: &wgpu::TextureView,
+    depth: &wgpu::TextureView,
+    keep_depth: bool,
+) -> wgpu::RenderPass<'e> {
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                store: wgpu::StoreOp::Store,
+            },
+        })],
+        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+            view: depth,
+            depth_ops: Some(wgpu::Operations {
+                load: wgpu::LoadOp::Clear(0.0),
+                store: if keep_depth {
+                    wgpu::StoreOp::Store
+                } else {
+                    wgpu::StoreOp::Discard
+                },
+            }),
+            stencil_ops: None,
+        }),
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    })
 }
 
 /// The `ReflectParams` uniform (binding 2) every reflection pass reads.

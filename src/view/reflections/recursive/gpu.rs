@@ -547,29 +547,13 @@ impl RecursiveReflections {
         let node = &plan.nodes[id];
         let level = &self.levels[node.level];
         {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("glint recursive mirror pass"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &level.view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &level.depth_view,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(0.0),
-                        store: wgpu::StoreOp::Store,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass = super::super::passes::mirror_target_pass(
+                encoder,
+                "glint recursive mirror pass",
+                &level.view,
+                &level.depth_view,
+                true,
+            );
             pass.set_pipeline(&self.mirror_pipeline);
             pass.set_bind_group(0, &slots[id].frame_group, &[]);
             pass.set_bind_group(1, &slots[id].params_group, &[]);
