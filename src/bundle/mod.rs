@@ -173,6 +173,33 @@ impl Bundle {
         Ok(())
     }
 
+    /// The record of stage `stage`'s asset `rel` (a path inside the stage's folder, e.g.
+    /// `Floor/cameras.json`). Readers find assets through this and [`Bundle::read_asset`],
+    /// never by joining paths onto [`Bundle::dir`]: where a stage's files lie on disk is
+    /// the bundle's business.
+    pub fn stage_asset(&self, stage: &str, rel: &str) -> Result<&AssetRecord, BundleError> {
+        let logical = format!("{stage}/{rel}");
+        let record = self.stage(stage).ok_or_else(|| BundleError::Asset {
+            path: self.dir.join(&logical),
+            problem: format!("the bundle has no `{stage}` stage"),
+        })?;
+        record
+            .assets
+            .iter()
+            .find(|a| a.path == logical)
+            .ok_or_else(|| BundleError::Asset {
+                path: self.dir.join(&logical),
+                problem: format!("not listed in the manifest's `{stage}` stage"),
+            })
+    }
+
+    /// Reads stage `stage`'s asset `rel`, checking it against the manifest
+    /// ([`Bundle::stage_asset`] then [`Bundle::read_asset`]).
+    pub fn read_stage_file(&self, stage: &str, rel: &str) -> Result<Vec<u8>, BundleError> {
+        let asset = self.stage_asset(stage, rel)?;
+        self.read_asset(asset)
+    }
+
     /// Reads an asset, checking its hash.
     pub fn read_asset(&self, asset: &AssetRecord) -> Result<Vec<u8>, BundleError> {
         let path = self.asset_path(asset);
