@@ -23,7 +23,9 @@ struct Args {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Bytes and file counts per stage and per asset kind, and each stage's figures.
+    /// Bytes and file counts per stage and per asset kind, and each stage's figures; checks
+    /// that every asset exists with its recorded size and exits 1 with a warning per asset
+    /// if not (hashes are checked by `verify`).
     Stats {
         /// The bundle folder.
         bundle: PathBuf,
@@ -67,6 +69,20 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                 writeln!(out, "{}", serde_json::to_string_pretty(&stats)?)?;
             } else {
                 write!(out, "{}", stats.to_table())?;
+            }
+            if !stats.damaged.is_empty() {
+                out.flush()?;
+                let mut err = std::io::stderr().lock();
+                for d in &stats.damaged {
+                    writeln!(err, "warning: {}: {}", d.file, d.problem)?;
+                }
+                writeln!(
+                    err,
+                    "warning: {} of {} assets are missing or have the wrong size; the figures above are the manifest's (run `glint-bundle verify`, then re-bake)",
+                    stats.damaged.len(),
+                    stats.total.files
+                )?;
+                return Ok(ExitCode::FAILURE);
             }
         }
         Command::Verify { bundle, json } => {

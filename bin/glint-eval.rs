@@ -333,13 +333,18 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                 )
             })?;
             let b = Bundle::open(&bundle)?;
-            let scene_json = bundle.join("scene").join("scene.json");
-            let scene = Scene::load(&scene_json).with_context(|| {
-                format!(
-                    "{}: no scene stage (bake it with glint-bake)",
-                    bundle.display()
-                )
-            })?;
+            let scene_json = b
+                .stage_asset("scene", "scene.json")
+                .map(|a| b.asset_path(a));
+            let scene = scene_json
+                .map_err(anyhow::Error::from)
+                .and_then(|p| Ok(Scene::load(p)?))
+                .with_context(|| {
+                    format!(
+                        "{}: no scene stage (bake it with glint-bake)",
+                        bundle.display()
+                    )
+                })?;
             let map = RadiosityMap::load(&b)?.with_context(|| {
                 format!(
                     "{}: no radiosity stage (bake it with glint-bake)",

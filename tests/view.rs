@@ -565,12 +565,12 @@ fn newer_format_version_is_refused_naming_both_versions() {
     std::fs::write(
         &manifest,
         text.replace(
-            "\"format_version\": \"1.0.0\"",
             "\"format_version\": \"2.0.0\"",
+            "\"format_version\": \"3.0.0\"",
         ),
     )
     .unwrap();
-    let err = refused(&bundle, &["format version 2.0.0 is newer", "1.0.0"]);
+    let err = refused(&bundle, &["format version 3.0.0 is newer", "2.0.0"]);
     assert!(matches!(err, LoadError::Bundle { .. }));
 }
 
@@ -579,7 +579,11 @@ fn corrupt_asset_is_refused_naming_the_file() {
     let dir = tempfile::tempdir().unwrap();
     let bundle = dir.path().join("corrupt.glint");
     copy_dir(cornell_bundle(), &bundle);
-    let page = bundle.join("radiosity/page0.exr");
+    let asset = |rel: &str| {
+        let b = glint::bundle::Bundle::open(&bundle).unwrap();
+        b.asset_path(b.stage_asset("radiosity", rel).unwrap())
+    };
+    let page = asset("page0.exr");
     let mut bytes = std::fs::read(&page).unwrap();
     let mid = bytes.len() / 2;
     bytes[mid] ^= 0x55;
@@ -588,7 +592,7 @@ fn corrupt_asset_is_refused_naming_the_file() {
     assert!(matches!(err, LoadError::Damaged { .. }));
 
     // A truncated asset: the size differs.
-    let atlas = bundle.join("radiosity/atlas.bin");
+    let atlas = asset("atlas.bin");
     let bytes = std::fs::read(&atlas).unwrap();
     std::fs::write(&atlas, &bytes[..bytes.len() - 3]).unwrap();
     refused(&bundle, &["2 asset(s) damaged", "atlas.bin", "size is"]);

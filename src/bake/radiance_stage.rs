@@ -135,12 +135,25 @@ pub fn bake(
 ) -> Result<StageRecord, RadianceError> {
     let start = Instant::now();
     crate::bundle::check_scene(dir, &scene.content_hash, force)?;
-    let bundle = Bundle::open(dir).map_err(|_| RadianceError::NoRadiosity {
+    let no_radiosity = || RadianceError::NoRadiosity {
         dir: dir.to_owned(),
-    })?;
-    let d = RadiosityMap::load(&bundle)?.ok_or_else(|| RadianceError::NoRadiosity {
-        dir: dir.to_owned(),
-    })?;
+    };
+    let bundle = match Bundle::open(dir) {
+        Ok(b) => b,
+        Err(BundleError::MissingManifest { .. }) => return Err(no_radiosity()),
+        Err(e) => return Err(e.into()),
+    };
+    // D as read, from this one manifest: recorded in the settings, and checked again at the
+    // commit so maps shaded with this D are never labelled with another.
+    let d_record = bundle
+        .stage(Stage::Radiosity.name())
+        .ok_or_else(no_radiosity)?;
+    let d_read = d_record.identity();
+    let d_source = (d_record.scene_hash == scene.content_hash).then(|| d_read.clone());
+    let d = RadiosityMap::load(&bundle)?.ok_or_else(no_radiosity)?;
+    // Before the compute: a bundle that cannot be written fails now.
+    let mut w = StageWriter::begin(dir, Stage::Radiance.name())?;
+    w.read_from(Stage::Radiosity.name(), &d_read);
     let bvh = scene.build_bvh();
     let shade = |h: &crate::geometry::Hit| d.radiance(h.triangle, h.bary);
     let limits = quadtree_limits(scene);
@@ -151,7 +164,6 @@ pub fn bake(
         .sum();
     progress.phase("radiance maps", total);
 
-    let mut w = StageWriter::begin(dir, Stage::Radiance.name())?;
     let mut table = Vec::new();
     let mut rays = 0u64;
     for (ri, frame, plan) in &plans {
@@ -224,11 +236,7 @@ pub fn bake(
     Ok(w.commit(StageInfo {
         scene_name: scene.name.clone(),
         scene_hash: scene.content_hash.clone(),
-        settings: settings_json(
-            scene,
-            quality,
-            crate::bake::materials::d_identity(dir, scene).as_deref(),
-        ),
+        settings: settings_json(scene, quality, d_source.as_deref()),
         stats,
         bake_seconds: start.elapsed().as_secs_f64(),
         force,
@@ -236,7 +244,8 @@ pub fn bake(
 }
 
 /// Settings as recorded in the manifest, with `d_source`: the identity of the D the maps were
-/// shaded with ([`crate::bake::materials::d_identity`]), so a re-baked D makes them stale.
+/// shaded with ([`crate::bundle::StageRecord::identity`] of the radiosity stage read; for an
+/// up-to-date check [`crate::bake::materials::d_identity`]), so a re-baked D makes them stale.
 pub fn settings_json(scene: &Scene, quality: Quality, d_source: Option<&str>) -> serde_json::Value {
     let plans: Vec<_> = plans(scene, quality)
         .iter()

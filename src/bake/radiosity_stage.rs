@@ -141,6 +141,8 @@ pub fn bake(
     let start = Instant::now();
     check(scene, settings)?;
     crate::bundle::check_scene(bundle, &scene.content_hash, force)?;
+    // Before the compute: a bundle that cannot be written fails now.
+    let mut w = StageWriter::begin(bundle, Stage::Radiosity.name())?;
     let bvh = scene.build_bvh();
     let (atlas, samples) = atlas::build(&scene.triangles, settings.texel_density)?;
     log::info!(
@@ -161,7 +163,6 @@ pub fn bake(
         return Err(Cancelled.into());
     }
 
-    let mut w = StageWriter::begin(bundle, Stage::Radiosity.name())?;
     let mut offset = 0usize;
     for (i, page) in atlas.pages.iter().enumerate() {
         let n = (page.width * page.height) as usize;

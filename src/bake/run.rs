@@ -197,8 +197,14 @@ fn bake_stage(
             }
         }
         Stage::Srdm => {
-            let colour = srdm_stage::colour_source(bundle, scene)?;
-            if fresh(Some(&srdm_stage::settings_json(&s.srdm, colour.name()))) {
+            // The colour the stage would read: D when the bundle has it from this scene.
+            let d = materials::d_identity(bundle, scene);
+            let colour = if d.is_some() { "radiosity" } else { "albedo" };
+            if fresh(Some(&srdm_stage::settings_json(
+                &s.srdm,
+                colour,
+                d.as_deref(),
+            ))) {
                 StageStatus::UpToDate
             } else {
                 match srdm_stage::bake(scene, bundle, &s.srdm, force, progress)? {

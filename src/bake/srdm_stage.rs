@@ -147,10 +147,16 @@ impl SrdmSettings {
 }
 
 /// The settings as recorded in the manifest, with the colour source (`albedo` or
-/// `radiosity`): what an up-to-date check compares, so a bundle that gains D re-bakes.
-pub fn settings_json(settings: &SrdmSettings, colour: &str) -> serde_json::Value {
+/// `radiosity`) and `d_source`, the identity of the D read (none for `albedo`): what an
+/// up-to-date check compares, so a bundle that gains D, or a re-baked D, re-bakes.
+pub fn settings_json(
+    settings: &SrdmSettings,
+    colour: &str,
+    d_source: Option<&str>,
+) -> serde_json::Value {
     let mut v = serde_json::to_value(settings).expect("settings serialize");
     v["colour"] = colour.into();
+    v["d_source"] = d_source.into();
     v
 }
 
@@ -186,20 +192,29 @@ impl ColourSource {
 /// baked from this scene (issue 8: "colour comes from D when the radiosity stage is in the
 /// bundle"), else the albedo. The choice is recorded as `colour` in the stage's settings.
 pub fn colour_source(bundle: &Path, scene: &Scene) -> Result<ColourSource, SrdmStageError> {
+    Ok(colour_source_read(bundle, scene)?.0)
+}
+
+/// [`colour_source`] with the identity of the radiosity stage it read (none for the albedo),
+/// from the one manifest the map was loaded through.
+pub fn colour_source_read(
+    bundle: &Path,
+    scene: &Scene,
+) -> Result<(ColourSource, Option<String>), SrdmStageError> {
     let opened = match Bundle::open(bundle) {
         Ok(b) => b,
-        Err(BundleError::MissingManifest { .. }) => return Ok(ColourSource::Albedo),
+        Err(BundleError::MissingManifest { .. }) => return Ok((ColourSource::Albedo, None)),
         Err(e) => return Err(e.into()),
     };
-    let same_scene = opened
+    let Some(d) = opened
         .stage(Stage::Radiosity.name())
-        .is_some_and(|r| r.scene_hash == scene.content_hash);
-    if !same_scene {
-        return Ok(ColourSource::Albedo);
-    }
+        .filter(|r| r.scene_hash == scene.content_hash)
+    else {
+        return Ok((ColourSource::Albedo, None));
+    };
     Ok(match RadiosityMap::load(&opened)? {
-        Some(map) => ColourSource::Radiosity(Box::new(map)),
-        None => ColourSource::Albedo,
+        Some(map) => (ColourSource::Radiosity(Box::new(map)), Some(d.identity())),
+        None => (ColourSource::Albedo, None),
     })
 }
 
@@ -518,13 +533,18 @@ pub fn bake(
     }
     settings.check()?;
     crate::bundle::check_scene(bundle, &scene.content_hash, force)?;
-    let colour = colour_source(bundle, scene)?;
+    let (colour, d_read) = colour_source_read(bundle, scene)?;
     let params = SrdmParams {
         domains: settings.domains,
         points: settings.points,
     };
 
     let mut w = StageWriter::begin(bundle, Stage::Srdm.name())?;
+    if let Some(d) = &d_read {
+        // Checked again at the commit: captures coloured with this D are never labelled
+        // with another.
+        w.read_from(Stage::Radiosity.name(), d);
+    }
     let mut folders: Vec<String> = Vec::new();
     let mut views = Vec::new();
     let mut index = SrdmIndex {
@@ -642,7 +662,7 @@ pub fn bake(
     let record = w.commit(StageInfo {
         scene_name: scene.name.clone(),
         scene_hash: scene.content_hash.clone(),
-        settings: settings_json(settings, colour.name()),
+        settings: settings_json(settings, colour.name(), d_read.as_deref()),
         stats,
         bake_seconds: start.elapsed().as_secs_f64(),
         force,

@@ -2,6 +2,12 @@
 //!
 //! The types here generate `schemas/manifest.schema.json`. Within a major format version
 //! fields are only ever added, so readers accept unknown keys; a newer major is refused.
+//!
+//! Version 2 names each stage's folder in the manifest (`dir`, e.g. `radiance.3`): a commit
+//! writes a new folder and then renames the manifest, so the rename alone switches readers
+//! to the new stage. Version 1 bundles (no `dir`: the folder is the stage's name) are still
+//! read; a version 1 glint refuses a version 2 bundle as newer instead of looking for its
+//! files in the wrong folder.
 
 use std::collections::BTreeMap;
 
@@ -11,12 +17,15 @@ use serde::{Deserialize, Serialize};
 /// Value of `format`.
 pub const FORMAT_NAME: &str = "glint-bundle";
 
-/// The format version this build writes; it reads any 1.x.y.
+/// The format version this build writes; it reads any 1.x.y and 2.x.y.
 pub const FORMAT_VERSION: FormatVersion = FormatVersion {
-    major: 1,
+    major: 2,
     minor: 0,
     patch: 0,
 };
+
+/// The oldest major version this build reads (version 1: stage folders named after their stage).
+pub const OLDEST_READ_MAJOR: u64 = 1;
 
 /// `generator`: the glint version that wrote a stage.
 pub fn generator() -> String {
@@ -93,12 +102,36 @@ pub struct StageRecord {
     pub stats: BTreeMap<String, serde_json::Value>,
     /// Files of the stage.
     pub assets: Vec<AssetRecord>,
+    /// The stage's folder in the bundle (`NAME.N`, since format 2); absent in version 1
+    /// bundles, whose folder is the stage's name. Asset `path`s stay logical
+    /// (`NAME/…`): readers resolve them into this folder.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dir: Option<String>,
+}
+
+impl StageRecord {
+    /// The folder holding the files of stage `name`: `dir`, or `name` in a version 1 bundle.
+    pub fn folder<'a>(&'a self, name: &'a str) -> &'a str {
+        self.dir.as_deref().unwrap_or(name)
+    }
+
+    /// The stage's identity: a BLAKE3 over its assets' hashes in manifest order, so it changes
+    /// whenever any asset does. A stage that reads another records the identity it read.
+    pub fn identity(&self) -> String {
+        let mut hasher = blake3::Hasher::new();
+        for a in &self.assets {
+            hasher.update(a.blake3.as_bytes());
+        }
+        hasher.finalize().to_hex().to_string()
+    }
 }
 
 /// One file of a stage.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 pub struct AssetRecord {
-    /// Path relative to the bundle folder, `/`-separated, starting with the stage's folder.
+    /// Logical path, `/`-separated: the stage's name, then the file's path inside the stage's
+    /// folder (`radiance/Floor/cameras.json`). On disk the file lies in the folder the stage
+    /// record names ([`StageRecord::dir`]).
     pub path: String,
     /// What the file is (e.g. `radiosity-exr`, `atlas`, `preview-png`).
     pub kind: String,

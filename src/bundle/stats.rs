@@ -55,12 +55,51 @@ pub struct BundleStats {
     pub stages: Vec<StageStats>,
     /// Every file of every stage.
     pub total: Tally,
+    /// Assets that are missing or whose size differs from the manifest's (hashes are
+    /// checked by `verify`); empty when every file is there with its size.
+    pub damaged: Vec<Damage>,
+}
+
+/// An asset found missing or of the wrong size.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Damage {
+    /// Logical path, as in the manifest.
+    pub path: String,
+    /// Where it should be on disk.
+    pub file: String,
+    /// `missing`, `not a file`, or the size found against the size recorded.
+    pub problem: String,
 }
 
 impl BundleStats {
-    /// Summarizes the manifest of `bundle` (sizes as recorded; `verify` checks the files).
+    /// Summarizes the manifest of `bundle` (sizes as recorded), and checks that every asset
+    /// exists with its recorded size ([`BundleStats::damaged`]; `verify` checks hashes).
     pub fn of(bundle: &Bundle) -> BundleStats {
         let m = bundle.manifest();
+        let damaged = m
+            .assets()
+            .filter_map(|(_, a)| {
+                let file = bundle.asset_path(a);
+                let problem = match std::fs::metadata(&file) {
+                    Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                        format!("missing (the manifest records {} bytes)", a.bytes)
+                    }
+                    Err(e) => format!("cannot be read: {e}"),
+                    Ok(meta) if !meta.is_file() => "not a file".to_string(),
+                    Ok(meta) if meta.len() != a.bytes => format!(
+                        "size is {} bytes, the manifest records {}",
+                        meta.len(),
+                        a.bytes
+                    ),
+                    Ok(_) => return None,
+                };
+                Some(Damage {
+                    path: a.path.clone(),
+                    file: file.display().to_string(),
+                    problem,
+                })
+            })
+            .collect();
         let mut total = Tally::default();
         let stages = m
             .stages
@@ -90,6 +129,7 @@ impl BundleStats {
             scene_hash: m.scene_hash.clone(),
             stages,
             total,
+            damaged,
         }
     }
 

@@ -1,15 +1,23 @@
-//! Writing one stage into a bundle: files go to a private temporary folder, and the commit
-//! swaps the stage folder and updates the manifest under a lock, so concurrent bakers of
-//! different stages keep each other's entries and an interrupted bake changes nothing.
+//! Writing one stage into a bundle.
+//!
+//! Files go to a private temporary folder `.NAME.tmp-PID-N/`. The commit, under the bundle's
+//! lock, renames that folder to a new versioned folder `NAME.K/` that no manifest names yet,
+//! then writes a new manifest naming it beside `manifest.json` and renames it into place.
+//! That last rename is the commit: before it readers (and a crash) see the old stage, after
+//! it the new one. Concurrent bakers of different stages keep each other's entries because
+//! each reads the manifest under the lock. Folders no manifest names any more are collected
+//! at the end of a commit, still under the lock, unless a reader holds them (a shared lock,
+//! [`super::Bundle::open`]) or, for a temporary folder, a live writer does (an exclusive
+//! lock held from [`StageWriter::begin`] to the commit).
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::fs::{self, File, OpenOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use super::manifest::{AssetRecord, Manifest, StageRecord, generator};
-use super::{BundleError, MANIFEST, check_relative, read_manifest};
+use super::{BundleError, MANIFEST, check_folder, check_relative, read_manifest};
 
 /// Name of the lock file inside a bundle.
 const LOCK: &str = ".lock";
@@ -32,6 +40,43 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> BundleError + '_ {
     }
 }
 
+/// Whether `name`, an entry of a bundle folder, is glint's own lock or scratch: the lock
+/// file, a temporary stage folder or manifest (`.NAME.tmp-…`), or a version 1 writer's
+/// replaced folder (`.NAME.old-…`).
+pub(crate) fn is_own_scratch(name: &str) -> bool {
+    name == LOCK || (name.starts_with('.') && (name.contains(".tmp-") || name.contains(".old-")))
+}
+
+/// Whether `folder` may hold stage `stage`: `stage` itself (format 1) or `stage.K`.
+pub(crate) fn is_stage_folder(stage: &str, folder: &str) -> bool {
+    folder == stage || version_of(stage, folder).is_some()
+}
+
+/// K of a versioned stage folder `stage.K`.
+fn version_of(stage: &str, folder: &str) -> Option<u64> {
+    let k = folder.strip_prefix(stage)?.strip_prefix('.')?;
+    if k.is_empty() || !k.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    k.parse().ok()
+}
+
+/// Flushes a folder's entries (renames, new files) to disk. File systems that cannot sync a
+/// folder are passed over.
+fn sync_dir(dir: &Path) -> std::io::Result<()> {
+    match File::open(dir).and_then(|d| d.sync_all()) {
+        Err(e)
+            if matches!(
+                e.kind(),
+                std::io::ErrorKind::InvalidInput | std::io::ErrorKind::Unsupported
+            ) =>
+        {
+            Ok(())
+        }
+        r => r,
+    }
+}
+
 /// Writes `bytes` to `path` atomically: a temporary file beside it, flushed, then renamed.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), BundleError> {
     let name = path
@@ -43,7 +88,11 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), BundleError> {
         let mut f = File::create(&tmp)?;
         f.write_all(bytes)?;
         f.sync_all()?;
-        fs::rename(&tmp, path)
+        fs::rename(&tmp, path)?;
+        match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => sync_dir(p),
+            _ => Ok(()),
+        }
     })();
     if result.is_err() {
         let _ = fs::remove_file(&tmp);
@@ -68,38 +117,122 @@ pub struct StageInfo {
     pub force: bool,
 }
 
+/// A file-system step of [`StageWriter::commit`], in the order they run; a
+/// [`FaultHook`] is called before each.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum CommitStep {
+    /// Opening (creating) the bundle's lock file.
+    OpenLock,
+    /// Taking the lock.
+    Lock,
+    /// Reading the manifest.
+    ReadManifest,
+    /// Listing the bundle folder for the next free folder version.
+    ListBundle,
+    /// Flushing the stage's folders (its files were flushed as written).
+    SyncStage,
+    /// Renaming the temporary folder to the stage's new versioned folder.
+    RenameStage,
+    /// Flushing the bundle folder (that rename).
+    SyncBundle,
+    /// Creating the new manifest's temporary file.
+    CreateManifest,
+    /// Writing and flushing it.
+    WriteManifest,
+    /// Renaming it over `manifest.json`: the commit.
+    RenameManifest,
+    /// Flushing the bundle folder (the commit's rename).
+    SyncCommit,
+    /// Removing one folder or file that no manifest names (after the commit).
+    Collect,
+}
+
+/// Called before each [`CommitStep`]; an error makes that step fail as if the file system
+/// had failed it (the step is not done). For fault-injection tests.
+pub type FaultHook = Box<dyn FnMut(CommitStep) -> std::io::Result<()> + Send>;
+
 /// Collects one stage's files in a temporary folder until [`StageWriter::commit`].
 /// Dropped without a commit (an error, Ctrl-C unwinding), it removes its files and the
 /// bundle stays as it was.
 pub struct StageWriter {
     dir: PathBuf,
     stage: String,
+    /// Where the stage's files are: the temporary folder, or after the commit's first
+    /// rename the versioned folder.
     tmp: PathBuf,
+    /// An exclusive lock on `tmp`, held until the commit: tells collectors it is in use.
+    tmp_lock: Option<File>,
+    /// Folders under `tmp` holding files, to flush at the commit.
+    folders: BTreeSet<PathBuf>,
     assets: Vec<AssetRecord>,
+    /// Earlier stages this one was computed from, with their identity when read.
+    sources: Vec<(String, String)>,
+    hook: Option<FaultHook>,
     committed: bool,
 }
 
+impl std::fmt::Debug for StageWriter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("StageWriter")
+            .field("dir", &self.dir)
+            .field("stage", &self.stage)
+            .field("tmp", &self.tmp)
+            .field("assets", &self.assets.len())
+            .field("sources", &self.sources)
+            .finish_non_exhaustive()
+    }
+}
+
+/// The bundle's lock, held while it lives.
+struct BundleLock(#[allow(dead_code)] File);
+
 impl StageWriter {
-    /// Starts writing `stage` into the bundle at `dir` (created if needed).
+    /// Starts writing `stage` into the bundle at `dir`. `dir` must be new, empty or a bundle
+    /// ([`check_folder`]); a new or empty folder becomes an empty bundle at once, so the
+    /// folder is writable (checked here, before any compute) and stays a bundle whatever
+    /// happens next.
     pub fn begin(dir: impl AsRef<Path>, stage: &str) -> Result<StageWriter, BundleError> {
         let dir = dir.as_ref().to_owned();
         check_relative(stage)?;
-        if stage.contains('/') || stage.starts_with('.') || stage == MANIFEST {
+        if stage.contains(['/', '.']) {
             return Err(BundleError::BadAssetPath {
                 path: stage.into(),
-                why: "a stage name is one plain folder name",
+                why: "a stage name is one plain folder name without '.'",
             });
         }
+        check_folder(&dir)?;
         fs::create_dir_all(&dir).map_err(io(&dir))?;
+        let lock = lock_bundle(&dir, &mut None)?;
+        // Again under the lock: another writer may have made the folder a bundle meanwhile.
+        check_folder(&dir)?;
+        if read_manifest(&dir)?.is_none() {
+            let empty = Manifest::new("", "");
+            let text = serde_json::to_string_pretty(&empty).expect("manifest serializes");
+            write_atomic(&dir.join(MANIFEST), text.as_bytes())?;
+        }
         let tmp = dir.join(format!(".{stage}.tmp-{}", unique_suffix()));
         fs::create_dir(&tmp).map_err(io(&tmp))?;
+        // Locked before the bundle's lock is released, so no collector sees it unlocked.
+        let tmp_lock = File::open(&tmp).ok().filter(|f| f.try_lock().is_ok());
+        drop(lock);
         Ok(StageWriter {
             dir,
             stage: stage.into(),
+            folders: BTreeSet::from([tmp.clone()]),
             tmp,
+            tmp_lock,
             assets: Vec::new(),
+            sources: Vec::new(),
+            hook: None,
             committed: false,
         })
+    }
+
+    /// Installs a hook called before each file-system step of the commit (tests inject
+    /// faults with it).
+    pub fn with_fault_hook(mut self, hook: FaultHook) -> StageWriter {
+        self.hook = Some(hook);
+        self
     }
 
     /// Adds a file at `rel` (relative to the stage folder, `/`-separated) of the given kind.
@@ -115,8 +248,17 @@ impl StageWriter {
         let file = self.tmp.join(rel);
         if let Some(parent) = file.parent() {
             fs::create_dir_all(parent).map_err(io(parent))?;
+            let mut p = parent;
+            while p != self.tmp && self.folders.insert(p.to_owned()) {
+                p = p.parent().unwrap_or(&self.tmp);
+            }
         }
-        fs::write(&file, bytes).map_err(io(&file))?;
+        (|| {
+            let mut f = File::create(&file)?;
+            f.write_all(bytes)?;
+            f.sync_all()
+        })()
+        .map_err(io(&file))?;
         self.assets.push(AssetRecord {
             path,
             kind: kind.into(),
@@ -131,22 +273,44 @@ impl StageWriter {
         &self.assets
     }
 
-    /// Moves the stage's folder into place and records it in the manifest, under the
-    /// bundle's lock. Returns the record written.
-    pub fn commit(mut self, info: StageInfo) -> Result<StageRecord, BundleError> {
-        let lock_path = self.dir.join(LOCK);
-        let lock = OpenOptions::new()
-            .create(true)
-            .truncate(false)
-            .write(true)
-            .open(&lock_path)
-            .map_err(io(&lock_path))?;
-        lock.lock().map_err(io(&lock_path))?;
+    /// Records that this stage was computed from stage `stage` as it was when read, with
+    /// `identity` ([`StageRecord::identity`] of the record read). The commit checks under
+    /// the lock that the bundle still holds that version of `stage`, and refuses
+    /// ([`BundleError::SourceChanged`]) if another baker replaced it meanwhile.
+    pub fn read_from(&mut self, stage: &str, identity: &str) {
+        self.sources.retain(|(s, _)| s != stage);
+        self.sources.push((stage.into(), identity.into()));
+    }
 
-        let mut manifest = match read_manifest(&self.dir)? {
-            Some(m) => m,
-            None => Manifest::new(&info.scene_name, &info.scene_hash),
-        };
+    /// Calls the fault hook, if any, before `step` on `path`.
+    fn fault(&mut self, step: CommitStep, path: &Path) -> Result<(), BundleError> {
+        match self.hook.as_mut() {
+            Some(hook) => hook(step).map_err(io(path)),
+            None => Ok(()),
+        }
+    }
+
+    /// Moves the stage's folder into place and records it in the manifest, under the
+    /// bundle's lock; then collects folders no manifest names. Returns the record written.
+    pub fn commit(mut self, info: StageInfo) -> Result<StageRecord, BundleError> {
+        let lock = lock_bundle(&self.dir.clone(), &mut self.hook)?;
+
+        let manifest_path = self.dir.join(MANIFEST);
+        self.fault(CommitStep::ReadManifest, &manifest_path)?;
+        let old = read_manifest(&self.dir)?
+            .unwrap_or_else(|| Manifest::new(&info.scene_name, &info.scene_hash));
+        for (stage, read) in &self.sources {
+            let now = old.stages.get(stage).map(StageRecord::identity);
+            if now.as_deref() != Some(read.as_str()) {
+                return Err(BundleError::SourceChanged {
+                    dir: self.dir.clone(),
+                    stage: stage.clone(),
+                    read: read.clone(),
+                    now: now.unwrap_or_else(|| "none".into()),
+                });
+            }
+        }
+        let mut manifest = old.clone();
         let foreign: Vec<String> = manifest
             .stages
             .iter()
@@ -166,30 +330,43 @@ impl StageWriter {
             });
         }
         for name in &foreign {
-            // --force: stages of another scene are stale; drop them with their files.
+            // --force: stages of another scene are stale; their folders are collected below.
             log::warn!(
                 "{}: removing stage {name:?} baked from another scene",
                 self.dir.display()
             );
             manifest.stages.remove(name);
-            let _ = fs::remove_dir_all(self.dir.join(name));
         }
 
-        let target = self.dir.join(&self.stage);
-        let old = self
-            .dir
-            .join(format!(".{}.old-{}", self.stage, unique_suffix()));
-        let had_old = target.exists();
-        if had_old {
-            fs::rename(&target, &old).map_err(io(&target))?;
-        }
-        if let Err(e) = fs::rename(&self.tmp, &target) {
-            if had_old {
-                let _ = fs::rename(&old, &target);
+        // The next free version: above every `stage.K` on disk or in the manifest.
+        self.fault(CommitStep::ListBundle, &self.dir.clone())?;
+        let mut next = 1u64;
+        for entry in fs::read_dir(&self.dir).map_err(io(&self.dir))? {
+            let entry = entry.map_err(io(&self.dir))?;
+            if let Some(k) = version_of(&self.stage, &entry.file_name().to_string_lossy()) {
+                next = next.max(k + 1);
             }
-            return Err(io(&target)(e));
         }
-        self.committed = true;
+        if let Some(k) = old
+            .stages
+            .get(&self.stage)
+            .and_then(|r| version_of(&self.stage, r.folder(&self.stage)))
+        {
+            next = next.max(k + 1);
+        }
+        let folder = format!("{}.{next}", self.stage);
+        let target = self.dir.join(&folder);
+
+        for f in self.folders.clone().iter().rev() {
+            self.fault(CommitStep::SyncStage, f)?;
+            sync_dir(f).map_err(io(f))?;
+        }
+        self.fault(CommitStep::RenameStage, &target)?;
+        fs::rename(&self.tmp, &target).map_err(io(&target))?;
+        // From here until the manifest names it, a failure removes the new folder (Drop).
+        self.tmp = target;
+        self.fault(CommitStep::SyncBundle, &self.dir.clone())?;
+        sync_dir(&self.dir).map_err(io(&self.dir))?;
 
         let record = StageRecord {
             generator: generator(),
@@ -198,26 +375,126 @@ impl StageWriter {
             bake_seconds: info.bake_seconds,
             stats: info.stats,
             assets: std::mem::take(&mut self.assets),
+            dir: Some(folder),
         };
         manifest.stages.insert(self.stage.clone(), record.clone());
+        manifest.format_version = super::FORMAT_VERSION.to_string();
         manifest.scene_hash = info.scene_hash;
         manifest.scene_name = info.scene_name;
         manifest.generator = generator();
         let text = serde_json::to_string_pretty(&manifest).expect("manifest serializes");
-        if let Err(e) = write_atomic(&self.dir.join(MANIFEST), text.as_bytes()) {
-            // Roll back: the old folder goes back with the old manifest.
-            let _ = fs::rename(&target, &self.tmp);
-            self.committed = false;
-            if had_old {
-                let _ = fs::rename(&old, &target);
-            }
-            return Err(e);
-        }
-        if had_old {
-            let _ = fs::remove_dir_all(&old);
-        }
+        self.write_manifest(&manifest_path, text.as_bytes())?;
+        self.committed = true;
+        // The folder is the manifest's now: readers may lock it.
+        self.tmp_lock = None;
+        self.fault(CommitStep::SyncCommit, &self.dir.clone())?;
+        sync_dir(&self.dir).map_err(io(&self.dir))?;
+
+        self.collect(&old, &manifest);
         drop(lock);
         Ok(record)
+    }
+
+    /// Writes the manifest to a temporary file beside it, flushed, and renames it over
+    /// `manifest.json` (the commit); on failure the temporary file is removed.
+    fn write_manifest(&mut self, path: &Path, bytes: &[u8]) -> Result<(), BundleError> {
+        let tmp = path.with_file_name(format!(".{MANIFEST}.tmp-{}", unique_suffix()));
+        let result = (|| {
+            self.fault(CommitStep::CreateManifest, &tmp)?;
+            let mut f = File::create(&tmp).map_err(io(&tmp))?;
+            self.fault(CommitStep::WriteManifest, &tmp)?;
+            f.write_all(bytes)
+                .and_then(|_| f.sync_all())
+                .map_err(io(&tmp))?;
+            self.fault(CommitStep::RenameManifest, path)?;
+            fs::rename(&tmp, path).map_err(io(path))
+        })();
+        if result.is_err() {
+            let _ = fs::remove_file(&tmp);
+        }
+        result
+    }
+
+    /// Removes, under the lock, what no manifest names: folders the previous manifest named
+    /// and this one does not, versioned folders of known stages that no manifest names
+    /// (replaced versions a reader held, leftovers of killed commits), temporary folders of
+    /// writers that are gone, and temporary manifests. A folder someone holds is left for a
+    /// later commit. Failures are logged: the commit has happened.
+    fn collect(&mut self, old: &Manifest, new: &Manifest) {
+        let named: BTreeSet<&str> = new.stages.iter().map(|(n, r)| r.folder(n)).collect();
+        let replaced: BTreeSet<&str> = old
+            .stages
+            .iter()
+            .map(|(n, r)| r.folder(n))
+            .filter(|f| !named.contains(f))
+            .collect();
+        let stages: BTreeSet<&str> = old
+            .stages
+            .keys()
+            .chain(new.stages.keys())
+            .map(String::as_str)
+            .chain([self.stage.as_str()])
+            .collect();
+        let Ok(entries) = fs::read_dir(&self.dir) else {
+            return;
+        };
+        let mut garbage: Vec<String> = entries
+            .filter_map(|e| Some(e.ok()?.file_name().to_string_lossy().into_owned()))
+            .filter(|name| {
+                !named.contains(name.as_str())
+                    && name != LOCK
+                    && (replaced.contains(name.as_str())
+                        || is_own_scratch(name)
+                        || stages.iter().any(|s| version_of(s, name).is_some()))
+            })
+            .collect();
+        garbage.sort();
+        for name in garbage {
+            let path = self.dir.join(&name);
+            if self.fault(CommitStep::Collect, &path).is_err() {
+                continue;
+            }
+            if let Err(e) = remove_unheld(&path) {
+                log::warn!("{}: cannot remove: {e}", path.display());
+            }
+        }
+    }
+}
+
+/// Opens and takes the bundle's lock, with the fault hook's steps.
+fn lock_bundle(dir: &Path, hook: &mut Option<FaultHook>) -> Result<BundleLock, BundleError> {
+    let path = dir.join(LOCK);
+    let mut fault = |step| match hook.as_mut() {
+        Some(h) => h(step).map_err(io(&path)),
+        None => Ok(()),
+    };
+    fault(CommitStep::OpenLock)?;
+    let lock = OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(&path)
+        .map_err(io(&path))?;
+    fault(CommitStep::Lock)?;
+    lock.lock().map_err(io(&path))?;
+    Ok(BundleLock(lock))
+}
+
+/// Removes a file, or a folder nobody holds (an exclusive lock on it is free); a folder held
+/// by a reader or a live writer is left.
+fn remove_unheld(path: &Path) -> std::io::Result<()> {
+    let meta = fs::symlink_metadata(path)?;
+    if !meta.is_dir() {
+        return fs::remove_file(path);
+    }
+    let folder = File::open(path)?;
+    match folder.try_lock() {
+        Ok(()) => fs::remove_dir_all(path),
+        Err(fs::TryLockError::WouldBlock) => {
+            log::debug!("{}: in use, left for a later commit", path.display());
+            Ok(())
+        }
+        Err(fs::TryLockError::Error(e)) => Err(e),
     }
 }
 

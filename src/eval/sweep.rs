@@ -502,6 +502,7 @@ pub fn sweep(
             } else {
                 let dir = bundles.join(format!("{}.glint", file_safe(&label)));
                 if dir.exists() {
+                    crate::bundle::check_folder(&dir)?;
                     std::fs::remove_dir_all(&dir).map_err(io(&dir))?;
                 }
                 copy_dir(&base_dir, &dir)?;

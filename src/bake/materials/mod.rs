@@ -321,11 +321,7 @@ pub fn shade_with_d(bundle_dir: &Path, scene: &Scene) -> Result<EnvShading, Stri
 
 /// A BLAKE3 over a stage's asset hashes, in manifest order: changes whenever any asset does.
 fn stage_identity(stage: &StageRecord) -> String {
-    let mut hasher = blake3::Hasher::new();
-    for a in &stage.assets {
-        hasher.update(a.blake3.as_bytes());
-    }
-    hasher.finalize().to_hex().to_string()
+    stage.identity()
 }
 
 /// The identity of the D that [`shade_with_d`] would read from the bundle at `bundle_dir`:
@@ -359,7 +355,11 @@ pub fn bake(
     progress: &dyn Progress,
 ) -> Result<Outcome, MaterialsError> {
     let shading = shade_with_d(bundle_dir, scene);
-    bake_with(scene, bundle_dir, settings, force, shading, progress)
+    // The D read: the commit refuses if another baker replaced it meanwhile.
+    let d_read = shading.as_ref().ok().map(|s| s.source.clone());
+    bake_reading(
+        scene, bundle_dir, settings, force, shading, d_read, progress,
+    )
 }
 
 /// A file-name-safe form of a name: ASCII letters, digits, `-`, `_` and `.` kept, anything
@@ -473,6 +473,20 @@ pub fn bake_with(
     shading: Result<EnvShading, String>,
     progress: &dyn Progress,
 ) -> Result<Outcome, MaterialsError> {
+    bake_reading(scene, bundle_dir, settings, force, shading, None, progress)
+}
+
+/// [`bake_with`], where `d_read` is the identity of the radiosity stage the shading read
+/// (checked again at the commit).
+fn bake_reading(
+    scene: &Scene,
+    bundle_dir: &Path,
+    settings: &MaterialsSettings,
+    force: bool,
+    shading: Result<EnvShading, String>,
+    d_read: Option<String>,
+    progress: &dyn Progress,
+) -> Result<Outcome, MaterialsError> {
     let start = Instant::now();
     let step = plan(scene)
         .into_iter()
@@ -480,6 +494,11 @@ pub fn bake_with(
         .expect("the plan lists every stage");
     if !step.needed {
         return Ok(Outcome::Skipped(step.reason));
+    }
+    // Before the compute: a bundle that cannot be written fails now.
+    let mut w = StageWriter::begin(bundle_dir, Stage::Materials.name())?;
+    if let Some(d) = &d_read {
+        w.read_from(Stage::Radiosity.name(), d);
     }
     let used: Vec<bool> = {
         let mut u = vec![false; scene.materials.len()];
@@ -516,7 +535,6 @@ pub fn bake_with(
         return Err(Cancelled.into());
     }
 
-    let mut w = StageWriter::begin(bundle_dir, Stage::Materials.name())?;
     let mut index_materials = Vec::new();
     let mut reports = Vec::new();
     let mut stats: BTreeMap<String, serde_json::Value> = BTreeMap::new();
