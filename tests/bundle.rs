@@ -658,10 +658,10 @@ fn a_writer_killed_at_any_commit_step_leaves_the_old_stage_or_the_new_one() {
             .into_iter()
             .filter(|n| {
                 n.contains(".tmp-")
-                    || n.starts_with("radiosity.") && {
+                    || (n.starts_with("radiosity.") && {
                         let b = Bundle::open(&dir).unwrap();
                         b.stage("radiosity").unwrap().dir.as_deref() != Some(n.as_str())
-                    }
+                    })
             })
             .collect();
         assert!(left.is_empty(), "{label}: left behind {left:?}");
