@@ -170,8 +170,23 @@ impl ExrImage {
     }
 }
 
-/// Decodes the first layer of an EXR file in memory.
+/// Most pixels an EXR layer may have when read: 2²⁵, 128 MiB per f32 channel (glint's
+/// largest images, 4096² radiosity pages, hold 2²⁴). A header claiming more is refused before
+/// anything is allocated for it.
+pub const MAX_EXR_PIXELS: u64 = 1 << 25;
+
+/// Decodes the first layer of an EXR file in memory. Headers are read first, and a layer
+/// larger than [`MAX_EXR_PIXELS`] is an error.
 pub fn decode_exr(bytes: &[u8]) -> Result<ExrImage, ImageError> {
+    let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false)?;
+    for (i, h) in meta.headers.iter().enumerate() {
+        let (w, h_) = (h.layer_size.0 as u64, h.layer_size.1 as u64);
+        if w.saturating_mul(h_) > MAX_EXR_PIXELS {
+            return Err(ImageError::Shape(format!(
+                "layer {i} is {w}×{h_} pixels, more than the {MAX_EXR_PIXELS} this reader accepts"
+            )));
+        }
+    }
     let image = read()
         .no_deep_data()
         .largest_resolution_level()
