@@ -57,8 +57,14 @@ fn main() {
     );
     let mut crashed = false;
     for t in targets {
-        let scratch =
-            std::env::temp_dir().join(format!("glint-fuzz-{}-{}", std::process::id(), t.name));
+        // A memory file system when there is one: some targets write their input to a file.
+        let shm = Path::new("/dev/shm");
+        let tmp = if shm.is_dir() {
+            shm.to_owned()
+        } else {
+            std::env::temp_dir()
+        };
+        let scratch = tmp.join(format!("glint-fuzz-{}-{}", std::process::id(), t.name));
         let ctx = (t.prepare)(repo, &scratch).unwrap_or_else(|e| fail(t.name, &e));
         let seeds = glint::fuzz::seeds(repo, t).unwrap_or_else(|e| fail(t.name, &e));
         let report = driver::run(t, Arc::new(ctx), &seeds, &config);

@@ -9,6 +9,7 @@
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
+use std::sync::Mutex;
 
 /// Largest single allocation, bytes. Fuzz inputs are at most 1 MiB.
 pub const LIMIT: usize = 256 << 20;
@@ -20,14 +21,25 @@ thread_local! {
     static CURRENT: Cell<Current> = const { Cell::new((std::ptr::null(), 0, std::ptr::null(), 0)) };
 }
 
+/// The input that started last on any thread (addresses as integers): what a loader's
+/// helper threads (a decoder's thread pool) work for.
+static LAST: Mutex<Option<(usize, usize, usize, usize)>> = Mutex::new(None);
+
 /// Records the input about to run on this thread (the slice must outlive the run).
 pub(crate) fn set_current(target: &'static str, input: &[u8]) {
-    CURRENT.with(|c| c.set((input.as_ptr(), input.len(), target.as_ptr(), target.len())));
+    let c = (input.as_ptr(), input.len(), target.as_ptr(), target.len());
+    CURRENT.with(|cur| cur.set(c));
+    if let Ok(mut last) = LAST.lock() {
+        *last = Some((c.0 as usize, c.1, c.2 as usize, c.3));
+    }
 }
 
 /// Forgets the input (it is about to be freed).
 pub(crate) fn clear_current() {
     CURRENT.with(|c| c.set((std::ptr::null(), 0, std::ptr::null(), 0)));
+    if let Ok(mut last) = LAST.lock() {
+        *last = None;
+    }
 }
 
 /// The system allocator with a ceiling on a single allocation (see the module docs).
@@ -36,10 +48,16 @@ pub struct LimitAlloc;
 impl LimitAlloc {
     #[cold]
     fn oversize(size: usize) {
-        let (ptr, len, tptr, tlen) =
+        let mut current =
             CURRENT
                 .try_with(|c| c.get())
                 .unwrap_or((std::ptr::null(), 0, std::ptr::null(), 0));
+        if current.0.is_null()
+            && let Some(l) = LAST.try_lock().ok().and_then(|l| *l)
+        {
+            current = (l.0 as *const u8, l.1, l.2 as *const u8, l.3);
+        }
+        let (ptr, len, tptr, tlen) = current;
         if ptr.is_null() {
             eprintln!("glint fuzz: an allocation of {size} bytes outside a fuzz input");
             return;

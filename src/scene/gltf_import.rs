@@ -46,6 +46,16 @@ pub fn import_bytes(path: &Path, bytes: Vec<u8>, scale: f32) -> Result<Imported,
     };
     // The reader's own validation indexes a primitive's POSITION accessor before checking it
     // exists: check attribute references first, then validate.
+    // A GLB's declared length must cover its 12-byte header (the reader subtracts it).
+    if bytes.starts_with(b"glTF")
+        && bytes
+            .get(8..12)
+            .is_some_and(|l| u32::from_le_bytes(l.try_into().expect("4 bytes")) < 12)
+    {
+        return Err(err(
+            "GLB header: the declared length is shorter than the header".into(),
+        ));
+    }
     let unchecked =
         gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| err(e.to_string()))?;
     check_attribute_references(unchecked.document.as_json()).map_err(err)?;
@@ -151,7 +161,7 @@ pub fn import_bytes(path: &Path, bytes: Vec<u8>, scale: f32) -> Result<Imported,
         let first = out.triangles.len();
         let object = out.objects.len() as u32;
         for prim in mesh.primitives() {
-            check_accessor_types(&prim)
+            check_accessors(&prim, &buffers)
                 .map_err(|m| err(format!("mesh {:?}: {m}", mesh.name().unwrap_or(""))))?;
             let reader = prim.reader(|b| buffers.get(b.index()).map(|d| d.as_slice()));
             let Some(positions) = reader.read_positions() else {
@@ -291,10 +301,11 @@ fn check_attribute_references(root: &gltf::json::Root) -> Result<(), String> {
     Ok(())
 }
 
-/// The accessor types glTF 2.0 §3.7.2.1 allows for what glint reads (the reader's
-/// iterators assume them): float VEC3 positions and normals, VEC2 texture coordinates of
-/// float or normalized unsigned bytes or shorts, unsigned integer SCALAR indices.
-fn check_accessor_types(prim: &gltf::Primitive) -> Result<(), String> {
+/// The accessors glint reads, checked before the reader's iterators assume them: types as
+/// glTF 2.0 §3.7.2.1 allows (float VEC3 positions and normals, VEC2 texture coordinates of
+/// float or normalized unsigned bytes or shorts, unsigned integer SCALAR indices), and
+/// elements inside their buffer view and the view inside its buffer.
+fn check_accessors(prim: &gltf::Primitive, buffers: &[Vec<u8>]) -> Result<(), String> {
     use gltf::Semantic;
     use gltf::accessor::{DataType as T, Dimensions as D};
     let attributes = [
@@ -321,6 +332,7 @@ fn check_accessor_types(prim: &gltf::Primitive) -> Result<(), String> {
                 a.dimensions()
             ));
         }
+        check_accessor_bounds(&a, buffers)?;
     }
     if let Some(a) = prim.indices()
         && !(a.dimensions() == D::Scalar && matches!(a.data_type(), T::U8 | T::U16 | T::U32))
@@ -330,6 +342,54 @@ fn check_accessor_types(prim: &gltf::Primitive) -> Result<(), String> {
             a.index(),
             a.data_type(),
             a.dimensions()
+        ));
+    }
+    if let Some(a) = prim.indices() {
+        check_accessor_bounds(&a, buffers)?;
+    }
+    Ok(())
+}
+
+/// An accessor's elements lie inside its buffer view, and the view inside its buffer
+/// (glTF 2.0 §3.6.2.4); sparse accessors are not read.
+fn check_accessor_bounds(a: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<(), String> {
+    let i = a.index();
+    if a.sparse().is_some() {
+        return Err(format!("accessor {i} is sparse, which glint does not read"));
+    }
+    let Some(view) = a.view() else {
+        return Err(format!("accessor {i} has no buffer view"));
+    };
+    if a.count() == 0 {
+        return Err(format!("accessor {i} has count 0"));
+    }
+    let size = a.size() as u64;
+    let stride = view.stride().map_or(size, |s| s as u64);
+    if stride < size {
+        return Err(format!(
+            "accessor {i}: buffer view {} has stride {stride}, less than the element's {size} bytes",
+            view.index()
+        ));
+    }
+    let end = (a.count() as u64 - 1)
+        .saturating_mul(stride)
+        .saturating_add(size)
+        .saturating_add(a.offset() as u64);
+    if end > view.length() as u64 {
+        return Err(format!(
+            "accessor {i}: {} elements need {end} bytes of buffer view {}, which has {}",
+            a.count(),
+            view.index(),
+            view.length()
+        ));
+    }
+    let b = view.buffer().index();
+    let held = buffers.get(b).map_or(0, |d| d.len() as u64);
+    let view_end = (view.offset() as u64).saturating_add(view.length() as u64);
+    if view_end > held {
+        return Err(format!(
+            "buffer view {} ends at byte {view_end}, buffer {b} holds {held}",
+            view.index()
         ));
     }
     Ok(())
