@@ -170,8 +170,30 @@ impl ExrImage {
     }
 }
 
-/// Decodes the first layer of an EXR file in memory.
+/// Most pixels an EXR layer may have when read: 2²⁵, 128 MiB per f32 channel (glint's
+/// largest images, 4096² radiosity pages, hold 2²⁴).
+pub const MAX_EXR_PIXELS: u64 = 1 << 25;
+
+/// Most bytes of samples (as stored, all channels) an EXR layer may have when read: 128 MiB
+/// (a 4096² RGB half-float page holds 96 MiB).
+pub const MAX_EXR_BYTES: u64 = 1 << 27;
+
+/// Decodes the first layer of an EXR file in memory. Headers are read first: a layer larger
+/// than [`MAX_EXR_PIXELS`] or [`MAX_EXR_BYTES`] is an error before anything is allocated
+/// for it (a header alone could otherwise ask for terabytes).
 pub fn decode_exr(bytes: &[u8]) -> Result<ExrImage, ImageError> {
+    let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false)?;
+    for (i, h) in meta.headers.iter().enumerate() {
+        let (w, h_) = (h.layer_size.0 as u64, h.layer_size.1 as u64);
+        let pixels = w.saturating_mul(h_);
+        let sample_bytes = pixels.saturating_mul(h.channels.bytes_per_pixel as u64);
+        if pixels > MAX_EXR_PIXELS || sample_bytes > MAX_EXR_BYTES {
+            return Err(ImageError::Shape(format!(
+                "layer {i} is {w}×{h_} pixels of {} bytes, more than this reader accepts ({MAX_EXR_PIXELS} pixels, {MAX_EXR_BYTES} bytes)",
+                h.channels.bytes_per_pixel
+            )));
+        }
+    }
     let image = read()
         .no_deep_data()
         .largest_resolution_level()

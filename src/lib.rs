@@ -5,6 +5,7 @@
 //! - [`scene`]: scene.json + glTF, validated; materials; camera paths.
 //! - [`geometry`]: world-space triangles and BVH ray casting (obvhs).
 //! - [`bundle`]: the versioned asset bundle (`NAME.glint/`) and its manifest.
+//! - [`fuzz`]: fuzz targets for every loader and the loop that drives them.
 //! - `view` (feature `view`): the wgpu viewer.
 
 pub mod bake;
@@ -13,6 +14,7 @@ pub mod bundle;
 pub mod camera;
 pub mod cli;
 pub mod eval;
+pub mod fuzz;
 pub mod geometry;
 pub mod image_io;
 pub mod progress;

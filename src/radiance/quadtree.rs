@@ -177,7 +177,11 @@ pub fn encode(res: u32, nodes: &[Node]) -> Vec<u8> {
     out
 }
 
-/// Reads nodes written by [`encode`]: (resolution, nodes), or why not.
+/// Reads nodes written by [`encode`]: (resolution, nodes), or why not. The nodes are checked
+/// to form the tree readers walk from the root: every rectangle non-empty and inside the
+/// map, every child after its parent, inside it and apart from its siblings, every node but
+/// the root the child of exactly one node. Together these bound the leaves' pixels by the
+/// map's.
 pub fn decode(bytes: &[u8]) -> Result<(u32, Vec<Node>), String> {
     if bytes.len() < 20 || &bytes[..8] != MAGIC {
         return Err("not a glint quadtree (bad magic)".into());
@@ -198,7 +202,7 @@ pub fn decode(bytes: &[u8]) -> Result<(u32, Vec<Node>), String> {
             20 + count * 72
         ));
     }
-    let nodes = (0..count)
+    let nodes: Vec<Node> = (0..count)
         .map(|k| {
             let o = 20 + k * 72;
             let v3 = |o: usize| Vec3::new(f32_at(o), f32_at(o + 4), f32_at(o + 8));
@@ -214,7 +218,58 @@ pub fn decode(bytes: &[u8]) -> Result<(u32, Vec<Node>), String> {
             }
         })
         .collect();
+    check_tree(res, &nodes)?;
     Ok((res, nodes))
+}
+
+/// The structure [`decode`] promises (see there).
+fn check_tree(res: u32, nodes: &[Node]) -> Result<(), String> {
+    let mut parents = vec![0u8; nodes.len()];
+    for (i, n) in nodes.iter().enumerate() {
+        let [x0, y0, x1, y1] = n.rect;
+        if !(x0 < x1 && x1 <= res && y0 < y1 && y1 <= res) {
+            return Err(format!(
+                "node {i}: pixel rectangle [{x0}, {x1}) × [{y0}, {y1}) is empty or outside the {res}² map"
+            ));
+        }
+        if n.is_leaf() {
+            continue;
+        }
+        let (first, count) = (n.first_child as usize, n.children as usize);
+        if !(1..=4).contains(&count) || first <= i || first + count > nodes.len() {
+            return Err(format!(
+                "node {i}: children {first}…{} are not 1 to 4 nodes after it among {}",
+                first as u64 + count as u64,
+                nodes.len()
+            ));
+        }
+        let kids = &nodes[first..first + count];
+        for (k, c) in kids.iter().enumerate() {
+            let [cx0, cy0, cx1, cy1] = c.rect;
+            if cx0 < x0 || cy0 < y0 || cx1 > x1 || cy1 > y1 {
+                return Err(format!("node {}: outside its parent {i}", first + k));
+            }
+            let overlaps =
+                |o: &Node| cx0 < o.rect[2] && o.rect[0] < cx1 && cy0 < o.rect[3] && o.rect[1] < cy1;
+            if kids[..k].iter().any(overlaps) {
+                return Err(format!("node {}: overlaps a sibling", first + k));
+            }
+            parents[first + k] = parents[first + k].saturating_add(1);
+        }
+    }
+    if let Some(i) = parents.iter().skip(1).position(|&p| p != 1) {
+        return Err(format!(
+            "node {}: the child of {}{} nodes, not of one",
+            i + 1,
+            parents[i + 1],
+            if parents[i + 1] == u8::MAX {
+                " or more"
+            } else {
+                ""
+            }
+        ));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -282,6 +337,56 @@ mod tests {
         }
         let bytes = encode(res, &nodes);
         assert_eq!(decode(&bytes).unwrap(), (res, nodes));
+    }
+
+    #[test]
+    fn decode_refuses_nodes_that_do_not_form_the_tree() {
+        let res = 16;
+        let (pts, z, hit) = map(res);
+        let limits = QuadtreeLimits {
+            relative_depth_range: 0.001,
+            min_points: 2,
+        };
+        let nodes = build(res, &pts, &z, &hit, &limits);
+        assert!(nodes.len() > 5 && !nodes[0].is_leaf());
+        assert!(decode(&encode(res, &nodes)).is_ok());
+        let broken = |edit: &dyn Fn(&mut Vec<Node>)| {
+            let mut n = nodes.clone();
+            edit(&mut n);
+            decode(&encode(res, &n)).unwrap_err()
+        };
+        let e = broken(&|n| n[0].first_child = 0);
+        assert!(e.contains("node 0: children"), "{e}");
+        let e = broken(&|n| n[0].children = u32::MAX);
+        assert!(e.contains("node 0: children"), "{e}");
+        let e = broken(&|n| n[1].rect[2] = res + 1);
+        assert!(
+            e.contains("node 1") && e.contains("outside the 16² map"),
+            "{e}"
+        );
+        let e = broken(&|n| n[1].rect[0] = n[1].rect[2]);
+        assert!(e.contains("is empty"), "{e}");
+        let e = broken(&|n| {
+            let r = n[1].rect;
+            n[2].rect = r;
+        });
+        assert!(
+            e.contains("overlaps a sibling") || e.contains("outside its parent"),
+            "{e}"
+        );
+        // Two parents sharing children: the second internal node points at the first's.
+        let e = broken(&|n| {
+            let k = (1..n.len()).find(|&k| !n[k].is_leaf()).unwrap();
+            let m = (k + 1..n.len()).find(|&m| !n[m].is_leaf() && n[m].first_child > k as u32);
+            if let Some(m) = m {
+                n[m].first_child = n[k].first_child;
+                n[m].children = n[k].children;
+                n[m].rect = n[k].rect;
+            } else {
+                n[k].first_child = 1;
+            }
+        });
+        assert!(e.contains("node"), "{e}");
     }
 
     #[test]

@@ -36,6 +36,9 @@ pub enum AtlasFormatError {
     /// The file ends early or has bytes left over.
     #[error("atlas file is truncated or has trailing bytes ({0})")]
     Size(String),
+    /// A field holds a value no atlas has.
+    #[error("corrupt atlas: {0}")]
+    Invalid(String),
 }
 
 /// Serializes the atlas (chart ids of texels are a bake-time detail and are not stored).
@@ -100,8 +103,18 @@ pub fn decode(bytes: &[u8]) -> Result<Atlas, AtlasFormatError> {
         }
         tri_coords.push(c);
     }
+    if let Some((i, p)) = pages
+        .iter()
+        .enumerate()
+        .find(|(_, p)| p.width == 0 || p.height == 0)
+    {
+        return Err(AtlasFormatError::Invalid(format!(
+            "page {i} is {}×{} texels",
+            p.width, p.height
+        )));
+    }
     if let Some(&bad) = tri_page.iter().find(|&&p| p as usize >= pages.len()) {
-        return Err(AtlasFormatError::Size(format!(
+        return Err(AtlasFormatError::Invalid(format!(
             "a triangle refers to page {bad} of {}",
             pages.len()
         )));
@@ -196,5 +209,14 @@ mod tests {
         );
         bad[0] = b'X';
         assert_eq!(decode(&bad).unwrap_err(), AtlasFormatError::Magic);
+        // A page without texels would make every lookup on it index nothing.
+        let mut empty = atlas.clone();
+        empty.pages[1].height = 0;
+        let e = decode(&encode(&empty)).unwrap_err().to_string();
+        assert!(e.contains("page 1 is 8×0 texels"), "{e}");
+        let mut far = atlas.clone();
+        far.tri_page[1] = 2;
+        let e = decode(&encode(&far)).unwrap_err().to_string();
+        assert!(e.contains("refers to page 2 of 2"), "{e}");
     }
 }

@@ -30,15 +30,40 @@ const DEFAULT_ALBEDO: f32 = 0.8;
 /// Imports `path`. Materials are mapped with [`Material::from_gltf`]; overrides come later.
 /// Positions are multiplied by `scale` (metres per glTF unit).
 pub fn import(path: &Path, scale: f32) -> Result<Imported, SceneError> {
-    let err = |message: String| SceneError::Gltf {
-        path: path.to_owned(),
-        message,
-    };
     let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
         path: path.to_owned(),
         source,
     })?;
-    let gltf = gltf::Gltf::from_slice(&bytes).map_err(|e| err(e.to_string()))?;
+    import_bytes(path, bytes, scale)
+}
+
+/// [`import`] of the file's contents `bytes`; `path` names the file in errors and locates
+/// external buffers.
+pub fn import_bytes(path: &Path, bytes: Vec<u8>, scale: f32) -> Result<Imported, SceneError> {
+    let err = |message: String| SceneError::Gltf {
+        path: path.to_owned(),
+        message,
+    };
+    // The reader's own validation indexes a primitive's POSITION accessor before checking it
+    // exists: check attribute references first, then validate.
+    // A GLB's declared length must cover its 12-byte header (the reader subtracts it).
+    if bytes.starts_with(b"glTF")
+        && bytes
+            .get(8..12)
+            .is_some_and(|l| u32::from_le_bytes(l.try_into().expect("4 bytes")) < 12)
+    {
+        return Err(err(
+            "GLB header: the declared length is shorter than the header".into(),
+        ));
+    }
+    let unchecked =
+        gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| err(e.to_string()))?;
+    check_attribute_references(unchecked.document.as_json()).map_err(err)?;
+    let gltf = gltf::Gltf {
+        document: gltf::Document::from_json(unchecked.document.into_json())
+            .map_err(|e| err(e.to_string()))?,
+        blob: unchecked.blob,
+    };
     let dir = path.parent().unwrap_or(Path::new("."));
     let mut hashed_bytes = vec![bytes.clone()];
 
@@ -56,7 +81,7 @@ pub fn import(path: &Path, scale: f32) -> Result<Imported, SceneError> {
             }
             Source::Uri(uri) => {
                 let file: PathBuf = dir.join(uri);
-                let data = std::fs::read(&file).map_err(|e| {
+                let data = read_buffer(&file).map_err(|e| {
                     err(format!(
                         "buffer {} ({}): {e}",
                         buffer.index(),
@@ -117,7 +142,16 @@ pub fn import(path: &Path, scale: f32) -> Result<Imported, SceneError> {
         .rev()
         .map(|n| (n, Mat4::from_scale(Vec3::splat(scale))))
         .collect();
+    // glTF nodes form disjoint trees (glTF 2.0 §3.5.3): a node reached twice has two parents
+    // or lies on a cycle, which would repeat its meshes or never end.
+    let mut reached = vec![false; gltf.document.nodes().len()];
     while let Some((node, parent)) = stack.pop() {
+        if std::mem::replace(&mut reached[node.index()], true) {
+            return Err(err(format!(
+                "node {} is reached twice from the scene: glTF nodes must form trees (no node with two parents, no cycles)",
+                node.index()
+            )));
+        }
         let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
         let children: Vec<gltf::Node> = node.children().collect();
         stack.extend(children.into_iter().rev().map(|c| (c, world)));
@@ -127,6 +161,8 @@ pub fn import(path: &Path, scale: f32) -> Result<Imported, SceneError> {
         let first = out.triangles.len();
         let object = out.objects.len() as u32;
         for prim in mesh.primitives() {
+            check_accessors(&prim, &buffers)
+                .map_err(|m| err(format!("mesh {:?}: {m}", mesh.name().unwrap_or(""))))?;
             let reader = prim.reader(|b| buffers.get(b.index()).map(|d| d.as_slice()));
             let Some(positions) = reader.read_positions() else {
                 log::warn!(
@@ -149,6 +185,20 @@ pub fn import(path: &Path, scale: f32) -> Result<Imported, SceneError> {
             let uv1: Option<Vec<Vec2>> = reader
                 .read_tex_coords(1)
                 .map(|it| it.into_f32().map(Vec2::from).collect());
+            // Every attribute of a primitive has one value per vertex (glTF 2.0 §3.7.2.1).
+            for (attribute, count) in [
+                ("NORMAL", normals.as_ref().map(Vec::len)),
+                ("TEXCOORD_0", uv0.as_ref().map(Vec::len)),
+                ("TEXCOORD_1", uv1.as_ref().map(Vec::len)),
+            ] {
+                if let Some(count) = count.filter(|&c| c != positions.len()) {
+                    return Err(err(format!(
+                        "mesh {:?}: attribute {attribute} has {count} values, POSITION has {}",
+                        mesh.name().unwrap_or(""),
+                        positions.len()
+                    )));
+                }
+            }
             let indices: Vec<u32> = match reader.read_indices() {
                 Some(i) => i.into_u32().collect(),
                 None => (0..positions.len() as u32).collect(),
@@ -233,6 +283,130 @@ pub fn import(path: &Path, scale: f32) -> Result<Imported, SceneError> {
     Ok(out)
 }
 
+/// Every primitive attribute names an existing accessor.
+fn check_attribute_references(root: &gltf::json::Root) -> Result<(), String> {
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            for index in prim.attributes.values() {
+                if index.value() >= root.accessors.len() {
+                    return Err(format!(
+                        "meshes[{m}].primitives[{p}]: an attribute names accessor {}, the file has {}",
+                        index.value(),
+                        root.accessors.len()
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The accessors glint reads, checked before the reader's iterators assume them: types as
+/// glTF 2.0 §3.7.2.1 allows (float VEC3 positions and normals, VEC2 texture coordinates of
+/// float or normalized unsigned bytes or shorts, unsigned integer SCALAR indices), and
+/// elements inside their buffer view and the view inside its buffer.
+fn check_accessors(prim: &gltf::Primitive, buffers: &[Vec<u8>]) -> Result<(), String> {
+    use gltf::Semantic;
+    use gltf::accessor::{DataType as T, Dimensions as D};
+    let attributes = [
+        (Semantic::Positions, "POSITION"),
+        (Semantic::Normals, "NORMAL"),
+        (Semantic::TexCoords(0), "TEXCOORD_0"),
+        (Semantic::TexCoords(1), "TEXCOORD_1"),
+    ];
+    for (semantic, name) in attributes {
+        let Some(a) = prim.get(&semantic) else {
+            continue;
+        };
+        let ok = match semantic {
+            Semantic::TexCoords(_) => {
+                a.dimensions() == D::Vec2 && matches!(a.data_type(), T::F32 | T::U8 | T::U16)
+            }
+            _ => a.dimensions() == D::Vec3 && a.data_type() == T::F32,
+        };
+        if !ok {
+            return Err(format!(
+                "attribute {name} (accessor {}) is {:?} {:?}, which glTF does not allow",
+                a.index(),
+                a.data_type(),
+                a.dimensions()
+            ));
+        }
+        check_accessor_bounds(&a, buffers)?;
+    }
+    if let Some(a) = prim.indices()
+        && !(a.dimensions() == D::Scalar && matches!(a.data_type(), T::U8 | T::U16 | T::U32))
+    {
+        return Err(format!(
+            "indices (accessor {}) are {:?} {:?}, not unsigned integer SCALAR",
+            a.index(),
+            a.data_type(),
+            a.dimensions()
+        ));
+    }
+    if let Some(a) = prim.indices() {
+        check_accessor_bounds(&a, buffers)?;
+    }
+    Ok(())
+}
+
+/// An accessor's elements lie inside its buffer view, and the view inside its buffer
+/// (glTF 2.0 §3.6.2.4); sparse accessors are not read.
+fn check_accessor_bounds(a: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<(), String> {
+    let i = a.index();
+    if a.sparse().is_some() {
+        return Err(format!("accessor {i} is sparse, which glint does not read"));
+    }
+    let Some(view) = a.view() else {
+        return Err(format!("accessor {i} has no buffer view"));
+    };
+    if a.count() == 0 {
+        return Err(format!("accessor {i} has count 0"));
+    }
+    let size = a.size() as u64;
+    let stride = view.stride().map_or(size, |s| s as u64);
+    if stride < size {
+        return Err(format!(
+            "accessor {i}: buffer view {} has stride {stride}, less than the element's {size} bytes",
+            view.index()
+        ));
+    }
+    let end = (a.count() as u64 - 1)
+        .saturating_mul(stride)
+        .saturating_add(size)
+        .saturating_add(a.offset() as u64);
+    if end > view.length() as u64 {
+        return Err(format!(
+            "accessor {i}: {} elements need {end} bytes of buffer view {}, which has {}",
+            a.count(),
+            view.index(),
+            view.length()
+        ));
+    }
+    let b = view.buffer().index();
+    let held = buffers.get(b).map_or(0, |d| d.len() as u64);
+    let view_end = (view.offset() as u64).saturating_add(view.length() as u64);
+    if view_end > held {
+        return Err(format!(
+            "buffer view {} ends at byte {view_end}, buffer {b} holds {held}",
+            view.index()
+        ));
+    }
+    Ok(())
+}
+
+/// Reads an external buffer; only a regular file (a device or a pipe could be endless).
+fn read_buffer(file: &Path) -> std::io::Result<Vec<u8>> {
+    let meta = std::fs::metadata(file)?;
+    if !meta.is_file() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a regular file",
+        ));
+    }
+    std::fs::read(file)
+}
+
 /// Index triples of a primitive's triangles; other modes give none.
 fn triangle_indices(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
     match mode {
@@ -251,5 +425,80 @@ fn triangle_indices(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
             .map(|i| [idx[0], idx[i - 1], idx[i]])
             .collect(),
         _ => Vec::new(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The cornell box as a .gltf (buffer `fuzz.bin`) in a fresh folder, after `edit`.
+    fn import_edited(edit: impl Fn(&mut serde_json::Value)) -> Result<Imported, SceneError> {
+        let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let dir = tempfile::tempdir().unwrap();
+        let glb = std::fs::read(repo.join("fuzz/corpus/gltf/cornell_box.glb")).unwrap();
+        let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+        let bin = &glb[28 + json_len..];
+        std::fs::write(dir.path().join("fuzz.bin"), bin).unwrap();
+        let mut doc: serde_json::Value = serde_json::from_slice(
+            &std::fs::read(repo.join("fuzz/corpus/gltf/cornell_box.gltf")).unwrap(),
+        )
+        .unwrap();
+        edit(&mut doc);
+        let path = dir.path().join("box.gltf");
+        import_bytes(&path, serde_json::to_vec(&doc).unwrap(), 1.0)
+    }
+
+    #[test]
+    fn the_unedited_box_imports() {
+        let box_ = import_edited(|_| {}).unwrap();
+        assert_eq!(box_.objects.len(), 1);
+        assert!(!box_.triangles.is_empty());
+    }
+
+    #[test]
+    fn a_node_cycle_or_shared_node_is_an_error_naming_the_node() {
+        let e = import_edited(|d| d["nodes"][0]["children"] = serde_json::json!([0]))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            e.contains("box.gltf") && e.contains("node 0") && e.contains("trees"),
+            "{e}"
+        );
+        let e = import_edited(|d| d["scenes"][0]["nodes"] = serde_json::json!([0, 0]))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("node 0 is reached twice"), "{e}");
+    }
+
+    #[test]
+    fn attributes_with_fewer_values_than_positions_are_an_error() {
+        let e = import_edited(|d| d["accessors"][1]["count"] = serde_json::json!(5))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            e.contains("NORMAL has 5 values, POSITION has 6") && e.contains("cornell_box"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_buffer_that_is_not_a_regular_file_is_refused() {
+        let e = import_edited(|d| d["buffers"][0]["uri"] = serde_json::json!("/dev/zero"))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            e.contains("/dev/zero") && e.contains("not a regular file"),
+            "{e}"
+        );
+        let e = import_edited(|d| d["buffers"][0]["uri"] = serde_json::json!("."))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("not a regular file"), "{e}");
     }
 }

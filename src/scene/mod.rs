@@ -1,7 +1,7 @@
 //! Scenes: `scene.json` plus its glTF geometry, resolved and validated.
 
 pub mod desc;
-mod gltf_import;
+pub(crate) mod gltf_import;
 pub mod material;
 
 use std::ops::Range;

@@ -21,8 +21,6 @@
 //! A material with several lobes uses the kernel of its strongest lobe (largest ks) for all
 //! of them; R sums all lobes.
 
-use std::path::Path;
-
 use glam::{Vec2, Vec3};
 
 use crate::bake::materials::reflectance;
@@ -259,10 +257,12 @@ pub fn beyond_fraction(point_side: f32, eye_side: f32) -> f32 {
     if total > 0.0 { s / total } else { 0.0 }
 }
 
-/// K and ks·R of material `name` from the materials stage in `dir` (with its parsed
-/// `index.json`).
+/// K and ks·R of material `name` from the materials stage (with its parsed `index.json`);
+/// `read_file` reads a file of the stage by its path in the index (relative to the stage's
+/// folder, e.g. through [`crate::bundle::Bundle::read_stage_file`], which refuses a path
+/// the manifest does not list).
 pub fn load_material(
-    dir: &Path,
+    read_file: &dyn Fn(&str) -> Result<Vec<u8>, String>,
     index: &serde_json::Value,
     name: &str,
     layout: ReflectanceLayout,
@@ -276,7 +276,7 @@ pub fn load_material(
         .as_array()
         .ok_or_else(|| format!("material {name:?} has no lobes"))?;
     let read = |path: &str| -> Result<crate::image_io::ExrImage, String> {
-        let bytes = std::fs::read(dir.join(path)).map_err(|e| format!("{path}: {e}"))?;
+        let bytes = read_file(path).map_err(|e| format!("{path}: {e}"))?;
         crate::image_io::decode_exr(&bytes).map_err(|e| format!("{path}: {e}"))
     };
     let finite = |path: &str, v: &[f32]| -> Result<(), String> {

@@ -195,8 +195,9 @@ pub fn reflectors_with_materials(
         log::info!("no materials stage: reflections use K = I, R = 1 (ks only)");
         return reflectors;
     }
-    let dir = data.bundle.dir().join("materials");
-    let index: serde_json::Value = match std::fs::read(dir.join("index.json"))
+    let index: serde_json::Value = match data
+        .bundle
+        .read_stage_file("materials", "index.json")
         .map_err(|e| e.to_string())
         .and_then(|b| serde_json::from_slice(&b).map_err(|e| e.to_string()))
     {
@@ -208,7 +209,12 @@ pub fn reflectors_with_materials(
     };
     for r in &mut reflectors {
         let name = &data.scene.materials[r.material as usize].name;
-        match material::load_material(&dir, &index, name, settings.layout, settings.channel) {
+        let read = |path: &str| -> Result<Vec<u8>, String> {
+            data.bundle
+                .read_stage_file("materials", path)
+                .map_err(|e| e.to_string())
+        };
+        match material::load_material(&read, &index, name, settings.layout, settings.channel) {
             Ok((kernel, modulation)) => {
                 r.kernel = kernel;
                 r.modulation = modulation;
