@@ -1,4 +1,4 @@
-//! Curved reflectors in the viewer (issue 10): Luksch et al.'s frame time against samples
+//! Curved reflectors in the viewer: Luksch et al.'s frame time against samples
 //! per pixel, and the cost of Nielsen's cube maps.
 //!
 //! Table 1 — glossy-room at 720×486, the camera close to the curved teapot (it covers most of
@@ -36,7 +36,7 @@ use glint::view::headless::Offscreen;
 use glint::view::load::{ViewData, load};
 
 mod common;
-use common::bake_if_needed;
+use common::{bake_if_needed, gpu, repo};
 
 const SIZE: (u32, u32) = (720, 486);
 const FRAMES: usize = 10;
@@ -46,13 +46,11 @@ const BLOCK: usize = 4;
 fn main() {
     let _ = env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn"))
         .try_init();
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let work = Path::new(env!("CARGO_TARGET_TMPDIR")).join("curved-bench");
-    let gpu = Gpu::headless_with_features(wgpu::Features::TIMESTAMP_QUERY)
-        .unwrap_or_else(|e| panic!("{e}"));
+    let gpu = gpu();
     println!("adapter: {}", gpu.adapter_summary());
 
-    let glossy_json = root.join("scenes/glossy-room/scene.json");
+    let glossy_json = repo("scenes/glossy-room/scene.json");
     let glossy = bake_if_needed(&glossy_json, &work, "glossy-room", true);
     let data = load(&glossy).unwrap_or_else(|e| panic!("{e}"));
     samples_table(&gpu, &data, &glossy_json, &work, "teapot m = 0.01");
@@ -79,7 +77,7 @@ fn main() {
     ];
     for name in &scenes {
         let bundle = bake_if_needed(
-            &root.join(format!("scenes/{name}/scene.json")),
+            &repo(&format!("scenes/{name}/scene.json")),
             &work,
             name,
             true,

@@ -40,6 +40,9 @@ use glint::view::impostors::{ImpostorReflections, ImpostorSettings, build_billbo
 use glint::view::load::{ViewData, load};
 use glint::view::reflections::{MODULATION_SIZE, ReflectionMode, reflectors_with_reflectance};
 
+mod common;
+use common::{gpu, repo};
+
 const SIZE: (u32, u32) = (720, 486);
 const M_VALUES: [u32; 4] = [6, 8, 12, 16];
 const REFLECTOR_COUNTS: [usize; 4] = [1, 2, 4, 6];
@@ -52,14 +55,10 @@ fn env_usize(name: &str, default: usize) -> usize {
         .unwrap_or(default)
 }
 
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf()
-}
-
 fn bundle_dir() -> PathBuf {
     let target = std::env::var_os("CARGO_TARGET_DIR")
         .map(PathBuf::from)
-        .unwrap_or_else(|| root().join("target"));
+        .unwrap_or_else(|| repo("target"));
     target.join("bench-impostors").join("bunny-mirror.glint")
 }
 
@@ -287,7 +286,7 @@ fn main() {
     }
     let frames = env_usize("GLINT_BENCH_FRAMES", 30);
     let spp = env_usize("GLINT_BENCH_SPP", 16) as u32;
-    let scene = Scene::load(root().join("scenes/bunny-mirror/scene.json")).unwrap();
+    let scene = Scene::load(repo("scenes/bunny-mirror/scene.json")).unwrap();
     let bundle = bundle_dir();
     bake_if_needed(&scene, &bundle);
     let bvh = Bvh::build(&scene.triangles);
@@ -295,7 +294,7 @@ fn main() {
     let (mirror, bunny) = masks(&scene, &bvh);
     let masks = (&mirror[..], &bunny[..]);
     let data = load(&bundle).unwrap();
-    let gpu = Gpu::headless_with_features(wgpu::Features::TIMESTAMP_QUERY).unwrap();
+    let gpu = gpu();
     let mut off = Offscreen::new(&gpu, &data, SIZE.0, SIZE.1, true).unwrap();
     let reflectors = impostor_reflectors(&data.scene, &reflectors_with_reflectance(&data));
     let settings = ImpostorSettings::default();
@@ -314,7 +313,7 @@ fn main() {
     rows.push(measure(
         &gpu,
         &off,
-        "planar geometry (issue 9)".into(),
+        "planar geometry (mirrored scene)".into(),
         frames,
         &reference,
         masks,

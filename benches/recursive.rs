@@ -1,10 +1,10 @@
-//! Recursive planar reflections (issue 10): Nielsen & Christensen 2002 Table 1's shape on
+//! Recursive planar reflections: Nielsen & Christensen 2002 Table 1's shape on
 //! glossy-room (floor, mirror panel and table top are planar reflectors) and breakfast-room
 //! (the floor), at 720×486: per recursion depth 0–4, the reflection maps generated per frame,
 //! the frame time, the texture memory of the per-level targets, and the image error against
 //! the reference path tracer (`glint::eval::reference`) at the path's middle frame.
 //!
-//! Depth 0 is reflections off, depth 1 issue 9's single mirror pass (what `--reflections
+//! Depth 0 is reflections off, depth 1 the single mirror pass (what `--reflections
 //! geometry` draws by default), depths 2–4 [`glint::view::reflections::RecursiveReflections`].
 //! Frame times: median over every [`FRAME_STRIDE`]-th frame of the scene's first camera path
 //! (`GLINT_BENCH_STRIDE` overrides), best of `GLINT_BENCH_REPEATS` runs (default 1); maps:
@@ -28,14 +28,13 @@ use glint::eval::reference::{self, RenderOptions};
 use glint::geometry::Bvh;
 use glint::progress::Silent;
 use glint::view::cpu_render;
-use glint::view::gpu::Gpu;
 use glint::view::headless::Offscreen;
 use glint::view::load::load;
 use glint::view::reflections::{self, RecursionSettings, ReflectionMode, recursive};
 use glint::view::replay::schedule;
 
 mod common;
-use common::{bake_if_needed, half_size, mean_diff, median};
+use common::{bake_if_needed, gpu, half_size, mean_diff, median, repo};
 
 const SIZE: (u32, u32) = (720, 486);
 
@@ -56,10 +55,8 @@ fn env(name: &str, default: usize) -> usize {
 fn main() {
     let _ = env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn"))
         .try_init();
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let work = Path::new(env!("CARGO_TARGET_TMPDIR")).join("recursive-bench");
-    let gpu = Gpu::headless_with_features(wgpu::Features::TIMESTAMP_QUERY)
-        .unwrap_or_else(|e| panic!("{e}"));
+    let gpu = gpu();
     let repeats = env("GLINT_BENCH_REPEATS", 1);
     let stride = env("GLINT_BENCH_STRIDE", FRAME_STRIDE);
     let spp = env("GLINT_BENCH_SPP", REFERENCE_SPP as usize) as u32;
@@ -88,7 +85,7 @@ fn main() {
     ];
     let mut source = None;
     for name in ["glossy-room", "breakfast-room"] {
-        let scene_json = root.join(format!("scenes/{name}/scene.json"));
+        let scene_json = repo(&format!("scenes/{name}/scene.json"));
         let bundle = bake_if_needed(&scene_json, &work, name, true);
         let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
         let path = data.scene.camera_path(None).expect("a camera path");
@@ -179,7 +176,7 @@ fn main() {
             let bytes = if depth == 0 {
                 0
             } else {
-                // Depth 1 (issue 9's pass) keeps one map and one depth buffer, as level 0.
+                // Depth 1 (the single mirror pass) keeps one map and one depth buffer, as level 0.
                 recursive::texture_bytes(depth, SIZE.0, SIZE.1)
             };
             rows.push([

@@ -10,12 +10,12 @@
 //! the lowest median GPU time is reported: on a shared machine other processes only ever add
 //! time, so the quietest run is the best estimate of the frame cost.
 //!
-//! A second table compares glossy reflections (issue 9) on glossy-room and breakfast-room in
-//! one run: off, geometry-based, and image-based with 1, 2 and 4 maps by angle (2 by
-//! distance): frame time, its ratio to the geometry-based mode, the GPU time (timestamps from
-//! the first pass's beginning to the last pass's end, reflection passes included), and the
-//! mean error against the reference path tracer and against the CPU evaluation of the same
-//! equation ([`reflection_table`]).
+//! A second table compares glossy planar reflections (Bastos et al. 1999 Eq. 2) on
+//! glossy-room and breakfast-room in one run: off, geometry-based, and image-based with 1, 2
+//! and 4 maps by angle (2 by distance): frame time, its ratio to the geometry-based mode, the
+//! GPU time (timestamps from the first pass's beginning to the last pass's end, reflection
+//! passes included), and the mean error against the reference path tracer and against the CPU
+//! evaluation of the same equation ([`reflection_table`]).
 //!
 //! `cargo bench --bench view` (the `view` feature, on by default). The adapter is the one
 //! `Gpu::headless` picks: a hardware GPU when there is one, else Mesa's lavapipe; `WGPU_BACKEND`
@@ -42,7 +42,7 @@ use glint::view::replay::GpuTimeSource;
 use glint::view::replay::schedule;
 
 mod common;
-use common::{bake_if_needed, half_size, mean_diff, median};
+use common::{bake_if_needed, gpu, half_size, mean_diff, median, repo};
 
 const SCENES: [&str; 4] = [
     "cornell-box",
@@ -56,10 +56,8 @@ const REPEATS: usize = 3;
 fn main() {
     let _ = env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn"))
         .try_init();
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let work = Path::new(env!("CARGO_TARGET_TMPDIR")).join("view-bench");
-    let gpu = Gpu::headless_with_features(wgpu::Features::TIMESTAMP_QUERY)
-        .unwrap_or_else(|e| panic!("{e}"));
+    let gpu = gpu();
     let adapter = gpu.adapter_summary();
     let repeats = std::env::var("GLINT_BENCH_REPEATS")
         .ok()
@@ -84,7 +82,7 @@ fn main() {
     let mut source = None;
     for name in SCENES {
         let bundle = bake_if_needed(
-            &root.join(format!("scenes/{name}/scene.json")),
+            &repo(&format!("scenes/{name}/scene.json")),
             &work,
             name,
             false,
@@ -143,7 +141,7 @@ fn main() {
             &[false, true, false, true, true, true, true, true, true, true]
         )
     );
-    reflection_table(&gpu, &work, root, repeats);
+    reflection_table(&gpu, &work, repeats);
 }
 
 /// Glossy reflections on glossy-room and breakfast-room (their bundles also get the draft
@@ -154,7 +152,7 @@ fn main() {
 /// ([`glint::eval::reference`], [`REFERENCE_SPP`] paths per pixel; both images box-filtered
 /// 2×2 against its noise) and against the CPU evaluation of the same equation
 /// ([`reflections::cpu_reference`]: reconstruction error alone).
-fn reflection_table(gpu: &Gpu, work: &Path, root: &Path, repeats: usize) {
+fn reflection_table(gpu: &Gpu, work: &Path, repeats: usize) {
     let mut rows = vec![
         [
             "scene",
@@ -199,7 +197,7 @@ fn reflection_table(gpu: &Gpu, work: &Path, root: &Path, repeats: usize) {
         ),
     ];
     for name in ["glossy-room", "breakfast-room"] {
-        let scene_json = root.join(format!("scenes/{name}/scene.json"));
+        let scene_json = repo(&format!("scenes/{name}/scene.json"));
         let bundle = bake_if_needed(&scene_json, work, name, false);
         let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
         if !up_to_date(&bundle, &scene, Stage::Materials, None) {

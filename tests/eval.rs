@@ -51,10 +51,6 @@ fn load(dir: &Path, meshes: &[MeshSpec], materials: &[MaterialSpec], extra: &str
     .unwrap()
 }
 
-fn repo(p: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
-}
-
 /// Mean luminance of the pixels in `range` and its standard error (from the renderer's
 /// per-pixel variances; pixels are independent).
 fn mean_and_se(r: &Rendered, pixels: impl Iterator<Item = usize>) -> (f64, f64) {
@@ -139,8 +135,6 @@ fn lambertian_plane_under_a_uniform_sky_returns_albedo_times_sky() {
 #[test]
 fn diffuse_cornell_box_agrees_with_converged_radiosity() {
     let scene = Scene::load(repo("scenes/cornell-box/scene.json")).unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    let bundle = dir.path().join("c.glint");
     let settings = RadiositySettings {
         texel_density: 8.0,
         rays: 256,
@@ -148,7 +142,7 @@ fn diffuse_cornell_box_agrees_with_converged_radiosity() {
         bounces: 16,
         tolerance: 1e-3,
     };
-    glint::bake::radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent).unwrap();
+    let bundle = shipped_bundle(&Recipe::new("cornell-box").then(Step::Radiosity(settings)));
     let map = RadiosityMap::load(&Bundle::open(&bundle).unwrap())
         .unwrap()
         .unwrap();

@@ -31,10 +31,6 @@ fn materials(args: &[&str]) -> (i32, String, String) {
     run(env!("CARGO_BIN_EXE_glint-materials"), args)
 }
 
-fn repo(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
-}
-
 /// The fixture room (diffuse floor, metal panel, emissive ceiling) plus a glossy,
 /// anisotropic closed "Ball" declared a curved reflector.
 fn glossy_scene(dir: &Path, extra: &str) -> PathBuf {

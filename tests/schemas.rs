@@ -1,25 +1,26 @@
 //! `schemas/*.schema.json` are generated from the Rust types; this test keeps them current.
 //! After changing the types, regenerate deliberately with
-//! `GLINT_UPDATE_SCHEMAS=1 cargo test --test schemas`.
+//! `GLINT_UPDATE_GOLDENS=1 cargo test --test schemas` (the one golden-update switch,
+//! [`common::UPDATE_GOLDENS`]).
 
-use std::path::Path;
+mod common;
+
+use common::{repo, update_goldens};
 
 use glint::bundle::Manifest;
 use glint::scene::SceneDesc;
 
 fn check(file: &str, schema: schemars::Schema) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("schemas")
-        .join(file);
+    let path = repo("schemas").join(file);
     let text = serde_json::to_string_pretty(&schema).unwrap() + "\n";
-    if std::env::var_os("GLINT_UPDATE_SCHEMAS").is_some() {
+    if update_goldens() {
         std::fs::write(&path, &text).unwrap();
         return;
     }
     let current = std::fs::read_to_string(&path).unwrap_or_default();
     assert!(
         current == text,
-        "{} is out of date with the Rust types; run GLINT_UPDATE_SCHEMAS=1 cargo test --test schemas",
+        "{} is out of date with the Rust types; run GLINT_UPDATE_GOLDENS=1 cargo test --test schemas",
         path.display()
     );
 }

@@ -2,20 +2,17 @@
 //! emitters, reflectors (with the planes that were built), impostors and camera paths.
 //! The generated scenes' scripts are deterministic: rerunning them gives the shipped bytes.
 
-use std::path::{Path, PathBuf};
+mod common;
+
 use std::process::Command;
 
+use common::{repo, skip};
 use glam::Vec3;
 use glint::scene::{ReflectorKind, Scene};
 
-/// Absolute path of a file under the package root.
-fn repo_path(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
-}
-
 fn load(name: &str) -> Scene {
     let _ = env_logger::builder().is_test(true).try_init();
-    let path = repo_path(&format!("scenes/{name}/scene.json"));
+    let path = repo(&format!("scenes/{name}/scene.json"));
     Scene::load(&path).unwrap_or_else(|err| panic!("{name}: {err}"))
 }
 
@@ -353,14 +350,14 @@ fn check_generator(script: &str, shipped: &str) {
     let dir = tempfile::tempdir().expect("temporary folder");
     let out = dir.path().join("x.glb");
     let result = Command::new("python3")
-        .arg(repo_path(script))
+        .arg(repo(script))
         .arg("--out")
         .arg(&out)
         .output();
     let output = match result {
         Ok(output) => output,
         Err(err) if err.kind() == std::io::ErrorKind::NotFound => {
-            println!("skipped: python3 is not on PATH, cannot rerun {script}");
+            skip(&format!("python3 is not on PATH, cannot rerun {script}"));
             return;
         }
         Err(err) => panic!("{script}: cannot run python3: {err}"),
@@ -372,7 +369,7 @@ fn check_generator(script: &str, shipped: &str) {
         String::from_utf8_lossy(&output.stderr)
     );
     let generated = std::fs::read(&out).expect("generated .glb");
-    let shipped_bytes = std::fs::read(repo_path(shipped)).expect("shipped .glb");
+    let shipped_bytes = std::fs::read(repo(shipped)).expect("shipped .glb");
     assert!(
         generated == shipped_bytes,
         "{script} wrote {} bytes that differ from the shipped {shipped} ({} bytes): rerun the script and ship its output",

@@ -24,25 +24,25 @@
 
 #![cfg(feature = "view")]
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
 
 use glam::{Vec2, Vec3};
-use glint::bake::{radiosity_stage, scene_stage};
 use glint::camera::{Camera, pose_at};
-use glint::progress::Silent;
 use glint::radiosity::RadiosityMap;
 use glint::radiosity::atlas::{Atlas, PageSize};
-use glint::scene::Scene;
 use glint::scene::desc::RadiositySettings;
 use glint::view::bicubic;
 use glint::view::cpu_render;
-use glint::view::gpu::Gpu;
 use glint::view::headless::Offscreen;
 use glint::view::load::{LoadError, load};
 use glint::view::renderer::bicubic_probe;
 use glint::view::replay::Timings;
+
+use common::*;
 
 /// Mean absolute difference (8-bit sRGB units, all pixels and channels) allowed between the
 /// GPU frame and the CPU reference. Measured on lavapipe: 0.06 (cornell-box, 0.02% of pixels
@@ -56,7 +56,7 @@ const CPU_TOLERANCE: f64 = 0.5;
 /// Mean absolute difference (8-bit units) allowed against a stored golden.
 const STORED_TOLERANCE: f64 = 2.0;
 
-/// Size of the compared frames (the 720×486 divided by 2.25).
+/// Size of the compared frames (the benchmarks' 720×486 divided by 2.25).
 const GOLDEN_SIZE: (u32, u32) = (320, 216);
 
 /// Largest difference allowed between the WGSL filter and the CPU's, relative to the page's
@@ -64,21 +64,12 @@ const GOLDEN_SIZE: (u32, u32) = (320, 216);
 /// precision (lavapipe interpolates in f32; 8-bit weights on hardware stay below 1/256).
 const PROBE_TOLERANCE: f32 = 5e-3;
 
-fn repo(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
-}
-
 /// `target/` (integration tests get `target/tmp` as CARGO_TARGET_TMPDIR).
 fn target_dir() -> PathBuf {
     Path::new(env!("CARGO_TARGET_TMPDIR"))
         .parent()
         .map(Path::to_owned)
         .unwrap_or_else(|| repo("target"))
-}
-
-fn gpu() -> Gpu {
-    let _ = env_logger::builder().is_test(true).try_init();
-    Gpu::headless_with_features(wgpu::Features::TIMESTAMP_QUERY).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// Reduced radiosity: deterministic and quick in the dev profile.
@@ -92,41 +83,10 @@ fn test_settings(texel_density: f32) -> RadiositySettings {
     }
 }
 
-/// Copies the shipped scene `name` into `dir`, adding `extra_paths` to its camera paths.
-fn copy_scene(name: &str, dir: &Path, extra_paths: serde_json::Value) -> PathBuf {
-    std::fs::create_dir_all(dir).unwrap();
-    let src = repo(&format!("scenes/{name}"));
-    for entry in std::fs::read_dir(&src).unwrap() {
-        let p = entry.unwrap().path();
-        if p.is_file() {
-            std::fs::copy(&p, dir.join(p.file_name().unwrap())).unwrap();
-        }
-    }
-    let json_path = dir.join("scene.json");
-    let mut v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json_path).unwrap()).unwrap();
-    if let Some(extra) = extra_paths.as_array() {
-        let paths = v["camera_paths"].as_array_mut().unwrap();
-        paths.extend(extra.iter().cloned());
-    }
-    std::fs::write(&json_path, serde_json::to_string_pretty(&v).unwrap()).unwrap();
-    json_path
-}
-
-/// Bakes the scene and radiosity stages of `scene_json` into `bundle` (replacing it).
-fn bake(scene_json: &Path, bundle: &Path, settings: &RadiositySettings) {
-    let _ = std::fs::remove_dir_all(bundle);
-    let scene = Scene::load(scene_json).unwrap_or_else(|e| panic!("{e}"));
-    scene_stage::bake(&scene, bundle, false).unwrap_or_else(|e| panic!("{e}"));
-    radiosity_stage::bake(&scene, bundle, settings, false, &Silent)
-        .unwrap_or_else(|e| panic!("{e}"));
-}
-
 /// The Cornell box with an extra 10-frame path `ten` (9 fps over 1 s: frames at 0, 1/9, …, 1).
 fn cornell_bundle() -> &'static Path {
     static BUNDLE: OnceLock<PathBuf> = OnceLock::new();
     BUNDLE.get_or_init(|| {
-        let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join("view-tests");
         let ten = serde_json::json!([{
             "name": "ten", "fps": 9,
             "keyframes": [
@@ -134,25 +94,23 @@ fn cornell_bundle() -> &'static Path {
                 { "time": 1.0, "position": [0.5, 1.0, 3.8], "target": [0.0, 1.0, 0.0], "fov_y_deg": 39.3 }
             ]
         }]);
-        let scene = copy_scene("cornell-box", &root.join("cornell-box"), ten);
-        let bundle = root.join("cornell-box.glint");
-        bake(&scene, &bundle, &test_settings(8.0));
-        bundle
+        shipped_bundle(
+            &Recipe::new("cornell-box")
+                .with_camera_paths(ten)
+                .then(Step::Scene)
+                .then(Step::Radiosity(test_settings(8.0))),
+        )
     })
 }
 
 fn breakfast_bundle() -> &'static Path {
     static BUNDLE: OnceLock<PathBuf> = OnceLock::new();
     BUNDLE.get_or_init(|| {
-        let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join("view-tests");
-        let scene = copy_scene(
-            "breakfast-room",
-            &root.join("breakfast-room"),
-            serde_json::json!([]),
-        );
-        let bundle = root.join("breakfast-room.glint");
-        bake(&scene, &bundle, &test_settings(8.0));
-        bundle
+        shipped_bundle(
+            &Recipe::new("breakfast-room")
+                .then(Step::Scene)
+                .then(Step::Radiosity(test_settings(8.0))),
+        )
     })
 }
 
@@ -292,7 +250,7 @@ fn golden(name: &str, bundle: &Path) {
 
     let (gw, gh, small) = half_size(w, h, &gpu_px);
     let stored = repo(&format!("tests/golden/{name}.png"));
-    if std::env::var_os("GLINT_UPDATE_GOLDENS").is_some_and(|v| v == "1") {
+    if update_goldens() {
         std::fs::create_dir_all(stored.parent().unwrap()).unwrap();
         write_png(&stored, gw, gh, &small);
         println!("{name}: golden rewritten: {}", stored.display());

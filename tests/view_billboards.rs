@@ -1,4 +1,4 @@
-//! Reflected billboards in glint-view (issue 10 item 4, Popescu et al. 2006 §3, §3.1, §3.2),
+//! Reflected billboards in glint-view (Popescu et al. 2006 §3, §3.1, §3.2),
 //! on the software Vulkan adapter.
 //!
 //! 1. `bb_trace` (`shaders/billboards.wgsl`) against [`BillboardTables::trace`] on a grid of
@@ -30,15 +30,9 @@ use glint::scene::Scene;
 use glint::scene::desc::RadiositySettings;
 use glint::view::billboard_tables::{Billboard, BillboardTables};
 use glint::view::curved::{CurvedMode, CurvedSettings};
-use glint::view::gpu::Gpu;
 use glint::view::headless::Offscreen;
 use glint::view::impostors::{BillboardProbe, BillboardRay, ImpostorKind};
 use glint::view::load::load;
-
-fn gpu() -> Gpu {
-    let _ = env_logger::builder().is_test(true).try_init();
-    Gpu::headless().unwrap_or_else(|e| panic!("{e}"))
-}
 
 fn bb(
     centre: Vec3,
@@ -1012,4 +1006,30 @@ fn viewer_billboards_take_their_colour_from_d() {
         mean.max_element() < 0.6 && mean.min_element() > 0.0,
         "D of a white block lit by walls glowing ≤ 0.3: {mean}"
     );
+}
+
+/// Every `repr(C)` struct the billboard passes upload has its WGSL twin's layout (naga's
+/// layouter: size and each member's offset), in the modules the passes build.
+#[test]
+fn billboard_structs_match_the_shader_layout() {
+    use glint::assert_wgsl_layout;
+    use glint::view::billboard_tables::{GpuBillboard, GpuGroup};
+    use glint::view::impostors::{
+        BILLBOARD_PROBE_SHADER_SOURCE, BILLBOARD_SHADER_SOURCE, BillboardProbeHit,
+    };
+    let probe = format!("{BILLBOARD_SHADER_SOURCE}\n{BILLBOARD_PROBE_SHADER_SOURCE}");
+    assert_wgsl_layout!(
+        probe,
+        "Billboard",
+        GpuBillboard {
+            centre,
+            right,
+            up,
+            spec,
+            info
+        }
+    );
+    assert_wgsl_layout!(probe, "BbGroup", GpuGroup { range, centre });
+    assert_wgsl_layout!(probe, "BbProbeRay", BillboardRay { origin, dir });
+    assert_wgsl_layout!(probe, "BbProbeHit", BillboardProbeHit { colour, kind });
 }

@@ -1,4 +1,4 @@
-//! Curved reflectors in glint-view (issue 10): cube maps (Nielsen §3.2) and glossy curved
+//! Curved reflectors in glint-view: cube maps (Nielsen §3.2) and glossy curved
 //! objects by regular sampling (Luksch §6–7), on the software Vulkan adapter (lavapipe).
 //!
 //! - The regular-sampling shader against the CPU estimator of the materials stage
@@ -33,14 +33,8 @@ use glint::view::curved::gpu::{EnvSource, glossy_probe};
 use glint::view::curved::{
     CurvedMode, CurvedReflector, CurvedSettings, curved_reflectors, mirror_specular,
 };
-use glint::view::gpu::Gpu;
 use glint::view::headless::Offscreen;
 use glint::view::load::load;
-
-fn gpu() -> Gpu {
-    let _ = env_logger::builder().is_test(true).try_init();
-    Gpu::headless_with_features(wgpu::Features::TIMESTAMP_QUERY).unwrap_or_else(|e| panic!("{e}"))
-}
 
 fn radiosity_settings() -> RadiositySettings {
     RadiositySettings {
@@ -50,6 +44,13 @@ fn radiosity_settings() -> RadiositySettings {
         bounces: 3,
         tolerance: 1e-2,
     }
+}
+
+/// glossy-room's scene and radiosity stages ([`radiosity_settings`]).
+fn glossy_recipe() -> Recipe {
+    Recipe::new("glossy-room")
+        .then(Step::Scene)
+        .then(Step::Radiosity(radiosity_settings()))
 }
 
 // ───────────────────────── the shader against the CPU estimator ─────────────────────────
@@ -404,10 +405,6 @@ fn cube_maps_reflect_the_walls_of_a_coloured_box() {
 
 // ───────────────────────────── glossy-room against the reference ─────────────────────────────
 
-fn repo(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
-}
-
 /// Relative mean absolute error of 4×4 block means (luminance, over blocks wholly on the
 /// teapot) allowed between the viewer and the reference path tracer. This measures the
 /// method, not the code (`glossy_room_teapot_matches_the_cpu_mirror_equation` holds the
@@ -436,22 +433,9 @@ const REGULAR_BIAS: (f64, f64) = (-0.40, 0.0);
 
 #[test]
 fn glossy_room_teapot_matches_the_reference_path_tracer() {
-    let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join("view-curved-tests");
-    let bundle = root.join("glossy-room.glint");
-    let _ = std::fs::remove_dir_all(&bundle);
-    let scene =
-        Scene::load(repo("scenes/glossy-room/scene.json")).unwrap_or_else(|e| panic!("{e}"));
-    scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
-    radiosity_stage::bake(&scene, &bundle, &radiosity_settings(), false, &Silent)
-        .unwrap_or_else(|e| panic!("{e}"));
-    materials::bake(
-        &scene,
-        &bundle,
-        &materials::MaterialsSettings::preset(Quality::Draft),
-        false,
-        &Silent,
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    let bundle = shipped_bundle(&glossy_recipe().then(Step::Materials(
+        materials::MaterialsSettings::preset(Quality::Draft),
+    )));
     let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
     let teapot = curved_reflectors(&data.scene)
         .into_iter()
@@ -603,7 +587,7 @@ fn glossy_room_teapot_matches_the_reference_path_tracer() {
             }
         }
         let block_mae = block_abs / blocks.max(1) as f64 / reference_mean;
-        if std::env::var_os("GLINT_WRITE_GOLDEN_IMAGES").is_some() {
+        if update_goldens() {
             write_png("reference.png", &reference.image.rgb);
             write_png(&format!("{mode}-{samples}.png"), &frame);
         }
@@ -668,14 +652,7 @@ fn d_cube(
 
 #[test]
 fn glossy_room_teapot_matches_the_cpu_mirror_equation() {
-    let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join("view-curved-cpu");
-    let bundle = root.join("glossy-room.glint");
-    let _ = std::fs::remove_dir_all(&bundle);
-    let scene =
-        Scene::load(repo("scenes/glossy-room/scene.json")).unwrap_or_else(|e| panic!("{e}"));
-    scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
-    radiosity_stage::bake(&scene, &bundle, &radiosity_settings(), false, &Silent)
-        .unwrap_or_else(|e| panic!("{e}"));
+    let bundle = shipped_bundle(&glossy_recipe());
     let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
     let teapot = curved_reflectors(&data.scene)
         .into_iter()
@@ -757,14 +734,7 @@ fn glossy_room_teapot_seen_in_the_mirror_gets_its_specular_term() {
     use glint::view::reflections::{
         ReflectionMode, glossy_planar_reflectors, mirror_direction, mirror_point,
     };
-    let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join("view-curved-mirror");
-    let bundle = root.join("glossy-room.glint");
-    let _ = std::fs::remove_dir_all(&bundle);
-    let scene =
-        Scene::load(repo("scenes/glossy-room/scene.json")).unwrap_or_else(|e| panic!("{e}"));
-    scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
-    radiosity_stage::bake(&scene, &bundle, &radiosity_settings(), false, &Silent)
-        .unwrap_or_else(|e| panic!("{e}"));
+    let bundle = shipped_bundle(&glossy_recipe());
     // No materials stage: the panel's K = I and R = 1, so its composite adds ks_panel × M.
     let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
     let teapot = curved_reflectors(&data.scene)

@@ -1,4 +1,4 @@
-//! Reflections of depth-map impostors in glint-view (issue 10 item 4, Popescu §3–4), on the
+//! Reflections of depth-map impostors in glint-view (Popescu §3–4), on the
 //! software Vulkan adapter (lavapipe in CI).
 //!
 //! 1. The WGSL SRDM intersection (`shaders/srdm.wgsl`) against the CPU one
@@ -10,12 +10,13 @@
 
 #![cfg(feature = "view")]
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 use glam::{Vec2, Vec3};
 use glint::bake::srdm_stage::{self, SrdmSettings};
-use glint::bake::{radiosity_stage, scene_stage};
 use glint::camera::Camera;
 use glint::eval::luminance;
 use glint::eval::reference::{RenderOptions, render};
@@ -32,14 +33,7 @@ use glint::view::impostors::{ProbeRay, SrdmProbe};
 use glint::view::load::load;
 use glint::view::reflections::ReflectionMode;
 
-fn gpu() -> Gpu {
-    let _ = env_logger::builder().is_test(true).try_init();
-    Gpu::headless().unwrap_or_else(|e| panic!("{e}"))
-}
-
-fn repo(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
-}
+use common::{Recipe, Step, gpu, repo, shipped_bundle};
 
 // ---------------------------------------------------------------------------------------------
 // 1. WGSL against CPU.
@@ -275,13 +269,54 @@ fn wgsl_srdm_intersection_agrees_with_the_cpu() {
     }
 }
 
+/// Every `repr(C)` struct the impostor passes upload has its WGSL twin's layout (naga's
+/// layouter: size and each member's offset).
 #[test]
 fn params_match_the_shader_layout() {
+    use glint::assert_wgsl_layout;
+    use glint::view::impostor_tables::GpuView;
+    use glint::view::impostors::{
+        IMPOSTOR_SHADER_SOURCE, ProbeHit, SRDM_PROBE_SHADER_SOURCE, SRDM_SHADER_SOURCE,
+    };
+    use glint::view::renderer::SHADER_SOURCE;
     // ImpostorParams: three vec4 + 64 vec4 (WGSL uniform layout, 16-byte aligned).
     assert_eq!(std::mem::size_of::<ImpostorParams>(), (3 + 64) * 16);
-    assert_eq!(
-        std::mem::size_of::<glint::view::impostor_tables::GpuView>(),
-        6 * 16
+    assert_eq!(std::mem::size_of::<GpuView>(), 6 * 16);
+    // As the impostor pipeline builds its module.
+    let impostors = format!("{SHADER_SOURCE}\n{SRDM_SHADER_SOURCE}\n{IMPOSTOR_SHADER_SOURCE}");
+    assert_wgsl_layout!(
+        impostors,
+        "ImpostorParams",
+        ImpostorParams {
+            normal,
+            eye,
+            settings,
+            modulation
+        }
+    );
+    assert_wgsl_layout!(
+        impostors,
+        "SrdmView",
+        GpuView {
+            position,
+            right,
+            up,
+            forward,
+            shape,
+            offsets
+        }
+    );
+    // As the SRDM probe builds its module.
+    let probe = format!("{SRDM_SHADER_SOURCE}\n{SRDM_PROBE_SHADER_SOURCE}");
+    assert_wgsl_layout!(probe, "ProbeRay", ProbeRay { origin, dir });
+    assert_wgsl_layout!(
+        probe,
+        "ProbeHit",
+        ProbeHit {
+            t_pixel_depth,
+            found,
+            colour
+        }
     );
 }
 
@@ -294,12 +329,6 @@ const SIZE: (u32, u32) = (200, 135);
 fn bunny_bundle() -> &'static Path {
     static BUNDLE: OnceLock<PathBuf> = OnceLock::new();
     BUNDLE.get_or_init(|| {
-        let bundle = Path::new(env!("CARGO_TARGET_TMPDIR"))
-            .join("view-impostors-tests")
-            .join("bunny-mirror.glint");
-        let _ = std::fs::remove_dir_all(&bundle);
-        let scene =
-            Scene::load(repo("scenes/bunny-mirror/scene.json")).unwrap_or_else(|e| panic!("{e}"));
         let settings = RadiositySettings {
             texel_density: 16.0,
             rays: 64,
@@ -307,25 +336,23 @@ fn bunny_bundle() -> &'static Path {
             bounces: 4,
             tolerance: 1e-2,
         };
-        scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
-        radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent)
-            .unwrap_or_else(|e| panic!("{e}"));
-        // R (the mirror's directional albedo, its Fresnel) for the modulation.
-        glint::bake::materials::bake(
-            &scene,
-            &bundle,
-            &glint::bake::materials::MaterialsSettings::preset(glint::scene::desc::Quality::Draft),
-            false,
-            &Silent,
-        )
-        .unwrap_or_else(|e| panic!("{e}"));
         let srdm = SrdmSettings {
             domains: 30,
             points: 16,
             resolution: 128,
         };
-        srdm_stage::bake(&scene, &bundle, &srdm, false, &Silent).unwrap_or_else(|e| panic!("{e}"));
-        bundle
+        shipped_bundle(
+            &Recipe::new("bunny-mirror")
+                .then(Step::Scene)
+                .then(Step::Radiosity(settings))
+                // R (the mirror's directional albedo, its Fresnel) for the modulation.
+                .then(Step::Materials(
+                    glint::bake::materials::MaterialsSettings::preset(
+                        glint::scene::desc::Quality::Draft,
+                    ),
+                ))
+                .then(Step::Srdm(srdm)),
+        )
     })
 }
 
@@ -385,7 +412,8 @@ fn frame_with(gpu: &Gpu, impostors: bool, mode: ReflectionMode) -> Vec<Vec3> {
     off.read_hdr(gpu).unwrap().unwrap()
 }
 
-/// Writes a linear image as a tone-mapped PNG next to the test bundle (for inspection).
+/// Writes a linear image as a tone-mapped PNG into `target/tmp/view-impostors-tests/` (for
+/// inspection).
 fn dump(name: &str, rgb: &[Vec3]) {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("view-impostors-tests");
     let _ = std::fs::create_dir_all(&dir);
@@ -442,11 +470,11 @@ fn reflected_bunny_appears_where_the_mirrored_geometry_predicts() {
 /// Largest relative difference of the mean luminance over the reflected bunny (the interior of
 /// the predicted mask) between the viewer with impostor reflections and the reference path
 /// tracer. Measured 45% on lavapipe (viewer darker). The pass is not what limits it: the same
-/// region drawn from the mirrored geometry with the same D and R (issue 9's geometry mode)
-/// differs from the reference just as much (see [`GEOMETRY_TOLERANCE`]). What does is what the
-/// viewer's equation leaves out: D is the diffuse radiosity only (the bunny seen directly is
-/// 26% darker than in the reference, its glossy lobe and the light the mirror throws onto its
-/// underside are missing), and ks·R from the draft materials stage.
+/// region drawn from the mirrored geometry with the same D and R (the planar reflections'
+/// geometry mode) differs from the reference just as much (see [`GEOMETRY_TOLERANCE`]). What
+/// does is what the viewer's equation leaves out: D is the diffuse radiosity only (the bunny
+/// seen directly is 26% darker than in the reference, its glossy lobe and the light the mirror
+/// throws onto its underside are missing), and ks·R from the draft materials stage.
 const REFERENCE_TOLERANCE: f64 = 0.5;
 
 /// Largest relative difference of the same mean between impostor reflections and the mirrored

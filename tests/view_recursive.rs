@@ -1,4 +1,4 @@
-//! Recursive planar reflections in glint-view (issue 10, Nielsen & Christensen 2002 §3.1) on
+//! Recursive planar reflections in glint-view (Nielsen & Christensen 2002 §3.1) on
 //! the software Vulkan adapter: two facing mirrors and a red emitter between them.
 //!
 //! - Depth 2 shows the emitter's second image (mirrored about the far mirror, then the near
@@ -26,6 +26,8 @@ use glint::view::load::{ViewData, load};
 use glint::view::reflections::{RecursionSettings, ReflectionMode, mirror_point, recursive};
 use glint::view::renderer::view_projection;
 
+use common::gpu;
+
 const SIZE: (u32, u32) = (320, 216);
 
 /// How far (pixels) the centroid of an image's red pixels may lie from its predicted centre.
@@ -36,11 +38,6 @@ const WINDOW: i32 = 12;
 
 /// The red emitter: a square of half size 0.12 in the plane x = −0.6 centred here.
 const EMITTER: Vec3 = Vec3::new(-0.6, -0.35, 0.35);
-
-fn gpu() -> Gpu {
-    let _ = env_logger::builder().is_test(true).try_init();
-    Gpu::headless_with_features(wgpu::Features::TIMESTAMP_QUERY).unwrap_or_else(|e| panic!("{e}"))
-}
 
 /// Mirror A at x = −1 (facing +x), mirror B at x = +1 (facing −x), ks 0.9, the emitter
 /// between them; the camera between them looks at A.
@@ -185,7 +182,7 @@ fn depth_two_shows_the_second_image_where_geometry_puts_it() {
     assert!(dist(direct, first).min(dist(direct, second)) > 2.5 * WINDOW as f32);
     let (one, stats1) = frame(&gpu, Some(1), recursive::DEFAULT_WEIGHT_CUTOFF);
     let (two, stats2) = frame(&gpu, Some(2), recursive::DEFAULT_WEIGHT_CUTOFF);
-    // Depth 1 goes through issue 9's single mirror pass, depth 2 through the recursion.
+    // Depth 1 goes through the single mirror pass, depth 2 through the recursion.
     assert_eq!(stats1, None);
     let stats2 = stats2.expect("depth 2 is recursive");
     assert_eq!(stats2.maps, 2, "{stats2:?}");
@@ -260,7 +257,7 @@ fn depth_needs_geometry_mode() {
 }
 
 /// The recursion with every level-1 branch cut (ks 0.9: weights 0.9, then 0.81 < 0.85) draws
-/// what issue 9's single mirror pass (depth 1) draws.
+/// what the single mirror pass (depth 1) draws.
 #[test]
 fn recursion_cut_after_one_level_matches_the_single_mirror_pass() {
     let gpu = gpu();

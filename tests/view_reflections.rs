@@ -1,5 +1,5 @@
-//! Glossy planar reflections in glint-view (issue 9), geometry- and image-based modes, on the
-//! software Vulkan adapter (lavapipe in CI).
+//! Glossy planar reflections in glint-view (Bastos et al. 1999 Eq. 2), geometry- and
+//! image-based modes, on the software Vulkan adapter (lavapipe in CI).
 //!
 //! - Geometry mode against the CPU evaluation of the same shading equation
 //!   ([`reflections::cpu_reference`]: L = D + ks·R·(M*K), K's taps and R from the materials
@@ -35,10 +35,11 @@ use glint::progress::Silent;
 use glint::scene::Scene;
 use glint::scene::desc::{Quality, RadiositySettings};
 use glint::view::cpu_render;
-use glint::view::gpu::Gpu;
 use glint::view::headless::Offscreen;
 use glint::view::load::load;
 use glint::view::reflections::{self, ReflectionMode};
+
+use common::{Recipe, Step, gpu, repo, shipped_bundle, skip, update_goldens};
 
 /// Mean absolute difference (8-bit sRGB units) allowed between the GPU frame with geometry
 /// reflections and the CPU evaluation of the same equation.
@@ -69,25 +70,11 @@ const STORED_TOLERANCE: f64 = 2.0;
 
 const SIZE: (u32, u32) = (320, 216);
 
-fn repo(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
-}
-
-fn gpu() -> Gpu {
-    let _ = env_logger::builder().is_test(true).try_init();
-    Gpu::headless_with_features(wgpu::Features::TIMESTAMP_QUERY).unwrap_or_else(|e| panic!("{e}"))
-}
-
 /// glossy-room's scene and radiosity stages, reduced radiosity settings (the comparison holds
 /// GPU and CPU to the same bake).
 fn glossy_bundle() -> &'static Path {
     static BUNDLE: OnceLock<PathBuf> = OnceLock::new();
     BUNDLE.get_or_init(|| {
-        let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join("view-reflections-tests");
-        let bundle = root.join("glossy-room.glint");
-        let _ = std::fs::remove_dir_all(&bundle);
-        let scene =
-            Scene::load(repo("scenes/glossy-room/scene.json")).unwrap_or_else(|e| panic!("{e}"));
         let settings = RadiositySettings {
             texel_density: 8.0,
             rays: 32,
@@ -95,20 +82,15 @@ fn glossy_bundle() -> &'static Path {
             bounces: 3,
             tolerance: 1e-2,
         };
-        scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
-        radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent)
-            .unwrap_or_else(|e| panic!("{e}"));
-        materials::bake(
-            &scene,
-            &bundle,
-            &materials::MaterialsSettings::preset(Quality::Draft),
-            false,
-            &Silent,
+        shipped_bundle(
+            &Recipe::new("glossy-room")
+                .then(Step::Scene)
+                .then(Step::Radiosity(settings))
+                .then(Step::Materials(materials::MaterialsSettings::preset(
+                    Quality::Draft,
+                )))
+                .then(Step::Radiance(Quality::Draft)),
         )
-        .unwrap_or_else(|e| panic!("{e}"));
-        radiance_stage::bake(&scene, &bundle, Quality::Draft, false, &Silent)
-            .unwrap_or_else(|e| panic!("{e}"));
-        bundle
     })
 }
 
@@ -513,7 +495,7 @@ fn both_modes_approach_the_path_tracer_on_glossy_room() {
     let half = |img: &[u8]| half_size(PT_SIZE.0, PT_SIZE.1, img);
     let reference_half = half(&reference);
     let off_err = mean_diff(&half(&none), &reference_half);
-    let update = std::env::var_os("GLINT_UPDATE_GOLDENS").is_some_and(|v| v == "1");
+    let update = update_goldens();
     for (mode, name) in [
         (ReflectionMode::Geometry, "glossy-room-geometry"),
         (ReflectionMode::Image, "glossy-room-image"),
@@ -663,7 +645,7 @@ fn gpu_time_spans_the_reflection_passes() {
     let camera = pose_at(data.scene.camera_path(None).unwrap(), 0.0);
     let mut off = Offscreen::new(&gpu, &data, 640, 432, false).unwrap();
     if off.gpu_time_source() != GpuTimeSource::TimestampQuery {
-        eprintln!("no timestamp queries on this adapter: nothing to check");
+        skip("no timestamp queries on this adapter");
         return;
     }
     let mut median_gpu = |mode| {

@@ -1,7 +1,13 @@
-//! Helpers the viewer benchmarks share: draft bundles baked when missing or stale, medians and
-//! 8-bit image differences.
+//! Helpers the viewer benchmarks share: the tests' scaffolding (`tests/common/scaffold.rs`:
+//! paths, the adapter), draft bundles baked when missing or stale, medians and 8-bit image
+//! differences.
 
 #![allow(dead_code)]
+
+#[path = "../../tests/common/scaffold.rs"]
+mod scaffold;
+
+pub use scaffold::{gpu, repo};
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;

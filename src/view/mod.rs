@@ -16,6 +16,7 @@
 //!   regular sampling (Luksch §6–7) (issue 10).
 //! - [`window`]: the interactive winit viewer (fly camera, path playback and recording).
 //! - [`gpu`]: adapter and device selection, readback.
+//! - [`wgsl_layout`]: the test that a `repr(C)` struct has its WGSL twin's layout (naga).
 
 pub mod bicubic;
 pub mod billboard_tables;
@@ -30,4 +31,5 @@ pub mod radiance_maps;
 pub mod reflections;
 pub mod renderer;
 pub mod replay;
+pub mod wgsl_layout;
 pub mod window;

@@ -1,6 +1,16 @@
-//! Test fixtures: tiny glTF files and scene.json files written into temporary folders.
+//! What the tests share: their scaffolding ([`scaffold`]: paths, the adapter, skips, the
+//! golden-update switch), shipped scenes baked once ([`shipped`]), and fixtures: tiny glTF
+//! files and scene.json files written into temporary folders.
 
 #![allow(dead_code)] // each test binary uses a different part of the fixtures
+
+pub mod scaffold;
+pub mod shipped;
+
+#[allow(unused_imports)] // each test binary uses a different part
+pub use scaffold::*;
+#[allow(unused_imports)]
+pub use shipped::{Recipe, Step, shipped_bundle};
 
 use std::path::{Path, PathBuf};
 
