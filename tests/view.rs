@@ -510,7 +510,8 @@ fn replay_of_a_ten_frame_path_writes_ten_frames_and_timings() {
 }
 
 /// A headless run outside a desktop session (no `XDG_RUNTIME_DIR`, no Wayland) succeeds
-/// without printing an "error:" line (Mesa's device-select layer made libwayland print one).
+/// without libwayland's "error: XDG_RUNTIME_DIR is invalid or not set" line, which Mesa's
+/// Vulkan device-select layer caused (on the GL fallback the layer is not involved).
 #[test]
 fn headless_replay_without_a_session_prints_no_error_line() {
     let out = tempfile::tempdir().unwrap();
@@ -535,7 +536,9 @@ fn headless_replay_without_a_session_prints_no_error_line() {
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert_eq!(run.status.code(), Some(0), "{stderr}");
     assert!(
-        !stderr.lines().any(|l| l.to_lowercase().contains("error")),
+        !stderr
+            .lines()
+            .any(|l| l.starts_with("error:") || l.contains("XDG_RUNTIME_DIR")),
         "{stderr}"
     );
 }

@@ -458,24 +458,28 @@ impl RadiositySettings {
     /// Checks every value: rays and light samples ≥ 1, tolerance in [0, 1), texel density
     /// finite and > 0 (how high it may go is a question of memory, which the radiosity stage
     /// estimates); with `scene_size` (the scene's bounding-box diagonal, metres), a density so
-    /// low that the scene spans less than one texel (no element would be made, and D would
-    /// be black) is refused too.
+    /// low that the scene spans less than a thousandth of a texel (no element would be made,
+    /// and D would be black) is refused too.
     pub fn check(&self, scene_size: Option<f32>) -> Result<(), SettingError> {
         let d = self.texel_density;
         if !(d.is_finite() && d > 0.0) {
             return Err(SettingError::new(
                 "texel_density",
-                format!("{d} is not a finite density > 0 in texels per metre"),
+                format!("{d:?} is not a finite density > 0 in texels per metre"),
             ));
         }
+        // Charts are projected to texel units: a scene spanning less than this many texels
+        // collapses to a point in f32 and the atlas has no element (D would be black). Any
+        // span above it gives every triangle its texel.
+        const MIN_SPAN_TEXELS: f64 = 1e-3;
         if let Some(size) = scene_size
-            && (size as f64) * (d as f64) < 1.0
+            && (size as f64) * (d as f64) < MIN_SPAN_TEXELS
         {
             return Err(SettingError::new(
                 "texel_density",
                 format!(
-                    "{d} texels per metre gives no element: the scene is {size:.3} m across, less than one texel; use at least {:.3}",
-                    1.0 / size
+                    "{d:?} texels per metre gives no element: the scene, {size:.3} m across, spans less than {MIN_SPAN_TEXELS} texel; use at least {:.3e}",
+                    MIN_SPAN_TEXELS / size as f64
                 ),
             ));
         }
