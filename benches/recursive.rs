@@ -89,7 +89,7 @@ fn main() {
         let bundle = bake_if_needed(&scene_json, &work, name, true);
         let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
         let path = data.scene.camera_path(None).expect("a camera path");
-        let frames = schedule(path);
+        let frames = schedule(path).unwrap_or_else(|e| panic!("{e}"));
         let timed: Vec<_> = frames.iter().step_by(stride).map(|f| f.camera).collect();
         let view = frames[frames.len() / 2].camera;
         let bvh = Bvh::build(&data.scene.triangles);

@@ -211,7 +211,7 @@ fn reflection_table(gpu: &Gpu, work: &Path, repeats: usize) {
         }
         let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
         let path = data.scene.camera_path(None).expect("a camera path");
-        let frames = schedule(path);
+        let frames = schedule(path).unwrap_or_else(|e| panic!("{e}"));
         let timed: Vec<_> = frames
             .iter()
             .step_by(FRAME_STRIDE)

@@ -8,12 +8,13 @@ use anyhow::{Context, bail};
 use clap::{Args as ClapArgs, Parser, Subcommand};
 use glam::Vec3;
 use glint::bundle::Bundle;
-use glint::camera::{Camera, frame_time, pose_at};
+use glint::camera::{Camera, frame_camera};
 use glint::eval::reference::{self, RenderOptions};
 use glint::eval::{Image, compare, probe, sweep};
 use glint::progress::TerminalProgress;
 use glint::radiosity::RadiosityMap;
 use glint::scene::{Quality, Scene};
+use std::io::Write;
 
 #[derive(Parser)]
 #[command(
@@ -104,8 +105,8 @@ enum Command {
         #[arg(long, value_enum, default_value = "off")]
         reflections: ReflectionsArg,
         /// Image-based reflections: maps per reflector element (1..=16).
-        #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=16))]
-        maps: u8,
+        #[arg(long, default_value_t = 2)]
+        maps: usize,
         /// Image-based reflections: map selection.
         #[arg(long, value_enum, default_value = "angle")]
         selection: SelectionArg,
@@ -173,7 +174,7 @@ struct ViewArgs {
 #[derive(ClapArgs)]
 struct RenderArgs {
     /// Image size WxH.
-    #[arg(long, default_value = "256x256", value_parser = parse_size)]
+    #[arg(long, default_value = "256x256", value_parser = glint::cli::parse_size)]
     size: (u32, u32),
     /// Paths per pixel.
     #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
@@ -207,19 +208,6 @@ impl RenderArgs {
     }
 }
 
-fn parse_size(s: &str) -> Result<(u32, u32), String> {
-    let (w, h) = s
-        .split_once(['x', 'X'])
-        .ok_or_else(|| format!("`{s}`: expected WxH, e.g. 256x256"))?;
-    let p = |v: &str| {
-        v.parse::<u32>()
-            .ok()
-            .filter(|n| (1..=16384).contains(n))
-            .ok_or_else(|| format!("`{s}`: sizes are integers in 1..=16384"))
-    };
-    Ok((p(w)?, p(h)?))
-}
-
 fn parse_rgb(s: &str) -> Result<Vec3, String> {
     let v: Vec<f32> = s
         .split(',')
@@ -240,39 +228,14 @@ fn positive_f32(s: &str) -> Result<f32, String> {
 }
 
 fn main() -> ExitCode {
+    glint::cli::quiet_gpu_probe();
     glint::cli::init_logging();
     glint::cli::exit_code(run(Args::parse()))
 }
 
 fn camera(scene: &Scene, v: &ViewArgs) -> anyhow::Result<Camera> {
-    let name = v.path.as_deref().or(v.camera.as_deref());
-    let Some(path) = scene.camera_path(name) else {
-        let known: Vec<&str> = scene
-            .desc
-            .camera_paths
-            .iter()
-            .map(|p| p.name.as_str())
-            .collect();
-        bail!(
-            "{}: camera_paths has no path named `{}` (known: {})",
-            scene.path.display(),
-            name.unwrap_or("<first>"),
-            if known.is_empty() {
-                "none".into()
-            } else {
-                known.join(", ")
-            }
-        );
-    };
-    let frames = glint::camera::frame_count(path);
-    if v.frame >= frames {
-        bail!(
-            "--frame {}: path `{}` has {frames} frames",
-            v.frame,
-            path.name
-        );
-    }
-    Ok(pose_at(path, frame_time(path, v.frame)))
+    let path = scene.find_camera_path(v.path.as_deref().or(v.camera.as_deref()))?;
+    frame_camera(path, v.frame).map_err(|e| anyhow::anyhow!("--frame {}: {e}", v.frame))
 }
 
 fn write(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
@@ -333,18 +296,13 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                 )
             })?;
             let b = Bundle::open(&bundle)?;
-            let scene_json = b
-                .stage_asset("scene", "scene.json")
-                .map(|a| b.asset_path(a));
-            let scene = scene_json
-                .map_err(anyhow::Error::from)
-                .and_then(|p| Ok(Scene::load(p)?))
-                .with_context(|| {
-                    format!(
-                        "{}: no scene stage (bake it with glint-bake)",
-                        bundle.display()
-                    )
-                })?;
+            let scene_json = b.stage_asset("scene", "scene.json").map_err(|_| {
+                anyhow::anyhow!(
+                    "{}: no scene stage (bake it with glint-bake)",
+                    bundle.display()
+                )
+            })?;
+            let scene = Scene::load(b.asset_path(scene_json))?;
             let map = RadiosityMap::load(&b)?.with_context(|| {
                 format!(
                     "{}: no radiosity stage (bake it with glint-bake)",
@@ -353,7 +311,8 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
             })?;
             let bvh = scene.build_bvh();
             let reach = reach.unwrap_or_else(|| probe::default_reach(&scene));
-            let values = probe::probe(&scene, &bvh, &map, &pts, reach);
+            let values = probe::probe(&scene, &bvh, &map, &pts, reach)
+                .with_context(|| points.display().to_string())?;
             let missing = values.iter().filter(|v| !v.found).count();
             if missing > 0 {
                 log::warn!("{missing} probe(s) found no surface within {reach} m");
@@ -361,7 +320,8 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
             let json = serde_json::to_string_pretty(&values)? + "\n";
             match out {
                 Some(p) => write(&p, json.as_bytes())?,
-                None => print!("{json}"),
+                // A closed stdout (`| head -1`) is an io::Error, not a panic: see cli::exit_code.
+                None => std::io::stdout().lock().write_all(json.as_bytes())?,
             }
             Ok(ExitCode::SUCCESS)
         }
@@ -400,14 +360,15 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                     glint::image_io::encode_png(ia.width as u32, ia.height as u32, &px, false)?;
                 write(&d, &png)?;
             }
+            let mut stdout = std::io::stdout().lock();
             if json {
-                println!("{}", serde_json::to_string_pretty(&m)?);
+                writeln!(stdout, "{}", serde_json::to_string_pretty(&m)?)?;
             } else {
-                println!("pixels     {}", m.pixels);
-                println!("RMSE       {:.6}", m.rmse);
-                println!("rel. RMSE  {:.6}", m.rel_rmse);
-                println!("PSNR       {:.2} dB", m.psnr_db);
-                println!("max error  {:.6}", m.max_error);
+                writeln!(stdout, "pixels     {}", m.pixels)?;
+                writeln!(stdout, "RMSE       {:.6}", m.rmse)?;
+                writeln!(stdout, "rel. RMSE  {:.6}", m.rel_rmse)?;
+                writeln!(stdout, "PSNR       {:.2} dB", m.psnr_db)?;
+                writeln!(stdout, "max error  {:.6}", m.max_error)?;
             }
             Ok(ExitCode::SUCCESS)
         }
@@ -436,7 +397,7 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                     ReflectionsArg::Geometry => sweep::Reflections::Geometry,
                     ReflectionsArg::Image => sweep::Reflections::Image,
                 },
-                maps: maps as usize,
+                maps,
                 selection: match selection {
                     SelectionArg::Angle => sweep::MapSelection::Angle,
                     SelectionArg::Distance => sweep::MapSelection::Distance,
@@ -444,6 +405,9 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                 curved: curved == CurvedArg::Cubemap,
                 ..Default::default()
             };
+            base_view
+                .check()
+                .map_err(|e| anyhow::anyhow!("{}: {}", e.flag(), e.message))?;
             let scene = Scene::load(&scene)?;
             let cam = camera(&scene, &view)?;
             let mut opts = render.options();
@@ -476,7 +440,9 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
             );
             progress.finish();
             let rows = rows?;
-            print!("{}", sweep::to_csv(&rows));
+            std::io::stdout()
+                .lock()
+                .write_all(sweep::to_csv(&rows).as_bytes())?;
             if rows.iter().all(|r| r.frame_ms.is_none()) {
                 eprintln!(
                     "frame_ms is empty: {}",

@@ -1,14 +1,10 @@
 //! `glint-radiance`: bake radiance maps with depth and their quadtrees for glossy planar reflectors.
 
-use std::io::Write;
 use std::process::ExitCode;
 
-use anyhow::Context;
 use clap::Parser;
-use glint::bake::{Stage, plan, radiance_stage};
+use glint::bake::tool::{Tool, run};
 use glint::cli::BakeArgs;
-use glint::progress::TerminalProgress;
-use glint::scene::Scene;
 
 #[derive(Parser)]
 #[command(
@@ -24,41 +20,7 @@ struct Args {
 
 fn main() -> ExitCode {
     glint::cli::init_logging();
-    glint::cli::exit_code(run(Args::parse().bake))
-}
-
-fn run(b: BakeArgs) -> anyhow::Result<ExitCode> {
-    let scene = Scene::load(&b.scene)?;
-    let mut out = std::io::stdout().lock();
-    let step = plan(&scene)
-        .into_iter()
-        .find(|p| p.stage == Stage::Radiance)
-        .expect("radiance is planned");
-    if !step.needed {
-        writeln!(
-            out,
-            "{}: radiance stage skipped: {}",
-            scene.name, step.reason
-        )?;
-        return Ok(ExitCode::SUCCESS);
-    }
-    let quality = b.quality.unwrap_or(scene.desc.bake.quality);
-    let progress = TerminalProgress::new();
-    let record = radiance_stage::bake(&scene, &b.bundle, quality, b.force, &progress);
-    progress.finish();
-    let record = record.context("stage radiance")?;
-    if b.json {
-        writeln!(out, "{}", serde_json::to_string_pretty(&record)?)?;
-    } else {
-        writeln!(
-            out,
-            "{}: {} radiance maps baked in {:.2} s ({} quality) → {}",
-            scene.name,
-            record.stats["maps"],
-            record.bake_seconds,
-            quality.name(),
-            b.bundle.display()
-        )?;
-    }
-    Ok(ExitCode::SUCCESS)
+    let args = Args::parse();
+    let tool = Tool::Radiance;
+    glint::cli::exit_code(run(&args.bake, tool, &mut std::io::stdout().lock()))
 }

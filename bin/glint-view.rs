@@ -140,6 +140,7 @@ fn parse_cutoff(s: &str) -> Result<f32, String> {
 }
 
 fn main() -> ExitCode {
+    glint::cli::quiet_gpu_probe();
     glint::cli::init_logging();
     glint::cli::exit_code(run(Args::parse()))
 }

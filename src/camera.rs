@@ -60,11 +60,33 @@ impl Camera {
     }
 }
 
+/// Most frames a camera path may have when replayed ([`frame_count`]): over 9 hours at
+/// 30 fps. The scene loader refuses longer paths, and a replay sizes its buffers only after
+/// checking this.
+pub const MAX_FRAMES: usize = 1_000_000;
+
 /// Number of frames when replaying a path at its fps: one per 1/fps from the first
-/// keyframe's time through the last's (at least one).
+/// keyframe's time through the last's (at least one; saturating for absurd paths, which
+/// the scene loader refuses, see [`MAX_FRAMES`]).
 pub fn frame_count(path: &CameraPath) -> usize {
     let (t0, t1) = time_range(path);
-    ((t1 - t0) * path.fps).floor() as usize + 1
+    let span = (t1 as f64 - t0 as f64) * path.fps as f64;
+    // `as` saturates (NaN gives 0).
+    (span.floor() as usize).saturating_add(1)
+}
+
+/// The camera of frame `frame` of `path` at its fps, or why there is none (the frame is past
+/// the path's end).
+pub fn frame_camera(path: &CameraPath, frame: usize) -> Result<Camera, String> {
+    let frames = frame_count(path);
+    if frame >= frames {
+        return Err(format!(
+            "camera path `{}` has {frames} frames (0..={})",
+            path.name,
+            frames - 1
+        ));
+    }
+    Ok(pose_at(path, frame_time(path, frame)))
 }
 
 /// Time of frame `i`.
@@ -142,5 +164,23 @@ mod tests {
         assert_eq!(pose_at(&path, -1.0).position.x, 0.0);
         assert_eq!(pose_at(&path, 9.0).position.x, 2.0);
         assert!((frame_time(&path, 10) - 1.0).abs() < 1e-6);
+        assert_eq!(frame_camera(&path, 10).unwrap().position.x, 2.0);
+        assert!(
+            frame_camera(&path, 11)
+                .unwrap_err()
+                .contains("has 11 frames")
+        );
+    }
+
+    #[test]
+    fn frame_count_saturates_instead_of_overflowing() {
+        let mut path = CameraPath {
+            name: "p".into(),
+            fps: f32::MAX,
+            keyframes: vec![key(0.0, 0.0), key(f32::MAX, 2.0)],
+        };
+        assert_eq!(frame_count(&path), usize::MAX);
+        path.fps = f32::NAN;
+        assert_eq!(frame_count(&path), 1);
     }
 }

@@ -12,6 +12,23 @@ pub fn init_logging() {
         .try_init();
 }
 
+/// Keeps GPU start-up quiet where no Wayland session exists. Mesa's Vulkan device-select
+/// layer (an implicit layer, on with every Mesa driver, lavapipe included) connects to a
+/// Wayland compositor to find the default GPU; without `XDG_RUNTIME_DIR`, libwayland prints
+/// "error: XDG_RUNTIME_DIR is invalid or not set in the environment." on stderr, although
+/// nothing fails. There is no compositor to ask then, so the layer is turned off
+/// (`NODEVICE_SELECT=1`, Mesa's own switch) unless the user set that variable. Call it first in
+/// `main`, before any thread starts (it sets an environment variable).
+pub fn quiet_gpu_probe() {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none()
+        && std::env::var_os("NODEVICE_SELECT").is_none()
+    {
+        // SAFETY: called at the start of `main`, before any other thread exists, so nothing
+        // reads the environment concurrently.
+        unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
+    }
+}
+
 /// Maps a binary's result to its exit code: 0 on success, 1 on error (printed with its whole
 /// chain of causes). A closed pipe (`glint-bundle ls | head`) is not an error.
 pub fn exit_code(result: anyhow::Result<ExitCode>) -> ExitCode {
@@ -69,9 +86,36 @@ pub struct BakeArgs {
     pub json: bool,
 }
 
+/// Parses an image size `WIDTHxHEIGHT` (e.g. `720x486`), each side 1..=16384: the one
+/// `--size` parser of every tool.
+pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("{s:?} is not WIDTHxHEIGHT, e.g. 720x486");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let w: u32 = w.trim().parse().map_err(|_| bad())?;
+    let h: u32 = h.trim().parse().map_err(|_| bad())?;
+    if !(1..=16384).contains(&w) || !(1..=16384).contains(&h) {
+        return Err(format!("{s:?}: each side must be 1..=16384 pixels"));
+    }
+    Ok((w, h))
+}
+
 fn parse_quality(s: &str) -> Result<crate::scene::Quality, String> {
     crate::scene::Quality::ALL
         .into_iter()
         .find(|q| q.name() == s)
         .ok_or_else(|| format!("{s:?} is not a preset: use draft, default or high"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn size_parses_and_names_the_problem() {
+        assert_eq!(parse_size("720x486"), Ok((720, 486)));
+        assert_eq!(parse_size("64X48"), Ok((64, 48)));
+        assert!(parse_size("720").unwrap_err().contains("WIDTHxHEIGHT"));
+        assert!(parse_size("0x10").unwrap_err().contains("1..=16384"));
+        assert!(parse_size("axb").is_err());
+    }
 }

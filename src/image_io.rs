@@ -157,8 +157,12 @@ impl ExrImage {
             .map(|v| v.as_slice())
             .ok_or_else(|| {
                 ImageError::Shape(format!(
-                    "no channel {name:?}; the image has {:?}",
-                    self.channels.keys().collect::<Vec<_>>()
+                    "no channel {name}; the image has {}",
+                    self.channels
+                        .keys()
+                        .map(String::as_str)
+                        .collect::<Vec<_>>()
+                        .join(", ")
                 ))
             })
     }

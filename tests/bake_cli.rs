@@ -393,4 +393,84 @@ fn a_bundle_that_cannot_be_written_fails_before_the_compute() {
     // The bundle is as it was.
     std::fs::remove_dir(bundle.join(".lock")).unwrap();
     assert!(Bundle::open(&bundle).unwrap().verify().is_empty());
+
+/// Bake settings in scene.json are checked with the scene: refused before any stage is
+/// written, naming scene.json and the field.
+#[test]
+fn bad_bake_settings_are_refused_before_anything_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    write_room(dir.path());
+    let bundle = dir.path().join("b.glint");
+    for (bake, field, says) in [
+        (
+            r#"{ "radiosity": { "texel_density": 1e-30 } }"#,
+            "bake.radiosity.texel_density",
+            "gives no element",
+        ),
+        (
+            r#"{ "radiosity": { "texel_density": -1 } }"#,
+            "bake.radiosity.texel_density",
+            "-1",
+        ),
+        (
+            r#"{ "radiosity": { "rays": 0 } }"#,
+            "bake.radiosity.rays",
+            "≥ 1",
+        ),
+        (
+            r#"{ "materials": { "env_map_size": 100 } }"#,
+            "bake.materials.env_map_size",
+            "power of two",
+        ),
+        (
+            r#"{ "srdm": { "domains": 0 } }"#,
+            "bake.srdm.domains",
+            "1 ..= ",
+        ),
+        (
+            r#"{ "radiance": { "resolution_scale": -2 } }"#,
+            "bake.radiance.resolution_scale",
+            "(0, 16]",
+        ),
+    ] {
+        let scene = write_scene(
+            dir.path(),
+            &format!(r#"{{ "version": 1, "geometry": "room.gltf", "bake": {bake} }}"#),
+        );
+        let (code, _, err) = glint_bake(&[
+            scene.to_str().unwrap(),
+            "--bundle",
+            bundle.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 1, "{bake}: {err}");
+        assert!(
+            err.contains("scene.json") && err.contains(field) && err.contains(says),
+            "{bake}: {err}"
+        );
+        assert!(!bundle.exists(), "{bake}: nothing is written");
+    }
+}
+
+/// `--texel-density 1e-30` would bake a black D: refused by the same check as scene.json's,
+/// naming the flag, before anything is written.
+#[test]
+fn glint_radiosity_refuses_a_density_that_gives_no_element() {
+    let dir = tempfile::tempdir().unwrap();
+    write_room(dir.path());
+    let scene = write_scene(dir.path(), r#"{ "version": 1, "geometry": "room.gltf" }"#);
+    let bundle = dir.path().join("b.glint");
+    let out = Command::new(env!("CARGO_BIN_EXE_glint-radiosity"))
+        .arg(&scene)
+        .arg("--bundle")
+        .arg(&bundle)
+        .args(["--texel-density", "1e-30"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("--texel-density") && err.contains("gives no element"),
+        "{err}"
+    );
+    assert!(!bundle.exists());
 }

@@ -328,7 +328,7 @@ fn probes_find_the_surface_along_the_normal() {
              { "position": [0.2, 0.0, 0.3], "normal": [0, -1, 0] } ]"#,
     )
     .unwrap();
-    let v = probe::probe(&scene, &bvh, &map, &pts, 0.05);
+    let v = probe::probe(&scene, &bvh, &map, &pts, 0.05).unwrap();
     assert!(v[0].found, "{v:?}");
     assert_eq!(v[0].name.as_deref(), Some("on"));
     assert!((v[0].offset.unwrap() - 0.01).abs() < 1e-4);
@@ -346,6 +346,33 @@ fn probes_find_the_surface_along_the_normal() {
             .is_err(),
         "unknown keys are errors"
     );
+    // An enormous reach is bounded by the scene: the same surface, at the same offset (a
+    // reach ≥ 1e10 put the ray's origin where f32 has no centimetres left).
+    for reach in [1e10, 1e30, f32::MAX] {
+        let far = probe::probe(&scene, &bvh, &map, &pts[..1], reach).unwrap();
+        assert!(far[0].found, "reach {reach}: {far:?}");
+        assert_eq!(far[0].triangle, v[0].triangle, "reach {reach}");
+        assert!(
+            (far[0].offset.unwrap() - 0.01).abs() < 1e-4,
+            "reach {reach}: {far:?}"
+        );
+    }
+    // A zero normal has no side to look from: refused, naming the probe.
+    let zero: Vec<ProbePoint> = serde_json::from_str(
+        r#"[ { "position": [0, 0, 0], "normal": [0, 1, 0] },
+             { "name": "flat", "position": [0.2, 0.01, 0.3], "normal": [0, 0, 0] } ]"#,
+    )
+    .unwrap();
+    let e = probe::probe(&scene, &bvh, &map, &zero, 0.05)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("probe 1 (flat)") && e.contains("normal [0, 0, 0]"),
+        "{e}"
+    );
+    for reach in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+        assert!(probe::probe(&scene, &bvh, &map, &pts, reach).is_err());
+    }
 }
 
 /// A sweep's config: `knobs`, the CPU view of D or the headless viewer.
@@ -754,6 +781,28 @@ fn cli_reference_compare_and_errors() {
     );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v[0]["found"], true);
+
+    // `glint-eval probe … | head -1` with head gone before the first write: a closed stdout
+    // ends the run quietly with 0, like every glint tool, not with a panic (101).
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let out = eval_cmd()
+        .arg("probe")
+        .arg(&bundle)
+        .arg("--points")
+        .arg(&points)
+        .stdout(writer)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap()
+        .wait_with_output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(
+        !err.contains("panicked") && !err.contains("Broken pipe"),
+        "{err}"
+    );
 
     // Errors name the file or flag and exit non-zero.
     let out = eval_cmd()

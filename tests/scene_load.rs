@@ -240,6 +240,13 @@ fn bad_values_name_their_field() {
         r#", "materials": { "FloorMat": { "lobes": [ { "ks": [1,1,1], "r0": 0.04, "mx": 0, "my": 0.1, "alpha": 0 } ] } }"#,
     );
     assert!(e.contains("materials.FloorMat.lobes"), "{e}");
+    // Values in words, not Rust's Debug output of the lobe.
+    assert!(
+        e.contains("lobe 0 (ks [1, 1, 1], r0 0.04, mx 0, my 0.1, alpha 0)")
+            && !e.contains("KurtLobe")
+            && !e.contains('{'),
+        "{e}"
+    );
     let e = load_err(
         r#", "lights": [ { "name": "l", "corner": [0,0,0], "edge_u": [1,0,0], "edge_v": [2,0,0], "radiance": [1,1,1] } ]"#,
     );
@@ -365,4 +372,128 @@ fn impostor_billboards_resolve_and_bad_ones_are_refused() {
         e.contains("impostors[0].billboard.placement") && e.contains("flat"),
         "{e}"
     );
+}
+
+/// A one-path scene whose keyframes are `keys` (JSON objects) at `fps`.
+fn path_err(fps: &str, keys: &str) -> String {
+    load_err(&format!(
+        r#", "camera_paths": [ {{ "name": "p", "fps": {fps}, "keyframes": [ {keys} ] }} ]"#
+    ))
+}
+
+#[test]
+fn camera_paths_beyond_sane_bounds_are_refused_naming_the_field() {
+    let key = |t: &str, pos: &str, fov: &str| {
+        format!(r#"{{ "time": {t}, "position": {pos}, "target": [0,1,-1], "fov_y_deg": {fov} }}"#)
+    };
+    let ok = key("0", "[0,1,0]", "60");
+    // A keyframe at 1e12 s: 3e13 frames at 30 fps (the viewer aborted allocating 1.9 PB).
+    let e = path_err("30", &format!("{ok}, {}", key("1e12", "[0,1,0]", "60")));
+    assert!(
+        e.contains("scene.json") && e.contains("camera_paths[0].keyframes[1].time"),
+        "{e}"
+    );
+    let e = path_err("1e9", &format!("{ok}, {}", key("10", "[0,1,0]", "60")));
+    assert!(
+        e.contains("camera_paths[0].fps") && e.contains("1000000000"),
+        "{e}"
+    );
+    // Each bound alone is sane, but together they make too many frames.
+    let e = path_err("1000", &format!("{ok}, {}", key("86000", "[0,1,0]", "60")));
+    assert!(
+        e.contains("camera_paths[0].fps") && e.contains("at most 1000000"),
+        "{e}"
+    );
+    let e = path_err("30", &key("0", "[0,1,0]", "1e-30"));
+    assert!(e.contains("keyframes[0].fov_y_deg"), "{e}");
+    let e = path_err("30", &key("0", "[0,1e30,0]", "60"));
+    assert!(e.contains("keyframes[0].position"), "{e}");
+    // The longest sane path loads, and its frame count is what the viewer will allocate.
+    let (_dir, path) = room_scene(&format!(
+        r#", "camera_paths": [ {{ "name": "p", "fps": 10, "keyframes": [ {ok}, {} ] }} ]"#,
+        key("86400", "[0,1,0]", "60")
+    ));
+    let scene = Scene::load(&path).unwrap();
+    let p = scene.camera_path(None).unwrap();
+    assert_eq!(glint::camera::frame_count(p), 864_001);
+    assert!(glint::camera::frame_count(p) <= glint::camera::MAX_FRAMES);
+}
+
+/// The room's glTF with `edit` applied to its JSON.
+fn room_with_gltf_edit(edit: impl Fn(&mut serde_json::Value)) -> (tempfile::TempDir, String) {
+    let (dir, path) = room_scene("");
+    let gltf = dir.path().join("room.gltf");
+    let mut doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&gltf).unwrap()).unwrap();
+    edit(&mut doc);
+    std::fs::write(&gltf, serde_json::to_string(&doc).unwrap()).unwrap();
+    let e = match Scene::load(&path) {
+        Ok(s) => panic!("loaded with {} triangles", s.triangles.len()),
+        Err(e) => e.to_string(),
+    };
+    (dir, e)
+}
+
+#[test]
+fn accessors_and_views_beyond_their_data_are_errors_naming_them() {
+    // POSITION of the floor claims 400 vertices; its view holds 4.
+    let (_dir, e) = room_with_gltf_edit(|d| d["accessors"][0]["count"] = 400.into());
+    assert!(
+        e.contains("room.gltf") && e.contains("accessor 0") && e.contains("400"),
+        "{e}"
+    );
+    // Indices past their view by an offset.
+    let (_dir, e) = room_with_gltf_edit(|d| d["accessors"][1]["byteOffset"] = 4.into());
+    assert!(
+        e.contains("accessor 1") && e.contains("buffer view 1"),
+        "{e}"
+    );
+    // A view past the end of the buffer.
+    let (_dir, e) = room_with_gltf_edit(|d| d["bufferViews"][5]["byteLength"] = 100_000.into());
+    assert!(e.contains("buffer view 5") && e.contains("buffer 0"), "{e}");
+    // A named accessor is named in the message.
+    let (_dir, e) = room_with_gltf_edit(|d| {
+        d["accessors"][2]["count"] = 5.into();
+        d["accessors"][2]["name"] = "PanelPos".into();
+    });
+    assert!(e.contains("accessor 2 \"PanelPos\""), "{e}");
+}
+
+#[test]
+fn buffer_uri_outside_the_gltf_folder_loads_and_bakes_into_a_bundle() {
+    let dir = tempfile::tempdir().unwrap();
+    let sub = dir.path().join("scene");
+    std::fs::create_dir(&sub).unwrap();
+    let gltf = write_room(&sub);
+    std::fs::rename(sub.join("room.bin"), dir.path().join("shared data.bin")).unwrap();
+    let set_uri = |uri: &str| {
+        let mut doc: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&gltf).unwrap()).unwrap();
+        doc["buffers"][0]["uri"] = uri.into();
+        std::fs::write(&gltf, serde_json::to_string(&doc).unwrap()).unwrap();
+    };
+    // A legal relative reference, percent-escaped (glTF 2.0 §3.9.2).
+    set_uri("../shared%20data.bin");
+    let path = write_scene(&sub, r#"{ "version": 1, "geometry": "room.gltf" }"#);
+    let scene = Scene::load(&path).unwrap();
+    assert_eq!(scene.triangles.len(), 6);
+
+    // The bundle stores the buffer inside its scene stage and its copy still loads.
+    let bundle = dir.path().join("b.glint");
+    glint::bake::scene_stage::bake(&scene, &bundle, false).unwrap();
+    let b = glint::bundle::Bundle::open(&bundle).unwrap();
+    let copy = Scene::load(b.asset_path(b.stage_asset("scene", "scene.json").unwrap())).unwrap();
+    assert_eq!(copy.triangles, scene.triangles);
+    assert!(b.stage_asset("scene", "buffers/0.bin").is_ok());
+
+    // A folder or a missing file is still refused, naming the URI and the file.
+    set_uri("..");
+    let e = Scene::load(&path).unwrap_err().to_string();
+    assert!(
+        e.contains("room.gltf") && e.contains("buffer 0") && e.contains("not a file"),
+        "{e}"
+    );
+    set_uri("../gone.bin");
+    let e = Scene::load(&path).unwrap_err().to_string();
+    assert!(e.contains("buffer 0") && e.contains("gone.bin"), "{e}");
 }

@@ -326,7 +326,7 @@ fn glint_srdm_command_line() {
         "{out}"
     );
 
-    // Out-of-range flags are refused at parse time, naming the flag.
+    // Out-of-range flags are refused by the settings' check, naming the flag.
     let (code, _, err) = run(srdm, &[s, "--bundle", b, "-m", "1"]);
     assert_ne!(code, 0);
     assert!(err.contains("--points") || err.contains("-m"), "{err}");

@@ -467,6 +467,40 @@ fn replay_of_a_ten_frame_path_writes_ten_frames_and_timings() {
     assert_eq!(written, [0, 4, 8]);
 }
 
+/// A headless run outside a desktop session (no `XDG_RUNTIME_DIR`, no Wayland) succeeds
+/// without libwayland's "error: XDG_RUNTIME_DIR is invalid or not set" line, which Mesa's
+/// Vulkan device-select layer caused (on the GL fallback the layer is not involved).
+#[test]
+fn headless_replay_without_a_session_prints_no_error_line() {
+    let out = tempfile::tempdir().unwrap();
+    let run = Command::new(env!("CARGO_BIN_EXE_glint-view"))
+        .arg(cornell_bundle())
+        .args([
+            "--replay",
+            "ten",
+            "--headless",
+            "--size",
+            "32x24",
+            "--every",
+            "0",
+            "--out",
+        ])
+        .arg(out.path())
+        .env_remove("XDG_RUNTIME_DIR")
+        .env_remove("WAYLAND_DISPLAY")
+        .env_remove("NODEVICE_SELECT")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(0), "{stderr}");
+    assert!(
+        !stderr
+            .lines()
+            .any(|l| l.starts_with("error:") || l.contains("XDG_RUNTIME_DIR")),
+        "{stderr}"
+    );
+}
+
 #[test]
 fn replay_of_an_unknown_path_names_the_ones_there_are() {
     let out = tempfile::tempdir().unwrap();

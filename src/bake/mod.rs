@@ -4,14 +4,16 @@ pub mod materials;
 pub mod plan;
 pub mod radiance_stage;
 pub mod radiosity_stage;
+pub mod report;
 pub mod run;
 pub mod scene_stage;
 pub mod srdm_stage;
+pub mod tool;
 
 use std::path::Path;
 
 pub use plan::{Stage, StagePlan, plan};
-pub use run::{BakeError, BakeSettings, StageReport, StageStatus, bake_all};
+pub use run::{BakeError, BakeSettings, StageReport, StageStatus, bake_all, check_scene_settings};
 
 use crate::bundle::Bundle;
 use crate::scene::Scene;

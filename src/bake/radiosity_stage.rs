@@ -88,24 +88,8 @@ pub fn check(scene: &Scene, s: &RadiositySettings) -> Result<(), RadiosityError>
             path: scene.path.clone(),
         });
     }
-    if s.rays == 0 || s.light_samples == 0 {
-        return Err(RadiosityError::Setting(format!(
-            "rays ({}) and light samples ({}) must be ≥ 1",
-            s.rays, s.light_samples
-        )));
-    }
-    if !(s.tolerance.is_finite() && s.tolerance >= 0.0) {
-        return Err(RadiosityError::Setting(format!(
-            "tolerance {} must be ≥ 0",
-            s.tolerance
-        )));
-    }
-    if !(s.texel_density.is_finite() && s.texel_density > 0.0) {
-        return Err(RadiosityError::Setting(format!(
-            "texel density {} must be a finite number > 0",
-            s.texel_density
-        )));
-    }
+    s.check(Some(scene.bounds.diagonal()))
+        .map_err(|e| RadiosityError::Setting(e.to_string()))?;
     let texels = atlas::estimate_texels(&scene.triangles, s.texel_density);
     let need = memory_estimate(texels, s.rays);
     if let Some(avail) = available_memory()
@@ -145,6 +129,12 @@ pub fn bake(
     let mut w = StageWriter::begin(bundle, Stage::Radiosity.name())?;
     let bvh = scene.build_bvh();
     let (atlas, samples) = atlas::build(&scene.triangles, settings.texel_density)?;
+    if samples.is_empty() {
+        return Err(RadiosityError::Setting(format!(
+            "`texel_density`: {} texels per metre gives no element",
+            settings.texel_density
+        )));
+    }
     log::info!(
         "atlas: {} charts on {} page(s), {} elements",
         atlas.charts,

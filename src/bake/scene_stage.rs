@@ -6,7 +6,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use crate::bundle::{BundleError, StageInfo, StageRecord, StageWriter};
-use crate::scene::{Scene, SceneError};
+use crate::scene::{Scene, SceneError, uri_path};
 
 use super::Stage;
 
@@ -55,6 +55,38 @@ pub fn bake(scene: &Scene, bundle: &Path, force: bool) -> Result<StageRecord, Sc
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "geometry.glb".into());
 
+    // External buffers of a .gltf, at the same relative paths; a buffer whose URI is not a
+    // plain relative path inside the glTF's folder (`../x.bin`, percent-escapes) is stored as
+    // `buffers/{index}.bin` and the copy's URI rewritten to it.
+    let gltf_dir = gltf_path.parent().unwrap_or(Path::new("."));
+    let mut buffers = Vec::new();
+    let mut renamed = Vec::new();
+    if let Ok(doc) = gltf::Gltf::from_slice(&gltf_bytes) {
+        for b in doc.document.buffers() {
+            if let gltf::buffer::Source::Uri(uri) = b.source()
+                && !uri.starts_with("data:")
+            {
+                let bytes = read(&gltf_dir.join(uri_path(uri)))?;
+                let name = if is_plain_relative(uri) {
+                    uri.to_string()
+                } else {
+                    let name = format!("buffers/{}.bin", b.index());
+                    renamed.push((b.index(), name.clone()));
+                    name
+                };
+                buffers.push((name, bytes));
+            }
+        }
+    }
+    let gltf_bytes = if renamed.is_empty() {
+        gltf_bytes
+    } else {
+        rewrite_buffer_uris(&gltf_bytes, &renamed).map_err(|message| SceneError::Gltf {
+            path: gltf_path.clone(),
+            message,
+        })?
+    };
+
     let mut w = StageWriter::begin(bundle, Stage::Scene.name())?;
     let mut desc = scene.desc.clone();
     desc.geometry = file_name.clone();
@@ -62,16 +94,8 @@ pub fn bake(scene: &Scene, bundle: &Path, force: bool) -> Result<StageRecord, Sc
     let json = serde_json::to_string_pretty(&desc).expect("scene description serializes");
     w.write("scene.json", "scene-json", json.as_bytes())?;
     w.write(&file_name, "gltf", &gltf_bytes)?;
-    // External buffers of a .gltf, at the same relative paths.
-    if let Ok(doc) = gltf::Gltf::from_slice(&gltf_bytes) {
-        for b in doc.document.buffers() {
-            if let gltf::buffer::Source::Uri(uri) = b.source()
-                && !uri.starts_with("data:")
-            {
-                let bytes = read(&gltf_path.parent().unwrap_or(Path::new(".")).join(uri))?;
-                w.write(uri, "gltf-buffer", &bytes)?;
-            }
-        }
+    for (name, bytes) in &buffers {
+        w.write(name, "gltf-buffer", bytes)?;
     }
     Ok(w.commit(StageInfo {
         scene_name: scene.name.clone(),
@@ -81,4 +105,54 @@ pub fn bake(scene: &Scene, bundle: &Path, force: bool) -> Result<StageRecord, Sc
         bake_seconds: start.elapsed().as_secs_f64(),
         force,
     })?)
+}
+
+/// Whether a buffer URI is a path the bundle can store as it is: relative, `/`-separated,
+/// without `.`/`..` components or percent-escapes.
+fn is_plain_relative(uri: &str) -> bool {
+    !uri.is_empty()
+        && !uri.starts_with('/')
+        && !uri.contains(['\\', ':', '%', '?', '#'])
+        && uri
+            .split('/')
+            .all(|c| !c.is_empty() && c != "." && c != "..")
+}
+
+/// The glTF JSON (`.gltf`) with `buffers[i].uri` set to each new name. A `.glb` with such a
+/// buffer is refused: its JSON chunk is not rewritten.
+fn rewrite_buffer_uris(gltf: &[u8], renamed: &[(usize, String)]) -> Result<Vec<u8>, String> {
+    if gltf.starts_with(b"glTF") {
+        return Err(format!(
+            "a .glb whose external buffer URI leaves its folder or is percent-escaped cannot be copied into a bundle (buffer {}); put the buffer beside the .glb",
+            renamed[0].0
+        ));
+    }
+    let mut doc: serde_json::Value =
+        serde_json::from_slice(gltf).map_err(|e| format!("not JSON: {e}"))?;
+    for (i, name) in renamed {
+        doc["buffers"][*i]["uri"] = name.clone().into();
+    }
+    Ok(serde_json::to_vec_pretty(&doc).expect("glTF JSON serializes"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn plain_relative_uris() {
+        for ok in ["x.bin", "sub/x.bin", "a-b_c.bin"] {
+            assert!(is_plain_relative(ok), "{ok}");
+        }
+        for bad in [
+            "../x.bin",
+            "./x.bin",
+            "/abs/x.bin",
+            "a%20b.bin",
+            "sub//x.bin",
+            "c:x.bin",
+        ] {
+            assert!(!is_plain_relative(bad), "{bad}");
+        }
+    }
 }

@@ -26,7 +26,7 @@ use crate::image_io::{self, ChannelData, ExrCompression, ImageError, Precision};
 use crate::progress::{Cancelled, Progress};
 use crate::radiosity::RadiosityMap;
 use crate::radiosity::map::MapError;
-use crate::scene::desc::SrdmOverride;
+use crate::scene::desc::{SettingError, SrdmOverride};
 use crate::scene::{Impostor, Quality, Scene};
 use crate::srdm::{
     BACKGROUND, DepthMap, ErrorStats, ImpostorCamera, MAX_DOMAINS, MAX_POINTS, MAX_RESOLUTION,
@@ -97,50 +97,49 @@ impl SrdmSettings {
         }
     }
 
-    /// The preset with the scene's overrides, each checked; errors name scene.json and the field.
+    /// The preset with the scene's overrides, each checked ([`SrdmSettings::check`]); errors
+    /// name scene.json and the field.
     pub fn resolve(
         scene_path: &Path,
         quality: Quality,
         over: &SrdmOverride,
     ) -> Result<SrdmSettings, SrdmStageError> {
         let mut s = SrdmSettings::preset(quality);
-        let field = |name: &str, v: u32, lo: u32, hi: u32| {
-            if (lo..=hi).contains(&v) {
-                Ok(v)
-            } else {
-                Err(SrdmStageError::Setting(format!(
-                    "{}: field `bake.srdm.{name}`: {v} is outside {lo}…{hi}",
-                    scene_path.display()
-                )))
-            }
-        };
         if let Some(v) = over.domains {
-            s.domains = field("domains", v, 1, MAX_DOMAINS)?;
+            s.domains = v;
         }
         if let Some(v) = over.points {
-            s.points = field("points", v, 2, MAX_POINTS)?;
+            s.points = v;
         }
         if let Some(v) = over.resolution {
-            s.resolution = field("resolution", v, 2, MAX_RESOLUTION)?;
+            s.resolution = v;
         }
+        s.check().map_err(|e| {
+            SrdmStageError::Setting(format!(
+                "{}: field `bake.srdm.{}`: {}",
+                scene_path.display(),
+                e.field,
+                e.message
+            ))
+        })?;
         Ok(s)
     }
 
-    /// Checks every value (for settings assembled elsewhere).
-    pub fn check(&self) -> Result<(), SrdmStageError> {
-        let bad = |what: &str, v: u32, lo: u32, hi: u32| {
-            Err(SrdmStageError::Setting(format!(
-                "{what} {v} is outside {lo}…{hi}"
-            )))
-        };
-        if !(1..=MAX_DOMAINS).contains(&self.domains) {
-            return bad("domains", self.domains, 1, MAX_DOMAINS);
-        }
-        if !(2..=MAX_POINTS).contains(&self.points) {
-            return bad("points", self.points, 2, MAX_POINTS);
-        }
-        if !(2..=MAX_RESOLUTION).contains(&self.resolution) {
-            return bad("resolution", self.resolution, 2, MAX_RESOLUTION);
+    /// Checks every value: domains in 1 ..= [`MAX_DOMAINS`], points in 2 ..= [`MAX_POINTS`],
+    /// resolution in 2 ..= [`MAX_RESOLUTION`].
+    pub fn check(&self) -> Result<(), SettingError> {
+        let ranges = [
+            ("domains", self.domains, 1, MAX_DOMAINS),
+            ("points", self.points, 2, MAX_POINTS),
+            ("resolution", self.resolution, 2, MAX_RESOLUTION),
+        ];
+        for (name, v, lo, hi) in ranges {
+            if !(lo..=hi).contains(&v) {
+                return Err(SettingError::new(
+                    name,
+                    format!("{v} is outside {lo} ..= {hi}"),
+                ));
+            }
         }
         Ok(())
     }
@@ -531,7 +530,9 @@ pub fn bake(
     {
         return Ok(SrdmOutcome::Skipped { reason: p.reason });
     }
-    settings.check()?;
+    settings
+        .check()
+        .map_err(|e| SrdmStageError::Setting(e.to_string()))?;
     crate::bundle::check_scene(bundle, &scene.content_hash, force)?;
     let (colour, d_read) = colour_source_read(bundle, scene)?;
     let params = SrdmParams {

@@ -116,6 +116,33 @@ pub struct ViewSettings {
     pub impostors: bool,
 }
 
+impl ViewSettings {
+    /// Checks every value: maps in 1 ..= 16, recursion depth in 0 ..= 4, glossy samples in
+    /// 0 ..= 256.
+    pub fn check(&self) -> Result<(), crate::scene::desc::SettingError> {
+        use crate::scene::desc::SettingError;
+        if !(1..=16).contains(&self.maps) {
+            return Err(SettingError::new(
+                "maps",
+                format!("{} is not in 1 ..= 16", self.maps),
+            ));
+        }
+        if self.recursion_depth > 4 {
+            return Err(SettingError::new(
+                "recursion_depth",
+                format!("{} is not in 0 ..= 4", self.recursion_depth),
+            ));
+        }
+        if self.glossy_samples > 256 {
+            return Err(SettingError::new(
+                "glossy_samples",
+                format!("{} is not in 0 ..= 256", self.glossy_samples),
+            ));
+        }
+        Ok(())
+    }
+}
+
 impl Default for ViewSettings {
     fn default() -> Self {
         ViewSettings {
@@ -232,7 +259,7 @@ pub fn parse_knob(text: &str) -> Result<Knob, SweepError> {
         view: ViewSettings::default(),
     };
     for v in &knob.values {
-        base.with(&knob, v)?;
+        base.with(&knob, v, None)?;
     }
     Ok(knob)
 }
@@ -258,8 +285,14 @@ struct Point {
 }
 
 impl Point {
-    /// This point with `knob` set to `value`, every value range-checked.
-    fn with(&self, knob: &Knob, value: &serde_json::Value) -> Result<Point, SweepError> {
+    /// This point with `knob` set to `value`, checked by the settings' own `check` (with the
+    /// scene's size, when known, for the radiosity density).
+    fn with(
+        &self,
+        knob: &Knob,
+        value: &serde_json::Value,
+        scene_size: Option<f32>,
+    ) -> Result<Point, SweepError> {
         let err = |m: String| SweepError::Knob(format!("{}={value}", knob.name()), m);
         let mut p = self.clone();
         let number = || {
@@ -267,6 +300,15 @@ impl Point {
                 .as_f64()
                 .filter(|v| v.is_finite())
                 .ok_or_else(|| err("expected a number".into()))
+        };
+        // A whole number ≥ 0; anything else becomes u32::MAX, which the setting's own check
+        // refuses (its message then quotes the value as given).
+        let integer = |v: f64| -> u32 {
+            if v.fract() == 0.0 && (0.0..=u32::MAX as f64).contains(&v) {
+                v as u32
+            } else {
+                u32::MAX
+            }
         };
         let word = |choices: &[&str]| -> Result<String, SweepError> {
             match value.as_str() {
@@ -277,31 +319,26 @@ impl Point {
         match knob.stage.as_str() {
             "radiosity" => {
                 p.bake.radiosity = set_field(&p.bake.radiosity, &knob.field, value).map_err(err)?;
-                let r = &p.bake.radiosity;
-                if !(r.texel_density > 0.0 && r.texel_density <= 4096.0) {
-                    return Err(err("texel_density must be in (0, 4096]".into()));
-                }
-                if r.rays == 0 || r.light_samples == 0 {
-                    return Err(err("rays and light_samples must be ≥ 1".into()));
-                }
-                if !(r.tolerance >= 0.0 && r.tolerance < 1.0) {
-                    return Err(err("tolerance must be in [0, 1)".into()));
-                }
+                p.bake
+                    .radiosity
+                    .check(scene_size)
+                    .map_err(|e| err(e.message))?;
             }
             "materials" => {
                 p.bake.materials = set_field(&p.bake.materials, &knob.field, value).map_err(err)?;
-                check_materials(&p.bake.materials).map_err(err)?;
+                p.bake.materials.check().map_err(|e| err(e.message))?;
             }
             "srdm" => {
                 p.bake.srdm = set_field(&p.bake.srdm, &knob.field, value).map_err(err)?;
-                p.bake.srdm.check().map_err(|e| err(e.to_string()))?;
+                p.bake.srdm.check().map_err(|e| err(e.message))?;
             }
             "radiance" => {
-                let v = number()?;
-                if !(v > 0.0 && v <= 16.0) {
-                    return Err(err("resolution_scale must be in (0, 16]".into()));
-                }
-                p.radiance_scale = Some(v as f32);
+                let v = number()? as f32;
+                let over = crate::scene::desc::RadianceStageOverride {
+                    resolution_scale: Some(v),
+                };
+                over.check().map_err(|e| err(e.message))?;
+                p.radiance_scale = Some(v);
             }
             "view" => {
                 if !VIEWER_BUILT {
@@ -326,33 +363,19 @@ impl Point {
                         }
                     }
                     "recursion_depth" => {
-                        let v = number()?;
-                        if v.fract() != 0.0 || !(0.0..=4.0).contains(&v) {
-                            return Err(
-                                err("recursion_depth must be an integer in 0 ..= 4".into()),
-                            );
-                        }
-                        p.view.recursion_depth = v as u8;
+                        p.view.recursion_depth = u8::try_from(integer(number()?)).unwrap_or(u8::MAX)
                     }
                     "curved" => p.view.curved = word(&["off", "cubemap"])? == "cubemap",
                     "impostors" => p.view.impostors = word(&["off", "on"])? == "on",
-                    "glossy_samples" => {
-                        let v = number()?;
-                        if v.fract() != 0.0 || !(0.0..=256.0).contains(&v) {
-                            return Err(err(
-                                "glossy_samples must be an integer in 0 ..= 256".into()
-                            ));
-                        }
-                        p.view.glossy_samples = v as u32;
-                    }
-                    _ => {
-                        let v = number()?;
-                        if v.fract() != 0.0 || !(1.0..=16.0).contains(&v) {
-                            return Err(err("maps must be an integer in 1 ..= 16".into()));
-                        }
-                        p.view.maps = v as usize;
-                    }
+                    "glossy_samples" => p.view.glossy_samples = integer(number()?),
+                    _ => p.view.maps = integer(number()?) as usize,
                 }
+                p.view
+                    .check()
+                    .map_err(|e| match e.message.split_once(' ') {
+                        Some((_, rest)) => err(format!("{value} {rest}")),
+                        None => err(e.message),
+                    })?;
             }
             other => unreachable!("parse_knob admits no stage `{other}`"),
         }
@@ -372,39 +395,6 @@ fn set_field<T: Serialize + serde::de::DeserializeOwned>(
         .expect("settings are objects")
         .insert(field.to_string(), value.clone());
     serde_json::from_value(v).map_err(|e| e.to_string())
-}
-
-fn check_materials(m: &crate::bake::materials::MaterialsSettings) -> Result<(), String> {
-    let sizes = [
-        ("sample_budget", m.sample_budget, 100_000),
-        ("max_circles", m.max_circles, 4096),
-        ("kernel_max_radius", m.kernel_max_radius, 1024),
-        ("sphere_map_size", m.sphere_map_size, 4096),
-        ("map_1d_size", m.map_1d_size, 65536),
-        ("albedo_steps", m.albedo_steps, 4096),
-        ("env_supersample", m.env_supersample, 16),
-    ];
-    for (name, v, hi) in sizes {
-        if !(1..=hi).contains(&v) {
-            return Err(format!("{name} {v} is not in 1 ..= {hi}"));
-        }
-    }
-    if !(4..=4096).contains(&m.env_map_size) || !m.env_map_size.is_power_of_two() {
-        return Err(format!(
-            "env_map_size {} is not a power of two in 4 ..= 4096",
-            m.env_map_size
-        ));
-    }
-    if !(m.xi0 > 0.0 && m.xi0 <= 1.0) {
-        return Err(format!("xi0 {} is not in (0, 1]", m.xi0));
-    }
-    if !(m.kernel_texel_deg > 0.0 && m.kernel_texel_deg <= 45.0) {
-        return Err(format!(
-            "kernel_texel_deg {} is not in (0, 45]",
-            m.kernel_texel_deg
-        ));
-    }
-    Ok(())
 }
 
 /// One setting of a sweep.
@@ -494,7 +484,7 @@ pub fn sweep(
     let mut cpu_bvh = None;
     for knob in cfg.knobs {
         for value in &knob.values {
-            let point = base.with(knob, value)?;
+            let point = base.with(knob, value, Some(scene.bounds.diagonal()))?;
             let label = format!("{}={}", knob.name(), plain(value));
             // View knobs change no bake: they look at the base bundle.
             let (dir, report) = if knob.bake_stage().is_none() {

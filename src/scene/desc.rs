@@ -207,7 +207,8 @@ fn default_views() -> u32 {
 pub struct CameraPath {
     /// Name to pick the path with `--replay NAME`.
     pub name: String,
-    /// Frames per second at which the path is replayed.
+    /// Frames per second at which the path is replayed, in (0, 1000]; a path has at most
+    /// 1,000,000 frames.
     #[serde(default = "default_fps")]
     pub fps: f32,
     /// At least one keyframe, times strictly increasing.
@@ -222,16 +223,16 @@ fn default_fps() -> f32 {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Keyframe {
-    /// Seconds from the start of the path.
+    /// Seconds from the start of the path, within ±86400.
     pub time: f32,
-    /// Eye position, world metres.
+    /// Eye position, world metres (each coordinate within ±1e6, as are `target` and `up`).
     pub position: [f32; 3],
     /// Point looked at.
     pub target: [f32; 3],
     /// Up vector (need not be orthogonal to the view direction).
     #[serde(default = "default_up")]
     pub up: [f32; 3],
-    /// Vertical field of view in degrees, in (0, 180).
+    /// Vertical field of view in degrees, in [0.1, 179].
     pub fov_y_deg: f32,
 }
 
@@ -338,6 +339,90 @@ pub struct SrdmOverride {
     pub resolution: Option<u32>,
 }
 
+/// A setting outside its range: the field, as named in the stage's settings (`texel_density`),
+/// and what was expected. Callers say where the value came from: scene.json's
+/// `bake.radiosity.texel_density`, a flag `--texel-density`, or a sweep's knob.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("`{field}`: {message}")]
+pub struct SettingError {
+    /// The field.
+    pub field: &'static str,
+    /// The value and what was expected.
+    pub message: String,
+}
+
+impl SettingError {
+    /// An error for `field`.
+    pub fn new(field: &'static str, message: impl Into<String>) -> SettingError {
+        SettingError {
+            field,
+            message: message.into(),
+        }
+    }
+
+    /// The field as a command-line flag: `--texel-density`.
+    pub fn flag(&self) -> String {
+        format!("--{}", self.field.replace('_', "-"))
+    }
+}
+
+/// Largest `bake.radiance.resolution_scale`.
+pub const MAX_RESOLUTION_SCALE: f32 = 16.0;
+
+impl RadianceStageOverride {
+    /// Checks `resolution_scale`: finite, in (0, [`MAX_RESOLUTION_SCALE`]].
+    pub fn check(&self) -> Result<(), SettingError> {
+        match self.resolution_scale {
+            Some(v) if !(v.is_finite() && v > 0.0 && v <= MAX_RESOLUTION_SCALE) => {
+                Err(SettingError::new(
+                    "resolution_scale",
+                    format!("{v} is not in (0, {MAX_RESOLUTION_SCALE}]"),
+                ))
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+/// Largest reflector elements per axis, and cameras per hemisphere, of a radiance override.
+pub const MAX_RADIANCE_ELEMENTS: u32 = 64;
+
+/// Largest radiance-map resolution of an override, pixels.
+pub const MAX_RADIANCE_RESOLUTION: u32 = 4096;
+
+impl RadianceOverride {
+    /// Checks each value given: elements per axis and cameras in 1 ..= 64, resolution in
+    /// 1 ..= 4096.
+    pub fn check(&self) -> Result<(), SettingError> {
+        if let Some([a, b]) = self.elements
+            && !((1..=MAX_RADIANCE_ELEMENTS).contains(&a)
+                && (1..=MAX_RADIANCE_ELEMENTS).contains(&b))
+        {
+            return Err(SettingError::new(
+                "elements",
+                format!("[{a}, {b}]: each must be in 1 ..= {MAX_RADIANCE_ELEMENTS}"),
+            ));
+        }
+        if let Some(c) = self.cameras_per_hemisphere
+            && !(1..=MAX_RADIANCE_ELEMENTS).contains(&c)
+        {
+            return Err(SettingError::new(
+                "cameras_per_hemisphere",
+                format!("{c} is not in 1 ..= {MAX_RADIANCE_ELEMENTS}"),
+            ));
+        }
+        if let Some(r) = self.resolution
+            && !(1..=MAX_RADIANCE_RESOLUTION).contains(&r)
+        {
+            return Err(SettingError::new(
+                "resolution",
+                format!("{r} is not in 1 ..= {MAX_RADIANCE_RESOLUTION}"),
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// Resolved radiosity settings (preset, then scene overrides, then command line).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct RadiositySettings {
@@ -368,6 +453,50 @@ impl RadiositySettings {
             bounces,
             tolerance,
         }
+    }
+
+    /// Checks every value: rays and light samples ≥ 1, tolerance in [0, 1), texel density
+    /// finite and > 0 (how high it may go is a question of memory, which the radiosity stage
+    /// estimates); with `scene_size` (the scene's bounding-box diagonal, metres), a density so
+    /// low that the scene spans less than a thousandth of a texel (no element would be made,
+    /// and D would be black) is refused too.
+    pub fn check(&self, scene_size: Option<f32>) -> Result<(), SettingError> {
+        let d = self.texel_density;
+        if !(d.is_finite() && d > 0.0) {
+            return Err(SettingError::new(
+                "texel_density",
+                format!("{d:?} is not a finite density > 0 in texels per metre"),
+            ));
+        }
+        // Charts are projected to texel units: a scene spanning less than this many texels
+        // collapses to a point in f32 and the atlas has no element (D would be black). Any
+        // span above it gives every triangle its texel.
+        const MIN_SPAN_TEXELS: f64 = 1e-3;
+        if let Some(size) = scene_size
+            && (size as f64) * (d as f64) < MIN_SPAN_TEXELS
+        {
+            return Err(SettingError::new(
+                "texel_density",
+                format!(
+                    "{d:?} texels per metre gives no element: the scene, {size:.3} m across, spans less than {MIN_SPAN_TEXELS} texel; use at least {:.3e}",
+                    MIN_SPAN_TEXELS / size as f64
+                ),
+            ));
+        }
+        if self.rays == 0 {
+            return Err(SettingError::new("rays", "0 is not ≥ 1"));
+        }
+        if self.light_samples == 0 {
+            return Err(SettingError::new("light_samples", "0 is not ≥ 1"));
+        }
+        let t = self.tolerance;
+        if !(t.is_finite() && (0.0..1.0).contains(&t)) {
+            return Err(SettingError::new(
+                "tolerance",
+                format!("{t} is not a fraction in [0, 1)"),
+            ));
+        }
+        Ok(())
     }
 
     /// The preset with the scene's overrides applied.

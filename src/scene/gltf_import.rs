@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use glam::{Mat3, Mat4, Vec2, Vec3};
-use gltf::{buffer::Source, mesh::Mode};
+use gltf::{Semantic, buffer::Source, mesh::Mode};
 
 use super::{Object, SceneError, material::Material};
 use crate::geometry::Triangle;
@@ -26,6 +26,29 @@ pub struct Imported {
 /// Albedo of primitives without a material (glTF's own default is a white metal, which
 /// would make such geometry black in a diffuse bake).
 const DEFAULT_ALBEDO: f32 = 0.8;
+
+/// The relative path a buffer's URI names, relative to the glTF file's folder: the URI with
+/// its percent-escapes decoded (glTF 2.0 §3.9.2: URIs are RFC 3986 references, so `../x.bin`
+/// and `my%20mesh.bin` are legal).
+pub fn uri_path(uri: &str) -> PathBuf {
+    let bytes = uri.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        let hex = |b: u8| (b as char).to_digit(16);
+        if bytes[i] == b'%'
+            && i + 2 < bytes.len()
+            && let (Some(h), Some(l)) = (hex(bytes[i + 1]), hex(bytes[i + 2]))
+        {
+            out.push((h * 16 + l) as u8);
+            i += 3;
+        } else {
+            out.push(bytes[i]);
+            i += 1;
+        }
+    }
+    PathBuf::from(String::from_utf8_lossy(&out).into_owned())
+}
 
 /// Imports `path`. Materials are mapped with [`Material::from_gltf`]; overrides come later.
 /// Positions are multiplied by `scale` (metres per glTF unit).
@@ -80,10 +103,17 @@ pub fn import_bytes(path: &Path, bytes: Vec<u8>, scale: f32) -> Result<Imported,
                 )));
             }
             Source::Uri(uri) => {
-                let file: PathBuf = dir.join(uri);
+                let file: PathBuf = dir.join(uri_path(uri));
+                if file.exists() && !file.is_file() {
+                    return Err(err(format!(
+                        "buffer {}: {} is not a file",
+                        buffer.index(),
+                        file.display()
+                    )));
+                }
                 let data = read_buffer(&file).map_err(|e| {
                     err(format!(
-                        "buffer {} ({}): {e}",
+                        "buffer {}: {}: {e}",
                         buffer.index(),
                         file.display()
                     ))
@@ -102,6 +132,7 @@ pub fn import_bytes(path: &Path, bytes: Vec<u8>, scale: f32) -> Result<Imported,
         }
         buffers.push(data);
     }
+    check_bounds(&gltf.document).map_err(err)?;
 
     let mut materials: Vec<Material> = gltf
         .document
@@ -162,13 +193,13 @@ pub fn import_bytes(path: &Path, bytes: Vec<u8>, scale: f32) -> Result<Imported,
         let object = out.objects.len() as u32;
         for prim in mesh.primitives() {
             check_accessors(&prim, &buffers)
-                .map_err(|m| err(format!("mesh {:?}: {m}", mesh.name().unwrap_or(""))))?;
+                .map_err(|m| err(format!("mesh {}: {m}", mesh_label(&mesh))))?;
             let reader = prim.reader(|b| buffers.get(b.index()).map(|d| d.as_slice()));
             let Some(positions) = reader.read_positions() else {
                 log::warn!(
-                    "{}: mesh {:?}: a primitive without POSITION was skipped",
+                    "{}: mesh {}: a primitive without POSITION was skipped",
                     path.display(),
-                    mesh.name()
+                    mesh_label(&mesh)
                 );
                 continue;
             };
@@ -186,15 +217,26 @@ pub fn import_bytes(path: &Path, bytes: Vec<u8>, scale: f32) -> Result<Imported,
                 .read_tex_coords(1)
                 .map(|it| it.into_f32().map(Vec2::from).collect());
             // Every attribute of a primitive has one value per vertex (glTF 2.0 §3.7.2.1).
-            for (attribute, count) in [
-                ("NORMAL", normals.as_ref().map(Vec::len)),
-                ("TEXCOORD_0", uv0.as_ref().map(Vec::len)),
-                ("TEXCOORD_1", uv1.as_ref().map(Vec::len)),
+            for (semantic, name, len) in [
+                (Semantic::Normals, "NORMAL", normals.as_ref().map(Vec::len)),
+                (
+                    Semantic::TexCoords(0),
+                    "TEXCOORD_0",
+                    uv0.as_ref().map(Vec::len),
+                ),
+                (
+                    Semantic::TexCoords(1),
+                    "TEXCOORD_1",
+                    uv1.as_ref().map(Vec::len),
+                ),
             ] {
-                if let Some(count) = count.filter(|&c| c != positions.len()) {
+                if let (Some(len), Some(a)) = (len, prim.get(&semantic))
+                    && len != positions.len()
+                {
                     return Err(err(format!(
-                        "mesh {:?}: attribute {attribute} has {count} values, POSITION has {}",
-                        mesh.name().unwrap_or(""),
+                        "mesh {}: {} ({name}) has {len} elements, POSITION has {}: each vertex needs one",
+                        mesh_label(&mesh),
+                        accessor_label(&a),
                         positions.len()
                     )));
                 }
@@ -205,8 +247,8 @@ pub fn import_bytes(path: &Path, bytes: Vec<u8>, scale: f32) -> Result<Imported,
             };
             if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
                 return Err(err(format!(
-                    "mesh {:?}: index {bad} is out of range ({} vertices)",
-                    mesh.name().unwrap_or(""),
+                    "mesh {}: index {bad} is out of range ({} vertices)",
+                    mesh_label(&mesh),
                     positions.len()
                 )));
             }
@@ -253,10 +295,14 @@ pub fn import_bytes(path: &Path, bytes: Vec<u8>, scale: f32) -> Result<Imported,
                 Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
             ) {
                 log::warn!(
-                    "{}: mesh {:?}: a {:?} primitive (not triangles) was skipped",
+                    "{}: mesh {}: a primitive of {} (not triangles) was skipped",
                     path.display(),
-                    mesh.name(),
-                    prim.mode()
+                    mesh_label(&mesh),
+                    match prim.mode() {
+                        Mode::Points => "points",
+                        Mode::Lines | Mode::LineLoop | Mode::LineStrip => "lines",
+                        _ => "triangles",
+                    }
                 );
             }
         }
@@ -281,6 +327,115 @@ pub fn import_bytes(path: &Path, bytes: Vec<u8>, scale: f32) -> Result<Imported,
     hashed_bytes.shrink_to_fit();
     out.hashed_bytes = hashed_bytes;
     Ok(out)
+}
+
+/// `3 "Name"` (the name only when there is one), for messages.
+fn mesh_label(m: &gltf::Mesh) -> String {
+    match m.name() {
+        Some(n) => format!("{} \"{n}\"", m.index()),
+        None => m.index().to_string(),
+    }
+}
+
+/// `accessor 3 "Name"` (the name only when there is one), for messages.
+fn accessor_label(a: &gltf::Accessor) -> String {
+    match a.name() {
+        Some(n) => format!("accessor {} \"{n}\"", a.index()),
+        None => format!("accessor {}", a.index()),
+    }
+}
+
+/// Bytes `count` elements of `elem` bytes, `stride` apart, starting at `offset`, reach up to
+/// (`None` on overflow).
+fn extent(offset: usize, count: usize, elem: usize, stride: usize) -> Option<usize> {
+    match count {
+        0 => Some(offset),
+        _ => (count - 1)
+            .checked_mul(stride)?
+            .checked_add(elem)?
+            .checked_add(offset),
+    }
+}
+
+/// Checks that every buffer view lies inside its buffer (its declared `byteLength`, which
+/// the data was checked to hold) and every accessor, dense part and sparse indices and
+/// values, inside its buffer view: a count larger than the data is an error naming the
+/// accessor rather than a primitive silently dropped.
+fn check_bounds(doc: &gltf::Document) -> Result<(), String> {
+    for v in doc.views() {
+        let b = v.buffer();
+        if v.offset()
+            .checked_add(v.length())
+            .is_none_or(|end| end > b.length())
+        {
+            return Err(format!(
+                "buffer view {}: bytes {} to {} lie beyond the end of buffer {} ({} bytes)",
+                v.index(),
+                v.offset(),
+                v.offset() as u128 + v.length() as u128,
+                b.index(),
+                b.length()
+            ));
+        }
+    }
+    for a in doc.accessors() {
+        let label = accessor_label(&a);
+        let fits = |what: &str,
+                    view: gltf::buffer::View,
+                    offset: usize,
+                    count: usize,
+                    elem: usize| {
+            let stride = view.stride().unwrap_or(elem);
+            if stride < elem {
+                return Err(format!(
+                    "{label}: buffer view {} has byteStride {stride}, less than the {elem}-byte elements{what}",
+                    view.index()
+                ));
+            }
+            match extent(offset, count, elem, stride) {
+                Some(end) if end <= view.length() => Ok(()),
+                _ => Err(format!(
+                    "{label}: {count}{what} elements of {elem} bytes from byte {offset} need more than the {} bytes of buffer view {}",
+                    view.length(),
+                    view.index()
+                )),
+            }
+        };
+        if let Some(view) = a.view() {
+            fits("", view, a.offset(), a.count(), a.size())?;
+        }
+        if let Some(sparse) = a.sparse() {
+            if sparse.count() > a.count() {
+                return Err(format!(
+                    "{label}: {} sparse elements, but the accessor has only {}",
+                    sparse.count(),
+                    a.count()
+                ));
+            }
+            let idx = sparse.indices();
+            let index_size = match idx.index_type() {
+                gltf::accessor::sparse::IndexType::U8 => 1,
+                gltf::accessor::sparse::IndexType::U16 => 2,
+                gltf::accessor::sparse::IndexType::U32 => 4,
+            };
+            fits(
+                " sparse index",
+                idx.view(),
+                idx.offset(),
+                sparse.count(),
+                index_size,
+            )?;
+            let values = sparse.values();
+            fits(
+                " sparse value",
+                values.view(),
+                values.offset(),
+                sparse.count(),
+                a.size(),
+            )?;
+        }
+    }
+    Ok(())
 }
 
 /// Every primitive attribute names an existing accessor.
@@ -326,10 +481,10 @@ fn check_accessors(prim: &gltf::Primitive, buffers: &[Vec<u8>]) -> Result<(), St
         };
         if !ok {
             return Err(format!(
-                "attribute {name} (accessor {}) is {:?} {:?}, which glTF does not allow",
-                a.index(),
-                a.data_type(),
-                a.dimensions()
+                "attribute {name} ({}) is {} {}, which glTF does not allow",
+                accessor_label(&a),
+                component_name(a.data_type()),
+                dimensions_name(a.dimensions())
             ));
         }
         check_accessor_bounds(&a, buffers)?;
@@ -338,16 +493,43 @@ fn check_accessors(prim: &gltf::Primitive, buffers: &[Vec<u8>]) -> Result<(), St
         && !(a.dimensions() == D::Scalar && matches!(a.data_type(), T::U8 | T::U16 | T::U32))
     {
         return Err(format!(
-            "indices (accessor {}) are {:?} {:?}, not unsigned integer SCALAR",
-            a.index(),
-            a.data_type(),
-            a.dimensions()
+            "indices ({}) are {} {}, not unsigned integer SCALAR",
+            accessor_label(&a),
+            component_name(a.data_type()),
+            dimensions_name(a.dimensions())
         ));
     }
     if let Some(a) = prim.indices() {
         check_accessor_bounds(&a, buffers)?;
     }
     Ok(())
+}
+
+/// glTF's name of a component type, for messages.
+fn component_name(t: gltf::accessor::DataType) -> &'static str {
+    use gltf::accessor::DataType as T;
+    match t {
+        T::I8 => "BYTE",
+        T::U8 => "UNSIGNED_BYTE",
+        T::I16 => "SHORT",
+        T::U16 => "UNSIGNED_SHORT",
+        T::U32 => "UNSIGNED_INT",
+        T::F32 => "FLOAT",
+    }
+}
+
+/// glTF's name of an accessor type, for messages.
+fn dimensions_name(d: gltf::accessor::Dimensions) -> &'static str {
+    use gltf::accessor::Dimensions as D;
+    match d {
+        D::Scalar => "SCALAR",
+        D::Vec2 => "VEC2",
+        D::Vec3 => "VEC3",
+        D::Vec4 => "VEC4",
+        D::Mat2 => "MAT2",
+        D::Mat3 => "MAT3",
+        D::Mat4 => "MAT4",
+    }
 }
 
 /// An accessor's elements lie inside its buffer view, and the view inside its buffer
@@ -480,7 +662,7 @@ mod tests {
             .unwrap()
             .to_string();
         assert!(
-            e.contains("NORMAL has 5 values, POSITION has 6") && e.contains("cornell_box"),
+            e.contains("(NORMAL) has 5 elements, POSITION has 6") && e.contains("cornell_box"),
             "{e}"
         );
     }
@@ -492,13 +674,13 @@ mod tests {
             .unwrap()
             .to_string();
         assert!(
-            e.contains("/dev/zero") && e.contains("not a regular file"),
+            e.contains("/dev/zero") && e.contains("not a file"),
             "{e}"
         );
         let e = import_edited(|d| d["buffers"][0]["uri"] = serde_json::json!("."))
             .err()
             .unwrap()
             .to_string();
-        assert!(e.contains("not a regular file"), "{e}");
+        assert!(e.contains("not a file"), "{e}");
     }
 }

@@ -127,7 +127,7 @@ impl Material {
                 format!("{} is not ≥ 0 and finite", self.emission),
             ));
         }
-        for l in &self.lobes {
+        for (i, l) in self.lobes.iter().enumerate() {
             let ok = l.ks.iter().all(|k| k.is_finite() && *k >= 0.0)
                 && (0.0..=1.0).contains(&l.r0)
                 && l.mx.is_finite()
@@ -136,9 +136,13 @@ impl Material {
                 && l.my > 0.0
                 && (0.0..=1.0).contains(&l.alpha);
             if !ok {
+                let [r, g, b] = l.ks;
                 return Err((
                     "lobes",
-                    format!("{l:?}: need ks ≥ 0, r0 and alpha in [0, 1], mx and my > 0 and finite"),
+                    format!(
+                        "lobe {i} (ks [{r}, {g}, {b}], r0 {}, mx {}, my {}, alpha {}): need ks ≥ 0, r0 and alpha in [0, 1], mx and my > 0 and finite",
+                        l.r0, l.mx, l.my, l.alpha
+                    ),
                 ));
             }
         }

@@ -12,6 +12,7 @@ use glam::Vec3;
 pub use desc::{
     AreaLightDesc, CameraPath, Keyframe, KurtLobe, Quality, ReflectorKind, SCENE_VERSION, SceneDesc,
 };
+pub use gltf_import::uri_path;
 pub use material::Material;
 
 use crate::geometry::{Aabb, Bvh, Triangle};
@@ -313,6 +314,9 @@ impl Scene {
         let objects = imported.objects;
         let bounds = Aabb::from_points(triangles.iter().flat_map(|t| t.p.iter()));
 
+        crate::bake::check_scene_settings(&desc.bake, bounds.diagonal())
+            .map_err(|(f, m)| field(f, m))?;
+
         let mut reflectors = Vec::new();
         for (i, r) in desc.reflectors.iter().enumerate() {
             let at = |f: &str| format!("reflectors[{i}]{f}");
@@ -368,6 +372,10 @@ impl Scene {
                     at(".name"),
                     format!("{name:?} names an earlier reflector too"),
                 ));
+            }
+            if let Some(o) = &r.radiance {
+                o.check()
+                    .map_err(|e| field(at(&format!(".radiance.{}", e.field)), e.message))?;
             }
             let tol = r.planarity_tolerance;
             if !(tol.is_finite() && tol >= 0.0) {
@@ -535,6 +543,22 @@ impl Scene {
             None => self.desc.camera_paths.first(),
         }
     }
+
+    /// [`Scene::camera_path`], or an error naming scene.json and the paths it has.
+    pub fn find_camera_path(&self, name: Option<&str>) -> Result<&CameraPath, SceneError> {
+        self.camera_path(name).ok_or_else(|| SceneError::Field {
+            path: self.path.clone(),
+            field: "camera_paths".into(),
+            message: match (name, self.desc.camera_paths.is_empty()) {
+                (_, true) => "the scene has no camera paths; add one to scene.json".into(),
+                (Some(n), false) => format!(
+                    "no path is named {n:?}; the scene has {}",
+                    list(self.desc.camera_paths.iter().map(|p| p.name.as_str()))
+                ),
+                (None, false) => unreachable!("the first path exists"),
+            },
+        })
+    }
 }
 
 /// Parses scene.json text: syntax first (with line and column), then the version, then the
@@ -655,43 +679,79 @@ fn dominant_material(triangles: &[Triangle], selected: &[u32]) -> u32 {
         .unwrap_or(0)
 }
 
+/// Largest |time| of a keyframe, seconds (a day).
+pub const MAX_KEYFRAME_TIME: f32 = 86_400.0;
+
+/// Largest replay rate of a camera path, frames per second.
+pub const MAX_FPS: f32 = 1000.0;
+
+/// Largest |coordinate| of a keyframe's position, target or up, metres.
+pub const MAX_CAMERA_COORD: f32 = 1e6;
+
+/// Smallest and largest vertical field of view of a keyframe, degrees.
+pub const FOV_RANGE_DEG: (f32, f32) = (0.1, 179.0);
+
+/// Checks a camera path against sane bounds, so that replaying it cannot ask for absurd
+/// frame counts ([`crate::camera::MAX_FRAMES`]) or degenerate projections. `Err((field, why))`
+/// with the field relative to the path.
 fn check_path(p: &CameraPath) -> Result<(), (String, String)> {
     if p.keyframes.is_empty() {
         return Err((".keyframes".into(), "needs at least one keyframe".into()));
     }
-    if !(p.fps.is_finite() && p.fps > 0.0) {
-        return Err((".fps".into(), format!("{} is not > 0", p.fps)));
+    if !(p.fps.is_finite() && p.fps > 0.0 && p.fps <= MAX_FPS) {
+        return Err((
+            ".fps".into(),
+            format!("{} is not a frame rate in (0, {MAX_FPS}]", p.fps),
+        ));
     }
     let mut last = f32::NEG_INFINITY;
     for (k, f) in p.keyframes.iter().enumerate() {
         let at = |s: &str| format!(".keyframes[{k}].{s}");
-        if !f.time.is_finite() || f.time <= last {
+        if !(f.time.is_finite() && f.time.abs() <= MAX_KEYFRAME_TIME) {
             return Err((
                 at("time"),
                 format!(
-                    "{} is not finite and after the previous keyframe's {last}",
+                    "{} is not a time in seconds within ±{MAX_KEYFRAME_TIME}",
+                    f.time
+                ),
+            ));
+        }
+        if f.time <= last {
+            return Err((
+                at("time"),
+                format!(
+                    "{} is not after the previous keyframe's {last}: times must increase",
                     f.time
                 ),
             ));
         }
         last = f.time;
-        if !(f.fov_y_deg > 0.0 && f.fov_y_deg < 180.0) {
+        let (lo, hi) = FOV_RANGE_DEG;
+        if !(f.fov_y_deg >= lo && f.fov_y_deg <= hi) {
             return Err((
                 at("fov_y_deg"),
-                format!("{} is not in (0, 180)", f.fov_y_deg),
+                format!("{} is not in [{lo}, {hi}] degrees", f.fov_y_deg),
             ));
+        }
+        for (name, v) in [("position", f.position), ("target", f.target), ("up", f.up)] {
+            if !v
+                .iter()
+                .all(|c| c.is_finite() && c.abs() <= MAX_CAMERA_COORD)
+            {
+                return Err((
+                    at(name),
+                    format!(
+                        "[{}, {}, {}] is not finite or lies beyond ±{MAX_CAMERA_COORD:e} m",
+                        v[0], v[1], v[2]
+                    ),
+                ));
+            }
         }
         let (eye, target, up) = (
             Vec3::from(f.position),
             Vec3::from(f.target),
             Vec3::from(f.up),
         );
-        if !(eye.is_finite() && target.is_finite() && up.is_finite()) {
-            return Err((
-                at("position"),
-                "position, target and up must be finite".into(),
-            ));
-        }
         let dir = target - eye;
         if dir.length_squared() == 0.0 {
             return Err((
@@ -705,6 +765,18 @@ fn check_path(p: &CameraPath) -> Result<(), (String, String)> {
                 format!("{up} is zero or parallel to the view direction"),
             ));
         }
+    }
+    let frames = crate::camera::frame_count(p);
+    if frames > crate::camera::MAX_FRAMES {
+        return Err((
+            ".fps".into(),
+            format!(
+                "{} fps over {} s of keyframes gives {frames} frames; a path may have at most {}",
+                p.fps,
+                last - p.keyframes[0].time,
+                crate::camera::MAX_FRAMES
+            ),
+        ));
     }
     Ok(())
 }

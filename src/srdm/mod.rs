@@ -38,6 +38,15 @@ pub use intersect::{MarchHit, SrdmHit, march};
 
 use glam::Vec2;
 
+/// Bytes as hex digits, for messages (`47 4c 53 52`).
+fn hex(bytes: &[u8]) -> String {
+    bytes
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
 /// Why an SRDM or a depth map cannot be built or read.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SrdmError {
@@ -45,7 +54,11 @@ pub enum SrdmError {
     #[error("{0}")]
     Invalid(String),
     /// Not an SRDM file.
-    #[error("not an SRDM file: the magic is {found:?}, expected {:?}", SRDM_MAGIC)]
+    #[error(
+        "not an SRDM file: the first bytes are {}, expected {}",
+        crate::srdm::hex(found),
+        crate::srdm::hex(&SRDM_MAGIC)
+    )]
     Magic {
         /// The first bytes found.
         found: [u8; 8],

@@ -44,6 +44,14 @@ pub enum ViewError {
         /// Which path was asked for and which exist.
         message: String,
     },
+    /// The camera path has more frames than a replay renders.
+    #[error("bundle {}: {message}", bundle.display())]
+    PathTooLong {
+        /// The bundle.
+        bundle: PathBuf,
+        /// The path, its frame count and the limit.
+        message: String,
+    },
     /// Writing an output file.
     #[error("{}: {source}", path.display())]
     Io {
@@ -630,7 +638,10 @@ pub fn replay_with(
     offscreen.impostor_kind = options.impostor_kind;
     offscreen.set_impostors(gpu, data, options.impostors)?;
     offscreen.set_curved(gpu, data, options.curved, options.curved_settings)?;
-    let frames = schedule(path);
+    let frames = schedule(path).map_err(|message| ViewError::PathTooLong {
+        bundle: bundle.clone(),
+        message,
+    })?;
 
     let warmup = offscreen.render(gpu, &frames[0].camera)?;
     progress.phase("rendering frames", frames.len() as u64);

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::camera::{Camera, frame_count, frame_time, pose_at};
+use crate::camera::{Camera, MAX_FRAMES, frame_count, frame_time, pose_at};
 use crate::scene::CameraPath;
 
 /// File name of the timings written next to the frames.
@@ -29,9 +29,17 @@ pub struct ScheduledFrame {
     pub camera: Camera,
 }
 
-/// Every frame of `path` at its fps ([`frame_count`], [`frame_time`], [`pose_at`]).
-pub fn schedule(path: &CameraPath) -> Vec<ScheduledFrame> {
-    (0..frame_count(path))
+/// Every frame of `path` at its fps ([`frame_count`], [`frame_time`], [`pose_at`]), or why
+/// not: a path of more than [`MAX_FRAMES`] frames is refused before anything is allocated.
+pub fn schedule(path: &CameraPath) -> Result<Vec<ScheduledFrame>, String> {
+    let count = frame_count(path);
+    if count > MAX_FRAMES {
+        return Err(format!(
+            "camera path `{}` has {count} frames at {} fps; a replay renders at most {MAX_FRAMES}",
+            path.name, path.fps
+        ));
+    }
+    Ok((0..count)
         .map(|index| {
             let time = frame_time(path, index);
             ScheduledFrame {
@@ -40,7 +48,7 @@ pub fn schedule(path: &CameraPath) -> Vec<ScheduledFrame> {
                 camera: pose_at(path, time),
             }
         })
-        .collect()
+        .collect())
 }
 
 /// Whether frame `index` is written to disk when writing every `every`-th frame (frame 0 is
@@ -220,17 +228,7 @@ impl Timings {
     }
 }
 
-/// Parses `WIDTHxHEIGHT` (e.g. `720x486`), each side 1..=16384.
-pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
-    let bad = || format!("{s:?} is not WIDTHxHEIGHT, e.g. 720x486");
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
-    let w: u32 = w.trim().parse().map_err(|_| bad())?;
-    let h: u32 = h.trim().parse().map_err(|_| bad())?;
-    if !(1..=16384).contains(&w) || !(1..=16384).contains(&h) {
-        return Err(format!("{s:?}: each side must be 1..=16384 pixels"));
-    }
-    Ok((w, h))
-}
+pub use crate::cli::parse_size;
 
 #[cfg(test)]
 mod tests {
@@ -254,7 +252,7 @@ mod tests {
 
     #[test]
     fn schedule_covers_the_path_at_its_fps() {
-        let frames = schedule(&path(9.0, 1.0));
+        let frames = schedule(&path(9.0, 1.0)).unwrap();
         assert_eq!(frames.len(), 10);
         assert_eq!(frames[0].time, 0.0);
         assert!((frames[9].time - 1.0).abs() < 1e-6);
@@ -264,6 +262,23 @@ mod tests {
                 .iter()
                 .enumerate()
                 .all(|(i, f)| f.index == i && f.camera.position.x >= 0.0)
+        );
+    }
+
+    #[test]
+    fn absurd_paths_are_refused_before_allocating() {
+        // 1e12 s (999999995904 in f32) at 30 fps: 3e13 frames, 1.9 PB of scheduled frames.
+        let e = schedule(&path(30.0, 1e12)).unwrap_err();
+        assert!(
+            e.contains("`p` has 29999999877121 frames") && e.contains("at most 1000000"),
+            "{e}"
+        );
+        let e = schedule(&path(1e9, 1e12)).unwrap_err();
+        assert!(e.contains(&format!("at most {MAX_FRAMES}")), "{e}");
+        // The largest allowed path is scheduled in full.
+        assert_eq!(
+            schedule(&path(1.0, (MAX_FRAMES - 1) as f32)).unwrap().len(),
+            MAX_FRAMES
         );
     }
 
@@ -331,14 +346,5 @@ mod tests {
         assert_eq!(serde_json::from_str::<Timings>(&json).unwrap(), t);
         assert_eq!(t.summary.gpu_ms.median, 2.0);
         assert!(t.summary_table().contains("3 frames of x/orbit at 720x486"));
-    }
-
-    #[test]
-    fn size_parses_and_names_the_problem() {
-        assert_eq!(parse_size("720x486"), Ok((720, 486)));
-        assert_eq!(parse_size("64X48"), Ok((64, 48)));
-        assert!(parse_size("720").unwrap_err().contains("WIDTHxHEIGHT"));
-        assert!(parse_size("0x10").unwrap_err().contains("1..=16384"));
-        assert!(parse_size("axb").is_err());
     }
 }

@@ -40,7 +40,7 @@ use crate::image_io::{
     ChannelData, ExrCompression, ImageError, Precision, encode_exr, encode_rgb_exr,
 };
 use crate::progress::{Cancelled, Progress};
-use crate::scene::desc::MaterialsOverride;
+use crate::scene::desc::{MaterialsOverride, SettingError};
 use crate::scene::{Quality, ReflectorKind, Scene};
 
 use self::envmap::{CaptureSettings, MipFilter, MipPyramid, capture_cube};
@@ -123,31 +123,61 @@ impl MaterialsSettings {
         }
     }
 
-    /// The preset with the scene's overrides; an invalid override is `Err((field, why))`.
+    /// The preset with the scene's overrides; an invalid override is `Err((field, why))`
+    /// with the field as written in scene.json ([`MaterialsSettings::check`]).
     pub fn resolve(
         quality: Quality,
         over: &MaterialsOverride,
     ) -> Result<MaterialsSettings, (String, String)> {
         let mut s = Self::preset(quality);
         if let Some(b) = over.sample_budget {
-            if !(1..=100_000).contains(&b) {
-                return Err((
-                    "bake.materials.sample_budget".into(),
-                    format!("{b} is not in 1 … 100000"),
-                ));
-            }
             s.sample_budget = b;
         }
         if let Some(e) = over.env_map_size {
-            if !(4..=4096).contains(&e) || !e.is_power_of_two() {
-                return Err((
-                    "bake.materials.env_map_size".into(),
-                    format!("{e} is not a power of two in 4 … 4096"),
-                ));
-            }
             s.env_map_size = e;
         }
+        s.check()
+            .map_err(|e| (format!("bake.materials.{}", e.field), e.message))?;
         Ok(s)
+    }
+
+    /// Checks every value: sizes and counts within their ranges, `env_map_size` a power of
+    /// two, ξ₀ in (0, 1], kernel texels in (0°, 45°].
+    pub fn check(&self) -> Result<(), SettingError> {
+        let sizes = [
+            ("sample_budget", self.sample_budget, 100_000),
+            ("max_circles", self.max_circles, 4096),
+            ("kernel_max_radius", self.kernel_max_radius, 1024),
+            ("sphere_map_size", self.sphere_map_size, 4096),
+            ("map_1d_size", self.map_1d_size, 65536),
+            ("albedo_steps", self.albedo_steps, 4096),
+            ("env_supersample", self.env_supersample, 16),
+        ];
+        for (name, v, hi) in sizes {
+            if !(1..=hi).contains(&v) {
+                return Err(SettingError::new(name, format!("{v} is not in 1 ..= {hi}")));
+            }
+        }
+        let e = self.env_map_size;
+        if !(4..=4096).contains(&e) || !e.is_power_of_two() {
+            return Err(SettingError::new(
+                "env_map_size",
+                format!("{e} is not a power of two in 4 ..= 4096"),
+            ));
+        }
+        if !(self.xi0 > 0.0 && self.xi0 <= 1.0) {
+            return Err(SettingError::new(
+                "xi0",
+                format!("{} is not in (0, 1]", self.xi0),
+            ));
+        }
+        if !(self.kernel_texel_deg > 0.0 && self.kernel_texel_deg <= 45.0) {
+            return Err(SettingError::new(
+                "kernel_texel_deg",
+                format!("{} is not in (0, 45] degrees", self.kernel_texel_deg),
+            ));
+        }
+        Ok(())
     }
 }
 

@@ -1,0 +1,276 @@
+//! The stage tools' one entry point. `glint-bake` and each single-stage tool
+//! (`glint-radiosity`, `glint-materials`, `glint-radiance`, `glint-srdm`) turn their
+//! arguments into a [`Tool`] and call [`run`]: it loads the scene, resolves the settings
+//! (preset, then scene.json, then the flags, each checked by its settings type's `check`),
+//! bakes the scene stage first where a single-stage tool needs it, bakes, and prints the
+//! stage's report (its own table, or JSON).
+
+use std::io::Write;
+use std::process::ExitCode;
+
+use anyhow::Context;
+
+use super::materials::{self, MaterialsError, MaterialsSettings, Outcome};
+use super::report::{BakeReport, SrdmViews};
+use super::srdm_stage::{self, SrdmOutcome, SrdmSettings};
+use super::{BakeSettings, Stage, bake_all, plan, radiance_stage, radiosity_stage};
+use super::{scene_stage, up_to_date};
+use crate::cli::BakeArgs;
+use crate::progress::TerminalProgress;
+use crate::scene::Scene;
+use crate::scene::desc::{RadiositySettings, SettingError};
+
+/// Which tool runs, with its own flags (each overrides the preset and scene.json).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum Tool {
+    /// Every stage the scene requires (`glint-bake`).
+    #[default]
+    All,
+    /// The radiosity stage (`glint-radiosity`).
+    Radiosity {
+        /// `--texel-density`.
+        texel_density: Option<f32>,
+        /// `--rays`.
+        rays: Option<u32>,
+        /// `--bounces`.
+        bounces: Option<u32>,
+    },
+    /// The materials stage (`glint-materials`).
+    Materials,
+    /// The radiance stage (`glint-radiance`).
+    Radiance,
+    /// The SRDM stage (`glint-srdm`).
+    Srdm {
+        /// `--domains`.
+        domains: Option<u32>,
+        /// `--points`.
+        points: Option<u32>,
+        /// `--resolution`.
+        resolution: Option<u32>,
+    },
+}
+
+/// A flag's value refused by its settings type's check: `--texel-density: 1e-30 …`.
+fn flag_error(e: SettingError) -> anyhow::Error {
+    anyhow::anyhow!("{}: {}", e.flag(), e.message)
+}
+
+/// Runs `tool` with `args`, writing its report to `out`.
+pub fn run(args: &BakeArgs, tool: Tool, out: &mut dyn Write) -> anyhow::Result<ExitCode> {
+    let scene = Scene::load(&args.scene)?;
+    let quality = args.quality.unwrap_or(scene.desc.bake.quality);
+    match tool {
+        Tool::All => bake_every_stage(args, &scene, quality, out),
+        Tool::Radiosity {
+            texel_density,
+            rays,
+            bounces,
+        } => {
+            let mut s = RadiositySettings::resolve(quality, &scene.desc.bake.radiosity);
+            s.texel_density = texel_density.unwrap_or(s.texel_density);
+            s.rays = rays.unwrap_or(s.rays);
+            s.bounces = bounces.unwrap_or(s.bounces);
+            s.check(Some(scene.bounds.diagonal())).map_err(flag_error)?;
+            radiosity_stage::check(&scene, &s)?;
+            scene_stage_first(args, &scene)?;
+            let progress = TerminalProgress::new();
+            let record = radiosity_stage::bake(&scene, &args.bundle, &s, args.force, &progress);
+            progress.finish();
+            let record = record.context("stage radiosity")?;
+            if args.json {
+                writeln!(out, "{}", serde_json::to_string_pretty(&record)?)?;
+            } else {
+                writeln!(
+                    out,
+                    "{}: radiosity baked in {:.2} s ({} quality): {} elements, {} rays, {} bounces → {}",
+                    scene.name,
+                    record.bake_seconds,
+                    quality.name(),
+                    record.stats["elements"],
+                    record.stats["rays_cast"],
+                    record.stats["bounces"],
+                    args.bundle.display()
+                )?;
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        Tool::Materials => {
+            let settings = MaterialsSettings::resolve(quality, &scene.desc.bake.materials)
+                .map_err(|(field, message)| MaterialsError::Setting {
+                    path: scene.path.clone(),
+                    field,
+                    message,
+                })?;
+            let progress = TerminalProgress::new();
+            let outcome = materials::bake(&scene, &args.bundle, &settings, args.force, &progress);
+            progress.finish();
+            match outcome.context("stage materials")? {
+                Outcome::Skipped(reason) => skipped(args, &scene, Stage::Materials, &reason, out),
+                Outcome::Baked(report) if args.json => {
+                    let v = serde_json::json!({
+                        "bundle": args.bundle, "stage": "materials", "status": "baked",
+                        "quality": quality.name(), "bake_seconds": report.record.bake_seconds,
+                        "report": &*report,
+                    });
+                    writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
+                    Ok(ExitCode::SUCCESS)
+                }
+                Outcome::Baked(report) => {
+                    writeln!(
+                        out,
+                        "{}: materials baked into {} in {:.2} s ({} quality; {})",
+                        scene.name,
+                        args.bundle.display(),
+                        report.record.bake_seconds,
+                        quality.name(),
+                        report.reason
+                    )?;
+                    write!(out, "{report}")?;
+                    Ok(ExitCode::SUCCESS)
+                }
+            }
+        }
+        Tool::Radiance => {
+            let step = plan(&scene)
+                .into_iter()
+                .find(|p| p.stage == Stage::Radiance)
+                .expect("radiance is planned");
+            if !step.needed {
+                writeln!(
+                    out,
+                    "{}: radiance stage skipped: {}",
+                    scene.name, step.reason
+                )?;
+                return Ok(ExitCode::SUCCESS);
+            }
+            let progress = TerminalProgress::new();
+            let record = radiance_stage::bake(&scene, &args.bundle, quality, args.force, &progress);
+            progress.finish();
+            let record = record.context("stage radiance")?;
+            if args.json {
+                writeln!(out, "{}", serde_json::to_string_pretty(&record)?)?;
+            } else {
+                writeln!(
+                    out,
+                    "{}: {} radiance maps baked in {:.2} s ({} quality) → {}",
+                    scene.name,
+                    record.stats["maps"],
+                    record.bake_seconds,
+                    quality.name(),
+                    args.bundle.display()
+                )?;
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        Tool::Srdm {
+            domains,
+            points,
+            resolution,
+        } => {
+            let mut s = SrdmSettings::resolve(&scene.path, quality, &scene.desc.bake.srdm)?;
+            s.domains = domains.unwrap_or(s.domains);
+            s.points = points.unwrap_or(s.points);
+            s.resolution = resolution.unwrap_or(s.resolution);
+            s.check().map_err(flag_error)?;
+            if scene.impostors.is_empty() {
+                let reason = "no impostor objects declared (scene.json `impostors`)";
+                return skipped(args, &scene, Stage::Srdm, reason, out);
+            }
+            scene_stage_first(args, &scene)?;
+            let progress = TerminalProgress::new();
+            let outcome = srdm_stage::bake(&scene, &args.bundle, &s, args.force, &progress);
+            progress.finish();
+            let (record, views, colour) = match outcome.context("stage srdm")? {
+                SrdmOutcome::Skipped { reason } => {
+                    writeln!(out, "{}: srdm skipped: {reason}", scene.name)?;
+                    return Ok(ExitCode::SUCCESS);
+                }
+                SrdmOutcome::Baked {
+                    record,
+                    views,
+                    colour,
+                } => (record, views, colour),
+            };
+            if args.json {
+                let v = serde_json::json!({ "stage": "srdm", "status": "baked", "record": record, "views": views });
+                writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
+                return Ok(ExitCode::SUCCESS);
+            }
+            writeln!(
+                out,
+                "{}: srdm baked in {:.2} s ({} quality: n = {}, m = {}, {}² texels; colour: {colour}) → {}",
+                scene.name,
+                record.bake_seconds,
+                quality.name(),
+                s.domains,
+                s.points,
+                s.resolution,
+                args.bundle.display()
+            )?;
+            write!(out, "{}", SrdmViews(&views))?;
+            Ok(ExitCode::SUCCESS)
+        }
+    }
+}
+
+/// `glint-bake`: every stage the scene requires, then the stage table.
+fn bake_every_stage(
+    args: &BakeArgs,
+    scene: &Scene,
+    quality: crate::scene::Quality,
+    out: &mut dyn Write,
+) -> anyhow::Result<ExitCode> {
+    log::info!(
+        "{}: {} triangles, {} materials, {} reflectors, {} impostors",
+        scene.name,
+        scene.triangles.len(),
+        scene.materials.len(),
+        scene.reflectors.len(),
+        scene.impostors.len()
+    );
+    let settings = BakeSettings::resolve(scene, quality)?;
+    // One reporter for the whole run: it owns the process's only Ctrl-C handler.
+    let progress = TerminalProgress::new();
+    let stages = bake_all(scene, &args.bundle, &settings, args.force, &progress);
+    progress.finish();
+    let report = BakeReport {
+        scene: scene.name.clone(),
+        bundle: args.bundle.clone(),
+        stages: stages?,
+    };
+    if args.json {
+        writeln!(out, "{}", serde_json::to_string_pretty(&report.to_json())?)?;
+    } else {
+        write!(out, "{report}")?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// A single-stage tool writes the scene stage first when the bundle lacks it (or holds
+/// another scene's, with `--force`).
+fn scene_stage_first(args: &BakeArgs, scene: &Scene) -> anyhow::Result<()> {
+    crate::bundle::check_scene(&args.bundle, &scene.content_hash, args.force)?;
+    if !up_to_date(&args.bundle, scene, Stage::Scene, None) {
+        scene_stage::bake(scene, &args.bundle, args.force).context("stage scene")?;
+    }
+    Ok(())
+}
+
+/// A stage with nothing to bake: one line, or JSON.
+fn skipped(
+    args: &BakeArgs,
+    scene: &Scene,
+    stage: Stage,
+    reason: &str,
+    out: &mut dyn Write,
+) -> anyhow::Result<ExitCode> {
+    if args.json {
+        let v = serde_json::json!({
+            "bundle": args.bundle, "stage": stage.name(), "status": "skipped", "reason": reason,
+        });
+        writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
+    } else {
+        writeln!(out, "{}: {} skipped: {reason}", scene.name, stage.name())?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
