@@ -393,6 +393,7 @@ fn a_bundle_that_cannot_be_written_fails_before_the_compute() {
     // The bundle is as it was.
     std::fs::remove_dir(bundle.join(".lock")).unwrap();
     assert!(Bundle::open(&bundle).unwrap().verify().is_empty());
+}
 
 /// Bake settings in scene.json are checked with the scene: refused before any stage is
 /// written, naming scene.json and the field.
