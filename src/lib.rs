@@ -15,6 +15,7 @@ pub mod cli;
 pub mod eval;
 pub mod geometry;
 pub mod image_io;
+pub mod materials;
 pub mod progress;
 pub mod radiance;
 pub mod radiosity;

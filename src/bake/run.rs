@@ -170,7 +170,7 @@ fn bake_stage(
             }
         }
         Stage::Materials => {
-            let d = materials::d_identity(bundle, scene);
+            let d = crate::radiosity::d_identity(bundle, &scene.content_hash);
             if fresh(Some(&materials::recorded_settings(
                 &s.materials,
                 d.as_deref(),
@@ -184,7 +184,7 @@ fn bake_stage(
             }
         }
         Stage::Radiance => {
-            let d = materials::d_identity(bundle, scene);
+            let d = crate::radiosity::d_identity(bundle, &scene.content_hash);
             if fresh(Some(&radiance_stage::settings_json(
                 scene,
                 s.quality,
@@ -197,8 +197,8 @@ fn bake_stage(
             }
         }
         Stage::Srdm => {
-            let colour = srdm_stage::colour_source(bundle, scene)?;
-            if fresh(Some(&srdm_stage::settings_json(&s.srdm, colour.name()))) {
+            let colour = srdm_stage::colour_name(bundle, scene)?;
+            if fresh(Some(&srdm_stage::settings_json(&s.srdm, colour))) {
                 StageStatus::UpToDate
             } else {
                 match srdm_stage::bake(scene, bundle, &s.srdm, force, progress)? {

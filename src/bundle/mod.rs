@@ -11,6 +11,7 @@
 //! leaves the bundle as it was.
 
 pub mod manifest;
+mod names;
 pub mod stats;
 mod writer;
 
@@ -22,6 +23,7 @@ use rayon::prelude::*;
 pub use manifest::{
     AssetRecord, FORMAT_NAME, FORMAT_VERSION, FormatVersion, Manifest, StageRecord,
 };
+pub use names::{folder_name, unique_folders};
 pub use writer::{StageInfo, StageWriter, write_atomic};
 
 /// File name of the manifest inside a bundle.
