@@ -14,7 +14,7 @@
 //! capture of w² rays, milliseconds for the shipped scenes.
 
 use bytemuck::{Pod, Zeroable};
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 
 use crate::geometry::Triangle;
 use crate::materials::envmap::{CubeMap, locate};

@@ -152,19 +152,6 @@ pub fn bake(
     bake_with(scene, bundle_dir, settings, force, shading, progress)
 }
 
-/// Bakes the materials stage of `scene` into the bundle at `bundle_dir`, shading environment
-/// maps with D from the bundle ([`shade_with_d`]).
-pub fn bake(
-    scene: &Scene,
-    bundle_dir: &Path,
-    settings: &MaterialsSettings,
-    force: bool,
-    progress: &dyn Progress,
-) -> Result<Outcome, MaterialsError> {
-    let shading = shade_with_d(bundle_dir, scene);
-    bake_with(scene, bundle_dir, settings, force, shading, progress)
-}
-
 /// [`bake`] with the environment-map shading given: `Ok` shades hits, `Err` is the reason
 /// environment maps are skipped. Tests and tools use it with their own shaders.
 pub fn bake_with(

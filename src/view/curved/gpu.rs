@@ -13,7 +13,7 @@ use super::{
 };
 use crate::camera::Camera;
 use crate::materials::MaterialsIndex;
-use crate::materials::envmap::{CubeMap, MipPyramid};
+use crate::materials::envmap::MipPyramid;
 use crate::view::gpu::{Gpu, GpuError, error_scoped, probe_io_layout, run_probe};
 use crate::view::load::ViewData;
 use crate::view::renderer::{

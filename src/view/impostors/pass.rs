@@ -2,8 +2,6 @@
 //! per visible pixel of every selected glossy reflector, the reflected ray against the
 //! impostors, the nearest hit's colour × ks·R(θ) × the attenuation of Figure 15.
 
-use glam::Vec3;
-
 use super::tables_gpu::{BillboardBuffers, SrdmBuffers};
 use super::{
     BILLBOARD_REFLECT_SHADER_SOURCE, BILLBOARD_SHADER_SOURCE, IMPOSTOR_SHADER_SOURCE, ImpostorKind,
