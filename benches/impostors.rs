@@ -239,7 +239,7 @@ fn extra_mirrors(scene: &Scene) -> Vec<ImpostorReflector> {
 
 /// The SRDM of every baked view re-built with `m` points per row.
 fn tables_with_m(data: &ViewData, m: u32) -> SrdmTables {
-    let (index, views) = srdm_stage::load(&data.bundle).unwrap().unwrap();
+    let (index, views) = glint::srdm::index::load(&data.bundle).unwrap().unwrap();
     let rebuilt: Vec<Srdm> = views
         .iter()
         .map(|v| {
@@ -412,7 +412,7 @@ fn main() {
         rows.push(row);
     }
 
-    let (index, _) = srdm_stage::load(&data.bundle).unwrap().unwrap();
+    let (index, _) = glint::srdm::index::load(&data.bundle).unwrap().unwrap();
     println!(
         "\nbunny-mirror, front view, {}×{}, {} ({frames} frames, median); SRDM n = {}, w = {}; reference {spp} spp",
         SIZE.0,

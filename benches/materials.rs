@@ -21,13 +21,13 @@
 use std::time::Instant;
 
 use glam::{Vec2, Vec3};
-use glint::bake::materials::envmap::{
-    CubeMap, MipFilter, MipPyramid, hammersley, specular_importance, specular_reference,
-    specular_regular,
-};
 use glint::brdf::pattern::closest_pattern;
 use glint::brdf::{Frame, Lobe};
 use glint::bundle::stats::format_table;
+use glint::materials::envmap::{
+    CubeMap, MipFilter, MipPyramid, hammersley, specular_importance, specular_reference,
+    specular_regular,
+};
 use glint::sampling::Rng;
 use rayon::prelude::*;
 
@@ -76,7 +76,7 @@ fn environment(face: usize) -> CubeMap {
                 for a in 0..sub {
                     let s = 2.0 * (x as f32 + (a as f32 + 0.5) / sub as f32) / face as f32 - 1.0;
                     let t = 2.0 * (y as f32 + (b as f32 + 0.5) / sub as f32) / face as f32 - 1.0;
-                    let d = glint::bake::materials::envmap::face_direction(f, s, t).normalize();
+                    let d = glint::materials::envmap::face_direction(f, s, t).normalize();
                     let mut l = background(d);
                     for &(c, cos_r, radiance) in &spots {
                         if d.dot(c) >= cos_r {

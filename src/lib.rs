@@ -17,6 +17,7 @@ pub mod eval;
 pub mod fuzz;
 pub mod geometry;
 pub mod image_io;
+pub mod materials;
 pub mod progress;
 pub mod radiance;
 pub mod radiosity;

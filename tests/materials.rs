@@ -9,16 +9,6 @@ use std::f32::consts::PI;
 
 use common::*;
 use glam::{Vec2, Vec3};
-use glint::bake::materials::envmap::{
-    CaptureSettings, CubeMap, MipFilter, MipPyramid, capture_cube, face_direction, hammersley,
-    locate, specular_importance, specular_reference, specular_regular, texel_direction,
-    texel_solid_angle,
-};
-use glint::bake::materials::format::{PatternFormatError, decode_pattern, encode_pattern};
-use glint::bake::materials::kernel::{KernelSettings, kernel_for};
-use glint::bake::materials::reflectance::{
-    C_GRAZING, bastos_modulation, map_1d, map_1d_cos, sample_1d, sphere_map,
-};
 use glint::brdf::chi2::Chi2Test;
 use glint::brdf::cook_torrance::CookTorrance;
 use glint::brdf::kurt::{beckmann_d, invert_beckmann_half, sample_beckmann_half};
@@ -26,6 +16,16 @@ use glint::brdf::pattern::{
     Spacing, closest_pattern, lobe_area, mip_level, regular_pattern, theta_max,
 };
 use glint::brdf::{Frame, KurtBrdf, Lobe, reflect};
+use glint::materials::envmap::{
+    CaptureSettings, CubeMap, MipFilter, MipPyramid, capture_cube, face_direction, hammersley,
+    locate, specular_importance, specular_reference, specular_regular, texel_direction,
+    texel_solid_angle,
+};
+use glint::materials::kernel::{KernelSettings, kernel_for};
+use glint::materials::pattern_format::{PatternFormatError, decode_pattern, encode_pattern};
+use glint::materials::reflectance::{
+    C_GRAZING, bastos_modulation, map_1d, map_1d_cos, sample_1d, sphere_map,
+};
 use glint::progress::Silent;
 use glint::sampling::Rng;
 use glint::scene::Scene;

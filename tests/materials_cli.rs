@@ -9,13 +9,14 @@ use std::process::Command;
 
 use common::*;
 use glam::Vec3;
-use glint::bake::materials::format::decode_pattern;
 use glint::bake::materials::{
-    EnvShading, MaterialsSettings, Outcome, bake_with, d_identity, recorded_settings,
+    EnvShading, MaterialsSettings, Outcome, bake_with, recorded_settings,
 };
 use glint::bundle::Bundle;
 use glint::image_io::decode_exr;
+use glint::materials::pattern_format::decode_pattern;
 use glint::progress::Silent;
+use glint::radiosity::d_identity;
 use glint::scene::{Quality, Scene};
 
 fn run(bin: &str, args: &[&str]) -> (i32, String, String) {
@@ -284,7 +285,10 @@ fn env_maps_are_shaded_with_d_from_the_radiosity_stage() {
     // What glint-bake would compare for "up to date".
     let loaded = Scene::load(&scene).unwrap();
     let settings = MaterialsSettings::preset(Quality::Draft);
-    let expect = recorded_settings(&settings, d_identity(&bundle, &loaded).as_deref());
+    let expect = recorded_settings(
+        &settings,
+        d_identity(&bundle, &loaded.content_hash).as_deref(),
+    );
     assert_eq!(rec.settings, expect);
     let mip0 = rec
         .assets

@@ -177,7 +177,7 @@ fn stage_writes_files_that_read_back_and_are_deterministic() {
 
     let b = Bundle::open(&bundle).unwrap();
     assert!(b.verify().is_empty());
-    let (index, loaded) = srdm_stage::load(&b).unwrap().unwrap();
+    let (index, loaded) = glint::srdm::index::load(&b).unwrap().unwrap();
     assert_eq!(index.views.len(), 3);
     assert_eq!(index.colour, "albedo");
     // Views 120° apart around +Y.
@@ -242,7 +242,7 @@ fn colour_comes_from_d_when_the_bundle_has_radiosity() {
     };
     assert_eq!(record.settings["colour"], "radiosity");
     let b = Bundle::open(&bundle).unwrap();
-    let (index, loaded) = srdm_stage::load(&b).unwrap().unwrap();
+    let (index, loaded) = glint::srdm::index::load(&b).unwrap().unwrap();
     assert_eq!(index.colour, "radiosity");
     let cap = &loaded[0].capture;
     let lit: Vec<Vec3> = cap

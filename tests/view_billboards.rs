@@ -21,10 +21,10 @@ use std::path::Path;
 
 use common::*;
 use glam::Vec3;
-use glint::bake::materials::envmap::CubeMap;
 use glint::bake::{radiosity_stage, scene_stage};
 use glint::camera::Camera;
 use glint::geometry::Bvh;
+use glint::materials::envmap::CubeMap;
 use glint::progress::Silent;
 use glint::scene::Scene;
 use glint::scene::desc::RadiositySettings;

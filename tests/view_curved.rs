@@ -20,12 +20,12 @@ use std::path::{Path, PathBuf};
 
 use common::*;
 use glam::{Vec2, Vec3};
-use glint::bake::materials::envmap::{self, CubeMap, MipFilter, MipPyramid};
 use glint::bake::{materials, radiosity_stage, scene_stage};
 use glint::brdf::pattern::closest_pattern;
 use glint::brdf::{Frame, Lobe};
 use glint::camera::Camera;
 use glint::eval::reference::{RenderOptions, render};
+use glint::materials::envmap::{self, CubeMap, MipFilter, MipPyramid};
 use glint::progress::Silent;
 use glint::scene::Scene;
 use glint::scene::desc::{Quality, RadiositySettings};

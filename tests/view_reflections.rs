@@ -284,7 +284,7 @@ fn reflectance_brightens_towards_grazing_in_both_layouts() {
 fn radiance_maps_are_selected_per_element_for_the_mirrored_eye() {
     use glint::view::radiance_maps::{self, Selection};
     let data = load(glossy_bundle()).unwrap_or_else(|e| panic!("{e}"));
-    let cams = radiance_maps::load_cameras(data.bundle.dir(), "Floor").unwrap();
+    let cams = radiance_maps::load_cameras(&data.bundle, "Floor").unwrap();
     let floor = reflections::glossy_planar_reflectors(&data.scene)
         .into_iter()
         .find(|r| r.name == "Floor")

@@ -8,7 +8,10 @@
 //!   nothing). Row 0 is the element's edge at its corner.
 //! - `radiance/NAME/e{i}_{j}_c{k}.qtree`: its quadtree ([`crate::radiance::quadtree`]).
 //! - `radiance/NAME/cameras.json`: every map's file stem, element, camera index and
-//!   [`MapCamera`] (centre of projection, element corner and edges, normal, resolution).
+//!   [`MapCamera`] (centre of projection, element corner and edges, normal, resolution):
+//!   [`crate::radiance::index`], which also holds the reader.
+//!
+//! `NAME` is [`crate::radiance::index::reflector_folder`] of the reflector's name.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -19,6 +22,7 @@ use glam::Vec3;
 use crate::bundle::{Bundle, BundleError, StageInfo, StageRecord, StageWriter};
 use crate::image_io::{self, ChannelData, ExrCompression, ImageError, Precision};
 use crate::progress::{Cancelled, Progress};
+use crate::radiance::index::{CamerasFile, MapEntry, cameras_path, reflector_folder};
 use crate::radiance::quadtree::{self, QuadtreeLimits};
 use crate::radiance::sampling::{MapCamera, ReflectorFrame, hemisphere_cameras};
 use crate::radiance::{MapPlan, RadianceMap, render};
@@ -168,7 +172,7 @@ pub fn bake(
     let mut rays = 0u64;
     for (ri, frame, plan) in &plans {
         let reflector = &scene.reflectors[*ri];
-        let folder = crate::bake::materials::folder_name(&reflector.name);
+        let folder = reflector_folder(&reflector.name);
         let mut cameras = Vec::new();
         let mut bytes = 0u64;
         for j in 0..plan.elements[1] {
@@ -209,17 +213,25 @@ pub fn bake(
                     bytes += (exr.len() + qt.len()) as u64;
                     w.write(&format!("{folder}/{stem}.exr"), "radiance-exr", &exr)?;
                     w.write(&format!("{folder}/{stem}.qtree"), "quadtree", &qt)?;
-                    cameras.push(serde_json::json!({ "file": stem, "element": [i, j], "camera": k, "nodes": tree.len(), "view": cam }));
+                    cameras.push(MapEntry {
+                        file: stem,
+                        element: [i, j],
+                        camera: k as u32,
+                        nodes: tree.len(),
+                        view: cam,
+                    });
                     progress.advance(1);
                 }
             }
         }
-        let json = serde_json::to_vec_pretty(
-            &serde_json::json!({ "reflector": reflector.name, "plan": plan, "maps": cameras }),
-        )
-        .expect("cameras serialize");
+        let json = CamerasFile {
+            reflector: reflector.name.clone(),
+            plan: *plan,
+            maps: cameras,
+        }
+        .to_bytes();
         bytes += json.len() as u64;
-        w.write(&format!("{folder}/cameras.json"), "radiance-cameras", &json)?;
+        w.write(&cameras_path(&reflector.name), "radiance-cameras", &json)?;
         table.push(serde_json::json!({
             "reflector": reflector.name,
             "hemispheres": plan.elements[0] * plan.elements[1],
@@ -245,7 +257,7 @@ pub fn bake(
 
 /// Settings as recorded in the manifest, with `d_source`: the identity of the D the maps were
 /// shaded with ([`crate::bundle::StageRecord::identity`] of the radiosity stage read; for an
-/// up-to-date check [`crate::bake::materials::d_identity`]), so a re-baked D makes them stale.
+/// up-to-date check [`crate::radiosity::d_identity`]), so a re-baked D makes them stale.
 pub fn settings_json(scene: &Scene, quality: Quality, d_source: Option<&str>) -> serde_json::Value {
     let plans: Vec<_> = plans(scene, quality)
         .iter()

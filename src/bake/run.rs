@@ -208,7 +208,7 @@ fn bake_stage(
             }
         }
         Stage::Materials => {
-            let d = materials::d_identity(bundle, scene);
+            let d = crate::radiosity::d_identity(bundle, &scene.content_hash);
             if fresh(Some(&materials::recorded_settings(
                 &s.materials,
                 d.as_deref(),
@@ -222,7 +222,7 @@ fn bake_stage(
             }
         }
         Stage::Radiance => {
-            let d = materials::d_identity(bundle, scene);
+            let d = crate::radiosity::d_identity(bundle, &scene.content_hash);
             if fresh(Some(&radiance_stage::settings_json(
                 scene,
                 s.quality,
@@ -236,7 +236,7 @@ fn bake_stage(
         }
         Stage::Srdm => {
             // The colour the stage would read: D when the bundle has it from this scene.
-            let d = materials::d_identity(bundle, scene);
+            let d = crate::radiosity::d_identity(bundle, &scene.content_hash);
             let colour = if d.is_some() { "radiosity" } else { "albedo" };
             if fresh(Some(&srdm_stage::settings_json(
                 &s.srdm,

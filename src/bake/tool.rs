@@ -167,7 +167,8 @@ pub fn run(args: &BakeArgs, tool: Tool, out: &mut dyn Write) -> anyhow::Result<E
             points,
             resolution,
         } => {
-            let mut s = SrdmSettings::resolve(&scene.path, quality, &scene.desc.bake.srdm)?;
+            let mut s = SrdmSettings::resolve(&scene.path, quality, &scene.desc.bake.srdm)
+                .map_err(anyhow::Error::msg)?;
             s.domains = domains.unwrap_or(s.domains);
             s.points = points.unwrap_or(s.points);
             s.resolution = resolution.unwrap_or(s.resolution);

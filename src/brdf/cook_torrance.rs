@@ -12,7 +12,7 @@
 //!
 //! The 1/π is the 1982 paper's constant; a normalized D with the modern 1/4 would be brighter
 //! by 4/π. Only R carries it, and only its shape survives once K is normalized (see
-//! `bake::materials::reflectance`, whose albedo channel is the energy-consistent alternative).
+//! `materials::reflectance`, whose albedo channel is the energy-consistent alternative).
 
 use std::f32::consts::PI;
 

@@ -17,6 +17,7 @@
 //! into). Version 1 bundles (folder = stage name) are read as they are.
 
 pub mod manifest;
+mod names;
 pub mod stats;
 mod writer;
 
@@ -30,6 +31,7 @@ pub use manifest::{
     AssetRecord, FORMAT_NAME, FORMAT_VERSION, FormatVersion, Manifest, OLDEST_READ_MAJOR,
     StageRecord,
 };
+pub use names::{folder_name, unique_folders};
 pub use writer::{CommitStep, FaultHook, StageInfo, StageWriter, write_atomic};
 
 /// File name of the manifest inside a bundle.

@@ -8,7 +8,7 @@ use glam::{Vec2, Vec3};
 
 use super::{Target, TargetContext};
 // The materials file formats (sample-pattern tables).
-use crate::bake::materials::format as materials_format;
+use crate::materials::pattern_format as materials_format;
 use crate::bundle::Bundle;
 use crate::radiance::quadtree;
 use crate::radiosity::RadiosityMap;
@@ -304,7 +304,7 @@ fn run_exr(_ctx: &TargetContext, input: &[u8]) -> Result<(), String> {
 }
 
 fn run_srdm_index(_ctx: &TargetContext, input: &[u8]) -> Result<(), String> {
-    serde_json::from_slice::<crate::bake::srdm_stage::SrdmIndex>(input)
+    serde_json::from_slice::<crate::srdm::index::SrdmIndex>(input)
         .map_err(|e| e.to_string())?;
     Ok(())
 }
@@ -344,28 +344,29 @@ fn prepare_materials(repo: &Path, scratch: &Path) -> Result<TargetContext, Strin
 
 #[cfg(feature = "view")]
 fn run_materials(ctx: &TargetContext, input: &[u8]) -> Result<(), String> {
+    use crate::materials::MaterialsIndex;
     use crate::view::reflections::material::{
-        ReflectanceChannel, ReflectanceLayout, load_material,
+        ReflectanceChannel, ReflectanceLayout, load_material_from,
     };
-    let index: serde_json::Value = serde_json::from_slice(input).map_err(|e| e.to_string())?;
-    let read = |path: &str| -> Result<Vec<u8>, String> {
-        ctx.files
+    let index = MaterialsIndex::parse(input).map_err(|e| e.to_string())?;
+    let read = |path: &str| -> Result<crate::image_io::ExrImage, String> {
+        let bytes = ctx
+            .files
             .get(path)
-            .cloned()
-            .ok_or_else(|| format!("{path}: not in the stage"))
+            .ok_or_else(|| format!("{path}: not in the stage"))?;
+        crate::image_io::decode_exr(bytes).map_err(|e| format!("{path}: {e}"))
     };
-    let names: Vec<String> = index["materials"]
-        .as_array()
-        .into_iter()
-        .flatten()
-        .filter_map(|m| m["name"].as_str().map(String::from))
+    let names: Vec<String> = index
+        .materials
+        .iter()
+        .map(|m| m.name.clone())
         .take(8)
         .collect();
     let mut last = Err("no materials".to_string());
     for name in &names {
         for layout in [ReflectanceLayout::OneD, ReflectanceLayout::Sphere] {
             for channel in [ReflectanceChannel::Albedo, ReflectanceChannel::Bastos] {
-                last = load_material(&read, &index, name, layout, channel).map(|_| ());
+                last = load_material_from(&read, &index, name, layout, channel).map(|_| ());
             }
         }
     }

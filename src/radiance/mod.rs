@@ -1,6 +1,7 @@
 //! Radiance maps with depth (Bastos et al. §8.1.3): what each glossy planar reflector sees,
 //! sampled as images with depth from cameras on hemispheres behind it.
 
+pub mod index;
 pub mod quadtree;
 pub mod sampling;
 
@@ -64,7 +65,7 @@ pub fn render(
 
 /// Sampling chosen for a reflector from its material's glossiness (Bastos Table 1 ranges
 /// from 32² to 128²): sharper lobes need finer maps, more elements and more cameras.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct MapPlan {
     /// Reflector elements along the frame's two axes.
     pub elements: [u32; 2],

@@ -2,8 +2,10 @@
 //! diffuse light D, solved on lightmap texels and looked up by every other stage.
 
 pub mod atlas;
+pub mod current;
 pub mod format;
 pub mod map;
 pub mod solve;
 
+pub use current::{CurrentD, current_d, d_identity};
 pub use map::RadiosityMap;

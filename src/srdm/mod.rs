@@ -7,8 +7,11 @@
 //! polyline of at most `m` points (§4.2, [`Srdm::build`]); a ray then walks the `m − 1`
 //! segments of the one row its projection lies along (§4.3, [`Srdm::intersect`]).
 //!
-//! Pure: no file system, no printing. The bake stage (`bake::srdm_stage`) captures the depth
-//! maps and writes the bundle; [`Srdm::to_bytes`] / [`Srdm::from_bytes`] hold the binary format.
+//! The structure is pure: no file system, no printing; [`Srdm::to_bytes`] / [`Srdm::from_bytes`]
+//! hold the binary format. Beside it: [`capture`] (the impostor captures and their EXR),
+//! [`billboard`] (the §3 billboard capture), [`settings`], and [`index`] (`srdm/index.json` and
+//! the hash-checked reader the viewer uses). The bake stage (`bake::srdm_stage`) runs the
+//! captures and writes the bundle.
 //!
 //! Conventions shared by every part:
 //! - Image coordinates are pixels, x right, y down, (0, 0) the image's top-left corner; texel
@@ -21,11 +24,15 @@
 //!   (cos θᵢ, sin θᵢ) in image coordinates. Its `w` rows are one texel apart; along a row the
 //!   coordinate u runs over [0, w] and sample k sits at u = k + ½. Domain 0 is the map itself.
 
+pub mod billboard;
 mod build;
 mod camera;
+pub mod capture;
 mod depth_map;
 mod format;
+pub mod index;
 mod intersect;
+pub mod settings;
 
 pub use build::{
     ErrorStats, MAX_DOMAINS, MAX_POINTS, SPLIT_TOLERANCE, SimplifiedRow, Srdm, SrdmParams,
@@ -35,6 +42,7 @@ pub use camera::ImpostorCamera;
 pub use depth_map::{BACKGROUND, DepthMap, MAX_RESOLUTION, MIN_DEPTH};
 pub use format::{SRDM_MAGIC, SRDM_VERSION};
 pub use intersect::{MarchHit, SrdmHit, march};
+pub use settings::SrdmSettings;
 
 use glam::Vec2;
 

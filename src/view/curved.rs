@@ -20,7 +20,7 @@
 //!     samples ([`crate::brdf::pattern::closest_pattern`], the function the materials stage
 //!     bakes its pattern with, so at the bake's budget it is the baked pattern), the BRDF of
 //!     Eq. 2, the density of Eq. 17–18 and each sample's MIP level from Eq. 16;
-//!     [`crate::bake::materials::envmap::specular_regular`] is the CPU estimator the shader
+//!     [`crate::materials::envmap::specular_regular`] is the CPU estimator the shader
 //!     is tested against.
 //! - Environment of the glossy term, chosen automatically per reflector: the materials
 //!   stage's baked MIP pyramid (`materials/env/<reflector>/`) when the bundle has it (the
@@ -34,7 +34,7 @@
 pub mod gpu;
 
 use bytemuck::{Pod, Zeroable};
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 
 use crate::brdf::kurt::fresnel_schlick;
 use crate::brdf::pattern::{Pattern, closest_pattern};
@@ -175,31 +175,15 @@ pub fn curved_reflectors(scene: &Scene) -> Vec<CurvedReflector> {
             Some(CurvedReflector {
                 name: r.name.clone(),
                 triangles: r.triangles.clone(),
-                centre: centroid(scene, &r.triangles),
+                centre: crate::materials::envmap::capture_centre(scene, &r.triangles),
                 lobes,
             })
         })
         .collect()
 }
 
-/// Area-weighted centroid of some triangles (f64 sums; the materials stage's capture point).
-pub fn centroid(scene: &Scene, triangles: &[u32]) -> Vec3 {
-    let (mut sum, mut area) = (DVec3::ZERO, 0.0f64);
-    for &t in triangles {
-        let tri = &scene.triangles[t as usize];
-        let a = tri.area() as f64;
-        sum += (tri.p[0] + tri.p[1] + tri.p[2]).as_dvec3() * (a / 3.0);
-        area += a;
-    }
-    if area > 0.0 {
-        (sum / area).as_vec3()
-    } else {
-        Vec3::ZERO
-    }
-}
-
 /// The 90° camera of cube face `face` (+X, −X, +Y, −Y, +Z, −Z) at `centre`, oriented as
-/// WebGPU samples cube maps (and as [`crate::bake::materials::envmap::face_direction`]
+/// WebGPU samples cube maps (and as [`crate::materials::envmap::face_direction`]
 /// stores them): pixel (x, y) of a square image from it looks along the direction of texel
 /// (x, y) of that face. The frames are left-handed; nothing is culled, so that is harmless.
 pub fn face_camera(centre: Vec3, face: usize) -> Camera {
@@ -357,7 +341,7 @@ pub fn pack_patterns(patterns: &[Pattern]) -> (Vec<[f32; 4]>, Vec<u32>) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bake::materials::envmap::texel_direction;
+    use crate::materials::envmap::texel_direction;
     use wgpu::naga;
 
     #[test]

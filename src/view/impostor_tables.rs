@@ -232,7 +232,7 @@ impl ImpostorParams {
                 None => [0.0; 4],
             },
             eye: eye
-                .extend(crate::bake::materials::reflectance::C_GRAZING)
+                .extend(crate::materials::reflectance::C_GRAZING)
                 .to_array(),
             settings: [inv, objects as f32, T_MAX, 0.0],
             modulation,

@@ -4,8 +4,9 @@
 //!
 //! Checked, in order: the folder exists and is a bundle; the manifest's format and version
 //! (a newer major is refused naming both versions); the `scene` and `radiosity` stages are
-//! present and were baked from the same scene; every asset of those stages has its recorded
-//! size and BLAKE3 hash; the scene loads; the atlas covers exactly the scene's triangles with
+//! present and were baked from the same scene; every asset of those stages and of the
+//! `materials`, `radiance` and `srdm` stages (when present) has its recorded size and BLAKE3
+//! hash; the scene loads; the atlas covers exactly the scene's triangles with
 //! finite coordinates; the radiosity pages match the atlas and hold finite values.
 
 use std::path::{Path, PathBuf};
@@ -15,8 +16,12 @@ use crate::radiosity::RadiosityMap;
 use crate::radiosity::map::MapError;
 use crate::scene::{Scene, SceneError};
 
-/// Stages the viewer reads.
+/// Stages the viewer needs.
 pub const REQUIRED_STAGES: [&str; 2] = ["scene", "radiosity"];
+
+/// Every stage the viewer reads when the bundle has it: each of their assets is checked
+/// against the manifest at load.
+pub const READ_STAGES: [&str; 5] = ["scene", "radiosity", "materials", "radiance", "srdm"];
 
 /// Why a bundle cannot be viewed. Every message starts with the bundle's path.
 #[derive(Debug, thiserror::Error)]
@@ -172,7 +177,7 @@ pub fn load(dir: &Path) -> Result<ViewData, LoadError> {
     }
 
     // Every asset the viewer reads, against its size and hash.
-    let problems: Vec<String> = REQUIRED_STAGES
+    let problems: Vec<String> = READ_STAGES
         .iter()
         .filter_map(|s| bundle.stage(s))
         .flat_map(|s| s.assets.iter())
@@ -200,7 +205,7 @@ pub fn load(dir: &Path) -> Result<ViewData, LoadError> {
     // The copy is scene.json re-serialized (geometry renamed, name filled in), so its text,
     // and with it `content_hash`, differ from the source's. Its assets were verified above:
     // it is the scene every stage recorded as `scene_hash`, so it takes that identity, and
-    // the stages' own freshness checks (e.g. `srdm_stage::colour_source` choosing D) agree
+    // the stages' own freshness checks (e.g. [`crate::radiosity::current_d`] choosing D) agree
     // with what the viewer loaded.
     scene.content_hash = scene_stage.scene_hash.clone();
 

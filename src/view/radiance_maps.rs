@@ -5,7 +5,7 @@
 //! of the radiance maps to the reflected camera".
 //!
 //! - [`load_cameras`]: `radiance/NAME/cameras.json` (every map's file stem, element, camera
-//!   index and [`MapCamera`]).
+//!   index and [`MapCamera`]), read by [`crate::radiance::index`], the stage's own reader.
 //! - [`select`]: per reflector element (one hemisphere of cameras), the `count` maps whose
 //!   centre of projection is closest to the mirrored eye by angle seen from the element's
 //!   centre ([`Selection::Angle`], Bastos's default) or by distance ([`Selection::Distance`]).
@@ -13,11 +13,9 @@
 //! The maps and their quadtrees are decoded and splatted by [`super::reflections`]
 //! (Eq. 3 sizes per node, culling and skipping in [`super::reflections::splats`]).
 
-use std::path::Path;
-
 use glam::Vec3;
-use serde::Deserialize;
 
+pub use crate::radiance::index::{CamerasFile, MapEntry, load_cameras};
 use crate::radiance::sampling::MapCamera;
 
 /// How maps are selected for the reflected view.
@@ -40,38 +38,6 @@ impl std::str::FromStr for Selection {
             _ => Err(format!("{s:?} is not one of angle, distance")),
         }
     }
-}
-
-/// One map of `cameras.json`.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
-pub struct MapEntry {
-    /// File stem in the reflector's folder (`e{i}_{j}_c{k}`: `.exr`, `.qtree`).
-    pub file: String,
-    /// Reflector element (i, j).
-    pub element: [u32; 2],
-    /// Camera index on the element's hemisphere.
-    pub camera: u32,
-    /// The map's camera.
-    pub view: MapCamera,
-}
-
-/// `radiance/NAME/cameras.json` (fields the viewer reads).
-#[derive(Clone, Debug, PartialEq, Deserialize)]
-pub struct CamerasFile {
-    /// Reflector name.
-    pub reflector: String,
-    /// Every map.
-    pub maps: Vec<MapEntry>,
-}
-
-/// Reads `radiance/<reflector>/cameras.json` of the bundle at `bundle_dir`.
-pub fn load_cameras(bundle_dir: &Path, reflector: &str) -> Result<CamerasFile, String> {
-    let path = bundle_dir
-        .join("radiance")
-        .join(reflector)
-        .join("cameras.json");
-    let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-    serde_json::from_slice(&bytes).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// Centre of a map's element.
@@ -130,6 +96,7 @@ mod tests {
                 file: format!("e{}_{}_c{k}", element[0], element[1]),
                 element,
                 camera: k as u32,
+                nodes: 0,
                 view: MapCamera {
                     centre: c,
                     corner: Vec3::new(-0.5, 0.0, 0.5),

@@ -23,7 +23,10 @@
 
 use glam::{Vec2, Vec3};
 
-use crate::bake::materials::reflectance;
+use crate::bundle::Bundle;
+use crate::materials::MaterialsIndex;
+use crate::materials::index::IndexedLobe;
+use crate::materials::reflectance;
 
 /// Entries of a 1D modulation table (the shader's `modulation` array).
 pub const MODULATION_SIZE: usize = 64;
@@ -257,28 +260,32 @@ pub fn beyond_fraction(point_side: f32, eye_side: f32) -> f32 {
     if total > 0.0 { s / total } else { 0.0 }
 }
 
-/// K and ks·R of material `name` from the materials stage (with its parsed `index.json`);
-/// `read_file` reads a file of the stage by its path in the index (relative to the stage's
-/// folder, e.g. through [`crate::bundle::Bundle::read_stage_file`], which refuses a path
-/// the manifest does not list).
+/// K and ks·R of material `name` from the bundle's materials stage (with its index), every
+/// file read hash-checked.
 pub fn load_material(
-    read_file: &dyn Fn(&str) -> Result<Vec<u8>, String>,
-    index: &serde_json::Value,
+    bundle: &Bundle,
+    index: &MaterialsIndex,
     name: &str,
     layout: ReflectanceLayout,
     channel: ReflectanceChannel,
 ) -> Result<(ScreenKernel, Modulation), String> {
-    let material = index["materials"]
-        .as_array()
-        .and_then(|m| m.iter().find(|m| m["name"] == name))
-        .ok_or_else(|| format!("material {name:?} is not in materials/index.json"))?;
-    let lobes = material["lobes"]
-        .as_array()
-        .ok_or_else(|| format!("material {name:?} has no lobes"))?;
     let read = |path: &str| -> Result<crate::image_io::ExrImage, String> {
-        let bytes = read_file(path).map_err(|e| format!("{path}: {e}"))?;
-        crate::image_io::decode_exr(&bytes).map_err(|e| format!("{path}: {e}"))
+        MaterialsIndex::read_image(bundle, path).map_err(|e| e.to_string())
     };
+    load_material_from(&read, index, name, layout, channel)
+}
+
+/// [`load_material`] with the stage's images read by `read` (a path as the index lists it).
+pub fn load_material_from(
+    read: &dyn Fn(&str) -> Result<crate::image_io::ExrImage, String>,
+    index: &MaterialsIndex,
+    name: &str,
+    layout: ReflectanceLayout,
+    channel: ReflectanceChannel,
+) -> Result<(ScreenKernel, Modulation), String> {
+    let material = index
+        .material(name)
+        .ok_or_else(|| format!("material {name:?} is not in materials/index.json"))?;
     let finite = |path: &str, v: &[f32]| -> Result<(), String> {
         if v.is_empty() || !v.iter().all(|x| x.is_finite()) {
             return Err(format!("{path}: empty or non-finite"));
@@ -286,26 +293,24 @@ pub fn load_material(
         Ok(())
     };
     let mut modulation: Option<Modulation> = None;
-    let mut strongest: Option<(f32, &serde_json::Value)> = None;
-    for lobe in lobes {
-        let ks = match lobe["ks"].as_array().map(|a| {
-            a.iter()
-                .filter_map(|v| v.as_f64())
-                .map(|v| v as f32)
-                .collect::<Vec<_>>()
-        }) {
-            Some(v) if v.len() == 3 => Vec3::new(v[0], v[1], v[2]),
-            _ => return Err(format!("material {name:?}: a lobe without ks")),
-        };
+    let mut strongest: Option<(f32, &IndexedLobe)> = None;
+    for lobe in &material.lobes {
+        let ks = Vec3::from(lobe.ks);
         let weight = ks.x + ks.y + ks.z;
         if strongest.is_none_or(|(w, _)| weight > w) {
             strongest = Some((weight, lobe));
         }
         match layout {
             ReflectanceLayout::OneD => {
-                let path = lobe["reflectance_1d"]["path"].as_str().ok_or_else(|| {
-                    format!("material {name:?}: a lobe has no 1D reflectance map (anisotropic?)")
-                })?;
+                let path = &lobe
+                    .reflectance_1d
+                    .as_ref()
+                    .ok_or_else(|| {
+                        format!(
+                            "material {name:?}: a lobe has no 1D reflectance map (anisotropic?)"
+                        )
+                    })?
+                    .path;
                 let image = read(path)?;
                 let values = image
                     .channel(channel.exr_channel())
@@ -323,9 +328,7 @@ pub fn load_material(
                 }
             }
             ReflectanceLayout::Sphere => {
-                let path = lobe["reflectance_sphere"]["path"]
-                    .as_str()
-                    .ok_or_else(|| format!("material {name:?}: a lobe has no sphere map"))?;
+                let path = &lobe.reflectance_sphere.path;
                 let image = read(path)?;
                 if image.width != image.height {
                     return Err(format!("{path}: not square"));
@@ -351,17 +354,11 @@ pub fn load_material(
         }
     }
     let (_, lobe) = strongest.ok_or_else(|| format!("material {name:?} has no lobes"))?;
-    let kernel = &lobe["kernel"];
-    let kernel = if kernel["identity"].as_bool() == Some(true) {
+    let kernel = &lobe.kernel;
+    let kernel = if kernel.identity {
         ScreenKernel::identity()
     } else {
-        let path = kernel["path"]
-            .as_str()
-            .ok_or_else(|| format!("material {name:?}: a lobe has no kernel"))?;
-        let angle = kernel["texel_angle_rad"]
-            .as_f64()
-            .ok_or_else(|| format!("material {name:?}: kernel without texel_angle_rad"))?
-            as f32;
+        let path = &kernel.path;
         let image = read(path)?;
         let w = image.channel("Y").map_err(|e| format!("{path}: {e}"))?;
         finite(path, w)?;
@@ -369,7 +366,7 @@ pub fn load_material(
             return Err(format!("{path}: a kernel is square and odd-sized"));
         }
         ScreenKernel {
-            texel_angle: angle,
+            texel_angle: kernel.texel_angle_rad,
             taps: significant_taps(w, image.width as u32, KERNEL_MASS, MAX_TAPS),
         }
     };

@@ -195,26 +195,23 @@ pub fn reflectors_with_materials(
         log::info!("no materials stage: reflections use K = I, R = 1 (ks only)");
         return reflectors;
     }
-    let index: serde_json::Value = match data
-        .bundle
-        .read_stage_file("materials", "index.json")
-        .map_err(|e| e.to_string())
-        .and_then(|b| serde_json::from_slice(&b).map_err(|e| e.to_string()))
-    {
-        Ok(v) => v,
+    let index = match crate::materials::MaterialsIndex::load(&data.bundle) {
+        Ok(Some(v)) => v,
+        Ok(None) => return reflectors,
         Err(e) => {
-            log::warn!("materials/index.json: {e}; reflections use K = I, R = 1");
+            log::warn!("{e}; reflections use K = I, R = 1");
             return reflectors;
         }
     };
     for r in &mut reflectors {
         let name = &data.scene.materials[r.material as usize].name;
-        let read = |path: &str| -> Result<Vec<u8>, String> {
-            data.bundle
-                .read_stage_file("materials", path)
-                .map_err(|e| e.to_string())
-        };
-        match material::load_material(&read, &index, name, settings.layout, settings.channel) {
+        match material::load_material(
+            &data.bundle,
+            &index,
+            name,
+            settings.layout,
+            settings.channel,
+        ) {
             Ok((kernel, modulation)) => {
                 r.kernel = kernel;
                 r.modulation = modulation;

@@ -13,12 +13,13 @@ use super::{
     CLIP_FRACTION, PlanarReflector, ReflectanceSettings, Source, mirror_camera, mirror_point,
     reflectors_with_materials, signed_distance,
 };
-use crate::bake::materials::reflectance;
 use crate::camera::Camera;
+use crate::materials::reflectance;
+use crate::radiance::index::{MapEntry, load_cameras, read_map};
 use crate::view::curved::gpu::CurvedReflections;
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
-use crate::view::radiance_maps::{MapEntry, load_cameras, select};
+use crate::view::radiance_maps::select;
 use crate::view::renderer::{
     HDR_FORMAT, RenderError, Renderer, frame_bind_group, frame_bind_group_layout, reverse_z_depth,
     uniform_buffer,
@@ -130,27 +131,16 @@ struct SplatMaps {
 }
 
 fn load_splat_maps(gpu: &Gpu, data: &ViewData, reflector: &str) -> Result<SplatMaps, String> {
-    let cams = load_cameras(data.bundle.dir(), reflector)?;
-    let dir = data.bundle.dir().join("radiance").join(reflector);
+    let cams = load_cameras(&data.bundle, reflector).map_err(|e| e.to_string())?;
     let mut all = Vec::new();
     let mut trees = Vec::new();
     let mut node_base = 0u32;
     for m in &cams.maps {
-        let path = dir.join(format!("{}.exr", m.file));
-        let at = |e: String| format!("{}: {e}", path.display());
-        let bytes = std::fs::read(&path).map_err(|e| at(e.to_string()))?;
-        let image = crate::image_io::decode_exr(&bytes).map_err(|e| at(e.to_string()))?;
+        let map_path = crate::radiance::index::map_path(reflector, &m.file, "exr");
+        let at = |e: String| format!("radiance/{map_path}: {e}");
+        let stored = read_map(&data.bundle, reflector, m).map_err(|e| e.to_string())?;
+        let (image, nodes) = (stored.image, stored.nodes);
         let ch = |n: &str| image.channel(n).map_err(|e| at(e.to_string()));
-        let qpath = dir.join(format!("{}.qtree", m.file));
-        let qbytes = std::fs::read(&qpath).map_err(|e| format!("{}: {e}", qpath.display()))?;
-        let (res, nodes) = crate::radiance::quadtree::decode(&qbytes)
-            .map_err(|e| format!("{}: {e}", qpath.display()))?;
-        if res != m.view.resolution || image.width != res as usize || image.height != res as usize {
-            return Err(at(format!(
-                "map is {}×{}, its quadtree {res}², its camera {}²",
-                image.width, image.height, m.view.resolution
-            )));
-        }
         let map_image = MapImage {
             rgb: [ch("R")?, ch("G")?, ch("B")?],
             hit: ch("A")?,

@@ -12,7 +12,7 @@
 //! +X (1, −t, −s), −X (−1, −t, s), +Y (s, 1, t), −Y (s, −1, −t), +Z (s, −t, 1),
 //! −Z (−s, −t, −1). Stored as a horizontal strip of the six faces (6·size × size).
 
-use glam::{Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 
 use crate::brdf::pattern::{Pattern, lobe_area, mip_level};
@@ -21,6 +21,23 @@ use crate::geometry::{Bvh, Hit};
 use crate::progress::{Cancelled, Progress};
 use crate::sampling::Rng;
 use crate::scene::Scene;
+
+/// The capture point of a reflector's environment map: the area-weighted centroid of its
+/// triangles (f64 sums), where the materials stage captures and the viewer renders the cube.
+pub fn capture_centre(scene: &Scene, triangles: &[u32]) -> Vec3 {
+    let (mut sum, mut area) = (DVec3::ZERO, 0.0f64);
+    for &t in triangles {
+        let tri = &scene.triangles[t as usize];
+        let a = tri.area() as f64;
+        sum += (tri.p[0] + tri.p[1] + tri.p[2]).as_dvec3() * (a / 3.0);
+        area += a;
+    }
+    if area > 0.0 {
+        (sum / area).as_vec3()
+    } else {
+        Vec3::ZERO
+    }
+}
 
 /// Face names in storage order.
 pub const FACE_NAMES: [&str; 6] = ["+x", "-x", "+y", "-y", "+z", "-z"];
