@@ -5,7 +5,7 @@
 //! - [`scene`]: scene.json + glTF, validated; materials; camera paths.
 //! - [`geometry`]: world-space triangles and BVH ray casting (obvhs).
 //! - [`bundle`]: the versioned asset bundle (`NAME.glint/`) and its manifest.
-//! - `view` (feature `view`): the wgpu viewer.
+//! - [`view`]: the wgpu viewer (feature `view`); its [`view::options`] are always built.
 
 pub mod bake;
 pub mod brdf;
@@ -22,5 +22,4 @@ pub mod sampling;
 pub mod scene;
 pub mod srdm;
 
-#[cfg(feature = "view")]
 pub mod view;
