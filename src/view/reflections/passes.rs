@@ -1,6 +1,9 @@
 //! The reflection passes on the GPU (`shaders/reflect.wgsl`): the mirror pass (geometry
 //! re-rendered, or radiance-map splats) into M, and the composite that adds ks·(M*K)·R over
 //! the reflector. The math they use lives in [`super::splats`] and [`super::material`].
+//!
+//! One concept over 700 lines: the mirror, splat and composite passes share one per-reflector
+//! GPU state (params, M, splat tables) built and recorded together.
 
 use std::sync::Mutex;
 
