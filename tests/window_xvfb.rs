@@ -217,6 +217,16 @@ fn the_window_draws_what_headless_replay_draws() {
         assert_eq!(shot.dimensions(), size, "{args:?}: the window's size");
         let window = shot.into_raw();
         let headless = headless_frame(&glossy, args, size);
+        let saved = std::env::temp_dir().join(format!("glint-window-vs-headless-{i}.png"));
+        image::RgbImage::from_raw(size.0, size.1, headless.clone())
+            .unwrap()
+            .save(&saved)
+            .unwrap();
+        let shot_copy = std::env::temp_dir().join(format!("glint-window-shot-{i}.png"));
+        image::RgbImage::from_raw(size.0, size.1, window.clone())
+            .unwrap()
+            .save(&shot_copy)
+            .unwrap();
         let (mean, off) = (
             mean_diff(&window, &headless),
             differing(&window, &headless, 8),
