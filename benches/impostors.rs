@@ -324,7 +324,7 @@ fn main() {
         let tables = tables_with_m(&data, m);
         let pass = ImpostorReflections::with(
             &gpu,
-            &off.renderer,
+            off.renderer(),
             &data,
             &tables,
             reflectors.clone(),
@@ -346,8 +346,8 @@ fn main() {
         let mut more = reflectors.clone();
         more.extend(extra_mirrors(&data.scene).into_iter().take(k - 1));
         let count = more.len();
-        let pass =
-            ImpostorReflections::with(&gpu, &off.renderer, &data, &tables, more, settings).unwrap();
+        let pass = ImpostorReflections::with(&gpu, off.renderer(), &data, &tables, more, settings)
+            .unwrap();
         off.set_impostor_pass(Some(pass));
         rows.push(measure(
             &gpu,
@@ -365,7 +365,7 @@ fn main() {
         let count = tables.billboards.len();
         let pass = ImpostorReflections::with_billboards(
             &gpu,
-            &off.renderer,
+            off.renderer(),
             &data,
             &tables,
             reflectors.clone(),
@@ -392,7 +392,7 @@ fn main() {
         let count = tables.billboards.len();
         let pass = ImpostorReflections::with_billboards(
             &gpu,
-            &off.renderer,
+            off.renderer(),
             &data,
             &tables,
             more,

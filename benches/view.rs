@@ -95,8 +95,6 @@ fn main() {
             out: Some(work.join(name)),
             every: 0,
             hdr: false,
-            exposure: 1.0,
-            reflections: ReflectionMode::Off,
             ..ReplayOptions::default()
         };
         let t = (0..repeats)
@@ -254,8 +252,8 @@ fn reflection_table(gpu: &Gpu, work: &Path, repeats: usize) {
         for (label, mode, selection, count) in modes {
             let mut off =
                 Offscreen::new(gpu, &data, SIZE.0, SIZE.1, false).unwrap_or_else(|e| panic!("{e}"));
-            off.selection = selection;
-            off.map_count = count;
+            off.options.selection = selection;
+            off.options.maps = count;
             off.set_reflections(gpu, &data, mode)
                 .unwrap_or_else(|e| panic!("{e}"));
             off.render(gpu, &timed[0]).unwrap_or_else(|e| panic!("{e}")); // warm-up

@@ -15,6 +15,7 @@ use glint::progress::TerminalProgress;
 use glint::radiosity::RadiosityMap;
 use glint::scene::{Quality, Scene};
 use std::io::Write;
+use glint::view::options::{CurvedMode, ReflectionMode, Selection, ViewOptions};
 
 #[derive(Parser)]
 #[command(
@@ -101,19 +102,20 @@ enum Command {
         /// Preset the knobs start from (default: the scene's).
         #[arg(long, value_enum)]
         quality: Option<QualityArg>,
-        /// Glossy reflections in the view, for every setting but a view.reflections knob's.
-        #[arg(long, value_enum, default_value = "off")]
-        reflections: ReflectionsArg,
+        /// Glossy reflections in the view (`off`, `geometry` or `image`), for every setting but
+        /// a view.reflections knob's.
+        #[arg(long, default_value = "off")]
+        reflections: ReflectionMode,
         /// Image-based reflections: maps per reflector element (1..=16).
-        #[arg(long, default_value_t = 2)]
-        maps: usize,
-        /// Image-based reflections: map selection.
-        #[arg(long, value_enum, default_value = "angle")]
-        selection: SelectionArg,
+        #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=16))]
+        maps: u8,
+        /// Image-based reflections: map selection (`angle` or `distance`).
+        #[arg(long, default_value = "angle")]
+        selection: Selection,
         /// Curved reflectors by cube maps in the view (`off` or `cubemap`), for every setting
         /// but a view.curved knob's; view.glossy_samples needs `cubemap`.
-        #[arg(long, value_enum, default_value = "off")]
-        curved: CurvedArg,
+        #[arg(long, default_value = "off", value_parser = parse_curved)]
+        curved: CurvedMode,
         /// Timed frames per setting in the headless viewer (the median is reported).
         #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=1000))]
         frames: u32,
@@ -131,23 +133,12 @@ enum Command {
     },
 }
 
-#[derive(Clone, Copy, clap::ValueEnum)]
-enum ReflectionsArg {
-    Off,
-    Geometry,
-    Image,
-}
-
-#[derive(Clone, Copy, clap::ValueEnum)]
-enum SelectionArg {
-    Angle,
-    Distance,
-}
-
-#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-enum CurvedArg {
-    Off,
-    Cubemap,
+/// `off` or `cubemap`: the sweep's view has no impostor mode of curved reflectors.
+fn parse_curved(s: &str) -> Result<CurvedMode, String> {
+    match s.parse()? {
+        CurvedMode::Impostor => Err(format!("{s:?} is not one of off, cubemap")),
+        mode => Ok(mode),
+    }
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -391,23 +382,14 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                 .iter()
                 .map(|s| sweep::parse_knob(s))
                 .collect::<Result<Vec<_>, _>>()?;
-            let base_view = sweep::ViewSettings {
-                reflections: match reflections {
-                    ReflectionsArg::Off => sweep::Reflections::Off,
-                    ReflectionsArg::Geometry => sweep::Reflections::Geometry,
-                    ReflectionsArg::Image => sweep::Reflections::Image,
-                },
-                maps,
-                selection: match selection {
-                    SelectionArg::Angle => sweep::MapSelection::Angle,
-                    SelectionArg::Distance => sweep::MapSelection::Distance,
-                },
-                curved: curved == CurvedArg::Cubemap,
+            let base_view = ViewOptions {
+                reflections,
+                maps: maps as usize,
+                selection,
+                curved,
                 ..Default::default()
             };
-            base_view
-                .check()
-                .map_err(|e| anyhow::anyhow!("{}: {}", e.flag(), e.message))?;
+            base_view.check().map_err(anyhow::Error::msg)?;
             let scene = Scene::load(&scene)?;
             let cam = camera(&scene, &view)?;
             let mut opts = render.options();

@@ -6,7 +6,7 @@
 //! - [`geometry`]: world-space triangles and BVH ray casting (obvhs).
 //! - [`bundle`]: the versioned asset bundle (`NAME.glint/`) and its manifest.
 //! - [`fuzz`]: fuzz targets for every loader and the loop that drives them.
-//! - `view` (feature `view`): the wgpu viewer.
+//! - [`view`]: the wgpu viewer (feature `view`); its [`view::options`] are always built.
 
 pub mod bake;
 pub mod brdf;
@@ -25,5 +25,4 @@ pub mod sampling;
 pub mod scene;
 pub mod srdm;
 
-#[cfg(feature = "view")]
 pub mod view;

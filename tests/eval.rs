@@ -386,7 +386,7 @@ fn sweep_config<'a>(
         quality: Quality::Draft,
         knobs,
         camera: cam,
-        view: sweep::ViewSettings::default(),
+        view: sweep::ViewOptions::default(),
         use_viewer,
         frames: 3,
         view_spp: 4,
@@ -565,7 +565,7 @@ fn unknown_knobs_and_bad_values_are_refused() {
         let k = sweep::parse_knob("view.curved=off,cubemap").unwrap();
         assert_eq!(k.values.len(), 2);
         assert!(sweep::shows_reflections(
-            &sweep::ViewSettings::default(),
+            &sweep::ViewOptions::default(),
             &[k]
         ));
     } else {
@@ -679,7 +679,7 @@ fn viewer_sweep_times_frames_and_sees_reflections() {
     ];
     let out = dir.path().join("sweep");
     let mut cfg = sweep_config(&knobs, &cam, &out, true);
-    cfg.view.reflections = sweep::Reflections::Image;
+    cfg.view.reflections = glint::view::options::ReflectionMode::Image;
     let rows = sweep::sweep(&scene, &reference, &cfg, &Silent).unwrap();
     assert_eq!(rows.len(), 6);
     for r in &rows {

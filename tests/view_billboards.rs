@@ -525,7 +525,7 @@ fn curved_impostor_switch_reflects_billboards_headless() {
     );
     let frame = |mode: CurvedMode, kind: ImpostorKind| {
         let mut off = Offscreen::new(&gpu, &data, SIZE.0, SIZE.1, true).unwrap();
-        off.impostor_kind = kind;
+        off.options.impostor_kind = kind;
         off.set_curved(&gpu, &data, mode, CurvedSettings::default())
             .unwrap_or_else(|e| panic!("{e}"));
         if mode == CurvedMode::Impostor {
@@ -543,7 +543,7 @@ fn curved_impostor_switch_reflects_billboards_headless() {
     let on = frame(CurvedMode::Impostor, ImpostorKind::Billboard);
     // The SRDM kind needs the srdm stage: the switch reports it rather than drawing nothing.
     let mut o = Offscreen::new(&gpu, &data, SIZE.0, SIZE.1, true).unwrap();
-    o.impostor_kind = ImpostorKind::Srdm;
+    o.options.impostor_kind = ImpostorKind::Srdm;
     assert!(
         o.set_curved(&gpu, &data, CurvedMode::Impostor, CurvedSettings::default())
             .is_err()

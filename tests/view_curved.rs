@@ -865,7 +865,7 @@ fn glossy_room_teapot_seen_in_the_mirror_gets_its_specular_term() {
     assert!(leak <= 2e-3, "other mirror pixels changed by {leak:.2e}");
 
     // The recursive passes (depth 2: the panel's map is a level-1 node) draw the same term.
-    off.recursion = glint::view::reflections::RecursionSettings {
+    off.options.recursion = glint::view::reflections::RecursionSettings {
         depth: 2,
         cutoff: 0.0,
     };

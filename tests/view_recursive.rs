@@ -108,7 +108,7 @@ fn frame(
 ) -> (Vec<u8>, Option<recursive::RecursionStats>) {
     let data = corridor();
     let mut off = Offscreen::new(gpu, data, SIZE.0, SIZE.1, false).unwrap();
-    off.recursion = RecursionSettings {
+    off.options.recursion = RecursionSettings {
         depth: depth.unwrap_or(1),
         cutoff,
     };
@@ -249,7 +249,7 @@ fn depth_needs_geometry_mode() {
     let gpu = gpu();
     let data = corridor();
     let mut off = Offscreen::new(&gpu, data, 32, 32, false).unwrap();
-    off.recursion.depth = 3;
+    off.options.recursion.depth = 3;
     let e = off
         .set_reflections(&gpu, data, ReflectionMode::Image)
         .unwrap_err();
@@ -364,7 +364,7 @@ fn nested_composite_is_clipped_at_the_parent_mirror() {
     let (w, h) = SIZE;
     let render = |depth: u8| {
         let mut off = Offscreen::new(&gpu, data, w, h, false).unwrap();
-        off.recursion = RecursionSettings { depth, cutoff: 0.0 };
+        off.options.recursion = RecursionSettings { depth, cutoff: 0.0 };
         off.set_reflections(&gpu, data, ReflectionMode::Geometry)
             .unwrap_or_else(|e| panic!("{e}"));
         off.render(&gpu, &cam).unwrap();

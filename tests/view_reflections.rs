@@ -362,8 +362,8 @@ fn image_reflections_approach_the_cpu_equation_on_glossy_room() {
             (Selection::Angle, 4),
             (Selection::Distance, 2),
         ] {
-            offscreen.selection = selection;
-            offscreen.map_count = count;
+            offscreen.options.selection = selection;
+            offscreen.options.maps = count;
             offscreen
                 .set_reflections(&gpu, &data, ReflectionMode::Image)
                 .unwrap();
@@ -409,7 +409,7 @@ fn image_mode_culls_nodes_and_skips_points_when_minified() {
     let camera = pose_at(data.scene.camera_path(None).unwrap(), 0.0);
     let stats_at = |w: u32, h: u32| {
         let mut off = Offscreen::new(&gpu, &data, w, h, false).unwrap();
-        off.map_count = 2;
+        off.options.maps = 2;
         off.set_reflections(&gpu, &data, ReflectionMode::Image)
             .unwrap();
         off.render(&gpu, &camera).unwrap();

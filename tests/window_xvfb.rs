@@ -3,8 +3,11 @@
 //! exits through `--screenshot-after`. wgpu validation errors in any pass abort the process,
 //! so a clean exit means the window's passes are valid on the software adapter.
 //!
-//! Needs `xvfb-run` (Debian: `xvfb xauth`, installed by `.ci/run`). Without it the test says
-//! so and checks nothing, except under CI (`CI` set), where it fails.
+//! The window's screenshot (read back from its surface) is also held against a headless frame
+//! of the same camera and options: both draw through one `FramePasses`, so they agree.
+//!
+//! Needs `xvfb-run` (Debian: `xvfb xauth`, installed by `.ci/run`). Without it the tests say
+//! so and check nothing, except under CI (`CI` set), where they fail.
 
 mod common;
 
@@ -24,6 +27,11 @@ fn xvfb_run() -> Option<PathBuf> {
 /// Opens the window on `bundle` with `args`, draws 3 frames, saves a screenshot and exits;
 /// returns the screenshot's pixels.
 fn window_frames(xvfb: &Path, bundle: &Path, out: &Path, args: &[&str]) -> Vec<u8> {
+    window_shot(xvfb, bundle, out, args).into_raw()
+}
+
+/// As [`window_frames`], the screenshot as an image.
+fn window_shot(xvfb: &Path, bundle: &Path, out: &Path, args: &[&str]) -> image::RgbImage {
     let _ = std::fs::remove_dir_all(out);
     let run = Command::new(xvfb)
         .args(["-a", "-s", "-screen 0 640x480x24"])
@@ -50,7 +58,10 @@ fn window_frames(xvfb: &Path, bundle: &Path, out: &Path, args: &[&str]) -> Vec<u
         shot.ends_with(".png") && Path::new(&shot).is_file(),
         "glint-view {args:?} printed no screenshot: {shot:?}; {stderr}"
     );
-    image::open(&shot).unwrap().to_rgb8().into_raw()
+    for line in stderr.lines().filter(|l| l.contains("screenshot")) {
+        eprintln!("glint-view {args:?}: {line}");
+    }
+    image::open(&shot).unwrap().to_rgb8()
 }
 
 fn mean_diff(a: &[u8], b: &[u8]) -> f64 {
@@ -62,14 +73,22 @@ fn mean_diff(a: &[u8], b: &[u8]) -> f64 {
         / a.len() as f64
 }
 
-#[test]
-fn every_reflection_switch_runs_in_the_window() {
-    let Some(xvfb) = xvfb_run() else {
+/// `xvfb-run`, or `None` (and a note) where it is missing outside CI.
+fn xvfb_or_skip() -> Option<PathBuf> {
+    let found = xvfb_run();
+    if found.is_none() {
         assert!(
             std::env::var_os("CI").is_none(),
             "CI must install xvfb-run (apt-get install -y xvfb xauth)"
         );
         skip("xvfb-run not found: the window is not exercised here");
+    }
+    found
+}
+
+#[test]
+fn every_reflection_switch_runs_in_the_window() {
+    let Some(xvfb) = xvfb_or_skip() else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
@@ -122,4 +141,100 @@ fn every_reflection_switch_runs_in_the_window() {
     let d = mean_diff(&recursive, &geometry);
     eprintln!("depth 2 vs depth 1: mean change {d:.3}");
     assert!(d > 0.1, "depth 2 differs from depth 1: {d}");
+}
+
+/// The headless frame `glint-view ARGS` draws from the window's starting camera.
+fn headless_frame(bundle: &Path, args: &[&str], (w, h): (u32, u32)) -> Vec<u8> {
+    use glint::view::headless::{Offscreen, rgba_to_rgb};
+    use glint::view::options::ViewOptions;
+    use glint::view::window::{FlyCamera, initial_camera};
+    let data = glint::view::load::load(bundle).unwrap();
+    let gpu = glint::view::gpu::Gpu::headless().unwrap();
+    let options = ViewOptions::from_args(args.iter().copied()).unwrap();
+    // The window starts at the fly camera of the initial view.
+    let camera = FlyCamera::from_camera(&initial_camera(&data)).camera();
+    let off = Offscreen::with_options(&gpu, &data, w, h, false, &options).unwrap();
+    off.render(&gpu, &camera).unwrap();
+    rgba_to_rgb(&off.read_rgba8(&gpu).unwrap())
+}
+
+/// Fraction of 8-bit channel values that differ by more than `by`.
+fn differing(a: &[u8], b: &[u8], by: u8) -> f64 {
+    assert_eq!(a.len(), b.len());
+    a.iter()
+        .zip(b)
+        .filter(|(x, y)| x.abs_diff(**y) > by)
+        .count() as f64
+        / a.len() as f64
+}
+
+#[test]
+fn the_window_draws_what_headless_replay_draws() {
+    let Some(xvfb) = xvfb_or_skip() else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let glossy = dir.path().join("glossy-room.glint");
+    bake("glossy-room", &glossy);
+    let size = (320, 216);
+    // Option sets the window used to get wrong: it ignored --maps and --selection, and drew
+    // the recursive pass before the curved reflectors.
+    let sets: [&[&str]; 2] = [
+        &[
+            "--reflections",
+            "image",
+            "--maps",
+            "1",
+            "--selection",
+            "distance",
+        ],
+        &[
+            "--reflections",
+            "geometry",
+            "--recursion-depth",
+            "2",
+            "--curved",
+            "cubemap",
+        ],
+    ];
+    for (i, args) in sets.iter().enumerate() {
+        let shot = window_shot(&xvfb, &glossy, &dir.path().join(format!("set-{i}")), args);
+        assert_eq!(shot.dimensions(), size, "{args:?}: the window's size");
+        let window = shot.into_raw();
+        let headless = headless_frame(&glossy, args, size);
+        let saved = std::env::temp_dir().join(format!("glint-window-vs-headless-{i}.png"));
+        image::RgbImage::from_raw(size.0, size.1, headless.clone())
+            .unwrap()
+            .save(&saved)
+            .unwrap();
+        let shot_copy = std::env::temp_dir().join(format!("glint-window-shot-{i}.png"));
+        image::RgbImage::from_raw(size.0, size.1, window.clone())
+            .unwrap()
+            .save(&shot_copy)
+            .unwrap();
+        let (mean, off) = (
+            mean_diff(&window, &headless),
+            differing(&window, &headless, 8),
+        );
+        eprintln!(
+            "{args:?}: window vs headless mean {mean:.4}, {:.4}% off by > 8",
+            off * 100.0
+        );
+        // The camera goes through the fly camera's yaw and pitch in both: only rounding of
+        // the same passes may differ.
+        assert!(
+            mean < 0.25 && off < 0.002,
+            "{args:?}: the window's frame differs from the headless one (mean {mean}, {off} off)"
+        );
+    }
+    // Not vacuous: the options of the first set change the headless frame, so a window that
+    // ignored them would fail above.
+    let defaults = headless_frame(&glossy, &["--reflections", "image"], size);
+    let chosen = headless_frame(&glossy, sets[0], size);
+    let d = mean_diff(&defaults, &chosen);
+    eprintln!("--maps 1 --selection distance vs the defaults: mean change {d:.4}");
+    assert!(
+        d > 0.01,
+        "--maps 1 --selection distance change the frame: {d}"
+    );
 }

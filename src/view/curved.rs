@@ -54,80 +54,9 @@ pub fn shader_source() -> String {
     )
 }
 
-/// How the viewer draws curved reflectors (`--curved`). Room is left for `impostor`
-/// (Popescu et al.), which another part of issue 10 adds.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum CurvedMode {
-    /// kd·D only.
-    #[default]
-    Off,
-    /// View-independent cube maps per reflector (Nielsen §3.2).
-    Cubemap,
-    /// The impostor pass (Popescu §3–4): reflected rays of curved reflectors against the
-    /// impostors (depth maps or billboards, `--impostor-kind`), misses reading the baked
-    /// environment map with billboards. The rest of the scene is not reflected.
-    Impostor,
-}
-
-impl CurvedMode {
-    /// The next mode in the window's cycle (off → cubemap → impostor → off).
-    pub fn next(self) -> CurvedMode {
-        match self {
-            CurvedMode::Off => CurvedMode::Cubemap,
-            CurvedMode::Cubemap => CurvedMode::Impostor,
-            CurvedMode::Impostor => CurvedMode::Off,
-        }
-    }
-}
-
-impl std::str::FromStr for CurvedMode {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "off" => Ok(CurvedMode::Off),
-            "cubemap" => Ok(CurvedMode::Cubemap),
-            "impostor" => Ok(CurvedMode::Impostor),
-            _ => Err(format!("{s:?} is not one of cubemap, impostor, off")),
-        }
-    }
-}
-
-impl std::fmt::Display for CurvedMode {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            CurvedMode::Off => "off",
-            CurvedMode::Cubemap => "cubemap",
-            CurvedMode::Impostor => "impostor",
-        })
-    }
-}
-
-/// Settings of the curved-reflector passes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct CurvedSettings {
-    /// Regular samples per pixel and lobe (closest pattern); 0: one mirror lookup.
-    pub glossy_samples: u32,
-    /// Face size of the live cube maps, texels.
-    pub face_size: u32,
-    /// Generations of cube maps (1: no interreflection between curved reflectors).
-    pub generations: u32,
-}
-
-/// Face size of live cube maps unless set.
-pub const DEFAULT_FACE_SIZE: u32 = 128;
-
-/// Generations unless set: one bounce between curved reflectors.
-pub const DEFAULT_GENERATIONS: u32 = 2;
-
-impl Default for CurvedSettings {
-    fn default() -> Self {
-        CurvedSettings {
-            glossy_samples: 0,
-            face_size: DEFAULT_FACE_SIZE,
-            generations: DEFAULT_GENERATIONS,
-        }
-    }
-}
+pub use crate::view::options::{
+    CurvedMode, CurvedSettings, DEFAULT_FACE_SIZE, DEFAULT_GENERATIONS,
+};
 
 /// Lobes per reflector the shader evaluates (further lobes are dropped with a warning).
 pub const MAX_LOBES: usize = 2;
@@ -342,39 +271,30 @@ pub fn pack_patterns(patterns: &[Pattern]) -> (Vec<[f32; 4]>, Vec<u32>) {
 mod tests {
     use super::*;
     use crate::materials::envmap::texel_direction;
-    use wgpu::naga;
 
     #[test]
     fn curved_params_match_the_wgsl_struct() {
-        let module = naga::front::wgsl::parse_str(&shader_source()).expect("curved.wgsl parses");
-        let mut layouter = naga::proc::Layouter::default();
-        layouter.update(module.to_ctx()).unwrap();
-        let find = |name: &str| {
-            let (handle, ty) = module
-                .types
-                .iter()
-                .find(|(_, t)| t.name.as_deref() == Some(name))
-                .unwrap();
-            let naga::TypeInner::Struct { members, .. } = &ty.inner else {
-                panic!()
-            };
-            let offsets: Vec<u32> = members.iter().map(|m| m.offset).collect();
-            (layouter[handle].size as usize, offsets)
-        };
-        let (size, offsets) = find("CurvedParams");
+        let (size, members) = crate::view::build::wgsl_struct(&shader_source(), "CurvedParams");
         assert_eq!(size, std::mem::size_of::<CurvedParams>());
-        assert_eq!(
-            offsets,
-            [
-                std::mem::offset_of!(CurvedParams, eye) as u32,
-                std::mem::offset_of!(CurvedParams, centre) as u32,
-                std::mem::offset_of!(CurvedParams, info) as u32,
-                std::mem::offset_of!(CurvedParams, clip) as u32,
-                std::mem::offset_of!(CurvedParams, lobes) as u32,
-            ]
-        );
-        let (size, _) = find("CurvedLobe");
+        let want = [
+            ("eye", std::mem::offset_of!(CurvedParams, eye)),
+            ("centre", std::mem::offset_of!(CurvedParams, centre)),
+            ("info", std::mem::offset_of!(CurvedParams, info)),
+            ("clip", std::mem::offset_of!(CurvedParams, clip)),
+            ("lobes", std::mem::offset_of!(CurvedParams, lobes)),
+        ];
+        let got: Vec<(&str, usize)> = members.iter().map(|(n, o)| (n.as_str(), *o)).collect();
+        assert_eq!(got, want);
+        let (size, members) = crate::view::build::wgsl_struct(&shader_source(), "CurvedLobe");
         assert_eq!(size, std::mem::size_of::<CurvedLobe>());
+        let want = [
+            ("ks", std::mem::offset_of!(CurvedLobe, ks)),
+            ("rough", std::mem::offset_of!(CurvedLobe, rough)),
+            ("samples", std::mem::offset_of!(CurvedLobe, samples)),
+            ("pdf", std::mem::offset_of!(CurvedLobe, pdf)),
+        ];
+        let got: Vec<(&str, usize)> = members.iter().map(|(n, o)| (n.as_str(), *o)).collect();
+        assert_eq!(got, want);
     }
 
     #[test]

@@ -9,15 +9,12 @@ use exr::prelude::f16;
 use glam::Vec3;
 
 use super::curved::gpu::CurvedReflections;
-use super::curved::{CurvedMode, CurvedSettings};
+use super::frame::{FramePasses, FrameViews, Rebuild};
 use super::gpu::{Gpu, GpuError, read_texture, read_texture_rgba8};
-use super::impostors::{ImpostorKind, ImpostorReflections, ReflectorSet, impostor_pass};
+use super::impostors::ImpostorReflections;
 use super::load::{LoadError, ViewData, load};
-use super::radiance_maps::Selection;
-use super::reflections::{
-    GeometryReflections, RecursionSettings, RecursiveReflections, ReflectanceSettings,
-    ReflectionMode, Source,
-};
+use super::options::{CurvedMode, CurvedSettings, ReflectionMode, ViewOptions};
+use super::reflections::{GeometryReflections, RecursiveReflections};
 use super::renderer::{COLOR_FORMAT, OffscreenTarget, RenderError, Renderer, TargetFormats};
 use super::replay::{
     FrameTiming, GpuTimeSource, Summary, TIMINGS_FORMAT, TIMINGS_VERSION, Timings, frame_file_name,
@@ -97,28 +94,8 @@ pub struct ReplayOptions {
     pub every: usize,
     /// Also write each written frame as a half-float linear EXR.
     pub hdr: bool,
-    /// Multiplies D before display.
-    pub exposure: f32,
-    /// Glossy planar reflections ([`ReflectionMode::Off`]: D only).
-    pub reflections: ReflectionMode,
-    /// Image-based mode: map selection.
-    pub selection: Selection,
-    /// Image-based mode: maps per reflector element.
-    pub map_count: usize,
-    /// Reflections: where R is read from (sphere or 1D map) and which channel.
-    pub reflectance: ReflectanceSettings,
-    /// Reflections of impostors in planar reflectors (Popescu §3–4; `--impostors`).
-    pub impostors: bool,
-    /// What stands for impostors: depth maps (SRDM) or billboards (`--impostor-kind`).
-    pub impostor_kind: ImpostorKind,
-    /// Curved reflectors ([`CurvedMode::Off`]: kd·D only).
-    pub curved: CurvedMode,
-    /// Curved reflectors: regular samples per pixel and lobe (0: one mirror lookup), cube-map
-    /// size and generations.
-    pub curved_settings: CurvedSettings,
-    /// Geometry mode: recursion depth and specular-weight cutoff (issue 10; depth 1 is the
-    /// single mirror pass of issue 9, other depths [`RecursiveReflections`]).
-    pub recursion: RecursionSettings,
+    /// What the frames show.
+    pub view: ViewOptions,
 }
 
 impl Default for ReplayOptions {
@@ -130,16 +107,7 @@ impl Default for ReplayOptions {
             out: None,
             every: 1,
             hdr: false,
-            exposure: 1.0,
-            reflections: ReflectionMode::Off,
-            selection: Selection::Angle,
-            map_count: 2,
-            reflectance: ReflectanceSettings::default(),
-            impostors: false,
-            impostor_kind: ImpostorKind::Srdm,
-            curved: CurvedMode::Off,
-            curved_settings: CurvedSettings::default(),
-            recursion: RecursionSettings::default(),
+            view: ViewOptions::default(),
         }
     }
 }
@@ -190,15 +158,6 @@ impl GpuTimer {
         })
     }
 
-    /// The first pass's writes: its beginning, and its end too when it is the only pass.
-    fn writes(&self, only_pass: bool) -> wgpu::RenderPassTimestampWrites<'_> {
-        wgpu::RenderPassTimestampWrites {
-            query_set: &self.queries,
-            beginning_of_pass_write_index: Some(0),
-            end_of_pass_write_index: only_pass.then_some(1),
-        }
-    }
-
     fn resolve(&self, encoder: &mut wgpu::CommandEncoder) {
         encoder.resolve_query_set(&self.queries, 0..2, &self.resolve, 0);
         encoder.copy_buffer_to_buffer(&self.resolve, 0, &self.readback, 0, 16);
@@ -237,36 +196,20 @@ pub struct FrameTimes {
     pub frame_ms: f64,
 }
 
-/// A renderer with an offscreen target: renders frames, times them, reads them back.
+/// A frame's passes with an offscreen target: renders frames, times them, reads them back.
 pub struct Offscreen {
-    /// The scene's renderer.
-    pub renderer: Renderer,
     /// The target frames go to.
     pub target: OffscreenTarget,
     timer: Option<GpuTimer>,
-    reflections: Option<GeometryReflections>,
-    mode: ReflectionMode,
-    /// Image-based mode: how radiance maps are selected (takes effect at the next
-    /// [`Offscreen::set_reflections`]).
-    pub selection: Selection,
-    /// Image-based mode: maps selected per reflector element (likewise).
-    pub map_count: usize,
-    /// Reflections: R's layout and channel (likewise).
-    pub reflectance: ReflectanceSettings,
-    impostors: Option<ImpostorReflections>,
-    curved: Option<CurvedReflections>,
-    /// Geometry mode's recursion (likewise): depth 1 uses [`GeometryReflections`], any other
-    /// depth [`RecursiveReflections`].
-    pub recursion: RecursionSettings,
-    recursive: Option<RecursiveReflections>,
-    curved_impostors: Option<ImpostorReflections>,
-    /// Depth maps or billboards (takes effect at the next [`Offscreen::set_impostors`] or
-    /// [`Offscreen::set_curved`]).
-    pub impostor_kind: ImpostorKind,
+    frame: FramePasses,
+    /// The options the next `set_*` call builds with (the reflection mode, impostors and
+    /// curved mode are set by those calls; the rest is read from here).
+    pub options: ViewOptions,
 }
 
 impl Offscreen {
-    /// A `width` × `height` offscreen renderer of `data` (with an HDR target when `hdr`).
+    /// A `width` × `height` offscreen renderer of `data` (with an HDR target when `hdr`),
+    /// drawing D only until a `set_*` call turns passes on.
     pub fn new(
         gpu: &Gpu,
         data: &ViewData,
@@ -274,32 +217,67 @@ impl Offscreen {
         height: u32,
         hdr: bool,
     ) -> Result<Offscreen, RenderError> {
-        let renderer = Renderer::new(
-            gpu,
-            &data.scene,
-            &data.map,
-            TargetFormats {
-                color: COLOR_FORMAT,
-                hdr,
-            },
-        )?;
         let target = OffscreenTarget::new(gpu, width, height, hdr)?;
+        let frame = FramePasses::scene_only(gpu, data, formats(hdr), (width, height))?;
         Ok(Offscreen {
-            renderer,
             target,
             timer: GpuTimer::new(gpu),
-            reflections: None,
-            mode: ReflectionMode::Off,
-            selection: Selection::Angle,
-            map_count: 2,
-            reflectance: ReflectanceSettings::default(),
-            impostors: None,
-            curved: None,
-            recursion: RecursionSettings::default(),
-            recursive: None,
-            curved_impostors: None,
-            impostor_kind: ImpostorKind::Srdm,
+            frame,
+            options: ViewOptions::default(),
         })
+    }
+
+    /// A `width` × `height` offscreen renderer of `data` with every pass `options` asks for.
+    pub fn with_options(
+        gpu: &Gpu,
+        data: &ViewData,
+        width: u32,
+        height: u32,
+        hdr: bool,
+        options: &ViewOptions,
+    ) -> Result<Offscreen, RenderError> {
+        let target = OffscreenTarget::new(gpu, width, height, hdr)?;
+        let frame = FramePasses::new(gpu, data, formats(hdr), (width, height), options)?;
+        Ok(Offscreen {
+            target,
+            timer: GpuTimer::new(gpu),
+            frame,
+            options: *options,
+        })
+    }
+
+    /// The scene pass.
+    pub fn renderer(&self) -> &Renderer {
+        self.frame.renderer()
+    }
+
+    /// The frame's passes.
+    pub fn frame(&self) -> &FramePasses {
+        &self.frame
+    }
+
+    /// Switches to `options`, rebuilding the passes whose inputs changed.
+    pub fn set_options(
+        &mut self,
+        gpu: &Gpu,
+        data: &ViewData,
+        options: &ViewOptions,
+    ) -> Result<(), RenderError> {
+        self.options = *options;
+        self.frame.set_options(gpu, data, options)
+    }
+
+    /// [`Offscreen::options`] with `change` applied, the passes of `groups` rebuilt.
+    fn apply(
+        &mut self,
+        gpu: &Gpu,
+        data: &ViewData,
+        change: impl FnOnce(&mut ViewOptions),
+        groups: Rebuild,
+    ) -> Result<(), RenderError> {
+        change(&mut self.options);
+        self.frame
+            .set_options_rebuilding(gpu, data, &self.options, groups)
     }
 
     /// Switches reflections of impostors in planar reflectors on or off (depth maps need the
@@ -310,23 +288,16 @@ impl Offscreen {
         data: &ViewData,
         on: bool,
     ) -> Result<(), RenderError> {
-        self.impostors = if on {
-            Some(impostor_pass(
-                gpu,
-                &self.renderer,
-                data,
-                self.impostor_kind,
-                ReflectorSet::Planar,
-            )?)
-        } else {
-            None
+        let groups = Rebuild {
+            impostors: true,
+            ..Rebuild::default()
         };
-        Ok(())
+        self.apply(gpu, data, |o| o.impostors = on, groups)
     }
 
     /// Uses `pass` for impostor reflections (benchmarks build it with other tables).
     pub fn set_impostor_pass(&mut self, pass: Option<ImpostorReflections>) {
-        self.impostors = pass;
+        self.frame.set_impostor_pass(pass);
     }
 
     /// Switches curved reflectors to `mode` with `settings`; building them renders their
@@ -338,104 +309,62 @@ impl Offscreen {
         mode: CurvedMode,
         settings: CurvedSettings,
     ) -> Result<(), RenderError> {
-        self.curved = None;
-        self.curved_impostors = None;
-        match mode {
-            CurvedMode::Off => {}
-            CurvedMode::Cubemap => {
-                self.curved = Some(CurvedReflections::new(gpu, &self.renderer, data, settings)?);
-            }
-            CurvedMode::Impostor => {
-                self.curved_impostors = Some(impostor_pass(
-                    gpu,
-                    &self.renderer,
-                    data,
-                    self.impostor_kind,
-                    ReflectorSet::Curved,
-                )?);
-            }
-        }
-        Ok(())
+        let groups = Rebuild {
+            curved: true,
+            ..Rebuild::default()
+        };
+        let change = |o: &mut ViewOptions| {
+            o.curved = mode;
+            o.curved_settings = settings;
+        };
+        self.apply(gpu, data, change, groups)
     }
 
     /// The impostor pass of curved reflectors (`--curved impostor`), if any.
     pub fn curved_impostors(&self) -> Option<&ImpostorReflections> {
-        self.curved_impostors.as_ref()
+        self.frame.curved_impostors()
     }
 
     /// The curved-reflector passes in use, if any.
     pub fn curved(&self) -> Option<&CurvedReflections> {
-        self.curved.as_ref()
+        self.frame.curved()
     }
 
     /// Switches glossy reflections to `mode` (built for this target's size). The image-based
-    /// mode needs the bundle's `radiance` stage.
+    /// mode needs the bundle's `radiance` stage; a recursion depth other than 1 needs
+    /// geometry reflections.
     pub fn set_reflections(
         &mut self,
         gpu: &Gpu,
         data: &ViewData,
         mode: ReflectionMode,
     ) -> Result<(), RenderError> {
-        self.mode = mode;
-        self.recursive = None;
-        if mode != ReflectionMode::Geometry && self.recursion.depth != 1 {
+        if mode != ReflectionMode::Geometry && self.options.recursion.depth != 1 {
             return Err(RenderError::Reflections(format!(
                 "recursion depth {} needs geometry reflections (reflections are {mode})",
-                self.recursion.depth
+                self.options.recursion.depth
             )));
         }
-        self.reflections = match mode {
-            ReflectionMode::Off => None,
-            ReflectionMode::Geometry if self.recursion.depth != 1 => {
-                self.recursive = Some(RecursiveReflections::new(
-                    gpu,
-                    &self.renderer,
-                    data,
-                    self.target.width,
-                    self.target.height,
-                    self.reflectance,
-                    self.recursion,
-                )?);
-                None
-            }
-            ReflectionMode::Geometry => Some(GeometryReflections::with_reflectance(
-                gpu,
-                &self.renderer,
-                data,
-                self.target.width,
-                self.target.height,
-                Source::Geometry,
-                self.reflectance,
-            )?),
-            ReflectionMode::Image => Some(GeometryReflections::with_reflectance(
-                gpu,
-                &self.renderer,
-                data,
-                self.target.width,
-                self.target.height,
-                Source::Image {
-                    selection: self.selection,
-                    count: self.map_count,
-                },
-                self.reflectance,
-            )?),
+        let groups = Rebuild {
+            planar: true,
+            ..Rebuild::default()
         };
-        Ok(())
+        self.apply(gpu, data, |o| o.reflections = mode, groups)
     }
 
-    /// The reflection passes in use (`None` when off).
+    /// The single planar reflection pass in use (`None` when off or recursive).
     pub fn reflections(&self) -> Option<&GeometryReflections> {
-        self.reflections.as_ref()
+        self.frame.planar()
     }
 
     /// The recursive reflection passes in use (geometry mode at a depth other than 1).
     pub fn recursive(&self) -> Option<&RecursiveReflections> {
-        self.recursive.as_ref()
+        self.frame.recursive()
     }
 
     /// The reflection mode in use.
     pub fn reflection_mode(&self) -> ReflectionMode {
-        self.mode
+        self.frame.options().reflections
     }
 
     /// How [`FrameTimes::gpu_ms`] is measured on this device.
@@ -451,70 +380,19 @@ impl Offscreen {
     pub fn render(&self, gpu: &Gpu, camera: &Camera) -> Result<FrameTimes, GpuError> {
         let start = Instant::now();
         let submission = super::gpu::error_scoped(&gpu.device, "rendering a frame", || {
-            self.renderer
-                .prepare(gpu, camera, self.target.width, self.target.height);
             let mut encoder = gpu
                 .device
                 .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                     label: Some("glint frame encoder"),
                 });
-            if let Some(r) = &self.recursive {
-                r.prepare(gpu, &self.renderer, camera, self.curved.as_ref());
-            }
-            let reflection_passes = self
-                .reflections
-                .as_ref()
-                .map_or(0, |r| r.pass_count(camera))
-                + self.recursive.as_ref().map_or(0, |r| r.pass_count());
-            self.target.draw(
-                &self.renderer,
+            self.frame.prepare(gpu, camera);
+            let (color, hdr, depth) = self.target.views();
+            self.frame.record(
                 &mut encoder,
-                self.timer
-                    .as_ref()
-                    .map(|t| t.writes(reflection_passes == 0)),
+                camera,
+                FrameViews { color, hdr, depth },
+                self.timer.as_ref().map(|t| &t.queries),
             );
-            if let Some(r) = &self.reflections {
-                r.prepare(gpu, &self.renderer, camera, self.curved.as_ref());
-                let (color, hdr, depth) = self.target.views();
-                // The last reflection pass ends the frame's timestamp span.
-                r.draw_timed(
-                    &mut encoder,
-                    &self.renderer,
-                    camera,
-                    color,
-                    hdr,
-                    depth,
-                    self.timer.as_ref().map(|t| (&t.queries, 1)),
-                    self.curved.as_ref(),
-                );
-            }
-            if let Some(r) = &self.impostors {
-                r.prepare(gpu, camera);
-                let (color, hdr, depth) = self.target.views();
-                r.draw(&mut encoder, color, hdr, depth);
-            }
-            if let Some(r) = &self.curved_impostors {
-                r.prepare(gpu, camera);
-                let (color, hdr, depth) = self.target.views();
-                r.draw(&mut encoder, color, hdr, depth);
-            }
-            if let Some(c) = &self.curved {
-                c.prepare(gpu, camera);
-                let (color, hdr, depth) = self.target.views();
-                c.draw(&mut encoder, color, hdr, depth);
-            }
-            if let Some(r) = &self.recursive {
-                let (color, hdr, depth) = self.target.views();
-                r.draw_timed(
-                    &mut encoder,
-                    &self.renderer,
-                    color,
-                    hdr,
-                    depth,
-                    self.timer.as_ref().map(|t| (&t.queries, 1)),
-                    self.curved.as_ref(),
-                );
-            }
             if let Some(t) = &self.timer {
                 t.resolve(&mut encoder);
             }
@@ -560,6 +438,14 @@ impl Offscreen {
                 .map(|t| Vec3::new(h(t[0]), h(t[1]), h(t[2])))
                 .collect(),
         ))
+    }
+}
+
+/// The offscreen target's formats: [`COLOR_FORMAT`], and HDR when asked for.
+fn formats(hdr: bool) -> TargetFormats {
+    TargetFormats {
+        color: COLOR_FORMAT,
+        hdr,
     }
 }
 
@@ -628,16 +514,14 @@ pub fn replay_with(
             source,
         })?;
     }
-    let mut offscreen = Offscreen::new(gpu, data, options.width, options.height, options.hdr)?;
-    offscreen.renderer.exposure = options.exposure;
-    offscreen.selection = options.selection;
-    offscreen.map_count = options.map_count;
-    offscreen.reflectance = options.reflectance;
-    offscreen.recursion = options.recursion;
-    offscreen.set_reflections(gpu, data, options.reflections)?;
-    offscreen.impostor_kind = options.impostor_kind;
-    offscreen.set_impostors(gpu, data, options.impostors)?;
-    offscreen.set_curved(gpu, data, options.curved, options.curved_settings)?;
+    let offscreen = Offscreen::with_options(
+        gpu,
+        data,
+        options.width,
+        options.height,
+        options.hdr,
+        &options.view,
+    )?;
     let frames = schedule(path).map_err(|message| ViewError::PathTooLong {
         bundle: bundle.clone(),
         message,

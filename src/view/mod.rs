@@ -1,8 +1,14 @@
 //! The wgpu viewer: a bundle's scene lit by its radiosity textures, in a window or headless.
+//! Everything but [`options`] needs the `view` feature.
 //!
+//! - [`options`]: [`options::ViewOptions`], what a frame shows, and its command-line form.
+//! - [`frame`]: every pass of a frame built from the options, recorded in one fixed order.
 //! - [`load`]: bundle → scene + radiosity map, every check done first (clear errors, no panics).
 //! - [`bicubic`]: the cubic B-spline reconstruction of D, on the CPU (mirrored in the shader).
-//! - [`renderer`]: the wgpu pipeline (`shaders/view.wgsl`) and offscreen targets.
+//! - [`renderer`]: the scene pass (`shaders/view.wgsl`): kd·D from the radiosity textures.
+//! - [`radiosity_textures`]: D's atlas pages as a GPU texture array.
+//! - [`target`]: target formats, the offscreen target, depth and blend state every pass shares.
+//! - [`build`]: builders of render pipelines, bind-group layouts and buffers.
 //! - [`headless`]: offscreen frames, headless replay of camera paths with timings.
 //! - [`replay`]: frame scheduling and timing statistics (pure).
 //! - [`cpu_render`]: the CPU reference of a frame, for golden-image tests.
@@ -18,18 +24,42 @@
 //! - [`gpu`]: adapter and device selection, readback.
 //! - [`wgsl_layout`]: the test that a `repr(C)` struct has its WGSL twin's layout (naga).
 
+#[cfg(feature = "view")]
 pub mod bicubic;
+#[cfg(feature = "view")]
 pub mod billboard_tables;
+#[cfg(feature = "view")]
+pub mod build;
+#[cfg(feature = "view")]
 pub mod cpu_render;
+#[cfg(feature = "view")]
 pub mod curved;
+#[cfg(feature = "view")]
+pub mod frame;
+#[cfg(feature = "view")]
 pub mod gpu;
+#[cfg(feature = "view")]
 pub mod headless;
+#[cfg(feature = "view")]
 pub mod impostor_tables;
+#[cfg(feature = "view")]
 pub mod impostors;
+#[cfg(feature = "view")]
 pub mod load;
+pub mod options;
+#[cfg(feature = "view")]
 pub mod radiance_maps;
+#[cfg(feature = "view")]
+pub mod radiosity_textures;
+#[cfg(feature = "view")]
 pub mod reflections;
+#[cfg(feature = "view")]
 pub mod renderer;
+#[cfg(feature = "view")]
 pub mod replay;
+#[cfg(feature = "view")]
+pub mod target;
+#[cfg(feature = "view")]
 pub mod wgsl_layout;
+#[cfg(feature = "view")]
 pub mod window;

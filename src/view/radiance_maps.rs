@@ -18,27 +18,7 @@ use glam::Vec3;
 pub use crate::radiance::index::{CamerasFile, MapEntry, load_cameras};
 use crate::radiance::sampling::MapCamera;
 
-/// How maps are selected for the reflected view.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Selection {
-    /// Smallest angle, at the element's centre, between the map's centre of projection and
-    /// the mirrored eye (Bastos's default).
-    #[default]
-    Angle,
-    /// Smallest distance from the map's centre of projection to the mirrored eye.
-    Distance,
-}
-
-impl std::str::FromStr for Selection {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "angle" => Ok(Selection::Angle),
-            "distance" => Ok(Selection::Distance),
-            _ => Err(format!("{s:?} is not one of angle, distance")),
-        }
-    }
-}
+pub use crate::view::options::Selection;
 
 /// Centre of a map's element.
 pub fn element_centre(view: &MapCamera) -> Vec3 {

@@ -1,4 +1,6 @@
-//! The wgpu pipeline that draws a scene lit by its radiosity textures.
+//! The scene pass: the wgpu pipeline that draws a scene lit by its radiosity textures.
+//! What every pass shares (formats, targets, depth and blend state) is in
+//! [`super::target`], the wgpu builders in [`super::build`].
 //!
 //! - One indexed draw for the whole scene ([`SceneMesh`]): a vertex is a position, lightmap
 //!   coordinates in texels of its atlas page, and the page ([`Vertex`]); corners that agree on
@@ -14,10 +16,15 @@
 //! - No back-face culling: the CPU reference's ray casts see both faces too.
 
 use bytemuck::{Pod, Zeroable};
-use exr::prelude::f16;
 use glam::{Mat4, Vec2, Vec3, Vec4};
 
+use super::build::{bind_group_layout, buffer, buffer_init, render_pipeline};
 use super::gpu::{Gpu, GpuError, error_scoped, probe_io_layout, run_probe};
+pub use super::radiosity_textures::RadiosityTextures;
+pub use super::target::{
+    ADDITIVE_KEEP_ALPHA, COLOR_FORMAT, DEPTH_FORMAT, HDR_FORMAT, OffscreenTarget, TargetFormats,
+    depth_texture, overlay_pass, reverse_z_depth,
+};
 use crate::camera::Camera;
 use crate::radiosity::RadiosityMap;
 use crate::radiosity::atlas::Atlas;
@@ -25,29 +32,6 @@ use crate::scene::Scene;
 
 /// WGSL source of the viewer's shaders.
 pub const SHADER_SOURCE: &str = include_str!("../../shaders/view.wgsl");
-
-/// Offscreen colour target format: the hardware encodes linear output to sRGB.
-pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
-
-/// Format of the optional HDR target (linear radiance) and of the radiosity textures.
-pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
-
-/// Depth buffer format.
-pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
-
-/// Depth state of every pass: reverse-Z (nearer is greater) on [`DEPTH_FORMAT`].
-pub(crate) fn reverse_z_depth(
-    write: bool,
-    compare: wgpu::CompareFunction,
-) -> wgpu::DepthStencilState {
-    wgpu::DepthStencilState {
-        format: DEPTH_FORMAT,
-        depth_write_enabled: Some(write),
-        depth_compare: Some(compare),
-        stencil: wgpu::StencilState::default(),
-        bias: wgpu::DepthBiasState::default(),
-    }
-}
 
 /// Near plane as a fraction of the scene's bounding-box diagonal (the far plane is at
 /// infinity; reverse Z keeps depth precision even this close).
@@ -103,21 +87,6 @@ pub(crate) fn scene_vertex_layout() -> wgpu::VertexBufferLayout<'static> {
         attributes: &VERTEX_ATTRIBUTES,
     }
 }
-
-/// Adds a pass's colour to the target and keeps the target's alpha (reflections, curved and
-/// impostor passes drawn over the scene; a reflection map's alpha is read by its composite).
-pub(crate) const ADDITIVE_KEEP_ALPHA: wgpu::BlendState = wgpu::BlendState {
-    color: wgpu::BlendComponent {
-        src_factor: wgpu::BlendFactor::One,
-        dst_factor: wgpu::BlendFactor::One,
-        operation: wgpu::BlendOperation::Add,
-    },
-    alpha: wgpu::BlendComponent {
-        src_factor: wgpu::BlendFactor::Zero,
-        dst_factor: wgpu::BlendFactor::One,
-        operation: wgpu::BlendOperation::Add,
-    },
-};
 
 /// Why the scene cannot be drawn on this device.
 #[derive(Debug, thiserror::Error)]
@@ -223,163 +192,15 @@ pub fn near_plane(scene: &Scene) -> f32 {
     (scene.bounds.diagonal() * NEAR_FRACTION).max(1e-6)
 }
 
-/// The radiosity pages on the GPU: a texture array with its sampler.
-pub struct RadiosityTextures {
-    /// The `Rgba16Float` texture array, one layer per page.
-    pub texture: wgpu::Texture,
-    view: wgpu::TextureView,
-    sampler: wgpu::Sampler,
-    /// Layer size in texels (the largest page's width and height).
-    pub layer_size: [u32; 2],
-}
-
-impl RadiosityTextures {
-    /// Uploads every page of `map`, padded to the largest page by repeating edge texels.
-    pub fn upload(gpu: &Gpu, map: &RadiosityMap) -> Result<RadiosityTextures, RenderError> {
-        let pages = &map.atlas.pages;
-        let width = pages.iter().map(|p| p.width).max().unwrap_or(1).max(1);
-        let height = pages.iter().map(|p| p.height).max().unwrap_or(1).max(1);
-        let layers = (pages.len() as u32).max(1);
-        let limits = gpu.device.limits();
-        if width > limits.max_texture_dimension_2d
-            || height > limits.max_texture_dimension_2d
-            || layers > limits.max_texture_array_layers
-        {
-            return Err(RenderError::AtlasTooLarge {
-                width,
-                height,
-                layers,
-                max_side: limits.max_texture_dimension_2d,
-                max_layers: limits.max_texture_array_layers,
-            });
-        }
-        let textures = error_scoped(&gpu.device, "uploading the radiosity textures", || {
-            let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("glint radiosity pages"),
-                size: wgpu::Extent3d {
-                    width,
-                    height,
-                    depth_or_array_layers: layers,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: HDR_FORMAT,
-                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                view_formats: &[],
-            });
-            for (layer, (size, texels)) in pages.iter().zip(&map.pages).enumerate() {
-                let bytes = padded_layer(texels, size.width, size.height, width, height);
-                gpu.queue.write_texture(
-                    wgpu::TexelCopyTextureInfo {
-                        texture: &texture,
-                        mip_level: 0,
-                        origin: wgpu::Origin3d {
-                            x: 0,
-                            y: 0,
-                            z: layer as u32,
-                        },
-                        aspect: wgpu::TextureAspect::All,
-                    },
-                    bytemuck::cast_slice(&bytes),
-                    wgpu::TexelCopyBufferLayout {
-                        offset: 0,
-                        bytes_per_row: Some(width * 8),
-                        rows_per_image: Some(height),
-                    },
-                    wgpu::Extent3d {
-                        width,
-                        height,
-                        depth_or_array_layers: 1,
-                    },
-                );
-            }
-            let view = texture.create_view(&wgpu::TextureViewDescriptor {
-                label: Some("glint radiosity pages view"),
-                dimension: Some(wgpu::TextureViewDimension::D2Array),
-                ..Default::default()
-            });
-            let sampler = gpu.device.create_sampler(&wgpu::SamplerDescriptor {
-                label: Some("glint radiosity sampler"),
-                address_mode_u: wgpu::AddressMode::ClampToEdge,
-                address_mode_v: wgpu::AddressMode::ClampToEdge,
-                address_mode_w: wgpu::AddressMode::ClampToEdge,
-                mag_filter: wgpu::FilterMode::Linear,
-                min_filter: wgpu::FilterMode::Linear,
-                mipmap_filter: wgpu::MipmapFilterMode::Nearest,
-                ..Default::default()
-            });
-            RadiosityTextures {
-                texture,
-                view,
-                sampler,
-                layer_size: [width, height],
-            }
-        })?;
-        Ok(textures)
-    }
-}
-
-/// A page as half-float RGBA texels, `layer_w` × `layer_h`, edge texels repeated beyond the
-/// page. An empty or short page gives black.
-fn padded_layer(texels: &[Vec3], w: u32, h: u32, layer_w: u32, layer_h: u32) -> Vec<u16> {
-    let mut out = Vec::with_capacity((layer_w * layer_h * 4) as usize);
-    let one = f16::from_f32(1.0).to_bits();
-    for y in 0..layer_h {
-        for x in 0..layer_w {
-            let v = if w == 0 || h == 0 {
-                Vec3::ZERO
-            } else {
-                let (xi, yi) = (x.min(w - 1) as usize, y.min(h - 1) as usize);
-                texels
-                    .get(yi * w as usize + xi)
-                    .copied()
-                    .unwrap_or(Vec3::ZERO)
-            };
-            out.extend(v.to_array().map(|c| f16::from_f32(c).to_bits()));
-            out.push(one);
-        }
-    }
-    out
-}
-
 /// Bind group 0 of every entry point: the frame uniforms, the pages and their sampler.
 pub(crate) fn frame_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let visibility =
         wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
-    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("glint frame bind group layout"),
-        entries: &[
-            wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: false,
-                    min_binding_size: wgpu::BufferSize::new(
-                        std::mem::size_of::<FrameUniforms>() as u64
-                    ),
-                },
-                count: None,
-            },
-            wgpu::BindGroupLayoutEntry {
-                binding: 1,
-                visibility,
-                ty: wgpu::BindingType::Texture {
-                    sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                    view_dimension: wgpu::TextureViewDimension::D2Array,
-                    multisampled: false,
-                },
-                count: None,
-            },
-            wgpu::BindGroupLayoutEntry {
-                binding: 2,
-                visibility,
-                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                count: None,
-            },
-        ],
-    })
+    bind_group_layout()
+        .uniform::<FrameUniforms>(0, visibility)
+        .texture(1, visibility, wgpu::TextureViewDimension::D2Array, true)
+        .sampler(2, visibility)
+        .build(device, "glint frame bind group layout")
 }
 
 pub(crate) fn frame_bind_group(
@@ -408,22 +229,14 @@ pub(crate) fn frame_bind_group(
     })
 }
 
+/// The frame uniforms' buffer ([`FrameUniforms`]).
 pub(crate) fn uniform_buffer(device: &wgpu::Device) -> wgpu::Buffer {
-    device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("glint frame uniforms"),
-        size: std::mem::size_of::<FrameUniforms>() as u64,
-        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    })
-}
-
-/// Target formats of a [`Renderer`]'s pipeline.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct TargetFormats {
-    /// The display colour target. When it is not an sRGB format the shader encodes sRGB.
-    pub color: wgpu::TextureFormat,
-    /// Whether an [`HDR_FORMAT`] target receives linear radiance too.
-    pub hdr: bool,
+    buffer(
+        device,
+        "glint frame uniforms",
+        std::mem::size_of::<FrameUniforms>() as u64,
+        wgpu::BufferUsages::UNIFORM,
+    )
 }
 
 /// The scene on the GPU and the pipeline that draws it.
@@ -469,62 +282,32 @@ impl Renderer {
             let bind_group_layout = frame_bind_group_layout(device);
             let uniforms = uniform_buffer(device);
             let bind_group = frame_bind_group(device, &bind_group_layout, &uniforms, &textures);
-            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("glint view pipeline layout"),
-                bind_group_layouts: &[Some(&bind_group_layout)],
-                immediate_size: 0,
-            });
-            let color_target = wgpu::ColorTargetState {
-                format: formats.color,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            };
             let hdr_target = formats.hdr.then_some(wgpu::ColorTargetState {
                 format: HDR_FORMAT,
                 blend: None,
                 write_mask: wgpu::ColorWrites::ALL,
             });
-            let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("glint view pipeline"),
-                layout: Some(&layout),
-                vertex: wgpu::VertexState {
-                    module: &shader,
-                    entry_point: Some("vs_main"),
-                    compilation_options: wgpu::PipelineCompilationOptions::default(),
-                    buffers: &[Some(scene_vertex_layout())],
-                },
-                primitive: wgpu::PrimitiveState {
-                    topology: wgpu::PrimitiveTopology::TriangleList,
-                    cull_mode: None,
-                    ..Default::default()
-                },
-                depth_stencil: Some(reverse_z_depth(true, wgpu::CompareFunction::Greater)),
-                multisample: wgpu::MultisampleState::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &shader,
-                    entry_point: Some("fs_main"),
-                    compilation_options: wgpu::PipelineCompilationOptions::default(),
-                    targets: &[Some(color_target), hdr_target],
-                }),
-                multiview_mask: None,
-                cache: None,
-            });
-            let vertex_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("glint scene vertices"),
-                size: bytes.max(std::mem::size_of::<Vertex>() as u64),
-                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            });
-            gpu.queue
-                .write_buffer(&vertex_buffer, 0, bytemuck::cast_slice(&mesh.vertices));
-            let index_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("glint scene indices"),
-                size: index_bytes.max(4),
-                usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            });
-            gpu.queue
-                .write_buffer(&index_buffer, 0, bytemuck::cast_slice(&mesh.indices));
+            let pipeline = render_pipeline("glint view pipeline", &shader, "vs_main", "fs_main")
+                .layouts(&[&bind_group_layout])
+                .vertex(scene_vertex_layout())
+                .depth(reverse_z_depth(true, wgpu::CompareFunction::Greater))
+                .color(formats.color, None)
+                .target(hdr_target)
+                .build(device);
+            let vertex_buffer = buffer_init(
+                gpu,
+                "glint scene vertices",
+                wgpu::BufferUsages::VERTEX,
+                bytemuck::cast_slice(&mesh.vertices),
+                std::mem::size_of::<Vertex>() as u64,
+            );
+            let index_buffer = buffer_init(
+                gpu,
+                "glint scene indices",
+                wgpu::BufferUsages::INDEX,
+                bytemuck::cast_slice(&mesh.indices),
+                4,
+            );
             (pipeline, bind_group, uniforms, vertex_buffer, index_buffer)
         })?;
         let (pipeline, bind_group, uniforms, vertex_buffer, index_buffer) = renderer;
@@ -635,153 +418,6 @@ impl Renderer {
     }
 }
 
-/// Begins a pass that draws over a finished frame: it loads and keeps `color`, `hdr` (when
-/// given) and `depth`, so its fragments add to the scene and are depth tested against it.
-/// With `end_timestamp` (query set, index), the pass writes its end time there.
-pub fn overlay_pass<'e>(
-    encoder: &'e mut wgpu::CommandEncoder,
-    label: &str,
-    color: &wgpu::TextureView,
-    hdr: Option<&wgpu::TextureView>,
-    depth: &wgpu::TextureView,
-    end_timestamp: Option<(&wgpu::QuerySet, u32)>,
-) -> wgpu::RenderPass<'e> {
-    let load = |view| {
-        Some(wgpu::RenderPassColorAttachment {
-            view,
-            depth_slice: None,
-            resolve_target: None,
-            ops: wgpu::Operations {
-                load: wgpu::LoadOp::Load,
-                store: wgpu::StoreOp::Store,
-            },
-        })
-    };
-    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some(label),
-        color_attachments: &[load(color), hdr.and_then(load)],
-        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-            view: depth,
-            depth_ops: Some(wgpu::Operations {
-                load: wgpu::LoadOp::Load,
-                store: wgpu::StoreOp::Store,
-            }),
-            stencil_ops: None,
-        }),
-        timestamp_writes: end_timestamp.map(|(query_set, index)| wgpu::RenderPassTimestampWrites {
-            query_set,
-            beginning_of_pass_write_index: None,
-            end_of_pass_write_index: Some(index),
-        }),
-        occlusion_query_set: None,
-        multiview_mask: None,
-    })
-}
-
-/// A depth buffer for a `width` × `height` target.
-pub fn depth_texture(gpu: &Gpu, width: u32, height: u32) -> wgpu::Texture {
-    gpu.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("glint depth"),
-        size: wgpu::Extent3d {
-            width,
-            height,
-            depth_or_array_layers: 1,
-        },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format: DEPTH_FORMAT,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-        view_formats: &[],
-    })
-}
-
-/// An offscreen target: colour (readable), optional HDR (readable) and depth.
-pub struct OffscreenTarget {
-    /// Width in pixels.
-    pub width: u32,
-    /// Height in pixels.
-    pub height: u32,
-    /// [`COLOR_FORMAT`] colour.
-    pub color: wgpu::Texture,
-    /// [`HDR_FORMAT`] linear radiance, when asked for.
-    pub hdr: Option<wgpu::Texture>,
-    /// The depth buffer (drawn through `depth_view`; held so the target owns what it uses).
-    _depth: wgpu::Texture,
-    color_view: wgpu::TextureView,
-    hdr_view: Option<wgpu::TextureView>,
-    depth_view: wgpu::TextureView,
-}
-
-impl OffscreenTarget {
-    /// Creates the textures; checks the size against the device's limit.
-    pub fn new(gpu: &Gpu, width: u32, height: u32, hdr: bool) -> Result<OffscreenTarget, GpuError> {
-        let max = gpu.device.limits().max_texture_dimension_2d;
-        if width == 0 || height == 0 || width > max || height > max {
-            return Err(GpuError::InvalidSize { width, height, max });
-        }
-        error_scoped(&gpu.device, "creating the offscreen target", || {
-            let colour = |format, label| {
-                gpu.device.create_texture(&wgpu::TextureDescriptor {
-                    label: Some(label),
-                    size: wgpu::Extent3d {
-                        width,
-                        height,
-                        depth_or_array_layers: 1,
-                    },
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
-                    format,
-                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-                    view_formats: &[],
-                })
-            };
-            let color = colour(COLOR_FORMAT, "glint offscreen colour");
-            let hdr = hdr.then(|| colour(HDR_FORMAT, "glint offscreen hdr"));
-            let depth = depth_texture(gpu, width, height);
-            let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
-            OffscreenTarget {
-                width,
-                height,
-                color_view: view(&color),
-                hdr_view: hdr.as_ref().map(view),
-                depth_view: view(&depth),
-                color,
-                hdr,
-                _depth: depth,
-            }
-        })
-    }
-
-    /// The colour, optional HDR and depth views (for passes drawn after the scene's).
-    pub(crate) fn views(
-        &self,
-    ) -> (
-        &wgpu::TextureView,
-        Option<&wgpu::TextureView>,
-        &wgpu::TextureView,
-    ) {
-        (&self.color_view, self.hdr_view.as_ref(), &self.depth_view)
-    }
-
-    /// Records `renderer`'s pass into this target.
-    pub fn draw(
-        &self,
-        renderer: &Renderer,
-        encoder: &mut wgpu::CommandEncoder,
-        timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
-    ) {
-        renderer.draw(
-            encoder,
-            &self.color_view,
-            self.hdr_view.as_ref(),
-            &self.depth_view,
-            timestamps,
-        );
-    }
-}
-
 /// Reconstructs D at each of `points` (lightmap coordinates in texels, page) with the shader's
 /// `sample_radiosity`, in a compute pass: what the fragment shader sees. For tests that hold
 /// the WGSL filter to [`super::bicubic::bspline`].
@@ -858,26 +494,9 @@ mod tests {
 
     /// Size and member offsets of a struct of `shaders/view.wgsl`, by naga's layouter.
     fn wgsl_layout(name: &str) -> (u32, Vec<(String, u32)>) {
-        let module = naga::front::wgsl::parse_str(SHADER_SOURCE).expect("view.wgsl parses");
-        let mut layouter = naga::proc::Layouter::default();
-        layouter
-            .update(module.to_ctx())
-            .expect("view.wgsl has a layout");
-        let (handle, ty) = module
-            .types
-            .iter()
-            .find(|(_, t)| t.name.as_deref() == Some(name))
-            .unwrap_or_else(|| panic!("no struct {name} in view.wgsl"));
-        let naga::TypeInner::Struct { members, .. } = &ty.inner else {
-            panic!("{name} is not a struct");
-        };
-        (
-            layouter[handle].size,
-            members
-                .iter()
-                .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
-                .collect(),
-        )
+        let (size, members) = crate::view::build::wgsl_struct(SHADER_SOURCE, name);
+        let members = members.into_iter().map(|(n, o)| (n, o as u32)).collect();
+        (size as u32, members)
     }
 
     #[test]
@@ -965,21 +584,5 @@ mod tests {
             let depth = clip.z / clip.w;
             assert!(depth > 0.0 && depth < 1.0, "reverse-Z depth {depth}");
         }
-    }
-
-    #[test]
-    fn layers_are_padded_by_repeating_edges() {
-        let texels = [
-            Vec3::new(1.0, 0.0, 0.0),
-            Vec3::new(2.0, 0.0, 0.0),
-            Vec3::new(3.0, 0.0, 0.0),
-            Vec3::new(4.0, 0.0, 0.0),
-        ];
-        let out = padded_layer(&texels, 2, 2, 3, 3);
-        let red: Vec<f32> = out
-            .chunks(4)
-            .map(|t| f16::from_bits(t[0]).to_f32())
-            .collect();
-        assert_eq!(red, [1.0, 2.0, 2.0, 3.0, 4.0, 4.0, 3.0, 4.0, 4.0]);
     }
 }

@@ -77,35 +77,7 @@ pub fn load_tables(data: &ViewData) -> Result<Option<SrdmTables>, String> {
     Ok(Some(SrdmTables::pack(&sources)))
 }
 
-/// What stands for an impostor object in reflections (`--impostor-kind`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum ImpostorKind {
-    /// Depth-map impostors through their SRDM rows (§4.3; the bundle's `srdm` stage).
-    #[default]
-    Srdm,
-    /// Reflected billboards, one per object and reflector (§3), made at load time.
-    Billboard,
-}
-
-impl std::str::FromStr for ImpostorKind {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "srdm" => Ok(ImpostorKind::Srdm),
-            "billboard" => Ok(ImpostorKind::Billboard),
-            _ => Err(format!("{s:?} is not one of srdm, billboard")),
-        }
-    }
-}
-
-impl std::fmt::Display for ImpostorKind {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            ImpostorKind::Srdm => "srdm",
-            ImpostorKind::Billboard => "billboard",
-        })
-    }
-}
+pub use crate::view::options::ImpostorKind;
 
 /// Which reflectors the pass draws.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -37,66 +37,7 @@ pub const MAX_TAPS: usize = 128;
 /// Fraction of the kernel's weight its kept taps must hold.
 pub const KERNEL_MASS: f32 = 0.99;
 
-/// Which reflectance map R is read from.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum ReflectanceLayout {
-    /// The 1D map, texels dense towards grazing (isotropic lobes; Bastos §9).
-    #[default]
-    OneD,
-    /// The sphere map, indexed by the reflected direction (Bastos §8.2.2).
-    Sphere,
-}
-
-impl std::str::FromStr for ReflectanceLayout {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "1d" => Ok(ReflectanceLayout::OneD),
-            "sphere" => Ok(ReflectanceLayout::Sphere),
-            _ => Err(format!("{s:?} is not one of sphere, 1d")),
-        }
-    }
-}
-
-impl std::fmt::Display for ReflectanceLayout {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            ReflectanceLayout::OneD => "1d",
-            ReflectanceLayout::Sphere => "sphere",
-        })
-    }
-}
-
-/// Which channel of the reflectance maps modulates the reflection.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum ReflectanceChannel {
-    /// `A`, the directional albedo: energy-consistent with a kernel normalized to 1.
-    #[default]
-    Albedo,
-    /// `R` = F/(π cos²θ), Bastos's modulation as printed (grows as 1/cos²θ towards grazing).
-    Bastos,
-}
-
-impl ReflectanceChannel {
-    /// The EXR channel name.
-    pub fn exr_channel(self) -> &'static str {
-        match self {
-            ReflectanceChannel::Albedo => "A",
-            ReflectanceChannel::Bastos => "R",
-        }
-    }
-}
-
-impl std::str::FromStr for ReflectanceChannel {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "albedo" => Ok(ReflectanceChannel::Albedo),
-            "bastos" => Ok(ReflectanceChannel::Bastos),
-            _ => Err(format!("{s:?} is not one of albedo, bastos")),
-        }
-    }
-}
+pub use crate::view::options::{ReflectanceChannel, ReflectanceLayout};
 
 /// ks·R of a reflector, in one of the two layouts.
 #[derive(Clone, Debug, PartialEq)]

@@ -53,48 +53,7 @@ pub const REFLECT_SHADER_SOURCE: &str = include_str!("../../../shaders/reflect.w
 /// geometry closer to the plane than this (the reflector itself) is not reflected.
 pub const CLIP_FRACTION: f32 = 1e-3;
 
-/// How the viewer draws glossy reflections.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum ReflectionMode {
-    /// Diffuse D only.
-    #[default]
-    Off,
-    /// The mirrored scene re-rendered per reflector (render to texture).
-    Geometry,
-    /// From the baked radiance maps (Bastos §8.1.3), splatted.
-    Image,
-}
-
-impl std::str::FromStr for ReflectionMode {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "off" => Ok(ReflectionMode::Off),
-            "geometry" => Ok(ReflectionMode::Geometry),
-            "image" => Ok(ReflectionMode::Image),
-            _ => Err(format!("{s:?} is not one of image, geometry, off")),
-        }
-    }
-}
-
-impl std::fmt::Display for ReflectionMode {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            ReflectionMode::Off => "off",
-            ReflectionMode::Geometry => "geometry",
-            ReflectionMode::Image => "image",
-        })
-    }
-}
-
-/// Where R comes from and which of its channels.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct ReflectanceSettings {
-    /// Sphere map or 1D map.
-    pub layout: ReflectanceLayout,
-    /// `A` (directional albedo, the default) or `R` (Bastos's F/(π cos²θ)).
-    pub channel: ReflectanceChannel,
-}
+pub use crate::view::options::{ReflectanceSettings, ReflectionMode};
 
 /// Where the reflected image M comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -255,40 +214,27 @@ pub fn mirror_camera(camera: &Camera, plane: &Plane) -> Camera {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use wgpu::naga;
 
     #[test]
     fn reflect_params_match_the_wgsl_struct() {
-        let module = naga::front::wgsl::parse_str(&shader_source()).expect("reflect.wgsl parses");
-        let mut layouter = naga::proc::Layouter::default();
-        layouter.update(module.to_ctx()).unwrap();
-        let (handle, ty) = module
-            .types
-            .iter()
-            .find(|(_, t)| t.name.as_deref() == Some("ReflectParams"))
-            .unwrap();
-        let naga::TypeInner::Struct { members, .. } = &ty.inner else {
-            panic!()
-        };
-        assert_eq!(
-            layouter[handle].size as usize,
-            std::mem::size_of::<ReflectParams>()
-        );
-        let offsets = [
-            std::mem::offset_of!(ReflectParams, plane),
-            std::mem::offset_of!(ReflectParams, ks),
-            std::mem::offset_of!(ReflectParams, eye),
-            std::mem::offset_of!(ReflectParams, tangent),
-            std::mem::offset_of!(ReflectParams, bitangent),
-            std::mem::offset_of!(ReflectParams, kernel),
-            std::mem::offset_of!(ReflectParams, parent),
-            std::mem::offset_of!(ReflectParams, modulation),
-            std::mem::offset_of!(ReflectParams, taps),
+        let (size, members) = crate::view::build::wgsl_struct(&shader_source(), "ReflectParams");
+        assert_eq!(size, std::mem::size_of::<ReflectParams>());
+        let want = [
+            ("plane", std::mem::offset_of!(ReflectParams, plane)),
+            ("ks", std::mem::offset_of!(ReflectParams, ks)),
+            ("eye", std::mem::offset_of!(ReflectParams, eye)),
+            ("tangent", std::mem::offset_of!(ReflectParams, tangent)),
+            ("bitangent", std::mem::offset_of!(ReflectParams, bitangent)),
+            ("kernel", std::mem::offset_of!(ReflectParams, kernel)),
+            ("parent", std::mem::offset_of!(ReflectParams, parent)),
+            (
+                "modulation",
+                std::mem::offset_of!(ReflectParams, modulation),
+            ),
+            ("taps", std::mem::offset_of!(ReflectParams, taps)),
         ];
-        assert_eq!(members.len(), offsets.len());
-        for (m, o) in members.iter().zip(offsets) {
-            assert_eq!(m.offset as usize, o, "{:?}", m.name);
-        }
+        let got: Vec<(&str, usize)> = members.iter().map(|(n, o)| (n.as_str(), *o)).collect();
+        assert_eq!(got, want);
     }
 
     #[test]

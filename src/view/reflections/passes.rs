@@ -1,6 +1,9 @@
 //! The reflection passes on the GPU (`shaders/reflect.wgsl`): the mirror pass (geometry
 //! re-rendered, or radiance-map splats) into M, and the composite that adds ks·(M*K)·R over
 //! the reflector. The math they use lives in [`super::splats`] and [`super::material`].
+//!
+//! One concept over 700 lines: the mirror, splat and composite passes share one per-reflector
+//! GPU state (params, M, splat tables) built and recorded together.
 
 use std::sync::Mutex;
 
@@ -16,13 +19,14 @@ use super::{
 use crate::camera::Camera;
 use crate::materials::reflectance;
 use crate::radiance::index::{MapEntry, load_cameras, read_map};
+use crate::view::build::{LayoutBuilder, bind_group_layout, buffer, buffer_init, render_pipeline};
 use crate::view::curved::gpu::CurvedReflections;
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
 use crate::view::radiance_maps::select;
 use crate::view::renderer::{
-    HDR_FORMAT, RenderError, Renderer, frame_bind_group, frame_bind_group_layout, reverse_z_depth,
-    uniform_buffer,
+    ADDITIVE_KEEP_ALPHA, HDR_FORMAT, RenderError, Renderer, frame_bind_group,
+    frame_bind_group_layout, reverse_z_depth, scene_vertex_layout, uniform_buffer,
 };
 
 /// The parent clip of a composite that clips nothing ([`ReflectParams::parent`]).
@@ -156,20 +160,19 @@ fn load_splat_maps(gpu: &Gpu, data: &ViewData, reflector: &str) -> Result<SplatM
         trees.push((tree, node_base));
         node_base += count;
     }
-    let instances = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("glint radiance-map splats"),
-        size: (std::mem::size_of_val(all.as_slice()) as u64).max(32),
-        usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    gpu.queue
-        .write_buffer(&instances, 0, bytemuck::cast_slice(&all));
-    let nodes = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("glint quadtree node params"),
-        size: (node_base as u64 * std::mem::size_of::<NodeParams>() as u64).max(16),
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
+    let instances = buffer_init(
+        gpu,
+        "glint radiance-map splats",
+        wgpu::BufferUsages::VERTEX,
+        bytemuck::cast_slice(&all),
+        32,
+    );
+    let nodes = buffer(
+        &gpu.device,
+        "glint quadtree node params",
+        (node_base as u64 * std::mem::size_of::<NodeParams>() as u64).max(16),
+        wgpu::BufferUsages::STORAGE,
+    );
     Ok(SplatMaps {
         maps: cams.maps,
         trees,
@@ -320,141 +323,44 @@ impl GeometryReflections {
                 source: wgpu::ShaderSource::Wgsl(shader_source().into()),
             });
             let frame_layout = frame_bind_group_layout(device);
-            let params_entry = params_layout_entry();
-            let mirror_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("glint mirror params layout"),
-                entries: &[params_entry],
-            });
-            let splat_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("glint splat params layout"),
-                entries: &[
-                    params_entry,
-                    wgpu::BindGroupLayoutEntry {
-                        binding: 6,
-                        visibility: wgpu::ShaderStages::VERTEX,
-                        ty: wgpu::BindingType::Buffer {
-                            ty: wgpu::BufferBindingType::Storage { read_only: true },
-                            has_dynamic_offset: false,
-                            min_binding_size: None,
-                        },
-                        count: None,
-                    },
-                ],
-            });
+            let mirror_layout = params_layout().build(device, "glint mirror params layout");
+            let splat_layout = params_layout()
+                .storage(6, wgpu::ShaderStages::VERTEX)
+                .build(device, "glint splat params layout");
             let composite_layout =
                 composite_bind_group_layout(device, "glint composite params layout");
-            let pipeline_layout = |params: &wgpu::BindGroupLayout, label| {
-                device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                    label: Some(label),
-                    bind_group_layouts: &[Some(&frame_layout), Some(params)],
-                    immediate_size: 0,
-                })
-            };
-            let vertex_buffers = [Some(crate::view::renderer::scene_vertex_layout())];
-            let primitive = wgpu::PrimitiveState {
-                topology: wgpu::PrimitiveTopology::TriangleList,
-                cull_mode: None,
-                ..Default::default()
-            };
-            let m_target = [Some(wgpu::ColorTargetState {
+            let mirror_pipeline =
+                render_pipeline("glint mirror pipeline", &shader, "vs_mirror", "fs_mirror")
+                    .layouts(&[&frame_layout, &mirror_layout])
+                    .vertex(scene_vertex_layout())
+                    .color(HDR_FORMAT, None)
+                    .depth(reverse_z_depth(true, wgpu::CompareFunction::Greater))
+                    .build(device);
+            let splat_pipeline =
+                render_pipeline("glint splat pipeline", &shader, "vs_splat", "fs_splat")
+                    .layouts(&[&frame_layout, &splat_layout])
+                    .vertex(Splat::layout())
+                    .topology(wgpu::PrimitiveTopology::TriangleStrip)
+                    .color(HDR_FORMAT, None)
+                    .depth(reverse_z_depth(true, wgpu::CompareFunction::Greater))
+                    .build(device);
+            let additive = Some(ADDITIVE_KEEP_ALPHA);
+            let composite_pipeline = render_pipeline(
+                "glint reflection composite pipeline",
+                &shader,
+                "vs_mirror",
+                "fs_composite",
+            )
+            .layouts(&[&frame_layout, &composite_layout])
+            .vertex(scene_vertex_layout())
+            .color(formats.color, additive)
+            .target(formats.hdr.then_some(wgpu::ColorTargetState {
                 format: HDR_FORMAT,
-                blend: None,
+                blend: additive,
                 write_mask: wgpu::ColorWrites::ALL,
-            })];
-            let mirror_layout_p = pipeline_layout(&mirror_layout, "glint mirror pipeline layout");
-            let mirror_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("glint mirror pipeline"),
-                layout: Some(&mirror_layout_p),
-                vertex: wgpu::VertexState {
-                    module: &shader,
-                    entry_point: Some("vs_mirror"),
-                    compilation_options: wgpu::PipelineCompilationOptions::default(),
-                    buffers: &vertex_buffers,
-                },
-                primitive,
-                depth_stencil: Some(reverse_z_depth(true, wgpu::CompareFunction::Greater)),
-                multisample: wgpu::MultisampleState::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &shader,
-                    entry_point: Some("fs_mirror"),
-                    compilation_options: wgpu::PipelineCompilationOptions::default(),
-                    targets: &m_target,
-                }),
-                multiview_mask: None,
-                cache: None,
-            });
-            let splat_layout_p = pipeline_layout(&splat_layout, "glint splat pipeline layout");
-            let splat_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("glint splat pipeline"),
-                layout: Some(&splat_layout_p),
-                vertex: wgpu::VertexState {
-                    module: &shader,
-                    entry_point: Some("vs_splat"),
-                    compilation_options: wgpu::PipelineCompilationOptions::default(),
-                    buffers: &[Some(wgpu::VertexBufferLayout {
-                        array_stride: std::mem::size_of::<Splat>() as u64,
-                        step_mode: wgpu::VertexStepMode::Instance,
-                        attributes: &wgpu::vertex_attr_array![3 => Float32x3, 4 => Uint32, 5 => Float32x3],
-                    })],
-                },
-                primitive: wgpu::PrimitiveState {
-                    topology: wgpu::PrimitiveTopology::TriangleStrip,
-                    cull_mode: None,
-                    ..Default::default()
-                },
-                depth_stencil: Some(reverse_z_depth(true, wgpu::CompareFunction::Greater)),
-                multisample: wgpu::MultisampleState::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &shader,
-                    entry_point: Some("fs_splat"),
-                    compilation_options: wgpu::PipelineCompilationOptions::default(),
-                    targets: &m_target,
-                }),
-                multiview_mask: None,
-                cache: None,
-            });
-            let additive = crate::view::renderer::ADDITIVE_KEEP_ALPHA;
-            let target = |format| {
-                Some(wgpu::ColorTargetState {
-                    format,
-                    blend: Some(additive),
-                    write_mask: wgpu::ColorWrites::ALL,
-                })
-            };
-            let composite_layout_p =
-                pipeline_layout(&composite_layout, "glint composite pipeline layout");
-            let composite_pipeline =
-                device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                    label: Some("glint reflection composite pipeline"),
-                    layout: Some(&composite_layout_p),
-                    vertex: wgpu::VertexState {
-                        module: &shader,
-                        entry_point: Some("vs_mirror"),
-                        compilation_options: wgpu::PipelineCompilationOptions::default(),
-                        buffers: &vertex_buffers,
-                    },
-                    primitive,
-                    depth_stencil: Some(reverse_z_depth(
-                        false,
-                        wgpu::CompareFunction::GreaterEqual,
-                    )),
-                    multisample: wgpu::MultisampleState::default(),
-                    fragment: Some(wgpu::FragmentState {
-                        module: &shader,
-                        entry_point: Some("fs_composite"),
-                        compilation_options: wgpu::PipelineCompilationOptions::default(),
-                        targets: &[
-                            target(formats.color),
-                            if formats.hdr {
-                                target(HDR_FORMAT)
-                            } else {
-                                None
-                            },
-                        ],
-                    }),
-                    multiview_mask: None,
-                    cache: None,
-                });
+            }))
+            .depth(reverse_z_depth(false, wgpu::CompareFunction::GreaterEqual))
+            .build(device);
             let size = wgpu::Extent3d {
                 width,
                 height,
@@ -498,24 +404,19 @@ impl GeometryReflections {
                             mesh.indices[t..t + 3].iter().copied()
                         })
                         .collect();
-                    let index_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-                        label: Some("glint reflector indices"),
-                        size: (indices.len() as u64 * 4).max(4),
-                        usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST,
-                        mapped_at_creation: false,
-                    });
-                    gpu.queue
-                        .write_buffer(&index_buffer, 0, bytemuck::cast_slice(&indices));
-                    let params = device.create_buffer(&wgpu::BufferDescriptor {
-                        label: Some("glint reflector params"),
-                        size: std::mem::size_of::<ReflectParams>() as u64,
-                        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-                        mapped_at_creation: false,
-                    });
-                    gpu.queue.write_buffer(
-                        &params,
-                        0,
+                    let index_buffer = buffer_init(
+                        gpu,
+                        "glint reflector indices",
+                        wgpu::BufferUsages::INDEX,
+                        bytemuck::cast_slice(&indices),
+                        4,
+                    );
+                    let params = buffer_init(
+                        gpu,
+                        "glint reflector params",
+                        wgpu::BufferUsages::UNIFORM,
                         bytemuck::bytes_of(&ReflectParams::new(&reflector, clip, Vec3::ZERO)),
+                        0,
                     );
                     let mirror_uniforms = uniform_buffer(device);
                     let mirror_frame_group = frame_bind_group(
@@ -859,18 +760,10 @@ pub(super) fn mirror_target_pass<'e>(
     })
 }
 
-/// The `ReflectParams` uniform (binding 2) every reflection pass reads.
-pub(super) fn params_layout_entry() -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding: 2,
-        visibility: wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: false,
-            min_binding_size: wgpu::BufferSize::new(std::mem::size_of::<ReflectParams>() as u64),
-        },
-        count: None,
-    }
+/// A layout with the `ReflectParams` uniform (binding 2) every reflection pass reads.
+pub(super) fn params_layout() -> LayoutBuilder {
+    bind_group_layout()
+        .uniform::<ReflectParams>(2, wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT)
 }
 
 /// The composite's bindings: params, the reflected image M (filterable), its sampler and the
@@ -879,28 +772,11 @@ pub(super) fn composite_bind_group_layout(
     device: &wgpu::Device,
     label: &str,
 ) -> wgpu::BindGroupLayout {
-    let texture_entry = |binding, filterable| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::FRAGMENT,
-        ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float { filterable },
-            view_dimension: wgpu::TextureViewDimension::D2,
-            multisampled: false,
-        },
-        count: None,
-    };
-    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some(label),
-        entries: &[
-            params_layout_entry(),
-            texture_entry(3, true),
-            wgpu::BindGroupLayoutEntry {
-                binding: 4,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                count: None,
-            },
-            texture_entry(5, false),
-        ],
-    })
+    let fragment = wgpu::ShaderStages::FRAGMENT;
+    let d2 = wgpu::TextureViewDimension::D2;
+    params_layout()
+        .texture(3, fragment, d2, true)
+        .sampler(4, fragment)
+        .texture(5, fragment, d2, false)
+        .build(device, label)
 }

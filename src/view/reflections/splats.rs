@@ -50,6 +50,21 @@ pub struct Splat {
     pub _pad: f32,
 }
 
+/// The vertex attributes of [`Splat`] (`SplatIn`'s locations 3–5).
+const SPLAT_ATTRIBUTES: [wgpu::VertexAttribute; 3] =
+    wgpu::vertex_attr_array![3 => Float32x3, 4 => Uint32, 5 => Float32x3];
+
+impl Splat {
+    /// The instance-rate vertex buffer layout of the splat pass.
+    pub fn layout() -> wgpu::VertexBufferLayout<'static> {
+        wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<Splat>() as u64,
+            step_mode: wgpu::VertexStepMode::Instance,
+            attributes: &SPLAT_ATTRIBUTES,
+        }
+    }
+}
+
 /// Per-frame parameters of one quadtree node (16 bytes, `array<vec4<f32>>` in the shader).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
@@ -312,6 +327,45 @@ pub fn plan_map(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn splat_matches_the_wgsl_input() {
+        crate::view::build::assert_vertex_layout(
+            &Splat::layout(),
+            std::mem::size_of::<Splat>(),
+            &[
+                std::mem::offset_of!(Splat, position),
+                std::mem::offset_of!(Splat, node),
+                std::mem::offset_of!(Splat, color),
+            ],
+            &super::super::shader_source(),
+            "SplatIn",
+        );
+    }
+
+    #[test]
+    fn node_params_match_the_wgsl_array_element() {
+        use wgpu::naga;
+        let module = naga::front::wgsl::parse_str(&super::super::shader_source()).unwrap();
+        let (_, var) = module
+            .global_variables
+            .iter()
+            .find(|(_, v)| v.name.as_deref() == Some("splat_nodes"))
+            .expect("reflect.wgsl binds splat_nodes");
+        let naga::TypeInner::Array { base, stride, .. } = module.types[var.ty].inner else {
+            panic!("splat_nodes is not an array");
+        };
+        assert_eq!(stride as usize, std::mem::size_of::<NodeParams>());
+        assert!(matches!(
+            module.types[base].inner,
+            naga::TypeInner::Vector {
+                size: naga::VectorSize::Quad,
+                scalar: naga::Scalar::F32,
+            }
+        ));
+        assert_eq!(std::mem::offset_of!(NodeParams, half_ndc), 0);
+        assert_eq!(std::mem::offset_of!(NodeParams, depth_scale), 8);
+    }
 
     fn floor_map(res: u32) -> MapCamera {
         MapCamera {

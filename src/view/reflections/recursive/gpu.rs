@@ -6,7 +6,7 @@ use std::sync::Mutex;
 use glam::Vec3;
 
 use super::super::passes::{
-    ReflectParams, composite_bind_group_layout, params_layout_entry, shader_source, sphere_texture,
+    ReflectParams, composite_bind_group_layout, params_layout, shader_source, sphere_texture,
 };
 use super::super::splats::pixel_tangent;
 use super::super::{
@@ -17,12 +17,13 @@ use super::{
     texture_bytes,
 };
 use crate::camera::Camera;
+use crate::view::build::{RenderPipelineBuilder, buffer, buffer_init, render_pipeline};
 use crate::view::curved::gpu::CurvedReflections;
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
 use crate::view::renderer::{
-    DEPTH_FORMAT, HDR_FORMAT, RenderError, Renderer, frame_bind_group, frame_bind_group_layout,
-    reverse_z_depth, uniform_buffer,
+    ADDITIVE_KEEP_ALPHA, DEPTH_FORMAT, HDR_FORMAT, RenderError, Renderer, frame_bind_group,
+    frame_bind_group_layout, reverse_z_depth, scene_vertex_layout, uniform_buffer,
 };
 
 /// One recursion level's render target.
@@ -113,105 +114,60 @@ impl RecursiveReflections {
                 source: wgpu::ShaderSource::Wgsl(shader_source().into()),
             });
             let frame_layout = frame_bind_group_layout(device);
-            let params_entry = params_layout_entry();
-            let params_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("glint recursive params layout"),
-                entries: &[params_entry],
-            });
+            let params_layout = params_layout().build(device, "glint recursive params layout");
             let composite_layout =
                 composite_bind_group_layout(device, "glint recursive composite layout");
-            let layout = |params: &wgpu::BindGroupLayout| {
-                device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                    label: Some("glint recursive pipeline layout"),
-                    bind_group_layouts: &[Some(&frame_layout), Some(params)],
-                    immediate_size: 0,
-                })
-            };
-            let vertex_buffers = [Some(crate::view::renderer::scene_vertex_layout())];
-            let primitive = wgpu::PrimitiveState {
-                topology: wgpu::PrimitiveTopology::TriangleList,
-                cull_mode: None,
-                ..Default::default()
-            };
-            let additive = crate::view::renderer::ADDITIVE_KEEP_ALPHA;
-            let pipeline = |label,
-                            params: &wgpu::BindGroupLayout,
-                            fragment: &str,
-                            depth_write: bool,
-                            compare,
-                            targets: &[Option<wgpu::ColorTargetState>]| {
-                let l = layout(params);
-                device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                    label: Some(label),
-                    layout: Some(&l),
-                    vertex: wgpu::VertexState {
-                        module: &shader,
-                        entry_point: Some("vs_mirror"),
-                        compilation_options: wgpu::PipelineCompilationOptions::default(),
-                        buffers: &vertex_buffers,
-                    },
-                    primitive,
-                    depth_stencil: Some(reverse_z_depth(depth_write, compare)),
-                    multisample: wgpu::MultisampleState::default(),
-                    fragment: Some(wgpu::FragmentState {
-                        module: &shader,
-                        entry_point: Some(fragment),
-                        compilation_options: wgpu::PipelineCompilationOptions::default(),
-                        targets,
-                    }),
-                    multiview_mask: None,
-                    cache: None,
-                })
-            };
-            let hdr_target = |blend| {
-                Some(wgpu::ColorTargetState {
-                    format: HDR_FORMAT,
-                    blend,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })
+            let additive = Some(ADDITIVE_KEEP_ALPHA);
+            fn scene_pipeline<'a>(
+                shader: &'a wgpu::ShaderModule,
+                layouts: &[&'a wgpu::BindGroupLayout],
+                label: &'a str,
+                fragment: &'a str,
+                depth: wgpu::DepthStencilState,
+            ) -> RenderPipelineBuilder<'a> {
+                render_pipeline(label, shader, "vs_mirror", fragment)
+                    .layouts(layouts)
+                    .vertex(scene_vertex_layout())
+                    .depth(depth)
+            }
+            let pipeline = |label, params, fragment, depth| {
+                scene_pipeline(&shader, &[&frame_layout, params], label, fragment, depth)
             };
             // The scene in a mirrored view, clipped at the mirror (`fs_mirror`).
             let mirror_pipeline = pipeline(
                 "glint recursive mirror pipeline",
                 &params_layout,
                 "fs_mirror",
-                true,
-                wgpu::CompareFunction::Greater,
-                &[hdr_target(None)],
-            );
+                reverse_z_depth(true, wgpu::CompareFunction::Greater),
+            )
+            .color(HDR_FORMAT, None)
+            .build(device);
             // A level-(k+1) map onto its reflector in map k (linear, `encode_srgb` = 0; the shader's
             // HDR output has no target here).
+            let composite_depth = reverse_z_depth(false, wgpu::CompareFunction::GreaterEqual);
             let map_composite_pipeline = pipeline(
                 "glint recursive map composite pipeline",
                 &composite_layout,
                 "fs_composite",
-                false,
-                wgpu::CompareFunction::GreaterEqual,
-                &[hdr_target(Some(additive))],
-            );
-            // A level-0 map onto its reflector in the frame (as issue 9's composite).
-            let frame_target = |format| {
-                Some(wgpu::ColorTargetState {
-                    format,
-                    blend: Some(additive),
-                    write_mask: wgpu::ColorWrites::ALL,
-                })
-            };
+                composite_depth.clone(),
+            )
+            .color(HDR_FORMAT, additive)
+            .build(device);
+            // A level-0 map onto its reflector in the frame (as the single mirror pass's
+            // composite).
             let frame_composite_pipeline = pipeline(
                 "glint recursive frame composite pipeline",
                 &composite_layout,
                 "fs_composite",
-                false,
-                wgpu::CompareFunction::GreaterEqual,
-                &[
-                    frame_target(formats.color),
-                    if formats.hdr {
-                        frame_target(HDR_FORMAT)
-                    } else {
-                        None
-                    },
-                ],
-            );
+                composite_depth,
+            )
+            .color(formats.color, additive)
+            .target(formats.hdr.then_some(wgpu::ColorTargetState {
+                format: HDR_FORMAT,
+                blend: additive,
+                write_mask: wgpu::ColorWrites::ALL,
+            }))
+            .build(device);
             let size = wgpu::Extent3d {
                 width,
                 height,
@@ -270,14 +226,13 @@ impl RecursiveReflections {
                     .collect();
                 v.dedup();
                 vertices.push(v);
-                let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("glint recursive reflector indices"),
-                    size: (idx.len() as u64 * 4).max(4),
-                    usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST,
-                    mapped_at_creation: false,
-                });
-                gpu.queue
-                    .write_buffer(&buffer, 0, bytemuck::cast_slice(&idx));
+                let buffer = buffer_init(
+                    gpu,
+                    "glint recursive reflector indices",
+                    wgpu::BufferUsages::INDEX,
+                    bytemuck::cast_slice(&idx),
+                    4,
+                );
                 indices.push((buffer, idx.len() as u32));
             }
             let spheres: Vec<wgpu::Texture> = reflectors
@@ -350,12 +305,12 @@ impl RecursiveReflections {
         let uniforms = uniform_buffer(device);
         let frame_group =
             frame_bind_group(device, &self.frame_layout, &uniforms, renderer.textures());
-        let params = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("glint recursive node params"),
-            size: std::mem::size_of::<ReflectParams>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let params = buffer(
+            device,
+            "glint recursive node params",
+            std::mem::size_of::<ReflectParams>() as u64,
+            wgpu::BufferUsages::UNIFORM,
+        );
         let params_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("glint recursive node params"),
             layout: &self.params_layout,

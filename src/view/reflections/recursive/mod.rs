@@ -32,45 +32,13 @@ mod gpu;
 
 pub use gpu::RecursiveReflections;
 
-/// The deepest recursion the viewer draws (Nielsen's Table 1 goes to 4).
-pub const MAX_RECURSION_DEPTH: u8 = 4;
-
-/// Default specular-weight cutoff: a branch whose accumulated max(ks·R) falls below 1 % adds
-/// at most ~2.5 steps of an 8-bit channel at full white, so its map is not rendered.
-pub const DEFAULT_WEIGHT_CUTOFF: f32 = 0.01;
+pub use crate::view::options::{
+    DEFAULT_WEIGHT_CUTOFF, MAX_RECURSION_DEPTH, RecursionSettings, parse_depth,
+};
 
 /// Most reflection maps one frame renders (a guard against n^d blow-up; further branches are
 /// counted in [`RecursionStats::truncated`]).
 pub const MAX_MAPS: usize = 256;
-
-/// The recursion settings.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RecursionSettings {
-    /// Recursion depth d (0–[`MAX_RECURSION_DEPTH`]); 0 draws no reflections, 1 mirrors the
-    /// scene once (the issue-9 geometry mode).
-    pub depth: u8,
-    /// A branch stops when its accumulated specular weight falls below this.
-    pub cutoff: f32,
-}
-
-impl Default for RecursionSettings {
-    fn default() -> Self {
-        RecursionSettings {
-            depth: 1,
-            cutoff: DEFAULT_WEIGHT_CUTOFF,
-        }
-    }
-}
-
-/// Parses a recursion depth for the command line: an integer 0–4.
-pub fn parse_depth(s: &str) -> Result<u8, String> {
-    match s.parse::<u8>() {
-        Ok(d) if d <= MAX_RECURSION_DEPTH => Ok(d),
-        _ => Err(format!(
-            "{s:?} is not a recursion depth: give an integer from 0 to {MAX_RECURSION_DEPTH}"
-        )),
-    }
-}
 
 /// One reflection map of a frame: `reflector` seen in its parent's view (or the camera's).
 #[derive(Clone, Debug, PartialEq)]

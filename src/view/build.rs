@@ -1,0 +1,363 @@
+//! Small builders for the wgpu objects every pass makes, with the viewer's defaults written
+//! once: render pipelines ([`RenderPipelineBuilder`]: triangle lists, no culling, one sample,
+//! vertex and fragment stage from one shader module), bind-group layouts
+//! ([`LayoutBuilder`]) and buffers ([`buffer`], [`buffer_init`]).
+
+use super::gpu::Gpu;
+
+/// A render pipeline being described; [`RenderPipelineBuilder::build`] creates it with its
+/// pipeline layout.
+pub struct RenderPipelineBuilder<'a> {
+    label: &'a str,
+    shader: &'a wgpu::ShaderModule,
+    vs: &'a str,
+    fs: &'a str,
+    layouts: Vec<Option<&'a wgpu::BindGroupLayout>>,
+    buffers: Vec<Option<wgpu::VertexBufferLayout<'a>>>,
+    targets: Vec<Option<wgpu::ColorTargetState>>,
+    depth: Option<wgpu::DepthStencilState>,
+    topology: wgpu::PrimitiveTopology,
+}
+
+/// A pipeline `label` drawing with `shader`'s `vs` and `fs` entry points; by default a
+/// triangle list without culling, no bind groups, vertex buffers, targets or depth.
+pub fn render_pipeline<'a>(
+    label: &'a str,
+    shader: &'a wgpu::ShaderModule,
+    vs: &'a str,
+    fs: &'a str,
+) -> RenderPipelineBuilder<'a> {
+    RenderPipelineBuilder {
+        label,
+        shader,
+        vs,
+        fs,
+        layouts: Vec::new(),
+        buffers: Vec::new(),
+        targets: Vec::new(),
+        depth: None,
+        topology: wgpu::PrimitiveTopology::TriangleList,
+    }
+}
+
+impl<'a> RenderPipelineBuilder<'a> {
+    /// The bind-group layouts, group 0 first.
+    pub fn layouts(mut self, layouts: &[&'a wgpu::BindGroupLayout]) -> Self {
+        self.layouts = layouts.iter().map(|&l| Some(l)).collect();
+        self
+    }
+
+    /// Adds a vertex buffer layout (slot 0 first).
+    pub fn vertex(mut self, layout: wgpu::VertexBufferLayout<'a>) -> Self {
+        self.buffers.push(Some(layout));
+        self
+    }
+
+    /// Adds a colour target (`None`: a slot the fragment stage does not write here).
+    pub fn target(mut self, target: Option<wgpu::ColorTargetState>) -> Self {
+        self.targets.push(target);
+        self
+    }
+
+    /// Adds a colour target of `format` with `blend`, writing every channel.
+    pub fn color(self, format: wgpu::TextureFormat, blend: Option<wgpu::BlendState>) -> Self {
+        self.target(Some(wgpu::ColorTargetState {
+            format,
+            blend,
+            write_mask: wgpu::ColorWrites::ALL,
+        }))
+    }
+
+    /// The depth state.
+    pub fn depth(mut self, depth: wgpu::DepthStencilState) -> Self {
+        self.depth = Some(depth);
+        self
+    }
+
+    /// The primitive topology (default: triangle list).
+    pub fn topology(mut self, topology: wgpu::PrimitiveTopology) -> Self {
+        self.topology = topology;
+        self
+    }
+
+    /// Creates the pipeline layout and the pipeline.
+    pub fn build(self, device: &wgpu::Device) -> wgpu::RenderPipeline {
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(self.label),
+            bind_group_layouts: &self.layouts,
+            immediate_size: 0,
+        });
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(self.label),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module: self.shader,
+                entry_point: Some(self.vs),
+                compilation_options: wgpu::PipelineCompilationOptions::default(),
+                buffers: &self.buffers,
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: self.topology,
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: self.depth,
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: self.shader,
+                entry_point: Some(self.fs),
+                compilation_options: wgpu::PipelineCompilationOptions::default(),
+                targets: &self.targets,
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+    }
+}
+
+/// A bind-group layout being described, entry by entry.
+#[derive(Clone, Debug, Default)]
+pub struct LayoutBuilder {
+    entries: Vec<wgpu::BindGroupLayoutEntry>,
+}
+
+/// An empty bind-group layout description.
+pub fn bind_group_layout() -> LayoutBuilder {
+    LayoutBuilder::default()
+}
+
+impl LayoutBuilder {
+    /// Adds an entry.
+    pub fn entry(mut self, entry: wgpu::BindGroupLayoutEntry) -> Self {
+        self.entries.push(entry);
+        self
+    }
+
+    fn with(self, binding: u32, visibility: wgpu::ShaderStages, ty: wgpu::BindingType) -> Self {
+        self.entry(wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility,
+            ty,
+            count: None,
+        })
+    }
+
+    /// A uniform buffer holding one `T` (its size is the minimum binding size).
+    pub fn uniform<T>(self, binding: u32, visibility: wgpu::ShaderStages) -> Self {
+        self.with(
+            binding,
+            visibility,
+            wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: wgpu::BufferSize::new(std::mem::size_of::<T>() as u64),
+            },
+        )
+    }
+
+    /// A read-only storage buffer of any size.
+    pub fn storage(self, binding: u32, visibility: wgpu::ShaderStages) -> Self {
+        self.with(
+            binding,
+            visibility,
+            wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only: true },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+        )
+    }
+
+    /// A float texture of `dimension`, filterable or not.
+    pub fn texture(
+        self,
+        binding: u32,
+        visibility: wgpu::ShaderStages,
+        dimension: wgpu::TextureViewDimension,
+        filterable: bool,
+    ) -> Self {
+        self.with(
+            binding,
+            visibility,
+            wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable },
+                view_dimension: dimension,
+                multisampled: false,
+            },
+        )
+    }
+
+    /// A filtering sampler.
+    pub fn sampler(self, binding: u32, visibility: wgpu::ShaderStages) -> Self {
+        self.with(
+            binding,
+            visibility,
+            wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+        )
+    }
+
+    /// The entries so far.
+    pub fn entries(&self) -> &[wgpu::BindGroupLayoutEntry] {
+        &self.entries
+    }
+
+    /// Creates the layout.
+    pub fn build(&self, device: &wgpu::Device, label: &str) -> wgpu::BindGroupLayout {
+        device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some(label),
+            entries: &self.entries,
+        })
+    }
+}
+
+/// An unmapped buffer of `size` bytes for `usage` (plus `COPY_DST`, so it can be written).
+pub fn buffer(
+    device: &wgpu::Device,
+    label: &str,
+    size: u64,
+    usage: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size,
+        usage: usage | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+/// A buffer for `usage` holding `bytes` (a multiple of 4 bytes), at least `min_size` bytes
+/// long; the write lands before the next submission.
+pub fn buffer_init(
+    gpu: &Gpu,
+    label: &str,
+    usage: wgpu::BufferUsages,
+    bytes: &[u8],
+    min_size: u64,
+) -> wgpu::Buffer {
+    let b = buffer(
+        &gpu.device,
+        label,
+        (bytes.len() as u64).max(min_size),
+        usage,
+    );
+    gpu.queue.write_buffer(&b, 0, bytes);
+    b
+}
+
+/// Size and members (name, byte offset) of struct `name` in the WGSL `source`, by naga's
+/// layouter: what a `repr(C)` mirror of it must match.
+#[cfg(test)]
+pub(crate) fn wgsl_struct(source: &str, name: &str) -> (usize, Vec<(String, usize)>) {
+    use wgpu::naga;
+    let module = naga::front::wgsl::parse_str(source).expect("the WGSL parses");
+    let mut layouter = naga::proc::Layouter::default();
+    layouter
+        .update(module.to_ctx())
+        .expect("the WGSL has a layout");
+    let (handle, ty) = module
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some(name))
+        .unwrap_or_else(|| panic!("no struct {name} in the WGSL"));
+    let naga::TypeInner::Struct { members, .. } = &ty.inner else {
+        panic!("{name} is not a struct");
+    };
+    let members = members
+        .iter()
+        .map(|m| (m.name.clone().unwrap_or_default(), m.offset as usize))
+        .collect();
+    (layouter[handle].size as usize, members)
+}
+
+/// The `@location`s of the members of struct `name` in the WGSL `source` (a vertex input).
+#[cfg(test)]
+pub(crate) fn wgsl_locations(source: &str, name: &str) -> Vec<Option<u32>> {
+    use wgpu::naga;
+    let module = naga::front::wgsl::parse_str(source).expect("the WGSL parses");
+    let (_, ty) = module
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some(name))
+        .unwrap_or_else(|| panic!("no struct {name} in the WGSL"));
+    let naga::TypeInner::Struct { members, .. } = &ty.inner else {
+        panic!("{name} is not a struct");
+    };
+    members
+        .iter()
+        .map(|m| match m.binding {
+            Some(naga::Binding::Location { location, .. }) => Some(location),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Checks a vertex buffer layout against its `repr(C)` struct (`size`, field `offsets` in
+/// attribute order) and the WGSL vertex input `input` of `source` (its locations).
+#[cfg(test)]
+pub(crate) fn assert_vertex_layout(
+    layout: &wgpu::VertexBufferLayout<'_>,
+    size: usize,
+    offsets: &[usize],
+    source: &str,
+    input: &str,
+) {
+    assert_eq!(layout.array_stride as usize, size, "{input}: stride");
+    let got: Vec<usize> = layout
+        .attributes
+        .iter()
+        .map(|a| a.offset as usize)
+        .collect();
+    assert_eq!(got, offsets, "{input}: attribute offsets");
+    let want: Vec<Option<u32>> = layout
+        .attributes
+        .iter()
+        .map(|a| Some(a.shader_location))
+        .collect();
+    assert_eq!(wgsl_locations(source, input), want, "{input}: locations");
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn layout_entries_carry_their_binding_type() {
+        let all = wgpu::ShaderStages::VERTEX_FRAGMENT;
+        let l = bind_group_layout()
+            .uniform::<[f32; 8]>(0, all)
+            .storage(1, wgpu::ShaderStages::FRAGMENT)
+            .texture(2, all, wgpu::TextureViewDimension::Cube, false)
+            .sampler(3, all);
+        let e = l.entries();
+        assert_eq!(
+            e.iter().map(|e| e.binding).collect::<Vec<_>>(),
+            [0, 1, 2, 3]
+        );
+        assert!(matches!(
+            e[0].ty,
+            wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                min_binding_size: Some(s),
+                ..
+            } if s.get() == 32
+        ));
+        assert!(matches!(
+            e[1].ty,
+            wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only: true },
+                min_binding_size: None,
+                ..
+            }
+        ));
+        assert!(matches!(
+            e[2].ty,
+            wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                view_dimension: wgpu::TextureViewDimension::Cube,
+                multisampled: false,
+            }
+        ));
+        assert_eq!(e[1].visibility, wgpu::ShaderStages::FRAGMENT);
+        assert!(e.iter().all(|e| e.count.is_none()));
+    }
+}

@@ -1,0 +1,224 @@
+//! Generating the live cube maps (Nielsen & Christensen 2002 §3.2, McReynolds'
+//! interreflection scheme): per generation and reflector, the scene without it and the other
+//! curved reflectors' mirror terms from the previous generation's maps into each face, then
+//! the faces' MIP levels (2×2 box).
+
+use super::super::generation_plan;
+use super::layout::{CurvedVertex, curved_group};
+use super::{CubeTexture, CurvedReflections, MIN_BUFFER};
+use crate::view::build::{bind_group_layout, buffer_init, render_pipeline};
+use crate::view::gpu::Gpu;
+use crate::view::renderer::{
+    ADDITIVE_KEEP_ALPHA, HDR_FORMAT, reverse_z_depth, scene_vertex_layout,
+};
+
+impl CurvedReflections {
+    /// Records every generation: per generation (written set `w`, read set `r`, never equal)
+    /// and reflector i, each face of `maps[w][i]` gets the scene without reflector i (D) and
+    /// every other curved reflector's mirror term from `maps[r]`; then its MIP levels.
+    pub(super) fn record_generations(
+        &self,
+        gpu: &Gpu,
+        pipes: &GenerationPipelines,
+        scene_vertices: &wgpu::Buffer,
+        encoder: &mut wgpu::CommandEncoder,
+    ) {
+        let device = &gpu.device;
+        // Interreflection parameters per ordered pair (i sees j): j's lobes seen from i's centre.
+        let mut pair_params: Vec<Vec<Option<wgpu::Buffer>>> = Vec::new();
+        for (i, ri) in self.reflectors.iter().enumerate() {
+            let row = self
+                .reflectors
+                .iter()
+                .enumerate()
+                .map(|(j, rj)| {
+                    (i != j).then(|| {
+                        let mut p = rj.base_params;
+                        p.eye = ri.reflector.centre.extend(0.0).to_array();
+                        p.info[1] = 0; // mirror lookups
+                        buffer_init(
+                            gpu,
+                            "glint interreflection params",
+                            wgpu::BufferUsages::UNIFORM,
+                            bytemuck::bytes_of(&p),
+                            MIN_BUFFER,
+                        )
+                    })
+                })
+                .collect();
+            pair_params.push(row);
+        }
+        for step in generation_plan(self.settings.generations) {
+            assert_ne!(step.write, step.read, "a cube map never reads its own set");
+            for (i, ri) in self.reflectors.iter().enumerate() {
+                let target = &self.maps[step.write][i];
+                let groups: Vec<Option<wgpu::BindGroup>> = self
+                    .reflectors
+                    .iter()
+                    .enumerate()
+                    .map(|(j, rj)| {
+                        pair_params[i][j].as_ref().map(|params| {
+                            curved_group(
+                                device,
+                                &self.curved_layout,
+                                params,
+                                &rj.patterns,
+                                &self.maps[step.read][j].cube,
+                                &self.sampler,
+                            )
+                        })
+                    })
+                    .collect();
+                for face in 0..6 {
+                    let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                        label: Some("glint cube face pass"),
+                        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                            view: &target.faces[0][face],
+                            depth_slice: None,
+                            resolve_target: None,
+                            ops: wgpu::Operations {
+                                load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                                store: wgpu::StoreOp::Store,
+                            },
+                        })],
+                        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                            view: &pipes.depth_view,
+                            depth_ops: Some(wgpu::Operations {
+                                load: wgpu::LoadOp::Clear(0.0),
+                                store: wgpu::StoreOp::Discard,
+                            }),
+                            stencil_ops: None,
+                        }),
+                        timestamp_writes: None,
+                        occlusion_query_set: None,
+                        multiview_mask: None,
+                    });
+                    pass.set_pipeline(&pipes.env);
+                    pass.set_bind_group(0, &ri.face_groups[face], &[]);
+                    pass.set_vertex_buffer(0, scene_vertices.slice(..));
+                    pass.set_index_buffer(ri.others.slice(..), wgpu::IndexFormat::Uint32);
+                    pass.draw_indexed(0..ri.others_count, 0, 0..1);
+                    pass.set_pipeline(&pipes.interreflect);
+                    for (j, rj) in self.reflectors.iter().enumerate() {
+                        if let Some(group) = &groups[j] {
+                            pass.set_bind_group(1, group, &[]);
+                            pass.set_vertex_buffer(0, rj.vertices.slice(..));
+                            pass.draw(0..rj.vertex_count, 0..1);
+                        }
+                    }
+                }
+                pipes.record_mips(device, target, encoder);
+            }
+        }
+    }
+}
+
+/// The pipelines and scratch targets that render the cube maps.
+pub(super) struct GenerationPipelines {
+    env: wgpu::RenderPipeline,
+    interreflect: wgpu::RenderPipeline,
+    downsample: wgpu::RenderPipeline,
+    mip_layout: wgpu::BindGroupLayout,
+    depth_view: wgpu::TextureView,
+    _depth: wgpu::Texture,
+}
+
+impl GenerationPipelines {
+    pub(super) fn new(
+        device: &wgpu::Device,
+        shader: &wgpu::ShaderModule,
+        frame_layout: &wgpu::BindGroupLayout,
+        curved_layout: &wgpu::BindGroupLayout,
+        face_size: u32,
+        gpu: &Gpu,
+    ) -> GenerationPipelines {
+        let additive = Some(ADDITIVE_KEEP_ALPHA);
+        let scene = render_pipeline("glint cube env", shader, "vs_main", "fs_env")
+            .layouts(&[frame_layout])
+            .vertex(scene_vertex_layout())
+            .color(HDR_FORMAT, None)
+            .depth(reverse_z_depth(true, wgpu::CompareFunction::Greater))
+            .build(device);
+        let interreflect = render_pipeline(
+            "glint cube interreflection",
+            shader,
+            "vs_curved",
+            "fs_curved_env",
+        )
+        .layouts(&[frame_layout, curved_layout])
+        .vertex(CurvedVertex::layout())
+        .color(HDR_FORMAT, additive)
+        .depth(reverse_z_depth(false, wgpu::CompareFunction::GreaterEqual))
+        .build(device);
+        let mip_layout = bind_group_layout()
+            .texture(
+                8,
+                wgpu::ShaderStages::FRAGMENT,
+                wgpu::TextureViewDimension::D2,
+                false,
+            )
+            .build(device, "glint mip layout");
+        let empty = bind_group_layout().build(device, "glint empty layout");
+        let downsample = render_pipeline(
+            "glint cube downsample",
+            shader,
+            "vs_fullscreen",
+            "fs_downsample",
+        )
+        .layouts(&[&empty, &mip_layout])
+        .color(HDR_FORMAT, None)
+        .build(device);
+        let depth = crate::view::renderer::depth_texture(gpu, face_size, face_size);
+        let depth_view = depth.create_view(&wgpu::TextureViewDescriptor::default());
+        GenerationPipelines {
+            env: scene,
+            interreflect,
+            downsample,
+            mip_layout,
+            depth_view,
+            _depth: depth,
+        }
+    }
+
+    /// Levels 1 … of `target` from level 0, face by face (2×2 box).
+    fn record_mips(
+        &self,
+        device: &wgpu::Device,
+        target: &CubeTexture,
+        encoder: &mut wgpu::CommandEncoder,
+    ) {
+        for level in 1..target.faces.len() {
+            for face in 0..6 {
+                let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("glint mip source"),
+                    layout: &self.mip_layout,
+                    entries: &[wgpu::BindGroupEntry {
+                        binding: 8,
+                        resource: wgpu::BindingResource::TextureView(
+                            &target.faces[level - 1][face],
+                        ),
+                    }],
+                });
+                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("glint cube mip pass"),
+                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                        view: &target.faces[level][face],
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                            store: wgpu::StoreOp::Store,
+                        },
+                    })],
+                    depth_stencil_attachment: None,
+                    timestamp_writes: None,
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                });
+                pass.set_pipeline(&self.downsample);
+                pass.set_bind_group(1, &group, &[]);
+                pass.draw(0..3, 0..1);
+            }
+        }
+    }
+}

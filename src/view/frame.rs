@@ -1,0 +1,453 @@
+//! One frame recipe: [`FramePasses`] builds every pass of a viewer frame from one
+//! [`ViewOptions`], rebuilds only the passes a change of options (or of size) touches, and
+//! records them in one fixed order. The window (into its surface), the offscreen target
+//! (headless replay, screenshots, the sweep's viewer) and every test draw through it, so the
+//! same options give the same image everywhere.
+//!
+//! The order ([`FramePasses::record`]):
+//! 1. the scene pass: kd·D (clears colour and depth);
+//! 2. the single planar reflection pass of geometry depth 1 or the image mode (ks·(M*K)·R,
+//!    Bastos §8);
+//! 3. impostor reflections in planar reflectors (Popescu §3–4);
+//! 4. impostor reflections in curved reflectors (`--curved impostor`);
+//! 5. curved reflectors by cube maps (Nielsen §3.2, Luksch §6–7);
+//! 6. the recursive planar reflections (geometry depth ≠ 1, Nielsen §3.1), which draw the
+//!    curved reflectors seen in their maps with the cube maps of step 5.
+
+use super::curved::gpu::CurvedReflections;
+use super::gpu::Gpu;
+use super::impostors::{ImpostorReflections, ReflectorSet, impostor_pass};
+use super::load::ViewData;
+use super::options::{CurvedMode, ReflectionMode, ViewOptions};
+use super::reflections::{GeometryReflections, RecursiveReflections, Source};
+use super::renderer::{RenderError, Renderer, TargetFormats};
+use crate::camera::Camera;
+
+/// The views a frame is drawn into: colour, linear HDR (exactly when the renderer has an HDR
+/// target) and depth.
+#[derive(Clone, Copy)]
+pub struct FrameViews<'a> {
+    /// The display colour target.
+    pub color: &'a wgpu::TextureView,
+    /// The linear radiance target.
+    pub hdr: Option<&'a wgpu::TextureView>,
+    /// The depth buffer (reverse Z).
+    pub depth: &'a wgpu::TextureView,
+}
+
+/// Groups of passes that are built together: a change of options rebuilds the groups whose
+/// inputs changed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Rebuild {
+    /// The single or recursive planar reflection passes (also on a change of size).
+    pub planar: bool,
+    /// Impostor reflections in planar reflectors.
+    pub impostors: bool,
+    /// Curved reflectors: cube maps, or impostors in `--curved impostor`.
+    pub curved: bool,
+}
+
+impl Rebuild {
+    /// Every group.
+    pub const ALL: Rebuild = Rebuild {
+        planar: true,
+        impostors: true,
+        curved: true,
+    };
+
+    /// The groups whose inputs differ between `old` and `new`.
+    pub fn between(old: &ViewOptions, new: &ViewOptions) -> Rebuild {
+        let planar = |o: &ViewOptions| {
+            (
+                o.reflections,
+                o.selection,
+                o.maps,
+                o.reflectance,
+                o.recursion_depth(),
+                o.recursive().then_some(o.recursion.cutoff.to_bits()),
+            )
+        };
+        let impostors = |o: &ViewOptions| (o.impostors, o.impostors.then_some(o.impostor_kind));
+        let curved = |o: &ViewOptions| {
+            (
+                o.curved,
+                (o.curved == CurvedMode::Cubemap).then_some(o.curved_settings),
+                (o.curved == CurvedMode::Impostor).then_some(o.impostor_kind),
+            )
+        };
+        Rebuild {
+            planar: planar(old) != planar(new),
+            impostors: impostors(old) != impostors(new),
+            curved: curved(old) != curved(new),
+        }
+    }
+}
+
+/// Every pass of a frame, built from [`ViewOptions`] for a target size.
+pub struct FramePasses {
+    renderer: Renderer,
+    options: ViewOptions,
+    size: (u32, u32),
+    planar: Option<GeometryReflections>,
+    recursive: Option<RecursiveReflections>,
+    impostors: Option<ImpostorReflections>,
+    curved_impostors: Option<ImpostorReflections>,
+    curved: Option<CurvedReflections>,
+}
+
+impl FramePasses {
+    /// The scene pass of `data` for `formats` at `size` and every pass `options` asks for
+    /// (building curved reflectors renders their cube maps).
+    pub fn new(
+        gpu: &Gpu,
+        data: &ViewData,
+        formats: TargetFormats,
+        size: (u32, u32),
+        options: &ViewOptions,
+    ) -> Result<FramePasses, RenderError> {
+        let mut frame = FramePasses::scene_only(gpu, data, formats, size)?;
+        frame.options = *options;
+        frame.renderer.exposure = options.exposure;
+        frame.rebuild(gpu, data, Rebuild::ALL)?;
+        Ok(frame)
+    }
+
+    /// The scene pass alone, with the default options (no reflections).
+    pub fn scene_only(
+        gpu: &Gpu,
+        data: &ViewData,
+        formats: TargetFormats,
+        size: (u32, u32),
+    ) -> Result<FramePasses, RenderError> {
+        let renderer = Renderer::new(gpu, &data.scene, &data.map, formats)?;
+        Ok(FramePasses {
+            renderer,
+            options: ViewOptions::default(),
+            size,
+            planar: None,
+            recursive: None,
+            impostors: None,
+            curved_impostors: None,
+            curved: None,
+        })
+    }
+
+    /// Switches to `options`, rebuilding the passes whose inputs changed. On an error the
+    /// failed group is off and the options keep the new values.
+    pub fn set_options(
+        &mut self,
+        gpu: &Gpu,
+        data: &ViewData,
+        options: &ViewOptions,
+    ) -> Result<(), RenderError> {
+        let changed = Rebuild::between(&self.options, options);
+        self.options = *options;
+        self.renderer.exposure = options.exposure;
+        self.rebuild(gpu, data, changed)
+    }
+
+    /// Switches to `options` and rebuilds the groups in `groups` whether or not they changed.
+    pub fn set_options_rebuilding(
+        &mut self,
+        gpu: &Gpu,
+        data: &ViewData,
+        options: &ViewOptions,
+        groups: Rebuild,
+    ) -> Result<(), RenderError> {
+        let changed = Rebuild::between(&self.options, options);
+        self.options = *options;
+        self.renderer.exposure = options.exposure;
+        self.rebuild(
+            gpu,
+            data,
+            Rebuild {
+                planar: changed.planar || groups.planar,
+                impostors: changed.impostors || groups.impostors,
+                curved: changed.curved || groups.curved,
+            },
+        )
+    }
+
+    /// A new target size: the planar passes (their maps are of the frame's size) are rebuilt.
+    pub fn resize(
+        &mut self,
+        gpu: &Gpu,
+        data: &ViewData,
+        size: (u32, u32),
+    ) -> Result<(), RenderError> {
+        if size == self.size {
+            return Ok(());
+        }
+        self.size = size;
+        self.rebuild(
+            gpu,
+            data,
+            Rebuild {
+                planar: true,
+                ..Rebuild::default()
+            },
+        )
+    }
+
+    /// Builds the passes of `groups` for the current options (each group off first, so a
+    /// failure leaves it off).
+    fn rebuild(&mut self, gpu: &Gpu, data: &ViewData, groups: Rebuild) -> Result<(), RenderError> {
+        let o = self.options;
+        let (w, h) = self.size;
+        if groups.planar {
+            self.planar = None;
+            self.recursive = None;
+            let source = match o.reflections {
+                ReflectionMode::Off => None,
+                ReflectionMode::Geometry => Some(Source::Geometry),
+                ReflectionMode::Image => Some(Source::Image {
+                    selection: o.selection,
+                    count: o.maps,
+                }),
+            };
+            if o.recursive() {
+                let r = RecursiveReflections::new(
+                    gpu,
+                    &self.renderer,
+                    data,
+                    w,
+                    h,
+                    o.reflectance,
+                    o.recursion,
+                )?;
+                self.recursive = Some(r);
+            } else if let Some(source) = source {
+                let r = GeometryReflections::with_reflectance(
+                    gpu,
+                    &self.renderer,
+                    data,
+                    w,
+                    h,
+                    source,
+                    o.reflectance,
+                )?;
+                self.planar = Some(r);
+            }
+        }
+        if groups.impostors {
+            self.impostors = None;
+            if o.impostors {
+                let pass = impostor_pass(
+                    gpu,
+                    &self.renderer,
+                    data,
+                    o.impostor_kind,
+                    ReflectorSet::Planar,
+                )?;
+                self.impostors = Some(pass);
+            }
+        }
+        if groups.curved {
+            self.curved = None;
+            self.curved_impostors = None;
+            match o.curved {
+                CurvedMode::Off => {}
+                CurvedMode::Cubemap => {
+                    let c = CurvedReflections::new(gpu, &self.renderer, data, o.curved_settings)?;
+                    self.curved = Some(c);
+                }
+                CurvedMode::Impostor => {
+                    let pass = impostor_pass(
+                        gpu,
+                        &self.renderer,
+                        data,
+                        o.impostor_kind,
+                        ReflectorSet::Curved,
+                    )?;
+                    self.curved_impostors = Some(pass);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Uses `pass` for impostor reflections in planar reflectors (benchmarks build it with
+    /// other tables); the next rebuild of that group replaces it.
+    pub fn set_impostor_pass(&mut self, pass: Option<ImpostorReflections>) {
+        self.impostors = pass;
+    }
+
+    /// The options the passes were built from.
+    pub fn options(&self) -> &ViewOptions {
+        &self.options
+    }
+
+    /// The target size the passes were built for.
+    pub fn size(&self) -> (u32, u32) {
+        self.size
+    }
+
+    /// The scene pass.
+    pub fn renderer(&self) -> &Renderer {
+        &self.renderer
+    }
+
+    /// The single planar reflection pass (geometry depth 1 or image mode), if any.
+    pub fn planar(&self) -> Option<&GeometryReflections> {
+        self.planar.as_ref()
+    }
+
+    /// The recursive planar reflection passes (geometry depth ≠ 1), if any.
+    pub fn recursive(&self) -> Option<&RecursiveReflections> {
+        self.recursive.as_ref()
+    }
+
+    /// Impostor reflections in planar reflectors, if on.
+    pub fn impostors(&self) -> Option<&ImpostorReflections> {
+        self.impostors.as_ref()
+    }
+
+    /// Impostor reflections in curved reflectors (`--curved impostor`), if on.
+    pub fn curved_impostors(&self) -> Option<&ImpostorReflections> {
+        self.curved_impostors.as_ref()
+    }
+
+    /// Curved reflectors by cube maps, if on.
+    pub fn curved(&self) -> Option<&CurvedReflections> {
+        self.curved.as_ref()
+    }
+
+    /// Planar reflection passes the frame from `camera` records (they end the GPU timing
+    /// span; 0: the scene pass ends it). Valid after [`FramePasses::prepare`] for `camera`.
+    pub fn reflection_pass_count(&self, camera: &Camera) -> usize {
+        self.planar.as_ref().map_or(0, |r| r.pass_count(camera))
+            + self.recursive.as_ref().map_or(0, |r| r.pass_count())
+    }
+
+    /// Writes every pass's uniforms for `camera` (the writes land before the next
+    /// submission). Call before [`FramePasses::record`].
+    pub fn prepare(&self, gpu: &Gpu, camera: &Camera) {
+        let (w, h) = self.size;
+        self.renderer.prepare(gpu, camera, w, h);
+        let curved = self.curved.as_ref();
+        if let Some(r) = &self.recursive {
+            r.prepare(gpu, &self.renderer, camera, curved);
+        }
+        if let Some(r) = &self.planar {
+            r.prepare(gpu, &self.renderer, camera, curved);
+        }
+        if let Some(r) = &self.impostors {
+            r.prepare(gpu, camera);
+        }
+        if let Some(r) = &self.curved_impostors {
+            r.prepare(gpu, camera);
+        }
+        if let Some(c) = &self.curved {
+            c.prepare(gpu, camera);
+        }
+    }
+
+    /// Records every pass into `views` in the module's fixed order. With `timestamps`, the
+    /// scene pass writes index 0 at its beginning and the last planar reflection pass (else
+    /// the scene pass) index 1 at its end.
+    pub fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        camera: &Camera,
+        views: FrameViews<'_>,
+        timestamps: Option<&wgpu::QuerySet>,
+    ) {
+        let FrameViews { color, hdr, depth } = views;
+        let only_scene = self.reflection_pass_count(camera) == 0;
+        self.renderer.draw(
+            encoder,
+            color,
+            hdr,
+            depth,
+            timestamps.map(|query_set| wgpu::RenderPassTimestampWrites {
+                query_set,
+                beginning_of_pass_write_index: Some(0),
+                end_of_pass_write_index: only_scene.then_some(1),
+            }),
+        );
+        let end = timestamps.map(|q| (q, 1));
+        let curved = self.curved.as_ref();
+        if let Some(r) = &self.planar {
+            r.draw_timed(
+                encoder,
+                &self.renderer,
+                camera,
+                color,
+                hdr,
+                depth,
+                end,
+                curved,
+            );
+        }
+        if let Some(r) = &self.impostors {
+            r.draw(encoder, color, hdr, depth);
+        }
+        if let Some(r) = &self.curved_impostors {
+            r.draw(encoder, color, hdr, depth);
+        }
+        if let Some(c) = &self.curved {
+            c.draw(encoder, color, hdr, depth);
+        }
+        if let Some(r) = &self.recursive {
+            r.draw_timed(encoder, &self.renderer, color, hdr, depth, end, curved);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::view::options::{ImpostorKind, ReflectionMode, Selection};
+
+    #[test]
+    fn a_change_rebuilds_only_the_passes_it_feeds() {
+        let base = ViewOptions::default();
+        assert_eq!(Rebuild::between(&base, &base), Rebuild::default());
+        let mut o = base;
+        o.exposure = 3.0;
+        assert_eq!(Rebuild::between(&base, &o), Rebuild::default());
+
+        let mut image = base;
+        image.reflections = ReflectionMode::Image;
+        let mut more = image;
+        more.maps = 4;
+        let mut distance = image;
+        distance.selection = Selection::Distance;
+        for (a, b) in [(&base, &image), (&image, &more), (&image, &distance)] {
+            let r = Rebuild::between(a, b);
+            assert!(r.planar && !r.impostors && !r.curved, "{r:?}");
+        }
+
+        // The depth only matters in geometry mode.
+        let mut deep_image = image;
+        deep_image.recursion.depth = 3;
+        assert_eq!(Rebuild::between(&image, &deep_image), Rebuild::default());
+        let mut geometry = base;
+        geometry.reflections = ReflectionMode::Geometry;
+        let mut deep = geometry;
+        deep.recursion.depth = 2;
+        assert!(Rebuild::between(&geometry, &deep).planar);
+
+        // The impostor kind feeds the impostor passes that are on.
+        let mut kind = base;
+        kind.impostor_kind = ImpostorKind::Billboard;
+        assert_eq!(Rebuild::between(&base, &kind), Rebuild::default());
+        let mut on = base;
+        on.impostors = true;
+        let mut on_kind = on;
+        on_kind.impostor_kind = ImpostorKind::Billboard;
+        let r = Rebuild::between(&on, &on_kind);
+        assert!(r.impostors && !r.curved && !r.planar, "{r:?}");
+        let mut curved = base;
+        curved.curved = CurvedMode::Impostor;
+        let mut curved_kind = curved;
+        curved_kind.impostor_kind = ImpostorKind::Billboard;
+        let r = Rebuild::between(&curved, &curved_kind);
+        assert!(r.curved && !r.impostors, "{r:?}");
+        let mut cube = base;
+        cube.curved = CurvedMode::Cubemap;
+        let mut glossy = cube;
+        glossy.curved_settings.glossy_samples = 4;
+        assert!(Rebuild::between(&cube, &glossy).curved);
+    }
+}

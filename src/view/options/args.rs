@@ -1,0 +1,251 @@
+//! [`ViewArgs`]: `glint-view`'s command-line form of [`ViewOptions`], and
+//! [`ViewOptions::from_args`], the same parser for tests and tools.
+
+use super::{
+    CurvedMode, CurvedSettings, DEFAULT_FACE_SIZE, DEFAULT_GENERATIONS, DEFAULT_WEIGHT_CUTOFF,
+    ImpostorKind, RecursionSettings, ReflectanceChannel, ReflectanceLayout, ReflectanceSettings,
+    ReflectionMode, Selection, ViewOptions, parse_depth,
+};
+
+/// The command-line form of [`ViewOptions`] (`#[command(flatten)]` in `glint-view`).
+#[derive(clap::Args, Clone, Debug)]
+pub struct ViewArgs {
+    /// Multiplies the radiance before display.
+    #[arg(long, default_value_t = 1.0, value_parser = parse_exposure)]
+    pub exposure: f32,
+    /// Glossy planar reflections: `geometry` (the mirrored scene re-rendered per reflector,
+    /// ks·R·M added to D), `image` (the baked radiance maps splatted; needs the radiance
+    /// stage) or `off`.
+    #[arg(long, value_name = "MODE", default_value = "off")]
+    pub reflections: ReflectionMode,
+    /// Image-based reflections: radiance maps selected per reflector element.
+    #[arg(long, value_name = "N", default_value_t = 2,
+          value_parser = clap::value_parser!(u8).range(1..=16))]
+    pub maps: u8,
+    /// Image-based reflections: select maps by `angle` (Bastos's default) or `distance`.
+    #[arg(long, value_name = "HOW", default_value = "angle")]
+    pub selection: Selection,
+    /// Reflections: read R from the `sphere` map (by reflected direction) or the `1d`
+    /// grazing-dense map (by view angle).
+    #[arg(long, value_name = "MAP", default_value = "1d")]
+    pub reflectance: ReflectanceLayout,
+    /// Reflections: R's channel, `albedo` (directional albedo, matches the path tracer) or
+    /// `bastos` (F/(π cos²θ) as printed).
+    #[arg(long, value_name = "CHANNEL", default_value = "albedo")]
+    pub reflectance_channel: ReflectanceChannel,
+    /// Reflections of impostors in planar reflectors (Popescu §3–4): `on` or `off`. Curved
+    /// reflectors reflect impostors with `--curved impostor` instead.
+    #[arg(long, value_name = "on|off", default_value = "off", value_parser = parse_on_off,
+          action = clap::ArgAction::Set)]
+    pub impostors: bool,
+    /// What stands for impostor objects in reflections (`--impostors on`, `--curved
+    /// impostor`): `srdm` (depth maps through their SRDM rows, §4.3; needs the srdm stage) or
+    /// `billboard` (one billboard per object and reflector, §3, made at load time; misses
+    /// read the reflector's baked environment map when the materials stage has one).
+    #[arg(long, value_name = "KIND", default_value = "srdm")]
+    pub impostor_kind: ImpostorKind,
+    /// Curved reflectors: `cubemap` (a view-independent cube map per reflector, Nielsen §3.2),
+    /// `impostor` (reflected rays against the impostors only, Popescu §3–4) or `off`.
+    #[arg(long, value_name = "MODE", default_value = "off")]
+    pub curved: CurvedMode,
+    /// Curved reflectors: regular samples per pixel and lobe (Luksch §6–7; the pattern
+    /// closest to N); 0: one mirror lookup. The glossy term reads the baked MIP environment
+    /// map when the bundle's materials stage has one, else the live cube map.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub glossy_samples: u32,
+    /// Curved reflectors: face size of the live cube maps, texels.
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_FACE_SIZE,
+          value_parser = clap::value_parser!(u32).range(1..=8192))]
+    pub cube_size: u32,
+    /// Curved reflectors: generations of cube maps (1: no interreflection between them).
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_GENERATIONS,
+          value_parser = clap::value_parser!(u32).range(1..=8))]
+    pub cube_generations: u32,
+    /// Geometry reflections: recursion depth 0–4 (Nielsen & Christensen 2002 §3.1): 0 draws
+    /// no reflections (as `--reflections off`), 1 mirrors the scene once per reflector (the
+    /// default), 2–4 also draw the reflectors seen in each reflection, one reflection map per
+    /// level. Needs `--reflections geometry`. In the window, [ and ] change it.
+    #[arg(long, value_name = "N", value_parser = parse_depth)]
+    pub recursion_depth: Option<u8>,
+    /// Recursive reflections: a branch stops when its accumulated specular weight (the product
+    /// of max ks·R along the path) falls below this.
+    #[arg(long, value_name = "W", default_value_t = DEFAULT_WEIGHT_CUTOFF, value_parser = parse_cutoff)]
+    pub reflection_cutoff: f32,
+}
+
+/// `glint-view`'s view arguments alone, for [`ViewOptions::from_args`].
+#[derive(clap::Parser)]
+#[command(name = "glint-view")]
+struct ViewCli {
+    #[command(flatten)]
+    view: ViewArgs,
+}
+
+impl ViewOptions {
+    /// The options `glint-view` renders with for these view arguments (e.g. `["--maps",
+    /// "4"]`): the same parser, defaults and checks.
+    pub fn from_args<I, S>(args: I) -> Result<ViewOptions, String>
+    where
+        I: IntoIterator<Item = S>,
+        S: Into<std::ffi::OsString> + Clone,
+    {
+        use clap::Parser;
+        let argv = std::iter::once(std::ffi::OsString::from("glint-view"))
+            .chain(args.into_iter().map(Into::into));
+        let cli = ViewCli::try_parse_from(argv).map_err(|e| e.to_string())?;
+        cli.view.options()
+    }
+}
+
+impl ViewArgs {
+    /// The options these arguments ask for; `--recursion-depth` without `--reflections
+    /// geometry` is an error.
+    pub fn options(&self) -> Result<ViewOptions, String> {
+        if let Some(d) = self.recursion_depth
+            && self.reflections != ReflectionMode::Geometry
+        {
+            return Err(format!(
+                "--recursion-depth {d} needs --reflections geometry (reflections are {})",
+                self.reflections
+            ));
+        }
+        let options = ViewOptions {
+            exposure: self.exposure,
+            reflections: self.reflections,
+            selection: self.selection,
+            maps: usize::from(self.maps),
+            reflectance: ReflectanceSettings {
+                layout: self.reflectance,
+                channel: self.reflectance_channel,
+            },
+            impostors: self.impostors,
+            impostor_kind: self.impostor_kind,
+            curved: self.curved,
+            curved_settings: CurvedSettings {
+                glossy_samples: self.glossy_samples,
+                face_size: self.cube_size,
+                generations: self.cube_generations,
+            },
+            recursion: RecursionSettings {
+                depth: self.recursion_depth.unwrap_or(1),
+                cutoff: self.reflection_cutoff,
+            },
+        };
+        options.check()?;
+        Ok(options)
+    }
+}
+
+/// `on` or `off`.
+pub fn parse_on_off(s: &str) -> Result<bool, String> {
+    match s {
+        "on" => Ok(true),
+        "off" => Ok(false),
+        _ => Err(format!("{s:?} is not one of on, off")),
+    }
+}
+
+fn parse_exposure(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("{s:?} is not a finite number > 0")),
+    }
+}
+
+fn parse_cutoff(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(v) if (0.0..=1.0).contains(&v) => Ok(v),
+        _ => Err(format!("{s:?} is not a weight from 0 to 1")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn options(args: &[&str]) -> Result<ViewOptions, String> {
+        ViewOptions::from_args(args.iter().copied())
+    }
+
+    #[test]
+    fn no_arguments_are_the_default_options() {
+        assert_eq!(options(&[]).unwrap(), ViewOptions::default());
+    }
+
+    #[test]
+    fn every_argument_reaches_its_option() {
+        let o = options(&[
+            "--exposure",
+            "2",
+            "--reflections",
+            "geometry",
+            "--maps",
+            "4",
+            "--selection",
+            "distance",
+            "--reflectance",
+            "sphere",
+            "--reflectance-channel",
+            "bastos",
+            "--impostors",
+            "on",
+            "--impostor-kind",
+            "billboard",
+            "--curved",
+            "impostor",
+            "--glossy-samples",
+            "8",
+            "--cube-size",
+            "64",
+            "--cube-generations",
+            "3",
+            "--recursion-depth",
+            "3",
+            "--reflection-cutoff",
+            "0.5",
+        ])
+        .unwrap();
+        assert_eq!(
+            o,
+            ViewOptions {
+                exposure: 2.0,
+                reflections: ReflectionMode::Geometry,
+                selection: Selection::Distance,
+                maps: 4,
+                reflectance: ReflectanceSettings {
+                    layout: ReflectanceLayout::Sphere,
+                    channel: ReflectanceChannel::Bastos,
+                },
+                impostors: true,
+                impostor_kind: ImpostorKind::Billboard,
+                curved: CurvedMode::Impostor,
+                curved_settings: CurvedSettings {
+                    glossy_samples: 8,
+                    face_size: 64,
+                    generations: 3,
+                },
+                recursion: RecursionSettings {
+                    depth: 3,
+                    cutoff: 0.5,
+                },
+            }
+        );
+        assert!(o.recursive() && o.shows_reflections());
+    }
+
+    #[test]
+    fn bad_arguments_name_the_option() {
+        let e = options(&["--recursion-depth", "2"]).unwrap_err();
+        assert!(
+            e.contains("--recursion-depth 2 needs --reflections geometry"),
+            "{e}"
+        );
+        let e = options(&["--maps", "17"]).unwrap_err();
+        assert!(e.contains("--maps"), "{e}");
+        let e = options(&["--selection", "near"]).unwrap_err();
+        assert!(e.contains("angle, distance"), "{e}");
+        let mut o = ViewOptions::default();
+        o.maps = 0;
+        assert!(o.check().unwrap_err().contains("maps 0"));
+    }
+}

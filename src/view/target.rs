@@ -1,0 +1,197 @@
+//! What every pass draws into and how it meets the frame: the target formats, the offscreen
+//! target, the reverse-Z depth state, the additive blend of passes drawn over the scene and
+//! the overlay pass that loads a finished frame.
+
+use super::gpu::{Gpu, GpuError, error_scoped};
+use super::renderer::Renderer;
+
+/// Offscreen colour target format: the hardware encodes linear output to sRGB.
+pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+
+/// Format of the optional HDR target (linear radiance) and of the radiosity textures.
+pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+
+/// Depth buffer format.
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// Target formats of a [`Renderer`]'s pipeline.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TargetFormats {
+    /// The display colour target. When it is not an sRGB format the shader encodes sRGB.
+    pub color: wgpu::TextureFormat,
+    /// Whether an [`HDR_FORMAT`] target receives linear radiance too.
+    pub hdr: bool,
+}
+
+/// Depth state of every pass: reverse-Z (nearer is greater) on [`DEPTH_FORMAT`].
+pub fn reverse_z_depth(write: bool, compare: wgpu::CompareFunction) -> wgpu::DepthStencilState {
+    wgpu::DepthStencilState {
+        format: DEPTH_FORMAT,
+        depth_write_enabled: Some(write),
+        depth_compare: Some(compare),
+        stencil: wgpu::StencilState::default(),
+        bias: wgpu::DepthBiasState::default(),
+    }
+}
+
+/// Adds a pass's colour to the target and keeps the target's alpha (reflections, curved and
+/// impostor passes drawn over the scene; a reflection map's alpha is read by its composite).
+pub const ADDITIVE_KEEP_ALPHA: wgpu::BlendState = wgpu::BlendState {
+    color: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::One,
+        dst_factor: wgpu::BlendFactor::One,
+        operation: wgpu::BlendOperation::Add,
+    },
+    alpha: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::Zero,
+        dst_factor: wgpu::BlendFactor::One,
+        operation: wgpu::BlendOperation::Add,
+    },
+};
+
+/// Begins a pass that draws over a finished frame: it loads and keeps `color`, `hdr` (when
+/// given) and `depth`, so its fragments add to the scene and are depth tested against it.
+/// With `end_timestamp` (query set, index), the pass writes its end time there.
+pub fn overlay_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    color: &wgpu::TextureView,
+    hdr: Option<&wgpu::TextureView>,
+    depth: &wgpu::TextureView,
+    end_timestamp: Option<(&wgpu::QuerySet, u32)>,
+) -> wgpu::RenderPass<'e> {
+    let load = |view| {
+        Some(wgpu::RenderPassColorAttachment {
+            view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Load,
+                store: wgpu::StoreOp::Store,
+            },
+        })
+    };
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: &[load(color), hdr.and_then(load)],
+        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+            view: depth,
+            depth_ops: Some(wgpu::Operations {
+                load: wgpu::LoadOp::Load,
+                store: wgpu::StoreOp::Store,
+            }),
+            stencil_ops: None,
+        }),
+        timestamp_writes: end_timestamp.map(|(query_set, index)| wgpu::RenderPassTimestampWrites {
+            query_set,
+            beginning_of_pass_write_index: None,
+            end_of_pass_write_index: Some(index),
+        }),
+        occlusion_query_set: None,
+        multiview_mask: None,
+    })
+}
+
+/// A depth buffer for a `width` × `height` target.
+pub fn depth_texture(gpu: &Gpu, width: u32, height: u32) -> wgpu::Texture {
+    gpu.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("glint depth"),
+        size: wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: DEPTH_FORMAT,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+        view_formats: &[],
+    })
+}
+
+/// An offscreen target: colour (readable), optional HDR (readable) and depth.
+pub struct OffscreenTarget {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// [`COLOR_FORMAT`] colour.
+    pub color: wgpu::Texture,
+    /// [`HDR_FORMAT`] linear radiance, when asked for.
+    pub hdr: Option<wgpu::Texture>,
+    /// The depth buffer (drawn through `depth_view`; held so the target owns what it uses).
+    _depth: wgpu::Texture,
+    color_view: wgpu::TextureView,
+    hdr_view: Option<wgpu::TextureView>,
+    depth_view: wgpu::TextureView,
+}
+
+impl OffscreenTarget {
+    /// Creates the textures; checks the size against the device's limit.
+    pub fn new(gpu: &Gpu, width: u32, height: u32, hdr: bool) -> Result<OffscreenTarget, GpuError> {
+        let max = gpu.device.limits().max_texture_dimension_2d;
+        if width == 0 || height == 0 || width > max || height > max {
+            return Err(GpuError::InvalidSize { width, height, max });
+        }
+        error_scoped(&gpu.device, "creating the offscreen target", || {
+            let colour = |format, label| {
+                gpu.device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size: wgpu::Extent3d {
+                        width,
+                        height,
+                        depth_or_array_layers: 1,
+                    },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format,
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+                    view_formats: &[],
+                })
+            };
+            let color = colour(COLOR_FORMAT, "glint offscreen colour");
+            let hdr = hdr.then(|| colour(HDR_FORMAT, "glint offscreen hdr"));
+            let depth = depth_texture(gpu, width, height);
+            let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
+            OffscreenTarget {
+                width,
+                height,
+                color_view: view(&color),
+                hdr_view: hdr.as_ref().map(view),
+                depth_view: view(&depth),
+                color,
+                hdr,
+                _depth: depth,
+            }
+        })
+    }
+
+    /// The colour, optional HDR and depth views (for passes drawn after the scene's).
+    pub fn views(
+        &self,
+    ) -> (
+        &wgpu::TextureView,
+        Option<&wgpu::TextureView>,
+        &wgpu::TextureView,
+    ) {
+        (&self.color_view, self.hdr_view.as_ref(), &self.depth_view)
+    }
+
+    /// Records `renderer`'s pass into this target.
+    pub fn draw(
+        &self,
+        renderer: &Renderer,
+        encoder: &mut wgpu::CommandEncoder,
+        timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
+    ) {
+        renderer.draw(
+            encoder,
+            &self.color_view,
+            self.hdr_view.as_ref(),
+            &self.depth_view,
+            timestamps,
+        );
+    }
+}
