@@ -9,6 +9,8 @@
 //! Needs `xvfb-run` (Debian: `xvfb xauth`, installed by `.ci/run`). Without it the tests say
 //! so and check nothing, except under CI (`CI` set), where they fail.
 
+#![cfg(feature = "view")]
+
 mod common;
 
 use std::path::{Path, PathBuf};
@@ -174,8 +176,7 @@ fn the_window_draws_what_headless_replay_draws() {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
-    let glossy = dir.path().join("glossy-room.glint");
-    bake("glossy-room", &glossy);
+    let glossy = shipped_bundle(&Recipe::every_needed_stage("glossy-room", Quality::Draft));
     let size = (320, 216);
     // Option sets the window used to get wrong: it ignored --maps and --selection, and drew
     // the recursive pass before the curved reflectors.
