@@ -198,13 +198,19 @@ pub fn decode_exr(bytes: &[u8]) -> Result<ExrImage, ImageError> {
             )));
         }
     }
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .first_valid_layer()
-        .all_attributes()
-        .from_buffered(Cursor::new(bytes))?;
+    // Decoded on this thread, and a panic of the decoder on malformed data is an error: on
+    // the decoder's thread pool it would abort the process.
+    let image = std::panic::catch_unwind(|| {
+        read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .first_valid_layer()
+            .all_attributes()
+            .non_parallel()
+            .from_buffered(Cursor::new(bytes))
+    })
+    .map_err(|_| ImageError::Shape("the OpenEXR decoder failed on malformed data".into()))??;
     let layer = image.layer_data;
     let size = layer.size;
     let channels = layer

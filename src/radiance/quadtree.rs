@@ -360,10 +360,7 @@ mod tests {
         let e = broken(&|n| n[0].children = u32::MAX);
         assert!(e.contains("node 0: children"), "{e}");
         let e = broken(&|n| n[1].rect[2] = res + 1);
-        assert!(
-            e.contains("node 1") && e.contains("outside the 16² map"),
-            "{e}"
-        );
+        assert!(e.contains("node 1") && e.contains("outside"), "{e}");
         let e = broken(&|n| n[1].rect[0] = n[1].rect[2]);
         assert!(e.contains("is empty"), "{e}");
         let e = broken(&|n| {
