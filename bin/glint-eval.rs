@@ -14,8 +14,8 @@ use glint::eval::{Image, compare, probe, sweep};
 use glint::progress::TerminalProgress;
 use glint::radiosity::RadiosityMap;
 use glint::scene::{Quality, Scene};
-use std::io::Write;
 use glint::view::options::{CurvedMode, ReflectionMode, Selection, ViewOptions};
+use std::io::Write;
 
 #[derive(Parser)]
 #[command(

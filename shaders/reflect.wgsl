@@ -1,4 +1,4 @@
-// glint-view: glossy planar reflections (issue 9), L = kd·D + ks·(M*K)·R (Bastos Eq. 2).
+// glint-view: glossy planar reflections, L = kd·D + ks·(M*K)·R (Bastos Eq. 2).
 //
 // Appended to `shaders/view.wgsl` at pipeline creation (`src/view/reflections/passes.rs`): it
 // uses that file's `frame` uniforms, `VertexIn`, `FragmentOut` and `sample_radiosity`.

@@ -182,10 +182,151 @@ pub const MAX_EXR_PIXELS: u64 = 1 << 25;
 /// (a 4096² RGB half-float page holds 96 MiB).
 pub const MAX_EXR_BYTES: u64 = 1 << 27;
 
+/// Walks an OpenEXR file's layout (magic, version, header attributes
+/// `name\0 type\0 size:i32 value[size]` until an empty name, the chunk offset table, then each
+/// chunk `y:i32 size:i32 data[size]`) and refuses what would make the decoder allocate more
+/// than the file holds: an attribute or a chunk whose declared size runs past the end of the
+/// file, a `preview` whose 4·w·h pixels disagree with its size, a window (`box2i`) that is
+/// empty or over [`MAX_EXR_PIXELS`]. glint writes single-part scanline files only, so tiled,
+/// deep and multi-part files are refused here too. Anything else is left to the decoder.
+fn check_exr_attributes(bytes: &[u8]) -> Result<(), ImageError> {
+    const MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
+    const TILED: u32 = 0x200;
+    const DEEP: u32 = 0x800;
+    const MULTIPART: u32 = 0x1000;
+    let bad = |m: String| Err(ImageError::Shape(format!("OpenEXR file: {m}")));
+    if bytes.len() < 8 || bytes[..4] != MAGIC {
+        return Ok(());
+    }
+    let flags = u32::from_le_bytes(bytes[4..8].try_into().expect("4 bytes"));
+    if flags & (TILED | DEEP | MULTIPART) != 0 {
+        return bad(format!(
+            "version field {flags:#x} marks a tiled, deep or multi-part file; glint reads single-part scanline files"
+        ));
+    }
+    let i32_at = |p: usize| -> Option<i64> {
+        Some(i32::from_le_bytes(bytes.get(p..p + 4)?.try_into().ok()?) as i64)
+    };
+    // A NUL-terminated string at `pos` (None: runs off the end).
+    let cstr = |pos: usize| -> Option<(&[u8], usize)> {
+        let end = pos + bytes.get(pos..)?.iter().position(|&b| b == 0)?;
+        Some((&bytes[pos..end], end + 1))
+    };
+    let (mut chunk_count, mut data_rows, mut compression) = (None, None, None);
+    let mut pos = 8;
+    // The header: attributes until an empty name.
+    loop {
+        match bytes.get(pos) {
+            None => return Ok(()),
+            Some(0) => {
+                pos += 1;
+                break;
+            }
+            Some(_) => {}
+        }
+        let Some((name, p)) = cstr(pos) else {
+            return Ok(());
+        };
+        let Some((kind, p)) = cstr(p) else {
+            return Ok(());
+        };
+        let Some(size) = i32_at(p) else {
+            return Ok(());
+        };
+        let value = p + 4;
+        let left = bytes.len() - value;
+        let name = String::from_utf8_lossy(name);
+        if size < 0 || size as usize > left {
+            return bad(format!(
+                "attribute `{name}` declares {size} bytes, {left} remain in the file"
+            ));
+        }
+        let v = &bytes[value..value + size as usize];
+        if kind == b"box2i" && size == 16 {
+            // (xMin, yMin, xMax, yMax), inclusive: an empty or vast window is refused here,
+            // before the decoder sizes its buffers from it.
+            let c =
+                |k: usize| i32::from_le_bytes(v[4 * k..4 * k + 4].try_into().expect("4")) as i64;
+            let (w, h) = (c(2) - c(0) + 1, c(3) - c(1) + 1);
+            if w < 1 || h < 1 || (w as u64).saturating_mul(h as u64) > MAX_EXR_PIXELS {
+                return bad(format!(
+                    "attribute `{name}` is a window of {w}×{h} pixels, not 1 ..= {MAX_EXR_PIXELS} pixels"
+                ));
+            }
+            if name == "dataWindow" {
+                data_rows = Some(h as u64);
+            }
+        }
+        if kind == b"preview" {
+            let dims = v.get(..8).map(|d| {
+                let w = u32::from_le_bytes(d[..4].try_into().expect("4 bytes")) as u64;
+                let h = u32::from_le_bytes(d[4..].try_into().expect("4 bytes")) as u64;
+                (w, h)
+            });
+            match dims {
+                Some((w, h)) if 8 + 4 * w * h == size as u64 => {}
+                Some((w, h)) => {
+                    return bad(format!(
+                        "attribute `{name}`: a {w}×{h} preview does not fill its {size} bytes"
+                    ));
+                }
+                None => {
+                    return bad(format!(
+                        "attribute `{name}`: {size} bytes cannot hold a preview's size"
+                    ));
+                }
+            }
+        }
+        if name == "chunkCount" && size == 4 {
+            chunk_count = Some(i32::from_le_bytes(v.try_into().expect("4 bytes")).max(0) as u64);
+        }
+        if name == "compression" && size == 1 {
+            compression = Some(v[0]);
+        }
+        pos = value + size as usize;
+    }
+    // Scanlines per chunk of each compression (OpenEXR file layout, "Scan Line Blocks").
+    let rows_per_chunk = match compression {
+        Some(0..=2) => 1,
+        Some(3 | 5) => 16,
+        Some(4 | 6..=8) => 32,
+        Some(9) => 256,
+        _ => return Ok(()),
+    };
+    let Some(count) = chunk_count.or(data_rows.map(|h| h.div_ceil(rows_per_chunk))) else {
+        return Ok(());
+    };
+    // The offset table, then each chunk inside the file.
+    if count.saturating_mul(8) > (bytes.len() - pos) as u64 {
+        return bad(format!(
+            "{count} chunk offsets do not fit in the {} bytes after the header",
+            bytes.len() - pos
+        ));
+    }
+    for k in 0..count as usize {
+        let at = pos + 8 * k;
+        let offset = u64::from_le_bytes(bytes[at..at + 8].try_into().expect("8 bytes"));
+        let size = usize::try_from(offset)
+            .ok()
+            .and_then(|o| i32_at(o.checked_add(4)?));
+        match size {
+            Some(s) if s >= 0 && offset + 8 + s as u64 <= bytes.len() as u64 => {}
+            _ => {
+                return bad(format!(
+                    "chunk {k} at byte {offset} runs past the end of the file ({} bytes)",
+                    bytes.len()
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Decodes the first layer of an EXR file in memory. Headers are read first: a layer larger
 /// than [`MAX_EXR_PIXELS`] or [`MAX_EXR_BYTES`] is an error before anything is allocated
 /// for it (a header alone could otherwise ask for terabytes).
 pub fn decode_exr(bytes: &[u8]) -> Result<ExrImage, ImageError> {
+    check_exr_attributes(bytes)?;
     let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false)?;
     for (i, h) in meta.headers.iter().enumerate() {
         let (w, h_) = (h.layer_size.0 as u64, h.layer_size.1 as u64);
@@ -324,7 +465,8 @@ mod tests {
             z.as_slice(),
             "float depth is exact"
         );
-        assert!(img.channel("G").unwrap_err().to_string().contains("\"R\""));
+        let e = img.channel("G").unwrap_err().to_string();
+        assert!(e.contains("no channel G; the image has R, Z"), "{e}");
         // Deterministic bytes.
         let again = encode_exr(
             w,

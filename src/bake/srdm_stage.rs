@@ -22,8 +22,7 @@ use serde::Serialize;
 
 pub use crate::srdm::capture::{
     Capture, ColourSource, SrdmAssetError, capture, colour_name, colour_source, colour_source_read,
-    encode_capture,
-    impostor_triangles, view_camera,
+    encode_capture, impostor_triangles, view_camera,
 };
 pub use crate::srdm::settings::SrdmSettings;
 

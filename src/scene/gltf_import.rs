@@ -673,10 +673,7 @@ mod tests {
             .err()
             .unwrap()
             .to_string();
-        assert!(
-            e.contains("/dev/zero") && e.contains("not a file"),
-            "{e}"
-        );
+        assert!(e.contains("/dev/zero") && e.contains("not a file"), "{e}");
         let e = import_edited(|d| d["buffers"][0]["uri"] = serde_json::json!("."))
             .err()
             .unwrap()

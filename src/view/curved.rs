@@ -1,4 +1,4 @@
-//! Curved reflectors in the viewer (issue 10): view-independent cube maps (Nielsen &
+//! Curved reflectors in the viewer: view-independent cube maps (Nielsen &
 //! Christensen 2002 §3.2, Figure 6) and glossy curved objects by regular sampling (Luksch
 //! et al. §6–7).
 //!
@@ -28,7 +28,7 @@
 //!   The mirror term always reads the live map (it holds the interreflections).
 //!
 //! The GPU half is [`gpu::CurvedReflections`] (`shaders/curved.wgsl`). Not here: the
-//! `impostor` mode of `--curved` (Popescu et al., another part of issue 10), and parallax
+//! `impostor` mode of `--curved` (Popescu et al. §3–4, in [`crate::view::impostors`]), and parallax
 //! correction of the lookups (Nielsen's maps assume a distant environment too).
 
 pub mod gpu;

@@ -15,11 +15,11 @@
 //! - [`radiance_maps`]: the baked radiance maps of planar reflectors and their selection for
 //!   the reflected view (image-based mode, Bastos §8.1.3).
 //! - [`reflections`]: glossy planar reflections, geometry- and image-based, L = kd·D +
-//!   ks·(M*K)·R (issue 9).
+//!   ks·(M*K)·R (Bastos et al. 1999 Eq. 2).
 //! - [`impostors`], [`impostor_tables`]: reflections of depth-map impostors through their SRDM
-//!   (Popescu §3.1, §4.3; issue 10), the WGSL intersection and its packed tables.
+//!   (Popescu §3.1, §4.3), the WGSL intersection and its packed tables.
 //! - [`curved`]: curved reflectors by cube maps (Nielsen §3.2) and glossy curved objects by
-//!   regular sampling (Luksch §6–7) (issue 10).
+//!   regular sampling (Luksch §6–7).
 //! - [`window`]: the interactive winit viewer (fly camera, path playback and recording).
 //! - [`gpu`]: adapter and device selection, readback.
 //! - [`wgsl_layout`]: the test that a `repr(C)` struct has its WGSL twin's layout (naga).

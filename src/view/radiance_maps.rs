@@ -1,4 +1,4 @@
-//! The baked radiance maps of a planar reflector as the viewer's image-based mode (issue 9)
+//! The baked radiance maps of a planar reflector as the viewer's image-based mode (Bastos §6)
 //! reads them, and the selection of the maps closest to the reflected view
 //! (Bastos et al. 1999 §8.1.3): "we mirror the viewpoint and viewing direction about each
 //! reflection plane … a search for the minimal angle … [or] the distance from the reference

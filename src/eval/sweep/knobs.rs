@@ -221,16 +221,13 @@ impl Point {
                         p.view.selection = parse_word::<Selection>(word(&["angle", "distance"])?)
                     }
                     "recursion_depth" => {
-                        p.view.recursion.depth =
-                            u8::try_from(integer(number()?)).unwrap_or(u8::MAX)
+                        p.view.recursion.depth = u8::try_from(integer(number()?)).unwrap_or(u8::MAX)
                     }
                     "curved" => {
                         p.view.curved = parse_word::<CurvedMode>(word(&["off", "cubemap"])?)
                     }
                     "impostors" => p.view.impostors = word(&["off", "on"])? == "on",
-                    "glossy_samples" => {
-                        p.view.curved_settings.glossy_samples = integer(number()?)
-                    }
+                    "glossy_samples" => p.view.curved_settings.glossy_samples = integer(number()?),
                     _ => p.view.maps = integer(number()?) as usize,
                 }
                 // The viewer's own check; its message's first word names the option, which
@@ -265,4 +262,3 @@ fn set_field<T: Serialize + serde::de::DeserializeOwned>(
         .insert(field.to_string(), value.clone());
     serde_json::from_value(v).map_err(|e| e.to_string())
 }
-

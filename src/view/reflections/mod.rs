@@ -1,4 +1,4 @@
-//! Glossy planar reflections in the viewer (issue 9), Bastos et al. 1999 Eq. 2:
+//! Glossy planar reflections in the viewer, Bastos et al. 1999 Eq. 2:
 //! L = kd·D + ks·(M*K)·R per glossy planar reflector, M the radiance reflected about the
 //! reflector's plane, K the material's kernel, R its reflectance modulation, D the baked
 //! radiosity (exitant radiance, kd already in it).
@@ -21,7 +21,7 @@
 //!
 //! [`cpu_reference`] is the same equation ray traced on the CPU, for the golden-image tests.
 //!
-//! [`recursive`]: the geometry mode to recursion depths 0–4 (issue 10, Nielsen & Christensen
+//! [`recursive`]: the geometry mode to recursion depths 0–4 (Nielsen & Christensen
 //! 2002 §3.1): reflectors seen in reflections get their own maps, one render target per level.
 
 use glam::Vec3;

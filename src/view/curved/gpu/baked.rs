@@ -1,7 +1,6 @@
 //! The materials stage's outputs the curved passes read: a reflector's baked MIP pyramid
 //! and the patterns' ξ₀.
 
-
 use super::super::DEFAULT_XI0;
 use crate::materials::MaterialsIndex;
 use crate::materials::envmap::MipPyramid;
