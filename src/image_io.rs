@@ -184,7 +184,7 @@ pub const MAX_EXR_BYTES: u64 = 1 << 27;
 
 /// Walks an OpenEXR file's layout (magic, version, header attributes
 /// `name\0 type\0 size:i32 value[size]` until an empty name, the chunk offset table, then each
-/// chunk `y:i32 size:i32 data[size]`) and refuses what would make the decoder allocate more
+/// chunk `y:i32 size:i32 data[size]`, back to back) and refuses what would make the decoder allocate more
 /// than the file holds: an attribute or a chunk whose declared size runs past the end of the
 /// file, a `preview` whose 4·w·h pixels disagree with its size, a window (`box2i`) that is
 /// empty or over [`MAX_EXR_PIXELS`]. glint writes single-part scanline files only, so tiled,
@@ -217,7 +217,7 @@ fn check_exr_attributes(bytes: &[u8]) -> Result<(), ImageError> {
     // The header: attributes until an empty name.
     loop {
         match bytes.get(pos) {
-            None => return Ok(()),
+            None => return bad("the header runs past the end of the file".into()),
             Some(0) => {
                 pos += 1;
                 break;
@@ -225,13 +225,13 @@ fn check_exr_attributes(bytes: &[u8]) -> Result<(), ImageError> {
             Some(_) => {}
         }
         let Some((name, p)) = cstr(pos) else {
-            return Ok(());
+            return bad("the header runs past the end of the file".into());
         };
         let Some((kind, p)) = cstr(p) else {
-            return Ok(());
+            return bad("the header runs past the end of the file".into());
         };
         let Some(size) = i32_at(p) else {
-            return Ok(());
+            return bad("the header runs past the end of the file".into());
         };
         let value = p + 4;
         let left = bytes.len() - value;
@@ -291,11 +291,14 @@ fn check_exr_attributes(bytes: &[u8]) -> Result<(), ImageError> {
         Some(3 | 5) => 16,
         Some(4 | 6..=8) => 32,
         Some(9) => 256,
-        _ => return Ok(()),
+        Some(c) => return bad(format!("compression {c} is not one OpenEXR defines")),
+        None => return bad("the header names no compression".into()),
     };
-    let Some(count) = chunk_count.or(data_rows.map(|h| h.div_ceil(rows_per_chunk))) else {
-        return Ok(());
+    // A header without its data window is not OpenEXR; the decoder would guess the layout.
+    let Some(rows) = data_rows else {
+        return bad("the header has no dataWindow".into());
     };
+    let count = chunk_count.unwrap_or(rows.div_ceil(rows_per_chunk));
     // The offset table, then each chunk inside the file.
     if count.saturating_mul(8) > (bytes.len() - pos) as u64 {
         return bad(format!(
@@ -303,14 +306,30 @@ fn check_exr_attributes(bytes: &[u8]) -> Result<(), ImageError> {
             bytes.len() - pos
         ));
     }
+    // The chunks follow the table back to back, and the decoder reads them in that order.
+    let mut at = pos + 8 * count as usize;
+    for k in 0..count as usize {
+        match i32_at(at + 4) {
+            Some(s) if s >= 0 && at + 8 + s as usize <= bytes.len() => at += 8 + s as usize,
+            _ => {
+                return bad(format!(
+                    "chunk {k} at byte {at} runs past the end of the file ({} bytes)",
+                    bytes.len()
+                ));
+            }
+        }
+    }
     for k in 0..count as usize {
         let at = pos + 8 * k;
         let offset = u64::from_le_bytes(bytes[at..at + 8].try_into().expect("8 bytes"));
         let size = usize::try_from(offset)
             .ok()
             .and_then(|o| i32_at(o.checked_add(4)?));
+        let table_end = (pos + 8 * count as usize) as u64;
         match size {
-            Some(s) if s >= 0 && offset + 8 + s as u64 <= bytes.len() as u64 => {}
+            Some(s)
+                if offset >= table_end && s >= 0 && offset + 8 + s as u64 <= bytes.len() as u64 => {
+            }
             _ => {
                 return bad(format!(
                     "chunk {k} at byte {offset} runs past the end of the file ({} bytes)",
