@@ -8,7 +8,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use common::{MaterialSpec, quad, write_gltf, write_scene};
+use common::{MaterialSpec, copy_dir, quad, write_gltf, write_scene};
 use glint::bake::{BakeSettings, bake_all};
 use glint::bundle::Bundle;
 use glint::materials::MaterialsIndex;
@@ -108,20 +108,6 @@ fn a_reflector_named_with_a_space_and_a_slash_bakes_and_loads() {
     let (srdm_index, views) = glint::srdm::index::load(&data.bundle).unwrap().unwrap();
     assert_eq!(views.len(), srdm_index.views.len());
     assert_eq!(views.len(), 1);
-}
-
-/// Copies a bundle folder.
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for entry in std::fs::read_dir(from).unwrap() {
-        let entry = entry.unwrap();
-        let target = to.join(entry.file_name());
-        if entry.file_type().unwrap().is_dir() {
-            copy_dir(&entry.path(), &target);
-        } else {
-            std::fs::copy(entry.path(), &target).unwrap();
-        }
-    }
 }
 
 #[test]

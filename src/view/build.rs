@@ -248,25 +248,13 @@ pub fn buffer_init(
 /// layouter: what a `repr(C)` mirror of it must match.
 #[cfg(test)]
 pub(crate) fn wgsl_struct(source: &str, name: &str) -> (usize, Vec<(String, usize)>) {
-    use wgpu::naga;
-    let module = naga::front::wgsl::parse_str(source).expect("the WGSL parses");
-    let mut layouter = naga::proc::Layouter::default();
-    layouter
-        .update(module.to_ctx())
-        .expect("the WGSL has a layout");
-    let (handle, ty) = module
-        .types
-        .iter()
-        .find(|(_, t)| t.name.as_deref() == Some(name))
-        .unwrap_or_else(|| panic!("no struct {name} in the WGSL"));
-    let naga::TypeInner::Struct { members, .. } = &ty.inner else {
-        panic!("{name} is not a struct");
-    };
-    let members = members
-        .iter()
-        .map(|m| (m.name.clone().unwrap_or_default(), m.offset as usize))
+    let s = crate::view::wgsl_layout::wgsl_struct(source, name).unwrap_or_else(|e| panic!("{e}"));
+    let members = s
+        .members
+        .into_iter()
+        .map(|(n, o)| (n, o as usize))
         .collect();
-    (layouter[handle].size as usize, members)
+    (s.size as usize, members)
 }
 
 /// The `@location`s of the members of struct `name` in the WGSL `source` (a vertex input).

@@ -38,56 +38,59 @@ fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
+/// Read-only storage tables as one bind group: a buffer per `(label, bytes)`, bound in order
+/// from binding 0. Returns the layout, the group and the buffers (kept alive with it).
+fn storage_tables(
+    gpu: &Gpu,
+    label: &str,
+    tables: &[(&str, &[u8])],
+) -> (wgpu::BindGroupLayout, wgpu::BindGroup, Vec<wgpu::Buffer>) {
+    let device = &gpu.device;
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(&format!("{label} layout")),
+        entries: &(0..tables.len() as u32)
+            .map(|b| storage_entry(b, true))
+            .collect::<Vec<_>>(),
+    });
+    let buffers: Vec<wgpu::Buffer> = tables
+        .iter()
+        .map(|(name, bytes)| storage_buffer(gpu, name, bytes))
+        .collect();
+    let entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .enumerate()
+        .map(|(i, b)| wgpu::BindGroupEntry {
+            binding: i as u32,
+            resource: b.as_entire_binding(),
+        })
+        .collect();
+    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout: &layout,
+        entries: &entries,
+    });
+    (layout, group, buffers)
+}
+
 impl SrdmBuffers {
     /// Uploads `tables`.
     pub fn new(gpu: &Gpu, tables: &SrdmTables) -> Result<SrdmBuffers, GpuError> {
-        let device = &gpu.device;
-        error_scoped(device, "uploading the SRDM tables", || {
-            let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("glint SRDM tables layout"),
-                entries: &(0..6).map(|b| storage_entry(b, true)).collect::<Vec<_>>(),
-            });
-            let buffers = vec![
-                storage_buffer(gpu, "glint SRDM views", bytemuck::cast_slice(&tables.views)),
-                storage_buffer(
-                    gpu,
-                    "glint SRDM points",
-                    bytemuck::cast_slice(&tables.points),
-                ),
-                storage_buffer(
-                    gpu,
-                    "glint SRDM counts",
-                    bytemuck::cast_slice(&tables.counts),
-                ),
-                storage_buffer(
-                    gpu,
-                    "glint SRDM domains",
-                    bytemuck::cast_slice(&tables.domains),
-                ),
-                storage_buffer(
-                    gpu,
-                    "glint SRDM colours",
-                    bytemuck::cast_slice(&tables.colours),
-                ),
-                storage_buffer(
-                    gpu,
-                    "glint SRDM impostors",
-                    bytemuck::cast_slice(&tables.impostors),
-                ),
-            ];
-            let entries: Vec<wgpu::BindGroupEntry> = buffers
-                .iter()
-                .enumerate()
-                .map(|(i, b)| wgpu::BindGroupEntry {
-                    binding: i as u32,
-                    resource: b.as_entire_binding(),
-                })
-                .collect();
-            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("glint SRDM tables"),
-                layout: &layout,
-                entries: &entries,
-            });
+        error_scoped(&gpu.device, "uploading the SRDM tables", || {
+            let (layout, group, buffers) = storage_tables(
+                gpu,
+                "glint SRDM tables",
+                &[
+                    ("glint SRDM views", bytemuck::cast_slice(&tables.views)),
+                    ("glint SRDM points", bytemuck::cast_slice(&tables.points)),
+                    ("glint SRDM counts", bytemuck::cast_slice(&tables.counts)),
+                    ("glint SRDM domains", bytemuck::cast_slice(&tables.domains)),
+                    ("glint SRDM colours", bytemuck::cast_slice(&tables.colours)),
+                    (
+                        "glint SRDM impostors",
+                        bytemuck::cast_slice(&tables.impostors),
+                    ),
+                ],
+            );
             SrdmBuffers {
                 layout,
                 group,
@@ -114,52 +117,27 @@ pub struct BillboardBuffers {
 impl BillboardBuffers {
     /// Uploads `tables`.
     pub fn new(gpu: &Gpu, tables: &BillboardTables) -> Result<BillboardBuffers, GpuError> {
-        let device = &gpu.device;
-        error_scoped(device, "uploading the billboard tables", || {
-            let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("glint billboard tables layout"),
-                entries: &(0..5).map(|b| storage_entry(b, true)).collect::<Vec<_>>(),
-            });
-            let buffers = vec![
-                storage_buffer(
-                    gpu,
-                    "glint billboards",
-                    bytemuck::cast_slice(&tables.billboards),
-                ),
-                storage_buffer(
-                    gpu,
-                    "glint billboard groups",
-                    bytemuck::cast_slice(&tables.groups),
-                ),
-                storage_buffer(
-                    gpu,
-                    "glint billboard texels",
-                    bytemuck::cast_slice(&tables.texels),
-                ),
-                storage_buffer(
-                    gpu,
-                    "glint billboard normals",
-                    bytemuck::cast_slice(&tables.normals),
-                ),
-                storage_buffer(
-                    gpu,
-                    "glint billboard env",
-                    bytemuck::cast_slice(&tables.env),
-                ),
-            ];
-            let entries: Vec<wgpu::BindGroupEntry> = buffers
-                .iter()
-                .enumerate()
-                .map(|(i, b)| wgpu::BindGroupEntry {
-                    binding: i as u32,
-                    resource: b.as_entire_binding(),
-                })
-                .collect();
-            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("glint billboard tables"),
-                layout: &layout,
-                entries: &entries,
-            });
+        error_scoped(&gpu.device, "uploading the billboard tables", || {
+            let (layout, group, buffers) = storage_tables(
+                gpu,
+                "glint billboard tables",
+                &[
+                    ("glint billboards", bytemuck::cast_slice(&tables.billboards)),
+                    (
+                        "glint billboard groups",
+                        bytemuck::cast_slice(&tables.groups),
+                    ),
+                    (
+                        "glint billboard texels",
+                        bytemuck::cast_slice(&tables.texels),
+                    ),
+                    (
+                        "glint billboard normals",
+                        bytemuck::cast_slice(&tables.normals),
+                    ),
+                    ("glint billboard env", bytemuck::cast_slice(&tables.env)),
+                ],
+            );
             BillboardBuffers {
                 layout,
                 group,
