@@ -21,7 +21,7 @@ use std::time::Instant;
 use serde::Serialize;
 
 pub use crate::srdm::capture::{
-    Capture, ColourSource, SrdmAssetError, capture, colour_name, colour_source, colour_source_read,
+    Capture, ColourSource, SrdmAssetError, capture, colour_source, colour_source_read,
     encode_capture, impostor_triangles, view_camera,
 };
 pub use crate::srdm::settings::SrdmSettings;

@@ -9,7 +9,7 @@
 use std::path::Path;
 
 use super::map::{MapError, RadiosityMap};
-use crate::bundle::{Bundle, BundleError, StageRecord};
+use crate::bundle::{Bundle, BundleError};
 
 /// The stage that holds D.
 pub const STAGE: &str = "radiosity";
@@ -25,7 +25,7 @@ pub enum CurrentD {
     Current {
         /// The bundle, opened.
         bundle: Box<Bundle>,
-        /// [`identity`] of its radiosity stage.
+        /// [`crate::bundle::StageRecord::identity`] of its radiosity stage.
         identity: String,
     },
 }
@@ -50,22 +50,13 @@ impl CurrentD {
     }
 }
 
-/// A BLAKE3 over a stage's asset hashes, in manifest order.
-pub fn identity(stage: &StageRecord) -> String {
-    let mut hasher = blake3::Hasher::new();
-    for a in &stage.assets {
-        hasher.update(a.blake3.as_bytes());
-    }
-    hasher.finalize().to_hex().to_string()
-}
-
 /// Which D is current in an opened bundle for the scene with hash `scene_hash`.
 pub fn current_in(bundle: Bundle, scene_hash: &str) -> CurrentD {
     match bundle.stage(STAGE) {
         None => CurrentD::Missing,
         Some(s) if s.scene_hash != scene_hash => CurrentD::OtherScene,
         Some(s) => {
-            let identity = identity(s);
+            let identity = s.identity();
             CurrentD::Current {
                 bundle: Box::new(bundle),
                 identity,

@@ -18,7 +18,7 @@ use crate::geometry::{Bvh, Triangle};
 use crate::image_io::{self, ChannelData, ExrCompression, ImageError, Precision};
 use crate::progress::{Cancelled, Progress};
 use crate::radiosity::map::MapError;
-use crate::radiosity::{CurrentD, RadiosityMap};
+use crate::radiosity::RadiosityMap;
 use crate::scene::{Impostor, Scene};
 
 /// Why a capture, or the srdm stage's assets, cannot be made or read. Messages name the view
@@ -101,17 +101,6 @@ pub fn colour_source_read(
         Some((map, identity)) => (ColourSource::Radiosity(Box::new(map)), Some(identity)),
         None => (ColourSource::Albedo, None),
     })
-}
-
-/// The name of the colour [`colour_source`] would choose (`albedo` or `radiosity`), without
-/// reading D.
-pub fn colour_name(bundle: &Path, scene: &Scene) -> Result<&'static str, SrdmAssetError> {
-    Ok(
-        match crate::radiosity::current_d(bundle, &scene.content_hash)? {
-            CurrentD::Current { .. } => "radiosity",
-            _ => "albedo",
-        },
-    )
 }
 
 /// The scene triangles of an impostor, in object order.
