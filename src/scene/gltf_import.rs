@@ -192,8 +192,7 @@ pub fn import_bytes(path: &Path, bytes: Vec<u8>, scale: f32) -> Result<Imported,
         let first = out.triangles.len();
         let object = out.objects.len() as u32;
         for prim in mesh.primitives() {
-            check_accessors(&prim, &buffers)
-                .map_err(|m| err(format!("mesh {}: {m}", mesh_label(&mesh))))?;
+            check_accessors(&prim).map_err(|m| err(format!("mesh {}: {m}", mesh_label(&mesh))))?;
             let reader = prim.reader(|b| buffers.get(b.index()).map(|d| d.as_slice()));
             let Some(positions) = reader.read_positions() else {
                 log::warn!(
@@ -458,9 +457,9 @@ fn check_attribute_references(root: &gltf::json::Root) -> Result<(), String> {
 
 /// The accessors glint reads, checked before the reader's iterators assume them: types as
 /// glTF 2.0 §3.7.2.1 allows (float VEC3 positions and normals, VEC2 texture coordinates of
-/// float or normalized unsigned bytes or shorts, unsigned integer SCALAR indices), and
-/// elements inside their buffer view and the view inside its buffer.
-fn check_accessors(prim: &gltf::Primitive, buffers: &[Vec<u8>]) -> Result<(), String> {
+/// float or normalized unsigned bytes or shorts, unsigned integer SCALAR indices), each
+/// readable ([`check_accessor_readable`]).
+fn check_accessors(prim: &gltf::Primitive) -> Result<(), String> {
     use gltf::Semantic;
     use gltf::accessor::{DataType as T, Dimensions as D};
     let attributes = [
@@ -487,7 +486,7 @@ fn check_accessors(prim: &gltf::Primitive, buffers: &[Vec<u8>]) -> Result<(), St
                 dimensions_name(a.dimensions())
             ));
         }
-        check_accessor_bounds(&a, buffers)?;
+        check_accessor_readable(&a)?;
     }
     if let Some(a) = prim.indices()
         && !(a.dimensions() == D::Scalar && matches!(a.data_type(), T::U8 | T::U16 | T::U32))
@@ -500,7 +499,7 @@ fn check_accessors(prim: &gltf::Primitive, buffers: &[Vec<u8>]) -> Result<(), St
         ));
     }
     if let Some(a) = prim.indices() {
-        check_accessor_bounds(&a, buffers)?;
+        check_accessor_readable(&a)?;
     }
     Ok(())
 }
@@ -532,47 +531,19 @@ fn dimensions_name(d: gltf::accessor::Dimensions) -> &'static str {
     }
 }
 
-/// An accessor's elements lie inside its buffer view, and the view inside its buffer
-/// (glTF 2.0 §3.6.2.4); sparse accessors are not read.
-fn check_accessor_bounds(a: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<(), String> {
+/// What the reader needs of an accessor beyond its bounds (checked for every accessor by
+/// [`check_bounds`]): a buffer view, at least one element, no sparse part (glint does not
+/// read sparse accessors).
+fn check_accessor_readable(a: &gltf::Accessor) -> Result<(), String> {
     let i = a.index();
     if a.sparse().is_some() {
         return Err(format!("accessor {i} is sparse, which glint does not read"));
     }
-    let Some(view) = a.view() else {
+    if a.view().is_none() {
         return Err(format!("accessor {i} has no buffer view"));
-    };
+    }
     if a.count() == 0 {
         return Err(format!("accessor {i} has count 0"));
-    }
-    let size = a.size() as u64;
-    let stride = view.stride().map_or(size, |s| s as u64);
-    if stride < size {
-        return Err(format!(
-            "accessor {i}: buffer view {} has stride {stride}, less than the element's {size} bytes",
-            view.index()
-        ));
-    }
-    let end = (a.count() as u64 - 1)
-        .saturating_mul(stride)
-        .saturating_add(size)
-        .saturating_add(a.offset() as u64);
-    if end > view.length() as u64 {
-        return Err(format!(
-            "accessor {i}: {} elements need {end} bytes of buffer view {}, which has {}",
-            a.count(),
-            view.index(),
-            view.length()
-        ));
-    }
-    let b = view.buffer().index();
-    let held = buffers.get(b).map_or(0, |d| d.len() as u64);
-    let view_end = (view.offset() as u64).saturating_add(view.length() as u64);
-    if view_end > held {
-        return Err(format!(
-            "buffer view {} ends at byte {view_end}, buffer {b} holds {held}",
-            view.index()
-        ));
     }
     Ok(())
 }

@@ -17,8 +17,8 @@ use crate::camera::Camera;
 use crate::geometry::{Bvh, Triangle};
 use crate::image_io::{self, ChannelData, ExrCompression, ImageError, Precision};
 use crate::progress::{Cancelled, Progress};
-use crate::radiosity::map::MapError;
 use crate::radiosity::RadiosityMap;
+use crate::radiosity::map::MapError;
 use crate::scene::{Impostor, Scene};
 
 /// Why a capture, or the srdm stage's assets, cannot be made or read. Messages name the view
