@@ -82,6 +82,7 @@ fn bake_if_needed(scene: &Scene, bundle: &Path) {
         light_samples: 16,
         bounces: 6,
         tolerance: 1e-2,
+        glossy_depth: 0,
     };
     radiosity_stage::bake(scene, bundle, &settings, false, &Silent)
         .unwrap_or_else(|e| panic!("{e}"));

@@ -46,6 +46,7 @@ const REFERENCE: SolveSettings = SolveSettings {
     rays: 4096,
     light_samples: 1024,
     bounces: 64,
+    glossy_depth: 64,
     tolerance: 0.0,
     seed: 99,
 };
@@ -104,6 +105,7 @@ fn main() {
                 rays: s.rays,
                 light_samples: s.light_samples,
                 bounces: s.bounces,
+                glossy_depth: s.glossy_depth,
                 tolerance: s.tolerance,
                 seed: glint::bake::radiosity_stage::SEED,
             };

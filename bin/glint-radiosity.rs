@@ -4,36 +4,25 @@ use std::process::ExitCode;
 
 use clap::Parser;
 use glint::bake::tool::{Tool, run};
-use glint::cli::BakeArgs;
+use glint::cli::{BakeArgs, RadiosityFlags};
 
 #[derive(Parser)]
 #[command(
     name = "glint-radiosity",
     version,
     about = "Bake radiosity textures (the view-independent diffuse light D) into a bundle",
-    after_help = "Example:\n  glint-radiosity scenes/cornell-box/scene.json --bundle out/cornell-box.glint --quality draft\n  glint-bundle stats out/cornell-box.glint\n\nSettings come from the preset, then the scene's `bake.radiosity`, then these flags."
+    after_help = "Example:\n  glint-radiosity scenes/cornell-box/scene.json --bundle out/cornell-box.glint --quality draft --light-samples 64\n  glint-bundle stats out/cornell-box.glint\n\nSettings come from the preset, then the scene's `bake.radiosity`, then these flags."
 )]
 struct Args {
     #[command(flatten)]
     bake: BakeArgs,
-    /// Lightmap texels per metre.
-    #[arg(long, value_name = "T")]
-    texel_density: Option<f32>,
-    /// Gathering rays per texel.
-    #[arg(long, value_name = "N")]
-    rays: Option<u32>,
-    /// Largest number of indirect bounces.
-    #[arg(long, value_name = "B")]
-    bounces: Option<u32>,
+    #[command(flatten)]
+    radiosity: RadiosityFlags,
 }
 
 fn main() -> ExitCode {
     glint::cli::init_logging();
     let args = Args::parse();
-    let tool = Tool::Radiosity {
-        texel_density: args.texel_density,
-        rays: args.rays,
-        bounces: args.bounces,
-    };
+    let tool = Tool::Radiosity(args.radiosity.to_override());
     glint::cli::exit_code(run(&args.bake, tool, &mut std::io::stdout().lock()))
 }

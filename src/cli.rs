@@ -86,6 +86,44 @@ pub struct BakeArgs {
     pub json: bool,
 }
 
+/// The radiosity stage's flags, one per setting of `bake.radiosity` in scene.json; each
+/// overrides the preset and the scene.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct RadiosityFlags {
+    /// Lightmap texels per metre.
+    #[arg(long, value_name = "T")]
+    pub texel_density: Option<f32>,
+    /// Gathering rays per texel.
+    #[arg(long, value_name = "N")]
+    pub rays: Option<u32>,
+    /// Emitter samples per texel, per area light and for the emissive triangles.
+    #[arg(long, value_name = "N")]
+    pub light_samples: Option<u32>,
+    /// Largest number of indirect bounces.
+    #[arg(long, value_name = "B")]
+    pub bounces: Option<u32>,
+    /// Largest number of glossy reflections a gathering ray follows (0: diffuse light only).
+    #[arg(long, value_name = "K")]
+    pub glossy_depth: Option<u32>,
+    /// Stop when a bounce changes the total reflected radiance by less than this fraction.
+    #[arg(long, value_name = "F")]
+    pub tolerance: Option<f32>,
+}
+
+impl RadiosityFlags {
+    /// The flags as overrides of the resolved settings.
+    pub fn to_override(&self) -> crate::scene::desc::RadiosityOverride {
+        crate::scene::desc::RadiosityOverride {
+            texel_density: self.texel_density,
+            rays: self.rays,
+            light_samples: self.light_samples,
+            bounces: self.bounces,
+            glossy_depth: self.glossy_depth,
+            tolerance: self.tolerance,
+        }
+    }
+}
+
 /// Parses an image size `WIDTHxHEIGHT` (e.g. `720x486`), each side 1..=16384: the one
 /// `--size` parser of every tool.
 pub fn parse_size(s: &str) -> Result<(u32, u32), String> {

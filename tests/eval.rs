@@ -141,6 +141,7 @@ fn diffuse_cornell_box_agrees_with_converged_radiosity() {
         light_samples: 32,
         bounces: 16,
         tolerance: 1e-3,
+        glossy_depth: 0,
     };
     let bundle = shipped_bundle(&Recipe::new("cornell-box").then(Step::Radiosity(settings)));
     let map = RadiosityMap::load(&Bundle::open(&bundle).unwrap())

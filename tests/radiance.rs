@@ -197,6 +197,7 @@ fn stage_bakes_maps_quadtrees_and_table_one() {
         light_samples: 4,
         bounces: 1,
         tolerance: 0.0,
+        glossy_depth: 0,
     };
     radiosity_stage::bake(&scene, &out, &rs, false, &Silent).unwrap();
     let rec = radiance_stage::bake(&scene, &out, Quality::Draft, false, &Silent).unwrap();

@@ -45,6 +45,7 @@ fn run(
         rays,
         light_samples,
         bounces,
+        glossy_depth: 0,
         tolerance: 1e-7,
         seed: 1,
     };
@@ -254,6 +255,7 @@ fn bakes_are_byte_identical_whatever_the_thread_count() {
         light_samples: 8,
         bounces: 3,
         tolerance: 0.0,
+        glossy_depth: 0,
     };
     let bundles: Vec<_> = [1, 2, 3]
         .iter()
@@ -305,6 +307,7 @@ fn cancelling_leaves_the_bundle_as_it_was() {
         light_samples: 4,
         bounces: 2,
         tolerance: 0.0,
+        glossy_depth: 0,
     };
     radiosity_stage::bake(&scene, &out, &settings, false, &Silent).unwrap();
     let manifest = std::fs::read(out.join("manifest.json")).unwrap();

@@ -80,6 +80,7 @@ fn test_settings(texel_density: f32) -> RadiositySettings {
         light_samples: 4,
         bounces: 3,
         tolerance: 1e-2,
+        glossy_depth: 0,
     }
 }
 

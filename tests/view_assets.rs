@@ -63,6 +63,7 @@ fn bundle() -> &'static Path {
                 light_samples: 4,
                 bounces: 1,
                 tolerance: 0.0,
+                glossy_depth: 0,
             };
             settings.srdm = SrdmSettings {
                 domains: 4,

@@ -496,6 +496,7 @@ fn box_scene(root: &Path) -> (Scene, std::path::PathBuf) {
         light_samples: 4,
         bounces: 2,
         tolerance: 1e-2,
+        glossy_depth: 0,
     };
     radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent)
         .unwrap_or_else(|e| panic!("{e}"));

@@ -43,6 +43,7 @@ fn radiosity_settings() -> RadiositySettings {
         light_samples: 4,
         bounces: 3,
         tolerance: 1e-2,
+        glossy_depth: 0,
     }
 }
 

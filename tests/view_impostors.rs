@@ -335,6 +335,7 @@ fn bunny_bundle() -> &'static Path {
             light_samples: 8,
             bounces: 4,
             tolerance: 1e-2,
+            glossy_depth: 0,
         };
         let srdm = SrdmSettings {
             domains: 30,

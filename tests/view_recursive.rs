@@ -87,6 +87,7 @@ fn corridor() -> &'static ViewData {
             light_samples: 4,
             bounces: 1,
             tolerance: 1e-2,
+            glossy_depth: 0,
         };
         scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
         radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent)
@@ -336,6 +337,7 @@ fn straddling() -> &'static ViewData {
             light_samples: 4,
             bounces: 1,
             tolerance: 1e-2,
+            glossy_depth: 0,
         };
         scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
         radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent)

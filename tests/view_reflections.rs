@@ -81,6 +81,7 @@ fn glossy_bundle() -> &'static Path {
             light_samples: 4,
             bounces: 3,
             tolerance: 1e-2,
+            glossy_depth: 0,
         };
         shipped_bundle(
             &Recipe::new("glossy-room")
@@ -577,6 +578,7 @@ fn mirror_reflecting_a_flat_wall_matches_in_both_modes() {
         light_samples: 4,
         bounces: 2,
         tolerance: 1e-2,
+        glossy_depth: 0,
     };
     scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
     radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent)

@@ -145,6 +145,7 @@ pub fn bake(
         rays: settings.rays,
         light_samples: settings.light_samples,
         bounces: settings.bounces,
+        glossy_depth: settings.glossy_depth,
         tolerance: settings.tolerance,
         seed: SEED,
     };

@@ -18,7 +18,7 @@ use super::{scene_stage, up_to_date};
 use crate::cli::BakeArgs;
 use crate::progress::TerminalProgress;
 use crate::scene::Scene;
-use crate::scene::desc::{RadiositySettings, SettingError};
+use crate::scene::desc::{RadiosityOverride, RadiositySettings, SettingError};
 
 /// Which tool runs, with its own flags (each overrides the preset and scene.json).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -26,15 +26,8 @@ pub enum Tool {
     /// Every stage the scene requires (`glint-bake`).
     #[default]
     All,
-    /// The radiosity stage (`glint-radiosity`).
-    Radiosity {
-        /// `--texel-density`.
-        texel_density: Option<f32>,
-        /// `--rays`.
-        rays: Option<u32>,
-        /// `--bounces`.
-        bounces: Option<u32>,
-    },
+    /// The radiosity stage (`glint-radiosity`), with its flags (one per radiosity setting).
+    Radiosity(RadiosityOverride),
     /// The materials stage (`glint-materials`).
     Materials,
     /// The radiance stage (`glint-radiance`).
@@ -61,15 +54,9 @@ pub fn run(args: &BakeArgs, tool: Tool, out: &mut dyn Write) -> anyhow::Result<E
     let quality = args.quality.unwrap_or(scene.desc.bake.quality);
     match tool {
         Tool::All => bake_every_stage(args, &scene, quality, out),
-        Tool::Radiosity {
-            texel_density,
-            rays,
-            bounces,
-        } => {
+        Tool::Radiosity(flags) => {
             let mut s = RadiositySettings::resolve(quality, &scene.desc.bake.radiosity);
-            s.texel_density = texel_density.unwrap_or(s.texel_density);
-            s.rays = rays.unwrap_or(s.rays);
-            s.bounces = bounces.unwrap_or(s.bounces);
+            flags.apply(&mut s);
             s.check(Some(scene.bounds.diagonal())).map_err(flag_error)?;
             radiosity_stage::check(&scene, &s)?;
             scene_stage_first(args, &scene)?;

@@ -1,5 +1,6 @@
 //! Probes: D (exitant radiance from a radiosity bake) looked up at given world points, so a
-//! bake can be checked against measurements or another renderer's numbers.
+//! bake can be checked against measurements, another renderer's numbers or the path-traced
+//! ground truth at the same points ([`super::reference::trace_probes`]).
 //!
 //! The surface of a probe is found by a short ray: from `position + reach · normal` towards
 //! `−normal`, over at most `2 · reach`; the first front face (whose face normal points to the
@@ -45,6 +46,9 @@ pub struct ProbeValue {
     pub offset: Option<f32>,
     /// Exitant radiance D there (linear RGB, emission included); zero when not found.
     pub radiance: [f32; 3],
+    /// Standard error of `radiance` per channel, when it is a Monte Carlo estimate.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub std_error: Option<[f32; 3]>,
 }
 
 /// A probe or reach that cannot be looked up.
@@ -101,6 +105,72 @@ pub fn check_points(points: &[ProbePoint]) -> Result<(), ProbeError> {
     Ok(())
 }
 
+/// Where a probe's surface was found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Surface {
+    /// Triangle (scene order).
+    pub triangle: u32,
+    /// Barycentrics on it.
+    pub bary: glam::Vec2,
+    /// Signed distance of the probe above it, along the normal (metres).
+    pub offset: f32,
+}
+
+/// The surface under a probe at `p` with unit normal `n` (see the module comment): the first
+/// front face a ray from `p + reach·n` towards `−n` meets within `2·reach`.
+pub fn find_surface(scene: &Scene, bvh: &Bvh, p: Vec3, n: Vec3, reach: f32) -> Option<Surface> {
+    let reach = bounded_reach(scene, p, reach);
+    let origin = p + n * reach;
+    let mut start = origin;
+    let mut travelled = 0.0;
+    // Skip back faces (e.g. the far side of a thin wall) until a front face.
+    while travelled < 2.0 * reach {
+        let h = bvh.closest_hit(start, -n, 2.0 * reach - travelled)?;
+        travelled += h.t;
+        let tri = &scene.triangles[h.triangle as usize];
+        if tri.face_normal().dot(n) > 0.0 {
+            return Some(Surface {
+                triangle: h.triangle,
+                bary: h.bary,
+                offset: travelled - reach,
+            });
+        }
+        start = origin - n * (travelled + bvh.epsilon());
+        travelled += bvh.epsilon();
+    }
+    None
+}
+
+/// Checks the reach and every probe ([`check_points`]).
+pub fn check(points: &[ProbePoint], reach: f32) -> Result<(), ProbeError> {
+    if !(reach.is_finite() && reach > 0.0) {
+        return Err(ProbeError::Reach(reach));
+    }
+    check_points(points)
+}
+
+/// The answer for probe `pt` with `value` computed on the surface found (zero when none).
+pub fn answer(
+    pt: &ProbePoint,
+    surface: Option<Surface>,
+    value: impl FnOnce(Surface) -> Vec3,
+) -> ProbeValue {
+    ProbeValue {
+        name: pt.name.clone(),
+        position: pt.position,
+        found: surface.is_some(),
+        triangle: surface.map(|s| s.triangle),
+        offset: surface.map(|s| s.offset),
+        radiance: surface.map_or(Vec3::ZERO, value).to_array(),
+        std_error: None,
+    }
+}
+
+/// A probe's unit normal (checked by [`check_points`]).
+pub fn unit_normal(pt: &ProbePoint) -> Vec3 {
+    Vec3::from_array(pt.normal).normalize_or_zero()
+}
+
 /// Looks D up at every probe (`reach` in metres, bounded by [`bounded_reach`]; see the
 /// module comment). Probes and reach are checked first ([`check_points`]).
 pub fn probe(
@@ -110,45 +180,69 @@ pub fn probe(
     points: &[ProbePoint],
     reach: f32,
 ) -> Result<Vec<ProbeValue>, ProbeError> {
-    if !(reach.is_finite() && reach > 0.0) {
-        return Err(ProbeError::Reach(reach));
-    }
-    check_points(points)?;
+    check(points, reach)?;
     Ok(points
         .iter()
         .map(|pt| {
             let p = Vec3::from_array(pt.position);
-            let n = Vec3::from_array(pt.normal).normalize_or_zero();
-            let reach = bounded_reach(scene, p, reach);
-            let mut v = ProbeValue {
-                name: pt.name.clone(),
-                position: pt.position,
-                found: false,
-                triangle: None,
-                offset: None,
-                radiance: [0.0; 3],
-            };
-            let origin = p + n * reach;
-            let mut start = origin;
-            let mut travelled = 0.0;
-            // Skip back faces (e.g. the far side of a thin wall) until a front face.
-            while travelled < 2.0 * reach {
-                let Some(h) = bvh.closest_hit(start, -n, 2.0 * reach - travelled) else {
-                    break;
-                };
-                travelled += h.t;
-                let tri = &scene.triangles[h.triangle as usize];
-                if tri.face_normal().dot(n) > 0.0 {
-                    v.found = true;
-                    v.triangle = Some(h.triangle);
-                    v.offset = Some(travelled - reach);
-                    v.radiance = map.radiance(h.triangle, h.bary).to_array();
-                    break;
-                }
-                start = origin - n * (travelled + bvh.epsilon());
-                travelled += bvh.epsilon();
-            }
-            v
+            let surface = find_surface(scene, bvh, p, unit_normal(pt), reach);
+            answer(pt, surface, |s| map.radiance(s.triangle, s.bary))
         })
         .collect())
+}
+
+/// `count` probes on the scene's diffuse faces (materials with albedo and no glossy lobe;
+/// emitters included: D holds their emission), area-weighted, at points whose surroundings are open: fewer than a quarter of
+/// 32 cosine-distributed rays from the point hit back faces (points under a box or inside a
+/// wall show D filled from a neighbour, not their own light). Deterministic for `seed`.
+/// Probes are named `p0`, `p1`, …; fewer than `count` come back only when such points are too
+/// rare (after 64 × `count` attempts).
+pub fn diffuse_points(scene: &Scene, bvh: &Bvh, count: usize, seed: u64) -> Vec<ProbePoint> {
+    use crate::sampling::{Rng, basis, sample_cosine_hemisphere, sample_triangle};
+    let mut cdf = Vec::new();
+    let mut tris = Vec::new();
+    let mut total = 0.0f64;
+    for (i, t) in scene.triangles.iter().enumerate() {
+        let m = &scene.materials[t.material as usize];
+        if m.albedo.max_element() > 0.0 && !m.is_glossy() {
+            total += t.area() as f64;
+            tris.push(i);
+            cdf.push(total);
+        }
+    }
+    let mut out = Vec::with_capacity(count);
+    if tris.is_empty() || !(total > 0.0) {
+        return out;
+    }
+    let mut rng = Rng::new(seed, 0);
+    for _ in 0..64 * count {
+        if out.len() == count {
+            break;
+        }
+        let x = rng.uniform() as f64 * total;
+        let k = cdf.partition_point(|&c| c <= x).min(tris.len() - 1);
+        let tri = &scene.triangles[tris[k]];
+        let p = tri.point(sample_triangle(rng.uniform2()));
+        let n = tri.face_normal();
+        let origin = bvh.offset_origin(p, n);
+        let (t, b) = basis(n);
+        let mut back = 0;
+        for _ in 0..32 {
+            let l = sample_cosine_hemisphere(rng.uniform2());
+            let d = t * l.x + b * l.y + n * l.z;
+            if let Some(h) = bvh.closest_hit(origin, d, f32::INFINITY)
+                && scene.triangles[h.triangle as usize].face_normal().dot(d) > 0.0
+            {
+                back += 1;
+            }
+        }
+        if back * 4 < 32 {
+            out.push(ProbePoint {
+                name: Some(format!("p{}", out.len())),
+                position: p.to_array(),
+                normal: n.to_array(),
+            });
+        }
+    }
+    out
 }

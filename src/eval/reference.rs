@@ -1,11 +1,13 @@
 //! The reference renderer: a CPU path tracer over the same scene, BVH and BRDF as the bakers
 //! (diffuse k_d/π plus Kurt lobes), with next-event estimation on area lights and emissive
 //! triangles, MIS (power heuristic, as in the radiosity solver) between emitter and BRDF
-//! sampling for emissive triangles, and Russian roulette.
+//! sampling, and Russian roulette. Besides images it path-traces D itself at probe points
+//! ([`trace_probes`]): the ground truth for the radiosity bake, with every transport path.
 //!
 //! Conventions shared with the radiosity solver, so that both compute the same thing:
-//! - area lights are quads that are not geometry: they are reached only by next-event
-//!   estimation (hence no MIS for them) and are invisible to camera and BRDF rays;
+//! - area lights are quads that are not geometry: invisible to camera rays and never
+//!   occluders; BRDF-sampled rays that cross one collect its emission, MIS-weighted against
+//!   next-event estimation (a lamp seen in a mirror is found by BRDF sampling);
 //! - emissive triangles emit from their front face only; back faces are black and end a path;
 //! - a miss returns [`RenderOptions::background`] (a uniform sky; black for scenes).
 //!
@@ -16,10 +18,11 @@
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
+use super::probe::{self, ProbeError, ProbePoint, ProbeValue};
 use super::{Image, luminance};
 use crate::brdf::{Frame, KurtBrdf};
 use crate::camera::Camera;
-use crate::geometry::Bvh;
+use crate::geometry::{Bvh, ray_quad};
 use crate::progress::{Cancelled, Progress};
 use crate::sampling::{Rng, cosine_hemisphere_pdf, sample_cosine_hemisphere, sample_triangle};
 use crate::scene::Scene;
@@ -177,15 +180,53 @@ struct Tracer<'a> {
     opts: &'a RenderOptions,
 }
 
-impl Tracer<'_> {
-    /// Radiance arriving at `origin` from direction `dir` (unit).
-    fn radiance(&self, mut origin: Vec3, mut dir: Vec3, rng: &mut Rng) -> Vec3 {
+impl<'a> Tracer<'a> {
+    fn new(scene: &'a Scene, bvh: &'a Bvh, opts: &'a RenderOptions) -> Tracer<'a> {
+        let shaders = scene
+            .materials
+            .iter()
+            .map(|m| {
+                let mut b = KurtBrdf::from(m);
+                if opts.diffuse_only {
+                    b.lobes.clear();
+                }
+                Shader::new(b)
+            })
+            .collect();
+        Tracer {
+            scene,
+            bvh,
+            emitters: Emitters::new(scene),
+            shaders,
+            opts,
+        }
+    }
+
+    /// Radiance arriving at `origin` from direction `dir` (unit), seen by a camera.
+    fn radiance(&self, origin: Vec3, dir: Vec3, rng: &mut Rng) -> Vec3 {
+        self.trace(origin, dir, Vec3::ONE, None, 0, rng)
+    }
+
+    /// `throughput` × the radiance arriving at `origin` from `dir`, for a path that has made
+    /// `depth` bounces; `prev_pdf` is the solid-angle density of the BRDF sample that chose
+    /// `dir` (`None` for a camera ray, which sees emitters unweighted and no area light).
+    fn trace(
+        &self,
+        mut origin: Vec3,
+        mut dir: Vec3,
+        mut throughput: Vec3,
+        mut prev_pdf: Option<f32>,
+        depth: u32,
+        rng: &mut Rng,
+    ) -> Vec3 {
         let mut l = Vec3::ZERO;
-        let mut throughput = Vec3::ONE;
-        // Solid-angle density of the BRDF sample that produced `dir` (None: camera ray).
-        let mut prev_pdf: Option<f32> = None;
-        for depth in 0..=self.opts.max_depth {
-            let Some(hit) = self.bvh.closest_hit(origin, dir, f32::INFINITY) else {
+        for depth in depth..=self.opts.max_depth {
+            let hit = self.bvh.closest_hit(origin, dir, f32::INFINITY);
+            if let Some(p_bsdf) = prev_pdf {
+                let t_max = hit.map_or(f32::INFINITY, |h| h.t);
+                l += throughput * self.lights_along(origin, dir, t_max, p_bsdf);
+            }
+            let Some(hit) = hit else {
                 l += throughput * self.opts.background;
                 break;
             };
@@ -225,17 +266,10 @@ impl Tracer<'_> {
             l += throughput * self.direct(shader, &frame, wo, p, o, ng, rng);
 
             // Continue the path by sampling the BRDF mixture.
-            let u_pick = rng.uniform();
-            let u = rng.uniform2();
-            let Some(wi) = shader.sample(wo, u_pick, u) else {
+            let Some((d, pdf, weight)) = self.sample(shader, &frame, wo, ng, rng) else {
                 break;
             };
-            let pdf = shader.pdf(wo, wi);
-            let d = frame.to_world(wi).normalize();
-            if pdf <= 0.0 || d.dot(ng) <= 0.0 {
-                break;
-            }
-            throughput *= shader.brdf.eval(wo, wi) * (wi.z / pdf);
+            throughput *= weight;
             if depth + 1 >= self.opts.rr_depth {
                 let q = throughput.max_element().min(0.95);
                 if q <= 0.0 || rng.uniform() >= q {
@@ -250,8 +284,78 @@ impl Tracer<'_> {
         l
     }
 
-    /// Next-event estimation at a surface point: one point per area light (no MIS: the
-    /// quads cannot be hit), one emissive triangle point (MIS against the BRDF).
+    /// A world direction from `shader`'s mixture at a point with frame `frame` and geometric
+    /// normal `ng`, its density, and f·cos/pdf; `None` when the sample fails or points under
+    /// the surface.
+    fn sample(
+        &self,
+        shader: &Shader,
+        frame: &Frame,
+        wo: Vec3,
+        ng: Vec3,
+        rng: &mut Rng,
+    ) -> Option<(Vec3, f32, Vec3)> {
+        let u_pick = rng.uniform();
+        let u = rng.uniform2();
+        let wi = shader.sample(wo, u_pick, u)?;
+        let pdf = shader.pdf(wo, wi);
+        let d = frame.to_world(wi).normalize();
+        if pdf <= 0.0 || d.dot(ng) <= 0.0 {
+            return None;
+        }
+        Some((d, pdf, shader.brdf.eval(wo, wi) * (wi.z / pdf)))
+    }
+
+    /// Emission of the area lights a BRDF-sampled ray (density `p_bsdf`) crosses before
+    /// `t_max`, MIS-weighted against their sampling in [`Tracer::direct`].
+    fn lights_along(&self, origin: Vec3, dir: Vec3, t_max: f32, p_bsdf: f32) -> Vec3 {
+        let mut l = Vec3::ZERO;
+        for light in &self.scene.lights {
+            let Some(t) = ray_quad(origin, dir, light.corner, light.edge_u, light.edge_v, t_max)
+            else {
+                continue;
+            };
+            let mut cos_l = -dir.dot(light.normal);
+            if light.two_sided {
+                cos_l = cos_l.abs();
+            }
+            if cos_l > 0.0 {
+                let p_light = t * t / (cos_l * light.area);
+                l += light.radiance * power(p_bsdf, p_light);
+            }
+        }
+        l
+    }
+
+    /// One estimate of the diffuse exitant radiance at barycentrics `bary` of `triangle`
+    /// (front side): its emission plus k_d/π × the irradiance from every path, the rest of
+    /// each path through the full BRDFs.
+    fn exitant_diffuse(&self, triangle: u32, bary: Vec2, rng: &mut Rng) -> Vec3 {
+        let tri = &self.scene.triangles[triangle as usize];
+        let mat = &self.scene.materials[tri.material as usize];
+        let ng = tri.face_normal();
+        let mut ns = tri.normal(bary);
+        if ns.dot(ng) <= 0.0 {
+            ns = ng;
+        }
+        let frame = Frame::from_normal(ns);
+        let shader = Shader::new(KurtBrdf {
+            kd: mat.albedo,
+            lobes: Vec::new(),
+        });
+        let p = tri.point(bary);
+        let o = self.bvh.offset_origin(p, ng);
+        // The diffuse BRDF does not depend on ω_o: any direction above the surface does.
+        let wo = Vec3::Z;
+        let mut l = mat.emission + self.direct(&shader, &frame, wo, p, o, ng, rng);
+        if let Some((d, pdf, weight)) = self.sample(&shader, &frame, wo, ng, rng) {
+            l += self.trace(o, d, weight, Some(pdf), 1, rng);
+        }
+        l
+    }
+
+    /// Next-event estimation at a surface point: one point per area light and one emissive
+    /// triangle point, each MIS-weighted against the BRDF.
     #[allow(clippy::too_many_arguments)]
     fn direct(
         &self,
@@ -283,7 +387,10 @@ impl Tracer<'_> {
             if f == Vec3::ZERO || self.bvh.occluded(origin, d, dist * (1.0 - 1e-4)) {
                 continue;
             }
-            l += f * light.radiance * (wi.z * cos_l * light.area / dist2);
+            // MIS against BRDF-sampled rays, which cross the quad in [`Tracer::lights_along`].
+            let p_light = dist2 / (cos_l * light.area);
+            let w = power(p_light, shader.pdf(wo, wi));
+            l += f * light.radiance * (wi.z * w / p_light);
         }
         if !self.emitters.tris.is_empty() {
             let t = self.emitters.pick(rng.uniform());
@@ -336,24 +443,7 @@ pub fn render(
     progress: &dyn Progress,
 ) -> Result<Rendered, Cancelled> {
     let (w, h) = (opts.width.max(1), opts.height.max(1));
-    let shaders = scene
-        .materials
-        .iter()
-        .map(|m| {
-            let mut b = KurtBrdf::from(m);
-            if opts.diffuse_only {
-                b.lobes.clear();
-            }
-            Shader::new(b)
-        })
-        .collect();
-    let tracer = Tracer {
-        scene,
-        bvh,
-        emitters: Emitters::new(scene),
-        shaders,
-        opts,
-    };
+    let tracer = Tracer::new(scene, bvh, opts);
     let spp = opts.spp.max(1);
     let grid = (spp as f32).sqrt().floor().max(1.0) as u32;
     let aspect = w as f32 / h as f32;
@@ -420,6 +510,116 @@ pub fn render(
         },
         variance,
     })
+}
+
+/// How D is path-traced at probes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ProbeTraceOptions {
+    /// Paths per probe (each a full estimate of D there).
+    pub paths: u32,
+    /// Seed (probe `i` draws from stream `i`).
+    pub seed: u64,
+    /// Longest path in bounces.
+    pub max_depth: u32,
+    /// Bounce from which Russian roulette may end a path.
+    pub rr_depth: u32,
+    /// Radiance of rays that leave the scene.
+    pub background: Vec3,
+    /// Drop every glossy lobe (k_d only): diffuse transport only.
+    pub diffuse_only: bool,
+}
+
+impl Default for ProbeTraceOptions {
+    fn default() -> Self {
+        ProbeTraceOptions {
+            paths: 4096,
+            seed: 1,
+            max_depth: 256,
+            rr_depth: 3,
+            background: Vec3::ZERO,
+            diffuse_only: false,
+        }
+    }
+}
+
+/// Path-traces D, the diffuse exitant radiance (emission + k_d/π × irradiance by every path),
+/// at each probe's surface (found as [`super::probe::probe`] finds it), with its standard
+/// error per channel. Deterministic for a seed, whatever the thread count.
+pub fn trace_probes(
+    scene: &Scene,
+    bvh: &Bvh,
+    points: &[ProbePoint],
+    reach: f32,
+    opts: &ProbeTraceOptions,
+    progress: &dyn Progress,
+) -> Result<Vec<ProbeValue>, TraceError> {
+    probe::check(points, reach)?;
+    let render = RenderOptions {
+        max_depth: opts.max_depth,
+        rr_depth: opts.rr_depth,
+        background: opts.background,
+        diffuse_only: opts.diffuse_only,
+        ..RenderOptions::default()
+    };
+    let tracer = Tracer::new(scene, bvh, &render);
+    let n = opts.paths.max(1);
+    progress.phase("probes", points.len() as u64);
+    let out: Vec<Option<ProbeValue>> = points
+        .par_iter()
+        .enumerate()
+        .map(|(i, pt)| {
+            if progress.cancelled() {
+                return None;
+            }
+            let p = Vec3::from_array(pt.position);
+            let surface = probe::find_surface(scene, bvh, p, probe::unit_normal(pt), reach);
+            let mut se = None;
+            let mut v = probe::answer(pt, surface, |s| {
+                let mut rng = Rng::new(opts.seed, i as u64);
+                let (mut sum, mut sum2) = ([0.0f64; 3], [0.0f64; 3]);
+                for _ in 0..n {
+                    let x = tracer.exitant_diffuse(s.triangle, s.bary, &mut rng);
+                    let x = if x.is_finite() { x } else { Vec3::ZERO };
+                    for k in 0..3 {
+                        sum[k] += x[k] as f64;
+                        sum2[k] += (x[k] as f64).powi(2);
+                    }
+                }
+                let m = n as f64;
+                let mean = sum.map(|s| s / m);
+                let var = |k: usize| {
+                    if n > 1 {
+                        ((sum2[k] - sum[k] * sum[k] / m) / (m - 1.0)).max(0.0) / m
+                    } else {
+                        0.0
+                    }
+                };
+                se = Some([
+                    var(0).sqrt() as f32,
+                    var(1).sqrt() as f32,
+                    var(2).sqrt() as f32,
+                ]);
+                Vec3::new(mean[0] as f32, mean[1] as f32, mean[2] as f32)
+            });
+            v.std_error = se;
+            progress.advance(1);
+            Some(v)
+        })
+        .collect();
+    out.into_iter()
+        .collect::<Option<Vec<_>>>()
+        .ok_or(TraceError::Cancelled(Cancelled))
+}
+
+/// Why probes cannot be traced.
+#[derive(Debug, thiserror::Error)]
+pub enum TraceError {
+    /// A probe or the reach is unusable.
+    #[error(transparent)]
+    Probe(#[from] ProbeError),
+    /// Ctrl-C.
+    #[error(transparent)]
+    Cancelled(#[from] Cancelled),
 }
 
 /// What the viewer shows for a radiosity bake, rendered on the CPU: D (emission included)

@@ -1,10 +1,12 @@
 //! World-space triangles and ray casting.
 
 pub mod bvh;
+pub mod quad;
 
 use glam::{Vec2, Vec3};
 
 pub use bvh::{Bvh, Hit};
+pub use quad::ray_quad;
 
 /// One world-space triangle with its shading attributes.
 #[derive(Clone, Copy, Debug, PartialEq)]

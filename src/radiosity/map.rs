@@ -103,6 +103,22 @@ impl RadiosityMap {
         Ok(Some(RadiosityMap { atlas, pages }))
     }
 
+    /// A map of a solution held in memory: `radiance` per global atlas texel, pages in order
+    /// (what [`super::solve::solve`] returns), at full f32 precision.
+    pub fn from_texels(atlas: Atlas, radiance: &[Vec3]) -> RadiosityMap {
+        let mut offset = 0;
+        let pages = atlas
+            .pages
+            .iter()
+            .map(|p| {
+                let n = (p.width * p.height) as usize;
+                offset += n;
+                radiance[offset - n..offset].to_vec()
+            })
+            .collect();
+        RadiosityMap { atlas, pages }
+    }
+
     /// D (exitant radiance) at barycentrics `bary` of `triangle`, bilinearly filtered.
     pub fn radiance(&self, triangle: u32, bary: Vec2) -> Vec3 {
         let t = triangle as usize;

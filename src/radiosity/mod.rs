@@ -3,9 +3,11 @@
 
 pub mod atlas;
 pub mod current;
+mod emitters;
 pub mod format;
 pub mod map;
 pub mod solve;
+mod transport;
 
 pub use current::{CurrentD, current_d, d_identity};
 pub use map::RadiosityMap;

@@ -21,6 +21,8 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::atlas::{Atlas, TexelSample};
+use super::emitters::{Emitters, luminance, power};
+use super::transport::{Glossy, Term};
 use crate::geometry::Bvh;
 use crate::progress::{Cancelled, Progress};
 use crate::sampling::{Rng, basis, sample_cosine_hemisphere, sample_triangle};
@@ -42,6 +44,9 @@ pub struct SolveSettings {
     pub light_samples: u32,
     /// Largest number of indirect bounces.
     pub bounces: u32,
+    /// Largest number of glossy reflections a gathering ray follows ([`super::transport`]);
+    /// 0 gathers diffuse interreflection only.
+    pub glossy_depth: u32,
     /// Stop when a bounce changes the total reflected radiance by less than this fraction.
     pub tolerance: f32,
     /// Random seed (every texel draws from its own stream of it).
@@ -73,56 +78,17 @@ pub struct Solution {
     pub stats: SolveStats,
 }
 
-/// The emissive triangles, for explicit sampling.
-struct Emitters {
-    tris: Vec<u32>,
-    cdf: Vec<f64>,
-    /// Σ area × luminance.
-    total: f64,
-}
-
-fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
-}
-
-impl Emitters {
-    fn new(scene: &Scene) -> Emitters {
-        let mut tris = Vec::new();
-        let mut cdf = Vec::new();
-        let mut total = 0.0f64;
-        for (i, t) in scene.triangles.iter().enumerate() {
-            let e = scene.materials[t.material as usize].emission;
-            let w = t.area() as f64 * luminance(e) as f64;
-            if w > 0.0 {
-                total += w;
-                tris.push(i as u32);
-                cdf.push(total);
-            }
-        }
-        Emitters { tris, cdf, total }
-    }
-
-    /// Density (per unit area) of a point on emissive triangle `t` with emission `e`.
-    fn area_pdf(&self, e: Vec3) -> f32 {
-        (luminance(e) as f64 / self.total) as f32
-    }
-}
-
 /// What one element's gathering pass found.
 struct Gathered {
     /// Direct irradiance / π (so that L_r = ρ · (direct + mean incoming L_r)).
     direct: Vec3,
     /// Per ray, the atlas texel hit on a front face (u32::MAX: miss or back face).
     hits: Vec<u32>,
+    /// Texels reached through glossy reflection, with their weights (summed over the rays
+    /// like `hits`).
+    terms: Vec<Term>,
     inside: bool,
     rays: u64,
-}
-
-/// Power heuristic weight of a strategy with `n_a` samples of density `p_a` against one with
-/// `n_b` samples of density `p_b`.
-fn power(n_a: f32, p_a: f32, n_b: f32, p_b: f32) -> f32 {
-    let (a, b) = ((n_a * p_a).powi(2), (n_b * p_b).powi(2));
-    if a + b > 0.0 { a / (a + b) } else { 0.0 }
 }
 
 fn gather(
@@ -131,6 +97,7 @@ fn gather(
     atlas: &Atlas,
     offsets: &[u32],
     emitters: &Emitters,
+    glossy: Option<&Glossy>,
     s: &TexelSample,
     index: usize,
     set: &SolveSettings,
@@ -149,6 +116,9 @@ fn gather(
     let n_light = set.light_samples.max(1);
     let mut direct = Vec3::ZERO;
     let mut hits = Vec::with_capacity(n_rays as usize);
+    let mut terms = Vec::new();
+    // Radiance the rays bring back through glossy reflection (besides `terms`).
+    let mut via_glossy = Vec3::ZERO;
     let mut backfaces = 0u32;
     let mut rays = 0u64;
 
@@ -181,9 +151,18 @@ fn gather(
                     direct += e * w / n_rays as f32;
                 }
                 hits.push(atlas.texel_at(offsets, h.triangle, h.bary));
+                if let Some(g) = glossy
+                    && g.reflects(h.triangle)
+                {
+                    via_glossy += g.follow(h, d, &mut rng, &mut terms, &mut rays);
+                }
             }
             None => hits.push(u32::MAX),
         }
+    }
+    if via_glossy != Vec3::ZERO {
+        // Mean incoming radiance over the cosine-distributed rays is irradiance/π.
+        direct += via_glossy / n_rays as f32;
     }
 
     // Area lights: stratified points on each quad.
@@ -221,12 +200,7 @@ fn gather(
     if !emitters.tris.is_empty() {
         let mut sum = Vec3::ZERO;
         for _ in 0..n_light {
-            let x = rng.uniform() as f64 * emitters.total;
-            let k = emitters
-                .cdf
-                .partition_point(|&c| c <= x)
-                .min(emitters.tris.len() - 1);
-            let et = &scene.triangles[emitters.tris[k] as usize];
+            let et = &scene.triangles[emitters.pick(rng.uniform()) as usize];
             let e = scene.materials[et.material as usize].emission;
             let q = et.point(sample_triangle(rng.uniform2()));
             let w = q - origin;
@@ -257,6 +231,7 @@ fn gather(
     Gathered {
         direct,
         hits,
+        terms,
         inside: backfaces as f32 > BACKFACE_LIMIT * n_rays as f32,
         rays,
     }
@@ -273,6 +248,7 @@ pub fn solve(
 ) -> Result<Solution, Cancelled> {
     let offsets = atlas.page_offsets();
     let emitters = Emitters::new(scene);
+    let glossy = Glossy::new(scene, bvh, atlas, &offsets, &emitters, set.glossy_depth);
     progress.phase("gathering", samples.len() as u64);
     let chunks: Vec<Option<Vec<Gathered>>> = samples
         .par_chunks(CHUNK)
@@ -291,6 +267,7 @@ pub fn solve(
                         atlas,
                         &offsets,
                         &emitters,
+                        glossy.as_ref(),
                         s,
                         c * CHUNK + k,
                         set,
@@ -316,18 +293,27 @@ pub fn solve(
     // Each texel resolves to the nearest valid element of its chart.
     let (resolve, filled) = resolve_texels(atlas, samples, &gathered);
     stats.filled = filled;
+    let resolved = |h: u32| {
+        if h == u32::MAX {
+            u32::MAX
+        } else {
+            resolve[h as usize]
+        }
+    };
     let hits: Vec<Vec<u32>> = gathered
         .par_iter()
+        .map(|g| g.hits.iter().map(|&h| resolved(h)).collect())
+        .collect();
+    let terms: Vec<Vec<Term>> = gathered
+        .par_iter()
         .map(|g| {
-            g.hits
+            g.terms
                 .iter()
-                .map(|&h| {
-                    if h == u32::MAX {
-                        u32::MAX
-                    } else {
-                        resolve[h as usize]
-                    }
+                .map(|t| Term {
+                    texel: resolved(t.texel),
+                    weight: t.weight,
                 })
+                .filter(|t| t.texel != u32::MAX)
                 .collect()
         })
         .collect();
@@ -358,6 +344,12 @@ pub fn solve(
                         sum[1] += l.y as f64;
                         sum[2] += l.z as f64;
                     }
+                }
+                for t in &terms[i] {
+                    let l = t.weight * lr[t.texel as usize];
+                    sum[0] += l.x as f64;
+                    sum[1] += l.y as f64;
+                    sum[2] += l.z as f64;
                 }
                 let n = hits[i].len().max(1) as f64;
                 let incoming = Vec3::new(

@@ -289,7 +289,7 @@ pub struct BakeDesc {
 }
 
 /// Radiosity settings that a scene may fix, whatever the preset.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RadiosityOverride {
     /// Lightmap texels per metre.
@@ -298,9 +298,38 @@ pub struct RadiosityOverride {
     /// Gathering rays per texel and bounce.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rays: Option<u32>,
+    /// Emitter samples per texel, per area light and for the emissive triangles.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub light_samples: Option<u32>,
     /// Largest number of bounces.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub bounces: Option<u32>,
+    /// Largest number of glossy reflections a gathering ray follows (0: diffuse transport only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub glossy_depth: Option<u32>,
+    /// Stop when a bounce changes the total reflected radiance by less than this fraction.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tolerance: Option<f32>,
+}
+
+impl RadiosityOverride {
+    /// Sets every field that is given.
+    pub fn apply(&self, s: &mut RadiositySettings) {
+        let RadiosityOverride {
+            texel_density,
+            rays,
+            light_samples,
+            bounces,
+            glossy_depth,
+            tolerance,
+        } = *self;
+        s.texel_density = texel_density.unwrap_or(s.texel_density);
+        s.rays = rays.unwrap_or(s.rays);
+        s.light_samples = light_samples.unwrap_or(s.light_samples);
+        s.bounces = bounces.unwrap_or(s.bounces);
+        s.glossy_depth = glossy_depth.unwrap_or(s.glossy_depth);
+        s.tolerance = tolerance.unwrap_or(s.tolerance);
+    }
 }
 
 /// Radiance-map stage settings that a scene may fix, whatever the preset.
@@ -423,6 +452,9 @@ impl RadianceOverride {
     }
 }
 
+/// Largest `glossy_depth` of the radiosity stage.
+pub const MAX_GLOSSY_DEPTH: u32 = 64;
+
 /// Resolved radiosity settings (preset, then scene overrides, then command line).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct RadiositySettings {
@@ -434,6 +466,9 @@ pub struct RadiositySettings {
     pub light_samples: u32,
     /// Largest number of bounces.
     pub bounces: u32,
+    /// Largest number of glossy reflections a gathering ray follows, so that D holds the light
+    /// that arrives via glossy and mirror surfaces; 0 gathers diffuse interreflection only.
+    pub glossy_depth: u32,
     /// Stop when a bounce changes the total reflected radiance by less than this fraction.
     pub tolerance: f32,
 }
@@ -441,16 +476,17 @@ pub struct RadiositySettings {
 impl RadiositySettings {
     /// The preset's values.
     pub fn preset(quality: Quality) -> Self {
-        let (texel_density, rays, light_samples, bounces, tolerance) = match quality {
-            Quality::Draft => (8.0, 64, 8, 8, 1e-2),
-            Quality::Default => (16.0, 256, 32, 16, 3e-3),
-            Quality::High => (32.0, 1024, 128, 32, 1e-3),
+        let (texel_density, rays, light_samples, bounces, glossy_depth, tolerance) = match quality {
+            Quality::Draft => (8.0, 64, 8, 8, 2, 1e-2),
+            Quality::Default => (16.0, 256, 32, 16, 4, 3e-3),
+            Quality::High => (32.0, 1024, 128, 32, 8, 1e-3),
         };
         RadiositySettings {
             texel_density,
             rays,
             light_samples,
             bounces,
+            glossy_depth,
             tolerance,
         }
     }
@@ -489,6 +525,15 @@ impl RadiositySettings {
         if self.light_samples == 0 {
             return Err(SettingError::new("light_samples", "0 is not ≥ 1"));
         }
+        if self.glossy_depth > MAX_GLOSSY_DEPTH {
+            return Err(SettingError::new(
+                "glossy_depth",
+                format!(
+                    "{} is more than {MAX_GLOSSY_DEPTH} (Russian roulette ends paths long before)",
+                    self.glossy_depth
+                ),
+            ));
+        }
         let t = self.tolerance;
         if !(t.is_finite() && (0.0..1.0).contains(&t)) {
             return Err(SettingError::new(
@@ -502,15 +547,7 @@ impl RadiositySettings {
     /// The preset with the scene's overrides applied.
     pub fn resolve(quality: Quality, over: &RadiosityOverride) -> Self {
         let mut s = Self::preset(quality);
-        if let Some(v) = over.texel_density {
-            s.texel_density = v;
-        }
-        if let Some(v) = over.rays {
-            s.rays = v;
-        }
-        if let Some(v) = over.bounces {
-            s.bounces = v;
-        }
+        over.apply(&mut s);
         s
     }
 }

@@ -1,0 +1,311 @@
+//! Light that reaches an element through glossy and mirror reflection.
+//!
+//! Bastos et al. (§7) gather diffuse interreflection only. A gathering ray from element x that
+//! lands on a front face at y brings back
+//!
+//!   L_o(y → x) = L_e(y) + L_d(y) + L_g(y → x)
+//!
+//! - L_e, emission: counted by the solver's direct term (MIS with emitter sampling);
+//! - L_d, y's diffuse reflected radiance k_d/π·E(y): the unknown of the Jacobi iteration, read
+//!   from y's texel;
+//! - L_g = ∫ Σ_k k_s,k f_k(ω_o, ω_i) L_i cos θ_i dω_i, the glossy reflection (Kurt et al. Eq. 1
+//!   without its diffuse term): estimated here by a path that samples the lobes (a one-sample
+//!   mixture chosen by k_s luminance; the lobe sampling of Eq. 6–10), bounded in depth and
+//!   ended early by Russian roulette.
+//!
+//! At every glossy vertex the area lights and emissive triangles are sampled through the lobes
+//! (next-event estimation) and combined with the lobe-sampled rays that reach them by the power
+//! heuristic: area lights, which are not geometry, are intersected by those rays here, so a
+//! lamp's image in a mirror is found by lobe sampling and on rough lobes mostly by light
+//! sampling. Every vertex the path reaches adds its texel's L_d with the path's throughput as
+//! weight, so the estimate stays linear in the unknowns: a constant (joins the element's direct
+//! term) plus Σ w·L_d(texel) (joins its hit list).
+
+use glam::Vec3;
+
+use super::atlas::Atlas;
+use super::emitters::{Emitters, luminance, power};
+use crate::brdf::Frame;
+use crate::brdf::kurt::Lobe;
+use crate::geometry::{Bvh, Hit, ray_quad};
+use crate::sampling::{Rng, sample_triangle};
+use crate::scene::Scene;
+use crate::scene::material::Material;
+
+/// One term of an element's gathering: `weight` × the diffuse reflected radiance of `texel`
+/// (a global atlas texel until the solver resolves it to an element).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Term {
+    pub texel: u32,
+    pub weight: Vec3,
+}
+
+/// A material's glossy lobes (k_s included) and the probabilities of choosing each to sample.
+pub(super) struct Lobes {
+    lobes: Vec<Lobe>,
+    select: Vec<f32>,
+}
+
+impl Lobes {
+    /// `None` when the material reflects nothing glossily.
+    fn new(m: &Material) -> Option<Lobes> {
+        let lobes: Vec<Lobe> = m
+            .lobes
+            .iter()
+            .map(Lobe::from)
+            .filter(|l| luminance(l.ks) > 0.0)
+            .collect();
+        let total: f32 = lobes.iter().map(|l| luminance(l.ks)).sum();
+        if lobes.is_empty() || !(total > 0.0) {
+            return None;
+        }
+        let select = lobes.iter().map(|l| luminance(l.ks) / total).collect();
+        Some(Lobes { lobes, select })
+    }
+
+    /// Σ k_s f_lobe(ω_o, ω_i), per steradian.
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        self.lobes
+            .iter()
+            .fold(Vec3::ZERO, |acc, l| acc + l.ks * l.eval(wo, wi))
+    }
+
+    /// Density of [`Lobes::sample`] w.r.t. solid angle.
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.lobes
+            .iter()
+            .zip(&self.select)
+            .map(|(l, s)| s * l.pdf(wo, wi))
+            .sum()
+    }
+
+    /// A local incident direction: a lobe chosen by `u_pick`, sampled with `u`.
+    fn sample(&self, wo: Vec3, u_pick: f32, u: glam::Vec2) -> Option<Vec3> {
+        let mut acc = 0.0;
+        for (i, s) in self.select.iter().enumerate() {
+            acc += s;
+            if u_pick < acc || i + 1 == self.select.len() {
+                return self.lobes[i].sample(wo, u);
+            }
+        }
+        None
+    }
+}
+
+/// What following glossy reflection needs, shared by every element.
+pub(super) struct Glossy<'a> {
+    scene: &'a Scene,
+    bvh: &'a Bvh,
+    atlas: &'a Atlas,
+    offsets: &'a [u32],
+    emitters: &'a Emitters,
+    /// Per material.
+    lobes: Vec<Option<Lobes>>,
+    /// Largest number of glossy reflections followed from a gathering hit.
+    depth: u32,
+}
+
+impl<'a> Glossy<'a> {
+    /// `None` when there is nothing to follow (depth 0 or no glossy material).
+    pub fn new(
+        scene: &'a Scene,
+        bvh: &'a Bvh,
+        atlas: &'a Atlas,
+        offsets: &'a [u32],
+        emitters: &'a Emitters,
+        depth: u32,
+    ) -> Option<Glossy<'a>> {
+        let lobes: Vec<Option<Lobes>> = scene.materials.iter().map(Lobes::new).collect();
+        (depth > 0 && lobes.iter().any(Option::is_some)).then_some(Glossy {
+            scene,
+            bvh,
+            atlas,
+            offsets,
+            emitters,
+            lobes,
+            depth,
+        })
+    }
+
+    /// Whether a hit on `triangle` reflects glossily.
+    pub fn reflects(&self, triangle: u32) -> bool {
+        self.lobes[self.scene.triangles[triangle as usize].material as usize].is_some()
+    }
+
+    /// L_g towards the origin of a ray travelling along `dir` (unit) that hit the front face
+    /// of a glossy triangle at `hit`: returns the constant part and pushes the L_d terms.
+    pub fn follow(
+        &self,
+        mut hit: Hit,
+        mut dir: Vec3,
+        rng: &mut Rng,
+        terms: &mut Vec<Term>,
+        rays: &mut u64,
+    ) -> Vec3 {
+        let scene = self.scene;
+        let mut out = Vec3::ZERO;
+        let mut beta = Vec3::ONE;
+        for depth in 0..self.depth {
+            let tri = &scene.triangles[hit.triangle as usize];
+            let Some(lobes) = &self.lobes[tri.material as usize] else {
+                break;
+            };
+            let ng = tri.face_normal();
+            let mut ns = tri.normal(hit.bary);
+            if ns.dot(ng) <= 0.0 {
+                ns = ng;
+            }
+            let frame = Frame::from_normal(ns);
+            let wo = frame.to_local(-dir);
+            if wo.z <= 0.0 {
+                break;
+            }
+            let p = tri.point(hit.bary);
+            let origin = self.bvh.offset_origin(p, ng);
+            out += beta * self.next_event(lobes, &frame, wo, p, origin, ng, rng, rays);
+
+            let u_pick = rng.uniform();
+            let Some(wi) = lobes.sample(wo, u_pick, rng.uniform2()) else {
+                break;
+            };
+            let pdf = lobes.pdf(wo, wi);
+            let d = frame.to_world(wi).normalize();
+            if !(pdf > 0.0) || d.dot(ng) <= 0.0 {
+                break;
+            }
+            beta *= lobes.eval(wo, wi) * (wi.z / pdf);
+            if depth >= 1 {
+                let q = beta.max_element().min(0.95);
+                if !(q > 0.0) || rng.uniform() >= q {
+                    break;
+                }
+                beta /= q;
+            }
+            if !beta.is_finite() {
+                break;
+            }
+            *rays += 1;
+            let next = self.bvh.closest_hit(origin, d, f32::INFINITY);
+            out += beta * self.lights_along(origin, d, next.map_or(f32::INFINITY, |h| h.t), pdf);
+            let Some(h) = next else {
+                break;
+            };
+            let ht = &scene.triangles[h.triangle as usize];
+            let cos_l = -d.dot(ht.face_normal());
+            if cos_l <= 0.0 {
+                break; // a back face is black, as for gathering rays
+            }
+            let m = &scene.materials[ht.material as usize];
+            if m.emission.max_element() > 0.0 {
+                let p_light = self.emitters.area_pdf(m.emission) * h.t * h.t / cos_l;
+                out += beta * m.emission * power(1.0, pdf, 1.0, p_light);
+            }
+            if m.albedo.max_element() > 0.0 {
+                terms.push(Term {
+                    texel: self.atlas.texel_at(self.offsets, h.triangle, h.bary),
+                    weight: beta,
+                });
+            }
+            hit = h;
+            dir = d;
+        }
+        out
+    }
+
+    /// Emission of the area lights a lobe-sampled ray (density `pdf`) crosses before `t_max`,
+    /// MIS-weighted against their sampling in [`Glossy::next_event`].
+    fn lights_along(&self, origin: Vec3, d: Vec3, t_max: f32, pdf: f32) -> Vec3 {
+        let mut sum = Vec3::ZERO;
+        for light in &self.scene.lights {
+            let Some(t) = ray_quad(origin, d, light.corner, light.edge_u, light.edge_v, t_max)
+            else {
+                continue;
+            };
+            let mut cos_l = -d.dot(light.normal);
+            if light.two_sided {
+                cos_l = cos_l.abs();
+            }
+            if cos_l <= 0.0 {
+                continue;
+            }
+            let p_light = t * t / (cos_l * light.area);
+            sum += light.radiance * power(1.0, pdf, 1.0, p_light);
+        }
+        sum
+    }
+
+    /// Light reflected by the lobes at `p` from one point on each area light and one on the
+    /// emissive triangles, MIS-weighted against lobe sampling.
+    #[allow(clippy::too_many_arguments)]
+    fn next_event(
+        &self,
+        lobes: &Lobes,
+        frame: &Frame,
+        wo: Vec3,
+        p: Vec3,
+        origin: Vec3,
+        ng: Vec3,
+        rng: &mut Rng,
+        rays: &mut u64,
+    ) -> Vec3 {
+        let mut l = Vec3::ZERO;
+        for light in &self.scene.lights {
+            let u = rng.uniform2();
+            let q = light.corner + light.edge_u * u.x + light.edge_v * u.y;
+            let to = q - p;
+            let dist2 = to.length_squared();
+            let dist = dist2.sqrt();
+            if !(dist > 0.0) {
+                continue;
+            }
+            let d = to / dist;
+            let mut cos_l = -d.dot(light.normal);
+            if light.two_sided {
+                cos_l = cos_l.abs();
+            }
+            if cos_l <= 0.0 || d.dot(ng) <= 0.0 {
+                continue;
+            }
+            let wi = frame.to_local(d);
+            let f = lobes.eval(wo, wi);
+            if f == Vec3::ZERO {
+                continue;
+            }
+            *rays += 1;
+            if self.bvh.occluded(origin, d, dist * (1.0 - 1e-5)) {
+                continue;
+            }
+            let p_light = dist2 / (cos_l * light.area);
+            let w = power(1.0, p_light, 1.0, lobes.pdf(wo, wi));
+            l += f * light.radiance * (wi.z * w / p_light);
+        }
+        if !self.emitters.tris.is_empty() {
+            let et = &self.scene.triangles[self.emitters.pick(rng.uniform()) as usize];
+            let q = et.point(sample_triangle(rng.uniform2()));
+            let to = q - p;
+            let dist2 = to.length_squared();
+            let dist = dist2.sqrt();
+            if dist > 0.0 {
+                let d = to / dist;
+                let cos_l = -d.dot(et.face_normal());
+                let wi = frame.to_local(d);
+                let f = if cos_l > 0.0 && d.dot(ng) > 0.0 {
+                    lobes.eval(wo, wi)
+                } else {
+                    Vec3::ZERO
+                };
+                if f != Vec3::ZERO {
+                    *rays += 1;
+                    let reach = dist - 2.0 * self.bvh.epsilon().max(dist * 1e-5);
+                    if !self.bvh.occluded(origin, d, reach) {
+                        let e = self.scene.materials[et.material as usize].emission;
+                        let p_light = self.emitters.area_pdf(e) * dist2 / cos_l;
+                        let w = power(1.0, p_light, 1.0, lobes.pdf(wo, wi));
+                        l += f * e * (wi.z * w / p_light);
+                    }
+                }
+            }
+        }
+        l
+    }
+}

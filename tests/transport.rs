@@ -1,0 +1,216 @@
+//! Light that reaches diffuse surfaces through mirrors and glossy surfaces: the radiosity
+//! solve's glossy transport against conservation (a white furnace with a mirror wall) and
+//! against the path-traced probes of `glint::eval::reference` (a lamp over a mirror floor).
+
+mod common;
+
+use std::path::Path;
+
+use common::*;
+use glint::eval::probe::{self, ProbeValue, diffuse_points};
+use glint::eval::reference::{ProbeTraceOptions, trace_probes};
+use glint::progress::Silent;
+use glint::radiosity::solve::{Solution, SolveSettings, solve};
+use glint::radiosity::{RadiosityMap, atlas};
+use glint::scene::Scene;
+
+/// A near-perfect mirror: no diffuse term, one lobe with F = 1 whose albedo is 1 in the
+/// mirror limit (α = ½ cancels the lobe's cos θ factors there).
+const MIRROR: &str = r#"{ "albedo": [0, 0, 0], "lobes": [{ "ks": [1, 1, 1], "r0": 1.0, "mx": 0.001, "my": 0.001, "alpha": 0.5 }] }"#;
+
+/// A closed box of half-size 0.5 (inward faces): walls and ceiling of material 0, the floor
+/// (`Y0`) of material 1 = "floor", with `extra` scene.json members.
+fn mirror_box(dir: &Path, walls: MaterialSpec, extra: &str) -> Scene {
+    let mut meshes = Vec::new();
+    let names = ["X0", "X1", "Y0", "Y1", "Z0", "Z1"];
+    for axis in 0..3 {
+        let m0 = if axis == 1 { 1 } else { 0 };
+        meshes.push(quad(names[2 * axis], m0, axis, -0.5, 0.5));
+        meshes.push(flip(quad(names[2 * axis + 1], 0, axis, 0.5, 0.5)));
+    }
+    write_gltf(
+        dir,
+        "s",
+        &meshes,
+        &[walls, MaterialSpec::diffuse("floor", 0.5)],
+    );
+    let json = format!(
+        r#"{{ "version": 1, "geometry": "s.gltf", "materials": {{ "floor": {MIRROR} }}{extra} }}"#
+    );
+    Scene::load(write_scene(dir, &json)).unwrap()
+}
+
+fn solve_with(
+    scene: &Scene,
+    density: f32,
+    rays: u32,
+    glossy_depth: u32,
+) -> (atlas::Atlas, Solution) {
+    let (atlas, samples) = atlas::build(&scene.triangles, density).unwrap();
+    let set = SolveSettings {
+        rays,
+        light_samples: 64,
+        bounces: 64,
+        glossy_depth,
+        tolerance: 1e-6,
+        seed: 3,
+    };
+    let sol = solve(scene, &scene.build_bvh(), &atlas, &samples, &set, &Silent).unwrap();
+    (atlas, sol)
+}
+
+fn lum(c: [f32; 3]) -> f64 {
+    (0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]) as f64
+}
+
+#[test]
+fn a_mirror_wall_keeps_the_white_furnace() {
+    // Walls emit 1 and reflect ρ = ½; the mirror floor reflects everything. The radiance is
+    // uniform, 1 / (1 − ½) = 2, on every wall, exactly as in a box without the mirror.
+    let dir = tempfile::tempdir().unwrap();
+    let walls = MaterialSpec {
+        emissive: [1.0; 3],
+        strength: 1.0,
+        ..MaterialSpec::diffuse("walls", 0.5)
+    };
+    let scene = mirror_box(dir.path(), walls, "");
+    let wall_mean = |sol: &Solution| {
+        let v: Vec<f32> = sol
+            .radiance
+            .iter()
+            .filter(|v| v.x > 0.0)
+            .map(|v| v.x)
+            .collect();
+        (v.iter().sum::<f32>() / v.len() as f32, v)
+    };
+    let (_, full) = solve_with(&scene, 6.0, 256, 4);
+    let (mean, values) = wall_mean(&full);
+    assert!((mean / 2.0 - 1.0).abs() < 0.01, "mean {mean}, expected 2");
+    let worst = values
+        .iter()
+        .map(|v| (v / 2.0 - 1.0).abs())
+        .fold(0.0f32, f32::max);
+    assert!(
+        worst < 0.04,
+        "worst wall texel off by {:.2}%",
+        worst * 100.0
+    );
+
+    // Diffuse transport alone loses what the mirror sends back (the floor's sixth of every
+    // wall's view, and its share of each bounce).
+    let (_, diffuse) = solve_with(&scene, 6.0, 256, 0);
+    let (mean0, _) = wall_mean(&diffuse);
+    assert!(
+        mean0 < 1.85,
+        "without glossy transport the walls get {mean0}, near 2: the test cannot tell"
+    );
+
+    // The path-traced probes agree with the analytic value too.
+    let bvh = scene.build_bvh();
+    let points = diffuse_points(&scene, &bvh, 12, 5);
+    assert_eq!(points.len(), 12);
+    let opts = ProbeTraceOptions {
+        paths: 512,
+        ..Default::default()
+    };
+    let traced = trace_probes(&scene, &bvh, &points, 0.01, &opts, &Silent).unwrap();
+    for v in &traced {
+        let se = v.std_error.unwrap()[0] as f64;
+        let x = v.radiance[0] as f64;
+        assert!(v.found);
+        assert!(
+            (x - 2.0).abs() < 4.0 * se + 0.02,
+            "{:?}: {x} ± {se}, expected 2",
+            v.name
+        );
+    }
+}
+
+#[test]
+fn a_lamp_over_a_mirror_floor_matches_the_path_traced_probes() {
+    // The issue's worst case: walls and ceiling lit by a lamp and by its image in the floor.
+    let dir = tempfile::tempdir().unwrap();
+    let lamp = r#", "lights": [{ "name": "lamp", "corner": [-0.15, 0.45, -0.15], "edge_u": [0.3, 0, 0], "edge_v": [0, 0, 0.3], "radiance": [20, 20, 20] }]"#;
+    let scene = mirror_box(dir.path(), MaterialSpec::diffuse("walls", 0.6), lamp);
+    assert!(
+        scene.lights[0].normal.y < 0.0,
+        "the lamp must face the floor"
+    );
+    let bvh = scene.build_bvh();
+    let points = diffuse_points(&scene, &bvh, 48, 11);
+    assert_eq!(points.len(), 48);
+    let opts = ProbeTraceOptions {
+        paths: 4096,
+        ..Default::default()
+    };
+    let truth = trace_probes(&scene, &bvh, &points, 0.01, &opts, &Silent).unwrap();
+    let d_at = |glossy_depth| -> Vec<ProbeValue> {
+        let (atlas, sol) = solve_with(&scene, 8.0, 2048, glossy_depth);
+        let map = RadiosityMap::from_texels(atlas, &sol.radiance);
+        probe::probe(&scene, &bvh, &map, &points, 0.01).unwrap()
+    };
+    // Mean ratio and RMS relative difference (denominator floored at 5% of the mean).
+    let compare = |d: &[ProbeValue]| {
+        let mean: f64 = truth.iter().map(|v| lum(v.radiance)).sum::<f64>() / truth.len() as f64;
+        let (mut ratio, mut sq) = (0.0, 0.0);
+        for (a, b) in d.iter().zip(&truth) {
+            let den = lum(b.radiance).max(0.05 * mean);
+            ratio += lum(a.radiance) / den;
+            sq += ((lum(a.radiance) - lum(b.radiance)) / den).powi(2);
+        }
+        let n = truth.len() as f64;
+        (ratio / n, (sq / n).sqrt())
+    };
+    let (ratio, rmse) = compare(&d_at(6));
+    eprintln!("D / truth {ratio:.4}, rel RMSE {rmse:.4}");
+    assert!(
+        (ratio - 1.0).abs() < 0.03,
+        "D / truth = {ratio:.4} (rel RMSE {rmse:.4})"
+    );
+    assert!(rmse < 0.10, "rel RMSE {rmse:.4} (mean ratio {ratio:.4})");
+    let (ratio0, _) = compare(&d_at(0));
+    eprintln!("diffuse transport only: D / truth {ratio0:.4}");
+    assert!(
+        ratio0 < 0.7,
+        "diffuse transport alone gives {ratio0:.4} of the truth: the scene does not test the mirror"
+    );
+}
+
+#[test]
+fn probe_paths_are_deterministic_and_their_error_shrinks_with_paths() {
+    let dir = tempfile::tempdir().unwrap();
+    let lamp = r#", "lights": [{ "name": "lamp", "corner": [-0.15, 0.45, -0.15], "edge_u": [0.3, 0, 0], "edge_v": [0, 0, 0.3], "radiance": [20, 20, 20] }]"#;
+    let scene = mirror_box(dir.path(), MaterialSpec::diffuse("walls", 0.6), lamp);
+    let bvh = scene.build_bvh();
+    let points = diffuse_points(&scene, &bvh, 4, 2);
+    let run = |paths| {
+        let opts = ProbeTraceOptions {
+            paths,
+            ..Default::default()
+        };
+        trace_probes(&scene, &bvh, &points, 0.01, &opts, &Silent).unwrap()
+    };
+    let (a, b) = (run(512), run(512));
+    assert_eq!(a, b);
+    assert_eq!(diffuse_points(&scene, &bvh, 4, 2), points);
+    // 16× the paths: a quarter of the standard error. Rare paths (the lamp's image found
+    // through the mirror) make one probe's estimate of its own error noisy, so compare sums.
+    let c = run(8192);
+    let se = |v: &[ProbeValue]| v.iter().map(|p| p.std_error.unwrap()[1]).sum::<f32>();
+    let (before, after) = (se(&a), se(&c));
+    assert!(
+        after < 0.4 * before && after > 0.15 * before,
+        "Σ standard error {before} → {after}"
+    );
+    for (x, y) in a.iter().zip(&c) {
+        let (sx, sy) = (x.std_error.unwrap()[1], y.std_error.unwrap()[1]);
+        let diff = (x.radiance[1] - y.radiance[1]).abs();
+        assert!(
+            diff < 4.0 * (sx * sx + sy * sy).sqrt(),
+            "{:?}: {} vs {}",
+            x.name,
+            x.radiance[1],
+            y.radiance[1]
+        );
+    }
+}
