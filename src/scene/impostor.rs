@@ -96,7 +96,7 @@ pub(super) fn resolve(
                             .iter()
                             .flat_map(|&o| objects[o as usize].triangles.clone())
                             .collect();
-                        Some(fit_plane(&triangles, &tris, SURFACE_PLANARITY).map_err(|m| {
+                        Some(fit_plane(triangles, &tris, SURFACE_PLANARITY).map_err(|m| {
                             (
                                 format!("impostors[{i}].billboard.placement"),
                                 format!(

@@ -106,7 +106,7 @@ pub(super) fn resolve(
         );
         let plane = match r.kind {
             ReflectorKind::Planar => Some(
-                fit_plane(&triangles, &selected, tol)
+                fit_plane(triangles, &selected, tol)
                     .map_err(|m| (at(".kind"), format!("reflector {name:?}: {m}")))?,
             ),
             ReflectorKind::Curved => None,
@@ -114,7 +114,7 @@ pub(super) fn resolve(
         reflectors.push(Reflector {
             name,
             kind: r.kind,
-            material: dominant_material(&triangles, &selected),
+            material: dominant_material(triangles, &selected),
             triangles: selected,
             plane,
             bounds,
