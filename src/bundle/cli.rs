@@ -18,6 +18,7 @@ use super::stats::{BundleStats, format_table, human_bytes};
     about = "Inspect and verify a glint asset bundle (NAME.glint/)",
     after_help = "Examples:\n  glint-bundle stats out/cornell-box.glint\n  glint-bundle stats out/cornell-box.glint --json | jq .total\n  glint-bundle verify out/cornell-box.glint && echo intact\n  glint-bundle ls out/cornell-box.glint"
 )]
+/// `glint-bundle`'s arguments: one subcommand.
 pub struct Args {
     #[command(subcommand)]
     command: Command,

@@ -25,6 +25,7 @@ use crate::view::options::{CurvedMode, ReflectionMode, Selection, ViewOptions};
     about = "Reference renders, probes, image metrics and speed-vs-accuracy sweeps",
     after_help = "Examples:\n  glint-eval reference scenes/cornell-box/scene.json --camera front --spp 256 --out out/ref.exr\n  glint-eval probe out/cornell-box.glint --points points.json --out values.json\n  glint-eval compare out/view.exr out/ref.exr --diff out/diff.png --json\n  glint-eval sweep scenes/cornell-box/scene.json --set radiosity.rays=64,256,1024 --camera front --out out/sweep"
 )]
+/// `glint-eval`'s arguments: one subcommand.
 pub struct Args {
     #[command(subcommand)]
     command: Command,

@@ -11,7 +11,7 @@ use clap::Parser;
 use super::headless::{ReplayOptions, replay};
 use super::load::load;
 use super::options::ViewArgs;
-use super::replay::parse_size;
+
 use super::window::{WindowOptions, run_window};
 use crate::progress::TerminalProgress;
 
@@ -24,6 +24,7 @@ use crate::progress::TerminalProgress;
 1-9 play camera path N, Space pause/resume, R start/stop recording a path, P screenshot, G reflections off/geometry/image, T reflectance sphere/1D map, I impostor reflections (planar), K impostors srdm/billboard, C curved reflectors off/cubemap/impostor, [ ] recursion depth (geometry reflections), H help, Esc quit.\n\n\
 Examples:\n  glint-view out/cornell-box.glint\n  glint-view out/cornell-box.glint --replay --headless --size 720x486 --out out/frames/cornell-box\n  glint-view out/breakfast-room.glint --replay walkthrough --headless --out out/frames/breakfast --every 10 --hdr"
 )]
+/// `glint-view`'s arguments.
 pub struct Args {
     /// The bundle to view (a folder written by glint-bake), e.g. out/cornell-box.glint.
     #[arg(value_name = "BUNDLE.glint")]
@@ -35,7 +36,7 @@ pub struct Args {
     #[arg(long, requires = "replay", requires = "out")]
     headless: bool,
     /// Frame (headless) or initial window size, WIDTHxHEIGHT.
-    #[arg(long, value_parser = parse_size, default_value = "720x486")]
+    #[arg(long, value_parser = crate::cli::parse_size, default_value = "720x486")]
     size: (u32, u32),
     /// Output folder: frames and timings.json (headless), screenshots and recorded paths
     /// (window; default: the current folder).
