@@ -559,7 +559,7 @@ fn a_failure_at_any_commit_step_leaves_the_old_stage_or_the_new_one() {
         .iter()
         .position(|s| *s == CommitStep::RenameManifest)
         .unwrap();
-    for k in 0..steps.len() {
+    for (k, &step) in steps.iter().enumerate() {
         let tmp = tempfile::tempdir().unwrap();
         let dir = tmp.path().join("f.glint");
         bundle_with_old_stage(&dir);
@@ -575,11 +575,11 @@ fn a_failure_at_any_commit_step_leaves_the_old_stage_or_the_new_one() {
                 }
             }),
         );
-        let label = format!("fault at step {k} ({:?})", steps[k]);
+        let label = format!("fault at step {k} ({step:?})");
         let new = old_or_new(&dir, &label);
         // Up to the manifest's rename the old stage stays; after it the new one is in.
         assert_eq!(new, k > commit_at, "{label}");
-        match steps[k] {
+        match step {
             // The commit happened; only the leftovers' collection failed.
             CommitStep::Collect => result.unwrap(),
             _ => assert!(
@@ -631,7 +631,7 @@ fn a_writer_killed_at_any_commit_step_leaves_the_old_stage_or_the_new_one() {
         .position(|s| *s == CommitStep::RenameManifest)
         .unwrap();
     let exe = std::env::current_exe().unwrap();
-    for k in 0..steps.len() {
+    for (k, &step) in steps.iter().enumerate() {
         let tmp = tempfile::tempdir().unwrap();
         let dir = tmp.path().join("k.glint");
         bundle_with_old_stage(&dir);
@@ -647,7 +647,7 @@ fn a_writer_killed_at_any_commit_step_leaves_the_old_stage_or_the_new_one() {
             .stderr(std::process::Stdio::null())
             .status()
             .unwrap();
-        let label = format!("killed at step {k} ({:?})", steps[k]);
+        let label = format!("killed at step {k} ({step:?})");
         assert!(!status.success(), "{label}: the child was not killed");
         let new = old_or_new(&dir, &label);
         assert_eq!(new, k > commit_at, "{label}");

@@ -103,8 +103,8 @@ pub enum SrdmOutcome {
     },
     /// Baked and committed.
     Baked {
-        /// The manifest record.
-        record: StageRecord,
+        /// The manifest record (boxed: it dwarfs the skipped variant).
+        record: Box<StageRecord>,
         /// Per view.
         views: Vec<ViewReport>,
         /// `albedo` or `radiosity`.
@@ -194,7 +194,7 @@ pub fn bake(
         force,
     })?;
     Ok(SrdmOutcome::Baked {
-        record,
+        record: Box::new(record),
         views,
         colour: colour.name(),
     })

@@ -2,8 +2,10 @@
 //! (what the viewer shows), probes of D at world points, image metrics, and sweeps of bake
 //! settings that trade speed for accuracy.
 //!
-//! Everything here is a library call; `bin/glint-eval.rs` only parses arguments.
+//! Everything here is a library call; `bin/glint-eval.rs` only parses [`cli::Args`] and calls
+//! [`cli::run`].
 
+pub mod cli;
 pub mod compare;
 pub mod probe;
 pub mod reference;

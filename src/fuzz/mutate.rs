@@ -14,12 +14,12 @@ impl FuzzRng {
     /// The generator of execution `index` of a run seeded with `seed`.
     pub fn new(seed: u64, index: u64) -> FuzzRng {
         let mut r = FuzzRng(seed ^ index.wrapping_mul(0x9e37_79b9_7f4a_7c15));
-        r.next();
+        r.next_u64();
         r
     }
 
     /// The next 64 random bits.
-    pub fn next(&mut self) -> u64 {
+    pub fn next_u64(&mut self) -> u64 {
         self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
         let mut z = self.0;
         z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
@@ -29,7 +29,7 @@ impl FuzzRng {
 
     /// Uniform in `0..n` (`n` > 0).
     pub fn below(&mut self, n: usize) -> usize {
-        (self.next() % n as u64) as usize
+        (self.next_u64() % n as u64) as usize
     }
 
     /// True with probability 1 / `n`.
@@ -147,7 +147,7 @@ pub fn mutate(data: &mut Vec<u8>, other: &[u8], rng: &mut FuzzRng) {
 
 fn mutate_once(data: &mut Vec<u8>, other: &[u8], rng: &mut FuzzRng) {
     if data.is_empty() {
-        data.push(rng.next() as u8);
+        data.push(rng.next_u64() as u8);
         return;
     }
     let len = data.len();
@@ -158,7 +158,7 @@ fn mutate_once(data: &mut Vec<u8>, other: &[u8], rng: &mut FuzzRng) {
         }
         1 => {
             let at = rng.below(len);
-            data[at] = rng.next() as u8;
+            data[at] = rng.next_u64() as u8;
         }
         2 | 3 => {
             // An interesting integer of 1, 2, 4 or 8 bytes, either endianness.
@@ -190,14 +190,18 @@ fn mutate_once(data: &mut Vec<u8>, other: &[u8], rng: &mut FuzzRng) {
         6 => {
             let at = rng.below(len + 1);
             let n = 1 + rng.below(16);
-            let bytes: Vec<u8> = (0..n).map(|_| rng.next() as u8).collect();
+            let bytes: Vec<u8> = (0..n).map(|_| rng.next_u64() as u8).collect();
             data.splice(at..at, bytes);
         }
         7 => {
             let at = rng.below(len + 1);
             let most = if rng.one_in(8) { 4096 } else { 64 };
             let n = 1 + rng.below(most);
-            let byte = if rng.one_in(2) { 0 } else { rng.next() as u8 };
+            let byte = if rng.one_in(2) {
+                0
+            } else {
+                rng.next_u64() as u8
+            };
             data.splice(at..at, std::iter::repeat_n(byte, n));
         }
         8 | 9 => {

@@ -31,6 +31,8 @@ pub mod billboard_tables;
 #[cfg(feature = "view")]
 pub mod build;
 #[cfg(feature = "view")]
+pub mod cli;
+#[cfg(feature = "view")]
 pub mod cpu_render;
 #[cfg(feature = "view")]
 pub mod curved;
