@@ -23,7 +23,7 @@ use crate::view::options::{CurvedMode, ReflectionMode, Selection, ViewOptions};
     name = "glint-eval",
     version,
     about = "Reference renders, probes, image metrics and speed-vs-accuracy sweeps",
-    after_help = "Examples:\n  glint-eval reference scenes/cornell-box/scene.json --camera front --spp 256 --out out/ref.exr\n  glint-eval probe out/cornell-box.glint --points points.json --out values.json\n  glint-eval compare out/view.exr out/ref.exr --diff out/diff.png --json\n  glint-eval sweep scenes/cornell-box/scene.json --set radiosity.rays=64,256,1024 --camera front --out out/sweep"
+    after_help = "Examples:\n  glint-eval reference scenes/cornell-box/scene.json --camera front --spp 256 --out out/ref.exr\n  glint-eval probe out/cornell-box.glint --points points.json --out values.json\n  glint-eval probe-reference scenes/cornell-box/scene.json --points points.json --out truth.json\n  glint-eval compare out/view.exr out/ref.exr --diff out/diff.png --json\n  glint-eval sweep scenes/cornell-box/scene.json --set radiosity.rays=64,256,1024 --camera front --out out/sweep"
 )]
 /// `glint-eval`'s arguments: one subcommand.
 pub struct Args {
@@ -43,6 +43,21 @@ enum Command {
         after_help = "Example:\n  glint-eval probe out/cornell-box.glint --points points.json --out values.json"
     )]
     Probe(ProbeArgs),
+    /// Probe points on a scene's diffuse faces (area-weighted, away from contact with other
+    /// geometry), as the JSON `probe` and `probe-reference` read.
+    #[command(
+        after_help = "Example:\n  glint-eval probe-points scenes/glossy-room/scene.json --count 400 --out points.json"
+    )]
+    ProbePoints(ProbePointsArgs),
+    /// Path-trace D at probe points: the diffuse exitant radiance with light from every path
+    /// (glossy and mirror reflections included), with each value's standard error.
+    #[command(
+        after_help = "Example:\n  glint-eval probe-reference scenes/glossy-room/scene.json --points points.json --paths 16384 --out truth.json\n  glint-eval probe out/glossy-room.glint --points points.json --out d.json\n  glint-eval probe-compare d.json truth.json"
+    )]
+    ProbeReference(ProbeReferenceArgs),
+    /// Relative error of probe values A against reference values B (same probes).
+    #[command(after_help = "Example:\n  glint-eval probe-compare d.json truth.json --json")]
+    ProbeCompare(ProbeCompareArgs),
     /// RMSE, relative RMSE, PSNR and max error of A against the reference B.
     #[command(
         after_help = "Example:\n  glint-eval compare view.exr ref.exr --mask walls.png --diff diff.png --json"
@@ -51,7 +66,7 @@ enum Command {
     /// Bake with each setting, render the same view (timed in the headless viewer when it is
     /// built) and compare with a reference; writes DIR/sweep.csv and DIR/sweep.svg.
     #[command(
-        after_help = "Knobs (STAGE.FIELD):\n  radiosity.texel_density|rays|light_samples|bounces|tolerance\n  materials.sample_budget|xi0|max_circles|kernel_texel_deg|kernel_max_radius|sphere_map_size|map_1d_size|albedo_steps|env_map_size|env_filter|env_supersample\n  radiance.resolution_scale\n  srdm.domains|points|resolution\n  view.reflections=off,geometry,image  view.maps=1,2,4  view.selection=angle,distance\n  view.recursion_depth=0,1,2  view.curved=off,cubemap  view.glossy_samples=0,4,16  view.impostors=off,on\n\nExamples:\n  glint-eval sweep scenes/cornell-box/scene.json --set radiosity.rays=64,256,1024 --set radiosity.texel_density=8,16,32 --camera front --out out/sweep\n  glint-eval sweep scenes/glossy-room/scene.json --reflections image --set radiance.resolution_scale=0.5,1,2 --set view.maps=1,2,4 --out out/sweep-glossy"
+        after_help = "Knobs (STAGE.FIELD):\n  radiosity.texel_density|rays|light_samples|bounces|glossy_depth|tolerance\n  materials.sample_budget|xi0|max_circles|kernel_texel_deg|kernel_max_radius|sphere_map_size|map_1d_size|albedo_steps|env_map_size|env_filter|env_supersample\n  radiance.resolution_scale\n  srdm.domains|points|resolution\n  view.reflections=off,geometry,image  view.maps=1,2,4  view.selection=angle,distance\n  view.recursion_depth=0,1,2  view.curved=off,cubemap  view.glossy_samples=0,4,16  view.impostors=off,on\n\nExamples:\n  glint-eval sweep scenes/cornell-box/scene.json --set radiosity.rays=64,256,1024 --set radiosity.texel_density=8,16,32 --camera front --out out/sweep\n  glint-eval sweep scenes/glossy-room/scene.json --reflections image --set radiance.resolution_scale=0.5,1,2 --set view.maps=1,2,4 --out out/sweep-glossy"
     )]
     Sweep(SweepArgs),
 }
@@ -85,6 +100,60 @@ struct ProbeArgs {
     /// default 1% of the scene's diagonal).
     #[arg(long, value_parser = positive_f32)]
     reach: Option<f32>,
+}
+
+// `glint-eval probe-points`.
+#[derive(ClapArgs)]
+struct ProbePointsArgs {
+    /// The scene description.
+    scene: PathBuf,
+    /// Number of probes.
+    #[arg(long, default_value_t = 400, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    count: u32,
+    /// Seed of the placement.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Output JSON (stdout when omitted).
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+// `glint-eval probe-reference`.
+#[derive(ClapArgs)]
+struct ProbeReferenceArgs {
+    /// The scene description.
+    scene: PathBuf,
+    /// Probe points (JSON).
+    #[arg(long)]
+    points: PathBuf,
+    /// Paths per probe.
+    #[arg(long, default_value_t = 4096, value_parser = clap::value_parser!(u32).range(1..))]
+    paths: u32,
+    /// Seed of the random streams.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Drop glossy lobes (diffuse transport only: what a bake without glossy transport holds).
+    #[arg(long)]
+    diffuse_only: bool,
+    /// How far from each point the surface is looked for along its normal (metres;
+    /// default 1% of the scene's diagonal).
+    #[arg(long, value_parser = positive_f32)]
+    reach: Option<f32>,
+    /// Output JSON (stdout when omitted).
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+// `glint-eval probe-compare`.
+#[derive(ClapArgs)]
+struct ProbeCompareArgs {
+    /// Probe values tested (JSON from `probe`).
+    a: PathBuf,
+    /// Reference values at the same probes (JSON from `probe-reference`).
+    b: PathBuf,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    json: bool,
 }
 
 // `glint-eval compare`.
@@ -275,6 +344,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     match args.command {
         Command::Reference(a) => a.run(),
         Command::Probe(a) => a.run(),
+        Command::ProbePoints(a) => a.run(),
+        Command::ProbeReference(a) => a.run(),
+        Command::ProbeCompare(a) => a.run(),
         Command::Compare(a) => a.run(),
         Command::Sweep(a) => a.run(),
     }
@@ -291,6 +363,110 @@ impl ReferenceArgs {
     }
 }
 
+/// Reads a JSON file of `T`, saying which file and what was expected when it is not one.
+fn read_json<T: serde::de::DeserializeOwned>(path: &Path, expected: &str) -> anyhow::Result<T> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    serde_json::from_str(&text).with_context(|| format!("{}: expected {expected}", path.display()))
+}
+
+/// Writes pretty JSON to `out`, or stdout when `None`.
+fn write_json(out: Option<&Path>, value: &impl serde::Serialize) -> anyhow::Result<()> {
+    let json = serde_json::to_string_pretty(value)? + "\n";
+    match out {
+        Some(p) => write(p, json.as_bytes()),
+        // A closed stdout (`| head -1`) is an io::Error, not a panic: see cli::exit_code.
+        None => Ok(std::io::stdout().lock().write_all(json.as_bytes())?),
+    }
+}
+
+const POINTS_JSON: &str = "a JSON array of {\"position\", \"normal\"}";
+
+impl ProbePointsArgs {
+    fn run(self) -> anyhow::Result<ExitCode> {
+        let scene = Scene::load(&self.scene)?;
+        let bvh = scene.build_bvh();
+        let points = probe::diffuse_points(&scene, &bvh, self.count as usize, self.seed);
+        if points.len() < self.count as usize {
+            log::warn!(
+                "{}: only {} of {} probes: open diffuse faces are rare",
+                self.scene.display(),
+                points.len(),
+                self.count
+            );
+        }
+        if points.is_empty() {
+            bail!(
+                "{}: no diffuse face to put a probe on",
+                self.scene.display()
+            );
+        }
+        write_json(self.out.as_deref(), &points)?;
+        Ok(ExitCode::SUCCESS)
+    }
+}
+
+impl ProbeReferenceArgs {
+    fn run(self) -> anyhow::Result<ExitCode> {
+        let scene = Scene::load(&self.scene)?;
+        let pts: Vec<probe::ProbePoint> = read_json(&self.points, POINTS_JSON)?;
+        let bvh = scene.build_bvh();
+        let reach = self.reach.unwrap_or_else(|| probe::default_reach(&scene));
+        let opts = reference::ProbeTraceOptions {
+            paths: self.paths,
+            seed: self.seed,
+            diffuse_only: self.diffuse_only,
+            ..Default::default()
+        };
+        let progress = TerminalProgress::new();
+        let values = reference::trace_probes(&scene, &bvh, &pts, reach, &opts, &progress);
+        progress.finish();
+        let values = values.with_context(|| self.points.display().to_string())?;
+        warn_missing(&values, reach);
+        write_json(self.out.as_deref(), &values)?;
+        Ok(ExitCode::SUCCESS)
+    }
+}
+
+impl ProbeCompareArgs {
+    fn run(self) -> anyhow::Result<ExitCode> {
+        let expected = "a JSON array of probe values (from glint-eval probe or probe-reference)";
+        let a: Vec<probe::ProbeValue> = read_json(&self.a, expected)?;
+        let b: Vec<probe::ProbeValue> = read_json(&self.b, expected)?;
+        let m = probe::compare_probes(&a, &b).map_err(|e| {
+            anyhow::anyhow!("{} against {}: {e}", self.a.display(), self.b.display())
+        })?;
+        if self.json {
+            write_json(None, &m)?;
+        } else {
+            let pct = |x: f64| format!("{:.2}%", 100.0 * x);
+            let mut out = std::io::stdout().lock();
+            writeln!(out, "probes          {}", m.probes)?;
+            writeln!(out, "rel. RMSE       {}", pct(m.rel_rmse))?;
+            writeln!(out, "mean ratio      {:.4}", m.mean_ratio)?;
+            writeln!(out, "median |error|  {}", pct(m.median))?;
+            writeln!(out, "p95 |error|     {}", pct(m.p95))?;
+            writeln!(out, "max |error|     {} (probe {})", pct(m.max), m.worst)?;
+            if let Some(n) = m.reference_noise {
+                writeln!(
+                    out,
+                    "reference noise {} (median relative standard error)",
+                    pct(n)
+                )?;
+            }
+        }
+        Ok(ExitCode::SUCCESS)
+    }
+}
+
+/// Warns about probes that found no surface.
+fn warn_missing(values: &[probe::ProbeValue], reach: f32) {
+    let missing = values.iter().filter(|v| !v.found).count();
+    if missing > 0 {
+        log::warn!("{missing} probe(s) found no surface within {reach} m");
+    }
+}
+
 impl ProbeArgs {
     /// Looks D up at the points, writing JSON to `--out` or stdout.
     fn run(self) -> anyhow::Result<ExitCode> {
@@ -300,14 +476,7 @@ impl ProbeArgs {
             out,
             reach,
         } = self;
-        let text = std::fs::read_to_string(&points)
-            .with_context(|| format!("reading {}", points.display()))?;
-        let pts: Vec<probe::ProbePoint> = serde_json::from_str(&text).with_context(|| {
-            format!(
-                "{}: expected a JSON array of {{\"position\", \"normal\"}}",
-                points.display()
-            )
-        })?;
+        let pts: Vec<probe::ProbePoint> = read_json(&points, POINTS_JSON)?;
         let b = Bundle::open(&bundle)?;
         let scene_json = b.stage_asset("scene", "scene.json").map_err(|_| {
             anyhow::anyhow!(
@@ -326,16 +495,8 @@ impl ProbeArgs {
         let reach = reach.unwrap_or_else(|| probe::default_reach(&scene));
         let values = probe::probe(&scene, &bvh, &map, &pts, reach)
             .with_context(|| points.display().to_string())?;
-        let missing = values.iter().filter(|v| !v.found).count();
-        if missing > 0 {
-            log::warn!("{missing} probe(s) found no surface within {reach} m");
-        }
-        let json = serde_json::to_string_pretty(&values)? + "\n";
-        match out {
-            Some(p) => write(&p, json.as_bytes())?,
-            // A closed stdout (`| head -1`) is an io::Error, not a panic: see cli::exit_code.
-            None => std::io::stdout().lock().write_all(json.as_bytes())?,
-        }
+        warn_missing(&values, reach);
+        write_json(out.as_deref(), &values)?;
         Ok(ExitCode::SUCCESS)
     }
 }

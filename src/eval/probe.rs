@@ -29,25 +29,26 @@ pub struct ProbePoint {
 }
 
 /// One probe's answer.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ProbeValue {
     /// The probe's label.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub name: Option<String>,
     /// The probe's position.
     pub position: [f32; 3],
     /// Whether a surface was found within reach.
     pub found: bool,
     /// The triangle found (scene order), if any.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub triangle: Option<u32>,
     /// Signed distance of the probe above the surface found, along the normal (metres).
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub offset: Option<f32>,
     /// Exitant radiance D there (linear RGB, emission included); zero when not found.
     pub radiance: [f32; 3],
     /// Standard error of `radiance` per channel, when it is a Monte Carlo estimate.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub std_error: Option<[f32; 3]>,
 }
 
@@ -245,4 +246,85 @@ pub fn diffuse_points(scene: &Scene, bvh: &Bvh, count: usize, seed: u64) -> Vec<
         }
     }
     out
+}
+
+/// How far probe values are from reference values at the same probes (relative luminance
+/// errors, the denominator floored at 5% of the reference's mean so that near-black probes do
+/// not dominate).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ProbeMetrics {
+    /// Probes compared (found in both).
+    pub probes: usize,
+    /// Root mean square relative error.
+    pub rel_rmse: f64,
+    /// Mean of value / reference.
+    pub mean_ratio: f64,
+    /// Median |relative error|.
+    pub median: f64,
+    /// 95th percentile of |relative error|.
+    pub p95: f64,
+    /// Largest |relative error|, and the probe it is at.
+    pub max: f64,
+    /// Name (or index) of the probe with the largest error.
+    pub worst: String,
+    /// Median relative standard error of the reference (its own noise), when it has one.
+    pub reference_noise: Option<f64>,
+}
+
+/// Compares `values` with `reference`, probe by probe (same order, same probes).
+pub fn compare_probes(
+    values: &[ProbeValue],
+    reference: &[ProbeValue],
+) -> Result<ProbeMetrics, String> {
+    if values.len() != reference.len() {
+        return Err(format!(
+            "{} probes against {} reference probes: they must be the same probes",
+            values.len(),
+            reference.len()
+        ));
+    }
+    let lum = |c: [f32; 3]| crate::eval::luminance(Vec3::from_array(c)) as f64;
+    let pairs: Vec<(usize, &ProbeValue, &ProbeValue)> = values
+        .iter()
+        .zip(reference)
+        .enumerate()
+        .filter(|(_, (a, b))| a.found && b.found)
+        .map(|(i, (a, b))| (i, a, b))
+        .collect();
+    if pairs.is_empty() {
+        return Err("no probe found a surface in both".into());
+    }
+    let n = pairs.len() as f64;
+    let mean = pairs.iter().map(|(_, _, b)| lum(b.radiance)).sum::<f64>() / n;
+    let floor = (0.05 * mean).max(f64::MIN_POSITIVE);
+    let mut errors = Vec::with_capacity(pairs.len());
+    let (mut ratio, mut sq, mut max, mut worst) = (0.0, 0.0, -1.0, String::new());
+    for (i, a, b) in &pairs {
+        let den = lum(b.radiance).max(floor);
+        let e = (lum(a.radiance) - lum(b.radiance)) / den;
+        ratio += lum(a.radiance) / den;
+        sq += e * e;
+        if e.abs() > max {
+            max = e.abs();
+            worst = a.name.clone().unwrap_or_else(|| format!("#{i}"));
+        }
+        errors.push(e.abs());
+    }
+    errors.sort_by(f64::total_cmp);
+    let pick = |q: f64| errors[((errors.len() - 1) as f64 * q).round() as usize];
+    let mut noise: Vec<f64> = pairs
+        .iter()
+        .filter_map(|(_, _, b)| b.std_error.map(|s| lum(s) / lum(b.radiance).max(floor)))
+        .collect();
+    noise.sort_by(f64::total_cmp);
+    Ok(ProbeMetrics {
+        probes: pairs.len(),
+        rel_rmse: (sq / n).sqrt(),
+        mean_ratio: ratio / n,
+        median: pick(0.5),
+        p95: pick(0.95),
+        max,
+        worst,
+        reference_noise: (!noise.is_empty()).then(|| noise[noise.len() / 2]),
+    })
 }
