@@ -47,6 +47,7 @@ const REFERENCE: SolveSettings = SolveSettings {
     light_samples: 1024,
     bounces: 64,
     glossy_depth: 64,
+    target_error: None,
     tolerance: 0.0,
     seed: 99,
 };
@@ -106,6 +107,7 @@ fn main() {
                 light_samples: s.light_samples,
                 bounces: s.bounces,
                 glossy_depth: s.glossy_depth,
+                target_error: None,
                 tolerance: s.tolerance,
                 seed: glint::bake::radiosity_stage::SEED,
             };

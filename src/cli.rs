@@ -108,6 +108,10 @@ pub struct RadiosityFlags {
     /// Stop when a bounce changes the total reflected radiance by less than this fraction.
     #[arg(long, value_name = "F")]
     pub tolerance: Option<f32>,
+    /// Relative standard error each texel's D should reach (e.g. 0.02): texels above it get
+    /// more rays and emitter samples, in up to 4 rounds.
+    #[arg(long, value_name = "REL")]
+    pub target_error: Option<f32>,
 }
 
 impl RadiosityFlags {
@@ -120,6 +124,7 @@ impl RadiosityFlags {
             bounces: self.bounces,
             glossy_depth: self.glossy_depth,
             tolerance: self.tolerance,
+            target_error: self.target_error,
         }
     }
 }

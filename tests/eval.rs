@@ -142,6 +142,7 @@ fn diffuse_cornell_box_agrees_with_converged_radiosity() {
         bounces: 16,
         tolerance: 1e-3,
         glossy_depth: 0,
+        target_error: None,
     };
     let bundle = shipped_bundle(&Recipe::new("cornell-box").then(Step::Radiosity(settings)));
     let map = RadiosityMap::load(&Bundle::open(&bundle).unwrap())

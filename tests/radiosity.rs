@@ -46,6 +46,7 @@ fn run(
         light_samples,
         bounces,
         glossy_depth: 0,
+        target_error: None,
         tolerance: 1e-7,
         seed: 1,
     };
@@ -256,6 +257,7 @@ fn bakes_are_byte_identical_whatever_the_thread_count() {
         bounces: 3,
         tolerance: 0.0,
         glossy_depth: 0,
+        target_error: None,
     };
     let bundles: Vec<_> = [1, 2, 3]
         .iter()
@@ -308,6 +310,7 @@ fn cancelling_leaves_the_bundle_as_it_was() {
         bounces: 2,
         tolerance: 0.0,
         glossy_depth: 0,
+        target_error: None,
     };
     radiosity_stage::bake(&scene, &out, &settings, false, &Silent).unwrap();
     let manifest = std::fs::read(out.join("manifest.json")).unwrap();

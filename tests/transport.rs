@@ -53,6 +53,7 @@ fn solve_with(
         bounces: 64,
         glossy_depth,
         tolerance: 1e-6,
+        target_error: None,
         seed: 3,
     };
     let sol = solve(scene, &scene.build_bvh(), &atlas, &samples, &set, &Silent).unwrap();

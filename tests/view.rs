@@ -81,6 +81,7 @@ fn test_settings(texel_density: f32) -> RadiositySettings {
         bounces: 3,
         tolerance: 1e-2,
         glossy_depth: 0,
+        target_error: None,
     }
 }
 

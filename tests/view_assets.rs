@@ -64,6 +64,7 @@ fn bundle() -> &'static Path {
                 bounces: 1,
                 tolerance: 0.0,
                 glossy_depth: 0,
+                target_error: None,
             };
             settings.srdm = SrdmSettings {
                 domains: 4,

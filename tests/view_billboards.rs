@@ -497,6 +497,7 @@ fn box_scene(root: &Path) -> (Scene, std::path::PathBuf) {
         bounces: 2,
         tolerance: 1e-2,
         glossy_depth: 0,
+        target_error: None,
     };
     radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent)
         .unwrap_or_else(|e| panic!("{e}"));

@@ -44,6 +44,7 @@ fn radiosity_settings() -> RadiositySettings {
         bounces: 3,
         tolerance: 1e-2,
         glossy_depth: 0,
+        target_error: None,
     }
 }
 

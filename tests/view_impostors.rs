@@ -336,6 +336,7 @@ fn bunny_bundle() -> &'static Path {
             bounces: 4,
             tolerance: 1e-2,
             glossy_depth: 0,
+            target_error: None,
         };
         let srdm = SrdmSettings {
             domains: 30,

@@ -88,6 +88,7 @@ fn corridor() -> &'static ViewData {
             bounces: 1,
             tolerance: 1e-2,
             glossy_depth: 0,
+            target_error: None,
         };
         scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
         radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent)
@@ -338,6 +339,7 @@ fn straddling() -> &'static ViewData {
             bounces: 1,
             tolerance: 1e-2,
             glossy_depth: 0,
+            target_error: None,
         };
         scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
         radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent)

@@ -82,6 +82,7 @@ fn glossy_bundle() -> &'static Path {
             bounces: 3,
             tolerance: 1e-2,
             glossy_depth: 0,
+            target_error: None,
         };
         shipped_bundle(
             &Recipe::new("glossy-room")
@@ -579,6 +580,7 @@ fn mirror_reflecting_a_flat_wall_matches_in_both_modes() {
         bounces: 2,
         tolerance: 1e-2,
         glossy_depth: 0,
+        target_error: None,
     };
     scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
     radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent)

@@ -147,6 +147,7 @@ pub fn bake(
         bounces: settings.bounces,
         glossy_depth: settings.glossy_depth,
         tolerance: settings.tolerance,
+        target_error: settings.target_error,
         seed: SEED,
     };
     let solution = solve(scene, &bvh, &atlas, &samples, &solve_settings, progress)?;

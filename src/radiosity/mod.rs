@@ -4,6 +4,7 @@
 pub mod atlas;
 pub mod current;
 mod emitters;
+mod gather;
 pub mod format;
 pub mod map;
 pub mod solve;

@@ -15,22 +15,27 @@
 //! neighbours of the same chart, so they neither leak light nor darkness.
 
 use std::collections::VecDeque;
-use std::f32::consts::PI;
 
 use glam::Vec3;
 use rayon::prelude::*;
 
 use super::atlas::{Atlas, TexelSample};
-use super::emitters::{Emitters, luminance, power};
+use super::emitters::{Emitters, luminance};
+use super::gather::{Context, Gathered, gather};
 use super::transport::{Glossy, Term};
 use crate::geometry::Bvh;
 use crate::progress::{Cancelled, Progress};
-use crate::sampling::{Rng, basis, sample_cosine_hemisphere, sample_triangle};
+use crate::sampling::Rng;
 use crate::scene::Scene;
 
-/// A sample is inside geometry when more than this fraction of its gathering rays hit back
-/// faces (a floor texel under a wall sees the wall's inner faces).
-pub const BACKFACE_LIMIT: f32 = 0.25;
+pub use super::gather::BACKFACE_LIMIT;
+
+/// Most refinement rounds of [`SolveSettings::target_error`].
+pub const MAX_ROUNDS: u32 = 4;
+
+/// Most samples an element may get under [`SolveSettings::target_error`], as a multiple of
+/// its first batch (`rays`, `light_samples`).
+pub const MAX_SAMPLE_FACTOR: u32 = 64;
 
 /// Samples per work item (progress and cancellation granularity).
 const CHUNK: usize = 256;
@@ -49,6 +54,10 @@ pub struct SolveSettings {
     pub glossy_depth: u32,
     /// Stop when a bounce changes the total reflected radiance by less than this fraction.
     pub tolerance: f32,
+    /// Relative standard error each element should reach: elements whose estimate is above it
+    /// get more rays and emitter samples, in up to [`MAX_ROUNDS`] rounds and up to
+    /// [`MAX_SAMPLE_FACTOR`] × their first batch. `None`: one batch of `rays`/`light_samples`.
+    pub target_error: Option<f32>,
     /// Random seed (every texel draws from its own stream of it).
     pub seed: u64,
 }
@@ -68,6 +77,14 @@ pub struct SolveStats {
     pub bounces: u32,
     /// Relative change of the last bounce.
     pub last_change: f64,
+    /// Refinement rounds run for the target error.
+    pub rounds: u32,
+    /// Elements given more samples (each counted once).
+    pub refined: u64,
+    /// Estimated relative standard error of the elements' D: median, 95th percentile, max.
+    pub error_median: f64,
+    pub error_p95: f64,
+    pub error_max: f64,
 }
 
 /// A converged solution.
@@ -78,163 +95,43 @@ pub struct Solution {
     pub stats: SolveStats,
 }
 
-/// What one element's gathering pass found.
-struct Gathered {
-    /// Direct irradiance / π (so that L_r = ρ · (direct + mean incoming L_r)).
-    direct: Vec3,
-    /// Per ray, the atlas texel hit on a front face (u32::MAX: miss or back face).
-    hits: Vec<u32>,
-    /// Texels reached through glossy reflection, with their weights (summed over the rays
-    /// like `hits`).
-    terms: Vec<Term>,
-    inside: bool,
-    rays: u64,
+/// The random stream of element `index` in refinement round `round` (0: the first batch).
+fn stream(round: u32, index: usize) -> u64 {
+    ((round as u64) << 40) | index as u64
 }
 
-fn gather(
-    scene: &Scene,
-    bvh: &Bvh,
-    atlas: &Atlas,
-    offsets: &[u32],
-    emitters: &Emitters,
-    glossy: Option<&Glossy>,
-    s: &TexelSample,
-    index: usize,
-    set: &SolveSettings,
-) -> Gathered {
-    let mut rng = Rng::new(set.seed, index as u64);
-    let tri = &scene.triangles[s.triangle as usize];
-    let ng = tri.face_normal();
-    let mut ns = tri.normal(s.bary);
-    if ns.dot(ng) <= 0.0 {
-        ns = ng;
+/// Gathers the elements `which` (indices into `samples`), in parallel, with per-element
+/// sample counts; `None` when cancelled.
+fn gather_all(
+    cx: &Context,
+    samples: &[TexelSample],
+    which: &[(u32, u32, u32)],
+    seed: u64,
+    round: u32,
+    progress: &dyn Progress,
+) -> Option<Vec<Gathered>> {
+    let chunks: Vec<Option<Vec<Gathered>>> = which
+        .par_chunks(CHUNK)
+        .map(|chunk| {
+            if progress.cancelled() {
+                return None;
+            }
+            let out = chunk
+                .iter()
+                .map(|&(i, rays, light)| {
+                    let mut rng = Rng::new(seed, stream(round, i as usize));
+                    gather(cx, &samples[i as usize], &mut rng, rays, light)
+                })
+                .collect();
+            progress.advance(chunk.len() as u64);
+            Some(out)
+        })
+        .collect();
+    let mut out = Vec::with_capacity(which.len());
+    for c in chunks {
+        out.extend(c?);
     }
-    let p = tri.point(s.bary);
-    let origin = bvh.offset_origin(p, ng);
-    let (t, b) = basis(ns);
-    let n_rays = set.rays.max(1);
-    let n_light = set.light_samples.max(1);
-    let mut direct = Vec3::ZERO;
-    let mut hits = Vec::with_capacity(n_rays as usize);
-    let mut terms = Vec::new();
-    // Radiance the rays bring back through glossy reflection (besides `terms`).
-    let mut via_glossy = Vec3::ZERO;
-    let mut backfaces = 0u32;
-    let mut rays = 0u64;
-
-    // Gathering rays (cosine-distributed about the shading normal).
-    for _ in 0..n_rays {
-        let l = sample_cosine_hemisphere(rng.uniform2());
-        let d = t * l.x + b * l.y + ns * l.z;
-        rays += 1;
-        if d.dot(ng) <= 0.0 {
-            hits.push(u32::MAX);
-            continue;
-        }
-        match bvh.closest_hit(origin, d, f32::INFINITY) {
-            Some(h) => {
-                let ht = &scene.triangles[h.triangle as usize];
-                let hn = ht.face_normal();
-                let cos_l = -d.dot(hn);
-                if cos_l <= 0.0 {
-                    backfaces += 1;
-                    hits.push(u32::MAX);
-                    continue;
-                }
-                let e = scene.materials[ht.material as usize].emission;
-                if e.max_element() > 0.0 {
-                    // MIS against explicit emitter sampling (solid-angle densities).
-                    let p_light = emitters.area_pdf(e) * h.t * h.t / cos_l;
-                    let p_bsdf = l.z / PI;
-                    let w = power(n_rays as f32, p_bsdf, n_light as f32, p_light);
-                    // Irradiance/π from this ray: L · (cos/p_bsdf)/π/N = L/N.
-                    direct += e * w / n_rays as f32;
-                }
-                hits.push(atlas.texel_at(offsets, h.triangle, h.bary));
-                if let Some(g) = glossy
-                    && g.reflects(h.triangle)
-                {
-                    via_glossy += g.follow(h, d, &mut rng, &mut terms, &mut rays);
-                }
-            }
-            None => hits.push(u32::MAX),
-        }
-    }
-    if via_glossy != Vec3::ZERO {
-        // Mean incoming radiance over the cosine-distributed rays is irradiance/π.
-        direct += via_glossy / n_rays as f32;
-    }
-
-    // Area lights: stratified points on each quad.
-    let grid = (n_light as f32).sqrt().ceil() as u32;
-    for light in &scene.lights {
-        let mut sum = Vec3::ZERO;
-        for k in 0..n_light {
-            let (i, j) = (k % grid, (k / grid) % grid);
-            let u = rng.uniform2();
-            let q = light.corner
-                + light.edge_u * ((i as f32 + u.x) / grid as f32)
-                + light.edge_v * ((j as f32 + u.y) / grid as f32);
-            let w = q - origin;
-            let dist2 = w.length_squared();
-            let dist = dist2.sqrt();
-            let d = w / dist;
-            let cos_s = d.dot(ns);
-            let mut cos_l = -d.dot(light.normal);
-            if light.two_sided {
-                cos_l = cos_l.abs();
-            }
-            if cos_s <= 0.0 || cos_l <= 0.0 || d.dot(ng) <= 0.0 {
-                continue;
-            }
-            rays += 1;
-            if bvh.occluded(origin, d, dist * (1.0 - 1e-5)) {
-                continue;
-            }
-            sum += light.radiance * (cos_s * cos_l / dist2);
-        }
-        direct += sum * (light.area / n_light as f32) / PI;
-    }
-
-    // Emissive triangles: points in proportion to area × luminance.
-    if !emitters.tris.is_empty() {
-        let mut sum = Vec3::ZERO;
-        for _ in 0..n_light {
-            let et = &scene.triangles[emitters.pick(rng.uniform()) as usize];
-            let e = scene.materials[et.material as usize].emission;
-            let q = et.point(sample_triangle(rng.uniform2()));
-            let w = q - origin;
-            let dist2 = w.length_squared();
-            let dist = dist2.sqrt();
-            if dist <= 0.0 {
-                continue;
-            }
-            let d = w / dist;
-            let cos_s = d.dot(ns);
-            let cos_l = -d.dot(et.face_normal());
-            if cos_s <= 0.0 || cos_l <= 0.0 || d.dot(ng) <= 0.0 {
-                continue;
-            }
-            rays += 1;
-            // Stop short of the emitter: it must not occlude itself.
-            if bvh.occluded(origin, d, dist - 2.0 * bvh.epsilon().max(dist * 1e-5)) {
-                continue;
-            }
-            let p_light = emitters.area_pdf(e) * dist2 / cos_l;
-            let p_bsdf = cos_s / PI;
-            let wgt = power(n_light as f32, p_light, n_rays as f32, p_bsdf);
-            sum += e * (wgt * cos_s / p_light);
-        }
-        direct += sum / (n_light as f32 * PI);
-    }
-
-    Gathered {
-        direct,
-        hits,
-        terms,
-        inside: backfaces as f32 > BACKFACE_LIMIT * n_rays as f32,
-        rays,
-    }
+    Some(out)
 }
 
 /// Solves the scene's radiosity on the atlas. `samples` come from [`super::atlas::build`].
@@ -248,78 +145,36 @@ pub fn solve(
 ) -> Result<Solution, Cancelled> {
     let offsets = atlas.page_offsets();
     let emitters = Emitters::new(scene);
-    let glossy = Glossy::new(scene, bvh, atlas, &offsets, &emitters, set.glossy_depth);
+    let cx = Context {
+        scene,
+        bvh,
+        atlas,
+        offsets: &offsets,
+        emitters: &emitters,
+        glossy: Glossy::new(scene, bvh, atlas, &offsets, &emitters, set.glossy_depth),
+    };
+    let (rays, light) = (set.rays.max(1), set.light_samples.max(1));
     progress.phase("gathering", samples.len() as u64);
-    let chunks: Vec<Option<Vec<Gathered>>> = samples
-        .par_chunks(CHUNK)
-        .enumerate()
-        .map(|(c, chunk)| {
-            if progress.cancelled() {
-                return None;
-            }
-            let out = chunk
-                .iter()
-                .enumerate()
-                .map(|(k, s)| {
-                    gather(
-                        scene,
-                        bvh,
-                        atlas,
-                        &offsets,
-                        &emitters,
-                        glossy.as_ref(),
-                        s,
-                        c * CHUNK + k,
-                        set,
-                    )
-                })
-                .collect();
-            progress.advance(chunk.len() as u64);
-            Some(out)
-        })
-        .collect();
-    let mut gathered = Vec::with_capacity(samples.len());
-    for c in chunks {
-        gathered.extend(c.ok_or(Cancelled)?);
-    }
+    let all: Vec<(u32, u32, u32)> = (0..samples.len() as u32).map(|i| (i, rays, light)).collect();
+    let mut gathered = gather_all(&cx, samples, &all, set.seed, 0, progress).ok_or(Cancelled)?;
 
     let mut stats = SolveStats {
         elements: samples.len() as u64,
         excluded: gathered.iter().filter(|g| g.inside).count() as u64,
-        rays_cast: gathered.iter().map(|g| g.rays).sum(),
         ..Default::default()
     };
 
     // Each texel resolves to the nearest valid element of its chart.
     let (resolve, filled) = resolve_texels(atlas, samples, &gathered);
     stats.filled = filled;
-    let resolved = |h: u32| {
-        if h == u32::MAX {
-            u32::MAX
-        } else {
-            resolve[h as usize]
-        }
-    };
-    let hits: Vec<Vec<u32>> = gathered
-        .par_iter()
-        .map(|g| g.hits.iter().map(|&h| resolved(h)).collect())
-        .collect();
-    let terms: Vec<Vec<Term>> = gathered
-        .par_iter()
-        .map(|g| {
-            g.terms
-                .iter()
-                .map(|t| Term {
-                    texel: resolved(t.texel),
-                    weight: t.weight,
-                })
-                .filter(|t| t.texel != u32::MAX)
-                .collect()
-        })
-        .collect();
+    let mut links: Vec<Links> = gathered.par_iter().map(|g| Links::new(g, &resolve)).collect();
     let albedo: Vec<Vec3> = samples
         .iter()
         .map(|s| scene.materials[scene.triangles[s.triangle as usize].material as usize].albedo)
+        .collect();
+    let emission: Vec<Vec3> = samples
+        .iter()
+        .map(|s| scene.materials[scene.triangles[s.triangle as usize].material as usize].emission)
         .collect();
 
     // Jacobi iteration on reflected radiance.
@@ -328,16 +183,122 @@ pub fn solve(
         .zip(&albedo)
         .map(|(g, a)| *a * g.direct)
         .collect();
+    iterate(&mut lr, &links, &gathered, &albedo, set, &mut stats, progress)?;
+
+    // Refinement: more samples where the estimated error is above the target.
+    let mut refined = vec![false; samples.len()];
+    let mut error = relative_errors(&lr, &links, &gathered, &albedo, &emission);
+    if let Some(target) = set.target_error {
+        for round in 1..=MAX_ROUNDS {
+            let which = more_samples(&error, &gathered, target, rays, light);
+            if which.is_empty() {
+                break;
+            }
+            progress.phase("refining", which.len() as u64);
+            let more =
+                gather_all(&cx, samples, &which, set.seed, round, progress).ok_or(Cancelled)?;
+            for (&(i, _, _), g) in which.iter().zip(more) {
+                let i = i as usize;
+                links[i].extend(&g, &resolve);
+                gathered[i].merge(g);
+                refined[i] = true;
+            }
+            stats.rounds = round;
+            iterate(&mut lr, &links, &gathered, &albedo, set, &mut stats, progress)?;
+            error = relative_errors(&lr, &links, &gathered, &albedo, &emission);
+        }
+    }
+    stats.refined = refined.iter().filter(|&&r| r).count() as u64;
+    stats.rays_cast = gathered.iter().map(|g| g.rays).sum();
+    let mut valid: Vec<f64> = error
+        .iter()
+        .zip(&gathered)
+        .filter(|(_, g)| !g.inside)
+        .map(|(e, _)| *e)
+        .collect();
+    valid.sort_by(f64::total_cmp);
+    if !valid.is_empty() {
+        let pick = |q: f64| valid[((valid.len() - 1) as f64 * q).round() as usize];
+        stats.error_median = pick(0.5);
+        stats.error_p95 = pick(0.95);
+        stats.error_max = valid[valid.len() - 1];
+    }
+
+    // Exitant radiance per texel: the resolved element's emission + reflection.
+    let exitant: Vec<Vec3> = emission.iter().zip(&lr).map(|(e, l)| *e + *l).collect();
+    let radiance = resolve
+        .iter()
+        .map(|&r| {
+            if r == u32::MAX {
+                Vec3::ZERO
+            } else {
+                exitant[r as usize]
+            }
+        })
+        .collect();
+    Ok(Solution { radiance, stats })
+}
+
+/// An element's gathering rays resolved to the elements they read.
+struct Links {
+    /// Per ray, the element hit (u32::MAX: miss, back face or no valid element).
+    hits: Vec<u32>,
+    /// Elements reached through glossy reflection, with weights.
+    terms: Vec<Term>,
+}
+
+impl Links {
+    fn new(g: &Gathered, resolve: &[u32]) -> Links {
+        let mut l = Links {
+            hits: Vec::with_capacity(g.hits.len()),
+            terms: Vec::new(),
+        };
+        l.extend(g, resolve);
+        l
+    }
+
+    fn extend(&mut self, g: &Gathered, resolve: &[u32]) {
+        let resolved = |h: u32| {
+            if h == u32::MAX {
+                u32::MAX
+            } else {
+                resolve[h as usize]
+            }
+        };
+        self.hits.extend(g.hits.iter().map(|&h| resolved(h)));
+        self.terms.extend(
+            g.terms
+                .iter()
+                .map(|t| Term {
+                    texel: resolved(t.texel),
+                    weight: t.weight,
+                })
+                .filter(|t| t.texel != u32::MAX),
+        );
+    }
+}
+
+/// Jacobi iteration of L_r = ρ·(direct + mean incoming L_r) from `lr`, until a bounce changes
+/// the total by less than the tolerance or the bounces run out.
+fn iterate(
+    lr: &mut Vec<Vec3>,
+    links: &[Links],
+    gathered: &[Gathered],
+    albedo: &[Vec3],
+    set: &SolveSettings,
+    stats: &mut SolveStats,
+    progress: &dyn Progress,
+) -> Result<(), Cancelled> {
     progress.phase("bouncing", set.bounces as u64);
-    for bounce in 0..set.bounces {
+    for _ in 0..set.bounces {
         if progress.cancelled() {
             return Err(Cancelled);
         }
-        let next: Vec<Vec3> = (0..samples.len())
+        let next: Vec<Vec3> = (0..links.len())
             .into_par_iter()
             .map(|i| {
                 let mut sum = [0.0f64; 3];
-                for &h in &hits[i] {
+                for &h in &links[i].hits {
                     if h != u32::MAX {
                         let l = lr[h as usize];
                         sum[0] += l.x as f64;
@@ -345,13 +306,13 @@ pub fn solve(
                         sum[2] += l.z as f64;
                     }
                 }
-                for t in &terms[i] {
+                for t in &links[i].terms {
                     let l = t.weight * lr[t.texel as usize];
                     sum[0] += l.x as f64;
                     sum[1] += l.y as f64;
                     sum[2] += l.z as f64;
                 }
-                let n = hits[i].len().max(1) as f64;
+                let n = links[i].hits.len().max(1) as f64;
                 let incoming = Vec3::new(
                     (sum[0] / n) as f32,
                     (sum[1] / n) as f32,
@@ -365,34 +326,101 @@ pub fn solve(
             change += luminance((*b - *a).abs()) as f64;
             total += luminance(*b) as f64;
         }
-        lr = next;
-        stats.bounces = bounce + 1;
+        *lr = next;
+        stats.bounces += 1;
         stats.last_change = if total > 0.0 { change / total } else { 0.0 };
         progress.advance(1);
         if stats.last_change < set.tolerance as f64 {
             break;
         }
     }
+    Ok(())
+}
 
-    // Exitant radiance per texel: the resolved element's emission + reflection.
-    let exitant: Vec<Vec3> = samples
-        .iter()
-        .zip(&lr)
-        .map(|(s, l)| {
-            scene.materials[scene.triangles[s.triangle as usize].material as usize].emission + *l
-        })
-        .collect();
-    let radiance = resolve
-        .iter()
-        .map(|&r| {
-            if r == u32::MAX {
-                Vec3::ZERO
+/// Each element's estimated relative standard error of D (luminance): the variance of its
+/// emitter samples plus that of its rays' incoming radiance (each ray's texel value read from
+/// `lr`, glossy terms counted as part of the ray, and the ray's own emission and glossy
+/// light), scaled by the albedo, over D. Elements inside geometry get 0.
+fn relative_errors(
+    lr: &[Vec3],
+    links: &[Links],
+    gathered: &[Gathered],
+    albedo: &[Vec3],
+    emission: &[Vec3],
+) -> Vec<f64> {
+    (0..links.len())
+        .into_par_iter()
+        .map(|i| {
+            let g = &gathered[i];
+            if g.inside {
+                return 0.0;
+            }
+            let (mut u, mut u2) = (0.0f64, 0.0f64);
+            for &h in &links[i].hits {
+                if h != u32::MAX {
+                    let v = luminance(lr[h as usize]) as f64;
+                    u += v;
+                    u2 += v * v;
+                }
+            }
+            for t in &links[i].terms {
+                let v = luminance(t.weight * lr[t.texel as usize]) as f64;
+                u += v;
+                u2 += v * v;
+            }
+            let n = links[i].hits.len().max(1) as f64;
+            let (c, c2) = (g.moments.ray_const, g.moments.ray_const2);
+            let mean = (u + c) / n;
+            let second = (u2 + c2) / n + 2.0 * (u / n) * (c / n);
+            let ray_var = if n > 1.0 {
+                (second - mean * mean).max(0.0) * n / (n - 1.0) / n
             } else {
-                exitant[r as usize]
+                0.0
+            };
+            let rho = luminance(albedo[i]) as f64;
+            let se = rho * (g.moments.light_var + ray_var).sqrt();
+            let d = luminance(emission[i] + lr[i]) as f64;
+            if se == 0.0 {
+                0.0
+            } else if d > 0.0 {
+                se / d
+            } else {
+                f64::INFINITY
             }
         })
-        .collect();
-    Ok(Solution { radiance, stats })
+        .collect()
+}
+
+/// The elements whose error is above `target`, with the rays and emitter samples of their next
+/// batch: enough to bring the error to the target if it falls as 1/√samples (plus 10%), at
+/// least a quarter of what they have, within [`MAX_SAMPLE_FACTOR`] × the first batch.
+fn more_samples(
+    error: &[f64],
+    gathered: &[Gathered],
+    target: f32,
+    rays: u32,
+    light: u32,
+) -> Vec<(u32, u32, u32)> {
+    let target = target as f64;
+    let max_rays = rays as u64 * MAX_SAMPLE_FACTOR as u64;
+    error
+        .iter()
+        .zip(gathered)
+        .enumerate()
+        .filter_map(|(i, (&e, g))| {
+            let have = g.hits.len() as u64;
+            if g.inside || !(e > target) || have >= max_rays {
+                return None;
+            }
+            let want = ((e / target).powi(2) * 1.1).min(MAX_SAMPLE_FACTOR as f64);
+            let add = ((have as f64 * (want - 1.0)).ceil() as u64)
+                .max(have / 4)
+                .min(max_rays - have)
+                .max(1);
+            let add_light = (add * light as u64).div_ceil(rays as u64).max(1);
+            Some((i as u32, add as u32, add_light.min(u32::MAX as u64) as u32))
+        })
+        .collect()
 }
 
 /// For every atlas texel, the index of the element whose value it shows: its own when valid,

@@ -310,6 +310,10 @@ pub struct RadiosityOverride {
     /// Stop when a bounce changes the total reflected radiance by less than this fraction.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tolerance: Option<f32>,
+    /// Relative standard error each texel's D should reach (e.g. 0.02): texels above it get
+    /// more rays and emitter samples.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target_error: Option<f32>,
 }
 
 impl RadiosityOverride {
@@ -322,6 +326,7 @@ impl RadiosityOverride {
             bounces,
             glossy_depth,
             tolerance,
+            target_error,
         } = *self;
         s.texel_density = texel_density.unwrap_or(s.texel_density);
         s.rays = rays.unwrap_or(s.rays);
@@ -329,6 +334,9 @@ impl RadiosityOverride {
         s.bounces = bounces.unwrap_or(s.bounces);
         s.glossy_depth = glossy_depth.unwrap_or(s.glossy_depth);
         s.tolerance = tolerance.unwrap_or(s.tolerance);
+        if target_error.is_some() {
+            s.target_error = target_error;
+        }
     }
 }
 
@@ -471,6 +479,11 @@ pub struct RadiositySettings {
     pub glossy_depth: u32,
     /// Stop when a bounce changes the total reflected radiance by less than this fraction.
     pub tolerance: f32,
+    /// Relative standard error each texel's D should reach: texels whose estimate is above it
+    /// get more rays and emitter samples (`rays` and `light_samples` are the first batch).
+    /// `None`: one batch.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target_error: Option<f32>,
 }
 
 impl RadiositySettings {
@@ -488,6 +501,7 @@ impl RadiositySettings {
             bounces,
             glossy_depth,
             tolerance,
+            target_error: None,
         }
     }
 
@@ -539,6 +553,14 @@ impl RadiositySettings {
             return Err(SettingError::new(
                 "tolerance",
                 format!("{t} is not a fraction in [0, 1)"),
+            ));
+        }
+        if let Some(e) = self.target_error
+            && !(e.is_finite() && e > 0.0 && e < 1.0)
+        {
+            return Err(SettingError::new(
+                "target_error",
+                format!("{e} is not a relative error in (0, 1), e.g. 0.02 for 2%"),
             ));
         }
         Ok(())

@@ -1,0 +1,253 @@
+//! One element's gathering: its direct light (emitters sampled, MIS with the gathering rays),
+//! the texels its cosine-distributed rays land on, the glossy paths they continue into
+//! ([`super::transport`]), and the sample statistics its error estimate needs.
+
+use std::f32::consts::PI;
+
+use glam::Vec3;
+
+use super::atlas::{Atlas, TexelSample};
+use super::emitters::{Emitters, luminance, power};
+use super::transport::{Glossy, Term};
+use crate::geometry::Bvh;
+use crate::sampling::{Rng, basis, sample_cosine_hemisphere, sample_triangle};
+use crate::scene::Scene;
+
+/// A sample is inside geometry when more than this fraction of its gathering rays hit back
+/// faces (a floor texel under a wall sees the wall's inner faces).
+pub const BACKFACE_LIMIT: f32 = 0.25;
+
+/// What gathering needs, shared by every element.
+pub(super) struct Context<'a> {
+    pub scene: &'a Scene,
+    pub bvh: &'a Bvh,
+    pub atlas: &'a Atlas,
+    pub offsets: &'a [u32],
+    pub emitters: &'a Emitters,
+    pub glossy: Option<Glossy<'a>>,
+}
+
+/// Sums of one element's samples, for the variance of its estimate (luminance).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct Moments {
+    /// Variance of the emitter-sampled part of `direct` (of the mean).
+    pub light_var: f64,
+    /// Σ and Σ² over rays of the radiance each ray brings back that is not a texel's reflected
+    /// radiance (emission hit, light through glossy paths).
+    pub ray_const: f64,
+    pub ray_const2: f64,
+}
+
+/// What an element's gathering found.
+pub(super) struct Gathered {
+    /// Direct irradiance / π (so that L_r = ρ · (direct + mean incoming L_r)).
+    pub direct: Vec3,
+    /// Per ray, the atlas texel hit on a front face (u32::MAX: miss or back face).
+    pub hits: Vec<u32>,
+    /// Texels reached through glossy reflection, with their weights (summed over the rays
+    /// like `hits`).
+    pub terms: Vec<Term>,
+    pub inside: bool,
+    /// Rays cast (gathering, shadow, glossy).
+    pub rays: u64,
+    /// Emitter samples per light.
+    pub light_samples: u32,
+    pub moments: Moments,
+}
+
+impl Gathered {
+    /// Adds another batch of the same element's samples: the estimates are averaged with
+    /// weights proportional to their gathering rays (each batch is unbiased by itself).
+    pub fn merge(&mut self, other: Gathered) {
+        let (n1, n2) = (self.hits.len() as f64, other.hits.len() as f64);
+        let n = n1 + n2;
+        let mix = |a: f32, b: f32| ((a as f64 * n1 + b as f64 * n2) / n) as f32;
+        self.direct = Vec3::new(
+            mix(self.direct.x, other.direct.x),
+            mix(self.direct.y, other.direct.y),
+            mix(self.direct.z, other.direct.z),
+        );
+        self.moments.light_var =
+            (n1 * n1 * self.moments.light_var + n2 * n2 * other.moments.light_var) / (n * n);
+        self.moments.ray_const += other.moments.ray_const;
+        self.moments.ray_const2 += other.moments.ray_const2;
+        self.hits.extend(other.hits);
+        self.terms.extend(other.terms);
+        self.rays += other.rays;
+        self.light_samples += other.light_samples;
+    }
+}
+
+/// Variance of the mean of `n` samples with sum `s` and sum of squares `s2`.
+fn var_of_mean(s: f64, s2: f64, n: u32) -> f64 {
+    if n < 2 {
+        return 0.0;
+    }
+    let n = n as f64;
+    ((s2 - s * s / n) / (n - 1.0)).max(0.0) / n
+}
+
+/// Gathers at sample `s` with `n_rays` cosine-distributed rays and `n_light` samples per
+/// emitter, drawing from `rng`.
+pub(super) fn gather(
+    cx: &Context,
+    s: &TexelSample,
+    rng: &mut Rng,
+    n_rays: u32,
+    n_light: u32,
+) -> Gathered {
+    let (scene, bvh) = (cx.scene, cx.bvh);
+    let tri = &scene.triangles[s.triangle as usize];
+    let ng = tri.face_normal();
+    let mut ns = tri.normal(s.bary);
+    if ns.dot(ng) <= 0.0 {
+        ns = ng;
+    }
+    let p = tri.point(s.bary);
+    let origin = bvh.offset_origin(p, ng);
+    let (t, b) = basis(ns);
+    let n_rays = n_rays.max(1);
+    let n_light = n_light.max(1);
+    let mut direct = Vec3::ZERO;
+    let mut hits = Vec::with_capacity(n_rays as usize);
+    let mut terms = Vec::new();
+    let mut moments = Moments::default();
+    // Radiance the rays bring back through glossy reflection (besides `terms`).
+    let mut via_glossy = Vec3::ZERO;
+    let mut backfaces = 0u32;
+    let mut rays = 0u64;
+
+    // Gathering rays (cosine-distributed about the shading normal).
+    for _ in 0..n_rays {
+        let l = sample_cosine_hemisphere(rng.uniform2());
+        let d = t * l.x + b * l.y + ns * l.z;
+        rays += 1;
+        if d.dot(ng) <= 0.0 {
+            hits.push(u32::MAX);
+            continue;
+        }
+        match bvh.closest_hit(origin, d, f32::INFINITY) {
+            Some(h) => {
+                let ht = &scene.triangles[h.triangle as usize];
+                let hn = ht.face_normal();
+                let cos_l = -d.dot(hn);
+                if cos_l <= 0.0 {
+                    backfaces += 1;
+                    hits.push(u32::MAX);
+                    continue;
+                }
+                let mut constant = 0.0f64;
+                let e = scene.materials[ht.material as usize].emission;
+                if e.max_element() > 0.0 {
+                    // MIS against explicit emitter sampling (solid-angle densities).
+                    let p_light = cx.emitters.area_pdf(e) * h.t * h.t / cos_l;
+                    let p_bsdf = l.z / PI;
+                    let w = power(n_rays as f32, p_bsdf, n_light as f32, p_light);
+                    // Irradiance/π from this ray: L · (cos/p_bsdf)/π/N = L/N.
+                    direct += e * w / n_rays as f32;
+                    constant += luminance(e * w) as f64;
+                }
+                hits.push(cx.atlas.texel_at(cx.offsets, h.triangle, h.bary));
+                if let Some(g) = &cx.glossy
+                    && g.reflects(h.triangle)
+                {
+                    let v = g.follow(h, d, rng, &mut terms, &mut rays);
+                    via_glossy += v;
+                    constant += luminance(v) as f64;
+                }
+                moments.ray_const += constant;
+                moments.ray_const2 += constant * constant;
+            }
+            None => hits.push(u32::MAX),
+        }
+    }
+    if via_glossy != Vec3::ZERO {
+        // Mean incoming radiance over the cosine-distributed rays is irradiance/π.
+        direct += via_glossy / n_rays as f32;
+    }
+
+    // Area lights: stratified points on each quad.
+    let grid = (n_light as f32).sqrt().ceil() as u32;
+    for light in &scene.lights {
+        let mut sum = Vec3::ZERO;
+        let (mut y, mut y2) = (0.0f64, 0.0f64);
+        for k in 0..n_light {
+            let (i, j) = (k % grid, (k / grid) % grid);
+            let u = rng.uniform2();
+            let q = light.corner
+                + light.edge_u * ((i as f32 + u.x) / grid as f32)
+                + light.edge_v * ((j as f32 + u.y) / grid as f32);
+            let w = q - origin;
+            let dist2 = w.length_squared();
+            let dist = dist2.sqrt();
+            let d = w / dist;
+            let cos_s = d.dot(ns);
+            let mut cos_l = -d.dot(light.normal);
+            if light.two_sided {
+                cos_l = cos_l.abs();
+            }
+            if cos_s <= 0.0 || cos_l <= 0.0 || d.dot(ng) <= 0.0 {
+                continue;
+            }
+            rays += 1;
+            if bvh.occluded(origin, d, dist * (1.0 - 1e-5)) {
+                continue;
+            }
+            let c = light.radiance * (cos_s * cos_l / dist2);
+            sum += c;
+            let v = luminance(c) as f64 * (light.area / PI) as f64;
+            y += v;
+            y2 += v * v;
+        }
+        direct += sum * (light.area / n_light as f32) / PI;
+        moments.light_var += var_of_mean(y, y2, n_light);
+    }
+
+    // Emissive triangles: points in proportion to area × luminance.
+    if !cx.emitters.tris.is_empty() {
+        let mut sum = Vec3::ZERO;
+        let (mut y, mut y2) = (0.0f64, 0.0f64);
+        for _ in 0..n_light {
+            let et = &scene.triangles[cx.emitters.pick(rng.uniform()) as usize];
+            let e = scene.materials[et.material as usize].emission;
+            let q = et.point(sample_triangle(rng.uniform2()));
+            let w = q - origin;
+            let dist2 = w.length_squared();
+            let dist = dist2.sqrt();
+            if dist <= 0.0 {
+                continue;
+            }
+            let d = w / dist;
+            let cos_s = d.dot(ns);
+            let cos_l = -d.dot(et.face_normal());
+            if cos_s <= 0.0 || cos_l <= 0.0 || d.dot(ng) <= 0.0 {
+                continue;
+            }
+            rays += 1;
+            // Stop short of the emitter: it must not occlude itself.
+            if bvh.occluded(origin, d, dist - 2.0 * bvh.epsilon().max(dist * 1e-5)) {
+                continue;
+            }
+            let p_light = cx.emitters.area_pdf(e) * dist2 / cos_l;
+            let p_bsdf = cos_s / PI;
+            let wgt = power(n_light as f32, p_light, n_rays as f32, p_bsdf);
+            let c = e * (wgt * cos_s / p_light);
+            sum += c;
+            let v = luminance(c) as f64 / PI as f64;
+            y += v;
+            y2 += v * v;
+        }
+        direct += sum / (n_light as f32 * PI);
+        moments.light_var += var_of_mean(y, y2, n_light);
+    }
+
+    Gathered {
+        direct,
+        hits,
+        terms,
+        inside: backfaces as f32 > BACKFACE_LIMIT * n_rays as f32,
+        rays,
+        light_samples: n_light,
+        moments,
+    }
+}
