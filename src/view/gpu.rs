@@ -10,6 +10,9 @@ use std::sync::mpsc;
 
 use thiserror::Error;
 
+use super::build::{bind_group_layout, buffer, buffer_init, render_pipeline, shader};
+use super::target::{check_target_size, texture_2d};
+
 /// Backends searched first: Vulkan (and Metal / DX12 on the platforms that have them).
 const PREFERRED_BACKENDS: wgpu::Backends = wgpu::Backends::PRIMARY;
 
@@ -235,20 +238,11 @@ pub(crate) fn error_scoped<T>(
 /// The bind-group layout of a compute probe's own buffers: binding 0 the input items
 /// (read-only storage), binding 1 one output item per input (storage).
 pub(crate) fn probe_io_layout(device: &wgpu::Device, label: &str) -> wgpu::BindGroupLayout {
-    let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    };
-    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some(label),
-        entries: &[storage(0, true), storage(1, false)],
-    })
+    let compute = wgpu::ShaderStages::COMPUTE;
+    bind_group_layout()
+        .storage(0, compute)
+        .storage_rw(1, compute)
+        .build(device, label)
 }
 
 /// Runs a compute probe (what a shader computes, for tests against the CPU): uploads
@@ -269,20 +263,20 @@ pub(crate) fn run_probe(
 ) -> Result<Vec<u8>, GpuError> {
     let device = &gpu.device;
     let output = error_scoped(device, context, || {
-        let input_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("glint probe input"),
-            // A binding must not be empty; pad to one 16-byte element.
-            size: (input.len() as u64).max(16).next_multiple_of(4),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        gpu.queue.write_buffer(&input_buffer, 0, input);
-        let output = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("glint probe output"),
-            size: output_size.max(16),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
+        // A binding must not be empty; pad to one 16-byte element.
+        let input_buffer = buffer_init(
+            gpu,
+            "glint probe input",
+            wgpu::BufferUsages::STORAGE,
+            input,
+            16,
+        );
+        let output = buffer(
+            device,
+            "glint probe output",
+            output_size.max(16),
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        );
         let io = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("glint probe buffers"),
             layout: io_layout,
@@ -342,12 +336,12 @@ pub fn read_texture(gpu: &Gpu, texture: &wgpu::Texture) -> Result<Vec<u8>, GpuEr
 pub fn read_buffer(gpu: &Gpu, source: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
     let size = source.size();
     let (buffer, submission) = error_scoped(&gpu.device, "copying a buffer for readback", || {
-        let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("glint buffer readback"),
+        let buffer = buffer(
+            &gpu.device,
+            "glint buffer readback",
             size,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
+            wgpu::BufferUsages::MAP_READ,
+        );
         let mut encoder = gpu
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
@@ -438,12 +432,12 @@ fn read_texture_bytes(
     let buffer_size = u64::from(padded_row_bytes) * u64::from(height);
 
     let (buffer, submission) = error_scoped(&gpu.device, "copying a texture for readback", || {
-        let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("glint readback buffer"),
-            size: buffer_size,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
+        let buffer = buffer(
+            &gpu.device,
+            "glint readback buffer",
+            buffer_size,
+            wgpu::BufferUsages::MAP_READ,
+        );
         let mut encoder = gpu
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
@@ -492,74 +486,25 @@ fn read_texture_bytes(
 /// This exercises shader compilation, pipeline creation, rasterisation and readback, which is
 /// enough to prove that an adapter (for example lavapipe on CI) can run the viewer.
 pub fn render_test_triangle(gpu: &Gpu, width: u32, height: u32) -> Result<Vec<u8>, GpuError> {
-    let max = gpu.device.limits().max_texture_dimension_2d;
-    if width == 0 || height == 0 || width > max || height > max {
-        return Err(GpuError::InvalidSize { width, height, max });
-    }
-
+    check_target_size(&gpu.device, width, height)?;
     let texture = error_scoped(&gpu.device, "rendering the test triangle", || {
-        let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("glint test triangle target"),
-            size: wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: TEST_TRIANGLE_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
+        let texture = texture_2d(
+            &gpu.device,
+            "glint test triangle target",
+            width,
+            height,
+            TEST_TRIANGLE_FORMAT,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        );
         let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
-
-        let shader = gpu
-            .device
-            .create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("glint test triangle shader"),
-                source: wgpu::ShaderSource::Wgsl(
-                    include_str!("../../shaders/test_triangle.wgsl").into(),
-                ),
-            });
-        let layout = gpu
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("glint test triangle layout"),
-                bind_group_layouts: &[],
-                immediate_size: 0,
-            });
-        let pipeline = gpu
-            .device
-            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("glint test triangle pipeline"),
-                layout: Some(&layout),
-                vertex: wgpu::VertexState {
-                    module: &shader,
-                    entry_point: Some("vs_main"),
-                    compilation_options: wgpu::PipelineCompilationOptions::default(),
-                    buffers: &[],
-                },
-                primitive: wgpu::PrimitiveState {
-                    topology: wgpu::PrimitiveTopology::TriangleList,
-                    cull_mode: None,
-                    ..Default::default()
-                },
-                depth_stencil: None,
-                multisample: wgpu::MultisampleState::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &shader,
-                    entry_point: Some("fs_main"),
-                    compilation_options: wgpu::PipelineCompilationOptions::default(),
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format: TEST_TRIANGLE_FORMAT,
-                        blend: None,
-                        write_mask: wgpu::ColorWrites::ALL,
-                    })],
-                }),
-                multiview_mask: None,
-                cache: None,
-            });
+        let shader = shader(
+            &gpu.device,
+            "glint test triangle shader",
+            include_str!("../../shaders/test_triangle.wgsl"),
+        );
+        let pipeline = render_pipeline("glint test triangle", &shader, "vs_main", "fs_main")
+            .color(TEST_TRIANGLE_FORMAT, None)
+            .build(&gpu.device);
 
         let mut encoder = gpu
             .device

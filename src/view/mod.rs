@@ -8,7 +8,10 @@
 //! - [`renderer`]: the scene pass (`shaders/view.wgsl`): kd·D from the radiosity textures.
 //! - [`radiosity_textures`]: D's atlas pages as a GPU texture array.
 //! - [`target`]: target formats, the offscreen target, depth and blend state every pass shares.
-//! - [`build`]: builders of render pipelines, bind-group layouts and buffers.
+//! - [`build`]: builders of shader modules, render and compute pipelines, bind-group layouts
+//!   and buffers.
+//! - [`composite`]: the pass that adds a reflected term over the finished frame (planar,
+//!   curved, impostor and recursive reflections share it).
 //! - [`headless`]: offscreen frames, headless replay of camera paths with timings.
 //! - [`replay`]: frame scheduling and timing statistics (pure).
 //! - [`cpu_render`]: the CPU reference of a frame, for golden-image tests.
@@ -22,7 +25,8 @@
 //!   regular sampling (Luksch §6–7).
 //! - [`window`]: the interactive winit viewer (fly camera, path playback and recording).
 //! - [`gpu`]: adapter and device selection, readback.
-//! - [`wgsl_layout`]: the test that a `repr(C)` struct has its WGSL twin's layout (naga).
+//! - [`wgsl_layout`]: the tests that a `repr(C)` struct has its WGSL twin's layout and a vertex
+//!   buffer its WGSL input's locations (naga).
 
 #[cfg(feature = "view")]
 pub mod bicubic;
@@ -30,6 +34,8 @@ pub mod bicubic;
 pub mod billboard_tables;
 #[cfg(feature = "view")]
 pub mod build;
+#[cfg(feature = "view")]
+pub mod composite;
 #[cfg(feature = "view")]
 pub mod cpu_render;
 #[cfg(feature = "view")]

@@ -490,79 +490,47 @@ pub fn bicubic_probe(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use wgpu::naga;
-
-    /// Size and member offsets of a struct of `shaders/view.wgsl`, by naga's layouter.
-    fn wgsl_layout(name: &str) -> (u32, Vec<(String, u32)>) {
-        let (size, members) = crate::view::build::wgsl_struct(SHADER_SOURCE, name);
-        let members = members.into_iter().map(|(n, o)| (n, o as u32)).collect();
-        (size as u32, members)
-    }
 
     #[test]
     fn frame_uniforms_match_the_wgsl_struct() {
-        let (size, members) = wgsl_layout("FrameUniforms");
-        assert_eq!(size as usize, std::mem::size_of::<FrameUniforms>());
-        let want = [
-            ("view_proj", std::mem::offset_of!(FrameUniforms, view_proj)),
-            (
-                "atlas_size",
-                std::mem::offset_of!(FrameUniforms, atlas_size),
-            ),
-            ("exposure", std::mem::offset_of!(FrameUniforms, exposure)),
-            (
-                "encode_srgb",
-                std::mem::offset_of!(FrameUniforms, encode_srgb),
-            ),
-        ];
-        let got: Vec<(&str, usize)> = members
-            .iter()
-            .map(|(n, o)| (n.as_str(), *o as usize))
-            .collect();
-        assert_eq!(got, want);
+        crate::assert_wgsl_layout!(
+            SHADER_SOURCE,
+            "FrameUniforms",
+            FrameUniforms {
+                view_proj,
+                atlas_size,
+                exposure,
+                encode_srgb
+            }
+        );
     }
 
     #[test]
     fn probe_input_matches_the_wgsl_struct() {
-        let (size, members) = wgsl_layout("ProbeInput");
-        assert_eq!(size as usize, std::mem::size_of::<ProbeInput>());
-        assert_eq!(members[0], ("lightmap".into(), 0));
-        assert_eq!(
-            members[1],
-            ("page".into(), std::mem::offset_of!(ProbeInput, page) as u32)
+        crate::assert_wgsl_layout!(
+            SHADER_SOURCE,
+            "ProbeInput",
+            ProbeInput {
+                lightmap,
+                page,
+                _pad
+            }
         );
     }
 
     #[test]
-    fn vertex_layout_matches_the_attributes() {
-        assert_eq!(std::mem::size_of::<Vertex>(), 24);
-        let offsets: Vec<u64> = VERTEX_ATTRIBUTES.iter().map(|a| a.offset).collect();
-        assert_eq!(
-            offsets,
-            [
-                std::mem::offset_of!(Vertex, position) as u64,
-                std::mem::offset_of!(Vertex, lightmap) as u64,
-                std::mem::offset_of!(Vertex, page) as u64
-            ]
+    fn vertex_layout_matches_the_wgsl_input() {
+        crate::view::wgsl_layout::assert_vertex_layout(
+            &scene_vertex_layout(),
+            std::mem::size_of::<Vertex>(),
+            &[
+                std::mem::offset_of!(Vertex, position),
+                std::mem::offset_of!(Vertex, lightmap),
+                std::mem::offset_of!(Vertex, page),
+            ],
+            SHADER_SOURCE,
+            "VertexIn",
         );
-        // And the shader's VertexIn takes them at those locations with those types.
-        let module = naga::front::wgsl::parse_str(SHADER_SOURCE).unwrap();
-        let (_, ty) = module
-            .types
-            .iter()
-            .find(|(_, t)| t.name.as_deref() == Some("VertexIn"))
-            .unwrap();
-        let naga::TypeInner::Struct { members, .. } = &ty.inner else {
-            panic!()
-        };
-        let locations: Vec<Option<u32>> = members
-            .iter()
-            .map(|m| match m.binding {
-                Some(naga::Binding::Location { location, .. }) => Some(location),
-                _ => None,
-            })
-            .collect();
-        assert_eq!(locations, [Some(0), Some(1), Some(2)]);
     }
 
     #[test]

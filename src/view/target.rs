@@ -60,20 +60,31 @@ pub fn overlay_pass<'e>(
     depth: &wgpu::TextureView,
     end_timestamp: Option<(&wgpu::QuerySet, u32)>,
 ) -> wgpu::RenderPass<'e> {
-    let load = |view| {
-        Some(wgpu::RenderPassColorAttachment {
-            view,
-            depth_slice: None,
-            resolve_target: None,
-            ops: wgpu::Operations {
-                load: wgpu::LoadOp::Load,
-                store: wgpu::StoreOp::Store,
-            },
-        })
+    overlay_pass_on(encoder, label, &[Some(color), hdr], depth, end_timestamp)
+}
+
+/// [`overlay_pass`] over the colour attachments `colors` (`None`: a slot the pass's pipelines
+/// leave empty), each loaded and kept.
+pub fn overlay_pass_on<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    colors: &[Option<&wgpu::TextureView>],
+    depth: &wgpu::TextureView,
+    end_timestamp: Option<(&wgpu::QuerySet, u32)>,
+) -> wgpu::RenderPass<'e> {
+    let load = |view| wgpu::RenderPassColorAttachment {
+        view,
+        depth_slice: None,
+        resolve_target: None,
+        ops: wgpu::Operations {
+            load: wgpu::LoadOp::Load,
+            store: wgpu::StoreOp::Store,
+        },
     };
+    let color_attachments: Vec<_> = colors.iter().map(|v| v.map(load)).collect();
     encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some(label),
-        color_attachments: &[load(color), hdr.and_then(load)],
+        color_attachments: &color_attachments,
         depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
             view: depth,
             depth_ops: Some(wgpu::Operations {
@@ -92,10 +103,17 @@ pub fn overlay_pass<'e>(
     })
 }
 
-/// A depth buffer for a `width` × `height` target.
-pub fn depth_texture(gpu: &Gpu, width: u32, height: u32) -> wgpu::Texture {
-    gpu.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("glint depth"),
+/// A `width` × `height` 2D texture of `format` for `usage`: one MIP level, one sample.
+pub fn texture_2d(
+    device: &wgpu::Device,
+    label: &str,
+    width: u32,
+    height: u32,
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
         size: wgpu::Extent3d {
             width,
             height,
@@ -104,10 +122,35 @@ pub fn depth_texture(gpu: &Gpu, width: u32, height: u32) -> wgpu::Texture {
         mip_level_count: 1,
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
-        format: DEPTH_FORMAT,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+        format,
+        usage,
         view_formats: &[],
     })
+}
+
+/// Refuses a target side of 0 or over the device's `max_texture_dimension_2d`.
+pub(crate) fn check_target_size(
+    device: &wgpu::Device,
+    width: u32,
+    height: u32,
+) -> Result<(), GpuError> {
+    let max = device.limits().max_texture_dimension_2d;
+    if width == 0 || height == 0 || width > max || height > max {
+        return Err(GpuError::InvalidSize { width, height, max });
+    }
+    Ok(())
+}
+
+/// A depth buffer for a `width` × `height` target.
+pub fn depth_texture(gpu: &Gpu, width: u32, height: u32) -> wgpu::Texture {
+    texture_2d(
+        &gpu.device,
+        "glint depth",
+        width,
+        height,
+        DEPTH_FORMAT,
+        wgpu::TextureUsages::RENDER_ATTACHMENT,
+    )
 }
 
 /// An offscreen target: colour (readable), optional HDR (readable) and depth.
@@ -130,26 +173,17 @@ pub struct OffscreenTarget {
 impl OffscreenTarget {
     /// Creates the textures; checks the size against the device's limit.
     pub fn new(gpu: &Gpu, width: u32, height: u32, hdr: bool) -> Result<OffscreenTarget, GpuError> {
-        let max = gpu.device.limits().max_texture_dimension_2d;
-        if width == 0 || height == 0 || width > max || height > max {
-            return Err(GpuError::InvalidSize { width, height, max });
-        }
+        check_target_size(&gpu.device, width, height)?;
         error_scoped(&gpu.device, "creating the offscreen target", || {
             let colour = |format, label| {
-                gpu.device.create_texture(&wgpu::TextureDescriptor {
-                    label: Some(label),
-                    size: wgpu::Extent3d {
-                        width,
-                        height,
-                        depth_or_array_layers: 1,
-                    },
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
+                texture_2d(
+                    &gpu.device,
+                    label,
+                    width,
+                    height,
                     format,
-                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-                    view_formats: &[],
-                })
+                    wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+                )
             };
             let color = colour(COLOR_FORMAT, "glint offscreen colour");
             let hdr = hdr.then(|| colour(HDR_FORMAT, "glint offscreen hdr"));

@@ -4,7 +4,8 @@
 //!
 //! For tests, in `src` (`#[cfg(test)]` modules) and in `tests/` alike:
 //! [`assert_wgsl_layout!`](crate::assert_wgsl_layout) names the Rust fields, and
-//! [`assert_layout`] compares.
+//! [`assert_layout`] compares. A vertex buffer's struct meets WGSL through `@location`s
+//! instead: [`assert_vertex_layout`] checks its stride, offsets and locations.
 
 use wgpu::naga;
 
@@ -92,6 +93,54 @@ macro_rules! assert_wgsl_layout {
     };
 }
 
+/// The `@location`s of the members of struct `name` in the WGSL `source` (a vertex input),
+/// or why there are none.
+pub fn wgsl_locations(source: &str, name: &str) -> Result<Vec<Option<u32>>, String> {
+    let module = naga::front::wgsl::parse_str(source)
+        .map_err(|e| format!("the WGSL does not parse: {}", e.emit_to_string(source)))?;
+    let (_, ty) = module
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some(name))
+        .ok_or_else(|| format!("no type `{name}` in the WGSL"))?;
+    let naga::TypeInner::Struct { members, .. } = &ty.inner else {
+        return Err(format!("`{name}` is not a struct in the WGSL"));
+    };
+    Ok(members
+        .iter()
+        .map(|m| match m.binding {
+            Some(naga::Binding::Location { location, .. }) => Some(location),
+            _ => None,
+        })
+        .collect())
+}
+
+/// Panics unless the vertex buffer `layout` has the stride `size` of its `repr(C)` struct,
+/// its attributes at the struct's field `offsets` (attribute order), and the WGSL vertex
+/// input `input` of `source` takes them at the attributes' locations.
+pub fn assert_vertex_layout(
+    layout: &wgpu::VertexBufferLayout<'_>,
+    size: usize,
+    offsets: &[usize],
+    source: &str,
+    input: &str,
+) {
+    assert_eq!(layout.array_stride as usize, size, "{input}: stride");
+    let got: Vec<usize> = layout
+        .attributes
+        .iter()
+        .map(|a| a.offset as usize)
+        .collect();
+    assert_eq!(got, offsets, "{input}: attribute offsets");
+    let want: Vec<Option<u32>> = layout
+        .attributes
+        .iter()
+        .map(|a| Some(a.shader_location))
+        .collect();
+    let locations = wgsl_locations(source, input).unwrap_or_else(|e| panic!("{input}: {e}"));
+    assert_eq!(locations, want, "{input}: locations");
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -173,5 +222,50 @@ mod tests {
                 ("c", std::mem::offset_of!(Shifted, c)),
             ],
         );
+    }
+
+    const VERTEX_SOURCE: &str = "struct In { @location(0) p: vec3<f32>, @location(2) n: u32 }
+        @vertex fn vs(i: In) -> @builtin(position) vec4<f32> { return vec4<f32>(i.p, 1.0); }";
+
+    fn vertex_layout(second: u32) -> Vec<wgpu::VertexAttribute> {
+        vec![
+            wgpu::VertexAttribute {
+                format: wgpu::VertexFormat::Float32x3,
+                offset: 0,
+                shader_location: 0,
+            },
+            wgpu::VertexAttribute {
+                format: wgpu::VertexFormat::Uint32,
+                offset: 12,
+                shader_location: second,
+            },
+        ]
+    }
+
+    #[test]
+    fn vertex_locations_are_read_from_the_wgsl_input() {
+        assert_eq!(
+            wgsl_locations(VERTEX_SOURCE, "In").unwrap(),
+            [Some(0), Some(2)]
+        );
+        let attributes = vertex_layout(2);
+        let layout = wgpu::VertexBufferLayout {
+            array_stride: 16,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &attributes,
+        };
+        assert_vertex_layout(&layout, 16, &[0, 12], VERTEX_SOURCE, "In");
+    }
+
+    #[test]
+    #[should_panic(expected = "In: locations")]
+    fn a_wrong_vertex_location_is_named() {
+        let attributes = vertex_layout(1);
+        let layout = wgpu::VertexBufferLayout {
+            array_stride: 16,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &attributes,
+        };
+        assert_vertex_layout(&layout, 16, &[0, 12], VERTEX_SOURCE, "In");
     }
 }

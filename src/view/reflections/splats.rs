@@ -330,7 +330,7 @@ mod tests {
 
     #[test]
     fn splat_matches_the_wgsl_input() {
-        crate::view::build::assert_vertex_layout(
+        crate::view::wgsl_layout::assert_vertex_layout(
             &Splat::layout(),
             std::mem::size_of::<Splat>(),
             &[
