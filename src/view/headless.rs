@@ -27,9 +27,10 @@ use crate::progress::{Cancelled, Progress};
 /// Why a headless replay failed.
 #[derive(Debug, thiserror::Error)]
 pub enum ViewError {
-    /// The bundle cannot be viewed.
+    /// The bundle cannot be viewed (boxed: a load error is large, and every result of a
+    /// replay carries this type).
     #[error(transparent)]
-    Load(#[from] LoadError),
+    Load(Box<LoadError>),
     /// GPU set-up or rendering failed.
     #[error(transparent)]
     Render(#[from] RenderError),
@@ -71,6 +72,12 @@ pub enum ViewError {
     /// Ctrl-C.
     #[error(transparent)]
     Cancelled(#[from] Cancelled),
+}
+
+impl From<LoadError> for ViewError {
+    fn from(e: LoadError) -> Self {
+        ViewError::Load(Box::new(e))
+    }
 }
 
 impl From<GpuError> for ViewError {
