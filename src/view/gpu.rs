@@ -11,7 +11,7 @@ use std::sync::mpsc;
 use thiserror::Error;
 
 use super::build::{bind_group_layout, buffer, buffer_init, render_pipeline, shader};
-use super::target::{check_target_size, texture_2d};
+use super::target::{check_target_size, clear_pass, texture_2d};
 
 /// Backends searched first: Vulkan (and Metal / DX12 on the platforms that have them).
 const PREFERRED_BACKENDS: wgpu::Backends = wgpu::Backends::PRIMARY;
@@ -512,22 +512,14 @@ pub fn render_test_triangle(gpu: &Gpu, width: u32, height: u32) -> Result<Vec<u8
                 label: Some("glint test triangle encoder"),
             });
         {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("glint test triangle pass"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass = clear_pass(
+                &mut encoder,
+                "glint test triangle pass",
+                &[Some(&view)],
+                wgpu::Color::BLACK,
+                None,
+                None,
+            );
             pass.set_pipeline(&pipeline);
             pass.draw(0..3, 0..1);
         }

@@ -21,6 +21,7 @@ use glam::{Mat4, Vec2, Vec3, Vec4};
 use super::build::{bind_group_layout, buffer, buffer_init, render_pipeline};
 use super::gpu::{Gpu, GpuError, error_scoped, probe_io_layout, run_probe};
 pub use super::radiosity_textures::RadiosityTextures;
+use super::target::clear_pass;
 pub use super::target::{
     ADDITIVE_KEEP_ALPHA, COLOR_FORMAT, DEPTH_FORMAT, HDR_FORMAT, OffscreenTarget, TargetFormats,
     depth_texture, overlay_pass, reverse_z_depth,
@@ -159,6 +160,14 @@ impl SceneMesh {
             }
         }
         mesh
+    }
+
+    /// The indices of `triangles` (scene triangle numbers), three each, in the given order.
+    pub fn triangle_indices(&self, triangles: impl IntoIterator<Item = usize>) -> Vec<u32> {
+        triangles
+            .into_iter()
+            .flat_map(|t| self.indices[3 * t..3 * t + 3].iter().copied())
+            .collect()
     }
 }
 
@@ -383,33 +392,15 @@ impl Renderer {
         depth: &wgpu::TextureView,
         timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
-        let attachment = |view| {
-            Some(wgpu::RenderPassColorAttachment {
-                view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                    store: wgpu::StoreOp::Store,
-                },
-            })
-        };
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("glint scene pass"),
-            color_attachments: &[attachment(color), hdr.and_then(attachment)],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: depth,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(0.0),
-                    // Kept: the reflection composite (`super::reflections`) depth-tests against it.
-                    store: wgpu::StoreOp::Store,
-                }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: timestamps,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        let mut pass = clear_pass(
+            encoder,
+            "glint scene pass",
+            &[Some(color), hdr],
+            wgpu::Color::BLACK,
+            // Depth kept: the reflection composite (`super::reflections`) depth-tests against it.
+            Some((depth, true)),
+            timestamps,
+        );
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.bind_group, &[]);
         pass.set_vertex_buffer(0, self.vertices.slice(..));

@@ -1,6 +1,6 @@
 //! What every pass draws into and how it meets the frame: the target formats, the offscreen
-//! target, the reverse-Z depth state, the additive blend of passes drawn over the scene and
-//! the overlay pass that loads a finished frame.
+//! target, the reverse-Z depth state, the additive blend of passes drawn over the scene, and
+//! how a pass begins: clearing its targets, or loading a finished frame (the overlay).
 
 use super::gpu::{Gpu, GpuError, error_scoped};
 use super::renderer::Renderer;
@@ -72,32 +72,79 @@ pub fn overlay_pass_on<'e>(
     depth: &wgpu::TextureView,
     end_timestamp: Option<(&wgpu::QuerySet, u32)>,
 ) -> wgpu::RenderPass<'e> {
-    let load = |view| wgpu::RenderPassColorAttachment {
-        view,
-        depth_slice: None,
-        resolve_target: None,
-        ops: wgpu::Operations {
-            load: wgpu::LoadOp::Load,
-            store: wgpu::StoreOp::Store,
-        },
-    };
-    let color_attachments: Vec<_> = colors.iter().map(|v| v.map(load)).collect();
-    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some(label),
-        color_attachments: &color_attachments,
-        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-            view: depth,
-            depth_ops: Some(wgpu::Operations {
-                load: wgpu::LoadOp::Load,
-                store: wgpu::StoreOp::Store,
-            }),
-            stencil_ops: None,
-        }),
-        timestamp_writes: end_timestamp.map(|(query_set, index)| wgpu::RenderPassTimestampWrites {
+    begin_pass(
+        encoder,
+        label,
+        colors,
+        wgpu::LoadOp::Load,
+        Some((depth, wgpu::LoadOp::Load, wgpu::StoreOp::Store)),
+        end_timestamp.map(|(query_set, index)| wgpu::RenderPassTimestampWrites {
             query_set,
             beginning_of_pass_write_index: None,
             end_of_pass_write_index: Some(index),
         }),
+    )
+}
+
+/// Begins a pass that draws afresh: each of `colors` (`None`: an empty slot) cleared to
+/// `clear` and kept, `depth` (when given) cleared to 0 (reverse Z: infinitely far) and kept
+/// afterwards only when its flag says so (a later pass tests against it).
+pub fn clear_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    colors: &[Option<&wgpu::TextureView>],
+    clear: wgpu::Color,
+    depth: Option<(&wgpu::TextureView, bool)>,
+    timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
+) -> wgpu::RenderPass<'e> {
+    let depth = depth.map(|(view, keep)| {
+        let store = if keep {
+            wgpu::StoreOp::Store
+        } else {
+            wgpu::StoreOp::Discard
+        };
+        (view, wgpu::LoadOp::Clear(0.0), store)
+    });
+    begin_pass(
+        encoder,
+        label,
+        colors,
+        wgpu::LoadOp::Clear(clear),
+        depth,
+        timestamps,
+    )
+}
+
+/// Begins a render pass: `colors` loaded by `load` and kept, `depth` with its load and store.
+fn begin_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    colors: &[Option<&wgpu::TextureView>],
+    load: wgpu::LoadOp<wgpu::Color>,
+    depth: Option<(&wgpu::TextureView, wgpu::LoadOp<f32>, wgpu::StoreOp)>,
+    timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
+) -> wgpu::RenderPass<'e> {
+    let attachment = |view| wgpu::RenderPassColorAttachment {
+        view,
+        depth_slice: None,
+        resolve_target: None,
+        ops: wgpu::Operations {
+            load,
+            store: wgpu::StoreOp::Store,
+        },
+    };
+    let color_attachments: Vec<_> = colors.iter().map(|v| v.map(attachment)).collect();
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: &color_attachments,
+        depth_stencil_attachment: depth.map(|(view, load, store)| {
+            wgpu::RenderPassDepthStencilAttachment {
+                view,
+                depth_ops: Some(wgpu::Operations { load, store }),
+                stencil_ops: None,
+            }
+        }),
+        timestamp_writes: timestamps,
         occlusion_query_set: None,
         multiview_mask: None,
     })

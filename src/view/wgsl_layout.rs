@@ -18,23 +18,37 @@ pub struct WgslStruct {
     pub members: Vec<(String, u32)>,
 }
 
-/// The layout of the struct `name` in the WGSL `source`, or why there is none (the source
-/// does not parse, has no layout, or has no such struct).
-pub fn wgsl_struct(source: &str, name: &str) -> Result<WgslStruct, String> {
-    let module = naga::front::wgsl::parse_str(source)
-        .map_err(|e| format!("the WGSL does not parse: {}", e.emit_to_string(source)))?;
-    let mut layouter = naga::proc::Layouter::default();
-    layouter
-        .update(module.to_ctx())
-        .map_err(|e| format!("the WGSL has no layout: {e}"))?;
+/// The WGSL `source` parsed by naga, or why it does not parse.
+fn parse(source: &str) -> Result<naga::Module, String> {
+    naga::front::wgsl::parse_str(source)
+        .map_err(|e| format!("the WGSL does not parse: {}", e.emit_to_string(source)))
+}
+
+/// The struct `name` of `module`: its type handle and members.
+fn find_struct<'m>(
+    module: &'m naga::Module,
+    name: &str,
+) -> Result<(naga::Handle<naga::Type>, &'m [naga::StructMember]), String> {
     let (handle, ty) = module
         .types
         .iter()
         .find(|(_, t)| t.name.as_deref() == Some(name))
         .ok_or_else(|| format!("no type `{name}` in the WGSL"))?;
-    let naga::TypeInner::Struct { members, .. } = &ty.inner else {
-        return Err(format!("`{name}` is not a struct in the WGSL"));
-    };
+    match &ty.inner {
+        naga::TypeInner::Struct { members, .. } => Ok((handle, members)),
+        _ => Err(format!("`{name}` is not a struct in the WGSL")),
+    }
+}
+
+/// The layout of the struct `name` in the WGSL `source`, or why there is none (the source
+/// does not parse, has no layout, or has no such struct).
+pub fn wgsl_struct(source: &str, name: &str) -> Result<WgslStruct, String> {
+    let module = parse(source)?;
+    let mut layouter = naga::proc::Layouter::default();
+    layouter
+        .update(module.to_ctx())
+        .map_err(|e| format!("the WGSL has no layout: {e}"))?;
+    let (handle, members) = find_struct(&module, name)?;
     Ok(WgslStruct {
         size: layouter[handle].size,
         members: members
@@ -96,16 +110,8 @@ macro_rules! assert_wgsl_layout {
 /// The `@location`s of the members of struct `name` in the WGSL `source` (a vertex input),
 /// or why there are none.
 pub fn wgsl_locations(source: &str, name: &str) -> Result<Vec<Option<u32>>, String> {
-    let module = naga::front::wgsl::parse_str(source)
-        .map_err(|e| format!("the WGSL does not parse: {}", e.emit_to_string(source)))?;
-    let (_, ty) = module
-        .types
-        .iter()
-        .find(|(_, t)| t.name.as_deref() == Some(name))
-        .ok_or_else(|| format!("no type `{name}` in the WGSL"))?;
-    let naga::TypeInner::Struct { members, .. } = &ty.inner else {
-        return Err(format!("`{name}` is not a struct in the WGSL"));
-    };
+    let module = parse(source)?;
+    let (_, members) = find_struct(&module, name)?;
     Ok(members
         .iter()
         .map(|m| match m.binding {

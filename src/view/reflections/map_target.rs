@@ -4,7 +4,7 @@
 //! recursion level in the recursive ones (Nielsen Figure 3).
 
 use crate::view::gpu::Gpu;
-use crate::view::target::{HDR_FORMAT, depth_texture, overlay_pass_on, texture_2d};
+use crate::view::target::{HDR_FORMAT, clear_pass, depth_texture, overlay_pass_on, texture_2d};
 
 /// A reflection map's textures and views.
 pub(super) struct ReflectionMap {
@@ -36,14 +36,23 @@ impl ReflectionMap {
         }
     }
 
-    /// Begins the pass drawing a mirrored view into this map ([`mirror_target_pass`]).
+    /// Begins the pass drawing a mirrored view into this map: M cleared to transparent (alpha
+    /// 0 marks texels nothing was drawn to), depth cleared and kept afterwards only when
+    /// `keep_depth` (nested composites test against it).
     pub(super) fn begin_mirror<'e>(
         &self,
         encoder: &'e mut wgpu::CommandEncoder,
         label: &str,
         keep_depth: bool,
     ) -> wgpu::RenderPass<'e> {
-        mirror_target_pass(encoder, label, &self.view, &self.depth_view, keep_depth)
+        clear_pass(
+            encoder,
+            label,
+            &[Some(&self.view)],
+            wgpu::Color::TRANSPARENT,
+            Some((&self.depth_view, keep_depth)),
+            None,
+        )
     }
 
     /// Begins a pass drawing over this map's finished mirrored view (loading and keeping its
@@ -64,44 +73,5 @@ pub(super) fn map_sampler(device: &wgpu::Device, label: &str) -> wgpu::Sampler {
         mag_filter: wgpu::FilterMode::Linear,
         min_filter: wgpu::FilterMode::Linear,
         ..Default::default()
-    })
-}
-
-/// Begins a pass drawing a mirrored view into a reflection map: `view` cleared to
-/// transparent (alpha 0 marks texels nothing was drawn to), reverse-Z `depth` cleared to 0 and
-/// kept afterwards only when `keep_depth` (nested composites test against it).
-fn mirror_target_pass<'e>(
-    encoder: &'e mut wgpu::CommandEncoder,
-    label: &str,
-    view: &wgpu::TextureView,
-    depth: &wgpu::TextureView,
-    keep_depth: bool,
-) -> wgpu::RenderPass<'e> {
-    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some(label),
-        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-            view,
-            depth_slice: None,
-            resolve_target: None,
-            ops: wgpu::Operations {
-                load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                store: wgpu::StoreOp::Store,
-            },
-        })],
-        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-            view: depth,
-            depth_ops: Some(wgpu::Operations {
-                load: wgpu::LoadOp::Clear(0.0),
-                store: if keep_depth {
-                    wgpu::StoreOp::Store
-                } else {
-                    wgpu::StoreOp::Discard
-                },
-            }),
-            stencil_ops: None,
-        }),
-        timestamp_writes: None,
-        occlusion_query_set: None,
-        multiview_mask: None,
     })
 }

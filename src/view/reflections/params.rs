@@ -8,8 +8,10 @@ use glam::Vec3;
 use super::PlanarReflector;
 use super::material::{MAX_TAPS, MODULATION_SIZE, Modulation};
 use crate::materials::reflectance;
-use crate::view::build::{LayoutBuilder, bind_group_layout};
+use crate::view::build::{LayoutBuilder, bind_group_layout, render_pipeline};
+use crate::view::composite::Composite;
 use crate::view::gpu::Gpu;
+use crate::view::renderer::{Renderer, scene_vertex_layout};
 use crate::view::target::texture_2d;
 
 /// The parent clip of a composite that clips nothing ([`ReflectParams::parent`]).
@@ -135,6 +137,27 @@ pub(super) fn composite_bind_group_layout(
         .sampler(4, fragment)
         .texture(5, fragment, d2, false)
         .build(device, label)
+}
+
+/// The composite of a planar reflector's map M into `renderer`'s frame (`fs_composite` of
+/// `shader`, over the reflector's scene triangles): group 0 `frame_layout`, group 1
+/// `composite_layout` ([`composite_bind_group_layout`]).
+pub(super) fn planar_composite(
+    device: &wgpu::Device,
+    renderer: &Renderer,
+    label: &str,
+    shader: &wgpu::ShaderModule,
+    frame_layout: &wgpu::BindGroupLayout,
+    composite_layout: &wgpu::BindGroupLayout,
+) -> Composite {
+    Composite::new(
+        device,
+        renderer,
+        frame_layout,
+        render_pipeline(label, shader, "vs_mirror", "fs_composite")
+            .layouts(&[frame_layout, composite_layout])
+            .vertex(scene_vertex_layout()),
+    )
 }
 
 /// The composite's group 1 on `layout` ([`composite_bind_group_layout`]): `params`, the

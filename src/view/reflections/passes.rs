@@ -8,7 +8,7 @@ use glam::{Mat4, Vec3};
 use super::map_target::{ReflectionMap, map_sampler};
 use super::params::{
     ReflectParams, composite_bind_group_layout, composite_group, params_group, params_layout,
-    shader_source, sphere_texture,
+    planar_composite, shader_source, sphere_texture,
 };
 use super::splat_maps::{FrameStats, SplatMaps, load_splat_maps};
 use super::splats::{self, Splat};
@@ -147,18 +147,13 @@ impl GeometryReflections {
                     .color(HDR_FORMAT, None)
                     .depth(reverse_z_depth(true, wgpu::CompareFunction::Greater))
                     .build(device);
-            let composite = Composite::new(
+            let composite = planar_composite(
                 device,
                 renderer,
+                "glint reflection composite pipeline",
+                &shader,
                 &frame_layout,
-                render_pipeline(
-                    "glint reflection composite pipeline",
-                    &shader,
-                    "vs_mirror",
-                    "fs_composite",
-                )
-                .layouts(&[&frame_layout, &composite_layout])
-                .vertex(scene_vertex_layout()),
+                &composite_layout,
             );
             let map = ReflectionMap::new(gpu, "glint reflection texture", width, height);
             let sampler = map_sampler(device, "glint reflection sampler");
@@ -166,14 +161,8 @@ impl GeometryReflections {
                 .into_iter()
                 .zip(splats)
                 .map(|(reflector, mut splats)| {
-                    let indices: Vec<u32> = reflector
-                        .triangles
-                        .iter()
-                        .flat_map(|&t| {
-                            let t = t as usize * 3;
-                            mesh.indices[t..t + 3].iter().copied()
-                        })
-                        .collect();
+                    let indices =
+                        mesh.triangle_indices(reflector.triangles.iter().map(|&t| t as usize));
                     let index_buffer = buffer_init(
                         gpu,
                         "glint reflector indices",

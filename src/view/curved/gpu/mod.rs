@@ -228,10 +228,9 @@ impl CurvedReflections {
                         bytemuck::cast_slice(&verts),
                         MIN_BUFFER,
                     );
-                    let others: Vec<u32> = (0..scene.triangles.len())
-                        .filter(|&t| in_reflector[t] != i)
-                        .flat_map(|t| mesh.indices[3 * t..3 * t + 3].iter().copied())
-                        .collect();
+                    let others = mesh.triangle_indices(
+                        (0..scene.triangles.len()).filter(|&t| in_reflector[t] != i),
+                    );
                     let others_buffer = buffer_init(
                         gpu,
                         "glint cube map indices",

@@ -8,7 +8,7 @@ use glam::Vec3;
 use super::super::map_target::{ReflectionMap, map_sampler};
 use super::super::params::{
     ReflectParams, composite_bind_group_layout, composite_group, params_group, params_layout,
-    shader_source, sphere_texture,
+    planar_composite, shader_source, sphere_texture,
 };
 use super::super::splats::pixel_tangent;
 use super::super::{
@@ -150,18 +150,13 @@ impl RecursiveReflections {
             .build(device);
             // A level-0 map onto its reflector in the frame (as the single mirror pass's
             // composite).
-            let frame_composite = Composite::new(
+            let frame_composite = planar_composite(
                 device,
                 renderer,
+                "glint recursive frame composite pipeline",
+                &shader,
                 &frame_layout,
-                render_pipeline(
-                    "glint recursive frame composite pipeline",
-                    &shader,
-                    "vs_mirror",
-                    "fs_composite",
-                )
-                .layouts(&[&frame_layout, &composite_layout])
-                .vertex(scene_vertex_layout()),
+                &composite_layout,
             );
             let levels = (0..settings.depth)
                 .map(|_| ReflectionMap::new(gpu, "glint recursion level map", width, height))
@@ -170,14 +165,7 @@ impl RecursiveReflections {
             let mut vertices = Vec::new();
             let mut indices = Vec::new();
             for r in &reflectors {
-                let idx: Vec<u32> = r
-                    .triangles
-                    .iter()
-                    .flat_map(|&t| {
-                        let t = t as usize * 3;
-                        mesh.indices[t..t + 3].iter().copied()
-                    })
-                    .collect();
+                let idx = mesh.triangle_indices(r.triangles.iter().map(|&t| t as usize));
                 let mut v: Vec<Vec3> = idx
                     .iter()
                     .map(|&i| Vec3::from_array(mesh.vertices[i as usize].position))
