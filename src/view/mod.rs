@@ -12,7 +12,8 @@
 //!   and buffers.
 //! - [`composite`]: the pass that adds a reflected term over the finished frame (planar,
 //!   curved, impostor and recursive reflections share it).
-//! - [`headless`]: offscreen frames, headless replay of camera paths with timings.
+//! - [`offscreen`]: a frame's passes drawn offscreen, timed and read back.
+//! - [`headless`]: headless replay of camera paths with timings.
 //! - [`replay`]: frame scheduling and timing statistics (pure).
 //! - [`cpu_render`]: the CPU reference of a frame, for golden-image tests.
 //! - [`radiance_maps`]: the baked radiance maps of planar reflectors and their selection for
@@ -24,7 +25,9 @@
 //! - [`curved`]: curved reflectors by cube maps (Nielsen §3.2) and glossy curved objects by
 //!   regular sampling (Luksch §6–7).
 //! - [`window`]: the interactive winit viewer (fly camera, path playback and recording).
-//! - [`gpu`]: adapter and device selection, readback.
+//! - [`gpu`]: adapter and device selection, GPU errors, the smoke-test triangle.
+//! - [`readback`]: textures and buffers copied back to the CPU.
+//! - [`probe`]: compute probes of the shaders, for tests against the CPU.
 //! - [`wgsl_layout`]: the tests that a `repr(C)` struct has its WGSL twin's layout and a vertex
 //!   buffer its WGSL input's locations (naga).
 
@@ -52,11 +55,17 @@ pub mod impostor_tables;
 pub mod impostors;
 #[cfg(feature = "view")]
 pub mod load;
+#[cfg(feature = "view")]
+pub mod offscreen;
 pub mod options;
+#[cfg(feature = "view")]
+pub mod probe;
 #[cfg(feature = "view")]
 pub mod radiance_maps;
 #[cfg(feature = "view")]
 pub mod radiosity_textures;
+#[cfg(feature = "view")]
+pub mod readback;
 #[cfg(feature = "view")]
 pub mod reflections;
 #[cfg(feature = "view")]

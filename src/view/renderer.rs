@@ -19,7 +19,8 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec2, Vec3, Vec4};
 
 use super::build::{bind_group_layout, buffer, buffer_init, render_pipeline};
-use super::gpu::{Gpu, GpuError, error_scoped, probe_io_layout, run_probe};
+use super::gpu::{Gpu, GpuError, error_scoped};
+use super::probe::{probe_io_layout, run_probe};
 pub use super::radiosity_textures::RadiosityTextures;
 use super::target::clear_pass;
 pub use super::target::{

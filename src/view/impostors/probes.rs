@@ -7,8 +7,9 @@ use glam::Vec3;
 
 use super::super::billboard_tables::BillboardTables;
 use super::super::build::{compute_pipeline, shader};
-use super::super::gpu::{Gpu, GpuError, error_scoped, probe_io_layout, run_probe};
+use super::super::gpu::{Gpu, GpuError, error_scoped};
 use super::super::impostor_tables::SrdmTables;
+use super::super::probe::{probe_io_layout, run_probe};
 use super::tables_gpu::{BillboardBuffers, SrdmBuffers};
 use super::{
     BILLBOARD_PROBE_SHADER_SOURCE, BILLBOARD_SHADER_SOURCE, SRDM_PROBE_SHADER_SOURCE,

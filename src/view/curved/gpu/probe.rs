@@ -8,7 +8,8 @@ use super::layout::{curved_group, curved_layout, trilinear_sampler};
 use super::{CubeTexture, CurvedReflections, MIN_BUFFER};
 use crate::materials::envmap::MipPyramid;
 use crate::view::build::{bind_group_layout, buffer_init};
-use crate::view::gpu::{Gpu, error_scoped, probe_io_layout, run_probe};
+use crate::view::gpu::{Gpu, error_scoped};
+use crate::view::probe::{probe_io_layout, run_probe};
 use crate::view::renderer::RenderError;
 
 impl CurvedReflections {
