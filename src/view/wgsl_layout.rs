@@ -121,6 +121,34 @@ pub fn wgsl_locations(source: &str, name: &str) -> Result<Vec<Option<u32>>, Stri
         .collect())
 }
 
+/// The array stride and element type (as WGSL writes it, e.g. `vec4<f32>`) of the
+/// array-typed global variable `name` in the WGSL `source` (a storage buffer read as an array
+/// of vectors), or why there is none.
+pub fn wgsl_array(source: &str, name: &str) -> Result<(u32, String), String> {
+    let module = parse(source)?;
+    let (_, var) = module
+        .global_variables
+        .iter()
+        .find(|(_, v)| v.name.as_deref() == Some(name))
+        .ok_or_else(|| format!("no global `{name}` in the WGSL"))?;
+    let naga::TypeInner::Array { base, stride, .. } = module.types[var.ty].inner else {
+        return Err(format!("`{name}` is not an array in the WGSL"));
+    };
+    let element = match module.types[base].inner {
+        naga::TypeInner::Vector { size, scalar } => {
+            let kind = match scalar.kind {
+                naga::ScalarKind::Float => "f",
+                naga::ScalarKind::Uint => "u",
+                naga::ScalarKind::Sint => "i",
+                _ => "?",
+            };
+            format!("vec{}<{kind}{}>", size as u8, scalar.width * 8)
+        }
+        ref other => format!("{other:?}"),
+    };
+    Ok((stride, element))
+}
+
 /// Panics unless the vertex buffer `layout` has the stride `size` of its `repr(C)` struct,
 /// its attributes at the struct's field `offsets` (attribute order), and the WGSL vertex
 /// input `input` of `source` takes them at the attributes' locations.
@@ -246,6 +274,19 @@ mod tests {
                 shader_location: second,
             },
         ]
+    }
+
+    #[test]
+    fn array_strides_and_elements_are_read() {
+        let source = "@group(0) @binding(0) var<storage, read> a: array<vec4<f32>>;
+            @group(0) @binding(1) var<storage, read> b: array<vec2<u32>>;";
+        assert_eq!(wgsl_array(source, "a").unwrap(), (16, "vec4<f32>".into()));
+        assert_eq!(wgsl_array(source, "b").unwrap(), (8, "vec2<u32>".into()));
+        assert!(
+            wgsl_array(source, "c")
+                .unwrap_err()
+                .contains("no global `c`")
+        );
     }
 
     #[test]
