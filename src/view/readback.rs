@@ -30,24 +30,39 @@ pub fn read_texture(gpu: &Gpu, texture: &wgpu::Texture) -> Result<Vec<u8>, GpuEr
 /// after all work submitted so far. Blocks until the copy has finished.
 pub fn read_buffer(gpu: &Gpu, source: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
     let size = source.size();
-    let (buffer, submission) = error_scoped(&gpu.device, "copying a buffer for readback", || {
+    copy_back(
+        gpu,
+        "copying a buffer for readback",
+        size,
+        |encoder, buffer| encoder.copy_buffer_to_buffer(source, 0, buffer, 0, size),
+    )
+}
+
+/// Records `copy` into a new `size`-byte readback buffer, submits it and returns the buffer's
+/// bytes once the copy has finished.
+fn copy_back(
+    gpu: &Gpu,
+    context: &'static str,
+    size: u64,
+    copy: impl FnOnce(&mut wgpu::CommandEncoder, &wgpu::Buffer),
+) -> Result<Vec<u8>, GpuError> {
+    let (buffer, submission) = error_scoped(&gpu.device, context, || {
         let buffer = buffer(
             &gpu.device,
-            "glint buffer readback",
+            "glint readback buffer",
             size,
             wgpu::BufferUsages::MAP_READ,
         );
         let mut encoder = gpu
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("glint buffer readback encoder"),
+                label: Some("glint readback encoder"),
             });
-        encoder.copy_buffer_to_buffer(source, 0, &buffer, 0, size);
+        copy(&mut encoder, &buffer);
         let submission = gpu.queue.submit([encoder.finish()]);
         (buffer, submission)
     })?;
-    let bytes = map_read(gpu, &buffer, Some(submission))?;
-    Ok(bytes)
+    map_read(gpu, &buffer, Some(submission))
 }
 
 /// Waits for `submission` (`None`: all work submitted so far), maps `buffer` (created with
@@ -127,44 +142,34 @@ fn read_texture_bytes(
     let padded_row_bytes = row_bytes.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
     let buffer_size = u64::from(padded_row_bytes) * u64::from(height);
 
-    let (buffer, submission) = error_scoped(&gpu.device, "copying a texture for readback", || {
-        let buffer = buffer(
-            &gpu.device,
-            "glint readback buffer",
-            buffer_size,
-            wgpu::BufferUsages::MAP_READ,
-        );
-        let mut encoder = gpu
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("glint readback encoder"),
-            });
-        encoder.copy_texture_to_buffer(
-            wgpu::TexelCopyTextureInfo {
-                texture,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: wgpu::TextureAspect::All,
-            },
-            wgpu::TexelCopyBufferInfo {
-                buffer: &buffer,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(padded_row_bytes),
-                    rows_per_image: Some(height),
+    let mapped = copy_back(
+        gpu,
+        "copying a texture for readback",
+        buffer_size,
+        |encoder, buffer| {
+            encoder.copy_texture_to_buffer(
+                wgpu::TexelCopyTextureInfo {
+                    texture,
+                    mip_level: 0,
+                    origin: wgpu::Origin3d::ZERO,
+                    aspect: wgpu::TextureAspect::All,
                 },
-            },
-            wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-        );
-        let submission = gpu.queue.submit([encoder.finish()]);
-        (buffer, submission)
-    })?;
-
-    let mapped = map_read(gpu, &buffer, Some(submission))?;
+                wgpu::TexelCopyBufferInfo {
+                    buffer,
+                    layout: wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(padded_row_bytes),
+                        rows_per_image: Some(height),
+                    },
+                },
+                wgpu::Extent3d {
+                    width,
+                    height,
+                    depth_or_array_layers: 1,
+                },
+            )
+        },
+    )?;
     let mut pixels = Vec::with_capacity(row_bytes as usize * height as usize);
     for row in mapped.chunks_exact(padded_row_bytes as usize) {
         pixels.extend_from_slice(&row[..row_bytes as usize]);
