@@ -2,9 +2,18 @@
 //! the CPU (the bicubic reconstruction, the curved reflectors' glossy term, the SRDM and
 //! billboard intersections).
 
-use super::build::{bind_group_layout, buffer, buffer_init};
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat4, Vec2, Vec3};
+
+use super::build::{bind_group_layout, buffer, buffer_init, compute_pipeline, shader};
 use super::gpu::{Gpu, GpuError, error_scoped};
+use super::radiosity_textures::RadiosityTextures;
 use super::readback::read_buffer;
+use super::renderer::{
+    FrameUniforms, RenderError, SHADER_SOURCE, frame_bind_group, frame_bind_group_layout,
+    uniform_buffer,
+};
+use crate::radiosity::RadiosityMap;
 
 /// The bind-group layout of a compute probe's own buffers: binding 0 the input items
 /// (read-only storage), binding 1 one output item per input (storage).
@@ -83,4 +92,94 @@ pub(crate) fn run_probe(
     let mut bytes = read_buffer(gpu, &output)?;
     bytes.truncate(output_size as usize);
     Ok(bytes)
+}
+
+/// Mirrors `ProbeInput` in `shaders/view.wgsl` (16 bytes): one lookup for [`bicubic_probe`].
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct ProbeInput {
+    /// Lightmap coordinates in texels.
+    pub lightmap: [f32; 2],
+    /// Page.
+    pub page: u32,
+    /// Padding to the WGSL struct's 8-byte alignment.
+    pub _pad: u32,
+}
+
+/// Reconstructs D at each of `points` (lightmap coordinates in texels, page) with the shader's
+/// `sample_radiosity`, in a compute pass: what the fragment shader sees. For tests that hold
+/// the WGSL filter to [`super::bicubic::bspline`].
+pub fn bicubic_probe(
+    gpu: &Gpu,
+    map: &RadiosityMap,
+    points: &[(Vec2, u32)],
+) -> Result<Vec<Vec3>, RenderError> {
+    if points.is_empty() {
+        return Ok(Vec::new());
+    }
+    let textures = RadiosityTextures::upload(gpu, map)?;
+    let device = &gpu.device;
+    let inputs: Vec<ProbeInput> = points
+        .iter()
+        .map(|(p, page)| ProbeInput {
+            lightmap: p.to_array(),
+            page: *page,
+            _pad: 0,
+        })
+        .collect();
+    let out_size = (points.len() * 16) as u64;
+    let (pipeline, probe_layout, frame_group) =
+        error_scoped(device, "creating the bicubic probe", || {
+            let shader = shader(device, "glint view shader (probe)", SHADER_SOURCE);
+            let frame_layout = frame_bind_group_layout(device);
+            let probe_layout = probe_io_layout(device, "glint probe bind group layout");
+            let pipeline = compute_pipeline(
+                device,
+                "glint probe pipeline",
+                &shader,
+                &[Some(&frame_layout), Some(&probe_layout)],
+                "cs_probe",
+            );
+            let uniforms = uniform_buffer(device);
+            let u = FrameUniforms {
+                view_proj: Mat4::IDENTITY.to_cols_array_2d(),
+                atlas_size: textures.layer_size.map(|v| v as f32),
+                exposure: 1.0,
+                encode_srgb: 0,
+            };
+            gpu.queue.write_buffer(&uniforms, 0, bytemuck::bytes_of(&u));
+            let frame_group = frame_bind_group(device, &frame_layout, &uniforms, &textures);
+            (pipeline, probe_layout, frame_group)
+        })?;
+    let bytes = run_probe(
+        gpu,
+        "running the bicubic probe",
+        &pipeline,
+        &probe_layout,
+        1,
+        &[(0, &frame_group)],
+        bytemuck::cast_slice(&inputs),
+        inputs.len(),
+        out_size,
+    )?;
+    let values: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
+    Ok(values.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn probe_input_matches_the_wgsl_struct() {
+        crate::assert_wgsl_layout!(
+            SHADER_SOURCE,
+            "ProbeInput",
+            ProbeInput {
+                lightmap,
+                page,
+                _pad
+            }
+        );
+    }
 }

@@ -16,11 +16,10 @@
 //! - No back-face culling: the CPU reference's ray casts see both faces too.
 
 use bytemuck::{Pod, Zeroable};
-use glam::{Mat4, Vec2, Vec3, Vec4};
+use glam::{Mat4, Vec4};
 
-use super::build::{bind_group_layout, buffer, buffer_init, render_pipeline};
+use super::build::{bind_group_layout, buffer, buffer_init, render_pipeline, shader};
 use super::gpu::{Gpu, GpuError, error_scoped};
-use super::probe::{probe_io_layout, run_probe};
 pub use super::radiosity_textures::RadiosityTextures;
 use super::target::clear_pass;
 pub use super::target::{
@@ -63,18 +62,6 @@ pub struct Vertex {
     pub lightmap: [f32; 2],
     /// Atlas page (texture-array layer).
     pub page: u32,
-}
-
-/// Mirrors `ProbeInput` in `shaders/view.wgsl` (16 bytes): one lookup for [`bicubic_probe`].
-#[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-pub struct ProbeInput {
-    /// Lightmap coordinates in texels.
-    pub lightmap: [f32; 2],
-    /// Page.
-    pub page: u32,
-    /// Padding to the WGSL struct's 8-byte alignment.
-    pub _pad: u32,
 }
 
 /// The vertex attributes of [`Vertex`].
@@ -285,10 +272,7 @@ impl Renderer {
         let textures = RadiosityTextures::upload(gpu, map)?;
         let device = &gpu.device;
         let renderer = error_scoped(device, "creating the scene pipeline", || {
-            let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("glint view shader"),
-                source: wgpu::ShaderSource::Wgsl(SHADER_SOURCE.into()),
-            });
+            let shader = shader(device, "glint view shader", SHADER_SOURCE);
             let bind_group_layout = frame_bind_group_layout(device);
             let uniforms = uniform_buffer(device);
             let bind_group = frame_bind_group(device, &bind_group_layout, &uniforms, &textures);
@@ -410,77 +394,10 @@ impl Renderer {
     }
 }
 
-/// Reconstructs D at each of `points` (lightmap coordinates in texels, page) with the shader's
-/// `sample_radiosity`, in a compute pass: what the fragment shader sees. For tests that hold
-/// the WGSL filter to [`super::bicubic::bspline`].
-pub fn bicubic_probe(
-    gpu: &Gpu,
-    map: &RadiosityMap,
-    points: &[(Vec2, u32)],
-) -> Result<Vec<Vec3>, RenderError> {
-    if points.is_empty() {
-        return Ok(Vec::new());
-    }
-    let textures = RadiosityTextures::upload(gpu, map)?;
-    let device = &gpu.device;
-    let inputs: Vec<ProbeInput> = points
-        .iter()
-        .map(|(p, page)| ProbeInput {
-            lightmap: p.to_array(),
-            page: *page,
-            _pad: 0,
-        })
-        .collect();
-    let out_size = (points.len() * 16) as u64;
-    let (pipeline, probe_layout, frame_group) =
-        error_scoped(device, "creating the bicubic probe", || {
-            let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("glint view shader (probe)"),
-                source: wgpu::ShaderSource::Wgsl(SHADER_SOURCE.into()),
-            });
-            let frame_layout = frame_bind_group_layout(device);
-            let probe_layout = probe_io_layout(device, "glint probe bind group layout");
-            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("glint probe pipeline layout"),
-                bind_group_layouts: &[Some(&frame_layout), Some(&probe_layout)],
-                immediate_size: 0,
-            });
-            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("glint probe pipeline"),
-                layout: Some(&layout),
-                module: &shader,
-                entry_point: Some("cs_probe"),
-                compilation_options: wgpu::PipelineCompilationOptions::default(),
-                cache: None,
-            });
-            let uniforms = uniform_buffer(device);
-            let u = FrameUniforms {
-                view_proj: Mat4::IDENTITY.to_cols_array_2d(),
-                atlas_size: textures.layer_size.map(|v| v as f32),
-                exposure: 1.0,
-                encode_srgb: 0,
-            };
-            gpu.queue.write_buffer(&uniforms, 0, bytemuck::bytes_of(&u));
-            let frame_group = frame_bind_group(device, &frame_layout, &uniforms, &textures);
-            (pipeline, probe_layout, frame_group)
-        })?;
-    let bytes = run_probe(
-        gpu,
-        "running the bicubic probe",
-        &pipeline,
-        &probe_layout,
-        1,
-        &[(0, &frame_group)],
-        bytemuck::cast_slice(&inputs),
-        inputs.len(),
-        out_size,
-    )?;
-    let values: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
-    Ok(values.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())
-}
-
 #[cfg(test)]
 mod tests {
+    use glam::{Vec2, Vec3};
+
     use super::*;
 
     #[test]
@@ -493,19 +410,6 @@ mod tests {
                 atlas_size,
                 exposure,
                 encode_srgb
-            }
-        );
-    }
-
-    #[test]
-    fn probe_input_matches_the_wgsl_struct() {
-        crate::assert_wgsl_layout!(
-            SHADER_SOURCE,
-            "ProbeInput",
-            ProbeInput {
-                lightmap,
-                page,
-                _pad
             }
         );
     }
