@@ -19,7 +19,7 @@ pub(crate) struct Composite {
 
 /// `pipeline` (entry points, layouts, vertex buffers) with the composite's colour targets for
 /// `formats` and its depth state.
-pub(crate) fn over_frame<'a>(
+fn over_frame<'a>(
     pipeline: RenderPipelineBuilder<'a>,
     formats: TargetFormats,
 ) -> RenderPipelineBuilder<'a> {
