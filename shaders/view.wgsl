@@ -101,8 +101,8 @@ fn fs_main(in: VertexOut) -> FragmentOut {
 }
 
 // Test entry: reconstructs D at given lightmap coordinates, to hold this shader's filter to
-// the CPU's (`bicubic_probe` in src/view/renderer.rs; tests/view.rs). Keep `ProbeInput` in sync
-// with `renderer::ProbeInput`.
+// the CPU's (`bicubic_probe` in src/view/probe.rs; tests/view.rs). Keep `ProbeInput` in sync
+// with `probe::ProbeInput`.
 struct ProbeInput {
     lightmap: vec2<f32>,
     page: u32,

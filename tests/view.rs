@@ -39,7 +39,7 @@ use glint::view::bicubic;
 use glint::view::cpu_render;
 use glint::view::headless::Offscreen;
 use glint::view::load::{LoadError, load};
-use glint::view::renderer::bicubic_probe;
+use glint::view::probe::bicubic_probe;
 use glint::view::replay::Timings;
 
 use common::*;

@@ -1,9 +1,42 @@
 //! Small builders for the wgpu objects every pass makes, with the viewer's defaults written
-//! once: render pipelines ([`RenderPipelineBuilder`]: triangle lists, no culling, one sample,
-//! vertex and fragment stage from one shader module), bind-group layouts
-//! ([`LayoutBuilder`]) and buffers ([`buffer`], [`buffer_init`]).
+//! once: shader modules ([`shader`]), render pipelines ([`RenderPipelineBuilder`]: triangle
+//! lists, no culling, one sample, vertex and fragment stage from one shader module), compute
+//! pipelines ([`compute_pipeline`]), bind-group layouts ([`LayoutBuilder`]) and buffers
+//! ([`buffer`], [`buffer_init`]).
 
 use super::gpu::Gpu;
+
+/// A shader module compiled from the WGSL `source`.
+pub fn shader(device: &wgpu::Device, label: &str, source: &str) -> wgpu::ShaderModule {
+    device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    })
+}
+
+/// A compute pipeline `label` running `shader`'s `entry` over the bind groups `layouts`
+/// (group 0 first; `None`: a group the entry point does not use).
+pub fn compute_pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    shader: &wgpu::ShaderModule,
+    layouts: &[Option<&wgpu::BindGroupLayout>],
+    entry: &str,
+) -> wgpu::ComputePipeline {
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(label),
+        bind_group_layouts: layouts,
+        immediate_size: 0,
+    });
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(label),
+        layout: Some(&layout),
+        module: shader,
+        entry_point: Some(entry),
+        compilation_options: wgpu::PipelineCompilationOptions::default(),
+        cache: None,
+    })
+}
 
 /// A render pipeline being described; [`RenderPipelineBuilder::build`] creates it with its
 /// pipeline layout.
@@ -44,6 +77,12 @@ impl<'a> RenderPipelineBuilder<'a> {
     /// The bind-group layouts, group 0 first.
     pub fn layouts(mut self, layouts: &[&'a wgpu::BindGroupLayout]) -> Self {
         self.layouts = layouts.iter().map(|&l| Some(l)).collect();
+        self
+    }
+
+    /// The bind-group layouts, group 0 first, `None` for a group this pipeline does not use.
+    pub fn layout_slots(mut self, layouts: &[Option<&'a wgpu::BindGroupLayout>]) -> Self {
+        self.layouts = layouts.to_vec();
         self
     }
 
@@ -157,11 +196,20 @@ impl LayoutBuilder {
 
     /// A read-only storage buffer of any size.
     pub fn storage(self, binding: u32, visibility: wgpu::ShaderStages) -> Self {
+        self.storage_buffer(binding, visibility, true)
+    }
+
+    /// A storage buffer of any size the shader writes.
+    pub fn storage_rw(self, binding: u32, visibility: wgpu::ShaderStages) -> Self {
+        self.storage_buffer(binding, visibility, false)
+    }
+
+    fn storage_buffer(self, binding: u32, visibility: wgpu::ShaderStages, read_only: bool) -> Self {
         self.with(
             binding,
             visibility,
             wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only: true },
+                ty: wgpu::BufferBindingType::Storage { read_only },
                 has_dynamic_offset: false,
                 min_binding_size: None,
             },
@@ -226,7 +274,7 @@ pub fn buffer(
 }
 
 /// A buffer for `usage` holding `bytes` (a multiple of 4 bytes), at least `min_size` bytes
-/// long; the write lands before the next submission.
+/// long, rounded up to a multiple of 4; the write lands before the next submission.
 pub fn buffer_init(
     gpu: &Gpu,
     label: &str,
@@ -237,71 +285,11 @@ pub fn buffer_init(
     let b = buffer(
         &gpu.device,
         label,
-        (bytes.len() as u64).max(min_size),
+        (bytes.len() as u64).max(min_size).next_multiple_of(4),
         usage,
     );
     gpu.queue.write_buffer(&b, 0, bytes);
     b
-}
-
-/// Size and members (name, byte offset) of struct `name` in the WGSL `source`, by naga's
-/// layouter: what a `repr(C)` mirror of it must match.
-#[cfg(test)]
-pub(crate) fn wgsl_struct(source: &str, name: &str) -> (usize, Vec<(String, usize)>) {
-    let s = crate::view::wgsl_layout::wgsl_struct(source, name).unwrap_or_else(|e| panic!("{e}"));
-    let members = s
-        .members
-        .into_iter()
-        .map(|(n, o)| (n, o as usize))
-        .collect();
-    (s.size as usize, members)
-}
-
-/// The `@location`s of the members of struct `name` in the WGSL `source` (a vertex input).
-#[cfg(test)]
-pub(crate) fn wgsl_locations(source: &str, name: &str) -> Vec<Option<u32>> {
-    use wgpu::naga;
-    let module = naga::front::wgsl::parse_str(source).expect("the WGSL parses");
-    let (_, ty) = module
-        .types
-        .iter()
-        .find(|(_, t)| t.name.as_deref() == Some(name))
-        .unwrap_or_else(|| panic!("no struct {name} in the WGSL"));
-    let naga::TypeInner::Struct { members, .. } = &ty.inner else {
-        panic!("{name} is not a struct");
-    };
-    members
-        .iter()
-        .map(|m| match m.binding {
-            Some(naga::Binding::Location { location, .. }) => Some(location),
-            _ => None,
-        })
-        .collect()
-}
-
-/// Checks a vertex buffer layout against its `repr(C)` struct (`size`, field `offsets` in
-/// attribute order) and the WGSL vertex input `input` of `source` (its locations).
-#[cfg(test)]
-pub(crate) fn assert_vertex_layout(
-    layout: &wgpu::VertexBufferLayout<'_>,
-    size: usize,
-    offsets: &[usize],
-    source: &str,
-    input: &str,
-) {
-    assert_eq!(layout.array_stride as usize, size, "{input}: stride");
-    let got: Vec<usize> = layout
-        .attributes
-        .iter()
-        .map(|a| a.offset as usize)
-        .collect();
-    assert_eq!(got, offsets, "{input}: attribute offsets");
-    let want: Vec<Option<u32>> = layout
-        .attributes
-        .iter()
-        .map(|a| Some(a.shader_location))
-        .collect();
-    assert_eq!(wgsl_locations(source, input), want, "{input}: locations");
 }
 
 #[cfg(test)]
@@ -315,12 +303,21 @@ mod tests {
             .uniform::<[f32; 8]>(0, all)
             .storage(1, wgpu::ShaderStages::FRAGMENT)
             .texture(2, all, wgpu::TextureViewDimension::Cube, false)
-            .sampler(3, all);
+            .sampler(3, all)
+            .storage_rw(4, wgpu::ShaderStages::COMPUTE);
         let e = l.entries();
         assert_eq!(
             e.iter().map(|e| e.binding).collect::<Vec<_>>(),
-            [0, 1, 2, 3]
+            [0, 1, 2, 3, 4]
         );
+        assert!(matches!(
+            e[4].ty,
+            wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only: false },
+                min_binding_size: None,
+                ..
+            }
+        ));
         assert!(matches!(
             e[0].ty,
             wgpu::BindingType::Buffer {

@@ -274,27 +274,27 @@ mod tests {
 
     #[test]
     fn curved_params_match_the_wgsl_struct() {
-        let (size, members) = crate::view::build::wgsl_struct(&shader_source(), "CurvedParams");
-        assert_eq!(size, std::mem::size_of::<CurvedParams>());
-        let want = [
-            ("eye", std::mem::offset_of!(CurvedParams, eye)),
-            ("centre", std::mem::offset_of!(CurvedParams, centre)),
-            ("info", std::mem::offset_of!(CurvedParams, info)),
-            ("clip", std::mem::offset_of!(CurvedParams, clip)),
-            ("lobes", std::mem::offset_of!(CurvedParams, lobes)),
-        ];
-        let got: Vec<(&str, usize)> = members.iter().map(|(n, o)| (n.as_str(), *o)).collect();
-        assert_eq!(got, want);
-        let (size, members) = crate::view::build::wgsl_struct(&shader_source(), "CurvedLobe");
-        assert_eq!(size, std::mem::size_of::<CurvedLobe>());
-        let want = [
-            ("ks", std::mem::offset_of!(CurvedLobe, ks)),
-            ("rough", std::mem::offset_of!(CurvedLobe, rough)),
-            ("samples", std::mem::offset_of!(CurvedLobe, samples)),
-            ("pdf", std::mem::offset_of!(CurvedLobe, pdf)),
-        ];
-        let got: Vec<(&str, usize)> = members.iter().map(|(n, o)| (n.as_str(), *o)).collect();
-        assert_eq!(got, want);
+        crate::assert_wgsl_layout!(
+            shader_source(),
+            "CurvedParams",
+            CurvedParams {
+                eye,
+                centre,
+                info,
+                clip,
+                lobes
+            }
+        );
+        crate::assert_wgsl_layout!(
+            shader_source(),
+            "CurvedLobe",
+            CurvedLobe {
+                ks,
+                rough,
+                samples,
+                pdf
+            }
+        );
     }
 
     #[test]

@@ -1,4 +1,6 @@
-//! Headless GPU access: adapter and device selection, offscreen rendering and texture readback.
+//! Headless GPU access: adapter and device selection, the errors GPU work reports, and the
+//! smoke-test triangle that proves an adapter can run the viewer. Readback is in
+//! [`super::readback`] (re-exported here).
 //!
 //! Nothing here needs a window or a surface, so it runs on CI machines whose only GPU is a
 //! software Vulkan driver (Mesa lavapipe, from the Debian/Ubuntu package `mesa-vulkan-drivers`).
@@ -6,18 +8,17 @@
 //! Errors that wgpu reports through error scopes (validation, out of memory) are turned into
 //! [`GpuError`] values instead of the default panicking handler.
 
-use std::sync::mpsc;
-
 use thiserror::Error;
+
+use super::build::{render_pipeline, shader};
+pub use super::readback::{read_buffer, read_texture, read_texture_rgba8};
+use super::target::{check_target_size, clear_pass, texture_2d};
 
 /// Backends searched first: Vulkan (and Metal / DX12 on the platforms that have them).
 const PREFERRED_BACKENDS: wgpu::Backends = wgpu::Backends::PRIMARY;
 
 /// Backends searched only when no preferred backend exposes an adapter.
 const FALLBACK_BACKENDS: wgpu::Backends = wgpu::Backends::GL;
-
-/// Bytes per texel of the RGBA8 formats handled by [`read_texture_rgba8`].
-const RGBA8_BYTES_PER_PIXEL: u32 = 4;
 
 /// Pixel format of the offscreen target used by [`render_test_triangle`].
 const TEST_TRIANGLE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
@@ -232,256 +233,6 @@ pub(crate) fn error_scoped<T>(
     }
 }
 
-/// The bind-group layout of a compute probe's own buffers: binding 0 the input items
-/// (read-only storage), binding 1 one output item per input (storage).
-pub(crate) fn probe_io_layout(device: &wgpu::Device, label: &str) -> wgpu::BindGroupLayout {
-    let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    };
-    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some(label),
-        entries: &[storage(0, true), storage(1, false)],
-    })
-}
-
-/// Runs a compute probe (what a shader computes, for tests against the CPU): uploads
-/// `input` (`count` items), binds it with an output buffer of `output_size` bytes as group
-/// `io_group` (layout [`probe_io_layout`]) beside `groups`, dispatches one invocation per
-/// item in workgroups of 64 and returns the output's bytes.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn run_probe(
-    gpu: &Gpu,
-    context: &'static str,
-    pipeline: &wgpu::ComputePipeline,
-    io_layout: &wgpu::BindGroupLayout,
-    io_group: u32,
-    groups: &[(u32, &wgpu::BindGroup)],
-    input: &[u8],
-    count: usize,
-    output_size: u64,
-) -> Result<Vec<u8>, GpuError> {
-    let device = &gpu.device;
-    let output = error_scoped(device, context, || {
-        let input_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("glint probe input"),
-            // A binding must not be empty; pad to one 16-byte element.
-            size: (input.len() as u64).max(16).next_multiple_of(4),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        gpu.queue.write_buffer(&input_buffer, 0, input);
-        let output = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("glint probe output"),
-            size: output_size.max(16),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let io = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("glint probe buffers"),
-            layout: io_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: input_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: output.as_entire_binding(),
-                },
-            ],
-        });
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("glint probe encoder"),
-        });
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some(context),
-                timestamp_writes: None,
-            });
-            pass.set_pipeline(pipeline);
-            for (index, group) in groups {
-                pass.set_bind_group(*index, *group, &[]);
-            }
-            pass.set_bind_group(io_group, &io, &[]);
-            pass.dispatch_workgroups((count as u32).div_ceil(64), 1, 1);
-        }
-        gpu.queue.submit([encoder.finish()]);
-        output
-    })?;
-    let mut bytes = read_buffer(gpu, &output)?;
-    bytes.truncate(output_size as usize);
-    Ok(bytes)
-}
-
-/// Copies mip level 0, layer 0 of a single-sampled, uncompressed, colour 2D texture created
-/// with [`wgpu::TextureUsages::COPY_SRC`] back to the CPU: `width * height * texel size`
-/// bytes, rows top to bottom without padding, texels as the format stores them (e.g. four
-/// little-endian f16 per texel for `Rgba16Float`). Blocks until the copy has finished.
-pub fn read_texture(gpu: &Gpu, texture: &wgpu::Texture) -> Result<Vec<u8>, GpuError> {
-    let format = texture.format();
-    let Some(bytes_per_pixel) = format
-        .block_copy_size(None)
-        .filter(|_| format.block_dimensions() == (1, 1) && !format.has_depth_aspect())
-    else {
-        return Err(GpuError::UnsupportedTexture(format!(
-            "format {format:?} is not an uncompressed colour format"
-        )));
-    };
-    read_texture_bytes(gpu, texture, bytes_per_pixel)
-}
-
-/// Copies a whole buffer created with [`wgpu::BufferUsages::COPY_SRC`] back to the CPU,
-/// after all work submitted so far. Blocks until the copy has finished.
-pub fn read_buffer(gpu: &Gpu, source: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
-    let size = source.size();
-    let (buffer, submission) = error_scoped(&gpu.device, "copying a buffer for readback", || {
-        let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("glint buffer readback"),
-            size,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
-        let mut encoder = gpu
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("glint buffer readback encoder"),
-            });
-        encoder.copy_buffer_to_buffer(source, 0, &buffer, 0, size);
-        let submission = gpu.queue.submit([encoder.finish()]);
-        (buffer, submission)
-    })?;
-    let bytes = map_read(gpu, &buffer, submission)?;
-    Ok(bytes)
-}
-
-/// Waits for `submission`, maps `buffer` for reading and returns its contents.
-fn map_read(
-    gpu: &Gpu,
-    buffer: &wgpu::Buffer,
-    submission: wgpu::SubmissionIndex,
-) -> Result<Vec<u8>, GpuError> {
-    let slice = buffer.slice(..);
-    let (sender, receiver) = mpsc::channel();
-    slice.map_async(wgpu::MapMode::Read, move |result| {
-        // The receiver outlives the poll below; a failed send only means nobody is listening.
-        let _ = sender.send(result);
-    });
-    gpu.device.poll(wgpu::PollType::Wait {
-        submission_index: Some(submission),
-        timeout: None,
-    })?;
-    receiver
-        .recv()
-        .map_err(|_| GpuError::MapCallbackDropped)??;
-    let bytes = slice.get_mapped_range()?.to_vec();
-    buffer.unmap();
-    Ok(bytes)
-}
-
-/// Copies mip level 0, layer 0 of an RGBA8 2D texture back to the CPU.
-///
-/// The texture must be `Rgba8Unorm` or `Rgba8UnormSrgb`, single-sampled and created with
-/// [`wgpu::TextureUsages::COPY_SRC`]. The GPU copy pads every row to
-/// [`wgpu::COPY_BYTES_PER_ROW_ALIGNMENT`] bytes; the returned vector has the padding removed:
-/// `width * height * 4` bytes, rows top to bottom, each pixel as R, G, B, A. sRGB textures are
-/// returned as stored (sRGB-encoded), not converted to linear.
-///
-/// Blocks until the copy has finished.
-pub fn read_texture_rgba8(gpu: &Gpu, texture: &wgpu::Texture) -> Result<Vec<u8>, GpuError> {
-    let format = texture.format();
-    if !matches!(
-        format,
-        wgpu::TextureFormat::Rgba8Unorm | wgpu::TextureFormat::Rgba8UnormSrgb
-    ) {
-        return Err(GpuError::UnsupportedTexture(format!(
-            "format is {format:?}, expected Rgba8Unorm or Rgba8UnormSrgb"
-        )));
-    }
-    read_texture_bytes(gpu, texture, RGBA8_BYTES_PER_PIXEL)
-}
-
-/// Readback of a 2D colour texture whose texels are `bytes_per_pixel` bytes.
-fn read_texture_bytes(
-    gpu: &Gpu,
-    texture: &wgpu::Texture,
-    bytes_per_pixel: u32,
-) -> Result<Vec<u8>, GpuError> {
-    if texture.dimension() != wgpu::TextureDimension::D2 {
-        return Err(GpuError::UnsupportedTexture(format!(
-            "dimension is {:?}, expected D2",
-            texture.dimension()
-        )));
-    }
-    if texture.sample_count() != 1 {
-        return Err(GpuError::UnsupportedTexture(format!(
-            "sample count is {}, expected 1 (resolve multisampled targets first)",
-            texture.sample_count()
-        )));
-    }
-    if !texture.usage().contains(wgpu::TextureUsages::COPY_SRC) {
-        return Err(GpuError::UnsupportedTexture(
-            "texture was not created with TextureUsages::COPY_SRC".to_owned(),
-        ));
-    }
-
-    let width = texture.width();
-    let height = texture.height();
-    let row_bytes = width * bytes_per_pixel;
-    let padded_row_bytes = row_bytes.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
-    let buffer_size = u64::from(padded_row_bytes) * u64::from(height);
-
-    let (buffer, submission) = error_scoped(&gpu.device, "copying a texture for readback", || {
-        let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("glint readback buffer"),
-            size: buffer_size,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
-        let mut encoder = gpu
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("glint readback encoder"),
-            });
-        encoder.copy_texture_to_buffer(
-            wgpu::TexelCopyTextureInfo {
-                texture,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: wgpu::TextureAspect::All,
-            },
-            wgpu::TexelCopyBufferInfo {
-                buffer: &buffer,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(padded_row_bytes),
-                    rows_per_image: Some(height),
-                },
-            },
-            wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-        );
-        let submission = gpu.queue.submit([encoder.finish()]);
-        (buffer, submission)
-    })?;
-
-    let mapped = map_read(gpu, &buffer, submission)?;
-    let mut pixels = Vec::with_capacity(row_bytes as usize * height as usize);
-    for row in mapped.chunks_exact(padded_row_bytes as usize) {
-        pixels.extend_from_slice(&row[..row_bytes as usize]);
-    }
-    Ok(pixels)
-}
-
 /// Renders the smoke-test triangle offscreen and returns its RGBA8 pixels.
 ///
 /// The target is a `width` x `height` `Rgba8Unorm` texture cleared to opaque black. The shader
@@ -492,74 +243,25 @@ fn read_texture_bytes(
 /// This exercises shader compilation, pipeline creation, rasterisation and readback, which is
 /// enough to prove that an adapter (for example lavapipe on CI) can run the viewer.
 pub fn render_test_triangle(gpu: &Gpu, width: u32, height: u32) -> Result<Vec<u8>, GpuError> {
-    let max = gpu.device.limits().max_texture_dimension_2d;
-    if width == 0 || height == 0 || width > max || height > max {
-        return Err(GpuError::InvalidSize { width, height, max });
-    }
-
+    check_target_size(&gpu.device, width, height)?;
     let texture = error_scoped(&gpu.device, "rendering the test triangle", || {
-        let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("glint test triangle target"),
-            size: wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: TEST_TRIANGLE_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
+        let texture = texture_2d(
+            &gpu.device,
+            "glint test triangle target",
+            width,
+            height,
+            TEST_TRIANGLE_FORMAT,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        );
         let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
-
-        let shader = gpu
-            .device
-            .create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("glint test triangle shader"),
-                source: wgpu::ShaderSource::Wgsl(
-                    include_str!("../../shaders/test_triangle.wgsl").into(),
-                ),
-            });
-        let layout = gpu
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("glint test triangle layout"),
-                bind_group_layouts: &[],
-                immediate_size: 0,
-            });
-        let pipeline = gpu
-            .device
-            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("glint test triangle pipeline"),
-                layout: Some(&layout),
-                vertex: wgpu::VertexState {
-                    module: &shader,
-                    entry_point: Some("vs_main"),
-                    compilation_options: wgpu::PipelineCompilationOptions::default(),
-                    buffers: &[],
-                },
-                primitive: wgpu::PrimitiveState {
-                    topology: wgpu::PrimitiveTopology::TriangleList,
-                    cull_mode: None,
-                    ..Default::default()
-                },
-                depth_stencil: None,
-                multisample: wgpu::MultisampleState::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &shader,
-                    entry_point: Some("fs_main"),
-                    compilation_options: wgpu::PipelineCompilationOptions::default(),
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format: TEST_TRIANGLE_FORMAT,
-                        blend: None,
-                        write_mask: wgpu::ColorWrites::ALL,
-                    })],
-                }),
-                multiview_mask: None,
-                cache: None,
-            });
+        let shader = shader(
+            &gpu.device,
+            "glint test triangle shader",
+            include_str!("../../shaders/test_triangle.wgsl"),
+        );
+        let pipeline = render_pipeline("glint test triangle", &shader, "vs_main", "fs_main")
+            .color(TEST_TRIANGLE_FORMAT, None)
+            .build(&gpu.device);
 
         let mut encoder = gpu
             .device
@@ -567,22 +269,14 @@ pub fn render_test_triangle(gpu: &Gpu, width: u32, height: u32) -> Result<Vec<u8
                 label: Some("glint test triangle encoder"),
             });
         {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("glint test triangle pass"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass = clear_pass(
+                &mut encoder,
+                "glint test triangle pass",
+                &[Some(&view)],
+                wgpu::Color::BLACK,
+                None,
+                None,
+            );
             pass.set_pipeline(&pipeline);
             pass.draw(0..3, 0..1);
         }

@@ -8,8 +8,12 @@
 //! - [`renderer`]: the scene pass (`shaders/view.wgsl`): kd·D from the radiosity textures.
 //! - [`radiosity_textures`]: D's atlas pages as a GPU texture array.
 //! - [`target`]: target formats, the offscreen target, depth and blend state every pass shares.
-//! - [`build`]: builders of render pipelines, bind-group layouts and buffers.
-//! - [`headless`]: offscreen frames, headless replay of camera paths with timings.
+//! - [`build`]: builders of shader modules, render and compute pipelines, bind-group layouts
+//!   and buffers.
+//! - [`composite`]: the pass that adds a reflected term over the finished frame (planar,
+//!   curved, impostor and recursive reflections share it).
+//! - [`offscreen`]: a frame's passes drawn offscreen, timed and read back.
+//! - [`headless`]: headless replay of camera paths with timings.
 //! - [`replay`]: frame scheduling and timing statistics (pure).
 //! - [`cpu_render`]: the CPU reference of a frame, for golden-image tests.
 //! - [`radiance_maps`]: the baked radiance maps of planar reflectors and their selection for
@@ -21,8 +25,11 @@
 //! - [`curved`]: curved reflectors by cube maps (Nielsen §3.2) and glossy curved objects by
 //!   regular sampling (Luksch §6–7).
 //! - [`window`]: the interactive winit viewer (fly camera, path playback and recording).
-//! - [`gpu`]: adapter and device selection, readback.
-//! - [`wgsl_layout`]: the test that a `repr(C)` struct has its WGSL twin's layout (naga).
+//! - [`gpu`]: adapter and device selection, GPU errors, the smoke-test triangle.
+//! - [`readback`]: textures and buffers copied back to the CPU.
+//! - [`probe`]: compute probes of the shaders, for tests against the CPU.
+//! - [`wgsl_layout`]: the tests that a `repr(C)` struct has its WGSL twin's layout and a vertex
+//!   buffer its WGSL input's locations (naga).
 
 #[cfg(feature = "view")]
 pub mod bicubic;
@@ -32,6 +39,8 @@ pub mod billboard_tables;
 pub mod build;
 #[cfg(feature = "view")]
 pub mod cli;
+#[cfg(feature = "view")]
+pub mod composite;
 #[cfg(feature = "view")]
 pub mod cpu_render;
 #[cfg(feature = "view")]
@@ -48,11 +57,17 @@ pub mod impostor_tables;
 pub mod impostors;
 #[cfg(feature = "view")]
 pub mod load;
+#[cfg(feature = "view")]
+pub mod offscreen;
 pub mod options;
+#[cfg(feature = "view")]
+pub mod probe;
 #[cfg(feature = "view")]
 pub mod radiance_maps;
 #[cfg(feature = "view")]
 pub mod radiosity_textures;
+#[cfg(feature = "view")]
+pub mod readback;
 #[cfg(feature = "view")]
 pub mod reflections;
 #[cfg(feature = "view")]

@@ -16,11 +16,12 @@
 //! - No back-face culling: the CPU reference's ray casts see both faces too.
 
 use bytemuck::{Pod, Zeroable};
-use glam::{Mat4, Vec2, Vec3, Vec4};
+use glam::{Mat4, Vec4};
 
-use super::build::{bind_group_layout, buffer, buffer_init, render_pipeline};
-use super::gpu::{Gpu, GpuError, error_scoped, probe_io_layout, run_probe};
+use super::build::{bind_group_layout, buffer, buffer_init, render_pipeline, shader};
+use super::gpu::{Gpu, GpuError, error_scoped};
 pub use super::radiosity_textures::RadiosityTextures;
+use super::target::clear_pass;
 pub use super::target::{
     ADDITIVE_KEEP_ALPHA, COLOR_FORMAT, DEPTH_FORMAT, HDR_FORMAT, OffscreenTarget, TargetFormats,
     depth_texture, overlay_pass, reverse_z_depth,
@@ -61,18 +62,6 @@ pub struct Vertex {
     pub lightmap: [f32; 2],
     /// Atlas page (texture-array layer).
     pub page: u32,
-}
-
-/// Mirrors `ProbeInput` in `shaders/view.wgsl` (16 bytes): one lookup for [`bicubic_probe`].
-#[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-pub struct ProbeInput {
-    /// Lightmap coordinates in texels.
-    pub lightmap: [f32; 2],
-    /// Page.
-    pub page: u32,
-    /// Padding to the WGSL struct's 8-byte alignment.
-    pub _pad: u32,
 }
 
 /// The vertex attributes of [`Vertex`].
@@ -159,6 +148,14 @@ impl SceneMesh {
             }
         }
         mesh
+    }
+
+    /// The indices of `triangles` (scene triangle numbers), three each, in the given order.
+    pub fn triangle_indices(&self, triangles: impl IntoIterator<Item = usize>) -> Vec<u32> {
+        triangles
+            .into_iter()
+            .flat_map(|t| self.indices[3 * t..3 * t + 3].iter().copied())
+            .collect()
     }
 }
 
@@ -275,10 +272,7 @@ impl Renderer {
         let textures = RadiosityTextures::upload(gpu, map)?;
         let device = &gpu.device;
         let renderer = error_scoped(device, "creating the scene pipeline", || {
-            let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("glint view shader"),
-                source: wgpu::ShaderSource::Wgsl(SHADER_SOURCE.into()),
-            });
+            let shader = shader(device, "glint view shader", SHADER_SOURCE);
             let bind_group_layout = frame_bind_group_layout(device);
             let uniforms = uniform_buffer(device);
             let bind_group = frame_bind_group(device, &bind_group_layout, &uniforms, &textures);
@@ -383,33 +377,15 @@ impl Renderer {
         depth: &wgpu::TextureView,
         timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
-        let attachment = |view| {
-            Some(wgpu::RenderPassColorAttachment {
-                view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                    store: wgpu::StoreOp::Store,
-                },
-            })
-        };
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("glint scene pass"),
-            color_attachments: &[attachment(color), hdr.and_then(attachment)],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: depth,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(0.0),
-                    // Kept: the reflection composite (`super::reflections`) depth-tests against it.
-                    store: wgpu::StoreOp::Store,
-                }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: timestamps,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        let mut pass = clear_pass(
+            encoder,
+            "glint scene pass",
+            &[Some(color), hdr],
+            wgpu::Color::BLACK,
+            // Depth kept: the reflection composite (`super::reflections`) depth-tests against it.
+            Some((depth, true)),
+            timestamps,
+        );
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.bind_group, &[]);
         pass.set_vertex_buffer(0, self.vertices.slice(..));
@@ -418,151 +394,39 @@ impl Renderer {
     }
 }
 
-/// Reconstructs D at each of `points` (lightmap coordinates in texels, page) with the shader's
-/// `sample_radiosity`, in a compute pass: what the fragment shader sees. For tests that hold
-/// the WGSL filter to [`super::bicubic::bspline`].
-pub fn bicubic_probe(
-    gpu: &Gpu,
-    map: &RadiosityMap,
-    points: &[(Vec2, u32)],
-) -> Result<Vec<Vec3>, RenderError> {
-    if points.is_empty() {
-        return Ok(Vec::new());
-    }
-    let textures = RadiosityTextures::upload(gpu, map)?;
-    let device = &gpu.device;
-    let inputs: Vec<ProbeInput> = points
-        .iter()
-        .map(|(p, page)| ProbeInput {
-            lightmap: p.to_array(),
-            page: *page,
-            _pad: 0,
-        })
-        .collect();
-    let out_size = (points.len() * 16) as u64;
-    let (pipeline, probe_layout, frame_group) =
-        error_scoped(device, "creating the bicubic probe", || {
-            let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("glint view shader (probe)"),
-                source: wgpu::ShaderSource::Wgsl(SHADER_SOURCE.into()),
-            });
-            let frame_layout = frame_bind_group_layout(device);
-            let probe_layout = probe_io_layout(device, "glint probe bind group layout");
-            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("glint probe pipeline layout"),
-                bind_group_layouts: &[Some(&frame_layout), Some(&probe_layout)],
-                immediate_size: 0,
-            });
-            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("glint probe pipeline"),
-                layout: Some(&layout),
-                module: &shader,
-                entry_point: Some("cs_probe"),
-                compilation_options: wgpu::PipelineCompilationOptions::default(),
-                cache: None,
-            });
-            let uniforms = uniform_buffer(device);
-            let u = FrameUniforms {
-                view_proj: Mat4::IDENTITY.to_cols_array_2d(),
-                atlas_size: textures.layer_size.map(|v| v as f32),
-                exposure: 1.0,
-                encode_srgb: 0,
-            };
-            gpu.queue.write_buffer(&uniforms, 0, bytemuck::bytes_of(&u));
-            let frame_group = frame_bind_group(device, &frame_layout, &uniforms, &textures);
-            (pipeline, probe_layout, frame_group)
-        })?;
-    let bytes = run_probe(
-        gpu,
-        "running the bicubic probe",
-        &pipeline,
-        &probe_layout,
-        1,
-        &[(0, &frame_group)],
-        bytemuck::cast_slice(&inputs),
-        inputs.len(),
-        out_size,
-    )?;
-    let values: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
-    Ok(values.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())
-}
-
 #[cfg(test)]
 mod tests {
-    use super::*;
-    use wgpu::naga;
+    use glam::{Vec2, Vec3};
 
-    /// Size and member offsets of a struct of `shaders/view.wgsl`, by naga's layouter.
-    fn wgsl_layout(name: &str) -> (u32, Vec<(String, u32)>) {
-        let (size, members) = crate::view::build::wgsl_struct(SHADER_SOURCE, name);
-        let members = members.into_iter().map(|(n, o)| (n, o as u32)).collect();
-        (size as u32, members)
-    }
+    use super::*;
 
     #[test]
     fn frame_uniforms_match_the_wgsl_struct() {
-        let (size, members) = wgsl_layout("FrameUniforms");
-        assert_eq!(size as usize, std::mem::size_of::<FrameUniforms>());
-        let want = [
-            ("view_proj", std::mem::offset_of!(FrameUniforms, view_proj)),
-            (
-                "atlas_size",
-                std::mem::offset_of!(FrameUniforms, atlas_size),
-            ),
-            ("exposure", std::mem::offset_of!(FrameUniforms, exposure)),
-            (
-                "encode_srgb",
-                std::mem::offset_of!(FrameUniforms, encode_srgb),
-            ),
-        ];
-        let got: Vec<(&str, usize)> = members
-            .iter()
-            .map(|(n, o)| (n.as_str(), *o as usize))
-            .collect();
-        assert_eq!(got, want);
-    }
-
-    #[test]
-    fn probe_input_matches_the_wgsl_struct() {
-        let (size, members) = wgsl_layout("ProbeInput");
-        assert_eq!(size as usize, std::mem::size_of::<ProbeInput>());
-        assert_eq!(members[0], ("lightmap".into(), 0));
-        assert_eq!(
-            members[1],
-            ("page".into(), std::mem::offset_of!(ProbeInput, page) as u32)
+        crate::assert_wgsl_layout!(
+            SHADER_SOURCE,
+            "FrameUniforms",
+            FrameUniforms {
+                view_proj,
+                atlas_size,
+                exposure,
+                encode_srgb
+            }
         );
     }
 
     #[test]
-    fn vertex_layout_matches_the_attributes() {
-        assert_eq!(std::mem::size_of::<Vertex>(), 24);
-        let offsets: Vec<u64> = VERTEX_ATTRIBUTES.iter().map(|a| a.offset).collect();
-        assert_eq!(
-            offsets,
-            [
-                std::mem::offset_of!(Vertex, position) as u64,
-                std::mem::offset_of!(Vertex, lightmap) as u64,
-                std::mem::offset_of!(Vertex, page) as u64
-            ]
+    fn vertex_layout_matches_the_wgsl_input() {
+        crate::view::wgsl_layout::assert_vertex_layout(
+            &scene_vertex_layout(),
+            std::mem::size_of::<Vertex>(),
+            &[
+                std::mem::offset_of!(Vertex, position),
+                std::mem::offset_of!(Vertex, lightmap),
+                std::mem::offset_of!(Vertex, page),
+            ],
+            SHADER_SOURCE,
+            "VertexIn",
         );
-        // And the shader's VertexIn takes them at those locations with those types.
-        let module = naga::front::wgsl::parse_str(SHADER_SOURCE).unwrap();
-        let (_, ty) = module
-            .types
-            .iter()
-            .find(|(_, t)| t.name.as_deref() == Some("VertexIn"))
-            .unwrap();
-        let naga::TypeInner::Struct { members, .. } = &ty.inner else {
-            panic!()
-        };
-        let locations: Vec<Option<u32>> = members
-            .iter()
-            .map(|m| match m.binding {
-                Some(naga::Binding::Location { location, .. }) => Some(location),
-                _ => None,
-            })
-            .collect();
-        assert_eq!(locations, [Some(0), Some(1), Some(2)]);
     }
 
     #[test]

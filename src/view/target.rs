@@ -1,6 +1,6 @@
 //! What every pass draws into and how it meets the frame: the target formats, the offscreen
-//! target, the reverse-Z depth state, the additive blend of passes drawn over the scene and
-//! the overlay pass that loads a finished frame.
+//! target, the reverse-Z depth state, the additive blend of passes drawn over the scene, and
+//! how a pass begins: clearing its targets, or loading a finished frame (the overlay).
 
 use super::gpu::{Gpu, GpuError, error_scoped};
 use super::renderer::Renderer;
@@ -60,42 +60,107 @@ pub fn overlay_pass<'e>(
     depth: &wgpu::TextureView,
     end_timestamp: Option<(&wgpu::QuerySet, u32)>,
 ) -> wgpu::RenderPass<'e> {
-    let load = |view| {
-        Some(wgpu::RenderPassColorAttachment {
-            view,
-            depth_slice: None,
-            resolve_target: None,
-            ops: wgpu::Operations {
-                load: wgpu::LoadOp::Load,
-                store: wgpu::StoreOp::Store,
-            },
-        })
-    };
-    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some(label),
-        color_attachments: &[load(color), hdr.and_then(load)],
-        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-            view: depth,
-            depth_ops: Some(wgpu::Operations {
-                load: wgpu::LoadOp::Load,
-                store: wgpu::StoreOp::Store,
-            }),
-            stencil_ops: None,
-        }),
-        timestamp_writes: end_timestamp.map(|(query_set, index)| wgpu::RenderPassTimestampWrites {
+    overlay_pass_on(encoder, label, &[Some(color), hdr], depth, end_timestamp)
+}
+
+/// [`overlay_pass`] over the colour attachments `colors` (`None`: a slot the pass's pipelines
+/// leave empty), each loaded and kept.
+pub fn overlay_pass_on<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    colors: &[Option<&wgpu::TextureView>],
+    depth: &wgpu::TextureView,
+    end_timestamp: Option<(&wgpu::QuerySet, u32)>,
+) -> wgpu::RenderPass<'e> {
+    begin_pass(
+        encoder,
+        label,
+        colors,
+        wgpu::LoadOp::Load,
+        Some((depth, wgpu::LoadOp::Load, wgpu::StoreOp::Store)),
+        end_timestamp.map(|(query_set, index)| wgpu::RenderPassTimestampWrites {
             query_set,
             beginning_of_pass_write_index: None,
             end_of_pass_write_index: Some(index),
         }),
+    )
+}
+
+/// Begins a pass that draws afresh: each of `colors` (`None`: an empty slot) cleared to
+/// `clear` and kept, `depth` (when given) cleared to 0 (reverse Z: infinitely far) and kept
+/// afterwards only when its flag says so (a later pass tests against it).
+pub fn clear_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    colors: &[Option<&wgpu::TextureView>],
+    clear: wgpu::Color,
+    depth: Option<(&wgpu::TextureView, bool)>,
+    timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
+) -> wgpu::RenderPass<'e> {
+    let depth = depth.map(|(view, keep)| {
+        let store = if keep {
+            wgpu::StoreOp::Store
+        } else {
+            wgpu::StoreOp::Discard
+        };
+        (view, wgpu::LoadOp::Clear(0.0), store)
+    });
+    begin_pass(
+        encoder,
+        label,
+        colors,
+        wgpu::LoadOp::Clear(clear),
+        depth,
+        timestamps,
+    )
+}
+
+/// Begins a render pass: `colors` loaded by `load` and kept, `depth` with its load and store.
+fn begin_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    colors: &[Option<&wgpu::TextureView>],
+    load: wgpu::LoadOp<wgpu::Color>,
+    depth: Option<(&wgpu::TextureView, wgpu::LoadOp<f32>, wgpu::StoreOp)>,
+    timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
+) -> wgpu::RenderPass<'e> {
+    let attachment = |view| wgpu::RenderPassColorAttachment {
+        view,
+        depth_slice: None,
+        resolve_target: None,
+        ops: wgpu::Operations {
+            load,
+            store: wgpu::StoreOp::Store,
+        },
+    };
+    let color_attachments: Vec<_> = colors.iter().map(|v| v.map(attachment)).collect();
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: &color_attachments,
+        depth_stencil_attachment: depth.map(|(view, load, store)| {
+            wgpu::RenderPassDepthStencilAttachment {
+                view,
+                depth_ops: Some(wgpu::Operations { load, store }),
+                stencil_ops: None,
+            }
+        }),
+        timestamp_writes: timestamps,
         occlusion_query_set: None,
         multiview_mask: None,
     })
 }
 
-/// A depth buffer for a `width` × `height` target.
-pub fn depth_texture(gpu: &Gpu, width: u32, height: u32) -> wgpu::Texture {
-    gpu.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("glint depth"),
+/// A `width` × `height` 2D texture of `format` for `usage`: one MIP level, one sample.
+pub fn texture_2d(
+    device: &wgpu::Device,
+    label: &str,
+    width: u32,
+    height: u32,
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
         size: wgpu::Extent3d {
             width,
             height,
@@ -104,10 +169,35 @@ pub fn depth_texture(gpu: &Gpu, width: u32, height: u32) -> wgpu::Texture {
         mip_level_count: 1,
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
-        format: DEPTH_FORMAT,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+        format,
+        usage,
         view_formats: &[],
     })
+}
+
+/// Refuses a target side of 0 or over the device's `max_texture_dimension_2d`.
+pub(crate) fn check_target_size(
+    device: &wgpu::Device,
+    width: u32,
+    height: u32,
+) -> Result<(), GpuError> {
+    let max = device.limits().max_texture_dimension_2d;
+    if width == 0 || height == 0 || width > max || height > max {
+        return Err(GpuError::InvalidSize { width, height, max });
+    }
+    Ok(())
+}
+
+/// A depth buffer for a `width` × `height` target.
+pub fn depth_texture(gpu: &Gpu, width: u32, height: u32) -> wgpu::Texture {
+    texture_2d(
+        &gpu.device,
+        "glint depth",
+        width,
+        height,
+        DEPTH_FORMAT,
+        wgpu::TextureUsages::RENDER_ATTACHMENT,
+    )
 }
 
 /// An offscreen target: colour (readable), optional HDR (readable) and depth.
@@ -130,26 +220,17 @@ pub struct OffscreenTarget {
 impl OffscreenTarget {
     /// Creates the textures; checks the size against the device's limit.
     pub fn new(gpu: &Gpu, width: u32, height: u32, hdr: bool) -> Result<OffscreenTarget, GpuError> {
-        let max = gpu.device.limits().max_texture_dimension_2d;
-        if width == 0 || height == 0 || width > max || height > max {
-            return Err(GpuError::InvalidSize { width, height, max });
-        }
+        check_target_size(&gpu.device, width, height)?;
         error_scoped(&gpu.device, "creating the offscreen target", || {
             let colour = |format, label| {
-                gpu.device.create_texture(&wgpu::TextureDescriptor {
-                    label: Some(label),
-                    size: wgpu::Extent3d {
-                        width,
-                        height,
-                        depth_or_array_layers: 1,
-                    },
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
+                texture_2d(
+                    &gpu.device,
+                    label,
+                    width,
+                    height,
                     format,
-                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-                    view_formats: &[],
-                })
+                    wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+                )
             };
             let color = colour(COLOR_FORMAT, "glint offscreen colour");
             let hdr = hdr.then(|| colour(HDR_FORMAT, "glint offscreen hdr"));

@@ -4,7 +4,8 @@
 //!
 //! For tests, in `src` (`#[cfg(test)]` modules) and in `tests/` alike:
 //! [`assert_wgsl_layout!`](crate::assert_wgsl_layout) names the Rust fields, and
-//! [`assert_layout`] compares.
+//! [`assert_layout`] compares. A vertex buffer's struct meets WGSL through `@location`s
+//! instead: [`assert_vertex_layout`] checks its stride, offsets and locations.
 
 use wgpu::naga;
 
@@ -17,23 +18,37 @@ pub struct WgslStruct {
     pub members: Vec<(String, u32)>,
 }
 
-/// The layout of the struct `name` in the WGSL `source`, or why there is none (the source
-/// does not parse, has no layout, or has no such struct).
-pub fn wgsl_struct(source: &str, name: &str) -> Result<WgslStruct, String> {
-    let module = naga::front::wgsl::parse_str(source)
-        .map_err(|e| format!("the WGSL does not parse: {}", e.emit_to_string(source)))?;
-    let mut layouter = naga::proc::Layouter::default();
-    layouter
-        .update(module.to_ctx())
-        .map_err(|e| format!("the WGSL has no layout: {e}"))?;
+/// The WGSL `source` parsed by naga, or why it does not parse.
+fn parse(source: &str) -> Result<naga::Module, String> {
+    naga::front::wgsl::parse_str(source)
+        .map_err(|e| format!("the WGSL does not parse: {}", e.emit_to_string(source)))
+}
+
+/// The struct `name` of `module`: its type handle and members.
+fn find_struct<'m>(
+    module: &'m naga::Module,
+    name: &str,
+) -> Result<(naga::Handle<naga::Type>, &'m [naga::StructMember]), String> {
     let (handle, ty) = module
         .types
         .iter()
         .find(|(_, t)| t.name.as_deref() == Some(name))
         .ok_or_else(|| format!("no type `{name}` in the WGSL"))?;
-    let naga::TypeInner::Struct { members, .. } = &ty.inner else {
-        return Err(format!("`{name}` is not a struct in the WGSL"));
-    };
+    match &ty.inner {
+        naga::TypeInner::Struct { members, .. } => Ok((handle, members)),
+        _ => Err(format!("`{name}` is not a struct in the WGSL")),
+    }
+}
+
+/// The layout of the struct `name` in the WGSL `source`, or why there is none (the source
+/// does not parse, has no layout, or has no such struct).
+pub fn wgsl_struct(source: &str, name: &str) -> Result<WgslStruct, String> {
+    let module = parse(source)?;
+    let mut layouter = naga::proc::Layouter::default();
+    layouter
+        .update(module.to_ctx())
+        .map_err(|e| format!("the WGSL has no layout: {e}"))?;
+    let (handle, members) = find_struct(&module, name)?;
     Ok(WgslStruct {
         size: layouter[handle].size,
         members: members
@@ -90,6 +105,74 @@ macro_rules! assert_wgsl_layout {
             &[$((stringify!($field), ::std::mem::offset_of!($ty, $field))),+],
         )
     };
+}
+
+/// The `@location`s of the members of struct `name` in the WGSL `source` (a vertex input),
+/// or why there are none.
+pub fn wgsl_locations(source: &str, name: &str) -> Result<Vec<Option<u32>>, String> {
+    let module = parse(source)?;
+    let (_, members) = find_struct(&module, name)?;
+    Ok(members
+        .iter()
+        .map(|m| match m.binding {
+            Some(naga::Binding::Location { location, .. }) => Some(location),
+            _ => None,
+        })
+        .collect())
+}
+
+/// The array stride and element type (as WGSL writes it, e.g. `vec4<f32>`) of the
+/// array-typed global variable `name` in the WGSL `source` (a storage buffer read as an array
+/// of vectors), or why there is none.
+pub fn wgsl_array(source: &str, name: &str) -> Result<(u32, String), String> {
+    let module = parse(source)?;
+    let (_, var) = module
+        .global_variables
+        .iter()
+        .find(|(_, v)| v.name.as_deref() == Some(name))
+        .ok_or_else(|| format!("no global `{name}` in the WGSL"))?;
+    let naga::TypeInner::Array { base, stride, .. } = module.types[var.ty].inner else {
+        return Err(format!("`{name}` is not an array in the WGSL"));
+    };
+    let element = match module.types[base].inner {
+        naga::TypeInner::Vector { size, scalar } => {
+            let kind = match scalar.kind {
+                naga::ScalarKind::Float => "f",
+                naga::ScalarKind::Uint => "u",
+                naga::ScalarKind::Sint => "i",
+                _ => "?",
+            };
+            format!("vec{}<{kind}{}>", size as u8, scalar.width * 8)
+        }
+        ref other => format!("{other:?}"),
+    };
+    Ok((stride, element))
+}
+
+/// Panics unless the vertex buffer `layout` has the stride `size` of its `repr(C)` struct,
+/// its attributes at the struct's field `offsets` (attribute order), and the WGSL vertex
+/// input `input` of `source` takes them at the attributes' locations.
+pub fn assert_vertex_layout(
+    layout: &wgpu::VertexBufferLayout<'_>,
+    size: usize,
+    offsets: &[usize],
+    source: &str,
+    input: &str,
+) {
+    assert_eq!(layout.array_stride as usize, size, "{input}: stride");
+    let got: Vec<usize> = layout
+        .attributes
+        .iter()
+        .map(|a| a.offset as usize)
+        .collect();
+    assert_eq!(got, offsets, "{input}: attribute offsets");
+    let want: Vec<Option<u32>> = layout
+        .attributes
+        .iter()
+        .map(|a| Some(a.shader_location))
+        .collect();
+    let locations = wgsl_locations(source, input).unwrap_or_else(|e| panic!("{input}: {e}"));
+    assert_eq!(locations, want, "{input}: locations");
 }
 
 #[cfg(test)]
@@ -173,5 +256,63 @@ mod tests {
                 ("c", std::mem::offset_of!(Shifted, c)),
             ],
         );
+    }
+
+    const VERTEX_SOURCE: &str = "struct In { @location(0) p: vec3<f32>, @location(2) n: u32 }
+        @vertex fn vs(i: In) -> @builtin(position) vec4<f32> { return vec4<f32>(i.p, 1.0); }";
+
+    fn vertex_layout(second: u32) -> Vec<wgpu::VertexAttribute> {
+        vec![
+            wgpu::VertexAttribute {
+                format: wgpu::VertexFormat::Float32x3,
+                offset: 0,
+                shader_location: 0,
+            },
+            wgpu::VertexAttribute {
+                format: wgpu::VertexFormat::Uint32,
+                offset: 12,
+                shader_location: second,
+            },
+        ]
+    }
+
+    #[test]
+    fn array_strides_and_elements_are_read() {
+        let source = "@group(0) @binding(0) var<storage, read> a: array<vec4<f32>>;
+            @group(0) @binding(1) var<storage, read> b: array<vec2<u32>>;";
+        assert_eq!(wgsl_array(source, "a").unwrap(), (16, "vec4<f32>".into()));
+        assert_eq!(wgsl_array(source, "b").unwrap(), (8, "vec2<u32>".into()));
+        assert!(
+            wgsl_array(source, "c")
+                .unwrap_err()
+                .contains("no global `c`")
+        );
+    }
+
+    #[test]
+    fn vertex_locations_are_read_from_the_wgsl_input() {
+        assert_eq!(
+            wgsl_locations(VERTEX_SOURCE, "In").unwrap(),
+            [Some(0), Some(2)]
+        );
+        let attributes = vertex_layout(2);
+        let layout = wgpu::VertexBufferLayout {
+            array_stride: 16,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &attributes,
+        };
+        assert_vertex_layout(&layout, 16, &[0, 12], VERTEX_SOURCE, "In");
+    }
+
+    #[test]
+    #[should_panic(expected = "In: locations")]
+    fn a_wrong_vertex_location_is_named() {
+        let attributes = vertex_layout(1);
+        let layout = wgpu::VertexBufferLayout {
+            array_stride: 16,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &attributes,
+        };
+        assert_vertex_layout(&layout, 16, &[0, 12], VERTEX_SOURCE, "In");
     }
 }

@@ -9,15 +9,15 @@ use super::{
 };
 use crate::camera::Camera;
 use crate::view::billboard_tables::BillboardTables;
+use crate::view::build::{bind_group_layout, buffer, buffer_init, render_pipeline, shader};
+use crate::view::composite::Composite;
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::impostor_tables::{
     ImpostorParams, ImpostorReflector, SrdmTables, impostor_reflectors,
 };
 use crate::view::load::ViewData;
 use crate::view::reflections::reflectors_with_reflectance;
-use crate::view::renderer::{
-    HDR_FORMAT, Renderer, SHADER_SOURCE, frame_bind_group, frame_bind_group_layout, reverse_z_depth,
-};
+use crate::view::renderer::{Renderer, SHADER_SOURCE, frame_bind_group_layout};
 
 struct ReflectorGpu {
     reflector: ImpostorReflector,
@@ -31,8 +31,7 @@ struct ReflectorGpu {
 /// The impostor reflections pass of one [`Renderer`] (new / prepare / draw, like
 /// [`crate::view::reflections::GeometryReflections`]).
 pub struct ImpostorReflections {
-    pipeline: wgpu::RenderPipeline,
-    frame_group: wgpu::BindGroup,
+    composite: Composite,
     buffers: SrdmBuffers,
     billboards: Option<BillboardBuffers>,
     reflectors: Vec<ReflectorGpu>,
@@ -136,107 +135,44 @@ impl ImpostorReflections {
         settings: ImpostorSettings,
     ) -> Result<ImpostorReflections, GpuError> {
         let device = &gpu.device;
-        let formats = renderer.formats();
         error_scoped(device, "creating the impostor reflections pass", || {
-            let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("glint impostor reflections shader"),
-                source: wgpu::ShaderSource::Wgsl(
-                    if billboards.is_some() {
-                        format!(
-                            "{SHADER_SOURCE}\n{SRDM_SHADER_SOURCE}\n{IMPOSTOR_SHADER_SOURCE}\n\
-                             {BILLBOARD_SHADER_SOURCE}\n{BILLBOARD_REFLECT_SHADER_SOURCE}"
-                        )
-                    } else {
-                        format!("{SHADER_SOURCE}\n{SRDM_SHADER_SOURCE}\n{IMPOSTOR_SHADER_SOURCE}")
-                    }
-                    .into(),
-                ),
-            });
-            let frame_layout = frame_bind_group_layout(device);
-            let params_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("glint impostor params layout"),
-                entries: &[wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: wgpu::BufferSize::new(
-                            std::mem::size_of::<ImpostorParams>() as u64,
-                        ),
-                    },
-                    count: None,
-                }],
-            });
-            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("glint impostor reflections layout"),
-                bind_group_layouts: &match &billboards {
-                    Some(b) => [
-                        Some(&frame_layout),
-                        None,
-                        Some(&params_layout),
-                        Some(&b.layout),
-                    ],
-                    None => [
-                        Some(&frame_layout),
-                        Some(&buffers.layout),
-                        Some(&params_layout),
-                        None,
-                    ],
-                },
-                immediate_size: 0,
-            });
-            let additive = crate::view::renderer::ADDITIVE_KEEP_ALPHA;
-            let target = |format| {
-                Some(wgpu::ColorTargetState {
-                    format,
-                    blend: Some(additive),
-                    write_mask: wgpu::ColorWrites::ALL,
-                })
+            let source = if billboards.is_some() {
+                format!(
+                    "{SHADER_SOURCE}\n{SRDM_SHADER_SOURCE}\n{IMPOSTOR_SHADER_SOURCE}\n\
+                     {BILLBOARD_SHADER_SOURCE}\n{BILLBOARD_REFLECT_SHADER_SOURCE}"
+                )
+            } else {
+                format!("{SHADER_SOURCE}\n{SRDM_SHADER_SOURCE}\n{IMPOSTOR_SHADER_SOURCE}")
             };
-            let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("glint impostor reflections pipeline"),
-                layout: Some(&layout),
-                vertex: wgpu::VertexState {
-                    module: &shader,
-                    entry_point: Some("vs_impostor"),
-                    compilation_options: wgpu::PipelineCompilationOptions::default(),
-                    // Position and vertex normal: curved reflectors reflect about the
-                    // interpolated normal, as the cube-map composite does.
-                    buffers: &[Some(crate::view::curved::gpu::CurvedVertex::layout())],
-                },
-                primitive: wgpu::PrimitiveState {
-                    topology: wgpu::PrimitiveTopology::TriangleList,
-                    cull_mode: None,
-                    ..Default::default()
-                },
-                depth_stencil: Some(reverse_z_depth(false, wgpu::CompareFunction::GreaterEqual)),
-                multisample: wgpu::MultisampleState::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &shader,
-                    entry_point: Some(if billboards.is_some() {
-                        "fs_billboard"
-                    } else {
-                        "fs_impostor"
-                    }),
-                    compilation_options: wgpu::PipelineCompilationOptions::default(),
-                    targets: &[
-                        target(formats.color),
-                        if formats.hdr {
-                            target(HDR_FORMAT)
-                        } else {
-                            None
-                        },
-                    ],
-                }),
-                multiview_mask: None,
-                cache: None,
-            });
-            let frame_group = frame_bind_group(
+            let shader = shader(device, "glint impostor reflections shader", &source);
+            let frame_layout = frame_bind_group_layout(device);
+            let params_layout = bind_group_layout()
+                .uniform::<ImpostorParams>(0, wgpu::ShaderStages::FRAGMENT)
+                .build(device, "glint impostor params layout");
+            // Depth maps read the SRDM tables (group 1), billboards theirs (group 3).
+            let (tables, fragment) = match &billboards {
+                Some(b) => ([None, Some(&b.layout)], "fs_billboard"),
+                None => ([Some(&buffers.layout), None], "fs_impostor"),
+            };
+            let composite = Composite::new(
                 device,
+                renderer,
                 &frame_layout,
-                renderer.frame_uniform_buffer(),
-                renderer.textures(),
+                render_pipeline(
+                    "glint impostor reflections pipeline",
+                    &shader,
+                    "vs_impostor",
+                    fragment,
+                )
+                .layout_slots(&[
+                    Some(&frame_layout),
+                    tables[0],
+                    Some(&params_layout),
+                    tables[1],
+                ])
+                // Position and vertex normal: curved reflectors reflect about the
+                // interpolated normal, as the cube-map composite does.
+                .vertex(crate::view::curved::gpu::CurvedVertex::layout()),
             );
             let reflectors = reflectors
                 .into_iter()
@@ -245,20 +181,19 @@ impl ImpostorReflections {
                         &data.scene,
                         &reflector.triangles,
                     );
-                    let vertex_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-                        label: Some("glint impostor reflector vertices"),
-                        size: (std::mem::size_of_val(vertices.as_slice()) as u64).max(4),
-                        usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
-                        mapped_at_creation: false,
-                    });
-                    gpu.queue
-                        .write_buffer(&vertex_buffer, 0, bytemuck::cast_slice(&vertices));
-                    let params = device.create_buffer(&wgpu::BufferDescriptor {
-                        label: Some("glint impostor reflector params"),
-                        size: std::mem::size_of::<ImpostorParams>() as u64,
-                        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-                        mapped_at_creation: false,
-                    });
+                    let vertex_buffer = buffer_init(
+                        gpu,
+                        "glint impostor reflector vertices",
+                        wgpu::BufferUsages::VERTEX,
+                        bytemuck::cast_slice(&vertices),
+                        4,
+                    );
+                    let params = buffer(
+                        device,
+                        "glint impostor reflector params",
+                        std::mem::size_of::<ImpostorParams>() as u64,
+                        wgpu::BufferUsages::UNIFORM,
+                    );
                     let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
                         label: Some("glint impostor reflector params"),
                         layout: &params_layout,
@@ -277,8 +212,7 @@ impl ImpostorReflections {
                 })
                 .collect();
             ImpostorReflections {
-                pipeline,
-                frame_group,
+                composite,
                 buffers,
                 billboards,
                 reflectors,
@@ -335,7 +269,7 @@ impl ImpostorReflections {
         if nothing || self.reflectors.iter().all(|r| r.vertex_count == 0) {
             return;
         }
-        let mut pass = crate::view::renderer::overlay_pass(
+        let mut pass = self.composite.begin(
             encoder,
             "glint impostor reflections pass",
             color,
@@ -343,8 +277,6 @@ impl ImpostorReflections {
             depth,
             None,
         );
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &self.frame_group, &[]);
         match &self.billboards {
             Some(b) => pass.set_bind_group(3, &b.group, &[]),
             None => pass.set_bind_group(1, &self.buffers.group, &[]),

@@ -6,15 +6,17 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use super::super::billboard_tables::BillboardTables;
-use super::super::gpu::{Gpu, GpuError, error_scoped, probe_io_layout, run_probe};
+use super::super::build::{compute_pipeline, shader};
+use super::super::gpu::{Gpu, GpuError, error_scoped};
 use super::super::impostor_tables::SrdmTables;
+use super::super::probe::{probe_io_layout, run_probe};
 use super::tables_gpu::{BillboardBuffers, SrdmBuffers};
 use super::{
     BILLBOARD_PROBE_SHADER_SOURCE, BILLBOARD_SHADER_SOURCE, SRDM_PROBE_SHADER_SOURCE,
     SRDM_SHADER_SOURCE,
 };
 
-/// A compute pipeline running `entry` of `source` over bind groups `layouts`.
+/// A compute pipeline running `entry` of the WGSL `source` over bind groups `layouts`.
 fn probe_pipeline(
     device: &wgpu::Device,
     label: &str,
@@ -22,23 +24,13 @@ fn probe_pipeline(
     layouts: &[Option<&wgpu::BindGroupLayout>],
     entry: &str,
 ) -> wgpu::ComputePipeline {
-    let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some(label),
-        source: wgpu::ShaderSource::Wgsl(source.into()),
-    });
-    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some(label),
-        bind_group_layouts: layouts,
-        immediate_size: 0,
-    });
-    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(label),
-        layout: Some(&layout),
-        module: &shader,
-        entry_point: Some(entry),
-        compilation_options: wgpu::PipelineCompilationOptions::default(),
-        cache: None,
-    })
+    compute_pipeline(
+        device,
+        label,
+        &shader(device, label, source),
+        layouts,
+        entry,
+    )
 }
 
 /// One ray of a compute probe batch (`ProbeRay` in `shaders/srdm_probe.wgsl`, `BbProbeRay`

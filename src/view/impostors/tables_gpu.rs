@@ -2,6 +2,7 @@
 //! `shaders/srdm.wgsl`) and the billboard tables (group 3 of `shaders/billboards.wgsl`).
 
 use super::super::billboard_tables::BillboardTables;
+use super::super::build::{bind_group_layout, buffer_init};
 use super::super::gpu::{Gpu, GpuError, error_scoped};
 use super::super::impostor_tables::SrdmTables;
 
@@ -13,48 +14,23 @@ pub struct SrdmBuffers {
     _buffers: Vec<wgpu::Buffer>,
 }
 
-fn storage_buffer(gpu: &Gpu, label: &str, bytes: &[u8]) -> wgpu::Buffer {
-    let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some(label),
-        // A binding must not be empty; pad to one 16-byte element.
-        size: (bytes.len() as u64).max(16).next_multiple_of(4),
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    gpu.queue.write_buffer(&buffer, 0, bytes);
-    buffer
-}
-
-fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
 /// Read-only storage tables as one bind group: a buffer per `(label, bytes)`, bound in order
-/// from binding 0. Returns the layout, the group and the buffers (kept alive with it).
+/// from binding 0 (fragment and compute stages). Returns the layout, the group and the
+/// buffers (kept alive with it).
 fn storage_tables(
     gpu: &Gpu,
     label: &str,
     tables: &[(&str, &[u8])],
 ) -> (wgpu::BindGroupLayout, wgpu::BindGroup, Vec<wgpu::Buffer>) {
     let device = &gpu.device;
-    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some(&format!("{label} layout")),
-        entries: &(0..tables.len() as u32)
-            .map(|b| storage_entry(b, true))
-            .collect::<Vec<_>>(),
-    });
+    let visibility = wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
+    let layout = (0..tables.len() as u32)
+        .fold(bind_group_layout(), |l, b| l.storage(b, visibility))
+        .build(device, &format!("{label} layout"));
+    // A binding must not be empty; pad to one 16-byte element.
     let buffers: Vec<wgpu::Buffer> = tables
         .iter()
-        .map(|(name, bytes)| storage_buffer(gpu, name, bytes))
+        .map(|(name, bytes)| buffer_init(gpu, name, wgpu::BufferUsages::STORAGE, bytes, 16))
         .collect();
     let entries: Vec<wgpu::BindGroupEntry> = buffers
         .iter()

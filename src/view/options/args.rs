@@ -244,8 +244,10 @@ mod tests {
         assert!(e.contains("--maps"), "{e}");
         let e = options(&["--selection", "near"]).unwrap_err();
         assert!(e.contains("angle, distance"), "{e}");
-        let mut o = ViewOptions::default();
-        o.maps = 0;
+        let o = ViewOptions {
+            maps: 0,
+            ..ViewOptions::default()
+        };
         assert!(o.check().unwrap_err().contains("maps 0"));
     }
 }

@@ -3,7 +3,8 @@
 //! reflector's plane, K the material's kernel, R its reflectance modulation, D the baked
 //! radiosity (exitant radiance, kd already in it).
 //!
-//! Per reflector seen from its reflecting side and frame, two passes ([`passes`]):
+//! Per reflector seen from its reflecting side and frame, two passes ([`passes`]; the
+//! shader's inputs in [`params`], M's target in [`map_target`]):
 //! 1. M into an offscreen Rgba16Float texture in the reflected view (the viewpoint and its
 //!    axes mirrored about the plane, [`mirror_camera`]), alpha = the fraction of the
 //!    reflected ray beyond the plane (for K's scale), from one of two [`Source`]s:
@@ -13,7 +14,7 @@
 //!      baked radiance maps closest to the mirrored eye ([`super::radiance_maps::select`],
 //!      by angle or distance) reprojected as splats (instanced quads: WebGPU has no point
 //!      size), sized by Eq. 3 per quadtree node, culled per node, points skipped when
-//!      minified ([`splats`]).
+//!      minified ([`splats`], on the GPU in [`splat_maps`]).
 //! 2. The composite: the reflector drawn again over the frame, depth-tested against the scene
 //!    pass (the mask), adding ks·R × (M*K) at the same pixel: the convolution with K is a
 //!    gather of K's significant taps, scaled per pixel ([`material`]), R from the sphere map
@@ -32,9 +33,12 @@ use crate::scene::desc::ReflectorKind;
 use crate::scene::{Plane, Scene};
 
 mod cpu;
+mod map_target;
 pub mod material;
+mod params;
 mod passes;
 pub mod recursive;
+mod splat_maps;
 pub mod splats;
 
 pub use cpu::cpu_reference;
@@ -42,8 +46,10 @@ pub use material::{
     MODULATION_SIZE, Modulation, ReflectanceChannel, ReflectanceLayout, ScreenKernel,
     sample_modulation,
 };
-pub use passes::{FrameStats, GeometryReflections, ReflectParams, shader_source};
+pub use params::{ReflectParams, shader_source};
+pub use passes::GeometryReflections;
 pub use recursive::{RecursionSettings, RecursionStats, RecursiveReflections};
+pub use splat_maps::FrameStats;
 pub use splats::{SPLAT_OVERLAP, Splat};
 
 /// WGSL of the reflection passes (appended to [`super::renderer::SHADER_SOURCE`]).
@@ -217,24 +223,21 @@ mod tests {
 
     #[test]
     fn reflect_params_match_the_wgsl_struct() {
-        let (size, members) = crate::view::build::wgsl_struct(&shader_source(), "ReflectParams");
-        assert_eq!(size, std::mem::size_of::<ReflectParams>());
-        let want = [
-            ("plane", std::mem::offset_of!(ReflectParams, plane)),
-            ("ks", std::mem::offset_of!(ReflectParams, ks)),
-            ("eye", std::mem::offset_of!(ReflectParams, eye)),
-            ("tangent", std::mem::offset_of!(ReflectParams, tangent)),
-            ("bitangent", std::mem::offset_of!(ReflectParams, bitangent)),
-            ("kernel", std::mem::offset_of!(ReflectParams, kernel)),
-            ("parent", std::mem::offset_of!(ReflectParams, parent)),
-            (
-                "modulation",
-                std::mem::offset_of!(ReflectParams, modulation),
-            ),
-            ("taps", std::mem::offset_of!(ReflectParams, taps)),
-        ];
-        let got: Vec<(&str, usize)> = members.iter().map(|(n, o)| (n.as_str(), *o)).collect();
-        assert_eq!(got, want);
+        crate::assert_wgsl_layout!(
+            shader_source(),
+            "ReflectParams",
+            ReflectParams {
+                plane,
+                ks,
+                eye,
+                tangent,
+                bitangent,
+                kernel,
+                parent,
+                modulation,
+                taps
+            }
+        );
     }
 
     #[test]

@@ -11,6 +11,7 @@ use crate::view::gpu::Gpu;
 use crate::view::renderer::{
     ADDITIVE_KEEP_ALPHA, HDR_FORMAT, reverse_z_depth, scene_vertex_layout,
 };
+use crate::view::target::clear_pass;
 
 impl CurvedReflections {
     /// Records every generation: per generation (written set `w`, read set `r`, never equal)
@@ -70,29 +71,14 @@ impl CurvedReflections {
                     })
                     .collect();
                 for face in 0..6 {
-                    let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                        label: Some("glint cube face pass"),
-                        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                            view: &target.faces[0][face],
-                            depth_slice: None,
-                            resolve_target: None,
-                            ops: wgpu::Operations {
-                                load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                                store: wgpu::StoreOp::Store,
-                            },
-                        })],
-                        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                            view: &pipes.depth_view,
-                            depth_ops: Some(wgpu::Operations {
-                                load: wgpu::LoadOp::Clear(0.0),
-                                store: wgpu::StoreOp::Discard,
-                            }),
-                            stencil_ops: None,
-                        }),
-                        timestamp_writes: None,
-                        occlusion_query_set: None,
-                        multiview_mask: None,
-                    });
+                    let mut pass = clear_pass(
+                        encoder,
+                        "glint cube face pass",
+                        &[Some(&target.faces[0][face])],
+                        wgpu::Color::BLACK,
+                        Some((&pipes.depth_view, false)),
+                        None,
+                    );
                     pass.set_pipeline(&pipes.env);
                     pass.set_bind_group(0, &ri.face_groups[face], &[]);
                     pass.set_vertex_buffer(0, scene_vertices.slice(..));
@@ -199,22 +185,14 @@ impl GenerationPipelines {
                         ),
                     }],
                 });
-                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("glint cube mip pass"),
-                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                        view: &target.faces[level][face],
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations {
-                            load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                            store: wgpu::StoreOp::Store,
-                        },
-                    })],
-                    depth_stencil_attachment: None,
-                    timestamp_writes: None,
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                });
+                let mut pass = clear_pass(
+                    encoder,
+                    "glint cube mip pass",
+                    &[Some(&target.faces[level][face])],
+                    wgpu::Color::BLACK,
+                    None,
+                    None,
+                );
                 pass.set_pipeline(&self.downsample);
                 pass.set_bind_group(1, &group, &[]);
                 pass.draw(0..3, 0..1);

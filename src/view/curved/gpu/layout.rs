@@ -109,7 +109,7 @@ mod tests {
 
     #[test]
     fn curved_vertex_matches_the_wgsl_input() {
-        crate::view::build::assert_vertex_layout(
+        crate::view::wgsl_layout::assert_vertex_layout(
             &CurvedVertex::layout(),
             std::mem::size_of::<CurvedVertex>(),
             &[

@@ -30,7 +30,8 @@ use super::{
     pack_patterns, patterns_for, shader_source,
 };
 use crate::camera::Camera;
-use crate::view::build::{buffer_init, render_pipeline};
+use crate::view::build::{buffer_init, render_pipeline, shader};
+use crate::view::composite::Composite;
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
 use crate::view::renderer::{
@@ -87,8 +88,7 @@ pub struct CurvedReflections {
     /// `maps[set][reflector]`.
     maps: [Vec<CubeTexture>; 2],
     final_set: usize,
-    composite_pipeline: wgpu::RenderPipeline,
-    composite_frame_group: wgpu::BindGroup,
+    composite: Composite,
     /// The composite inside a planar mirror's pass (`fs_curved_mirror`, the HDR map M).
     mirror_pipeline: wgpu::RenderPipeline,
     /// Mirrored views, by the slot the planar passes give them (grown as needed).
@@ -164,10 +164,7 @@ impl CurvedReflections {
         let mesh = SceneMesh::new(scene, &data.map.atlas);
         let xi0 = baked_xi0(data);
         error_scoped(device, "creating the curved-reflector passes", || {
-            let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("glint curved shader"),
-                source: wgpu::ShaderSource::Wgsl(shader_source().into()),
-            });
+            let shader = shader(device, "glint curved shader", &shader_source());
             let frame_layout = frame_bind_group_layout(device);
             let curved_layout = curved_layout(device);
             let sampler = trilinear_sampler(device);
@@ -180,20 +177,15 @@ impl CurvedReflections {
             });
             let plan = generation_plan(settings.generations);
             let final_set = plan.last().expect("at least one generation").write;
-            let formats = renderer.formats();
-            let additive = Some(ADDITIVE_KEEP_ALPHA);
-            let composite_pipeline =
+            let composite = Composite::new(
+                device,
+                renderer,
+                &frame_layout,
                 render_pipeline("glint curved composite", &shader, "vs_curved", "fs_curved")
                     .layouts(&[&frame_layout, &curved_layout])
-                    .vertex(CurvedVertex::layout())
-                    .color(formats.color, additive)
-                    .target(formats.hdr.then_some(wgpu::ColorTargetState {
-                        format: HDR_FORMAT,
-                        blend: additive,
-                        write_mask: wgpu::ColorWrites::ALL,
-                    }))
-                    .depth(reverse_z_depth(false, wgpu::CompareFunction::GreaterEqual))
-                    .build(device);
+                    .vertex(CurvedVertex::layout()),
+            );
+            let additive = Some(ADDITIVE_KEEP_ALPHA);
             // Inside a mirror pass: one linear HDR target (M), depth tested, not written.
             let mirror_pipeline = render_pipeline(
                 "glint curved composite in a mirror",
@@ -213,12 +205,6 @@ impl CurvedReflections {
                 &curved_layout,
                 face_size,
                 gpu,
-            );
-            let composite_frame_group = frame_bind_group(
-                device,
-                &frame_layout,
-                renderer.frame_uniform_buffer(),
-                renderer.textures(),
             );
             let in_reflector = {
                 let mut v = vec![usize::MAX; scene.triangles.len()];
@@ -242,10 +228,9 @@ impl CurvedReflections {
                         bytemuck::cast_slice(&verts),
                         MIN_BUFFER,
                     );
-                    let others: Vec<u32> = (0..scene.triangles.len())
-                        .filter(|&t| in_reflector[t] != i)
-                        .flat_map(|t| mesh.indices[3 * t..3 * t + 3].iter().copied())
-                        .collect();
+                    let others = mesh.triangle_indices(
+                        (0..scene.triangles.len()).filter(|&t| in_reflector[t] != i),
+                    );
                     let others_buffer = buffer_init(
                         gpu,
                         "glint cube map indices",
@@ -335,8 +320,7 @@ impl CurvedReflections {
                     reflectors: gpus,
                     maps,
                     final_set,
-                    composite_pipeline,
-                    composite_frame_group,
+                    composite,
                     mirror_pipeline,
                     mirror_views: Mutex::new(Vec::new()),
                     frame_layout,
@@ -417,7 +401,7 @@ impl CurvedReflections {
         if self.reflectors.is_empty() {
             return;
         }
-        let mut pass = crate::view::renderer::overlay_pass(
+        let mut pass = self.composite.begin(
             encoder,
             "glint curved composite pass",
             color,
@@ -425,8 +409,6 @@ impl CurvedReflections {
             depth,
             None,
         );
-        pass.set_pipeline(&self.composite_pipeline);
-        pass.set_bind_group(0, &self.composite_frame_group, &[]);
         for r in &self.reflectors {
             pass.set_bind_group(1, &r.composite_group, &[]);
             pass.set_vertex_buffer(0, r.vertices.slice(..));

@@ -7,8 +7,9 @@ use super::super::{CurvedParams, CurvedReflector, pack_patterns, shader_source};
 use super::layout::{curved_group, curved_layout, trilinear_sampler};
 use super::{CubeTexture, CurvedReflections, MIN_BUFFER};
 use crate::materials::envmap::MipPyramid;
-use crate::view::build::{bind_group_layout, buffer_init};
-use crate::view::gpu::{Gpu, error_scoped, probe_io_layout, run_probe};
+use crate::view::build::{bind_group_layout, buffer_init, compute_pipeline, shader};
+use crate::view::gpu::{Gpu, error_scoped};
+use crate::view::probe::{probe_io_layout, run_probe};
 use crate::view::renderer::RenderError;
 
 impl CurvedReflections {
@@ -52,26 +53,17 @@ fn curved_probe(
     let device = &gpu.device;
     let (pipeline, probe_layout, group0, group1) =
         error_scoped(device, "creating a curved-shader probe", || {
-            let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("glint curved probe"),
-                source: wgpu::ShaderSource::Wgsl(shader_source().into()),
-            });
+            let shader = shader(device, "glint curved probe", &shader_source());
             let curved_layout = curved_layout(device);
             let probe_layout = probe_io_layout(device, "glint curved probe layout");
             let empty = bind_group_layout().build(device, "glint empty layout");
-            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("glint curved probe pipeline layout"),
-                bind_group_layouts: &[Some(&empty), Some(&curved_layout), Some(&probe_layout)],
-                immediate_size: 0,
-            });
-            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("glint curved probe"),
-                layout: Some(&layout),
-                module: &shader,
-                entry_point: Some(entry),
-                compilation_options: wgpu::PipelineCompilationOptions::default(),
-                cache: None,
-            });
+            let pipeline = compute_pipeline(
+                device,
+                "glint curved probe",
+                &shader,
+                &[Some(&empty), Some(&curved_layout), Some(&probe_layout)],
+                entry,
+            );
             let sampler = trilinear_sampler(device);
             let params = buffer_init(
                 gpu,

@@ -5,8 +5,10 @@ use std::sync::Mutex;
 
 use glam::Vec3;
 
-use super::super::passes::{
-    ReflectParams, composite_bind_group_layout, params_layout, shader_source, sphere_texture,
+use super::super::map_target::{ReflectionMap, map_sampler};
+use super::super::params::{
+    ReflectParams, composite_bind_group_layout, composite_group, params_group, params_layout,
+    planar_composite, shader_source, sphere_texture,
 };
 use super::super::splats::pixel_tangent;
 use super::super::{
@@ -17,22 +19,15 @@ use super::{
     texture_bytes,
 };
 use crate::camera::Camera;
-use crate::view::build::{RenderPipelineBuilder, buffer, buffer_init, render_pipeline};
+use crate::view::build::{RenderPipelineBuilder, buffer, buffer_init, render_pipeline, shader};
+use crate::view::composite::Composite;
 use crate::view::curved::gpu::CurvedReflections;
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
 use crate::view::renderer::{
-    ADDITIVE_KEEP_ALPHA, DEPTH_FORMAT, HDR_FORMAT, RenderError, Renderer, frame_bind_group,
+    ADDITIVE_KEEP_ALPHA, HDR_FORMAT, RenderError, Renderer, frame_bind_group,
     frame_bind_group_layout, reverse_z_depth, scene_vertex_layout, uniform_buffer,
 };
-
-/// One recursion level's render target.
-struct Level {
-    _color: wgpu::Texture,
-    view: wgpu::TextureView,
-    _depth: wgpu::Texture,
-    depth_view: wgpu::TextureView,
-}
 
 /// Per-node GPU state, reused across frames (grown as needed).
 struct Slot {
@@ -55,14 +50,15 @@ pub struct RecursiveReflections {
     _spheres: Vec<wgpu::Texture>,
     sphere_views: Vec<wgpu::TextureView>,
     mirror_pipeline: wgpu::RenderPipeline,
-    frame_composite_pipeline: wgpu::RenderPipeline,
+    /// A level-0 map onto its reflector in the frame.
+    frame_composite: Composite,
     map_composite_pipeline: wgpu::RenderPipeline,
     frame_layout: wgpu::BindGroupLayout,
     params_layout: wgpu::BindGroupLayout,
     composite_layout: wgpu::BindGroupLayout,
-    composite_frame_group: wgpu::BindGroup,
     sampler: wgpu::Sampler,
-    levels: Vec<Level>,
+    /// Figure 3: one reflection map per recursion level.
+    levels: Vec<ReflectionMap>,
     slots: Mutex<Vec<Slot>>,
     plan: Mutex<Plan>,
     clip: f32,
@@ -107,12 +103,12 @@ impl RecursiveReflections {
         let device = &gpu.device;
         let mesh = crate::view::renderer::SceneMesh::new(&data.scene, &data.map.atlas);
         let clip = (data.scene.bounds.diagonal() * CLIP_FRACTION).max(1e-5);
-        let formats = renderer.formats();
         error_scoped(device, "creating the recursive reflection passes", || {
-            let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("glint recursive reflection shader"),
-                source: wgpu::ShaderSource::Wgsl(shader_source().into()),
-            });
+            let shader = shader(
+                device,
+                "glint recursive reflection shader",
+                &shader_source(),
+            );
             let frame_layout = frame_bind_group_layout(device);
             let params_layout = params_layout().build(device, "glint recursive params layout");
             let composite_layout =
@@ -144,82 +140,32 @@ impl RecursiveReflections {
             .build(device);
             // A level-(k+1) map onto its reflector in map k (linear, `encode_srgb` = 0; the shader's
             // HDR output has no target here).
-            let composite_depth = reverse_z_depth(false, wgpu::CompareFunction::GreaterEqual);
             let map_composite_pipeline = pipeline(
                 "glint recursive map composite pipeline",
                 &composite_layout,
                 "fs_composite",
-                composite_depth.clone(),
+                reverse_z_depth(false, wgpu::CompareFunction::GreaterEqual),
             )
             .color(HDR_FORMAT, additive)
             .build(device);
             // A level-0 map onto its reflector in the frame (as the single mirror pass's
             // composite).
-            let frame_composite_pipeline = pipeline(
-                "glint recursive frame composite pipeline",
-                &composite_layout,
-                "fs_composite",
-                composite_depth,
-            )
-            .color(formats.color, additive)
-            .target(formats.hdr.then_some(wgpu::ColorTargetState {
-                format: HDR_FORMAT,
-                blend: additive,
-                write_mask: wgpu::ColorWrites::ALL,
-            }))
-            .build(device);
-            let size = wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            };
-            // Figure 3: one reflection map per recursion level.
-            let levels = (0..settings.depth)
-                .map(|_| {
-                    let color = device.create_texture(&wgpu::TextureDescriptor {
-                        label: Some("glint recursion level map"),
-                        size,
-                        mip_level_count: 1,
-                        sample_count: 1,
-                        dimension: wgpu::TextureDimension::D2,
-                        format: HDR_FORMAT,
-                        usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                            | wgpu::TextureUsages::TEXTURE_BINDING,
-                        view_formats: &[],
-                    });
-                    let depth = crate::view::renderer::depth_texture(gpu, width, height);
-                    debug_assert_eq!(depth.format(), DEPTH_FORMAT);
-                    Level {
-                        view: color.create_view(&wgpu::TextureViewDescriptor::default()),
-                        _color: color,
-                        depth_view: depth.create_view(&wgpu::TextureViewDescriptor::default()),
-                        _depth: depth,
-                    }
-                })
-                .collect();
-            let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-                label: Some("glint recursive reflection sampler"),
-                mag_filter: wgpu::FilterMode::Linear,
-                min_filter: wgpu::FilterMode::Linear,
-                ..Default::default()
-            });
-            let composite_frame_group = frame_bind_group(
+            let frame_composite = planar_composite(
                 device,
+                renderer,
+                "glint recursive frame composite pipeline",
+                &shader,
                 &frame_layout,
-                renderer.frame_uniform_buffer(),
-                renderer.textures(),
+                &composite_layout,
             );
+            let levels = (0..settings.depth)
+                .map(|_| ReflectionMap::new(gpu, "glint recursion level map", width, height))
+                .collect();
+            let sampler = map_sampler(device, "glint recursive reflection sampler");
             let mut vertices = Vec::new();
             let mut indices = Vec::new();
             for r in &reflectors {
-                let idx: Vec<u32> = r
-                    .triangles
-                    .iter()
-                    .flat_map(|&t| {
-                        let t = t as usize * 3;
-                        mesh.indices[t..t + 3].iter().copied()
-                    })
-                    .collect();
+                let idx = mesh.triangle_indices(r.triangles.iter().map(|&t| t as usize));
                 let mut v: Vec<Vec3> = idx
                     .iter()
                     .map(|&i| Vec3::from_array(mesh.vertices[i as usize].position))
@@ -251,12 +197,11 @@ impl RecursiveReflections {
                 _spheres: spheres,
                 sphere_views,
                 mirror_pipeline,
-                frame_composite_pipeline,
+                frame_composite,
                 map_composite_pipeline,
                 frame_layout,
                 params_layout,
                 composite_layout,
-                composite_frame_group,
                 sampler,
                 levels,
                 slots: Mutex::new(Vec::new()),
@@ -311,14 +256,12 @@ impl RecursiveReflections {
             std::mem::size_of::<ReflectParams>() as u64,
             wgpu::BufferUsages::UNIFORM,
         );
-        let params_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("glint recursive node params"),
-            layout: &self.params_layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 2,
-                resource: params.as_entire_binding(),
-            }],
-        });
+        let params_group = params_group(
+            device,
+            "glint recursive node params",
+            &self.params_layout,
+            &params,
+        );
         Slot {
             uniforms,
             frame_group,
@@ -396,32 +339,15 @@ impl RecursiveReflections {
                 .write_buffer(&slot.params, 0, bytemuck::bytes_of(&p));
             let key = (node.reflector, node.level);
             if slot.composite.as_ref().is_none_or(|(k, _)| *k != key) {
-                let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("glint recursive composite"),
-                    layout: &self.composite_layout,
-                    entries: &[
-                        wgpu::BindGroupEntry {
-                            binding: 2,
-                            resource: slot.params.as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 3,
-                            resource: wgpu::BindingResource::TextureView(
-                                &self.levels[node.level].view,
-                            ),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 4,
-                            resource: wgpu::BindingResource::Sampler(&self.sampler),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 5,
-                            resource: wgpu::BindingResource::TextureView(
-                                &self.sphere_views[node.reflector],
-                            ),
-                        },
-                    ],
-                });
+                let group = composite_group(
+                    &gpu.device,
+                    "glint recursive composite",
+                    &self.composite_layout,
+                    &slot.params,
+                    &self.levels[node.level].view,
+                    &self.sampler,
+                    &self.sphere_views[node.reflector],
+                );
                 slot.composite = Some((key, group));
             }
         }
@@ -451,7 +377,7 @@ impl RecursiveReflections {
         for (k, &root) in plan.roots.iter().enumerate() {
             self.draw_node(encoder, renderer, &plan, &slots, root, curved);
             let end = end_timestamp.filter(|_| k + 1 == plan.roots.len());
-            let mut pass = crate::view::renderer::overlay_pass(
+            let mut pass = self.frame_composite.begin(
                 encoder,
                 "glint recursive frame composite",
                 color,
@@ -459,29 +385,20 @@ impl RecursiveReflections {
                 depth,
                 end,
             );
-            self.composite(
-                &mut pass,
-                renderer,
-                &self.frame_composite_pipeline,
-                &self.composite_frame_group,
-                &plan.nodes[root],
-                &slots[root],
-            );
+            self.composite(&mut pass, renderer, &plan.nodes[root], &slots[root]);
         }
     }
 
+    /// Draws `node`'s reflector with its map (`slot`'s composite group) in a composite pass
+    /// whose pipeline and group 0 are set.
     fn composite(
         &self,
         pass: &mut wgpu::RenderPass<'_>,
         renderer: &Renderer,
-        pipeline: &wgpu::RenderPipeline,
-        frame_group: &wgpu::BindGroup,
         node: &Node,
         slot: &Slot,
     ) {
         let (indices, count) = &self.indices[node.reflector];
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, frame_group, &[]);
         pass.set_bind_group(1, slot.composite.as_ref().map(|c| &c.1), &[]);
         pass.set_vertex_buffer(0, renderer.vertex_buffer().slice(..));
         pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
@@ -502,13 +419,7 @@ impl RecursiveReflections {
         let node = &plan.nodes[id];
         let level = &self.levels[node.level];
         {
-            let mut pass = super::super::passes::mirror_target_pass(
-                encoder,
-                "glint recursive mirror pass",
-                &level.view,
-                &level.depth_view,
-                true,
-            );
+            let mut pass = level.begin_mirror(encoder, "glint recursive mirror pass", true);
             pass.set_pipeline(&self.mirror_pipeline);
             pass.set_bind_group(0, &slots[id].frame_group, &[]);
             pass.set_bind_group(1, &slots[id].params_group, &[]);
@@ -523,37 +434,10 @@ impl RecursiveReflections {
         for &child in &node.children {
             // Map level + 1 is overwritten per child: generated, applied, discarded (§3.1).
             self.draw_node(encoder, renderer, plan, slots, child, curved);
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("glint recursive map composite"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &level.view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &level.depth_view,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            self.composite(
-                &mut pass,
-                renderer,
-                &self.map_composite_pipeline,
-                &slots[id].frame_group,
-                &plan.nodes[child],
-                &slots[child],
-            );
+            let mut pass = level.begin_over(encoder, "glint recursive map composite");
+            pass.set_pipeline(&self.map_composite_pipeline);
+            pass.set_bind_group(0, &slots[id].frame_group, &[]);
+            self.composite(&mut pass, renderer, &plan.nodes[child], &slots[child]);
         }
     }
 }

@@ -1,0 +1,213 @@
+//! The planar reflection shader's per-reflector inputs (group 1 of `shaders/reflect.wgsl`),
+//! read by the single-level passes ([`super::passes`]) and the recursive ones alike:
+//! [`ReflectParams`], R's sphere map, the bind-group layouts and the composite's group.
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+use super::PlanarReflector;
+use super::material::{MAX_TAPS, MODULATION_SIZE, Modulation};
+use crate::materials::reflectance;
+use crate::view::build::{LayoutBuilder, bind_group_layout, render_pipeline};
+use crate::view::composite::Composite;
+use crate::view::gpu::Gpu;
+use crate::view::renderer::{Renderer, scene_vertex_layout};
+use crate::view::target::texture_2d;
+
+/// The parent clip of a composite that clips nothing ([`ReflectParams::parent`]).
+pub const NO_PARENT_CLIP: [f32; 4] = [0.0, 0.0, 0.0, -1.0];
+
+/// Mirrors `ReflectParams` in `shaders/reflect.wgsl` (3200 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct ReflectParams {
+    /// Normal xyz, w = normal · point.
+    pub plane: [f32; 4],
+    /// ks rgb, a = clip distance.
+    pub ks: [f32; 4],
+    /// The eye xyz (written per frame), w = the 1D map's grazing bound C.
+    pub eye: [f32; 4],
+    /// The plane's tangent xyz; w: 1 to read R from the sphere map, 0 from the 1D table.
+    pub tangent: [f32; 4],
+    /// The plane's bitangent xyz; w: the sphere map's size in texels.
+    pub bitangent: [f32; 4],
+    /// x: screen pixels per kernel texel at beyond-fraction 1 (per frame); y: tap count.
+    pub kernel: [f32; 4],
+    /// The composite's clip: in a recursive map, the parent mirror's plane (normal xyz,
+    /// w = normal · point + clip distance), fragments p with xyz · p ≤ w discarded;
+    /// [`NO_PARENT_CLIP`] for a composite into the frame.
+    pub parent: [f32; 4],
+    /// ks·R at the 1D map's cosines (rgb; a unused).
+    pub modulation: [[f32; 4]; MODULATION_SIZE],
+    /// K's taps: offset in texels (x right, y up), weight.
+    pub taps: [[f32; 4]; MAX_TAPS],
+}
+
+impl ReflectParams {
+    /// The parameters of `reflector` with clip distance `clip`, seen from `eye` (kernel
+    /// scale 0 until [`super::GeometryReflections::prepare`] sets it).
+    pub fn new(reflector: &PlanarReflector, clip: f32, eye: Vec3) -> ReflectParams {
+        let n = reflector.plane.normal;
+        let mut modulation = [[0.0; 4]; MODULATION_SIZE];
+        let mut sphere = (0.0, 0.0);
+        match &reflector.modulation {
+            Modulation::OneD(table) => {
+                for (m, v) in modulation.iter_mut().zip(table) {
+                    *m = v.extend(0.0).to_array();
+                }
+            }
+            Modulation::Sphere { size, .. } => sphere = (1.0, *size as f32),
+        }
+        let mut taps = [[0.0; 4]; MAX_TAPS];
+        for (t, k) in taps.iter_mut().zip(&reflector.kernel.taps) {
+            *t = [k.offset.x, k.offset.y, k.weight, 0.0];
+        }
+        ReflectParams {
+            plane: n.extend(n.dot(reflector.plane.point)).to_array(),
+            ks: reflector.ks.extend(clip).to_array(),
+            eye: eye.extend(reflectance::C_GRAZING).to_array(),
+            tangent: reflector.tangent.extend(sphere.0).to_array(),
+            bitangent: reflector.bitangent.extend(sphere.1).to_array(),
+            kernel: [
+                0.0,
+                reflector.kernel.taps.len().min(MAX_TAPS) as f32,
+                0.0,
+                0.0,
+            ],
+            parent: NO_PARENT_CLIP,
+            modulation,
+            taps,
+        }
+    }
+}
+
+/// The full WGSL module of the reflection passes.
+pub fn shader_source() -> String {
+    format!(
+        "{}\n{}",
+        crate::view::renderer::SHADER_SOURCE,
+        super::REFLECT_SHADER_SOURCE
+    )
+}
+
+/// R's sphere map as a texture (a 1×1 placeholder for the 1D map).
+pub(super) fn sphere_texture(gpu: &Gpu, modulation: &Modulation) -> wgpu::Texture {
+    let (size, texels) = match modulation {
+        Modulation::Sphere { size, texels } => (*size, texels.clone()),
+        Modulation::OneD(_) => (1, vec![Vec3::ZERO]),
+    };
+    let texture = texture_2d(
+        &gpu.device,
+        "glint reflectance sphere map",
+        size,
+        size,
+        wgpu::TextureFormat::Rgba32Float,
+        wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+    );
+    let data: Vec<[f32; 4]> = texels.iter().map(|v| v.extend(0.0).to_array()).collect();
+    gpu.queue.write_texture(
+        texture.as_image_copy(),
+        bytemuck::cast_slice(&data),
+        wgpu::TexelCopyBufferLayout {
+            offset: 0,
+            bytes_per_row: Some(size * 16),
+            rows_per_image: None,
+        },
+        texture.size(),
+    );
+    texture
+}
+
+/// A layout with the `ReflectParams` uniform (binding 2) every reflection pass reads.
+pub(super) fn params_layout() -> LayoutBuilder {
+    bind_group_layout()
+        .uniform::<ReflectParams>(2, wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT)
+}
+
+/// The composite's bindings: params, the reflected image M (filterable), its sampler and the
+/// sphere-map R (read by texel).
+pub(super) fn composite_bind_group_layout(
+    device: &wgpu::Device,
+    label: &str,
+) -> wgpu::BindGroupLayout {
+    let fragment = wgpu::ShaderStages::FRAGMENT;
+    let d2 = wgpu::TextureViewDimension::D2;
+    params_layout()
+        .texture(3, fragment, d2, true)
+        .sampler(4, fragment)
+        .texture(5, fragment, d2, false)
+        .build(device, label)
+}
+
+/// The composite of a planar reflector's map M into `renderer`'s frame (`fs_composite` of
+/// `shader`, over the reflector's scene triangles): group 0 `frame_layout`, group 1
+/// `composite_layout` ([`composite_bind_group_layout`]).
+pub(super) fn planar_composite(
+    device: &wgpu::Device,
+    renderer: &Renderer,
+    label: &str,
+    shader: &wgpu::ShaderModule,
+    frame_layout: &wgpu::BindGroupLayout,
+    composite_layout: &wgpu::BindGroupLayout,
+) -> Composite {
+    Composite::new(
+        device,
+        renderer,
+        frame_layout,
+        render_pipeline(label, shader, "vs_mirror", "fs_composite")
+            .layouts(&[frame_layout, composite_layout])
+            .vertex(scene_vertex_layout()),
+    )
+}
+
+/// The composite's group 1 on `layout` ([`composite_bind_group_layout`]): `params`, the
+/// reflected image `m` with its `sampler`, and R's `sphere` map.
+pub(super) fn composite_group(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    params: &wgpu::Buffer,
+    m: &wgpu::TextureView,
+    sampler: &wgpu::Sampler,
+    sphere: &wgpu::TextureView,
+) -> wgpu::BindGroup {
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: params.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 3,
+                resource: wgpu::BindingResource::TextureView(m),
+            },
+            wgpu::BindGroupEntry {
+                binding: 4,
+                resource: wgpu::BindingResource::Sampler(sampler),
+            },
+            wgpu::BindGroupEntry {
+                binding: 5,
+                resource: wgpu::BindingResource::TextureView(sphere),
+            },
+        ],
+    })
+}
+
+/// The group of the mirror pass on `layout` ([`params_layout`]): `params` alone.
+pub(super) fn params_group(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    params: &wgpu::Buffer,
+) -> wgpu::BindGroup {
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &[wgpu::BindGroupEntry {
+            binding: 2,
+            resource: params.as_entire_binding(),
+        }],
+    })
+}
