@@ -99,7 +99,14 @@ fn main() {
         let (at, samples) = atlas::build(&scene.triangles, s0.texel_density).unwrap();
         let sol = solve(&scene, &bvh, &at, &samples, &set, &Silent).unwrap();
         let secs = t.elapsed().as_secs_f64();
-        eprintln!("  stats: rounds {} refined {} err median {:.4} p95 {:.4} max {:.4}", sol.stats.rounds, sol.stats.refined, sol.stats.error_median, sol.stats.error_p95, sol.stats.error_max);
+        eprintln!(
+            "  stats: rounds {} refined {} err median {:.4} p95 {:.4} max {:.4}",
+            sol.stats.rounds,
+            sol.stats.refined,
+            sol.stats.error_median,
+            sol.stats.error_p95,
+            sol.stats.error_max
+        );
         let map = RadiosityMap::from_texels(at, &sol.radiance);
         let d = probe(&scene, &bvh, &map, &pts, reach).unwrap();
         if std::env::var("DUMP").is_ok() && depth > 0 {

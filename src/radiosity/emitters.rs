@@ -17,6 +17,15 @@ pub(super) fn power(n_a: f32, p_a: f32, n_b: f32, p_b: f32) -> f32 {
     if a + b > 0.0 { a / (a + b) } else { 0.0 }
 }
 
+/// Variance of the mean of `n` samples with sum `s` and sum of squares `s2`.
+pub(super) fn var_of_mean(s: f64, s2: f64, n: u32) -> f64 {
+    if n < 2 {
+        return 0.0;
+    }
+    let n = n as f64;
+    ((s2 - s * s / n) / (n - 1.0)).max(0.0) / n
+}
+
 /// The emissive triangles, chosen in proportion to area × luminance.
 pub(super) struct Emitters {
     pub tris: Vec<u32>,

@@ -7,7 +7,8 @@ use std::f32::consts::PI;
 use glam::Vec3;
 
 use super::atlas::{Atlas, TexelSample};
-use super::emitters::{Emitters, luminance, power};
+use super::emitters::{Emitters, luminance, power, var_of_mean};
+use super::mirror_lights::MirrorLights;
 use super::transport::{Glossy, Term};
 use crate::geometry::Bvh;
 use crate::sampling::{Rng, basis, sample_cosine_hemisphere, sample_triangle};
@@ -25,6 +26,8 @@ pub(super) struct Context<'a> {
     pub offsets: &'a [u32],
     pub emitters: &'a Emitters,
     pub glossy: Option<Glossy<'a>>,
+    /// Emitters' images in near-mirror planar reflectors.
+    pub mirrors: Option<&'a MirrorLights>,
 }
 
 /// Sums of one element's samples, for the variance of its estimate (luminance).
@@ -76,15 +79,6 @@ impl Gathered {
         self.rays += other.rays;
         self.light_samples += other.light_samples;
     }
-}
-
-/// Variance of the mean of `n` samples with sum `s` and sum of squares `s2`.
-fn var_of_mean(s: f64, s2: f64, n: u32) -> f64 {
-    if n < 2 {
-        return 0.0;
-    }
-    let n = n as f64;
-    ((s2 - s * s / n) / (n - 1.0)).max(0.0) / n
 }
 
 /// Gathers at sample `s` with `n_rays` cosine-distributed rays and `n_light` samples per
@@ -239,6 +233,23 @@ pub(super) fn gather(
         }
         direct += sum / (n_light as f32 * PI);
         moments.light_var += var_of_mean(y, y2, n_light);
+    }
+
+    // The emitters' images in mirrors.
+    if let Some(m) = cx.mirrors {
+        let (light, var) = m.direct(
+            scene,
+            bvh,
+            cx.emitters,
+            origin,
+            ns,
+            ng,
+            rng,
+            n_light,
+            &mut rays,
+        );
+        direct += light;
+        moments.light_var += var;
     }
 
     Gathered {

@@ -4,9 +4,10 @@
 pub mod atlas;
 pub mod current;
 mod emitters;
-mod gather;
 pub mod format;
+mod gather;
 pub mod map;
+mod mirror_lights;
 pub mod solve;
 mod transport;
 

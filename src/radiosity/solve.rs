@@ -22,6 +22,7 @@ use rayon::prelude::*;
 use super::atlas::{Atlas, TexelSample};
 use super::emitters::{Emitters, luminance};
 use super::gather::{Context, Gathered, gather};
+use super::mirror_lights::MirrorLights;
 use super::transport::{Glossy, Term};
 use crate::geometry::Bvh;
 use crate::progress::{Cancelled, Progress};
@@ -145,17 +146,34 @@ pub fn solve(
 ) -> Result<Solution, Cancelled> {
     let offsets = atlas.page_offsets();
     let emitters = Emitters::new(scene);
+    // Mirror images of emitters are part of glossy transport.
+    let mirrors = if set.glossy_depth > 0 {
+        MirrorLights::new(scene)
+    } else {
+        None
+    };
     let cx = Context {
         scene,
         bvh,
         atlas,
         offsets: &offsets,
         emitters: &emitters,
-        glossy: Glossy::new(scene, bvh, atlas, &offsets, &emitters, set.glossy_depth),
+        glossy: Glossy::new(
+            scene,
+            bvh,
+            atlas,
+            &offsets,
+            &emitters,
+            set.glossy_depth,
+            mirrors.as_ref(),
+        ),
+        mirrors: mirrors.as_ref(),
     };
     let (rays, light) = (set.rays.max(1), set.light_samples.max(1));
     progress.phase("gathering", samples.len() as u64);
-    let all: Vec<(u32, u32, u32)> = (0..samples.len() as u32).map(|i| (i, rays, light)).collect();
+    let all: Vec<(u32, u32, u32)> = (0..samples.len() as u32)
+        .map(|i| (i, rays, light))
+        .collect();
     let mut gathered = gather_all(&cx, samples, &all, set.seed, 0, progress).ok_or(Cancelled)?;
 
     let mut stats = SolveStats {
@@ -167,7 +185,10 @@ pub fn solve(
     // Each texel resolves to the nearest valid element of its chart.
     let (resolve, filled) = resolve_texels(atlas, samples, &gathered);
     stats.filled = filled;
-    let mut links: Vec<Links> = gathered.par_iter().map(|g| Links::new(g, &resolve)).collect();
+    let mut links: Vec<Links> = gathered
+        .par_iter()
+        .map(|g| Links::new(g, &resolve))
+        .collect();
     let albedo: Vec<Vec3> = samples
         .iter()
         .map(|s| scene.materials[scene.triangles[s.triangle as usize].material as usize].albedo)
@@ -183,7 +204,9 @@ pub fn solve(
         .zip(&albedo)
         .map(|(g, a)| *a * g.direct)
         .collect();
-    iterate(&mut lr, &links, &gathered, &albedo, set, &mut stats, progress)?;
+    iterate(
+        &mut lr, &links, &gathered, &albedo, set, &mut stats, progress,
+    )?;
 
     // Refinement: more samples where the estimated error is above the target.
     let mut refined = vec![false; samples.len()];
@@ -204,7 +227,9 @@ pub fn solve(
                 refined[i] = true;
             }
             stats.rounds = round;
-            iterate(&mut lr, &links, &gathered, &albedo, set, &mut stats, progress)?;
+            iterate(
+                &mut lr, &links, &gathered, &albedo, set, &mut stats, progress,
+            )?;
             error = relative_errors(&lr, &links, &gathered, &albedo, &emission);
         }
     }

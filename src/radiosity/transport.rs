@@ -25,6 +25,7 @@ use glam::Vec3;
 
 use super::atlas::Atlas;
 use super::emitters::{Emitters, luminance, power};
+use super::mirror_lights::MirrorLights;
 use crate::brdf::Frame;
 use crate::brdf::kurt::Lobe;
 use crate::geometry::{Bvh, Hit, ray_quad};
@@ -103,6 +104,9 @@ pub(super) struct Glossy<'a> {
     lobes: Vec<Option<Lobes>>,
     /// Largest number of glossy reflections followed from a gathering hit.
     depth: u32,
+    /// Mirrors whose emitter images the solver samples directly: at a gathering ray's first
+    /// reflection on one of them, emitters are left out (they would be counted twice).
+    mirrors: Option<&'a MirrorLights>,
 }
 
 impl<'a> Glossy<'a> {
@@ -114,6 +118,7 @@ impl<'a> Glossy<'a> {
         offsets: &'a [u32],
         emitters: &'a Emitters,
         depth: u32,
+        mirrors: Option<&'a MirrorLights>,
     ) -> Option<Glossy<'a>> {
         let lobes: Vec<Option<Lobes>> = scene.materials.iter().map(Lobes::new).collect();
         (depth > 0 && lobes.iter().any(Option::is_some)).then_some(Glossy {
@@ -124,6 +129,7 @@ impl<'a> Glossy<'a> {
             emitters,
             lobes,
             depth,
+            mirrors,
         })
     }
 
@@ -162,7 +168,12 @@ impl<'a> Glossy<'a> {
             }
             let p = tri.point(hit.bary);
             let origin = self.bvh.offset_origin(p, ng);
-            out += beta * self.next_event(lobes, &frame, wo, p, origin, ng, rng, rays);
+            // Emitters seen in a mirror from the gathering element: sampled by MirrorLights.
+            let emitters_here =
+                depth > 0 || !self.mirrors.is_some_and(|m| m.is_mirror(hit.triangle));
+            if emitters_here {
+                out += beta * self.next_event(lobes, &frame, wo, p, origin, ng, rng, rays);
+            }
 
             let u_pick = rng.uniform();
             let Some(wi) = lobes.sample(wo, u_pick, rng.uniform2()) else {
@@ -186,7 +197,10 @@ impl<'a> Glossy<'a> {
             }
             *rays += 1;
             let next = self.bvh.closest_hit(origin, d, f32::INFINITY);
-            out += beta * self.lights_along(origin, d, next.map_or(f32::INFINITY, |h| h.t), pdf);
+            if emitters_here {
+                let t_max = next.map_or(f32::INFINITY, |h| h.t);
+                out += beta * self.lights_along(origin, d, t_max, pdf);
+            }
             let Some(h) = next else {
                 break;
             };
@@ -196,7 +210,7 @@ impl<'a> Glossy<'a> {
                 break; // a back face is black, as for gathering rays
             }
             let m = &scene.materials[ht.material as usize];
-            if m.emission.max_element() > 0.0 {
+            if emitters_here && m.emission.max_element() > 0.0 {
                 let p_light = self.emitters.area_pdf(m.emission) * h.t * h.t / cos_l;
                 out += beta * m.emission * power(1.0, pdf, 1.0, p_light);
             }

@@ -1,0 +1,210 @@
+//! Emitters seen in planar mirrors, sampled directly: the mirror images of the area lights and
+//! emissive triangles behind each near-mirror planar reflector.
+//!
+//! A lamp's image in a mirror lights a room as a second lamp, but gathering finds it only when
+//! a cosine ray happens to land where the mirror shows it (a rare event, so D is noisy and its
+//! error estimate blind to it). Here each element samples the mirrored emitters like real
+//! ones (Eq. of next-event estimation with the point q' = q reflected in the mirror's plane):
+//! the ray towards q' must meet the mirror first, the reflected segment to q must be clear,
+//! and the mirror's reflectance at that angle scales the light.
+//!
+//! The mirror is treated as perfect: its lobes' blur is ignored, which is why only lobes of
+//! roughness ≤ [`MIRROR_ROUGHNESS`] qualify. Paths element → mirror → emitter are then this
+//! technique's alone: glossy transport ([`super::transport`]) leaves out the emitters at a
+//! gathering ray's first reflection when it lands on such a mirror.
+
+use std::f32::consts::PI;
+
+use glam::Vec3;
+
+use super::emitters::{Emitters, luminance, var_of_mean};
+use crate::brdf::kurt::{Lobe, fresnel_schlick};
+use crate::geometry::Bvh;
+use crate::sampling::{Rng, sample_triangle};
+use crate::scene::{Plane, ReflectorKind, Scene};
+
+/// Largest Beckmann roughness of a lobe that is treated as a mirror here.
+pub const MIRROR_ROUGHNESS: f32 = 0.02;
+
+/// One near-mirror planar reflector.
+struct Mirror {
+    plane: Plane,
+    lobes: Vec<Lobe>,
+    /// Index in [`MirrorLights::mirrors`] + 1 of every triangle's mirror (0: none), shared.
+    id: u32,
+}
+
+impl Mirror {
+    /// Reflectance for a ray meeting the mirror at cos θ = `c` to the plane's normal: Σ k_s F(c)
+    /// c^(1−2α), each lobe's directional albedo in its mirror limit (Kurt et al. Eq. 2 with
+    /// h = n and ω_i the reflection of ω_o).
+    fn reflectance(&self, c: f32) -> Vec3 {
+        self.lobes.iter().fold(Vec3::ZERO, |acc, l| {
+            acc + l.ks * fresnel_schlick(l.r0, c) * c.max(1e-4).powf(1.0 - 2.0 * l.alpha)
+        })
+    }
+
+    fn reflect_point(&self, q: Vec3) -> Vec3 {
+        let n = self.plane.normal;
+        q - n * (2.0 * (q - self.plane.point).dot(n))
+    }
+}
+
+/// The scene's near-mirror planar reflectors.
+pub(super) struct MirrorLights {
+    mirrors: Vec<Mirror>,
+    /// Per triangle: its mirror's id (index + 1), 0 when it is not part of one.
+    mirror_of: Vec<u32>,
+}
+
+impl MirrorLights {
+    /// `None` when the scene has no planar reflector whose material is a mirror.
+    pub fn new(scene: &Scene) -> Option<MirrorLights> {
+        let mut mirrors = Vec::new();
+        let mut mirror_of = vec![0u32; scene.triangles.len()];
+        for r in &scene.reflectors {
+            let (ReflectorKind::Planar, Some(plane)) = (r.kind, r.plane) else {
+                continue;
+            };
+            let m = &scene.materials[r.material as usize];
+            let sharp =
+                !m.lobes.is_empty() && m.lobes.iter().all(|l| l.mx.max(l.my) <= MIRROR_ROUGHNESS);
+            if !sharp {
+                continue;
+            }
+            let id = mirrors.len() as u32 + 1;
+            for &t in &r.triangles {
+                // Only the mirror's own material reflects as the mirror.
+                if scene.triangles[t as usize].material == r.material {
+                    mirror_of[t as usize] = id;
+                }
+            }
+            mirrors.push(Mirror {
+                plane,
+                lobes: m.lobes.iter().map(Lobe::from).collect(),
+                id,
+            });
+        }
+        (!mirrors.is_empty()).then_some(MirrorLights { mirrors, mirror_of })
+    }
+
+    /// Whether `triangle` is part of a mirror whose emitter images are sampled here.
+    pub fn is_mirror(&self, triangle: u32) -> bool {
+        self.mirror_of[triangle as usize] != 0
+    }
+
+    /// Irradiance/π at a point (`origin` offset from it, shading normal `ns`, face normal `ng`)
+    /// from the emitters' images in every mirror, `n_light` samples per emitter and mirror;
+    /// returns it with the variance of its luminance and counts the rays cast.
+    #[allow(clippy::too_many_arguments)]
+    pub fn direct(
+        &self,
+        scene: &Scene,
+        bvh: &Bvh,
+        emitters: &Emitters,
+        origin: Vec3,
+        ns: Vec3,
+        ng: Vec3,
+        rng: &mut Rng,
+        n_light: u32,
+        rays: &mut u64,
+    ) -> (Vec3, f64) {
+        let mut total = Vec3::ZERO;
+        let mut var = 0.0f64;
+        for m in &self.mirrors {
+            if (origin - m.plane.point).dot(m.plane.normal) <= 0.0 {
+                continue; // behind the mirror: it shows nothing here
+            }
+            // The light reaching `origin` from emitter point `q` via the mirror, per unit
+            // solid-angle-free measure: (reflectance, cos at the receiver, distance², the
+            // reflected direction at the emitter); `None` when blocked or outside the mirror.
+            let mut through = |q: Vec3, reach_short: f32| -> Option<(Vec3, f32, f32, Vec3)> {
+                let image = m.reflect_point(q);
+                let w = image - origin;
+                let dist2 = w.length_squared();
+                let dist = dist2.sqrt();
+                if !(dist > 0.0) {
+                    return None;
+                }
+                let d = w / dist;
+                let cos_s = d.dot(ns);
+                if cos_s <= 0.0 || d.dot(ng) <= 0.0 {
+                    return None;
+                }
+                *rays += 1;
+                let h = bvh.closest_hit(origin, d, dist)?;
+                let tri = &scene.triangles[h.triangle as usize];
+                let c = -d.dot(m.plane.normal);
+                if self.mirror_of[h.triangle as usize] != m.id || c <= 0.0 {
+                    return None;
+                }
+                if tri.face_normal().dot(d) >= 0.0 {
+                    return None;
+                }
+                let n = m.plane.normal;
+                let r = d - n * (2.0 * d.dot(n));
+                let at = bvh.offset_origin(origin + d * h.t, n);
+                *rays += 1;
+                let rest = (dist - h.t) - reach_short;
+                if rest <= 0.0 || bvh.occluded(at, r, rest) {
+                    return None;
+                }
+                Some((m.reflectance(c), cos_s, dist2, r))
+            };
+
+            for light in &scene.lights {
+                let grid = (n_light as f32).sqrt().ceil() as u32;
+                let (mut sum, mut y, mut y2) = (Vec3::ZERO, 0.0f64, 0.0f64);
+                for k in 0..n_light {
+                    let (i, j) = (k % grid, (k / grid) % grid);
+                    let u = rng.uniform2();
+                    let q = light.corner
+                        + light.edge_u * ((i as f32 + u.x) / grid as f32)
+                        + light.edge_v * ((j as f32 + u.y) / grid as f32);
+                    let Some((refl, cos_s, dist2, r)) = through(q, 0.0) else {
+                        continue;
+                    };
+                    let mut cos_l = -r.dot(light.normal);
+                    if light.two_sided {
+                        cos_l = cos_l.abs();
+                    }
+                    if cos_l <= 0.0 {
+                        continue;
+                    }
+                    let c = light.radiance * refl * (cos_s * cos_l / dist2);
+                    sum += c;
+                    let v = luminance(c) as f64 * (light.area / PI) as f64;
+                    y += v;
+                    y2 += v * v;
+                }
+                total += sum * (light.area / n_light as f32) / PI;
+                var += var_of_mean(y, y2, n_light);
+            }
+
+            if !emitters.tris.is_empty() {
+                let (mut sum, mut y, mut y2) = (Vec3::ZERO, 0.0f64, 0.0f64);
+                for _ in 0..n_light {
+                    let et = &scene.triangles[emitters.pick(rng.uniform()) as usize];
+                    let e = scene.materials[et.material as usize].emission;
+                    let q = et.point(sample_triangle(rng.uniform2()));
+                    let Some((refl, cos_s, dist2, r)) = through(q, 2.0 * bvh.epsilon()) else {
+                        continue;
+                    };
+                    let cos_l = -r.dot(et.face_normal());
+                    if cos_l <= 0.0 {
+                        continue;
+                    }
+                    let p_light = emitters.area_pdf(e) * dist2 / cos_l;
+                    let c = e * refl * (cos_s / p_light);
+                    sum += c;
+                    let v = luminance(c) as f64 / PI as f64;
+                    y += v;
+                    y2 += v * v;
+                }
+                total += sum / (n_light as f32 * PI);
+                var += var_of_mean(y, y2, n_light);
+            }
+        }
+        (total, var)
+    }
+}
