@@ -898,3 +898,106 @@ fn glint_bake_twice_on_shipped_scenes_bakes_nothing_the_second_time() {
         );
     }
 }
+
+#[test]
+fn cli_probe_points_reference_and_compare() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, bundle) = emissive_floor(dir.path());
+    let scene = dir.path().join("scene.json");
+    let run = |args: &[&std::ffi::OsStr]| {
+        let out = eval_cmd().args(args).output().unwrap();
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    let p = |s: &'static str| std::ffi::OsStr::new(s);
+    let path = |name: &str| dir.path().join(name);
+    let (points, truth, d) = (path("points.json"), path("truth.json"), path("d.json"));
+
+    let (code, _, err) = run(&[
+        p("probe-points"),
+        scene.as_os_str(),
+        p("--count"),
+        p("12"),
+        p("--out"),
+        points.as_os_str(),
+    ]);
+    assert_eq!(code, Some(0), "{err}");
+    let pts: Vec<serde_json::Value> =
+        serde_json::from_str(&std::fs::read_to_string(&points).unwrap()).unwrap();
+    assert_eq!(pts.len(), 12);
+
+    let (code, _, err) = run(&[
+        p("probe-reference"),
+        scene.as_os_str(),
+        p("--points"),
+        points.as_os_str(),
+        p("--paths"),
+        p("64"),
+        p("--out"),
+        truth.as_os_str(),
+    ]);
+    assert_eq!(code, Some(0), "{err}");
+    let t: Vec<serde_json::Value> =
+        serde_json::from_str(&std::fs::read_to_string(&truth).unwrap()).unwrap();
+    assert!(
+        t.iter()
+            .all(|v| v["found"] == true && v["std_error"].is_array())
+    );
+
+    let (code, _, err) = run(&[
+        p("probe"),
+        bundle.as_os_str(),
+        p("--points"),
+        points.as_os_str(),
+        p("--out"),
+        d.as_os_str(),
+    ]);
+    assert_eq!(code, Some(0), "{err}");
+    let (code, out, err) = run(&[
+        p("probe-compare"),
+        d.as_os_str(),
+        truth.as_os_str(),
+        p("--json"),
+    ]);
+    assert_eq!(code, Some(0), "{err}");
+    let m: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(m["probes"], 12);
+    let rmse = m["rel_rmse"].as_f64().unwrap();
+    assert!(rmse.is_finite() && rmse < 0.5, "{m}");
+    // A set compared with itself has no error.
+    let (_, out, _) = run(&[
+        p("probe-compare"),
+        truth.as_os_str(),
+        truth.as_os_str(),
+        p("--json"),
+    ]);
+    let m: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(m["rel_rmse"], 0.0);
+
+    // Points where values are expected, and sets of different probes, are refused by name.
+    let (code, _, err) = run(&[p("probe-compare"), points.as_os_str(), truth.as_os_str()]);
+    assert_ne!(code, Some(0));
+    assert!(
+        err.contains("points.json") && err.contains("probe values"),
+        "{err}"
+    );
+    let one = path("one.json");
+    std::fs::write(&one, "[]").unwrap();
+    let (code, _, err) = run(&[p("probe-compare"), one.as_os_str(), truth.as_os_str()]);
+    assert_ne!(code, Some(0));
+    assert!(err.contains("0 probes against 12"), "{err}");
+    let (code, _, err) = run(&[
+        p("probe-reference"),
+        scene.as_os_str(),
+        p("--points"),
+        truth.as_os_str(),
+    ]);
+    assert_ne!(code, Some(0));
+    assert!(
+        err.contains("truth.json") && err.contains("position"),
+        "{err}"
+    );
+}
