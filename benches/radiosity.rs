@@ -1,10 +1,13 @@
-//! Radiosity presets on the speed-for-accuracy curve: per scene and preset, bake time
-//! (atlas + solve), rays per second, peak memory, and the RMS relative error of the texels
-//! against a converged solution of the same texels (same atlas, 4096 rays, 1024 light
-//! samples, 64 bounces, another seed).
+//! Radiosity presets on the speed-for-accuracy curve: per scene and preset, the target error,
+//! bake time (atlas + solve), rays, peak memory, the solver's own error estimate, and the error
+//! of D against ground truth: D path-traced at 400 probes on the diffuse faces with every
+//! transport path (`glint::eval::reference::trace_probes`; `GLINT_BENCH_PATHS` paths each,
+//! default 4096), whose own noise is printed beside it. With `--converged`, also the RMS
+//! relative error of the texels against a converged solve of the same texels (4096 rays, 1024
+//! light samples, 64 bounces, another seed).
 //!
-//! `cargo bench --bench radiosity [-- SCENE.json ...]`
-//! (default: scenes/cornell-box and scenes/breakfast-room).
+//! `cargo bench --bench radiosity [-- [--converged] SCENE.json ...]`
+//! (default: the four shipped scenes).
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -12,9 +15,11 @@ use std::time::Instant;
 
 use glam::Vec3;
 use glint::bundle::stats::{format_table, human_bytes};
+use glint::eval::probe::{compare_probes, default_reach, diffuse_points, probe};
+use glint::eval::reference::{ProbeTraceOptions, trace_probes};
 use glint::progress::Silent;
-use glint::radiosity::atlas;
 use glint::radiosity::solve::{SolveSettings, solve};
+use glint::radiosity::{RadiosityMap, atlas};
 use glint::scene::desc::RadiositySettings;
 use glint::scene::{Quality, Scene};
 
@@ -76,30 +81,51 @@ fn rms_relative(values: &[Vec3], reference: &[Vec3]) -> f64 {
 
 fn main() {
     glint::cli::init_logging();
-    let mut scenes: Vec<String> = std::env::args()
-        .skip(1)
-        .filter(|a| !a.starts_with("--"))
-        .collect();
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let converged = args.iter().any(|a| a == "--converged");
+    let mut scenes: Vec<String> = args.into_iter().filter(|a| !a.starts_with("--")).collect();
     if scenes.is_empty() {
-        scenes = vec![
-            "scenes/cornell-box/scene.json".into(),
-            "scenes/breakfast-room/scene.json".into(),
-        ];
+        scenes = [
+            "cornell-box",
+            "glossy-room",
+            "bunny-mirror",
+            "breakfast-room",
+        ]
+        .iter()
+        .map(|s| format!("scenes/{s}/scene.json"))
+        .collect();
     }
-    let mut rows = vec![[
+    let paths: u32 = std::env::var("GLINT_BENCH_PATHS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(4096);
+    let header = [
         "scene".to_string(),
         "preset".into(),
+        "target".into(),
         "elements".into(),
         "rays/texel".into(),
+        "Mrays".into(),
         "bake s".into(),
-        "Mrays/s".into(),
         "peak mem".into(),
-        "RMS rel err".into(),
-        "ref s".into(),
-    ]];
+        "est. err med/p95".into(),
+        "vs truth RMSE".into(),
+        "ratio".into(),
+        "truth noise".into(),
+        "vs converged".into(),
+    ];
+    let mut rows = vec![header];
     for path in &scenes {
         let scene = Scene::load(path).unwrap_or_else(|e| panic!("{e}"));
         let bvh = scene.build_bvh();
+        // Ground truth: D path-traced at probes on the diffuse faces, every transport path.
+        let points = diffuse_points(&scene, &bvh, 400, 1);
+        let reach = default_reach(&scene);
+        let opts = ProbeTraceOptions {
+            paths,
+            ..Default::default()
+        };
+        let truth = trace_probes(&scene, &bvh, &points, reach, &opts, &Silent).unwrap();
         for q in Quality::ALL {
             let s = RadiositySettings::resolve(q, &scene.desc.bake.radiosity);
             let set = SolveSettings {
@@ -107,7 +133,7 @@ fn main() {
                 light_samples: s.light_samples,
                 bounces: s.bounces,
                 glossy_depth: s.glossy_depth,
-                target_error: None,
+                target_error: s.target_error,
                 tolerance: s.tolerance,
                 seed: glint::bake::radiosity_stage::SEED,
             };
@@ -118,35 +144,39 @@ fn main() {
             let sol = solve(&scene, &bvh, &atlas, &samples, &set, &Silent).unwrap();
             let secs = t.elapsed().as_secs_f64();
             let peak = PEAK.load(Ordering::Relaxed) - base;
-            let t = Instant::now();
-            let reference = solve(&scene, &bvh, &atlas, &samples, &REFERENCE, &Silent).unwrap();
-            let ref_secs = t.elapsed().as_secs_f64();
-            rows.push([
+            let st = sol.stats.clone();
+            let radiance = sol.radiance;
+            let vs_converged = converged.then(|| {
+                let reference = solve(&scene, &bvh, &atlas, &samples, &REFERENCE, &Silent).unwrap();
+                format!("{:.4}", rms_relative(&radiance, &reference.radiance))
+            });
+            let map = RadiosityMap::from_texels(atlas, &radiance);
+            let d = probe(&scene, &bvh, &map, &points, reach).unwrap();
+            let m = compare_probes(&d, &truth).unwrap();
+            let pct = |x: f64| format!("{:.1}%", 100.0 * x);
+            let row = [
                 scene.name.clone(),
                 q.name().into(),
-                sol.stats.elements.to_string(),
+                s.target_error.map_or("-".into(), |t| pct(t as f64)),
+                st.elements.to_string(),
                 s.rays.to_string(),
+                format!("{:.1}", st.rays_cast as f64 / 1e6),
                 format!("{secs:.2}"),
-                format!("{:.2}", sol.stats.rays_cast as f64 / secs / 1e6),
                 human_bytes(peak as u64),
-                format!("{:.4}", rms_relative(&sol.radiance, &reference.radiance)),
-                format!("{ref_secs:.1}"),
-            ]);
+                format!("{}/{}", pct(st.error_median), pct(st.error_p95)),
+                pct(m.rel_rmse),
+                format!("{:.3}", m.mean_ratio),
+                m.reference_noise.map_or("-".into(), pct),
+                vs_converged.unwrap_or_else(|| "-".into()),
+            ];
+            rows.push(row);
             eprintln!("{} {} done", scene.name, q.name());
         }
     }
     println!(
-        "Radiosity presets ({} threads); error against {} rays, {} light samples, {} bounces on the same texels\n",
+        "Radiosity presets ({} threads): D against path-traced probes (400 per scene on diffuse faces, {paths} paths each, every transport path)\n",
         rayon::current_num_threads(),
-        REFERENCE.rays,
-        REFERENCE.light_samples,
-        REFERENCE.bounces
     );
-    print!(
-        "{}",
-        format_table(
-            &rows,
-            &[false, false, true, true, true, true, true, true, true]
-        )
-    );
+    let right = std::array::from_fn(|i| i >= 2);
+    print!("{}", format_table(&rows, &right));
 }

@@ -109,7 +109,7 @@ pub struct RadiosityFlags {
     #[arg(long, value_name = "F")]
     pub tolerance: Option<f32>,
     /// Relative standard error each texel's D should reach (e.g. 0.02): texels above it get
-    /// more rays and emitter samples, in up to 4 rounds.
+    /// more rays and emitter samples, in up to 4 rounds; 0 turns refinement off.
     #[arg(long, value_name = "REL")]
     pub target_error: Option<f32>,
 }

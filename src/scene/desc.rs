@@ -311,7 +311,7 @@ pub struct RadiosityOverride {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tolerance: Option<f32>,
     /// Relative standard error each texel's D should reach (e.g. 0.02): texels above it get
-    /// more rays and emitter samples.
+    /// more rays and emitter samples; 0 turns refinement off.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub target_error: Option<f32>,
 }
@@ -334,8 +334,11 @@ impl RadiosityOverride {
         s.bounces = bounces.unwrap_or(s.bounces);
         s.glossy_depth = glossy_depth.unwrap_or(s.glossy_depth);
         s.tolerance = tolerance.unwrap_or(s.tolerance);
-        if target_error.is_some() {
-            s.target_error = target_error;
+        match target_error {
+            // 0 turns refinement off: one batch of `rays` and `light_samples`.
+            Some(t) if t == 0.0 => s.target_error = None,
+            Some(t) => s.target_error = Some(t),
+            None => {}
         }
     }
 }
@@ -489,11 +492,14 @@ pub struct RadiositySettings {
 impl RadiositySettings {
     /// The preset's values.
     pub fn preset(quality: Quality) -> Self {
-        let (texel_density, rays, light_samples, bounces, glossy_depth, tolerance) = match quality {
-            Quality::Draft => (8.0, 64, 8, 8, 2, 1e-2),
-            Quality::Default => (16.0, 256, 32, 16, 4, 3e-3),
-            Quality::High => (32.0, 1024, 128, 32, 8, 1e-3),
-        };
+        // The target error is what a preset promises; rays and light samples are the first
+        // batch, refined where a texel's estimate is above the target.
+        let (texel_density, rays, light_samples, bounces, glossy_depth, tolerance, target) =
+            match quality {
+                Quality::Draft => (8.0, 64, 8, 8, 2, 1e-2, 0.05),
+                Quality::Default => (16.0, 256, 32, 16, 4, 3e-3, 0.02),
+                Quality::High => (32.0, 1024, 128, 32, 8, 1e-3, 0.01),
+            };
         RadiositySettings {
             texel_density,
             rays,
@@ -501,7 +507,7 @@ impl RadiositySettings {
             bounces,
             glossy_depth,
             tolerance,
-            target_error: None,
+            target_error: Some(target),
         }
     }
 
@@ -571,5 +577,80 @@ impl RadiositySettings {
         let mut s = Self::preset(quality);
         over.apply(&mut s);
         s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_radiosity_setting_can_be_overridden_and_is_checked() {
+        let over: RadiosityOverride = serde_json::from_str(
+            r#"{ "texel_density": 4, "rays": 9, "light_samples": 7, "bounces": 3,
+                 "glossy_depth": 5, "tolerance": 0.5, "target_error": 0.03 }"#,
+        )
+        .unwrap();
+        let s = RadiositySettings::resolve(Quality::Draft, &over);
+        assert_eq!(
+            (
+                s.texel_density,
+                s.rays,
+                s.light_samples,
+                s.bounces,
+                s.glossy_depth
+            ),
+            (4.0, 9, 7, 3, 5)
+        );
+        assert_eq!((s.tolerance, s.target_error), (0.5, Some(0.03)));
+        s.check(None).unwrap();
+        // Presets promise an error; 0 turns refinement off.
+        assert_eq!(
+            RadiositySettings::preset(Quality::Default).target_error,
+            Some(0.02)
+        );
+        let off = RadiosityOverride {
+            target_error: Some(0.0),
+            ..Default::default()
+        };
+        assert_eq!(
+            RadiositySettings::resolve(Quality::High, &off).target_error,
+            None
+        );
+        for (field, bad) in [
+            (
+                "target_error",
+                RadiosityOverride {
+                    target_error: Some(1.5),
+                    ..Default::default()
+                },
+            ),
+            (
+                "target_error",
+                RadiosityOverride {
+                    target_error: Some(f32::NAN),
+                    ..Default::default()
+                },
+            ),
+            (
+                "glossy_depth",
+                RadiosityOverride {
+                    glossy_depth: Some(65),
+                    ..Default::default()
+                },
+            ),
+            (
+                "light_samples",
+                RadiosityOverride {
+                    light_samples: Some(0),
+                    ..Default::default()
+                },
+            ),
+        ] {
+            let e = RadiositySettings::resolve(Quality::Draft, &bad)
+                .check(None)
+                .unwrap_err();
+            assert_eq!(e.field, field, "{e:?}");
+        }
     }
 }
