@@ -1,9 +1,9 @@
 //! The emissive triangles as the solver samples them, and the MIS weight it combines
 //! strategies with.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
-use crate::scene::Scene;
+use crate::scene::{AreaLight, Scene};
 
 /// Rec. 709 luminance.
 pub(super) fn luminance(c: Vec3) -> f32 {
@@ -15,6 +15,15 @@ pub(super) fn luminance(c: Vec3) -> f32 {
 pub(super) fn power(n_a: f32, p_a: f32, n_b: f32, p_b: f32) -> f32 {
     let (a, b) = ((n_a * p_a).powi(2), (n_b * p_b).powi(2));
     if a + b > 0.0 { a / (a + b) } else { 0.0 }
+}
+
+/// Point `k` of `grid × grid` stratified points on `light` (cell k mod grid, ⌊k/grid⌋ mod
+/// grid), jittered by `u` in the cell.
+pub(super) fn stratified_point(light: &AreaLight, k: u32, grid: u32, u: Vec2) -> Vec3 {
+    let (i, j) = (k % grid, (k / grid) % grid);
+    light.corner
+        + light.edge_u * ((i as f32 + u.x) / grid as f32)
+        + light.edge_v * ((j as f32 + u.y) / grid as f32)
 }
 
 /// Variance of the mean of `n` samples with sum `s` and sum of squares `s2`.

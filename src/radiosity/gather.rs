@@ -7,7 +7,7 @@ use std::f32::consts::PI;
 use glam::Vec3;
 
 use super::atlas::{Atlas, TexelSample};
-use super::emitters::{Emitters, luminance, power, var_of_mean};
+use super::emitters::{Emitters, luminance, power, stratified_point, var_of_mean};
 use super::mirror_lights::MirrorLights;
 use super::transport::{Glossy, Term};
 use crate::geometry::Bvh;
@@ -166,11 +166,7 @@ pub(super) fn gather(
         let mut sum = Vec3::ZERO;
         let (mut y, mut y2) = (0.0f64, 0.0f64);
         for k in 0..n_light {
-            let (i, j) = (k % grid, (k / grid) % grid);
-            let u = rng.uniform2();
-            let q = light.corner
-                + light.edge_u * ((i as f32 + u.x) / grid as f32)
-                + light.edge_v * ((j as f32 + u.y) / grid as f32);
+            let q = stratified_point(light, k, grid, rng.uniform2());
             let w = q - origin;
             let dist2 = w.length_squared();
             let dist = dist2.sqrt();

@@ -17,7 +17,7 @@ use std::f32::consts::PI;
 
 use glam::Vec3;
 
-use super::emitters::{Emitters, luminance, var_of_mean};
+use super::emitters::{Emitters, luminance, stratified_point, var_of_mean};
 use crate::brdf::kurt::{Lobe, fresnel_schlick};
 use crate::geometry::Bvh;
 use crate::sampling::{Rng, sample_triangle};
@@ -156,11 +156,7 @@ impl MirrorLights {
                 let grid = (n_light as f32).sqrt().ceil() as u32;
                 let (mut sum, mut y, mut y2) = (Vec3::ZERO, 0.0f64, 0.0f64);
                 for k in 0..n_light {
-                    let (i, j) = (k % grid, (k / grid) % grid);
-                    let u = rng.uniform2();
-                    let q = light.corner
-                        + light.edge_u * ((i as f32 + u.x) / grid as f32)
-                        + light.edge_v * ((j as f32 + u.y) / grid as f32);
+                    let q = stratified_point(light, k, grid, rng.uniform2());
                     let Some((refl, cos_s, dist2, r)) = through(q, 0.0) else {
                         continue;
                     };
