@@ -13,6 +13,7 @@ use crate::image_io::{self, ImageError};
 use crate::progress::{Cancelled, Progress};
 use crate::radiosity::atlas::{self, AtlasError};
 use crate::radiosity::format;
+use crate::radiosity::seams;
 use crate::radiosity::solve::{SolveSettings, solve};
 use crate::scene::Scene;
 use crate::scene::desc::RadiositySettings;
@@ -149,7 +150,8 @@ pub fn bake(
         tolerance: settings.tolerance,
         seed: SEED,
     };
-    let solution = solve(scene, &bvh, &atlas, &samples, &solve_settings, progress)?;
+    let mut solution = solve(scene, &bvh, &atlas, &samples, &solve_settings, progress)?;
+    let seam = seams::stitch_seams(&scene.triangles, &atlas, &samples, &mut solution.radiance);
     if progress.cancelled() {
         return Err(Cancelled.into());
     }
@@ -182,6 +184,15 @@ pub fn bake(
         ("rays_cast".into(), st.rays_cast.into()),
         ("bounces".into(), st.bounces.into()),
         ("last_change".into(), st.last_change.into()),
+        ("seam_edges".into(), seam.edges.into()),
+        ("seam_jump_p95_before".into(), seam.before.p95.into()),
+        ("seam_jump_p95_after".into(), seam.after.p95.into()),
+        ("seam_jump_max_after".into(), seam.after.max.into()),
+        (
+            "seam_jump_bspline_p95_after".into(),
+            seam.after_bspline.p95.into(),
+        ),
+        ("seam_texel_noise_median".into(), seam.noise.median.into()),
         (
             "uv_source".into(),
             if atlas.from_uv1 {

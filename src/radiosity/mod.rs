@@ -6,6 +6,7 @@ pub mod current;
 mod emitters;
 pub mod format;
 pub mod map;
+pub mod seams;
 pub mod solve;
 mod transport;
 
