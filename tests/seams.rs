@@ -8,7 +8,7 @@ use glint::bundle::Bundle;
 use glint::geometry::Triangle;
 use glint::progress::Silent;
 use glint::radiosity::RadiosityMap;
-use glint::radiosity::atlas::{self, Atlas, PageSize, TexelSample};
+use glint::radiosity::atlas::{self, Atlas, PageSize};
 use glint::radiosity::seams::{self, Filter, StitchSettings};
 use glint::scene::desc::RadiositySettings;
 use glint::scene::{Quality, Scene};
@@ -99,40 +99,16 @@ fn field(p: Vec2) -> f32 {
 
 /// Every chart texel holds the field at the world point of its centre (padding included:
 /// a linear field extends linearly), so both filters reproduce it exactly inside charts.
-/// Texels whose centre lies in the chart's half of the square are elements.
-fn linear_texels(atlas: &Atlas) -> (Vec<Vec3>, Vec<TexelSample>) {
+fn linear_texels(atlas: &Atlas) -> Vec<Vec3> {
     let w = atlas.pages[0].width;
     let mut texels = vec![Vec3::ZERO; atlas.texel_count()];
-    let mut samples = Vec::new();
     for (i, &chart) in atlas.texel_chart.iter().enumerate() {
-        if chart == u32::MAX {
-            continue;
-        }
-        let centre = Vec2::new((i as u32 % w) as f32 + 0.5, (i as u32 / w) as f32 + 0.5);
-        let p = to_world(chart == 1, centre);
-        texels[i] = Vec3::splat(field(p));
-        let inside = if chart == 1 {
-            (0.5..=1.0).contains(&p.x)
-        } else {
-            (0.0..=0.5).contains(&p.x)
-        };
-        if inside && (0.0..=1.0).contains(&p.y) {
-            let first = 2 * chart;
-            let (d, bary) = atlas::closest_point(atlas.tri_coords[first as usize], centre);
-            let triangle = if d == 0.0 { first } else { first + 1 };
-            let (_, bary) = if d == 0.0 {
-                (d, bary)
-            } else {
-                atlas::closest_point(atlas.tri_coords[triangle as usize], centre)
-            };
-            samples.push(TexelSample {
-                texel: i as u32,
-                triangle,
-                bary,
-            });
+        if chart != u32::MAX {
+            let centre = Vec2::new((i as u32 % w) as f32 + 0.5, (i as u32 / w) as f32 + 0.5);
+            texels[i] = Vec3::splat(field(to_world(chart == 1, centre)));
         }
     }
-    (texels, samples)
+    texels
 }
 
 #[test]
@@ -163,7 +139,7 @@ fn the_seam_between_two_charts_is_found_with_both_sides_on_the_same_points() {
 #[test]
 fn an_exact_linear_field_shows_no_seam_and_stitching_leaves_it_alone() {
     let (tris, atlas) = two_charts(Vec3::Z);
-    let (texels, samples) = linear_texels(&atlas);
+    let texels = linear_texels(&atlas);
     let points = seams::seam_points(&atlas, &seams::find(&tris, &atlas));
     for f in [Filter::Bilinear, Filter::BSpline] {
         let m = seams::measure(&atlas, &texels, &points, f);
@@ -180,7 +156,6 @@ fn an_exact_linear_field_shows_no_seam_and_stitching_leaves_it_alone() {
     let mut stitched = texels.clone();
     seams::stitch(
         &atlas,
-        &samples,
         &mut stitched,
         &points,
         &[Filter::Bilinear, Filter::BSpline],
@@ -199,7 +174,7 @@ fn an_exact_linear_field_shows_no_seam_and_stitching_leaves_it_alone() {
 #[test]
 fn stitching_closes_a_jump_and_leaves_texels_away_from_the_seam_alone() {
     let (tris, atlas) = two_charts(Vec3::Z);
-    let (mut texels, samples) = linear_texels(&atlas);
+    let mut texels = linear_texels(&atlas);
     // The right chart 0.1 too bright: a jump of 0.1 / D ∈ [0.1/1.5, 0.1/1.25] at the seam.
     for (t, &c) in texels.iter_mut().zip(&atlas.texel_chart) {
         if c == 1 {
@@ -218,7 +193,6 @@ fn stitching_closes_a_jump_and_leaves_texels_away_from_the_seam_alone() {
     }
     let stats = seams::stitch(
         &atlas,
-        &samples,
         &mut texels,
         &points,
         &[Filter::Bilinear, Filter::BSpline],

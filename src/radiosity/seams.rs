@@ -338,12 +338,13 @@ pub fn seam_charts(atlas: &Atlas, points: &[SeamPoint]) -> Vec<u32> {
 /// Weights of the stitching problem.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StitchSettings {
-    /// Pull λ of a texel that holds an element towards its solved value, against a weight
-    /// of 1 per seam constraint (one per seam point and filter).
-    pub element_weight: f64,
-    /// Pull λ of a padding texel (a copy of its nearest element, read only by lookups near
-    /// its chart's border) towards its value.
-    pub padding_weight: f64,
+    /// Pull λ of every texel towards its solved value, against a weight of 1 per seam
+    /// constraint (one per seam point and filter).
+    pub closeness: f64,
+    /// Pull μ between the changes of 4-adjacent texels of one chart (a texel next to one the
+    /// seams do not read counts that one's change as 0): the change spreads smoothly over
+    /// the chart instead of oscillating from texel to texel.
+    pub smoothness: f64,
     /// Conjugate-gradient iterations at most.
     pub max_iterations: u32,
     /// Stop when the residual is below this fraction of the right-hand side.
@@ -353,8 +354,8 @@ pub struct StitchSettings {
 impl Default for StitchSettings {
     fn default() -> Self {
         StitchSettings {
-            element_weight: 1e-3,
-            padding_weight: 1e-4,
+            closeness: 3e-3,
+            smoothness: 1e-2,
             max_iterations: 4000,
             tolerance: 1e-6,
         }
@@ -372,15 +373,20 @@ pub struct StitchStats {
     pub iterations: u32,
 }
 
-/// Makes D agree on both sides of every seam point through each of `filters`: minimises
-/// Σ_points,filters |lookup_a − lookup_b|² + Σ_texels λᵢ²·|texel − solved|² over the texels
-/// the lookups read (λ from `settings`: texels holding an element of `samples` are pulled
-/// harder than padding). Per channel, the normal equations (AᵀA + Λ²)·δ = −AᵀA·x₀ are
-/// solved by conjugate gradients with a Jacobi preconditioner. Texels stay ≥ 0.
-/// Sequential: the same texels whatever the thread count.
+/// Makes D agree on both sides of every seam point through each of `filters`, changing
+/// only the texels those lookups read: minimises, over the change δ of those texels,
+///
+/// Σ_points,filters |lookup_a − lookup_b|² + λ²·Σ_texels |δ|² + μ²·Σ_adjacent |δ_i − δ_j|²
+///
+/// (λ = `closeness`, μ = `smoothness`; adjacent: 4-neighbours in one chart, a texel that does
+/// not change counting as δ = 0). The smoothness term makes the change a smooth field over
+/// each chart, which a chart one or two texels wide takes as a shift of its level, instead
+/// of texel-to-texel oscillations fitted to nearby constraints. The normal equations
+/// (AᵀA + λ²·I + μ²·L)·δ = −AᵀA·x₀ are solved for the three channels by conjugate gradients
+/// with a Jacobi preconditioner. Texels stay ≥ 0. Sequential: the same texels whatever the
+/// thread count.
 pub fn stitch(
     atlas: &Atlas,
-    samples: &[TexelSample],
     texels: &mut [Vec3],
     points: &[SeamPoint],
     filters: &[Filter],
@@ -429,17 +435,60 @@ pub fn stitch(
     let index = |t: u32| unknowns.binary_search(&t).unwrap();
     let cols: Vec<(usize, f64)> = entries.iter().map(|&(t, w)| (index(t), w as f64)).collect();
     let n = unknowns.len();
-    let mut reg = vec![settings.padding_weight.powi(2); n];
-    for s in samples {
-        if let Ok(i) = unknowns.binary_search(&s.texel) {
-            reg[i] = settings.element_weight.powi(2);
+    let reg = vec![settings.closeness * settings.closeness; n];
+    let rows: Vec<&[(usize, f64)]> = row_start.windows(2).map(|w| &cols[w[0]..w[1]]).collect();
+    // Adjacent texels of one chart: (unknown, unknown) once each, (unknown, usize::MAX) for a
+    // neighbour that stays as it is.
+    let mu2 = settings.smoothness * settings.smoothness;
+    let mut pairs = Vec::new();
+    if mu2 > 0.0 {
+        for (page, size) in atlas.pages.iter().enumerate() {
+            let (start, end) = (offsets[page], offsets[page] + size.width * size.height);
+            let lo = unknowns.partition_point(|&t| t < start);
+            let hi = unknowns.partition_point(|&t| t < end);
+            for (k, &t) in unknowns[lo..hi].iter().enumerate() {
+                let chart = atlas
+                    .texel_chart
+                    .get(t as usize)
+                    .copied()
+                    .unwrap_or(u32::MAX);
+                if chart == u32::MAX {
+                    continue;
+                }
+                let (x, y) = ((t - start) % size.width, (t - start) / size.width);
+                let neighbours = [
+                    (x > 0).then(|| t - 1),
+                    (x + 1 < size.width).then(|| t + 1),
+                    (y > 0).then(|| t - size.width),
+                    (y + 1 < size.height).then(|| t + size.width),
+                ];
+                for nb in neighbours.into_iter().flatten() {
+                    if atlas.texel_chart[nb as usize] != chart {
+                        continue;
+                    }
+                    match unknowns.binary_search(&nb) {
+                        Ok(j) if j > lo + k => pairs.push((lo + k, j)),
+                        Ok(_) => {}
+                        Err(_) => pairs.push((lo + k, usize::MAX)),
+                    }
+                }
+            }
         }
     }
-    let rows: Vec<&[(usize, f64)]> = row_start.windows(2).map(|w| &cols[w[0]..w[1]]).collect();
-    // y = (AᵀA + Λ²)·v, the three channels at once.
+    // y = (AᵀA + Λ² + μ²·L)·v, the three channels at once (L: the graph Laplacian of `pairs`).
     let apply = |v: &[[f64; 3]], y: &mut [[f64; 3]]| {
         for (yi, (vi, r)) in y.iter_mut().zip(v.iter().zip(&reg)) {
             *yi = vi.map(|c| r * c);
+        }
+        for &(i, j) in &pairs {
+            let vj = if j == usize::MAX { [0.0; 3] } else { v[j] };
+            for c in 0..3 {
+                let d = mu2 * (v[i][c] - vj[c]);
+                y[i][c] += d;
+                if j != usize::MAX {
+                    y[j][c] -= d;
+                }
+            }
         }
         for r in &rows {
             let mut av = [0.0; 3];
@@ -456,6 +505,12 @@ pub fn stitch(
         }
     };
     let mut diag = reg.clone();
+    for &(i, j) in &pairs {
+        diag[i] += mu2;
+        if j != usize::MAX {
+            diag[j] += mu2;
+        }
+    }
     for r in &rows {
         for &(i, w) in r.iter() {
             diag[i] += w * w;
@@ -467,9 +522,18 @@ pub fn stitch(
         .collect();
     // b = −AᵀA·x₀
     let mut b = vec![[0.0; 3]; n];
-    apply(&x0, &mut b);
-    for ((bi, xi), r) in b.iter_mut().zip(&x0).zip(&reg) {
-        *bi = [0, 1, 2].map(|c| r * xi[c] - bi[c]);
+    for r in &rows {
+        let mut ax = [0.0; 3];
+        for &(i, w) in r.iter() {
+            for c in 0..3 {
+                ax[c] += w * x0[i][c];
+            }
+        }
+        for &(i, w) in r.iter() {
+            for c in 0..3 {
+                b[i][c] -= w * ax[c];
+            }
+        }
     }
     let (delta, iterations) = conjugate_gradients(&apply, &diag, &b, settings);
     stats.iterations = iterations;
@@ -582,7 +646,6 @@ pub fn stitch_seams(
     };
     report.stitch = stitch(
         atlas,
-        samples,
         texels,
         &points,
         &[Filter::Bilinear, Filter::BSpline],
