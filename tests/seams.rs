@@ -1,7 +1,11 @@
 //! Chart seams of the radiosity atlas: found where a smooth surface crosses charts, measured
 //! by paired lookups on both sides, and stitched so that D does not jump there. A synthetic
-//! pair of charts with an exact linear D, and bunny-mirror baked at default quality.
+//! pair of charts with an exact linear D, a smooth cylinder baked on 1 and 3 threads, and
+//! bunny-mirror baked at default quality.
 
+mod common;
+
+use common::{MaterialSpec, MeshSpec, flip, quad, write_gltf, write_scene};
 use glam::{Vec2, Vec3};
 use glint::bake::radiosity_stage;
 use glint::bundle::Bundle;
@@ -276,5 +280,100 @@ fn bunny_mirror_seams_are_below_one_percent_of_d_and_the_texel_noise() {
     assert!(
         before > 0.05,
         "stitching had nothing to do? p95 before {before}"
+    );
+}
+
+/// A smooth-shaded cylinder (24 facets, vertex normals radial: its charts meet at seams)
+/// standing on a floor under an emissive quad.
+fn cylinder_scene(dir: &std::path::Path) -> Scene {
+    let n = 24;
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    for i in 0..n {
+        let a = i as f32 / n as f32 * std::f32::consts::TAU;
+        for y in [0.0, 1.0] {
+            positions.push([0.5 * a.cos(), y, 0.5 * a.sin()]);
+            normals.push([a.cos(), 0.0, a.sin()]);
+        }
+    }
+    let mut indices = Vec::new();
+    for i in 0..n as u32 {
+        let j = (i + 1) % n as u32;
+        let (b0, t0, b1, t1) = (2 * i, 2 * i + 1, 2 * j, 2 * j + 1);
+        // Outward: seen from outside, bottom i → top i → top j is counter-clockwise.
+        indices.extend([b0, t0, t1, b0, t1, b1]);
+    }
+    let cylinder = MeshSpec {
+        name: "Cylinder",
+        material: 0,
+        positions,
+        indices,
+        normals,
+    };
+    let materials = [
+        MaterialSpec::diffuse("White", 0.7),
+        MaterialSpec {
+            emissive: [1.0; 3],
+            strength: 5.0,
+            ..MaterialSpec::diffuse("Light", 0.0)
+        },
+    ];
+    let meshes = [
+        cylinder,
+        quad("Floor", 0, 1, 0.0, 2.0),
+        flip(quad("Light", 1, 1, 2.0, 0.5)),
+    ];
+    write_gltf(dir, "s", &meshes, &materials);
+    Scene::load(write_scene(
+        dir,
+        r#"{ "version": 1, "geometry": "s.gltf" }"#,
+    ))
+    .unwrap()
+}
+
+#[test]
+fn stitched_bakes_are_byte_identical_whatever_the_thread_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = cylinder_scene(dir.path());
+    let outward = scene
+        .triangles
+        .iter()
+        .filter(|t| t.object == 0)
+        .all(|t| t.face_normal().dot(t.p[0].with_y(0.0)) > 0.0);
+    assert!(outward, "the cylinder's facets face outward");
+    let settings = RadiositySettings {
+        texel_density: 16.0,
+        rays: 32,
+        light_samples: 4,
+        bounces: 2,
+        tolerance: 0.0,
+        glossy_depth: 0,
+    };
+    let pages: Vec<Vec<u8>> = [1, 3]
+        .iter()
+        .map(|&threads| {
+            let out = dir.path().join(format!("t{threads}.glint"));
+            let record = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| radiosity_stage::bake(&scene, &out, &settings, false, &Silent))
+                .unwrap();
+            let edges = record.stats["seam_edges"].as_u64().unwrap();
+            let after = record.stats["seam_jump_max_after"].as_f64().unwrap();
+            let before = record.stats["seam_jump_p95_before"].as_f64().unwrap();
+            println!("{edges} seam edges, jump p95 {before} before stitching, max {after} after");
+            assert!(edges >= 4, "{edges} seam edges on the cylinder");
+            assert!(before > 0.01, "no jump to stitch? p95 {before}");
+            assert!(after <= 0.01, "jump after stitching {after}");
+            Bundle::open(&out)
+                .unwrap()
+                .read_stage_file("radiosity", "page0.exr")
+                .unwrap()
+        })
+        .collect();
+    assert!(
+        pages[0] == pages[1],
+        "page0.exr differs between 1 and 3 threads"
     );
 }
