@@ -15,12 +15,13 @@
 //!   Ferguson, Jacobson and Gingold 2017, "Seamless: seam erasure and seam-aware decoupling
 //!   of shading from geometry", §4), solved by preconditioned conjugate gradients.
 //!
-//! Everything here is sequential and visits seams in a fixed order, so the result does not
-//! depend on the thread count.
+//! Seams are visited in a fixed order and every sum is taken in a fixed order, so the result
+//! does not depend on the thread count.
 
 use std::collections::BTreeMap;
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 use super::atlas::{Atlas, CHART_MAX_ANGLE_DEG, TexelSample, weld};
 use super::map::{bilinear, bspline_weights};
@@ -357,7 +358,7 @@ impl Default for StitchSettings {
             closeness: 3e-3,
             smoothness: 1e-2,
             max_iterations: 4000,
-            tolerance: 1e-6,
+            tolerance: 1e-5,
         }
     }
 }
@@ -383,8 +384,9 @@ pub struct StitchStats {
 /// each chart, which a chart one or two texels wide takes as a shift of its level, instead
 /// of texel-to-texel oscillations fitted to nearby constraints. The normal equations
 /// (AᵀA + λ²·I + μ²·L)·δ = −AᵀA·x₀ are solved for the three channels by conjugate gradients
-/// with a Jacobi preconditioner. Texels stay ≥ 0. Sequential: the same texels whatever the
-/// thread count.
+/// with a Jacobi preconditioner. Texels stay ≥ 0. Every sum runs in a fixed order (parallel
+/// over rows and texels, reductions over fixed chunks): the same texels whatever the thread
+/// count.
 pub fn stitch(
     atlas: &Atlas,
     texels: &mut [Vec3],
@@ -435,18 +437,16 @@ pub fn stitch(
     let index = |t: u32| unknowns.binary_search(&t).unwrap();
     let cols: Vec<(usize, f64)> = entries.iter().map(|&(t, w)| (index(t), w as f64)).collect();
     let n = unknowns.len();
-    let reg = vec![settings.closeness * settings.closeness; n];
     let rows: Vec<&[(usize, f64)]> = row_start.windows(2).map(|w| &cols[w[0]..w[1]]).collect();
-    // Adjacent texels of one chart: (unknown, unknown) once each, (unknown, usize::MAX) for a
-    // neighbour that stays as it is.
+    // Per unknown: its 4-neighbours in the same chart that also change, and how many stay.
     let mu2 = settings.smoothness * settings.smoothness;
-    let mut pairs = Vec::new();
+    let mut neighbours: Vec<(Vec<usize>, f64)> = vec![(Vec::new(), 0.0); n];
     if mu2 > 0.0 {
         for (page, size) in atlas.pages.iter().enumerate() {
             let (start, end) = (offsets[page], offsets[page] + size.width * size.height);
             let lo = unknowns.partition_point(|&t| t < start);
             let hi = unknowns.partition_point(|&t| t < end);
-            for (k, &t) in unknowns[lo..hi].iter().enumerate() {
+            for (i, &t) in unknowns.iter().enumerate().take(hi).skip(lo) {
                 let chart = atlas
                     .texel_chart
                     .get(t as usize)
@@ -456,85 +456,104 @@ pub fn stitch(
                     continue;
                 }
                 let (x, y) = ((t - start) % size.width, (t - start) / size.width);
-                let neighbours = [
+                let around = [
                     (x > 0).then(|| t - 1),
                     (x + 1 < size.width).then(|| t + 1),
                     (y > 0).then(|| t - size.width),
                     (y + 1 < size.height).then(|| t + size.width),
                 ];
-                for nb in neighbours.into_iter().flatten() {
-                    if atlas.texel_chart[nb as usize] != chart {
-                        continue;
-                    }
-                    match unknowns.binary_search(&nb) {
-                        Ok(j) if j > lo + k => pairs.push((lo + k, j)),
-                        Ok(_) => {}
-                        Err(_) => pairs.push((lo + k, usize::MAX)),
+                for nb in around.into_iter().flatten() {
+                    if atlas.texel_chart[nb as usize] == chart {
+                        match unknowns.binary_search(&nb) {
+                            Ok(j) => neighbours[i].0.push(j),
+                            Err(_) => neighbours[i].1 += 1.0,
+                        }
                     }
                 }
             }
         }
     }
-    // y = (AᵀA + Λ² + μ²·L)·v, the three channels at once (L: the graph Laplacian of `pairs`).
+    // Aᵀ by unknown: (row, weight), rows in order.
+    let mut by_unknown: Vec<Vec<(usize, f64)>> = vec![Vec::new(); n];
+    for (r, row) in rows.iter().enumerate() {
+        for &(i, w) in row.iter() {
+            by_unknown[i].push((r, w));
+        }
+    }
+    // y = (AᵀA + λ²·I + μ²·L)·v for the three channels (L: the graph Laplacian of the
+    // neighbours, a neighbour that stays counting as 0). Rows, then unknowns, each computed
+    // on its own: the same sums in the same order whatever the thread count.
+    let lambda2 = settings.closeness * settings.closeness;
     let apply = |v: &[[f64; 3]], y: &mut [[f64; 3]]| {
-        for (yi, (vi, r)) in y.iter_mut().zip(v.iter().zip(&reg)) {
-            *yi = vi.map(|c| r * c);
-        }
-        for &(i, j) in &pairs {
-            let vj = if j == usize::MAX { [0.0; 3] } else { v[j] };
+        let av: Vec<[f64; 3]> = rows
+            .par_iter()
+            .map(|row| {
+                let mut s = [0.0; 3];
+                for &(i, w) in row.iter() {
+                    for c in 0..3 {
+                        s[c] += w * v[i][c];
+                    }
+                }
+                s
+            })
+            .collect();
+        y.par_iter_mut().enumerate().for_each(|(i, yi)| {
+            let (nbrs, fixed) = &neighbours[i];
+            let degree = nbrs.len() as f64 + fixed;
+            let mut s = [0.0; 3];
             for c in 0..3 {
-                let d = mu2 * (v[i][c] - vj[c]);
-                y[i][c] += d;
-                if j != usize::MAX {
-                    y[j][c] -= d;
-                }
+                s[c] = (lambda2 + mu2 * degree) * v[i][c];
             }
-        }
-        for r in &rows {
-            let mut av = [0.0; 3];
-            for &(i, w) in r.iter() {
+            for &j in nbrs {
                 for c in 0..3 {
-                    av[c] += w * v[i][c];
+                    s[c] -= mu2 * v[j][c];
                 }
             }
-            for &(i, w) in r.iter() {
+            for &(r, w) in &by_unknown[i] {
                 for c in 0..3 {
-                    y[i][c] += w * av[c];
+                    s[c] += w * av[r][c];
                 }
             }
-        }
+            *yi = s;
+        });
     };
-    let mut diag = reg.clone();
-    for &(i, j) in &pairs {
-        diag[i] += mu2;
-        if j != usize::MAX {
-            diag[j] += mu2;
-        }
-    }
-    for r in &rows {
-        for &(i, w) in r.iter() {
-            diag[i] += w * w;
-        }
-    }
+    let diag: Vec<f64> = (0..n)
+        .map(|i| {
+            let (nbrs, fixed) = &neighbours[i];
+            lambda2
+                + mu2 * (nbrs.len() as f64 + fixed)
+                + by_unknown[i].iter().map(|&(_, w)| w * w).sum::<f64>()
+        })
+        .collect();
     let x0: Vec<[f64; 3]> = unknowns
         .iter()
         .map(|&t| texels[t as usize].to_array().map(f64::from))
         .collect();
     // b = −AᵀA·x₀
-    let mut b = vec![[0.0; 3]; n];
-    for r in &rows {
-        let mut ax = [0.0; 3];
-        for &(i, w) in r.iter() {
-            for c in 0..3 {
-                ax[c] += w * x0[i][c];
+    let ax0: Vec<[f64; 3]> = rows
+        .iter()
+        .map(|row| {
+            let mut s = [0.0; 3];
+            for &(i, w) in row.iter() {
+                for c in 0..3 {
+                    s[c] += w * x0[i][c];
+                }
             }
-        }
-        for &(i, w) in r.iter() {
-            for c in 0..3 {
-                b[i][c] -= w * ax[c];
+            s
+        })
+        .collect();
+    let b: Vec<[f64; 3]> = by_unknown
+        .iter()
+        .map(|col| {
+            let mut s = [0.0; 3];
+            for &(r, w) in col {
+                for c in 0..3 {
+                    s[c] -= w * ax0[r][c];
+                }
             }
-        }
-    }
+            s
+        })
+        .collect();
     let (delta, iterations) = conjugate_gradients(&apply, &diag, &b, settings);
     stats.iterations = iterations;
     for ((&t, x), d) in unknowns.iter().zip(&x0).zip(&delta) {
@@ -543,22 +562,35 @@ pub fn stitch(
     stats
 }
 
-/// Per channel, Σ aᵢ·bᵢ.
+/// Elements per partial sum of [`dot`]: fixed, so that the sum's rounding does not depend
+/// on the thread count.
+const DOT_CHUNK: usize = 4096;
+
+/// Per channel, Σ aᵢ·bᵢ: partial sums over fixed chunks in parallel, added in order.
 fn dot(a: &[[f64; 3]], b: &[[f64; 3]]) -> [f64; 3] {
-    let mut s = [0.0; 3];
-    for (x, y) in a.iter().zip(b) {
-        for c in 0..3 {
-            s[c] += x[c] * y[c];
-        }
-    }
-    s
+    let partial: Vec<[f64; 3]> = a
+        .par_chunks(DOT_CHUNK)
+        .zip(b.par_chunks(DOT_CHUNK))
+        .map(|(a, b)| {
+            let mut s = [0.0; 3];
+            for (x, y) in a.iter().zip(b) {
+                for c in 0..3 {
+                    s[c] += x[c] * y[c];
+                }
+            }
+            s
+        })
+        .collect();
+    partial
+        .iter()
+        .fold([0.0; 3], |s, p| [0, 1, 2].map(|c| s[c] + p[c]))
 }
 
 /// Solves M·x = b for symmetric positive definite M (given as `apply`) and three right-hand
 /// sides at once (each with its own step lengths) by conjugate gradients, preconditioned by
 /// M's diagonal; returns x and the iterations run.
 fn conjugate_gradients(
-    apply: &dyn Fn(&[[f64; 3]], &mut [[f64; 3]]),
+    apply: &(dyn Fn(&[[f64; 3]], &mut [[f64; 3]]) + Sync),
     diag: &[f64],
     b: &[[f64; 3]],
     settings: &StitchSettings,
@@ -586,21 +618,25 @@ fn conjugate_gradients(
                 0.0
             }
         });
-        for i in 0..n {
-            for c in 0..3 {
-                x[i][c] += alpha[c] * p[i][c];
-                r[i][c] -= alpha[c] * q[i][c];
-                z[i][c] = r[i][c] / diag[i];
-            }
-        }
+        x.par_iter_mut()
+            .zip(r.par_iter_mut())
+            .zip(z.par_iter_mut())
+            .zip(p.par_iter().zip(q.par_iter()).zip(diag.par_iter()))
+            .for_each(|(((x, r), z), ((p, q), d))| {
+                for c in 0..3 {
+                    x[c] += alpha[c] * p[c];
+                    r[c] -= alpha[c] * q[c];
+                    z[c] = r[c] / d;
+                }
+            });
         let rz_next = dot(&r, &z);
         let beta = [0, 1, 2].map(|c| if rz[c] > 0.0 { rz_next[c] / rz[c] } else { 0.0 });
         rz = rz_next;
-        for i in 0..n {
+        p.par_iter_mut().zip(z.par_iter()).for_each(|(p, z)| {
             for c in 0..3 {
-                p[i][c] = z[i][c] + beta[c] * p[i][c];
+                p[c] = z[c] + beta[c] * p[c];
             }
-        }
+        });
     }
     (x, settings.max_iterations)
 }
