@@ -670,6 +670,7 @@ pub fn stitch_seams(
     samples: &[TexelSample],
     texels: &mut [Vec3],
 ) -> SeamReport {
+    let start = std::time::Instant::now();
     let seams = find(triangles, atlas);
     let points = seam_points(atlas, &seams);
     let charts = seam_charts(atlas, &points);
@@ -690,14 +691,15 @@ pub fn stitch_seams(
     report.after = measure(atlas, texels, &points, Filter::Bilinear);
     report.after_bspline = measure(atlas, texels, &points, Filter::BSpline);
     log::info!(
-        "seams: {} edges, jump in D p95 {:.2}% → {:.3}% (bilinear), {:.2}% → {:.3}% (B-spline); {} texels stitched in {} iterations",
+        "seams: {} edges, jump in D p95 {:.2}% → {:.3}% (bilinear), {:.2}% → {:.3}% (B-spline); {} texels stitched in {} iterations, {:.2} s",
         report.edges,
         report.before.p95 * 100.0,
         report.after.p95 * 100.0,
         report.before_bspline.p95 * 100.0,
         report.after_bspline.p95 * 100.0,
         report.stitch.unknowns,
-        report.stitch.iterations
+        report.stitch.iterations,
+        start.elapsed().as_secs_f64()
     );
     report
 }
