@@ -485,18 +485,7 @@ pub fn stitch(
     // on its own: the same sums in the same order whatever the thread count.
     let lambda2 = settings.closeness * settings.closeness;
     let apply = |v: &[[f64; 3]], y: &mut [[f64; 3]]| {
-        let av: Vec<[f64; 3]> = rows
-            .par_iter()
-            .map(|row| {
-                let mut s = [0.0; 3];
-                for &(i, w) in row.iter() {
-                    for c in 0..3 {
-                        s[c] += w * v[i][c];
-                    }
-                }
-                s
-            })
-            .collect();
+        let av = row_products(&rows, v);
         y.par_iter_mut().enumerate().for_each(|(i, yi)| {
             let (nbrs, fixed) = &neighbours[i];
             let degree = nbrs.len() as f64 + fixed;
@@ -530,18 +519,7 @@ pub fn stitch(
         .map(|&t| texels[t as usize].to_array().map(f64::from))
         .collect();
     // b = −AᵀA·x₀
-    let ax0: Vec<[f64; 3]> = rows
-        .iter()
-        .map(|row| {
-            let mut s = [0.0; 3];
-            for &(i, w) in row.iter() {
-                for c in 0..3 {
-                    s[c] += w * x0[i][c];
-                }
-            }
-            s
-        })
-        .collect();
+    let ax0 = row_products(&rows, &x0);
     let b: Vec<[f64; 3]> = by_unknown
         .iter()
         .map(|col| {
@@ -560,6 +538,21 @@ pub fn stitch(
         texels[t as usize] = Vec3::from_array([0, 1, 2].map(|c| (x[c] + d[c]).max(0.0) as f32));
     }
     stats
+}
+
+/// A·v for the three channels, one row at a time.
+fn row_products(rows: &[&[(usize, f64)]], v: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    rows.par_iter()
+        .map(|row| {
+            let mut s = [0.0; 3];
+            for &(i, w) in row.iter() {
+                for c in 0..3 {
+                    s[c] += w * v[i][c];
+                }
+            }
+            s
+        })
+        .collect()
 }
 
 /// Elements per partial sum of [`dot`]: fixed, so that the sum's rounding does not depend
