@@ -384,7 +384,7 @@ pub struct StitchStats {
 /// each chart, which a chart one or two texels wide takes as a shift of its level, instead
 /// of texel-to-texel oscillations fitted to nearby constraints. The normal equations
 /// (AᵀA + λ²·I + μ²·L)·δ = −AᵀA·x₀ are solved for the three channels by conjugate gradients
-/// with a block-Jacobi preconditioner (one block per chart). Texels stay ≥ 0. Every sum runs in a fixed order (parallel
+/// with a Jacobi preconditioner. Texels stay ≥ 0. Every sum runs in a fixed order (parallel
 /// over rows and texels, reductions over fixed chunks): the same texels whatever the thread
 /// count.
 pub fn stitch(
@@ -506,17 +506,14 @@ pub fn stitch(
             *yi = s;
         });
     };
-    let charts: Vec<u32> = unknowns
-        .iter()
-        .map(|&t| {
-            atlas
-                .texel_chart
-                .get(t as usize)
-                .copied()
-                .unwrap_or(u32::MAX)
+    let diag: Vec<f64> = (0..n)
+        .map(|i| {
+            let (nbrs, fixed) = &neighbours[i];
+            lambda2
+                + mu2 * (nbrs.len() as f64 + fixed)
+                + by_unknown[i].iter().map(|&(_, w)| w * w).sum::<f64>()
         })
         .collect();
-    let preconditioner = BlockJacobi::new(&charts, &rows, &neighbours, lambda2, mu2);
     let x0: Vec<[f64; 3]> = unknowns
         .iter()
         .map(|&t| texels[t as usize].to_array().map(f64::from))
@@ -535,144 +532,12 @@ pub fn stitch(
             s
         })
         .collect();
-    let (delta, iterations) = conjugate_gradients(&apply, &preconditioner, &b, settings);
+    let (delta, iterations) = conjugate_gradients(&apply, &diag, &b, settings);
     stats.iterations = iterations;
     for ((&t, x), d) in unknowns.iter().zip(&x0).zip(&delta) {
         texels[t as usize] = Vec3::from_array([0, 1, 2].map(|c| (x[c] + d[c]).max(0.0) as f32));
     }
     stats
-}
-
-/// Largest block of the preconditioner, in texels.
-const BLOCK: usize = 48;
-
-/// Block-Jacobi preconditioner: the texels of each chart, in runs of at most [`BLOCK`], with
-/// the exact inverse of M restricted to each run (dense Cholesky). A chart one or two texels
-/// wide is one block, so what couples its own texels (its seams' lookups and the smoothness
-/// term) is solved exactly and conjugate gradients only resolve what couples charts.
-struct BlockJacobi {
-    /// Per block, its unknowns.
-    members: Vec<Vec<usize>>,
-    /// Per block, the lower Cholesky factor of its part of M, row-major.
-    factors: Vec<Vec<f64>>,
-}
-
-impl BlockJacobi {
-    fn new(
-        charts: &[u32],
-        rows: &[&[(usize, f64)]],
-        neighbours: &[(Vec<usize>, f64)],
-        lambda2: f64,
-        mu2: f64,
-    ) -> BlockJacobi {
-        let n = charts.len();
-        let mut order: Vec<usize> = (0..n).collect();
-        order.sort_by_key(|&i| (charts[i], i));
-        let mut members: Vec<Vec<usize>> = Vec::new();
-        for &i in &order {
-            match members.last_mut() {
-                Some(b) if b.len() < BLOCK && charts[b[0]] == charts[i] => b.push(i),
-                _ => members.push(vec![i]),
-            }
-        }
-        let mut place = vec![(0usize, 0usize); n];
-        for (b, m) in members.iter().enumerate() {
-            for (k, &i) in m.iter().enumerate() {
-                place[i] = (b, k);
-            }
-        }
-        let mut blocks: Vec<Vec<f64>> = members
-            .iter()
-            .map(|m| vec![0.0; m.len() * m.len()])
-            .collect();
-        for row in rows {
-            for &(i, wi) in row.iter() {
-                let (bi, ki) = place[i];
-                let len = members[bi].len();
-                for &(j, wj) in row.iter() {
-                    let (bj, kj) = place[j];
-                    if bi == bj {
-                        blocks[bi][ki * len + kj] += wi * wj;
-                    }
-                }
-            }
-        }
-        for (i, (nbrs, fixed)) in neighbours.iter().enumerate() {
-            let (b, k) = place[i];
-            let len = members[b].len();
-            blocks[b][k * len + k] += lambda2 + mu2 * (nbrs.len() as f64 + fixed);
-            for &j in nbrs {
-                let (bj, kj) = place[j];
-                if bj == b {
-                    blocks[b][k * len + kj] -= mu2;
-                }
-            }
-        }
-        let factors = blocks
-            .into_par_iter()
-            .zip(members.par_iter())
-            .map(|(m, mem)| cholesky(m, mem.len()))
-            .collect();
-        BlockJacobi { members, factors }
-    }
-
-    /// z = P⁻¹·r.
-    fn apply(&self, r: &[[f64; 3]], z: &mut [[f64; 3]]) {
-        let solved: Vec<Vec<[f64; 3]>> = self
-            .members
-            .par_iter()
-            .zip(self.factors.par_iter())
-            .map(|(m, l)| {
-                let len = m.len();
-                let mut y: Vec<[f64; 3]> = m.iter().map(|&i| r[i]).collect();
-                // L·y' = y, then Lᵀ·x = y'.
-                for k in 0..len {
-                    for j in 0..k {
-                        for c in 0..3 {
-                            y[k][c] -= l[k * len + j] * y[j][c];
-                        }
-                    }
-                    for c in 0..3 {
-                        y[k][c] /= l[k * len + k];
-                    }
-                }
-                for k in (0..len).rev() {
-                    for j in k + 1..len {
-                        for c in 0..3 {
-                            y[k][c] -= l[j * len + k] * y[j][c];
-                        }
-                    }
-                    for c in 0..3 {
-                        y[k][c] /= l[k * len + k];
-                    }
-                }
-                y
-            })
-            .collect();
-        for (m, y) in self.members.iter().zip(solved) {
-            for (&i, v) in m.iter().zip(y) {
-                z[i] = v;
-            }
-        }
-    }
-}
-
-/// Lower Cholesky factor of the symmetric positive definite `len`² matrix `a` (row-major).
-fn cholesky(mut a: Vec<f64>, len: usize) -> Vec<f64> {
-    for k in 0..len {
-        let d = (a[k * len + k] - (0..k).map(|j| a[k * len + j].powi(2)).sum::<f64>()).sqrt();
-        a[k * len + k] = d;
-        for i in k + 1..len {
-            let s: f64 = (0..k).map(|j| a[i * len + j] * a[k * len + j]).sum();
-            a[i * len + k] = (a[i * len + k] - s) / d;
-        }
-    }
-    for i in 0..len {
-        for j in i + 1..len {
-            a[i * len + j] = 0.0;
-        }
-    }
-    a
 }
 
 /// A·v for the three channels, one row at a time.
@@ -715,11 +580,11 @@ fn dot(a: &[[f64; 3]], b: &[[f64; 3]]) -> [f64; 3] {
 }
 
 /// Solves M·x = b for symmetric positive definite M (given as `apply`) and three right-hand
-/// sides at once (each with its own step lengths) by preconditioned conjugate gradients;
-/// returns x and the iterations run.
+/// sides at once (each with its own step lengths) by conjugate gradients, preconditioned by
+/// M's diagonal; returns x and the iterations run.
 fn conjugate_gradients(
     apply: &(dyn Fn(&[[f64; 3]], &mut [[f64; 3]]) + Sync),
-    preconditioner: &BlockJacobi,
+    diag: &[f64],
     b: &[[f64; 3]],
     settings: &StitchSettings,
 ) -> (Vec<[f64; 3]>, u32) {
@@ -727,8 +592,7 @@ fn conjugate_gradients(
     let mut x = vec![[0.0; 3]; n];
     let stop = dot(b, b).map(|s| s.sqrt() * settings.tolerance);
     let mut r = b.to_vec();
-    let mut z = vec![[0.0; 3]; n];
-    preconditioner.apply(&r, &mut z);
+    let mut z: Vec<[f64; 3]> = r.iter().zip(diag).map(|(r, d)| r.map(|c| c / d)).collect();
     let mut p = z.clone();
     let mut rz = dot(&r, &z);
     let mut q = vec![[0.0; 3]; n];
@@ -749,14 +613,15 @@ fn conjugate_gradients(
         });
         x.par_iter_mut()
             .zip(r.par_iter_mut())
-            .zip(p.par_iter().zip(q.par_iter()))
-            .for_each(|((x, r), (p, q))| {
+            .zip(z.par_iter_mut())
+            .zip(p.par_iter().zip(q.par_iter()).zip(diag.par_iter()))
+            .for_each(|(((x, r), z), ((p, q), d))| {
                 for c in 0..3 {
                     x[c] += alpha[c] * p[c];
                     r[c] -= alpha[c] * q[c];
+                    z[c] = r[c] / d;
                 }
             });
-        preconditioner.apply(&r, &mut z);
         let rz_next = dot(&r, &z);
         let beta = [0, 1, 2].map(|c| if rz[c] > 0.0 { rz_next[c] / rz[c] } else { 0.0 });
         rz = rz_next;
