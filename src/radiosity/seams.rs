@@ -579,11 +579,14 @@ fn dot(a: &[[f64; 3]], b: &[[f64; 3]]) -> [f64; 3] {
         .fold([0.0; 3], |s, p| [0, 1, 2].map(|c| s[c] + p[c]))
 }
 
+/// y = M·v for the three channels.
+type Operator<'a> = dyn Fn(&[[f64; 3]], &mut [[f64; 3]]) + Sync + 'a;
+
 /// Solves M·x = b for symmetric positive definite M (given as `apply`) and three right-hand
 /// sides at once (each with its own step lengths) by conjugate gradients, preconditioned by
 /// M's diagonal; returns x and the iterations run.
 fn conjugate_gradients(
-    apply: &(dyn Fn(&[[f64; 3]], &mut [[f64; 3]]) + Sync),
+    apply: &Operator<'_>,
     diag: &[f64],
     b: &[[f64; 3]],
     settings: &StitchSettings,
