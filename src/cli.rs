@@ -112,6 +112,10 @@ pub struct RadiosityFlags {
     /// more rays and emitter samples, in up to 4 rounds; 0 turns refinement off.
     #[arg(long, value_name = "REL")]
     pub target_error: Option<f32>,
+    /// Make D agree across the chart seams of smooth surfaces (least-squares stitching of the
+    /// solved texels).
+    #[arg(long)]
+    pub stitch_seams: bool,
 }
 
 impl RadiosityFlags {
@@ -125,6 +129,7 @@ impl RadiosityFlags {
             glossy_depth: self.glossy_depth,
             tolerance: self.tolerance,
             target_error: self.target_error,
+            stitch_seams: self.stitch_seams.then_some(true),
         }
     }
 }

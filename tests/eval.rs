@@ -143,6 +143,7 @@ fn diffuse_cornell_box_agrees_with_converged_radiosity() {
         tolerance: 1e-3,
         glossy_depth: 0,
         target_error: None,
+        stitch_seams: false,
     };
     let bundle = shipped_bundle(&Recipe::new("cornell-box").then(Step::Radiosity(settings)));
     let map = RadiosityMap::load(&Bundle::open(&bundle).unwrap())

@@ -199,6 +199,7 @@ fn stage_bakes_maps_quadtrees_and_table_one() {
         tolerance: 0.0,
         glossy_depth: 0,
         target_error: None,
+        stitch_seams: false,
     };
     radiosity_stage::bake(&scene, &out, &rs, false, &Silent).unwrap();
     let rec = radiance_stage::bake(&scene, &out, Quality::Draft, false, &Silent).unwrap();

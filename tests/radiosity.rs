@@ -258,6 +258,7 @@ fn bakes_are_byte_identical_whatever_the_thread_count() {
         tolerance: 0.0,
         glossy_depth: 0,
         target_error: None,
+        stitch_seams: false,
     };
     let bundles: Vec<_> = [1, 2, 3]
         .iter()
@@ -311,6 +312,7 @@ fn cancelling_leaves_the_bundle_as_it_was() {
         tolerance: 0.0,
         glossy_depth: 0,
         target_error: None,
+        stitch_seams: false,
     };
     radiosity_stage::bake(&scene, &out, &settings, false, &Silent).unwrap();
     let manifest = std::fs::read(out.join("manifest.json")).unwrap();

@@ -89,6 +89,7 @@ fn corridor() -> &'static ViewData {
             tolerance: 1e-2,
             glossy_depth: 0,
             target_error: None,
+            stitch_seams: false,
         };
         scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
         radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent)
@@ -340,6 +341,7 @@ fn straddling() -> &'static ViewData {
             tolerance: 1e-2,
             glossy_depth: 0,
             target_error: None,
+            stitch_seams: false,
         };
         scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
         radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent)

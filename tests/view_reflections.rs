@@ -83,6 +83,7 @@ fn glossy_bundle() -> &'static Path {
             tolerance: 1e-2,
             glossy_depth: 0,
             target_error: None,
+            stitch_seams: false,
         };
         shipped_bundle(
             &Recipe::new("glossy-room")
@@ -581,6 +582,7 @@ fn mirror_reflecting_a_flat_wall_matches_in_both_modes() {
         tolerance: 1e-2,
         glossy_depth: 0,
         target_error: None,
+        stitch_seams: false,
     };
     scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
     radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent)

@@ -13,6 +13,7 @@ use crate::image_io::{self, ImageError};
 use crate::progress::{Cancelled, Progress};
 use crate::radiosity::atlas::{self, AtlasError};
 use crate::radiosity::format;
+use crate::radiosity::seams;
 use crate::radiosity::solve::{SolveSettings, solve};
 use crate::scene::Scene;
 use crate::scene::desc::RadiositySettings;
@@ -150,7 +151,10 @@ pub fn bake(
         target_error: settings.target_error,
         seed: SEED,
     };
-    let solution = solve(scene, &bvh, &atlas, &samples, &solve_settings, progress)?;
+    let mut solution = solve(scene, &bvh, &atlas, &samples, &solve_settings, progress)?;
+    let seam = settings
+        .stitch_seams
+        .then(|| seams::stitch_seams(&scene.triangles, &atlas, &samples, &mut solution.radiance));
     if progress.cancelled() {
         return Err(Cancelled.into());
     }
@@ -173,7 +177,7 @@ pub fn bake(
     w.write("atlas.bin", "atlas", &format::encode(&atlas))?;
 
     let st = &solution.stats;
-    let stats = BTreeMap::from([
+    let mut stats = BTreeMap::from([
         ("pages".to_string(), atlas.pages.len().into()),
         ("charts".into(), atlas.charts.into()),
         ("atlas_texels".into(), atlas.texel_count().into()),
@@ -183,6 +187,11 @@ pub fn bake(
         ("rays_cast".into(), st.rays_cast.into()),
         ("bounces".into(), st.bounces.into()),
         ("last_change".into(), st.last_change.into()),
+        ("refine_rounds".into(), st.rounds.into()),
+        ("texels_refined".into(), st.refined.into()),
+        ("error_median".into(), st.error_median.into()),
+        ("error_p95".into(), st.error_p95.into()),
+        ("error_max".into(), st.error_max.into()),
         (
             "uv_source".into(),
             if atlas.from_uv1 {
@@ -193,6 +202,18 @@ pub fn bake(
             .into(),
         ),
     ]);
+    if let Some(seam) = seam {
+        for (key, v) in [
+            ("seam_jump_p95_before", seam.before.p95),
+            ("seam_jump_p95_after", seam.after.p95),
+            ("seam_jump_max_after", seam.after.max),
+            ("seam_jump_bspline_p95_after", seam.after_bspline.p95),
+            ("seam_texel_noise_median", seam.noise.median),
+        ] {
+            stats.insert(key.into(), v.into());
+        }
+        stats.insert("seam_edges".into(), seam.edges.into());
+    }
     Ok(w.commit(StageInfo {
         scene_name: scene.name.clone(),
         scene_hash: scene.content_hash.clone(),

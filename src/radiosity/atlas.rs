@@ -195,11 +195,12 @@ pub fn build(
     Ok((atlas, samples))
 }
 
-/// Groups triangles into charts (lists of triangle indices, in index order of their seeds).
-fn make_charts(triangles: &[Triangle]) -> Vec<Vec<u32>> {
-    // Weld vertices by exact position: glTF splits vertices at seams, positions stay equal.
+/// Per triangle, an id for each vertex, equal for vertices at exactly the same position
+/// (glTF splits vertices at UV and normal seams; their positions stay equal). Ids are
+/// numbered in order of first appearance, so they do not depend on hashing.
+pub fn weld(triangles: &[Triangle]) -> Vec<[u32; 3]> {
     let mut ids: HashMap<[u32; 3], u32> = HashMap::new();
-    let vid: Vec<[u32; 3]> = triangles
+    triangles
         .iter()
         .map(|t| {
             t.p.map(|p| {
@@ -208,7 +209,12 @@ fn make_charts(triangles: &[Triangle]) -> Vec<Vec<u32>> {
                 *ids.entry(key).or_insert(n)
             })
         })
-        .collect();
+        .collect()
+}
+
+/// Groups triangles into charts (lists of triangle indices, in index order of their seeds).
+fn make_charts(triangles: &[Triangle]) -> Vec<Vec<u32>> {
+    let vid = weld(triangles);
     let mut edges: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
     for (t, v) in vid.iter().enumerate() {
         for k in 0..3 {

@@ -148,3 +148,17 @@ pub fn bilinear(texels: &[Vec3], width: u32, height: u32, p: Vec2) -> Vec3 {
     let bottom = at(x0, y0 + 1.0).lerp(at(x0 + 1.0, y0 + 1.0), fx);
     top.lerp(bottom, fy)
 }
+
+/// Cubic B-spline weights of the four texels around a sample whose fractional position past
+/// the second texel's centre is `f` ∈ [0, 1]. They sum to 1 and are all ≥ 0. The viewer
+/// reconstructs D with this filter (`view::bicubic`, `shaders/view.wgsl`).
+pub fn bspline_weights(f: f32) -> [f32; 4] {
+    let g = 1.0 - f;
+    let (f2, f3) = (f * f, f * f * f);
+    [
+        g * g * g / 6.0,
+        (4.0 - 6.0 * f2 + 3.0 * f3) / 6.0,
+        (1.0 + 3.0 * f + 3.0 * f2 - 3.0 * f3) / 6.0,
+        f3 / 6.0,
+    ]
+}

@@ -8,6 +8,7 @@ pub mod format;
 mod gather;
 pub mod map;
 mod mirror_lights;
+pub mod seams;
 pub mod solve;
 mod transport;
 

@@ -314,6 +314,9 @@ pub struct RadiosityOverride {
     /// more rays and emitter samples; 0 turns refinement off.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub target_error: Option<f32>,
+    /// Make D agree across chart seams of smooth surfaces (least-squares stitching).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stitch_seams: Option<bool>,
 }
 
 impl RadiosityOverride {
@@ -327,6 +330,7 @@ impl RadiosityOverride {
             glossy_depth,
             tolerance,
             target_error,
+            stitch_seams,
         } = *self;
         s.texel_density = texel_density.unwrap_or(s.texel_density);
         s.rays = rays.unwrap_or(s.rays);
@@ -340,6 +344,7 @@ impl RadiosityOverride {
             Some(t) => s.target_error = Some(t),
             None => {}
         }
+        s.stitch_seams = stitch_seams.unwrap_or(s.stitch_seams);
     }
 }
 
@@ -487,6 +492,10 @@ pub struct RadiositySettings {
     /// `None`: one batch.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub target_error: Option<f32>,
+    /// Stitch the solved texels so that D agrees across the chart seams of smooth surfaces
+    /// ([`crate::radiosity::seams`]). Off in every preset: on small charts it flattens shading.
+    #[serde(default)]
+    pub stitch_seams: bool,
 }
 
 impl RadiositySettings {
@@ -508,6 +517,7 @@ impl RadiositySettings {
             glossy_depth,
             tolerance,
             target_error: Some(target),
+            stitch_seams: false,
         }
     }
 

@@ -25,18 +25,9 @@ use glam::{Vec2, Vec3};
 use crate::radiosity::RadiosityMap;
 use crate::radiosity::map::bilinear;
 
-/// Cubic B-spline weights of the four texels around a sample whose fractional position past
-/// the second texel's centre is `f` ∈ [0, 1]. They sum to 1 and are all ≥ 0.
-pub fn bspline_weights(f: f32) -> [f32; 4] {
-    let g = 1.0 - f;
-    let (f2, f3) = (f * f, f * f * f);
-    [
-        g * g * g / 6.0,
-        (4.0 - 6.0 * f2 + 3.0 * f3) / 6.0,
-        (1.0 + 3.0 * f + 3.0 * f2 - 3.0 * f3) / 6.0,
-        f3 / 6.0,
-    ]
-}
+/// The filter's weights live with the bilinear one (the bake's seam stitching needs them
+/// without the viewer).
+pub use crate::radiosity::map::bspline_weights;
 
 /// The texel at integer (x, y), clamped to the page (as a clamp-to-edge sampler does).
 fn texel(texels: &[Vec3], width: u32, height: u32, x: i64, y: i64) -> Vec3 {
