@@ -11,6 +11,9 @@
 //! - emissive triangles emit from their front face only; back faces are black and end a path;
 //! - a miss returns [`RenderOptions::background`] (a uniform sky; black for scenes).
 //!
+//! One concept over 700 lines: one path tracer (`Tracer`), whose two entry points, images and
+//! probes of D, share every sampling routine.
+//!
 //! Deterministic for a seed: pixel `i` draws from its own PCG32 stream, rows are rendered in
 //! parallel and every sum is accumulated in f64 per pixel, so the image does not depend on the
 //! number of threads.
