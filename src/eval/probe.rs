@@ -212,7 +212,7 @@ pub fn diffuse_points(scene: &Scene, bvh: &Bvh, count: usize, seed: u64) -> Vec<
         }
     }
     let mut out = Vec::with_capacity(count);
-    if tris.is_empty() || !(total > 0.0) {
+    if tris.is_empty() || total.is_nan() || total <= 0.0 {
         return out;
     }
     let mut rng = Rng::new(seed, 0);

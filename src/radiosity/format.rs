@@ -194,13 +194,8 @@ mod tests {
         };
         let bytes = encode(&atlas);
         assert_eq!(decode(&bytes).unwrap(), atlas);
-        assert_eq!(
-            decode(&bytes[..bytes.len() - 1])
-                .unwrap_err()
-                .to_string()
-                .contains("truncated"),
-            true
-        );
+        let err = decode(&bytes[..bytes.len() - 1]).unwrap_err().to_string();
+        assert!(err.contains("truncated"), "{err}");
         let mut bad = bytes.clone();
         bad[8] = 9;
         assert_eq!(

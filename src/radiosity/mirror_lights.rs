@@ -123,7 +123,7 @@ impl MirrorLights {
                 let w = image - origin;
                 let dist2 = w.length_squared();
                 let dist = dist2.sqrt();
-                if !(dist > 0.0) {
+                if dist.is_nan() || dist <= 0.0 {
                     return None;
                 }
                 let d = w / dist;

@@ -434,7 +434,7 @@ fn more_samples(
         .enumerate()
         .filter_map(|(i, (&e, g))| {
             let have = g.hits.len() as u64;
-            if g.inside || !(e > target) || have >= max_rays {
+            if g.inside || e.is_nan() || e <= target || have >= max_rays {
                 return None;
             }
             let want = ((e / target).powi(2) * 1.1).min(MAX_SAMPLE_FACTOR as f64);

@@ -57,7 +57,7 @@ impl Lobes {
             .filter(|l| luminance(l.ks) > 0.0)
             .collect();
         let total: f32 = lobes.iter().map(|l| luminance(l.ks)).sum();
-        if lobes.is_empty() || !(total > 0.0) {
+        if lobes.is_empty() || total.is_nan() || total <= 0.0 {
             return None;
         }
         let select = lobes.iter().map(|l| luminance(l.ks) / total).collect();
@@ -181,13 +181,13 @@ impl<'a> Glossy<'a> {
             };
             let pdf = lobes.pdf(wo, wi);
             let d = frame.to_world(wi).normalize();
-            if !(pdf > 0.0) || d.dot(ng) <= 0.0 {
+            if pdf.is_nan() || pdf <= 0.0 || d.dot(ng) <= 0.0 {
                 break;
             }
             beta *= lobes.eval(wo, wi) * (wi.z / pdf);
             if depth >= 1 {
                 let q = beta.max_element().min(0.95);
-                if !(q > 0.0) || rng.uniform() >= q {
+                if q.is_nan() || q <= 0.0 || rng.uniform() >= q {
                     break;
                 }
                 beta /= q;
@@ -269,7 +269,7 @@ impl<'a> Glossy<'a> {
             let to = q - p;
             let dist2 = to.length_squared();
             let dist = dist2.sqrt();
-            if !(dist > 0.0) {
+            if dist.is_nan() || dist <= 0.0 {
                 continue;
             }
             let d = to / dist;

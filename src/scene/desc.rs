@@ -340,7 +340,7 @@ impl RadiosityOverride {
         s.tolerance = tolerance.unwrap_or(s.tolerance);
         match target_error {
             // 0 turns refinement off: one batch of `rays` and `light_samples`.
-            Some(t) if t == 0.0 => s.target_error = None,
+            Some(0.0) => s.target_error = None,
             Some(t) => s.target_error = Some(t),
             None => {}
         }
