@@ -14,7 +14,7 @@ use crate::progress::{Cancelled, Progress};
 use crate::radiosity::atlas::{self, AtlasError};
 use crate::radiosity::format;
 use crate::radiosity::seams;
-use crate::radiosity::solve::{SolveSettings, solve};
+use crate::radiosity::solve::{REFINE_BUDGET, SolveSettings, solve};
 use crate::scene::Scene;
 use crate::scene::desc::RadiositySettings;
 
@@ -37,7 +37,7 @@ pub enum RadiosityError {
     },
     /// The bake would not fit in memory.
     #[error(
-        "texel density {density} texels/m with {rays} rays needs about {need_gib:.1} GiB ({texels:.0} texels), but {avail_gib:.1} GiB are available; lower --texel-density or --rays"
+        "texel density {density} texels/m with {rays} rays needs about {need_gib:.1} GiB ({texels:.0} texels), but {avail_gib:.1} GiB are available; lower --texel-density or --rays, or refine less (--target-error 0 turns refinement off)"
     )]
     TooBig {
         /// Requested density.
@@ -68,10 +68,17 @@ pub enum RadiosityError {
     Cancelled(#[from] Cancelled),
 }
 
-/// Memory a bake needs, in bytes, for `texels` elements with `rays` cached hits each.
-pub fn memory_estimate(texels: f64, rays: u32) -> f64 {
+/// Memory a bake needs at most, in bytes, for `texels` elements with `rays` cached hits each,
+/// and up to [`REFINE_BUDGET`] times as many more when refining towards a target error.
+pub fn memory_estimate(texels: f64, rays: u32, refine: bool) -> f64 {
+    let rays = rays as f64
+        * if refine {
+            1.0 + REFINE_BUDGET as f64
+        } else {
+            1.0
+        };
     // Cached hit ids (4 B per ray), per-element data, per-atlas-texel maps and the solution.
-    texels * (rays as f64 * 4.0 + 96.0) + texels * 2.0 * 40.0
+    texels * (rays * 4.0 + 96.0) + texels * 2.0 * 40.0
 }
 
 /// Bytes of memory available to this process (Linux `MemAvailable`), if known.
@@ -92,7 +99,7 @@ pub fn check(scene: &Scene, s: &RadiositySettings) -> Result<(), RadiosityError>
     s.check(Some(scene.bounds.diagonal()))
         .map_err(|e| RadiosityError::Setting(e.to_string()))?;
     let texels = atlas::estimate_texels(&scene.triangles, s.texel_density);
-    let need = memory_estimate(texels, s.rays);
+    let need = memory_estimate(texels, s.rays, s.target_error.is_some());
     if let Some(avail) = available_memory()
         && need > avail
     {

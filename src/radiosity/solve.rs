@@ -38,6 +38,11 @@ pub const MAX_ROUNDS: u32 = 4;
 /// its first batch (`rays`, `light_samples`).
 pub const MAX_SAMPLE_FACTOR: u32 = 64;
 
+/// Most gathering rays all refinement rounds together may add, as a multiple of the first
+/// batch's (elements × `rays`): every ray keeps its hit, so this bounds the solve's memory
+/// (see `bake::radiosity_stage::memory_estimate`).
+pub const REFINE_BUDGET: u64 = 8;
+
 /// Samples per work item (progress and cancellation granularity).
 const CHUNK: usize = 256;
 
@@ -212,8 +217,10 @@ pub fn solve(
     let mut refined = vec![false; samples.len()];
     let mut error = relative_errors(&lr, &links, &gathered, &albedo, &emission);
     if let Some(target) = set.target_error {
+        let mut budget = REFINE_BUDGET * rays as u64 * samples.len() as u64;
         for round in 1..=MAX_ROUNDS {
-            let which = more_samples(&error, &gathered, target, rays, light);
+            let mut which = more_samples(&error, &gathered, target, rays, light);
+            fit_budget(&mut which, &mut budget);
             if which.is_empty() {
                 break;
             }
@@ -416,6 +423,23 @@ fn relative_errors(
         .collect()
 }
 
+/// Scales the added samples down, proportionally, so that their rays fit in `budget` (what
+/// is left of [`REFINE_BUDGET`]), and takes them from it. Deterministic: integer arithmetic in
+/// element order.
+fn fit_budget(which: &mut Vec<(u32, u32, u32)>, budget: &mut u64) {
+    let total: u64 = which.iter().map(|w| w.1 as u64).sum();
+    if total > *budget {
+        for w in which.iter_mut() {
+            let rays = (w.1 as u64 * *budget / total) as u32;
+            w.2 = ((w.2 as u64 * rays as u64).div_ceil(w.1.max(1) as u64)) as u32;
+            w.1 = rays;
+        }
+        which.retain(|w| w.1 > 0);
+    }
+    let used: u64 = which.iter().map(|w| w.1 as u64).sum();
+    *budget -= used.min(*budget);
+}
+
 /// The elements whose error is above `target`, with the rays and emitter samples of their next
 /// batch: enough to bring the error to the target if it falls as 1/√samples (plus 10%), at
 /// least a quarter of what they have, within [`MAX_SAMPLE_FACTOR`] × the first batch.
@@ -495,4 +519,32 @@ fn resolve_texels(
         }
     }
     (resolve, filled)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::fit_budget;
+
+    #[test]
+    fn refinement_stays_within_its_ray_budget() {
+        let mut which = vec![(0, 100, 10), (1, 300, 30), (2, 1, 1)];
+        let mut budget = 200;
+        fit_budget(&mut which, &mut budget);
+        // Proportional shares, light samples scaled alike; an element whose share rounds to
+        // no ray is dropped.
+        assert_eq!(which, vec![(0, 49, 5), (1, 149, 15)]);
+        assert_eq!(budget, 2);
+        let mut more = vec![(3, 10, 1)];
+        fit_budget(&mut more, &mut budget);
+        assert_eq!(more, vec![(3, 2, 1)]);
+        assert_eq!(budget, 0);
+        let mut none = vec![(4, 10, 1)];
+        fit_budget(&mut none, &mut budget);
+        assert!(none.is_empty());
+        // Within the budget nothing changes.
+        let mut fits = vec![(5, 10, 2)];
+        let mut big = 100;
+        fit_budget(&mut fits, &mut big);
+        assert_eq!((fits, big), (vec![(5, 10, 2)], 90));
+    }
 }
