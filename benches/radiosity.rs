@@ -58,7 +58,7 @@ const REFERENCE: SolveSettings = SolveSettings {
 };
 
 fn luminance(c: Vec3) -> f64 {
-    c.dot(Vec3::new(0.2126, 0.7152, 0.0722)) as f64
+    glint::colour::luminance(c) as f64
 }
 
 /// RMS of (value − reference) / reference over texels the reference lights, with the

@@ -415,7 +415,7 @@ pub fn encode_png(
 pub fn tonemap_preview(rgb: &[Vec3]) -> Vec<u8> {
     let mut lum: Vec<f32> = rgb
         .iter()
-        .map(|c| c.dot(Vec3::new(0.2126, 0.7152, 0.0722)))
+        .map(|&c| crate::colour::luminance(c))
         .filter(|l| l.is_finite() && *l > 0.0)
         .collect();
     let exposure = if lum.is_empty() {

@@ -13,6 +13,7 @@ pub mod brdf;
 pub mod bundle;
 pub mod camera;
 pub mod cli;
+pub mod colour;
 pub mod eval;
 pub mod fuzz;
 pub mod geometry;

@@ -61,7 +61,7 @@ fn solve_with(
 }
 
 fn lum(c: [f32; 3]) -> f64 {
-    (0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]) as f64
+    glint::colour::luminance(glam::Vec3::from_array(c)) as f64
 }
 
 #[test]
@@ -152,15 +152,13 @@ fn a_lamp_over_a_mirror_floor_matches_the_path_traced_probes() {
     };
     // Mean ratio and RMS relative difference (denominator floored at 5% of the mean).
     let compare = |d: &[ProbeValue]| {
-        let mean: f64 = truth.iter().map(|v| lum(v.radiance)).sum::<f64>() / truth.len() as f64;
-        let (mut ratio, mut sq) = (0.0, 0.0);
-        for (a, b) in d.iter().zip(&truth) {
-            let den = lum(b.radiance).max(0.05 * mean);
-            ratio += lum(a.radiance) / den;
-            sq += ((lum(a.radiance) - lum(b.radiance)) / den).powi(2);
-        }
-        let n = truth.len() as f64;
-        (ratio / n, (sq / n).sqrt())
+        let m = probe::compare_probes(d, &truth).unwrap();
+        assert_eq!(
+            m.probes,
+            truth.len(),
+            "every probe found its surface in both"
+        );
+        (m.mean_ratio, m.rel_rmse)
     };
     let (ratio, rmse) = compare(&d_at(6));
     eprintln!("D / truth {ratio:.4}, rel RMSE {rmse:.4}");

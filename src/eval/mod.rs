@@ -53,7 +53,4 @@ impl Image {
     }
 }
 
-/// Relative luminance (Rec. 709 primaries).
-pub fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
-}
+pub use crate::colour::luminance;

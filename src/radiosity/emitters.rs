@@ -5,10 +5,7 @@ use glam::{Vec2, Vec3};
 
 use crate::scene::{AreaLight, Scene};
 
-/// Rec. 709 luminance.
-pub(super) fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
-}
+pub(super) use crate::colour::luminance;
 
 /// Power heuristic weight of a strategy with `n_a` samples of density `p_a` against one with
 /// `n_b` samples of density `p_b`.

@@ -30,8 +30,6 @@ pub const MIRROR_ROUGHNESS: f32 = 0.02;
 struct Mirror {
     plane: Plane,
     lobes: Vec<Lobe>,
-    /// Index in [`MirrorLights::mirrors`] + 1 of every triangle's mirror (0: none), shared.
-    id: u32,
 }
 
 impl Mirror {
@@ -82,7 +80,6 @@ impl MirrorLights {
             mirrors.push(Mirror {
                 plane,
                 lobes: m.lobes.iter().map(Lobe::from).collect(),
-                id,
             });
         }
         (!mirrors.is_empty()).then_some(MirrorLights { mirrors, mirror_of })
@@ -111,7 +108,7 @@ impl MirrorLights {
     ) -> (Vec3, f64) {
         let mut total = Vec3::ZERO;
         let mut var = 0.0f64;
-        for m in &self.mirrors {
+        for (id, m) in (1u32..).zip(&self.mirrors) {
             if (origin - m.plane.point).dot(m.plane.normal) <= 0.0 {
                 continue; // behind the mirror: it shows nothing here
             }
@@ -135,7 +132,7 @@ impl MirrorLights {
                 let h = bvh.closest_hit(origin, d, dist)?;
                 let tri = &scene.triangles[h.triangle as usize];
                 let c = -d.dot(m.plane.normal);
-                if self.mirror_of[h.triangle as usize] != m.id || c <= 0.0 {
+                if self.mirror_of[h.triangle as usize] != id || c <= 0.0 {
                     return None;
                 }
                 if tri.face_normal().dot(d) >= 0.0 {

@@ -221,9 +221,9 @@ pub fn lookup(
     }
 }
 
-/// Rec. 709 luminance.
+/// Rec. 709 luminance, in f64 for the ratios below.
 fn luminance(c: Vec3) -> f64 {
-    (0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z) as f64
+    crate::colour::luminance(c) as f64
 }
 
 /// |a − b| relative to their mean, in luminance; `None` where both are black.
