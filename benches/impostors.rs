@@ -84,6 +84,7 @@ fn bake_if_needed(scene: &Scene, bundle: &Path) {
         tolerance: 1e-2,
         glossy_depth: 0,
         target_error: None,
+        min_chart_texels: 0,
         stitch_seams: false,
     };
     radiosity_stage::bake(scene, bundle, &settings, false, &Silent)

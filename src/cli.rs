@@ -93,6 +93,10 @@ pub struct RadiosityFlags {
     /// Lightmap texels per metre.
     #[arg(long, value_name = "T")]
     pub texel_density: Option<f32>,
+    /// Texels across each chart's longer side, at least: small charts get a higher density
+    /// (by at most 16×); 0 uses --texel-density everywhere.
+    #[arg(long, value_name = "N")]
+    pub min_chart_texels: Option<u32>,
     /// Gathering rays per texel.
     #[arg(long, value_name = "N")]
     pub rays: Option<u32>,
@@ -113,9 +117,9 @@ pub struct RadiosityFlags {
     #[arg(long, value_name = "REL")]
     pub target_error: Option<f32>,
     /// Make D agree across the chart seams of smooth surfaces (least-squares stitching of the
-    /// solved texels).
-    #[arg(long)]
-    pub stitch_seams: bool,
+    /// solved texels): true or false (default: on, except at draft).
+    #[arg(long, value_name = "BOOL")]
+    pub stitch_seams: Option<bool>,
 }
 
 impl RadiosityFlags {
@@ -123,13 +127,14 @@ impl RadiosityFlags {
     pub fn to_override(&self) -> crate::scene::desc::RadiosityOverride {
         crate::scene::desc::RadiosityOverride {
             texel_density: self.texel_density,
+            min_chart_texels: self.min_chart_texels,
             rays: self.rays,
             light_samples: self.light_samples,
             bounces: self.bounces,
             glossy_depth: self.glossy_depth,
             tolerance: self.tolerance,
             target_error: self.target_error,
-            stitch_seams: self.stitch_seams.then_some(true),
+            stitch_seams: self.stitch_seams,
         }
     }
 }

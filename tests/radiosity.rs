@@ -252,6 +252,7 @@ fn bakes_are_byte_identical_whatever_the_thread_count() {
     let scene = parallel_squares(dir.path(), 1.0, 0.5, 0.5);
     let settings = RadiositySettings {
         texel_density: 8.0,
+        min_chart_texels: 0,
         rays: 64,
         light_samples: 8,
         bounces: 3,
@@ -306,6 +307,7 @@ fn cancelling_leaves_the_bundle_as_it_was() {
     let out = dir.path().join("c.glint");
     let settings = RadiositySettings {
         texel_density: 8.0,
+        min_chart_texels: 0,
         rays: 16,
         light_samples: 4,
         bounces: 2,

@@ -254,7 +254,7 @@ fn bunny_mirror_seams_are_below_one_percent_of_d_and_the_texel_noise() {
     let map = RadiosityMap::load(&Bundle::open(&out).unwrap())
         .unwrap()
         .unwrap();
-    let (atlas, samples) = atlas::build(&scene.triangles, settings.texel_density).unwrap();
+    let (atlas, samples) = atlas::build_with(&scene.triangles, settings.density_rule()).unwrap();
     assert_eq!(
         (&atlas.pages, &atlas.tri_coords),
         (&map.atlas.pages, &map.atlas.tri_coords)
@@ -346,6 +346,7 @@ fn stitched_bakes_are_byte_identical_whatever_the_thread_count() {
     assert!(outward, "the cylinder's facets face outward");
     let settings = RadiositySettings {
         texel_density: 16.0,
+        min_chart_texels: 0,
         rays: 32,
         light_samples: 4,
         bounces: 2,

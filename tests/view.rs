@@ -82,6 +82,7 @@ fn test_settings(texel_density: f32) -> RadiositySettings {
         tolerance: 1e-2,
         glossy_depth: 0,
         target_error: None,
+        min_chart_texels: 0,
         stitch_seams: false,
     }
 }

@@ -65,6 +65,7 @@ fn bundle() -> &'static Path {
                 tolerance: 0.0,
                 glossy_depth: 0,
                 target_error: None,
+                min_chart_texels: 0,
                 stitch_seams: false,
             };
             settings.srdm = SrdmSettings {

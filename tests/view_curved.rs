@@ -45,6 +45,7 @@ fn radiosity_settings() -> RadiositySettings {
         tolerance: 1e-2,
         glossy_depth: 0,
         target_error: None,
+        min_chart_texels: 0,
         stitch_seams: false,
     }
 }

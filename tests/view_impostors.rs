@@ -337,6 +337,7 @@ fn bunny_bundle() -> &'static Path {
             tolerance: 1e-2,
             glossy_depth: 0,
             target_error: None,
+            min_chart_texels: 0,
             stitch_seams: false,
         };
         let srdm = SrdmSettings {

@@ -89,6 +89,7 @@ fn corridor() -> &'static ViewData {
             tolerance: 1e-2,
             glossy_depth: 0,
             target_error: None,
+            min_chart_texels: 0,
             stitch_seams: false,
         };
         scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
@@ -341,6 +342,7 @@ fn straddling() -> &'static ViewData {
             tolerance: 1e-2,
             glossy_depth: 0,
             target_error: None,
+            min_chart_texels: 0,
             stitch_seams: false,
         };
         scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));

@@ -83,6 +83,7 @@ fn glossy_bundle() -> &'static Path {
             tolerance: 1e-2,
             glossy_depth: 0,
             target_error: None,
+            min_chart_texels: 0,
             stitch_seams: false,
         };
         shipped_bundle(
@@ -582,6 +583,7 @@ fn mirror_reflecting_a_flat_wall_matches_in_both_modes() {
         tolerance: 1e-2,
         glossy_depth: 0,
         target_error: None,
+        min_chart_texels: 0,
         stitch_seams: false,
     };
     scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));

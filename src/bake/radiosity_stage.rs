@@ -98,7 +98,7 @@ pub fn check(scene: &Scene, s: &RadiositySettings) -> Result<(), RadiosityError>
     }
     s.check(Some(scene.bounds.diagonal()))
         .map_err(|e| RadiosityError::Setting(e.to_string()))?;
-    let texels = atlas::estimate_texels(&scene.triangles, s.texel_density);
+    let texels = atlas::estimate_texels(&scene.triangles, s.density_rule());
     let need = memory_estimate(texels, s.rays, s.target_error.is_some());
     if let Some(avail) = available_memory()
         && need > avail
@@ -136,7 +136,7 @@ pub fn bake(
     // Before the compute: a bundle that cannot be written fails now.
     let mut w = StageWriter::begin(bundle, Stage::Radiosity.name())?;
     let bvh = scene.build_bvh();
-    let (atlas, samples) = atlas::build(&scene.triangles, settings.texel_density)?;
+    let (atlas, samples) = atlas::build_with(&scene.triangles, settings.density_rule())?;
     if samples.is_empty() {
         return Err(RadiosityError::Setting(format!(
             "`texel_density`: {} texels per metre gives no element",

@@ -3,8 +3,9 @@
 //!
 //! Charts are groups of edge-adjacent triangles of one object whose normals lie within
 //! [`CHART_MAX_ANGLE_DEG`] of the chart's first triangle; each chart is projected to that
-//! triangle's plane at the requested texel density, framed by [`BORDER`] texels of padding,
-//! and packed into pages by a deterministic shelf packer. A glTF `TEXCOORD_1` set is used
+//! triangle's plane at its texel density ([`DensityRule`]: texels per metre, raised on small
+//! charts so that each gets a minimum number of texels across), framed by [`BORDER`] texels
+//! of padding, and packed into pages by a deterministic shelf packer. A glTF `TEXCOORD_1` set is used
 //! instead when it is valid (inside [0, 1], no two triangles on one texel).
 
 use std::collections::HashMap;
@@ -30,6 +31,42 @@ const COVER_HALF_WIDTH: f32 = 0.5 - 1e-4;
 
 /// Largest page side.
 pub const MAX_PAGE: u32 = 8192;
+
+/// Largest factor by which [`DensityRule::min_across`] may raise a chart's density: a chart
+/// smaller than 1/`MAX_CHART_BOOST` of what the minimum asks for stays coarser (thin trims
+/// and tiny parts would otherwise cost more texels than the walls around them).
+pub const MAX_CHART_BOOST: f32 = 16.0;
+
+/// How many texels each chart gets.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DensityRule {
+    /// Texels per metre: every chart gets at least this density.
+    pub per_metre: f32,
+    /// Texels across each chart's longer side, at least (0: per metre only). A small chart's
+    /// density is raised to meet it, by at most [`MAX_CHART_BOOST`]×: the density follows the
+    /// surfaces' sizes, so a 0.5 m box gets as many texels across a wall as a 5 m room.
+    pub min_across: u32,
+}
+
+impl DensityRule {
+    /// `per_metre` texels per metre on every chart.
+    pub fn uniform(per_metre: f32) -> Self {
+        DensityRule {
+            per_metre,
+            min_across: 0,
+        }
+    }
+
+    /// The density of a chart whose longer side is `side` metres.
+    pub fn chart_density(&self, side: f32) -> f32 {
+        let d = self.per_metre;
+        if self.min_across == 0 || !(side > 0.0) {
+            return d;
+        }
+        let boost = (self.min_across as f32 / (side * d)).clamp(1.0, MAX_CHART_BOOST);
+        d * boost
+    }
+}
 
 /// Size of one atlas page in texels.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -127,12 +164,24 @@ pub enum AtlasError {
 
 /// Estimated texels of the atlas for `triangles` at `density`, before building it: charted
 /// area plus the padding of one chart per triangle group (an upper bound for memory checks).
-pub fn estimate_texels(triangles: &[Triangle], density: f32) -> f64 {
-    let area: f64 = triangles.iter().map(|t| t.area() as f64).sum();
-    let d = density as f64;
-    // Every chart adds its border; assume one chart per 64 triangles (curved meshes).
-    let charts = (triangles.len() as f64 / 64.0).max(1.0);
-    area * d * d * 1.25 + charts * ((2 * BORDER + 2) as f64).powi(2)
+pub fn estimate_texels(triangles: &[Triangle], rule: DensityRule) -> f64 {
+    let d = rule.per_metre as f64;
+    if rule.min_across == 0 {
+        let area: f64 = triangles.iter().map(|t| t.area() as f64).sum();
+        // Every chart adds its border; assume one chart per 64 triangles (curved meshes).
+        let charts = (triangles.len() as f64 / 64.0).max(1.0);
+        return area * d * d * 1.25 + charts * ((2 * BORDER + 2) as f64).powi(2);
+    }
+    // Raised densities depend on each chart's size: make the charts (cheap beside the solve).
+    make_charts(triangles)
+        .iter()
+        .map(|c| {
+            let extent = chart_extent(triangles, c);
+            let dc = rule.chart_density(extent.max_element()) as f64;
+            let side = |e: f32| (e as f64 * dc).ceil() + (2 * BORDER) as f64;
+            side(extent.x) * side(extent.y)
+        })
+        .sum()
 }
 
 /// Builds the atlas and the texel samples for `triangles` at `density` texels per metre.
@@ -140,6 +189,16 @@ pub fn build(
     triangles: &[Triangle],
     density: f32,
 ) -> Result<(Atlas, Vec<TexelSample>), AtlasError> {
+    build_with(triangles, DensityRule::uniform(density))
+}
+
+/// Builds the atlas and the texel samples for `triangles`, each chart at the density `rule`
+/// gives it (a TEXCOORD_1 atlas is used at the rule's per-metre density).
+pub fn build_with(
+    triangles: &[Triangle],
+    rule: DensityRule,
+) -> Result<(Atlas, Vec<TexelSample>), AtlasError> {
+    let density = rule.per_metre;
     if !(density.is_finite() && density > 0.0) {
         return Err(AtlasError::BadDensity(density));
     }
@@ -150,7 +209,10 @@ pub fn build(
     // Project each chart to its plane, in texels.
     let mut projected: Vec<ProjectedChart> = charts
         .iter()
-        .map(|c| project(triangles, c, density))
+        .map(|c| {
+            let side = chart_extent(triangles, c).max_element();
+            project(triangles, c, rule.chart_density(side))
+        })
         .collect();
     for p in &projected {
         if p.w > MAX_PAGE || p.h > MAX_PAGE {
@@ -271,16 +333,35 @@ struct ProjectedChart {
     y: u32,
 }
 
-fn project(triangles: &[Triangle], chart: &[u32], density: f32) -> ProjectedChart {
+/// A chart's vertices in metres on its projection plane (the first triangle's).
+fn chart_plane_coords(triangles: &[Triangle], chart: &[u32]) -> Vec<[Vec2; 3]> {
     let n = triangles[chart[0] as usize].face_normal();
     let (t, b) = basis(n);
-    let raw: Vec<[Vec2; 3]> = chart
+    chart
         .iter()
         .map(|&i| {
             triangles[i as usize]
                 .p
-                .map(|p| Vec2::new(p.dot(t), p.dot(b)) * density)
+                .map(|p| Vec2::new(p.dot(t), p.dot(b)))
         })
+        .collect()
+}
+
+/// Width and height in metres of a chart's bounding rectangle on its projection plane.
+fn chart_extent(triangles: &[Triangle], chart: &[u32]) -> Vec2 {
+    let raw = chart_plane_coords(triangles, chart);
+    let min = raw.iter().flatten().fold(Vec2::INFINITY, |m, p| m.min(*p));
+    let max = raw
+        .iter()
+        .flatten()
+        .fold(Vec2::NEG_INFINITY, |m, p| m.max(*p));
+    (max - min).max(Vec2::ZERO)
+}
+
+fn project(triangles: &[Triangle], chart: &[u32], density: f32) -> ProjectedChart {
+    let raw: Vec<[Vec2; 3]> = chart_plane_coords(triangles, chart)
+        .into_iter()
+        .map(|c| c.map(|p| p * density))
         .collect();
     let min = raw.iter().flatten().fold(Vec2::INFINITY, |m, p| m.min(*p));
     let max = raw
@@ -649,6 +730,50 @@ mod tests {
         assert!((d - 1.0).abs() < 1e-6 && (b - Vec2::new(0.5, 0.0)).length() < 1e-6);
         let (d, b) = closest_point(c, Vec2::new(-1.0, -1.0));
         assert!((d - 2f32.sqrt()).abs() < 1e-6 && b == Vec2::ZERO);
+    }
+
+    #[test]
+    fn small_charts_get_the_minimum_texels_across_and_large_ones_keep_their_density() {
+        // A 0.5 m cube beside a 5 m one, at 4 texels per metre: the small cube's faces would
+        // be 2 texels across, the large one's 20.
+        let mut tris = cube(Vec3::ZERO, 0.5, 0);
+        tris.extend(cube(Vec3::splat(10.0), 5.0, 1));
+        let rule = DensityRule {
+            per_metre: 4.0,
+            min_across: 12,
+        };
+        let (atlas, samples) = build_with(&tris, rule).unwrap();
+        // Texels covered per face (2 triangles each).
+        let across = |face: usize| {
+            let mut texels: Vec<u32> = samples
+                .iter()
+                .filter(|s| s.triangle as usize / 2 == face)
+                .map(|s| s.texel)
+                .collect();
+            texels.sort_unstable();
+            texels.dedup();
+            (texels.len() as f32).sqrt()
+        };
+        for face in 0..6 {
+            let small = across(face);
+            assert!((12.0..=14.0).contains(&small), "small face {face}: {small}");
+            let large = across(face + 6);
+            assert!((20.0..=22.0).contains(&large), "large face {face}: {large}");
+        }
+        // The boost is bounded: a 1 mm chart gets 16× the density, not 12 texels.
+        assert_eq!(rule.chart_density(0.001), 64.0);
+        assert_eq!(rule.chart_density(0.5), 24.0);
+        assert_eq!(rule.chart_density(5.0), 4.0);
+        assert_eq!(DensityRule::uniform(4.0).chart_density(0.5), 4.0);
+        // The estimate counts the raised density: within 2× of the atlas.
+        let est = estimate_texels(&tris, rule);
+        let built = atlas.texel_count() as f64;
+        assert!(est > 0.5 * built && est < 2.0 * built, "{est} vs {built}");
+        // A uniform rule builds what `build` builds.
+        assert_eq!(
+            build_with(&tris, DensityRule::uniform(4.0)).unwrap(),
+            build(&tris, 4.0).unwrap()
+        );
     }
 
     #[test]

@@ -295,6 +295,9 @@ pub struct RadiosityOverride {
     /// Lightmap texels per metre.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub texel_density: Option<f32>,
+    /// Texels across each chart's longer side, at least (0: `texel_density` everywhere).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_chart_texels: Option<u32>,
     /// Gathering rays per texel and bounce.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rays: Option<u32>,
@@ -324,6 +327,7 @@ impl RadiosityOverride {
     pub fn apply(&self, s: &mut RadiositySettings) {
         let RadiosityOverride {
             texel_density,
+            min_chart_texels,
             rays,
             light_samples,
             bounces,
@@ -333,6 +337,7 @@ impl RadiosityOverride {
             stitch_seams,
         } = *self;
         s.texel_density = texel_density.unwrap_or(s.texel_density);
+        s.min_chart_texels = min_chart_texels.unwrap_or(s.min_chart_texels);
         s.rays = rays.unwrap_or(s.rays);
         s.light_samples = light_samples.unwrap_or(s.light_samples);
         s.bounces = bounces.unwrap_or(s.bounces);
@@ -476,6 +481,11 @@ pub const MAX_GLOSSY_DEPTH: u32 = 64;
 pub struct RadiositySettings {
     /// Lightmap texels per metre.
     pub texel_density: f32,
+    /// Texels across each chart's longer side, at least: small charts get a higher density
+    /// than `texel_density` (by at most 16×), so that small scenes and small parts are not
+    /// a handful of texels across. 0: `texel_density` everywhere.
+    #[serde(default)]
+    pub min_chart_texels: u32,
     /// Gathering rays per texel and bounce.
     pub rays: u32,
     /// Emitter samples per texel, per area light and for the emissive triangles.
@@ -493,7 +503,8 @@ pub struct RadiositySettings {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub target_error: Option<f32>,
     /// Stitch the solved texels so that D agrees across the chart seams of smooth surfaces
-    /// ([`crate::radiosity::seams`]). Off in every preset: on small charts it flattens shading.
+    /// ([`crate::radiosity::seams`]). On in the default and high presets (whose
+    /// `min_chart_texels` keeps charts wide enough that stitching keeps their shading).
     #[serde(default)]
     pub stitch_seams: bool,
 }
@@ -503,21 +514,31 @@ impl RadiositySettings {
     pub fn preset(quality: Quality) -> Self {
         // The target error is what a preset promises; rays and light samples are the first
         // batch, refined where a texel's estimate is above the target.
-        let (texel_density, rays, light_samples, bounces, glossy_depth, tolerance, target) =
+        // Density follows the surfaces' sizes too: each chart gets `min_chart_texels` across,
+        // enough for seams to be stitched without flattening a curved mesh's shading (on
+        // bunny-mirror at 16 texels/m the bunny's charts are 1–2 texels wide). Draft leaves
+        // seams unstitched: it is the quick look.
+        let (texel_density, min_chart, rays, light_samples, bounces, glossy_depth, tolerance) =
             match quality {
-                Quality::Draft => (8.0, 64, 8, 8, 2, 1e-2, 0.05),
-                Quality::Default => (16.0, 256, 32, 16, 4, 3e-3, 0.02),
-                Quality::High => (32.0, 1024, 128, 32, 8, 1e-3, 0.01),
+                Quality::Draft => (8.0, 4, 64, 8, 8, 2, 1e-2),
+                Quality::Default => (16.0, 8, 256, 32, 16, 4, 3e-3),
+                Quality::High => (32.0, 12, 1024, 128, 32, 8, 1e-3),
             };
+        let (target, stitch) = match quality {
+            Quality::Draft => (0.05, false),
+            Quality::Default => (0.02, true),
+            Quality::High => (0.01, true),
+        };
         RadiositySettings {
             texel_density,
+            min_chart_texels: min_chart,
             rays,
             light_samples,
             bounces,
             glossy_depth,
             tolerance,
             target_error: Some(target),
-            stitch_seams: false,
+            stitch_seams: stitch,
         }
     }
 
@@ -580,6 +601,14 @@ impl RadiositySettings {
             ));
         }
         Ok(())
+    }
+
+    /// How the atlas sizes its charts.
+    pub fn density_rule(&self) -> crate::radiosity::atlas::DensityRule {
+        crate::radiosity::atlas::DensityRule {
+            per_metre: self.texel_density,
+            min_across: self.min_chart_texels,
+        }
     }
 
     /// The preset with the scene's overrides applied.
