@@ -208,7 +208,7 @@ fn golden(name: &str, bundle: &Path) {
     let (w, h) = GOLDEN_SIZE;
 
     let gpu = gpu();
-    let off = Offscreen::new(&gpu, &data, w, h, false).unwrap_or_else(|e| panic!("{e}"));
+    let off = Offscreen::new(&gpu, &data, w, h).unwrap_or_else(|e| panic!("{e}"));
     off.render(&gpu, &camera).unwrap();
     let gpu_px = off.read_rgba8(&gpu).unwrap();
 
@@ -488,6 +488,46 @@ fn headless_replay_without_a_session_prints_no_error_line() {
             .any(|l| l.starts_with("error:") || l.contains("XDG_RUNTIME_DIR")),
         "{stderr}"
     );
+}
+
+/// Without a Vulkan driver wgpu would fall back to GL, whose frames have black walls: the
+/// viewer refuses instead, exit code 1, naming the package to install. Two ways to get there:
+/// the Vulkan loader finds no driver (`VK_ICD_FILENAMES` pointing nowhere), or `WGPU_BACKEND`
+/// asks for GL only.
+#[test]
+fn without_vulkan_the_viewer_refuses_and_names_the_driver_package() {
+    // (case, environment): the Vulkan loader finds no driver (older and newer loaders'
+    // variable), or wgpu is told to use GL only.
+    let no_driver = [
+        ("VK_ICD_FILENAMES", "/nonexistent/icd.json"),
+        ("VK_DRIVER_FILES", "/nonexistent/icd.json"),
+    ];
+    let gl_only = [("WGPU_BACKEND", "gl")];
+    for (case, env) in [
+        ("no Vulkan driver", &no_driver[..]),
+        ("GL only", &gl_only[..]),
+    ] {
+        let out = tempfile::tempdir().unwrap();
+        let run = Command::new(env!("CARGO_BIN_EXE_glint-view"))
+            .arg(cornell_bundle())
+            .args(["--replay", "ten", "--headless", "--size", "32x24", "--out"])
+            .arg(out.path())
+            .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+            .env_remove("WGPU_BACKEND")
+            .envs(env.iter().copied())
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(1), "{case}: {stderr}");
+        assert!(
+            stderr.contains("apt-get install mesa-vulkan-drivers"),
+            "{case}: the message names the package: {stderr}"
+        );
+        assert!(
+            !out.path().join("timings.json").exists(),
+            "{case}: nothing is written"
+        );
+    }
 }
 
 #[test]

@@ -3,10 +3,11 @@
 //! [`Scene::load`] reads and checks everything, in this order: [`desc`] (the file's schema and
 //! version), the glTF (`gltf_import`), [`material`] overrides, lights (`light`), the bake
 //! settings, reflectors (`reflector`, with `plane` fits), impostors (`impostor`) and camera
-//! paths (`camera_path`). Each part's types are re-exported here.
+//! paths (`camera_path`, then the glTF's cameras, `gltf_cameras`). Each part's types are re-exported here.
 
 mod camera_path;
 pub mod desc;
+mod gltf_cameras;
 pub(crate) mod gltf_import;
 mod impostor;
 mod light;
@@ -118,7 +119,8 @@ pub struct Scene {
     pub path: PathBuf,
     /// Name (from scene.json, else the folder's name).
     pub name: String,
-    /// The description as written.
+    /// The description as written, with the glTF's camera nodes appended to `camera_paths`
+    /// (one-keyframe paths named after their nodes; scene.json's paths win a name clash).
     pub desc: SceneDesc,
     /// World-space triangles.
     pub triangles: Vec<Triangle>,
@@ -165,7 +167,7 @@ impl Scene {
             path: path.clone(),
             source,
         })?;
-        let desc = parse_desc(&path, &text)?;
+        let mut desc = parse_desc(&path, &text)?;
         let field = |field: String, message: String| SceneError::Field {
             path: path.clone(),
             field,
@@ -258,6 +260,8 @@ impl Scene {
         let impostors = impostor::resolve(&desc.impostors, &objects, &triangles)
             .map_err(|(f, m)| field(f, m))?;
         camera_path::check_paths(&desc.camera_paths).map_err(|(f, m)| field(f, m))?;
+        // After the check: its field names index scene.json's own paths.
+        gltf_cameras::merge(&mut desc.camera_paths, imported.cameras, &gltf_path);
         let name = desc.name.clone().unwrap_or_else(|| {
             path.canonicalize()
                 .ok()
