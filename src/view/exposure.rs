@@ -2,20 +2,22 @@
 //! `auto`, and the window's exposure keys as a pure state update ([`Exposure::step`]).
 //!
 //! `auto` is computed once per bundle from D, not per frame: the log-average luminance
-//! (Reinhard et al. 2002, "Photographic tone reproduction", Eq. 1) of every atlas texel inside
-//! a chart, mapped to the key 0.18 (mid-grey). Texels are of nearly equal world area (the
-//! atlas keeps texel density within 0.82–1× the request), so this is an area average of the
-//! scene's exitant radiance. Computed at load, it costs nothing per frame, is deterministic
+//! (Reinhard et al. 2002, "Photographic tone reproduction", Eq. 1) of D over the scene's
+//! surfaces, area-weighted, mapped to the key 0.18 (mid-grey). Each triangle is sampled on a
+//! barycentric lattice of about one point per lightmap texel it covers ([`surface_samples`]),
+//! so unused atlas space and padding never count. Computed at load, it costs nothing per
+//! frame, is deterministic
 //! (f64 sum in texel order), is the same in the window, in headless replay and in every
 //! frame of a camera path (0 EV of flicker by construction), and is the same for a bake with
 //! all emitters × k up to −log2(k) EV, so a blown-out scene lands at the same picture. What it
 //! does not do is adapt to the view: a frame looking into a dark corner stays dark (the
 //! window's keys change it).
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use serde::{Serialize, Serializer};
 
 use crate::colour::luminance;
+use crate::geometry::Triangle;
 use crate::radiosity::RadiosityMap;
 
 /// Mid-grey: the exposed log-average luminance `auto` aims at (Reinhard et al.'s key a).
@@ -115,15 +117,23 @@ impl Serialize for Exposure {
 /// exp(mean ln(max(L, δ))) over `colours` (L their luminance, δ [`LUMINANCE_FLOOR`]),
 /// summed in f64 in the given order; `None` when there are none with finite luminance.
 pub fn log_average_luminance(colours: impl IntoIterator<Item = Vec3>) -> Option<f32> {
-    let (mut sum, mut n) = (0.0f64, 0u64);
-    for c in colours {
+    weighted_log_average_luminance(colours.into_iter().map(|c| (c, 1.0)))
+}
+
+/// [`log_average_luminance`] with a weight per colour (e.g. the area it stands for):
+/// exp(Σ w ln(max(L, δ)) / Σ w); `None` when the weights of finite luminances sum to 0.
+pub fn weighted_log_average_luminance(
+    colours: impl IntoIterator<Item = (Vec3, f64)>,
+) -> Option<f32> {
+    let (mut sum, mut weight) = (0.0f64, 0.0f64);
+    for (c, w) in colours {
         let l = f64::from(luminance(c));
-        if l.is_finite() {
-            sum += l.max(LUMINANCE_FLOOR).ln();
-            n += 1;
+        if l.is_finite() && w > 0.0 {
+            sum += w * l.max(LUMINANCE_FLOOR).ln();
+            weight += w;
         }
     }
-    (n > 0).then(|| (sum / n as f64).exp() as f32)
+    (weight > 0.0).then(|| (sum / weight).exp() as f32)
 }
 
 /// The EV that maps `log_average` to [`KEY`]: log2(KEY / log_average).
@@ -131,15 +141,55 @@ pub fn ev_for(log_average: f32) -> f32 {
     (KEY / log_average).log2().clamp(-MAX_EV, MAX_EV)
 }
 
-/// `auto`'s exposure value for `map`: [`ev_for`] the log-average luminance of the texels
-/// inside a chart (every texel when the atlas has no chart map); 0 for a map without any.
-pub fn auto_ev(map: &RadiosityMap) -> f32 {
-    let charted = &map.atlas.texel_chart;
-    let texels = map.pages.iter().flatten().enumerate();
-    let inside = texels
-        .filter(|(i, _)| charted.get(*i).is_none_or(|&c| c != u32::MAX))
-        .map(|(_, c)| *c);
-    log_average_luminance(inside).map_or(0.0, ev_for)
+/// Largest lattice side per triangle in [`surface_samples`] (at most 8·9/2 = 36 points).
+const MAX_LATTICE: u32 = 8;
+
+/// Barycentric sample points of one triangle and its lattice side k: the centroids of the k²
+/// sub-triangles' upward half, (i + ⅓, j + ⅓)/k for i + j < k, k(k + 1)/2 points spread
+/// evenly over it; k ≈ √(texels covered) so there is about one point per texel (at least
+/// one point, at most [`MAX_LATTICE`] per side).
+fn lattice(texels: f32) -> impl Iterator<Item = Vec2> {
+    let k = (texels.max(0.0).sqrt().ceil() as u32).clamp(1, MAX_LATTICE);
+    (0..k).flat_map(move |i| {
+        (0..k - i).map(move |j| Vec2::new(i as f32 + 1.0 / 3.0, j as f32 + 1.0 / 3.0) / k as f32)
+    })
+}
+
+/// D at points spread over every triangle, each with the world area it stands for
+/// (triangle area / its points): the area measure of the scene's surfaces, read through the
+/// atlas (nearest texel).
+pub fn surface_samples<'a>(
+    triangles: &'a [Triangle],
+    map: &'a RadiosityMap,
+) -> impl Iterator<Item = (Vec3, f64)> + 'a {
+    let atlas = &map.atlas;
+    let offsets = atlas.page_offsets();
+    let texels: Vec<&Vec3> = map.pages.iter().flatten().collect();
+    triangles
+        .iter()
+        .enumerate()
+        .filter(move |(t, _)| *t < atlas.tri_coords.len())
+        .flat_map(move |(t, tri)| {
+            let [a, b, c] = atlas.tri_coords[t];
+            let covered = 0.5 * (b - a).perp_dot(c - a).abs();
+            let points: Vec<Vec2> = lattice(covered).collect();
+            let weight = f64::from(tri.area()) / points.len() as f64;
+            let samples: Vec<(Vec3, f64)> = points
+                .into_iter()
+                .filter_map(|bary| {
+                    let i = atlas.texel_at(&offsets, t as u32, bary) as usize;
+                    texels.get(i).map(|&&c| (c, weight))
+                })
+                .collect();
+            samples
+        })
+}
+
+/// `auto`'s exposure value for the scene's `triangles` lit by `map`: [`ev_for`] the
+/// area-weighted log-average luminance of D over the surfaces ([`surface_samples`]); 0 when
+/// there is nothing to average.
+pub fn auto_ev(triangles: &[Triangle], map: &RadiosityMap) -> f32 {
+    weighted_log_average_luminance(surface_samples(triangles, map)).map_or(0.0, ev_for)
 }
 
 #[cfg(test)]
@@ -193,5 +243,23 @@ mod tests {
             "{dark}"
         );
         assert_eq!(log_average_luminance([]), None);
+        // Weights are areas: a colour standing for 3× the area counts 3×.
+        let w = weighted_log_average_luminance([(Vec3::splat(0.1), 3.0), (Vec3::ONE, 1.0)]);
+        let expected = (0.75 * 0.1f64.ln()).exp() as f32;
+        assert!((w.unwrap() - expected).abs() < 1e-6);
+    }
+
+    #[test]
+    fn the_lattice_spreads_about_one_point_per_texel_inside_the_triangle() {
+        for (texels, k) in [(0.2, 1), (1.0, 1), (9.0, 3), (10.0, 4), (1e6, MAX_LATTICE)] {
+            let points: Vec<Vec2> = lattice(texels).collect();
+            assert_eq!(points.len() as u32, k * (k + 1) / 2, "{texels}");
+            for p in &points {
+                assert!(p.x > 0.0 && p.y > 0.0 && p.x + p.y < 1.0, "{p}");
+            }
+            // Their mean is the triangle's centroid (a uniform spread).
+            let mean = points.iter().sum::<Vec2>() / points.len() as f32;
+            assert!((mean - Vec2::splat(1.0 / 3.0)).length() < 1e-5, "{mean}");
+        }
     }
 }

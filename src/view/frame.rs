@@ -139,7 +139,7 @@ impl FramePasses {
         Ok(FramePasses {
             renderer,
             display,
-            auto_ev: auto_ev(&data.map),
+            auto_ev: auto_ev(&data.scene.triangles, &data.map),
             options: ViewOptions::default(),
             size,
             planar: None,
