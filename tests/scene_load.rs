@@ -574,13 +574,13 @@ fn gltf_camera_nodes_become_camera_paths() {
             { "name": "front", "keyframes": [ { "time": 0, "position": [0, 1, 3], "target": [0, 1, 0], "fov_y_deg": 50 } ] } ] }"#,
     );
     let scene = Scene::load(&path).unwrap();
-    let names: Vec<&str> = scene
-        .desc
-        .camera_paths
-        .iter()
-        .map(|p| p.name.as_str())
-        .collect();
+    let names: Vec<&str> = scene.camera_paths.iter().map(|p| p.name.as_str()).collect();
     assert_eq!(names, ["front", "Overview"], "Plan is orthographic");
+    assert_eq!(
+        scene.desc.camera_paths.len(),
+        1,
+        "the description stays as written"
+    );
     assert_eq!(
         scene.camera_path(Some("front")).unwrap().keyframes[0].position,
         [0.0, 1.0, 3.0],

@@ -119,9 +119,11 @@ pub struct Scene {
     pub path: PathBuf,
     /// Name (from scene.json, else the folder's name).
     pub name: String,
-    /// The description as written, with the glTF's camera nodes appended to `camera_paths`
-    /// (one-keyframe paths named after their nodes; scene.json's paths win a name clash).
+    /// The description as written.
     pub desc: SceneDesc,
+    /// The camera paths to replay: scene.json's, then one per perspective camera node of the
+    /// glTF (one keyframe, named after its node; scene.json's paths win a name clash).
+    pub camera_paths: Vec<CameraPath>,
     /// World-space triangles.
     pub triangles: Vec<Triangle>,
     /// glTF node instances.
@@ -167,7 +169,7 @@ impl Scene {
             path: path.clone(),
             source,
         })?;
-        let mut desc = parse_desc(&path, &text)?;
+        let desc = parse_desc(&path, &text)?;
         let field = |field: String, message: String| SceneError::Field {
             path: path.clone(),
             field,
@@ -260,8 +262,8 @@ impl Scene {
         let impostors = impostor::resolve(&desc.impostors, &objects, &triangles)
             .map_err(|(f, m)| field(f, m))?;
         camera_path::check_paths(&desc.camera_paths).map_err(|(f, m)| field(f, m))?;
-        // After the check: its field names index scene.json's own paths.
-        gltf_cameras::merge(&mut desc.camera_paths, imported.cameras, &gltf_path);
+        let mut camera_paths = desc.camera_paths.clone();
+        gltf_cameras::merge(&mut camera_paths, imported.cameras, &gltf_path);
         let name = desc.name.clone().unwrap_or_else(|| {
             path.canonicalize()
                 .ok()
@@ -276,6 +278,7 @@ impl Scene {
             path,
             name,
             desc,
+            camera_paths,
             triangles,
             objects,
             materials,

@@ -145,14 +145,13 @@ pub fn replay_with(
         .ok_or_else(|| {
             let names: Vec<&str> = data
                 .scene
-                .desc
                 .camera_paths
                 .iter()
                 .map(|p| p.name.as_str())
                 .collect();
             let message = if names.is_empty() {
                 "its scene has no camera paths to replay; add `camera_paths` to scene.json \
-                 (or record one in the window with R)"
+                 or a camera node to its glTF (or record a path in the window with R)"
                     .to_string()
             } else {
                 format!(

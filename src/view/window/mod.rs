@@ -103,7 +103,7 @@ pub fn run_window(data: ViewData, options: WindowOptions) -> Result<(), WindowEr
     let playback = match &options.play {
         None => None,
         Some(name) => {
-            let paths = &data.scene.desc.camera_paths;
+            let paths = &data.scene.camera_paths;
             let index = match name {
                 None => (!paths.is_empty()).then_some(0),
                 Some(n) => paths.iter().position(|p| &p.name == n),
@@ -413,7 +413,7 @@ impl App {
     /// The camera of this frame: the playing path's pose, else the fly camera moved by the
     /// held keys.
     fn update_camera(&mut self, dt: f32) -> Camera {
-        let paths = &self.data.scene.desc.camera_paths;
+        let paths = &self.data.scene.camera_paths;
         let k = |c| self.keys.contains(&c);
         let axis = |pos, neg| (k(pos) as i32 - k(neg) as i32) as f32;
         let dir = Vec3::new(
@@ -533,7 +533,7 @@ impl App {
     }
 
     fn title(&self) -> String {
-        let paths = &self.data.scene.desc.camera_paths;
+        let paths = &self.data.scene.camera_paths;
         let mut title = format!(
             "glint-view — {} — {:.1} ms ({:.0} fps) — reflections {}",
             self.data.scene.name,
@@ -597,7 +597,7 @@ impl App {
                     path_file.display()
                 );
                 // Playable at once in this session.
-                self.data.scene.desc.camera_paths.push(path);
+                self.data.scene.camera_paths.push(path);
             }
         }
         Ok(())
@@ -628,7 +628,7 @@ impl App {
             self.change_exposure(key);
             return;
         }
-        let paths = &self.data.scene.desc.camera_paths;
+        let paths = &self.data.scene.camera_paths;
         if let Some(i) = digit {
             match paths.get(i) {
                 Some(p) => {
