@@ -109,13 +109,14 @@ impl DisplayPass {
     }
 
     /// Records the pass: `radiance` (a [`RADIANCE_FORMAT`] view of the target's size) mapped
-    /// into `target`, every pixel written.
+    /// into `target`, every pixel written, with `timestamps` when given.
     pub fn record(
         &self,
         device: &wgpu::Device,
         encoder: &mut wgpu::CommandEncoder,
         radiance: &wgpu::TextureView,
         target: &wgpu::TextureView,
+        timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("glint display bind group"),
@@ -137,7 +138,7 @@ impl DisplayPass {
             &[Some(target)],
             wgpu::Color::BLACK,
             None,
-            None,
+            timestamps,
         );
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &group, &[]);

@@ -23,7 +23,7 @@ use super::exposure::auto_ev;
 use super::gpu::Gpu;
 use super::impostors::{ImpostorReflections, ReflectorSet, impostor_pass};
 use super::load::ViewData;
-use super::options::{CurvedMode, ReflectionMode, ViewOptions};
+use super::options::{CurvedMode, Exposure, ReflectionMode, Tonemap, ViewOptions};
 use super::reflections::{GeometryReflections, RecursiveReflections, Source};
 use super::renderer::{RenderError, Renderer, TargetFormats};
 use crate::camera::Camera;
@@ -308,11 +308,7 @@ impl FramePasses {
     }
 
     /// Switches the exposure and tone curve (the display pass's uniforms; nothing is rebuilt).
-    pub fn set_display(
-        &mut self,
-        exposure: super::options::Exposure,
-        tonemap: super::options::Tonemap,
-    ) {
+    pub fn set_display(&mut self, exposure: Exposure, tonemap: Tonemap) {
         self.options.exposure = exposure;
         self.options.tonemap = tonemap;
     }
@@ -352,13 +348,6 @@ impl FramePasses {
         self.curved.as_ref()
     }
 
-    /// Planar reflection passes the frame from `camera` records (they end the GPU timing
-    /// span; 0: the scene pass ends it). Valid after [`FramePasses::prepare`] for `camera`.
-    pub fn reflection_pass_count(&self, camera: &Camera) -> usize {
-        self.planar.as_ref().map_or(0, |r| r.pass_count(camera))
-            + self.recursive.as_ref().map_or(0, |r| r.pass_count())
-    }
-
     /// Writes every pass's uniforms for `camera` (the writes land before the next
     /// submission). Call before [`FramePasses::record`].
     pub fn prepare(&self, gpu: &Gpu, camera: &Camera) {
@@ -384,8 +373,8 @@ impl FramePasses {
     }
 
     /// Records every pass into `views` in the module's fixed order. With `timestamps`, the
-    /// scene pass writes index 0 at its beginning and the last planar reflection pass (else
-    /// the scene pass) index 1 at its end.
+    /// scene pass writes index 0 at its beginning and the display pass, the last, index 1 at
+    /// its end, so the span holds every pass.
     pub fn record(
         &self,
         device: &wgpu::Device,
@@ -397,19 +386,15 @@ impl FramePasses {
         // Every pass adds linear radiance into the radiance target (their colour attachment;
         // no second HDR attachment is needed).
         let (color, hdr, depth) = (views.radiance, None, views.depth);
-        let only_scene = self.reflection_pass_count(camera) == 0;
-        self.renderer.draw(
-            encoder,
-            color,
-            hdr,
-            depth,
+        let stamp = |begin, end| {
             timestamps.map(|query_set| wgpu::RenderPassTimestampWrites {
                 query_set,
-                beginning_of_pass_write_index: Some(0),
-                end_of_pass_write_index: only_scene.then_some(1),
-            }),
-        );
-        let end = timestamps.map(|q| (q, 1));
+                beginning_of_pass_write_index: begin,
+                end_of_pass_write_index: end,
+            })
+        };
+        self.renderer
+            .draw(encoder, color, hdr, depth, stamp(Some(0), None));
         let curved = self.curved.as_ref();
         if let Some(r) = &self.planar {
             r.draw_timed(
@@ -419,7 +404,7 @@ impl FramePasses {
                 color,
                 hdr,
                 depth,
-                end,
+                None,
                 curved,
             );
         }
@@ -433,10 +418,15 @@ impl FramePasses {
             c.draw(encoder, color, hdr, depth);
         }
         if let Some(r) = &self.recursive {
-            r.draw_timed(encoder, &self.renderer, color, hdr, depth, end, curved);
+            r.draw_timed(encoder, &self.renderer, color, hdr, depth, None, curved);
         }
-        self.display
-            .record(device, encoder, views.radiance, views.display);
+        self.display.record(
+            device,
+            encoder,
+            views.radiance,
+            views.display,
+            stamp(None, Some(1)),
+        );
     }
 }
 
@@ -450,8 +440,8 @@ mod tests {
         let base = ViewOptions::default();
         assert_eq!(Rebuild::between(&base, &base), Rebuild::default());
         let mut o = base;
-        o.exposure = crate::view::options::Exposure::Ev(3.0);
-        o.tonemap = crate::view::options::Tonemap::None;
+        o.exposure = Exposure::Ev(3.0);
+        o.tonemap = Tonemap::None;
         assert_eq!(Rebuild::between(&base, &o), Rebuild::default());
 
         let mut image = base;
