@@ -511,11 +511,11 @@ fn room_glb(dir: &std::path::Path, edit: impl Fn(&mut serde_json::Value)) {
         .remove("uri")
         .unwrap();
     let mut json = serde_json::to_vec(&doc).unwrap();
-    while json.len() % 4 != 0 {
+    while !json.len().is_multiple_of(4) {
         json.push(b' ');
     }
     let mut bin = std::fs::read(dir.join("room.bin")).unwrap();
-    while bin.len() % 4 != 0 {
+    while !bin.len().is_multiple_of(4) {
         bin.push(0);
     }
     let total = 12 + 8 + json.len() + 8 + bin.len();

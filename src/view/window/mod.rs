@@ -6,8 +6,8 @@
 //! - Keys 1–9 play the scene's camera paths, Space pauses and resumes; moving takes over.
 //! - R starts and stops recording a path: the pose every [`RECORD_INTERVAL`] seconds, saved as
 //!   a `camera_paths` entry of scene.json (`recorded-N.json` in the output folder).
-//! - - and = lower and raise the exposure by half a stop, 0 returns to auto, M switches the
-//!   tone curve ([`exposure_key`], [`super::exposure::Exposure::step`]).
+//! - The `-` and `=` keys lower and raise the exposure by half a stop, `0` returns to auto, M
+//!   switches the tone curve ([`exposure_key`], [`super::exposure::Exposure::step`]).
 //! - G, T, I, K, C, [ and ] change the [`ViewOptions`]; [`FramePasses`] rebuilds what they
 //!   feed, so the window draws exactly what headless replay draws with the same options.
 //! - P saves a screenshot (`screenshot-N.png`): the window's own next frame, read back from
