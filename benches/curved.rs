@@ -83,7 +83,7 @@ fn main() {
             true,
         );
         let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
-        let mut off = Offscreen::new(&gpu, &data, 64, 64, false).unwrap_or_else(|e| panic!("{e}"));
+        let mut off = Offscreen::new(&gpu, &data, 64, 64).unwrap_or_else(|e| panic!("{e}"));
         for face_size in [64u32, 128, 256] {
             for generations in [1u32, 2] {
                 let settings = CurvedSettings {
@@ -172,7 +172,7 @@ fn samples_table(gpu: &Gpu, data: &ViewData, scene_json: &Path, work: &Path, lab
         .sum::<f64>()
         / count as f64;
 
-    let mut off = Offscreen::new(gpu, data, w, h, true).unwrap_or_else(|e| panic!("{e}"));
+    let mut off = Offscreen::new(gpu, data, w, h).unwrap_or_else(|e| panic!("{e}"));
     let mut rows = vec![
         [
             "mode",
@@ -213,7 +213,7 @@ fn samples_table(gpu: &Gpu, data: &ViewData, scene_json: &Path, work: &Path, lab
         times.sort_by(f64::total_cmp);
         let median = times[times.len() / 2];
         let p95 = times[((times.len() as f64 * 0.95).ceil() as usize).min(times.len()) - 1];
-        let frame = off.read_hdr(gpu).unwrap().expect("an HDR target");
+        let frame = off.read_hdr(gpu).unwrap();
         let (block_mae, bias) = errors(&frame, &reference.rgb, &mask, w as usize, h as usize);
         let (pattern, source) = match off.curved() {
             Some(c) if samples > 0 => (

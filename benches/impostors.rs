@@ -206,7 +206,7 @@ fn measure(
     let img = Image {
         width: SIZE.0 as usize,
         height: SIZE.1 as usize,
-        rgb: off.read_hdr(gpu).unwrap().unwrap(),
+        rgb: off.read_hdr(gpu).unwrap(),
     };
     let m = compare(&img, reference, Some(mirror)).unwrap();
     let b = compare(&img, reference, Some(bunny)).unwrap();
@@ -299,7 +299,7 @@ fn main() {
     let masks = (&mirror[..], &bunny[..]);
     let data = load(&bundle).unwrap();
     let gpu = gpu();
-    let mut off = Offscreen::new(&gpu, &data, SIZE.0, SIZE.1, true).unwrap();
+    let mut off = Offscreen::new(&gpu, &data, SIZE.0, SIZE.1).unwrap();
     let reflectors = impostor_reflectors(&data.scene, &reflectors_with_reflectance(&data));
     let settings = ImpostorSettings::default();
 

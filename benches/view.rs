@@ -251,7 +251,7 @@ fn reflection_table(gpu: &Gpu, work: &Path, repeats: usize) {
         let mut geometry_ms = f64::NAN;
         for (label, mode, selection, count) in modes {
             let mut off =
-                Offscreen::new(gpu, &data, SIZE.0, SIZE.1, false).unwrap_or_else(|e| panic!("{e}"));
+                Offscreen::new(gpu, &data, SIZE.0, SIZE.1).unwrap_or_else(|e| panic!("{e}"));
             off.options.selection = selection;
             off.options.maps = count;
             off.set_reflections(gpu, &data, mode)

@@ -13,9 +13,10 @@ struct FrameUniforms {
     view_proj: mat4x4<f32>,
     // Width and height of a texture-array layer, in texels (pages are padded to it).
     atlas_size: vec2<f32>,
-    // Multiplies D before output.
+    // Multiplies D before output (1 for viewer frames: the display pass, display.wgsl, exposes).
     exposure: f32,
-    // 1: the colour target is not an sRGB format, so encode sRGB here; 0: the hardware does.
+    // 1: the colour target is not an sRGB format, so encode sRGB here; 0: the hardware does
+    // or the target is linear (viewer frames draw linear radiance; display.wgsl encodes).
     encode_srgb: u32,
 };
 

@@ -497,3 +497,118 @@ fn buffer_uri_outside_the_gltf_folder_loads_and_bakes_into_a_bundle() {
     let e = Scene::load(&path).unwrap_err().to_string();
     assert!(e.contains("buffer 0") && e.contains("gone.bin"), "{e}");
 }
+
+/// Packs `room.gltf` + `room.bin` of `dir`, with `edit` applied to the JSON, into `room.glb`
+/// (glTF 2.0 §4.4: a 12-byte header, a JSON chunk and a BIN chunk, each padded to 4 bytes).
+fn room_glb(dir: &std::path::Path, edit: impl Fn(&mut serde_json::Value)) {
+    write_room(dir);
+    let mut doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("room.gltf")).unwrap()).unwrap();
+    edit(&mut doc);
+    doc["buffers"][0]
+        .as_object_mut()
+        .unwrap()
+        .remove("uri")
+        .unwrap();
+    let mut json = serde_json::to_vec(&doc).unwrap();
+    while !json.len().is_multiple_of(4) {
+        json.push(b' ');
+    }
+    let mut bin = std::fs::read(dir.join("room.bin")).unwrap();
+    while !bin.len().is_multiple_of(4) {
+        bin.push(0);
+    }
+    let total = 12 + 8 + json.len() + 8 + bin.len();
+    let mut glb = Vec::with_capacity(total);
+    glb.extend_from_slice(b"glTF");
+    glb.extend_from_slice(&2u32.to_le_bytes());
+    glb.extend_from_slice(&(total as u32).to_le_bytes());
+    for (kind, chunk) in [(b"JSON", &json), (b"BIN\0", &bin)] {
+        glb.extend_from_slice(&(chunk.len() as u32).to_le_bytes());
+        glb.extend_from_slice(kind);
+        glb.extend_from_slice(chunk);
+    }
+    std::fs::write(dir.join("room.glb"), glb).unwrap();
+    std::fs::remove_file(dir.join("room.gltf")).unwrap();
+    std::fs::remove_file(dir.join("room.bin")).unwrap();
+}
+
+/// glTF 2.0 §3.10: each perspective camera node becomes a one-keyframe camera path named after
+/// its node, at its world transform (parents and scene.json's scale applied), looking down its
+/// −Z with its +Y up and `yfov` as the field of view; an orthographic camera is skipped; a
+/// scene.json path of the same name wins.
+#[test]
+fn gltf_camera_nodes_become_camera_paths() {
+    let dir = tempfile::tempdir().unwrap();
+    room_glb(dir.path(), |d| {
+        d["cameras"] = serde_json::json!([
+            { "type": "perspective", "perspective": { "yfov": 0.7, "aspectRatio": 1.5, "znear": 0.01 } },
+            { "type": "orthographic", "orthographic": { "xmag": 1, "ymag": 1, "znear": 0.01, "zfar": 10 } }
+        ]);
+        let nodes = d["nodes"].as_array_mut().unwrap();
+        let first = nodes.len();
+        // A parent moved up 1 unit; its child turned 90° about +Y (looking down −X) at
+        // (2, 0.5, 1), then pitched 30° down about its own +X.
+        let (s, c) = (
+            std::f32::consts::FRAC_PI_4.sin(),
+            std::f32::consts::FRAC_PI_4.cos(),
+        );
+        let yaw = glam::Quat::from_xyzw(0.0, s, 0.0, c);
+        let pitch = glam::Quat::from_rotation_x(-30f32.to_radians());
+        let q = yaw * pitch;
+        nodes.push(
+            serde_json::json!({ "name": "Rig", "translation": [0, 1, 0], "children": [first + 1] }),
+        );
+        nodes.push(serde_json::json!({
+            "name": "Overview", "camera": 0,
+            "translation": [2, 0.5, 1], "rotation": [q.x, q.y, q.z, q.w]
+        }));
+        nodes.push(serde_json::json!({ "name": "Plan", "camera": 1 }));
+        nodes.push(serde_json::json!({ "name": "front", "camera": 0, "translation": [9, 9, 9] }));
+        let roots = d["scenes"][0]["nodes"].as_array_mut().unwrap();
+        roots.extend([first, first + 2, first + 3].map(serde_json::Value::from));
+    });
+    let path = write_scene(
+        dir.path(),
+        r#"{ "version": 1, "geometry": "room.glb", "scale": 0.5, "camera_paths": [
+            { "name": "front", "keyframes": [ { "time": 0, "position": [0, 1, 3], "target": [0, 1, 0], "fov_y_deg": 50 } ] } ] }"#,
+    );
+    let scene = Scene::load(&path).unwrap();
+    let names: Vec<&str> = scene.camera_paths.iter().map(|p| p.name.as_str()).collect();
+    assert_eq!(names, ["front", "Overview"], "Plan is orthographic");
+    assert_eq!(
+        scene.desc.camera_paths.len(),
+        1,
+        "the description stays as written"
+    );
+    assert_eq!(
+        scene.camera_path(Some("front")).unwrap().keyframes[0].position,
+        [0.0, 1.0, 3.0],
+        "scene.json's path wins the clash"
+    );
+    let p = scene.camera_path(Some("Overview")).unwrap();
+    assert_eq!(p.keyframes.len(), 1);
+    let k = p.keyframes[0];
+    // World position: (2, 1.5, 1) units × 0.5 m.
+    let pos = Vec3::from(k.position);
+    assert!((pos - Vec3::new(1.0, 0.75, 0.5)).length() < 1e-5, "{pos}");
+    // Looking down −X, pitched 30° down; up tilted towards −X by the same angle.
+    let (s30, c30) = (0.5f32, 0.75f32.sqrt());
+    let look = (Vec3::from(k.target) - pos).normalize();
+    assert!(
+        (look - Vec3::new(-c30, -s30, 0.0)).length() < 1e-5,
+        "{look}"
+    );
+    let up = Vec3::from(k.up);
+    assert!((up - Vec3::new(-s30, c30, 0.0)).length() < 1e-5, "{up}");
+    assert!(
+        (k.fov_y_deg - 0.7f32.to_degrees()).abs() < 1e-4,
+        "{}",
+        k.fov_y_deg
+    );
+
+    // With no camera_paths in scene.json, the glTF's camera is the first (default) path.
+    let path = write_scene(dir.path(), r#"{ "version": 1, "geometry": "room.glb" }"#);
+    let scene = Scene::load(&path).unwrap();
+    assert_eq!(scene.camera_path(None).unwrap().name, "Overview");
+}

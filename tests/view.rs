@@ -209,7 +209,7 @@ fn golden(name: &str, bundle: &Path) {
     let (w, h) = GOLDEN_SIZE;
 
     let gpu = gpu();
-    let off = Offscreen::new(&gpu, &data, w, h, false).unwrap_or_else(|e| panic!("{e}"));
+    let off = Offscreen::new(&gpu, &data, w, h).unwrap_or_else(|e| panic!("{e}"));
     off.render(&gpu, &camera).unwrap();
     let gpu_px = off.read_rgba8(&gpu).unwrap();
 
@@ -459,7 +459,7 @@ fn replay_of_a_ten_frame_path_writes_ten_frames_and_timings() {
 
 /// A headless run outside a desktop session (no `XDG_RUNTIME_DIR`, no Wayland) succeeds
 /// without libwayland's "error: XDG_RUNTIME_DIR is invalid or not set" line, which Mesa's
-/// Vulkan device-select layer caused (on the GL fallback the layer is not involved).
+/// Vulkan device-select layer caused.
 #[test]
 fn headless_replay_without_a_session_prints_no_error_line() {
     let out = tempfile::tempdir().unwrap();
@@ -489,6 +489,226 @@ fn headless_replay_without_a_session_prints_no_error_line() {
             .any(|l| l.starts_with("error:") || l.contains("XDG_RUNTIME_DIR")),
         "{stderr}"
     );
+}
+
+/// The Cornell box's `front` camera, its data and a GPU.
+fn cornell_front() -> (glint::view::load::ViewData, Camera) {
+    let data = load(cornell_bundle()).unwrap_or_else(|e| panic!("{e}"));
+    let path = data
+        .scene
+        .camera_path(Some("front"))
+        .expect("a `front` path");
+    let camera = pose_at(path, path.keyframes[0].time);
+    (data, camera)
+}
+
+/// The HDR output is the frame's linear radiance: exposure and the tone curve change only the
+/// 8-bit frame. Two frames at +2 and −2 EV have bit-identical HDR and 8-bit frames whose mean
+/// differs by the exposure.
+#[test]
+fn hdr_output_is_identical_at_any_exposure() {
+    use glint::view::options::{Exposure, Tonemap};
+    let (data, camera) = cornell_front();
+    let gpu = gpu();
+    let (w, h) = (96, 64);
+    let mut off = Offscreen::new(&gpu, &data, w, h).unwrap();
+    let mut frame = |ev: f32| {
+        off.set_display(Exposure::Ev(ev), Tonemap::Neutral);
+        off.render(&gpu, &camera).unwrap();
+        (off.read_hdr(&gpu).unwrap(), off.read_rgba8(&gpu).unwrap())
+    };
+    let (hdr_bright, ldr_bright) = frame(2.0);
+    let (hdr_dark, ldr_dark) = frame(-2.0);
+    assert!(
+        hdr_bright.iter().any(|c| c.max_element() > 0.0),
+        "the frame shows the scene"
+    );
+    assert!(
+        hdr_bright == hdr_dark,
+        "HDR frames at +2 and −2 EV differ: the HDR output must not be exposed"
+    );
+    let mean = |px: &[u8]| px.iter().map(|&v| f64::from(v)).sum::<f64>() / px.len() as f64;
+    let (b, d) = (mean(&ldr_bright), mean(&ldr_dark));
+    assert!(b > d + 30.0, "8-bit means at +2 and −2 EV: {b:.1}, {d:.1}");
+}
+
+/// The display pass (`shaders/display.wgsl`) maps the radiance target as the CPU's
+/// [`glint::view::display::DisplayMapping`] does (exposure, PBR Neutral, sRGB), to within one
+/// 8-bit step (f32 rounding between the two sRGB encoders).
+#[test]
+fn display_pass_matches_the_cpu_mapping() {
+    use glint::view::options::{Exposure, Tonemap};
+    let (data, camera) = cornell_front();
+    let gpu = gpu();
+    let (w, h) = (96, 64);
+    let mut off = Offscreen::new(&gpu, &data, w, h).unwrap();
+    for (exposure, tonemap) in [
+        (Exposure::Auto, Tonemap::Neutral),
+        (Exposure::Ev(3.0), Tonemap::Neutral),
+        (Exposure::Ev(1.0), Tonemap::None),
+    ] {
+        off.set_display(exposure, tonemap);
+        off.render(&gpu, &camera).unwrap();
+        let mapping = off.frame().display_mapping();
+        let hdr = off.read_hdr(&gpu).unwrap();
+        let shown: Vec<Vec3> = hdr.iter().map(|&c| mapping.apply(c)).collect();
+        let cpu = cpu_render::to_srgb8(&shown);
+        let gpu_px = off.read_rgba8(&gpu).unwrap();
+        let worst = gpu_px
+            .iter()
+            .zip(&cpu)
+            .map(|(a, b)| a.abs_diff(*b))
+            .max()
+            .unwrap();
+        assert!(
+            worst <= 1,
+            "{exposure} {tonemap}: largest difference {worst}"
+        );
+        let lit = shown.iter().filter(|c| c.max_element() > 0.05).count();
+        assert!(
+            lit * 2 > shown.len(),
+            "{exposure} {tonemap}: the frame is lit"
+        );
+    }
+}
+
+/// `--exposure auto` (the default) brings a blown-out frame to mid-grey: the Cornell box with
+/// every emitter × 30 (D is linear in emission, so its D is 30 × the bake's) has an exposed
+/// log-average luminance within half a stop of 0.18 over the pixels that show the scene (the
+/// black void around the open box left out), and its 8-bit frame is the × 1 frame's to within
+/// one step (auto compensates exactly log2 30 EV). Measured on lavapipe: 0.164, −0.13 EV (auto
+/// averages D over every surface, the frame shows some of them).
+#[test]
+fn auto_exposure_brings_a_blown_out_frame_to_mid_grey() {
+    use glint::view::exposure::{KEY, log_average_luminance};
+    use glint::view::options::ViewOptions;
+    let (mut data, camera) = cornell_front();
+    let gpu = gpu();
+    let (w, h) = (96, 64);
+    let frame = |data: &glint::view::load::ViewData| {
+        let off = Offscreen::with_options(&gpu, data, w, h, &ViewOptions::default()).unwrap();
+        off.render(&gpu, &camera).unwrap();
+        let scale = off
+            .frame()
+            .display_mapping()
+            .exposure
+            .scale(off.frame().auto_ev());
+        let hdr = off.read_hdr(&gpu).unwrap();
+        (scale, hdr, off.read_rgba8(&gpu).unwrap())
+    };
+    let (scale1, _, ldr1) = frame(&data);
+    for page in &mut data.map.pages {
+        for c in page.iter_mut() {
+            *c *= 30.0;
+        }
+    }
+    let (scale30, hdr30, ldr30) = frame(&data);
+    let scene: Vec<Vec3> = hdr30
+        .into_iter()
+        .filter(|c| c.max_element() > 0.0)
+        .collect();
+    assert!(
+        scene.len() * 2 > (w * h) as usize,
+        "the view is mostly scene"
+    );
+    let exposed = log_average_luminance(scene.iter().map(|c| *c * scale30)).unwrap();
+    let unexposed = log_average_luminance(scene.iter().copied()).unwrap();
+    eprintln!(
+        "× 30: frame log-average {unexposed:.3}, exposed × {scale30:.4} ({:+.2} EV) → {exposed:.3} (key {KEY}); × 1 at {:+.2} EV",
+        scale30.log2(),
+        scale1.log2()
+    );
+    assert!(
+        unexposed > 2.0 * KEY,
+        "the × 30 frame is blown out: {unexposed}"
+    );
+    assert!(
+        (exposed / KEY).log2().abs() <= 0.5,
+        "exposed log-average {exposed} is not within half a stop of {KEY}"
+    );
+    assert!(
+        ((scale1 / scale30) / 30.0 - 1.0).abs() < 1e-3,
+        "{scale1} / {scale30}"
+    );
+    let worst = ldr1
+        .iter()
+        .zip(&ldr30)
+        .map(|(a, b)| a.abs_diff(*b))
+        .max()
+        .unwrap();
+    assert!(worst <= 1, "× 1 and × 30 frames differ by up to {worst}");
+}
+
+/// Without a Vulkan driver wgpu would fall back to GL, whose frames have black walls: the
+/// viewer refuses instead, exit code 1, naming the package to install. Two ways to get there:
+/// the Vulkan loader finds no driver (`VK_ICD_FILENAMES` pointing nowhere), or `WGPU_BACKEND`
+/// asks for GL only.
+#[test]
+fn without_vulkan_the_viewer_refuses_and_names_the_driver_package() {
+    // (case, environment): the Vulkan loader finds no driver (older and newer loaders'
+    // variable), or wgpu is told to use GL only.
+    let no_driver = [
+        ("VK_ICD_FILENAMES", "/nonexistent/icd.json"),
+        ("VK_DRIVER_FILES", "/nonexistent/icd.json"),
+    ];
+    let gl_only = [("WGPU_BACKEND", "gl")];
+    for (case, env) in [
+        ("no Vulkan driver", &no_driver[..]),
+        ("GL only", &gl_only[..]),
+    ] {
+        let out = tempfile::tempdir().unwrap();
+        let run = Command::new(env!("CARGO_BIN_EXE_glint-view"))
+            .arg(cornell_bundle())
+            .args(["--replay", "ten", "--headless", "--size", "32x24", "--out"])
+            .arg(out.path())
+            .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+            .env_remove("WGPU_BACKEND")
+            .envs(env.iter().copied())
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(1), "{case}: {stderr}");
+        assert!(
+            stderr.contains("apt-get install mesa-vulkan-drivers"),
+            "{case}: the message names the package: {stderr}"
+        );
+        assert!(
+            !out.path().join("timings.json").exists(),
+            "{case}: nothing is written"
+        );
+    }
+}
+
+/// The Breakfast Room's .glb has a camera node `Camera`, which scene.json does not name: it
+/// replays as a one-frame path from the glTF's pose (glTF cameras, `scene::gltf_cameras`).
+#[test]
+fn a_gltf_camera_node_replays_by_its_name() {
+    let out = tempfile::tempdir().unwrap();
+    let (code, _, stderr) = glint_view(&[
+        breakfast_bundle().to_str().unwrap(),
+        "--replay",
+        "Camera",
+        "--headless",
+        "--size",
+        "32x24",
+        "--out",
+        out.path().to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let t: Timings =
+        serde_json::from_str(&std::fs::read_to_string(out.path().join("timings.json")).unwrap())
+            .unwrap();
+    assert_eq!((t.path.as_str(), t.frames.len()), ("Camera", 1));
+    let data = load(breakfast_bundle()).unwrap();
+    let k = data.scene.camera_path(Some("Camera")).unwrap().keyframes[0];
+    // The node's matrix: translation (−0.587317, 2.7623, 9.71429) glTF units × scale 0.3.
+    let expected = Vec3::new(-0.587317, 2.7623, 9.71429) * 0.3;
+    assert!(
+        (Vec3::from(k.position) - expected).length() < 1e-5,
+        "{:?}",
+        k.position
+    );
+    assert!((k.fov_y_deg - 0.6280288f32.to_degrees()).abs() < 1e-3);
 }
 
 #[test]

@@ -297,7 +297,7 @@ fn cube_maps_reflect_the_walls_of_a_coloured_box() {
     assert_eq!(reflectors.len(), 2, "SphereA and SphereB");
     assert!((reflectors[0].centre - Vec3::new(-SPHERE_X, 0.0, 0.0)).length() < 0.01);
     let (w, h) = (96u32, 96u32);
-    let mut off = Offscreen::new(&gpu, &data, w, h, true).unwrap();
+    let mut off = Offscreen::new(&gpu, &data, w, h).unwrap();
     let settings = |generations| CurvedSettings {
         glossy_samples: 0,
         face_size: 64,
@@ -369,7 +369,7 @@ fn cube_maps_reflect_the_walls_of_a_coloured_box() {
     let centre = Vec3::new(SPHERE_X, 0.0, 0.0);
     let camera = Camera::look_at(centre + Vec3::Z * 0.9, centre, Vec3::Y, 40f32.to_radians());
     off.render(&gpu, &camera).unwrap();
-    let frame = off.read_hdr(&gpu).unwrap().unwrap();
+    let frame = off.read_hdr(&gpu).unwrap();
     let pixel_of = |p: Vec3| -> Vec3 {
         let m = glint::view::renderer::view_projection(&camera, w as f32 / h as f32, 1e-3);
         let c = m * p.extend(1.0);
@@ -397,7 +397,7 @@ fn cube_maps_reflect_the_walls_of_a_coloured_box() {
     off.set_curved(&gpu, &data, CurvedMode::Off, settings(1))
         .unwrap();
     off.render(&gpu, &camera).unwrap();
-    let frame = off.read_hdr(&gpu).unwrap().unwrap();
+    let frame = off.read_hdr(&gpu).unwrap();
     let m = glint::view::renderer::view_projection(&camera, 1.0, 1e-3);
     let c = m * centre.extend(1.0) + m * Vec3::Z.extend(0.0) * SPHERE_RADIUS;
     let (x, y) = (
@@ -514,7 +514,7 @@ fn glossy_room_teapot_matches_the_reference_path_tracer() {
     assert!(count > 500, "the teapot covers {count} interior pixels");
 
     let gpu = gpu();
-    let mut off = Offscreen::new(&gpu, &data, w, h, true).unwrap();
+    let mut off = Offscreen::new(&gpu, &data, w, h).unwrap();
     let lum = |c: Vec3| f64::from(glint::eval::luminance(c));
     let reference_mean: f64 = on_teapot
         .iter()
@@ -565,7 +565,7 @@ fn glossy_room_teapot_matches_the_reference_path_tracer() {
             );
         }
         off.render(&gpu, &camera).unwrap();
-        let frame = off.read_hdr(&gpu).unwrap().unwrap();
+        let frame = off.read_hdr(&gpu).unwrap();
         let (mut abs, mut mean) = (0.0f64, 0.0f64);
         for ((m, g), r) in on_teapot.iter().zip(&frame).zip(&reference.image.rgb) {
             if *m {
@@ -677,7 +677,7 @@ fn glossy_room_teapot_matches_the_cpu_mirror_equation() {
         is_teapot[t as usize] = true;
     }
     let gpu = gpu();
-    let mut off = Offscreen::new(&gpu, &data, w, h, true).unwrap();
+    let mut off = Offscreen::new(&gpu, &data, w, h).unwrap();
     let settings = CurvedSettings {
         glossy_samples: 0,
         face_size: face,
@@ -686,7 +686,7 @@ fn glossy_room_teapot_matches_the_cpu_mirror_equation() {
     off.set_curved(&gpu, &data, CurvedMode::Cubemap, settings)
         .unwrap();
     off.render(&gpu, &camera).unwrap();
-    let frame = off.read_hdr(&gpu).unwrap().unwrap();
+    let frame = off.read_hdr(&gpu).unwrap();
     let (mut abs, mut sum, mut count) = (0.0f64, 0.0f64, 0usize);
     for y in 0..h {
         for x in 0..w {
@@ -810,11 +810,11 @@ fn glossy_room_teapot_seen_in_the_mirror_gets_its_specular_term() {
     };
 
     let gpu = gpu();
-    let mut off = Offscreen::new(&gpu, &data, w, h, true).unwrap();
+    let mut off = Offscreen::new(&gpu, &data, w, h).unwrap();
     off.set_reflections(&gpu, &data, ReflectionMode::Geometry)
         .unwrap();
     off.render(&gpu, &camera).unwrap();
-    let without = off.read_hdr(&gpu).unwrap().unwrap();
+    let without = off.read_hdr(&gpu).unwrap();
     let settings = CurvedSettings {
         glossy_samples: 0,
         face_size: face,
@@ -823,7 +823,7 @@ fn glossy_room_teapot_seen_in_the_mirror_gets_its_specular_term() {
     off.set_curved(&gpu, &data, CurvedMode::Cubemap, settings)
         .unwrap();
     off.render(&gpu, &camera).unwrap();
-    let with = off.read_hdr(&gpu).unwrap().unwrap();
+    let with = off.read_hdr(&gpu).unwrap();
 
     let lum = |c: Vec3| f64::from(glint::eval::luminance(c));
     let (mut abs, mut got_sum, mut want_sum, mut base_sum, mut count) =
@@ -877,11 +877,11 @@ fn glossy_room_teapot_seen_in_the_mirror_gets_its_specular_term() {
         .unwrap();
     assert!(off.recursive().is_some());
     off.render(&gpu, &camera).unwrap();
-    let with2 = off.read_hdr(&gpu).unwrap().unwrap();
+    let with2 = off.read_hdr(&gpu).unwrap();
     off.set_curved(&gpu, &data, CurvedMode::Off, settings)
         .unwrap();
     off.render(&gpu, &camera).unwrap();
-    let without2 = off.read_hdr(&gpu).unwrap().unwrap();
+    let without2 = off.read_hdr(&gpu).unwrap();
     let (mut abs2, mut want2) = (0.0f64, 0.0f64);
     for i in (0..pixels.len()).filter(|&i| interior(i, 1)) {
         let want = lum(pixels[i].1);

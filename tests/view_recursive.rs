@@ -111,7 +111,7 @@ fn frame(
     cutoff: f32,
 ) -> (Vec<u8>, Option<recursive::RecursionStats>) {
     let data = corridor();
-    let mut off = Offscreen::new(gpu, data, SIZE.0, SIZE.1, false).unwrap();
+    let mut off = Offscreen::new(gpu, data, SIZE.0, SIZE.1).unwrap();
     off.options.recursion = RecursionSettings {
         depth: depth.unwrap_or(1),
         cutoff,
@@ -252,7 +252,7 @@ fn cutoff_stops_recursion_and_the_mirror_behind_is_culled() {
 fn depth_needs_geometry_mode() {
     let gpu = gpu();
     let data = corridor();
-    let mut off = Offscreen::new(&gpu, data, 32, 32, false).unwrap();
+    let mut off = Offscreen::new(&gpu, data, 32, 32).unwrap();
     off.options.recursion.depth = 3;
     let e = off
         .set_reflections(&gpu, data, ReflectionMode::Image)
@@ -371,7 +371,7 @@ fn nested_composite_is_clipped_at_the_parent_mirror() {
     let cam = camera(data);
     let (w, h) = SIZE;
     let render = |depth: u8| {
-        let mut off = Offscreen::new(&gpu, data, w, h, false).unwrap();
+        let mut off = Offscreen::new(&gpu, data, w, h).unwrap();
         off.options.recursion = RecursionSettings { depth, cutoff: 0.0 };
         off.set_reflections(&gpu, data, ReflectionMode::Geometry)
             .unwrap_or_else(|e| panic!("{e}"));

@@ -152,7 +152,7 @@ fn geometry_reflections_match_the_cpu_equation_on_glossy_room() {
         .camera_path(None)
         .expect("glossy-room has a camera path");
     let bvh = Bvh::build(&data.scene.triangles);
-    let mut offscreen = Offscreen::new(&gpu, &data, SIZE.0, SIZE.1, false).unwrap();
+    let mut offscreen = Offscreen::new(&gpu, &data, SIZE.0, SIZE.1).unwrap();
     for (i, t) in [0.0f32, 1.5].into_iter().enumerate() {
         let camera = pose_at(path, t);
         offscreen
@@ -341,7 +341,7 @@ fn image_reflections_approach_the_cpu_equation_on_glossy_room() {
     let path = data.scene.camera_path(None).unwrap();
     let bvh = Bvh::build(&data.scene.triangles);
     let reflectors = reflections::reflectors_with_reflectance(&data);
-    let mut offscreen = Offscreen::new(&gpu, &data, SIZE.0, SIZE.1, false).unwrap();
+    let mut offscreen = Offscreen::new(&gpu, &data, SIZE.0, SIZE.1).unwrap();
     for t in [0.0f32, 1.5] {
         let camera = pose_at(path, t);
         let cpu = cpu_render::to_srgb8(&reflections::cpu_reference(
@@ -412,7 +412,7 @@ fn image_mode_culls_nodes_and_skips_points_when_minified() {
     let gpu = gpu();
     let camera = pose_at(data.scene.camera_path(None).unwrap(), 0.0);
     let stats_at = |w: u32, h: u32| {
-        let mut off = Offscreen::new(&gpu, &data, w, h, false).unwrap();
+        let mut off = Offscreen::new(&gpu, &data, w, h).unwrap();
         off.options.maps = 2;
         off.set_reflections(&gpu, &data, ReflectionMode::Image)
             .unwrap();
@@ -489,7 +489,7 @@ fn both_modes_approach_the_path_tracer_on_glossy_room() {
     let gpu = gpu();
     let camera = pose_at(data.scene.camera_path(Some("front")).unwrap(), 0.0);
     let reference = path_traced(&data, &camera, PT_SIZE);
-    let mut off = Offscreen::new(&gpu, &data, PT_SIZE.0, PT_SIZE.1, false).unwrap();
+    let mut off = Offscreen::new(&gpu, &data, PT_SIZE.0, PT_SIZE.1).unwrap();
     let mut frame = |mode| {
         off.set_reflections(&gpu, &data, mode).unwrap();
         off.render(&gpu, &camera).unwrap();
@@ -600,7 +600,7 @@ fn mirror_reflecting_a_flat_wall_matches_in_both_modes() {
     );
     let gpu = gpu();
     let camera = pose_at(data.scene.camera_path(None).unwrap(), 0.0);
-    let mut off = Offscreen::new(&gpu, &data, SIZE.0, SIZE.1, false).unwrap();
+    let mut off = Offscreen::new(&gpu, &data, SIZE.0, SIZE.1).unwrap();
     let mut frame = |mode| {
         off.set_reflections(&gpu, &data, mode).unwrap();
         off.render(&gpu, &camera).unwrap();
@@ -651,7 +651,7 @@ fn gpu_time_spans_the_reflection_passes() {
     let data = load(glossy_bundle()).unwrap_or_else(|e| panic!("{e}"));
     let gpu = gpu();
     let camera = pose_at(data.scene.camera_path(None).unwrap(), 0.0);
-    let mut off = Offscreen::new(&gpu, &data, 640, 432, false).unwrap();
+    let mut off = Offscreen::new(&gpu, &data, 640, 432).unwrap();
     if off.gpu_time_source() != GpuTimeSource::TimestampQuery {
         skip("no timestamp queries on this adapter");
         return;

@@ -155,7 +155,7 @@ fn headless_frame(bundle: &Path, args: &[&str], (w, h): (u32, u32)) -> Vec<u8> {
     let options = ViewOptions::from_args(args.iter().copied()).unwrap();
     // The window starts at the fly camera of the initial view.
     let camera = FlyCamera::from_camera(&initial_camera(&data)).camera();
-    let off = Offscreen::with_options(&gpu, &data, w, h, false, &options).unwrap();
+    let off = Offscreen::with_options(&gpu, &data, w, h, &options).unwrap();
     off.render(&gpu, &camera).unwrap();
     rgba_to_rgb(&off.read_rgba8(&gpu).unwrap())
 }

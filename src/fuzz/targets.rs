@@ -129,7 +129,7 @@ fn run_scene(ctx: &TargetContext, input: &[u8]) -> Result<(), String> {
     std::fs::write(&path, input).map_err(|e| format!("{}: {e}", path.display()))?;
     let scene = Scene::load(&path).map_err(|e| e.to_string())?;
     scene.has_emitters();
-    for p in &scene.desc.camera_paths {
+    for p in &scene.camera_paths {
         scene.camera_path(Some(&p.name));
     }
     Ok(())

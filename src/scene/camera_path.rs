@@ -124,11 +124,12 @@ pub(super) fn check_paths(paths: &[CameraPath]) -> Result<(), (String, String)> 
 }
 
 impl Scene {
-    /// The named camera path, or the first one when `name` is `None`.
+    /// The named camera path (scene.json's or a glTF camera's), or the first one when `name`
+    /// is `None`.
     pub fn camera_path(&self, name: Option<&str>) -> Option<&CameraPath> {
         match name {
-            Some(n) => self.desc.camera_paths.iter().find(|p| p.name == n),
-            None => self.desc.camera_paths.first(),
+            Some(n) => self.camera_paths.iter().find(|p| p.name == n),
+            None => self.camera_paths.first(),
         }
     }
 
@@ -137,11 +138,11 @@ impl Scene {
         self.camera_path(name).ok_or_else(|| SceneError::Field {
             path: self.path.clone(),
             field: "camera_paths".into(),
-            message: match (name, self.desc.camera_paths.is_empty()) {
+            message: match (name, self.camera_paths.is_empty()) {
                 (_, true) => "the scene has no camera paths; add one to scene.json".into(),
                 (Some(n), false) => format!(
                     "no path is named {n:?}; the scene has {}",
-                    list(self.desc.camera_paths.iter().map(|p| p.name.as_str()))
+                    list(self.camera_paths.iter().map(|p| p.name.as_str()))
                 ),
                 (None, false) => unreachable!("the first path exists"),
             },

@@ -38,7 +38,8 @@ pub struct SceneDesc {
     /// Objects replaced by depth-map impostors when seen in curved reflectors.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub impostors: Vec<ImpostorDesc>,
-    /// Camera paths replayed by the viewer.
+    /// Camera paths replayed by the viewer. Each perspective camera node of the glTF is added
+    /// as a one-keyframe path named after its node; a path named here wins a name clash.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub camera_paths: Vec<CameraPath>,
     /// Bake settings: a quality preset and per-stage overrides.

@@ -1,12 +1,12 @@
 //! Reads a glTF 2.0 file (`.gltf` + buffers, or `.glb`) into world-space triangles,
-//! objects (node instances) and materials.
+//! objects (node instances), materials and cameras (as camera paths, [`super::gltf_cameras`]).
 
 use std::path::{Path, PathBuf};
 
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use gltf::{Semantic, buffer::Source, mesh::Mode};
 
-use super::{Object, SceneError, material::Material};
+use super::{CameraPath, Object, SceneError, gltf_cameras, material::Material};
 use crate::geometry::Triangle;
 
 /// What a glTF file contributes to a scene.
@@ -17,6 +17,8 @@ pub struct Imported {
     pub objects: Vec<Object>,
     /// glTF materials in file order, then a default grey if some primitive has none.
     pub materials: Vec<Material>,
+    /// One one-keyframe path per perspective camera node, in traversal order, names unique.
+    pub cameras: Vec<CameraPath>,
     /// Triangles dropped as degenerate or non-finite.
     pub dropped: usize,
     /// Every byte read (glTF and buffers), in order, for the content hash.
@@ -26,6 +28,43 @@ pub struct Imported {
 /// Albedo of primitives without a material (glTF's own default is a white metal, which
 /// would make such geometry black in a diffuse bake).
 const DEFAULT_ALBEDO: f32 = 0.8;
+
+/// Adds the camera of `node` (world transform `world`) to `cameras` as a camera path, or
+/// says in the log why it is skipped (orthographic, a name already taken, an impossible pose).
+fn read_camera(
+    path: &Path,
+    node: &gltf::Node,
+    camera: &gltf::Camera,
+    world: Mat4,
+    cameras: &mut Vec<CameraPath>,
+) {
+    let name = gltf_cameras::path_name(node.name(), camera.name(), node.index());
+    let skip = |why: &str| {
+        log::warn!(
+            "{}: camera node {name:?} (node {}) skipped: {why}",
+            path.display(),
+            node.index()
+        );
+    };
+    let gltf::camera::Projection::Perspective(p) = camera.projection() else {
+        return skip("orthographic cameras are not read (glint's cameras are perspective)");
+    };
+    if cameras.iter().any(|c| c.name == name) {
+        return skip("an earlier camera node has that name");
+    }
+    match gltf_cameras::perspective_path(name.clone(), world, p.yfov()) {
+        Ok(c) => {
+            if let Some(aspect) = p.aspect_ratio() {
+                log::info!(
+                    "{}: camera {name:?}: aspect ratio {aspect} noted; frames take the aspect of their size",
+                    path.display()
+                );
+            }
+            cameras.push(c);
+        }
+        Err(why) => skip(&why),
+    }
+}
 
 /// The relative path a buffer's URI names, relative to the glTF file's folder: the URI with
 /// its percent-escapes decoded (glTF 2.0 §3.9.2: URIs are RFC 3986 references, so `../x.bin`
@@ -156,6 +195,7 @@ pub fn import_bytes(path: &Path, bytes: Vec<u8>, scale: f32) -> Result<Imported,
         triangles: Vec::new(),
         objects: Vec::new(),
         materials: Vec::new(),
+        cameras: Vec::new(),
         dropped: 0,
         hashed_bytes: Vec::new(),
     };
@@ -186,6 +226,9 @@ pub fn import_bytes(path: &Path, bytes: Vec<u8>, scale: f32) -> Result<Imported,
         let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
         let children: Vec<gltf::Node> = node.children().collect();
         stack.extend(children.into_iter().rev().map(|c| (c, world)));
+        if let Some(camera) = node.camera() {
+            read_camera(path, &node, &camera, world, &mut out.cameras);
+        }
         let Some(mesh) = node.mesh() else { continue };
         let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
         let flip = world.determinant() < 0.0;

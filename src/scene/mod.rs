@@ -3,10 +3,11 @@
 //! [`Scene::load`] reads and checks everything, in this order: [`desc`] (the file's schema and
 //! version), the glTF (`gltf_import`), [`material`] overrides, lights (`light`), the bake
 //! settings, reflectors (`reflector`, with `plane` fits), impostors (`impostor`) and camera
-//! paths (`camera_path`). Each part's types are re-exported here.
+//! paths (`camera_path`, then the glTF's cameras, `gltf_cameras`). Each part's types are re-exported here.
 
 mod camera_path;
 pub mod desc;
+mod gltf_cameras;
 pub(crate) mod gltf_import;
 mod impostor;
 mod light;
@@ -120,6 +121,9 @@ pub struct Scene {
     pub name: String,
     /// The description as written.
     pub desc: SceneDesc,
+    /// The camera paths to replay: scene.json's, then one per perspective camera node of the
+    /// glTF (one keyframe, named after its node; scene.json's paths win a name clash).
+    pub camera_paths: Vec<CameraPath>,
     /// World-space triangles.
     pub triangles: Vec<Triangle>,
     /// glTF node instances.
@@ -258,6 +262,8 @@ impl Scene {
         let impostors = impostor::resolve(&desc.impostors, &objects, &triangles)
             .map_err(|(f, m)| field(f, m))?;
         camera_path::check_paths(&desc.camera_paths).map_err(|(f, m)| field(f, m))?;
+        let mut camera_paths = desc.camera_paths.clone();
+        gltf_cameras::merge(&mut camera_paths, imported.cameras, &gltf_path);
         let name = desc.name.clone().unwrap_or_else(|| {
             path.canonicalize()
                 .ok()
@@ -272,6 +278,7 @@ impl Scene {
             path,
             name,
             desc,
+            camera_paths,
             triangles,
             objects,
             materials,

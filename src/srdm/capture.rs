@@ -131,7 +131,6 @@ pub fn view_camera(
     let centre = b.center();
     let radius = (0.5 * b.diagonal()).max(1e-6);
     let reference = scene
-        .desc
         .camera_paths
         .first()
         .and_then(|p| p.keyframes.first())

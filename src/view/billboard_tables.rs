@@ -385,7 +385,6 @@ pub fn build(
         let towards = centroid(&rtris);
         let mut bbs = Vec::new();
         let first_camera = scene
-            .desc
             .camera_paths
             .first()
             .and_then(|p| p.keyframes.first())

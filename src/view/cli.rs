@@ -21,7 +21,7 @@ use crate::progress::TerminalProgress;
     version,
     about = "View a bundle's scene lit by its radiosity textures: a window with a fly camera, or a headless replay of a camera path to frames and timings",
     after_help = "Window keys: WASD + Q/E move (Shift: faster, mouse wheel: speed), drag with the left mouse button to look, \
-1-9 play camera path N, Space pause/resume, R start/stop recording a path, P screenshot, G reflections off/geometry/image, T reflectance sphere/1D map, I impostor reflections (planar), K impostors srdm/billboard, C curved reflectors off/cubemap/impostor, [ ] recursion depth (geometry reflections), H help, Esc quit.\n\n\
+1-9 play camera path N, Space pause/resume, R start/stop recording a path, P screenshot, G reflections off/geometry/image, T reflectance sphere/1D map, I impostor reflections (planar), K impostors srdm/billboard, C curved reflectors off/cubemap/impostor, [ ] recursion depth (geometry reflections), - = exposure down/up half a stop, 0 auto exposure, M tone curve neutral/none, H help, Esc quit.\n\n\
 Examples:\n  glint-view out/cornell-box.glint\n  glint-view out/cornell-box.glint --replay --headless --size 720x486 --out out/frames/cornell-box\n  glint-view out/breakfast-room.glint --replay walkthrough --headless --out out/frames/breakfast --every 10 --hdr"
 )]
 /// `glint-view`'s arguments.
@@ -46,7 +46,8 @@ pub struct Args {
     /// 0 writes no frames, only timings.json.
     #[arg(long, value_name = "K", default_value_t = 1)]
     every: usize,
-    /// Also write each written frame as a linear half-float EXR.
+    /// Also write each written frame as a half-float EXR of linear radiance (never exposed:
+    /// --exposure and --tonemap change only the PNG).
     #[arg(long)]
     hdr: bool,
     #[command(flatten)]

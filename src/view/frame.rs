@@ -12,25 +12,30 @@
 //! 4. impostor reflections in curved reflectors (`--curved impostor`);
 //! 5. curved reflectors by cube maps (Nielsen §3.2, Luksch §6–7);
 //! 6. the recursive planar reflections (geometry depth ≠ 1, Nielsen §3.1), which draw the
-//!    curved reflectors seen in their maps with the cube maps of step 5.
+//!    curved reflectors seen in their maps with the cube maps of step 5;
+//! 7. the display pass ([`super::display`]): steps 1–6 add linear radiance into the radiance
+//!    target (the HDR output, never exposed); this maps it to the 8-bit target with the
+//!    options' exposure and tone curve.
 
 use super::curved::gpu::CurvedReflections;
+use super::display::{DisplayMapping, DisplayPass, RADIANCE_FORMAT};
+use super::exposure::auto_ev;
 use super::gpu::Gpu;
 use super::impostors::{ImpostorReflections, ReflectorSet, impostor_pass};
 use super::load::ViewData;
-use super::options::{CurvedMode, ReflectionMode, ViewOptions};
+use super::options::{CurvedMode, Exposure, ReflectionMode, Tonemap, ViewOptions};
 use super::reflections::{GeometryReflections, RecursiveReflections, Source};
 use super::renderer::{RenderError, Renderer, TargetFormats};
 use crate::camera::Camera;
 
-/// The views a frame is drawn into: colour, linear HDR (exactly when the renderer has an HDR
-/// target) and depth.
+/// The views a frame is drawn into, all of one size: linear radiance, the 8-bit display
+/// target and depth.
 #[derive(Clone, Copy)]
 pub struct FrameViews<'a> {
-    /// The display colour target.
-    pub color: &'a wgpu::TextureView,
-    /// The linear radiance target.
-    pub hdr: Option<&'a wgpu::TextureView>,
+    /// The linear radiance target ([`RADIANCE_FORMAT`]; also sampled by the display pass).
+    pub radiance: &'a wgpu::TextureView,
+    /// The display target (the format the passes were built for).
+    pub display: &'a wgpu::TextureView,
     /// The depth buffer (reverse Z).
     pub depth: &'a wgpu::TextureView,
 }
@@ -86,6 +91,9 @@ impl Rebuild {
 /// Every pass of a frame, built from [`ViewOptions`] for a target size.
 pub struct FramePasses {
     renderer: Renderer,
+    display: DisplayPass,
+    /// The EV `--exposure auto` stands for: from the bundle's D, once.
+    auto_ev: f32,
     options: ViewOptions,
     size: (u32, u32),
     planar: Option<GeometryReflections>,
@@ -96,32 +104,42 @@ pub struct FramePasses {
 }
 
 impl FramePasses {
-    /// The scene pass of `data` for `formats` at `size` and every pass `options` asks for
-    /// (building curved reflectors renders their cube maps).
+    /// The scene pass of `data` at `size`, every pass `options` asks for (building curved
+    /// reflectors renders their cube maps) and the display pass writing `display_format`.
     pub fn new(
         gpu: &Gpu,
         data: &ViewData,
-        formats: TargetFormats,
+        display_format: wgpu::TextureFormat,
         size: (u32, u32),
         options: &ViewOptions,
     ) -> Result<FramePasses, RenderError> {
-        let mut frame = FramePasses::scene_only(gpu, data, formats, size)?;
+        let mut frame = FramePasses::scene_only(gpu, data, display_format, size)?;
         frame.options = *options;
-        frame.renderer.exposure = options.exposure;
         frame.rebuild(gpu, data, Rebuild::ALL)?;
         Ok(frame)
     }
 
-    /// The scene pass alone, with the default options (no reflections).
+    /// The scene pass alone, with the default options (no reflections), and the display pass
+    /// writing `display_format`.
     pub fn scene_only(
         gpu: &Gpu,
         data: &ViewData,
-        formats: TargetFormats,
+        display_format: wgpu::TextureFormat,
         size: (u32, u32),
     ) -> Result<FramePasses, RenderError> {
+        let formats = TargetFormats {
+            color: RADIANCE_FORMAT,
+            hdr: false,
+        };
         let renderer = Renderer::new(gpu, &data.scene, &data.map, formats)?;
+        let display =
+            crate::view::gpu::error_scoped(&gpu.device, "creating the display pass", || {
+                DisplayPass::new(&gpu.device, display_format)
+            })?;
         Ok(FramePasses {
             renderer,
+            display,
+            auto_ev: auto_ev(&data.scene.triangles, &data.map),
             options: ViewOptions::default(),
             size,
             planar: None,
@@ -142,7 +160,6 @@ impl FramePasses {
     ) -> Result<(), RenderError> {
         let changed = Rebuild::between(&self.options, options);
         self.options = *options;
-        self.renderer.exposure = options.exposure;
         self.rebuild(gpu, data, changed)
     }
 
@@ -156,7 +173,6 @@ impl FramePasses {
     ) -> Result<(), RenderError> {
         let changed = Rebuild::between(&self.options, options);
         self.options = *options;
-        self.renderer.exposure = options.exposure;
         self.rebuild(
             gpu,
             data,
@@ -277,6 +293,26 @@ impl FramePasses {
         &self.options
     }
 
+    /// The EV `--exposure auto` stands for (from the bundle's D).
+    pub fn auto_ev(&self) -> f32 {
+        self.auto_ev
+    }
+
+    /// How the display pass maps radiance to the 8-bit target under the current options.
+    pub fn display_mapping(&self) -> DisplayMapping {
+        DisplayMapping {
+            exposure: self.options.exposure,
+            auto_ev: self.auto_ev,
+            tonemap: self.options.tonemap,
+        }
+    }
+
+    /// Switches the exposure and tone curve (the display pass's uniforms; nothing is rebuilt).
+    pub fn set_display(&mut self, exposure: Exposure, tonemap: Tonemap) {
+        self.options.exposure = exposure;
+        self.options.tonemap = tonemap;
+    }
+
     /// The target size the passes were built for.
     pub fn size(&self) -> (u32, u32) {
         self.size
@@ -312,18 +348,12 @@ impl FramePasses {
         self.curved.as_ref()
     }
 
-    /// Planar reflection passes the frame from `camera` records (they end the GPU timing
-    /// span; 0: the scene pass ends it). Valid after [`FramePasses::prepare`] for `camera`.
-    pub fn reflection_pass_count(&self, camera: &Camera) -> usize {
-        self.planar.as_ref().map_or(0, |r| r.pass_count(camera))
-            + self.recursive.as_ref().map_or(0, |r| r.pass_count())
-    }
-
     /// Writes every pass's uniforms for `camera` (the writes land before the next
     /// submission). Call before [`FramePasses::record`].
     pub fn prepare(&self, gpu: &Gpu, camera: &Camera) {
         let (w, h) = self.size;
         self.renderer.prepare(gpu, camera, w, h);
+        self.display.prepare(&gpu.queue, &self.display_mapping());
         let curved = self.curved.as_ref();
         if let Some(r) = &self.recursive {
             r.prepare(gpu, &self.renderer, camera, curved);
@@ -343,29 +373,28 @@ impl FramePasses {
     }
 
     /// Records every pass into `views` in the module's fixed order. With `timestamps`, the
-    /// scene pass writes index 0 at its beginning and the last planar reflection pass (else
-    /// the scene pass) index 1 at its end.
+    /// scene pass writes index 0 at its beginning and the display pass, the last, index 1 at
+    /// its end, so the span holds every pass.
     pub fn record(
         &self,
+        device: &wgpu::Device,
         encoder: &mut wgpu::CommandEncoder,
         camera: &Camera,
         views: FrameViews<'_>,
         timestamps: Option<&wgpu::QuerySet>,
     ) {
-        let FrameViews { color, hdr, depth } = views;
-        let only_scene = self.reflection_pass_count(camera) == 0;
-        self.renderer.draw(
-            encoder,
-            color,
-            hdr,
-            depth,
+        // Every pass adds linear radiance into the radiance target (their colour attachment;
+        // no second HDR attachment is needed).
+        let (color, hdr, depth) = (views.radiance, None, views.depth);
+        let stamp = |begin, end| {
             timestamps.map(|query_set| wgpu::RenderPassTimestampWrites {
                 query_set,
-                beginning_of_pass_write_index: Some(0),
-                end_of_pass_write_index: only_scene.then_some(1),
-            }),
-        );
-        let end = timestamps.map(|q| (q, 1));
+                beginning_of_pass_write_index: begin,
+                end_of_pass_write_index: end,
+            })
+        };
+        self.renderer
+            .draw(encoder, color, hdr, depth, stamp(Some(0), None));
         let curved = self.curved.as_ref();
         if let Some(r) = &self.planar {
             r.draw_timed(
@@ -375,7 +404,7 @@ impl FramePasses {
                 color,
                 hdr,
                 depth,
-                end,
+                None,
                 curved,
             );
         }
@@ -389,8 +418,15 @@ impl FramePasses {
             c.draw(encoder, color, hdr, depth);
         }
         if let Some(r) = &self.recursive {
-            r.draw_timed(encoder, &self.renderer, color, hdr, depth, end, curved);
+            r.draw_timed(encoder, &self.renderer, color, hdr, depth, None, curved);
         }
+        self.display.record(
+            device,
+            encoder,
+            views.radiance,
+            views.display,
+            stamp(None, Some(1)),
+        );
     }
 }
 
@@ -404,7 +440,8 @@ mod tests {
         let base = ViewOptions::default();
         assert_eq!(Rebuild::between(&base, &base), Rebuild::default());
         let mut o = base;
-        o.exposure = 3.0;
+        o.exposure = Exposure::Ev(3.0);
+        o.tonemap = Tonemap::None;
         assert_eq!(Rebuild::between(&base, &o), Rebuild::default());
 
         let mut image = base;

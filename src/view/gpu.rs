@@ -5,6 +5,13 @@
 //! Nothing here needs a window or a surface, so it runs on CI machines whose only GPU is a
 //! software Vulkan driver (Mesa lavapipe, from the Debian/Ubuntu package `mesa-vulkan-drivers`).
 //!
+//! Only Vulkan, Metal and DX12 adapters are used. wgpu's GL backend (GLES 3 semantics) cannot
+//! bind one layer of an array texture as a 2D view and guesses view dimensions from the layer
+//! count (a 6-layer array becomes a cube map), so on GL the radiosity pages read as zero and
+//! every wall comes out black while nothing fails. Rather than write such frames, a machine
+//! with only GL is refused with [`GpuError::NoAdapter`] or [`GpuError::UnsupportedBackend`],
+//! whose messages name the package to install.
+//!
 //! Errors that wgpu reports through error scopes (validation, out of memory) are turned into
 //! [`GpuError`] values instead of the default panicking handler.
 
@@ -14,11 +21,14 @@ use super::build::{render_pipeline, shader};
 pub use super::readback::{read_buffer, read_texture, read_texture_rgba8};
 use super::target::{check_target_size, clear_pass, texture_2d};
 
-/// Backends searched first: Vulkan (and Metal / DX12 on the platforms that have them).
-const PREFERRED_BACKENDS: wgpu::Backends = wgpu::Backends::PRIMARY;
+/// The backends the viewer renders with: Vulkan (and Metal / DX12 on the platforms that have
+/// them). GL is not among them (see the module documentation).
+pub const SUPPORTED_BACKENDS: wgpu::Backends = wgpu::Backends::PRIMARY;
 
-/// Backends searched only when no preferred backend exposes an adapter.
-const FALLBACK_BACKENDS: wgpu::Backends = wgpu::Backends::GL;
+/// What to install where only GL is available, for the error messages.
+pub const VULKAN_INSTALL_HINT: &str = "glint-view renders only with Vulkan, Metal or DX12 \
+     (wgpu's GL backend draws black walls); on Debian/Ubuntu install Mesa's Vulkan driver: \
+     apt-get install mesa-vulkan-drivers libvulkan1";
 
 /// Pixel format of the offscreen target used by [`render_test_triangle`].
 const TEST_TRIANGLE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
@@ -26,14 +36,22 @@ const TEST_TRIANGLE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unor
 /// Errors from GPU setup, rendering and readback.
 #[derive(Debug, Error)]
 pub enum GpuError {
-    /// No backend exposed an adapter.
+    /// No supported backend exposed an adapter.
     #[error(
-        "no GPU adapter found (backends tried: {backends}): \
-         install mesa-vulkan-drivers for the software Vulkan adapter"
+        "no Vulkan, Metal or DX12 GPU adapter found (backends searched: {backends}): {VULKAN_INSTALL_HINT}"
     )]
     NoAdapter {
-        /// The backends that were enumerated.
+        /// The backends that were enumerated (after `WGPU_BACKEND`).
         backends: String,
+    },
+
+    /// The adapter runs on a backend the viewer refuses (GL).
+    #[error("GPU adapter `{adapter}` uses the {backend} backend: {VULKAN_INSTALL_HINT}")]
+    UnsupportedBackend {
+        /// Name of the adapter.
+        adapter: String,
+        /// Its backend.
+        backend: String,
     },
 
     /// The adapter refused to create a device.
@@ -101,11 +119,10 @@ pub struct Gpu {
 impl Gpu {
     /// Opens a GPU without any window or surface.
     ///
-    /// Searches Vulkan/Metal/DX12 and GL (the `WGPU_BACKEND` environment variable can narrow
-    /// that down, e.g. `WGPU_BACKEND=gl`). Adapters from Vulkan/Metal/DX12 are preferred; GL is
-    /// used only when none of those has an adapter. Within a backend group, hardware GPUs win
-    /// over virtual and CPU adapters, but software adapters such as lavapipe are accepted, which
-    /// is what CI uses.
+    /// Searches Vulkan/Metal/DX12 ([`SUPPORTED_BACKENDS`]; the `WGPU_BACKEND` environment
+    /// variable can narrow that down, e.g. `WGPU_BACKEND=vulkan`; naming only `gl` leaves
+    /// nothing to search). Hardware GPUs win over virtual and CPU adapters, but software
+    /// adapters such as lavapipe are accepted, which is what CI uses.
     ///
     /// The device is created with no optional features and with the adapter's own limits, so
     /// texture sizes are bounded by the hardware rather than by wgpu's conservative defaults.
@@ -116,15 +133,21 @@ impl Gpu {
     /// As [`Gpu::headless`], also enabling those of the `optional` features the adapter has
     /// (e.g. [`wgpu::Features::TIMESTAMP_QUERY`]); check [`wgpu::Device::features`] for which.
     pub fn headless_with_features(optional: wgpu::Features) -> Result<Gpu, GpuError> {
-        let backends = (PREFERRED_BACKENDS | FALLBACK_BACKENDS).with_env();
-        let adapter = select_adapter(backends)?;
+        let adapter = select_adapter(SUPPORTED_BACKENDS.with_env())?;
         Gpu::from_adapter(adapter, optional)
     }
 
     /// Creates the device on a chosen adapter (a window picks one that can present to its
     /// surface), with those of the `optional` features the adapter has and its own limits.
+    /// An adapter outside [`SUPPORTED_BACKENDS`] is refused.
     pub fn from_adapter(adapter: wgpu::Adapter, optional: wgpu::Features) -> Result<Gpu, GpuError> {
         let info = adapter.get_info();
+        if !SUPPORTED_BACKENDS.contains(info.backend.into()) {
+            return Err(GpuError::UnsupportedBackend {
+                adapter: info.name,
+                backend: info.backend.to_string(),
+            });
+        }
         log::info!(
             "GPU adapter: {} ({} backend, {:?}, driver: {} {})",
             info.name,
@@ -169,37 +192,32 @@ impl Gpu {
     }
 }
 
-/// Picks the best adapter among `backends`, trying [`PREFERRED_BACKENDS`] before the rest.
-///
-/// Each backend group gets its own instance, created only when the previous group had no
-/// adapter: initialising GL (EGL) is slow and logs driver-probing errors, so it is skipped
-/// entirely when Vulkan works.
+/// Picks the best adapter among `backends` ∩ [`SUPPORTED_BACKENDS`]; GL is never initialised.
 fn select_adapter(backends: wgpu::Backends) -> Result<wgpu::Adapter, GpuError> {
-    let groups = [backends & PREFERRED_BACKENDS, backends - PREFERRED_BACKENDS];
-    for group in groups.into_iter().filter(|group| !group.is_empty()) {
-        let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle().with_env();
-        descriptor.backends = group;
-        let instance = wgpu::Instance::new(descriptor);
-        let adapters = pollster::block_on(instance.enumerate_adapters(group));
-        for adapter in &adapters {
-            let info = adapter.get_info();
-            log::debug!(
-                "found GPU adapter: {} ({} backend, {:?})",
-                info.name,
-                info.backend,
-                info.device_type
-            );
-        }
-        if let Some(adapter) = adapters
-            .into_iter()
-            .min_by_key(|adapter| device_type_rank(adapter.get_info().device_type))
-        {
-            return Ok(adapter);
-        }
-    }
-    Err(GpuError::NoAdapter {
+    let group = backends & SUPPORTED_BACKENDS;
+    let no_adapter = || GpuError::NoAdapter {
         backends: format!("{backends:?}"),
-    })
+    };
+    if group.is_empty() {
+        return Err(no_adapter());
+    }
+    let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle().with_env();
+    descriptor.backends = group;
+    let instance = wgpu::Instance::new(descriptor);
+    let adapters = pollster::block_on(instance.enumerate_adapters(group));
+    for adapter in &adapters {
+        let info = adapter.get_info();
+        log::debug!(
+            "found GPU adapter: {} ({} backend, {:?})",
+            info.name,
+            info.backend,
+            info.device_type
+        );
+    }
+    adapters
+        .into_iter()
+        .min_by_key(|adapter| device_type_rank(adapter.get_info().device_type))
+        .ok_or_else(no_adapter)
 }
 
 /// Preference order of device types within one backend group (lower is better).

@@ -91,7 +91,7 @@ pub struct ReplayOptions {
     pub out: Option<PathBuf>,
     /// Write every `every`-th frame (0: none; timings.json is still written).
     pub every: usize,
-    /// Also write each written frame as a half-float linear EXR.
+    /// Also write each written frame as a half-float EXR of linear radiance (never exposed).
     pub hdr: bool,
     /// What the frames show.
     pub view: ViewOptions,
@@ -145,14 +145,13 @@ pub fn replay_with(
         .ok_or_else(|| {
             let names: Vec<&str> = data
                 .scene
-                .desc
                 .camera_paths
                 .iter()
                 .map(|p| p.name.as_str())
                 .collect();
             let message = if names.is_empty() {
                 "its scene has no camera paths to replay; add `camera_paths` to scene.json \
-                 (or record one in the window with R)"
+                 or a camera node to its glTF (or record a path in the window with R)"
                     .to_string()
             } else {
                 format!(
@@ -172,14 +171,15 @@ pub fn replay_with(
             source,
         })?;
     }
-    let offscreen = Offscreen::with_options(
-        gpu,
-        data,
-        options.width,
-        options.height,
-        options.hdr,
-        &options.view,
-    )?;
+    let offscreen =
+        Offscreen::with_options(gpu, data, options.width, options.height, &options.view)?;
+    log::info!(
+        "8-bit frames: exposure {} ({:+.2} EV; auto would be {:+.2} EV), tone curve {}",
+        options.view.exposure,
+        options.view.exposure.ev(offscreen.frame().auto_ev()),
+        offscreen.frame().auto_ev(),
+        options.view.tonemap
+    );
     let frames = schedule(path).map_err(|message| ViewError::PathTooLong {
         bundle: bundle.clone(),
         message,
@@ -197,7 +197,7 @@ pub fn replay_with(
         if let Some(out) = &options.out
             && is_written(f.index, options.every)
         {
-            files = write_frame(gpu, &offscreen, out, f.index)?;
+            files = write_frame(gpu, &offscreen, out, f.index, options.hdr)?;
         }
         timings.push(FrameTiming {
             frame: f.index,
@@ -228,12 +228,14 @@ pub fn replay_with(
     Ok(result)
 }
 
-/// Writes the target's current frame as PNG (and EXR when it has an HDR target).
+/// Writes the target's current frame as PNG (exposed, tone-mapped) and, when `hdr`, as EXR
+/// (linear radiance).
 fn write_frame(
     gpu: &Gpu,
     offscreen: &Offscreen,
     out: &Path,
     index: usize,
+    hdr: bool,
 ) -> Result<Vec<String>, ViewError> {
     let (w, h) = (offscreen.target.width, offscreen.target.height);
     let mut files = Vec::new();
@@ -246,7 +248,8 @@ fn write_frame(
     })?;
     std::fs::write(&path, png).map_err(|source| ViewError::Io { path, source })?;
     files.push(name);
-    if let Some(hdr) = offscreen.read_hdr(gpu)? {
+    if hdr {
+        let hdr = offscreen.read_hdr(gpu)?;
         let name = frame_file_name(index, "exr");
         let path = out.join(&name);
         let exr = image_io::encode_rgb_exr(w as usize, h as usize, &hdr).map_err(|source| {

@@ -1,7 +1,9 @@
 //! The wgpu viewer: a bundle's scene lit by its radiosity textures, in a window or headless.
-//! Everything but [`options`] needs the `view` feature.
+//! Everything but [`options`], [`exposure`] and [`tonemap`] needs the `view` feature.
 //!
 //! - [`options`]: [`options::ViewOptions`], what a frame shows, and its command-line form.
+//! - [`exposure`], [`tonemap`]: how linear radiance becomes an 8-bit frame (`--exposure
+//!   auto|EV`, Khronos PBR Neutral); [`display`] is that mapping's GPU pass.
 //! - [`frame`]: every pass of a frame built from the options, recorded in one fixed order.
 //! - [`load`]: bundle → scene + radiosity map, every check done first (clear errors, no panics).
 //! - [`bicubic`]: the cubic B-spline reconstruction of D, on the CPU (mirrored in the shader).
@@ -46,6 +48,9 @@ pub mod cpu_render;
 #[cfg(feature = "view")]
 pub mod curved;
 #[cfg(feature = "view")]
+pub mod display;
+pub mod exposure;
+#[cfg(feature = "view")]
 pub mod frame;
 #[cfg(feature = "view")]
 pub mod gpu;
@@ -76,6 +81,7 @@ pub mod renderer;
 pub mod replay;
 #[cfg(feature = "view")]
 pub mod target;
+pub mod tonemap;
 #[cfg(feature = "view")]
 pub mod wgsl_layout;
 #[cfg(feature = "view")]

@@ -8,14 +8,14 @@ use glam::Vec3;
 
 use super::build::buffer;
 use super::curved::gpu::CurvedReflections;
-use super::frame::{FramePasses, FrameViews, Rebuild};
+use super::frame::{FramePasses, Rebuild};
 use super::gpu::{Gpu, GpuError, error_scoped};
 use super::impostors::ImpostorReflections;
 use super::load::ViewData;
-use super::options::{CurvedMode, CurvedSettings, ReflectionMode, ViewOptions};
+use super::options::{CurvedMode, CurvedSettings, Exposure, ReflectionMode, Tonemap, ViewOptions};
 use super::readback::{map_read, read_texture, read_texture_rgba8};
 use super::reflections::{GeometryReflections, RecursiveReflections};
-use super::renderer::{COLOR_FORMAT, OffscreenTarget, RenderError, Renderer, TargetFormats};
+use super::renderer::{COLOR_FORMAT, OffscreenTarget, RenderError, Renderer};
 use super::replay::GpuTimeSource;
 use crate::camera::Camera;
 
@@ -92,22 +92,25 @@ pub struct Offscreen {
 }
 
 impl Offscreen {
-    /// A `width` × `height` offscreen renderer of `data` (with an HDR target when `hdr`),
-    /// drawing D only until a `set_*` call turns passes on.
+    /// A `width` × `height` offscreen renderer of `data`, drawing D only until a `set_*` call
+    /// turns passes on, its 8-bit frames shown by [`ViewOptions::linear_display`] (0 EV, no
+    /// tone curve: radiance clamped and sRGB-encoded, as the CPU references are) until
+    /// [`Offscreen::set_display`] says otherwise.
     pub fn new(
         gpu: &Gpu,
         data: &ViewData,
         width: u32,
         height: u32,
-        hdr: bool,
     ) -> Result<Offscreen, RenderError> {
-        let target = OffscreenTarget::new(gpu, width, height, hdr)?;
-        let frame = FramePasses::scene_only(gpu, data, formats(hdr), (width, height))?;
+        let target = OffscreenTarget::new(gpu, width, height)?;
+        let mut frame = FramePasses::scene_only(gpu, data, COLOR_FORMAT, (width, height))?;
+        let options = ViewOptions::default().linear_display();
+        frame.set_display(options.exposure, options.tonemap);
         Ok(Offscreen {
             target,
             timer: GpuTimer::new(gpu),
             frame,
-            options: ViewOptions::default(),
+            options,
         })
     }
 
@@ -117,11 +120,10 @@ impl Offscreen {
         data: &ViewData,
         width: u32,
         height: u32,
-        hdr: bool,
         options: &ViewOptions,
     ) -> Result<Offscreen, RenderError> {
-        let target = OffscreenTarget::new(gpu, width, height, hdr)?;
-        let frame = FramePasses::new(gpu, data, formats(hdr), (width, height), options)?;
+        let target = OffscreenTarget::new(gpu, width, height)?;
+        let frame = FramePasses::new(gpu, data, COLOR_FORMAT, (width, height), options)?;
         Ok(Offscreen {
             target,
             timer: GpuTimer::new(gpu),
@@ -138,6 +140,14 @@ impl Offscreen {
     /// The frame's passes.
     pub fn frame(&self) -> &FramePasses {
         &self.frame
+    }
+
+    /// Switches the 8-bit frames' exposure and tone curve (nothing is rebuilt; the radiance
+    /// target, the HDR output, does not change).
+    pub fn set_display(&mut self, exposure: Exposure, tonemap: Tonemap) {
+        self.options.exposure = exposure;
+        self.options.tonemap = tonemap;
+        self.frame.set_display(exposure, tonemap);
     }
 
     /// Switches to `options`, rebuilding the passes whose inputs changed.
@@ -270,11 +280,11 @@ impl Offscreen {
                     label: Some("glint frame encoder"),
                 });
             self.frame.prepare(gpu, camera);
-            let (color, hdr, depth) = self.target.views();
             self.frame.record(
+                &gpu.device,
                 &mut encoder,
                 camera,
-                FrameViews { color, hdr, depth },
+                self.target.views(),
                 self.timer.as_ref().map(|t| &t.queries),
             );
             if let Some(t) = &self.timer {
@@ -300,36 +310,22 @@ impl Offscreen {
         })
     }
 
-    /// The last frame as 8-bit sRGB RGBA, top row first.
+    /// The last frame as 8-bit sRGB RGBA (exposed and tone-mapped), top row first.
     pub fn read_rgba8(&self, gpu: &Gpu) -> Result<Vec<u8>, GpuError> {
         read_texture_rgba8(gpu, &self.target.color)
     }
 
-    /// The last frame's linear radiance (× exposure), top row first; `None` without an HDR
-    /// target.
-    pub fn read_hdr(&self, gpu: &Gpu) -> Result<Option<Vec<Vec3>>, GpuError> {
-        let Some(hdr) = &self.target.hdr else {
-            return Ok(None);
-        };
-        let bytes = read_texture(gpu, hdr)?;
+    /// The last frame's linear radiance (never exposed), top row first.
+    pub fn read_hdr(&self, gpu: &Gpu) -> Result<Vec<Vec3>, GpuError> {
+        let bytes = read_texture(gpu, &self.target.radiance)?;
         let halves: Vec<u16> = bytes
             .chunks_exact(2)
             .map(|b| u16::from_le_bytes([b[0], b[1]]))
             .collect();
-        Ok(Some(
-            halves
-                .chunks_exact(4)
-                .map(|t| Vec3::new(h(t[0]), h(t[1]), h(t[2])))
-                .collect(),
-        ))
-    }
-}
-
-/// The offscreen target's formats: [`COLOR_FORMAT`], and HDR when asked for.
-fn formats(hdr: bool) -> TargetFormats {
-    TargetFormats {
-        color: COLOR_FORMAT,
-        hdr,
+        Ok(halves
+            .chunks_exact(4)
+            .map(|t| Vec3::new(h(t[0]), h(t[1]), h(t[2])))
+            .collect())
     }
 }
 

@@ -11,8 +11,9 @@
 //! - The fragment shader reconstructs D with the cubic B-spline ([`super::bicubic`]).
 //! - Depth: `Depth32Float`, reverse Z with an infinite far plane (depth 1 at the near plane,
 //!   compare `Greater`), which keeps precision across scenes of any size.
-//! - Output: linear D × exposure to an sRGB colour target (`Rgba8UnormSrgb` offscreen; the
-//!   hardware encodes), optionally also linear to an `Rgba16Float` HDR target.
+//! - Output: linear D to the frame's radiance target (`Rgba16Float`,
+//!   [`super::display::RADIANCE_FORMAT`]); the display pass exposes, tone-maps and encodes it
+//!   ([`super::display`]), so the shaders' `exposure` is 1 and `encode_srgb` 0 for frames.
 //! - No back-face culling: the CPU reference's ray casts see both faces too.
 
 use bytemuck::{Pod, Zeroable};
@@ -247,8 +248,6 @@ pub struct Renderer {
     textures: RadiosityTextures,
     formats: TargetFormats,
     near: f32,
-    /// Multiplies D before output (1: radiance as baked).
-    pub exposure: f32,
 }
 
 impl Renderer {
@@ -315,7 +314,6 @@ impl Renderer {
             textures,
             formats,
             near: near_plane(scene),
-            exposure: 1.0,
         })
     }
 
@@ -355,8 +353,9 @@ impl Renderer {
         FrameUniforms {
             view_proj: view_projection(camera, aspect, self.near).to_cols_array_2d(),
             atlas_size: self.textures.layer_size.map(|v| v as f32),
-            exposure: self.exposure,
-            encode_srgb: u32::from(!self.formats.color.is_srgb()),
+            // Radiance as baked, linear: the display pass applies exposure and encodes.
+            exposure: 1.0,
+            encode_srgb: 0,
         }
     }
 

@@ -2,8 +2,8 @@
 //! target, the reverse-Z depth state, the additive blend of passes drawn over the scene, and
 //! how a pass begins: clearing its targets, or loading a finished frame (the overlay).
 
+use super::frame::FrameViews;
 use super::gpu::{Gpu, GpuError, error_scoped};
-use super::renderer::Renderer;
 
 /// Offscreen colour target format: the hardware encodes linear output to sRGB.
 pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
@@ -200,79 +200,67 @@ pub fn depth_texture(gpu: &Gpu, width: u32, height: u32) -> wgpu::Texture {
     )
 }
 
-/// An offscreen target: colour (readable), optional HDR (readable) and depth.
+/// An offscreen target: linear radiance (readable: the HDR output), the 8-bit colour the
+/// display pass maps it to (readable) and depth.
 pub struct OffscreenTarget {
     /// Width in pixels.
     pub width: u32,
     /// Height in pixels.
     pub height: u32,
-    /// [`COLOR_FORMAT`] colour.
+    /// [`COLOR_FORMAT`] colour: the displayed frame.
     pub color: wgpu::Texture,
-    /// [`HDR_FORMAT`] linear radiance, when asked for.
-    pub hdr: Option<wgpu::Texture>,
+    /// [`HDR_FORMAT`] linear radiance every pass draws into.
+    pub radiance: wgpu::Texture,
     /// The depth buffer (drawn through `depth_view`; held so the target owns what it uses).
     _depth: wgpu::Texture,
     color_view: wgpu::TextureView,
-    hdr_view: Option<wgpu::TextureView>,
+    radiance_view: wgpu::TextureView,
     depth_view: wgpu::TextureView,
 }
 
 impl OffscreenTarget {
     /// Creates the textures; checks the size against the device's limit.
-    pub fn new(gpu: &Gpu, width: u32, height: u32, hdr: bool) -> Result<OffscreenTarget, GpuError> {
+    pub fn new(gpu: &Gpu, width: u32, height: u32) -> Result<OffscreenTarget, GpuError> {
         check_target_size(&gpu.device, width, height)?;
         error_scoped(&gpu.device, "creating the offscreen target", || {
-            let colour = |format, label| {
-                texture_2d(
-                    &gpu.device,
-                    label,
-                    width,
-                    height,
-                    format,
-                    wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-                )
-            };
-            let color = colour(COLOR_FORMAT, "glint offscreen colour");
-            let hdr = hdr.then(|| colour(HDR_FORMAT, "glint offscreen hdr"));
+            let readable = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
+            let color = texture_2d(
+                &gpu.device,
+                "glint offscreen colour",
+                width,
+                height,
+                COLOR_FORMAT,
+                readable,
+            );
+            let radiance = texture_2d(
+                &gpu.device,
+                "glint offscreen radiance",
+                width,
+                height,
+                HDR_FORMAT,
+                readable | wgpu::TextureUsages::TEXTURE_BINDING,
+            );
             let depth = depth_texture(gpu, width, height);
             let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
             OffscreenTarget {
                 width,
                 height,
                 color_view: view(&color),
-                hdr_view: hdr.as_ref().map(view),
+                radiance_view: view(&radiance),
                 depth_view: view(&depth),
                 color,
-                hdr,
+                radiance,
                 _depth: depth,
             }
         })
     }
 
-    /// The colour, optional HDR and depth views (for passes drawn after the scene's).
-    pub fn views(
-        &self,
-    ) -> (
-        &wgpu::TextureView,
-        Option<&wgpu::TextureView>,
-        &wgpu::TextureView,
-    ) {
-        (&self.color_view, self.hdr_view.as_ref(), &self.depth_view)
-    }
-
-    /// Records `renderer`'s pass into this target.
-    pub fn draw(
-        &self,
-        renderer: &Renderer,
-        encoder: &mut wgpu::CommandEncoder,
-        timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
-    ) {
-        renderer.draw(
-            encoder,
-            &self.color_view,
-            self.hdr_view.as_ref(),
-            &self.depth_view,
-            timestamps,
-        );
+    /// The radiance, display colour and depth views, as a frame is drawn into them.
+    pub fn views(&self) -> FrameViews<'_> {
+        FrameViews {
+            radiance: &self.radiance_view,
+            display: &self.color_view,
+            depth: &self.depth_view,
+        }
     }
 }

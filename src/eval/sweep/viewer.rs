@@ -51,9 +51,8 @@ impl Viewer {
         let fail = |e: &dyn std::fmt::Display| SweepError::View(label.to_string(), e.to_string());
         let data = crate::view::load::load(dir).map_err(|e| fail(&e))?;
         let gpu = &self.gpu;
-        let offscreen = |w: u32, h: u32| {
-            Offscreen::with_options(gpu, &data, w, h, true, view).map_err(|e| fail(&e))
-        };
+        let offscreen =
+            |w: u32, h: u32| Offscreen::with_options(gpu, &data, w, h, view).map_err(|e| fail(&e));
         let timed = offscreen(self.width, self.height)?;
         timed.render(gpu, camera).map_err(|e| fail(&e))?;
         let mut frame = Vec::with_capacity(self.frames);
@@ -72,10 +71,7 @@ impl Viewer {
         } else {
             &timed
         };
-        let rgb = shown
-            .read_hdr(gpu)
-            .map_err(|e| fail(&e))?
-            .expect("the target was made with HDR");
+        let rgb = shown.read_hdr(gpu).map_err(|e| fail(&e))?;
         let img = box_down(
             &Image {
                 width: (self.width * k) as usize,

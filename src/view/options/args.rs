@@ -3,16 +3,30 @@
 
 use super::{
     CurvedMode, CurvedSettings, DEFAULT_FACE_SIZE, DEFAULT_GENERATIONS, DEFAULT_WEIGHT_CUTOFF,
-    ImpostorKind, RecursionSettings, ReflectanceChannel, ReflectanceLayout, ReflectanceSettings,
-    ReflectionMode, Selection, ViewOptions, parse_depth,
+    Exposure, ImpostorKind, RecursionSettings, ReflectanceChannel, ReflectanceLayout,
+    ReflectanceSettings, ReflectionMode, Selection, Tonemap, ViewOptions, parse_depth,
 };
 
 /// The command-line form of [`ViewOptions`] (`#[command(flatten)]` in `glint-view`).
 #[derive(clap::Args, Clone, Debug)]
 pub struct ViewArgs {
-    /// Multiplies the radiance before display.
-    #[arg(long, default_value_t = 1.0, value_parser = parse_exposure)]
-    pub exposure: f32,
+    /// Exposure of the 8-bit frames (PNG, the window): `auto` (from the log-average
+    /// luminance of the bundle's radiosity textures, mapped to mid-grey 0.18; one value for
+    /// every frame) or an exposure value in stops (radiance × 2^EV; 0: as baked). HDR frames
+    /// (`--hdr`) are linear radiance, never exposed. In the window, - and = change it, 0
+    /// returns to auto.
+    #[arg(
+        long,
+        value_name = "auto|EV",
+        default_value = "auto",
+        allow_hyphen_values = true
+    )]
+    pub exposure: Exposure,
+    /// Tone curve of the 8-bit frames after exposure: `neutral` (Khronos PBR Neutral: base
+    /// colours kept up to 0.8, highlights compressed to white) or `none` (clamped). In the
+    /// window, M switches it.
+    #[arg(long, value_name = "CURVE", default_value = "neutral")]
+    pub tonemap: Tonemap,
     /// Glossy planar reflections: `geometry` (the mirrored scene re-rendered per reflector,
     /// ks·R·M added to D), `image` (the baked radiance maps splatted; needs the radiance
     /// stage) or `off`.
@@ -111,6 +125,7 @@ impl ViewArgs {
         }
         let options = ViewOptions {
             exposure: self.exposure,
+            tonemap: self.tonemap,
             reflections: self.reflections,
             selection: self.selection,
             maps: usize::from(self.maps),
@@ -145,13 +160,6 @@ pub fn parse_on_off(s: &str) -> Result<bool, String> {
     }
 }
 
-fn parse_exposure(s: &str) -> Result<f32, String> {
-    match s.parse::<f32>() {
-        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
-        _ => Err(format!("{s:?} is not a finite number > 0")),
-    }
-}
-
 fn parse_cutoff(s: &str) -> Result<f32, String> {
     match s.parse::<f32>() {
         Ok(v) if (0.0..=1.0).contains(&v) => Ok(v),
@@ -176,7 +184,9 @@ mod tests {
     fn every_argument_reaches_its_option() {
         let o = options(&[
             "--exposure",
-            "2",
+            "-2",
+            "--tonemap",
+            "none",
             "--reflections",
             "geometry",
             "--maps",
@@ -208,7 +218,8 @@ mod tests {
         assert_eq!(
             o,
             ViewOptions {
-                exposure: 2.0,
+                exposure: Exposure::Ev(-2.0),
+                tonemap: Tonemap::None,
                 reflections: ReflectionMode::Geometry,
                 selection: Selection::Distance,
                 maps: 4,

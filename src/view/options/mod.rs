@@ -10,6 +10,9 @@ mod args;
 pub use args::{ViewArgs, parse_on_off};
 use serde::Serialize;
 
+pub use super::exposure::{Exposure, ExposureKey, MAX_EV};
+pub use super::tonemap::Tonemap;
+
 /// How the viewer draws glossy planar reflections (`--reflections`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -330,8 +333,10 @@ pub fn parse_depth(s: &str) -> Result<u8, String> {
 /// viewer render with them.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct ViewOptions {
-    /// Multiplies the radiance before display.
-    pub exposure: f32,
+    /// Exposure of the 8-bit frames (`auto` or EV); HDR output is never exposed.
+    pub exposure: Exposure,
+    /// Tone curve of the 8-bit frames.
+    pub tonemap: Tonemap,
     /// Glossy planar reflections.
     pub reflections: ReflectionMode,
     /// Image-based mode: how radiance maps are selected.
@@ -356,7 +361,8 @@ pub struct ViewOptions {
 impl Default for ViewOptions {
     fn default() -> Self {
         ViewOptions {
-            exposure: 1.0,
+            exposure: Exposure::Auto,
+            tonemap: Tonemap::Neutral,
             reflections: ReflectionMode::Off,
             selection: Selection::Angle,
             maps: 2,
@@ -371,6 +377,17 @@ impl Default for ViewOptions {
 }
 
 impl ViewOptions {
+    /// These options with the identity display mapping: 0 EV and no tone curve, so an 8-bit
+    /// frame is its radiance clamped to [0, 1] and sRGB-encoded (what CPU references of a
+    /// frame compute).
+    pub fn linear_display(self) -> ViewOptions {
+        ViewOptions {
+            exposure: Exposure::Ev(0.0),
+            tonemap: Tonemap::None,
+            ..self
+        }
+    }
+
     /// The recursion depth the frame draws: the set depth in geometry mode, 1 (the single
     /// pass, or none when reflections are off) otherwise.
     pub fn recursion_depth(&self) -> u8 {
@@ -392,10 +409,11 @@ impl ViewOptions {
 
     /// Checks every value's range; the error names the option and what was expected.
     pub fn check(&self) -> Result<(), String> {
-        if !(self.exposure.is_finite() && self.exposure > 0.0) {
+        if let Exposure::Ev(ev) = self.exposure
+            && !(ev.is_finite() && ev.abs() <= MAX_EV)
+        {
             return Err(format!(
-                "exposure {} is not a finite number > 0",
-                self.exposure
+                "exposure {ev} is not an exposure value in stops within ±{MAX_EV}"
             ));
         }
         if !(1..=16).contains(&self.maps) {

@@ -175,7 +175,7 @@ pub fn next_free_name(dir: &Path, prefix: &str, ext: &str) -> PathBuf {
 
 /// A starting view: the first path's first pose, else the bounding box from its +Z side.
 pub fn initial_camera(data: &ViewData) -> Camera {
-    if let Some(path) = data.scene.desc.camera_paths.first() {
+    if let Some(path) = data.scene.camera_paths.first() {
         return pose_at(path, path.keyframes.first().map_or(0.0, |k| k.time));
     }
     let b = data.scene.bounds;

@@ -6,6 +6,8 @@
 //! - Keys 1–9 play the scene's camera paths, Space pauses and resumes; moving takes over.
 //! - R starts and stops recording a path: the pose every [`RECORD_INTERVAL`] seconds, saved as
 //!   a `camera_paths` entry of scene.json (`recorded-N.json` in the output folder).
+//! - The `-` and `=` keys lower and raise the exposure by half a stop, `0` returns to auto, M
+//!   switches the tone curve ([`exposure_key`], [`super::exposure::Exposure::step`]).
 //! - G, T, I, K, C, [ and ] change the [`ViewOptions`]; [`FramePasses`] rebuilds what they
 //!   feed, so the window draws exactly what headless replay draws with the same options.
 //! - P saves a screenshot (`screenshot-N.png`): the window's own next frame, read back from
@@ -36,11 +38,13 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::window::{Window, WindowId};
 
+use super::display::RADIANCE_FORMAT;
 use super::frame::{FramePasses, FrameViews};
-use super::gpu::{Gpu, GpuError};
+use super::gpu::{Gpu, GpuError, SUPPORTED_BACKENDS, VULKAN_INSTALL_HINT};
 use super::load::ViewData;
-use super::options::{MAX_RECURSION_DEPTH, ViewOptions};
-use super::renderer::{RenderError, TargetFormats, depth_texture};
+use super::options::{ExposureKey, MAX_RECURSION_DEPTH, ViewOptions};
+use super::renderer::{RenderError, depth_texture};
+use super::target::texture_2d;
 use crate::camera::{Camera, frame_count};
 
 /// Why the window viewer stopped with an error.
@@ -99,7 +103,7 @@ pub fn run_window(data: ViewData, options: WindowOptions) -> Result<(), WindowEr
     let playback = match &options.play {
         None => None,
         Some(name) => {
-            let paths = &data.scene.desc.camera_paths;
+            let paths = &data.scene.camera_paths;
             let index = match name {
                 None => (!paths.is_empty()).then_some(0),
                 Some(n) => paths.iter().position(|p| &p.name == n),
@@ -161,7 +165,8 @@ pub fn run_window(data: ViewData, options: WindowOptions) -> Result<(), WindowEr
 const HELP: &str = "keys: WASD + Q/E move (Shift faster, wheel: speed), left-drag look, \
 1-9 play path, Space pause/resume, R record path, P screenshot, G reflections off/geometry/image, \
 T reflectance sphere/1D map, I impostor reflections (planar), K impostors srdm/billboard, \
-C curved reflectors off/cubemap/impostor, [ ] recursion depth, H help, Esc quit";
+C curved reflectors off/cubemap/impostor, [ ] recursion depth, - = exposure (0: auto), \
+M tone curve neutral/none, H help, Esc quit";
 
 /// The window's GPU side, created once the event loop runs.
 struct Running {
@@ -170,7 +175,23 @@ struct Running {
     config: wgpu::SurfaceConfiguration,
     gpu: Gpu,
     frame: FramePasses,
+    /// The radiance and depth targets the passes draw into (the surface's size).
+    radiance_view: wgpu::TextureView,
     depth_view: wgpu::TextureView,
+}
+
+/// A radiance target (the passes draw into it; the display pass reads it) of `width` ×
+/// `height`.
+fn radiance_view(gpu: &Gpu, width: u32, height: u32) -> wgpu::TextureView {
+    texture_2d(
+        &gpu.device,
+        "glint window radiance",
+        width,
+        height,
+        RADIANCE_FORMAT,
+        wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+    )
+    .create_view(&wgpu::TextureViewDescriptor::default())
 }
 
 /// A screenshot asked for: saved from the next frame drawn.
@@ -221,10 +242,11 @@ impl App {
                 .create_window(attributes)
                 .map_err(|e| WindowError::EventLoop(e.to_string()))?,
         );
-        let descriptor = wgpu::InstanceDescriptor::new_with_display_handle(Box::new(
+        let mut descriptor = wgpu::InstanceDescriptor::new_with_display_handle(Box::new(
             event_loop.owned_display_handle(),
         ))
         .with_env();
+        descriptor.backends &= SUPPORTED_BACKENDS;
         let instance = wgpu::Instance::new(descriptor);
         let surface = instance
             .create_surface(window.clone())
@@ -235,7 +257,11 @@ impl App {
             compatible_surface: Some(&surface),
             apply_limit_buckets: false,
         }))
-        .map_err(|e| WindowError::Surface(format!("no adapter can present to the window: {e}")))?;
+        .map_err(|e| {
+            WindowError::Surface(format!(
+                "no Vulkan, Metal or DX12 adapter can present to the window ({e}): {VULKAN_INSTALL_HINT}"
+            ))
+        })?;
         let gpu = Gpu::from_adapter(adapter, wgpu::Features::empty())?;
         log::info!("GPU: {}", gpu.adapter_summary());
         let size = window.inner_size();
@@ -257,21 +283,26 @@ impl App {
         let frame = FramePasses::new(
             &gpu,
             &self.data,
-            TargetFormats {
-                color: config.format,
-                hdr: false,
-            },
+            config.format,
             (config.width, config.height),
             &self.options.view,
         )?;
+        log::info!(
+            "exposure {} (auto: {:+.2} EV), tone curve {}; - and = change the exposure, 0 returns to auto, M switches the curve",
+            self.options.view.exposure,
+            frame.auto_ev(),
+            self.options.view.tonemap
+        );
         let depth_view = depth_texture(&gpu, config.width, config.height)
             .create_view(&wgpu::TextureViewDescriptor::default());
+        let radiance_view = radiance_view(&gpu, config.width, config.height);
         Ok(Running {
             window,
             surface,
             config,
             gpu,
             frame,
+            radiance_view,
             depth_view,
         })
     }
@@ -286,6 +317,7 @@ impl App {
         r.surface.configure(&r.gpu.device, &r.config);
         r.depth_view = depth_texture(&r.gpu, size.width, size.height)
             .create_view(&wgpu::TextureViewDescriptor::default());
+        r.radiance_view = radiance_view(&r.gpu, size.width, size.height);
         if let Err(e) = r
             .frame
             .resize(&r.gpu, &self.data, (size.width, size.height))
@@ -303,6 +335,28 @@ impl App {
         r.frame
             .set_options(&r.gpu, &self.data, &self.options.view)?;
         Ok(())
+    }
+
+    /// Changes the exposure by `key` (a step from the EV in effect, or back to auto).
+    fn change_exposure(&mut self, key: ExposureKey) {
+        let Some(r) = &mut self.running else { return };
+        let o = &mut self.options.view;
+        o.exposure = o.exposure.step(key, r.frame.auto_ev());
+        r.frame.set_display(o.exposure, o.tonemap);
+        log::info!(
+            "exposure {} ({:+.2} EV)",
+            o.exposure,
+            o.exposure.ev(r.frame.auto_ev())
+        );
+    }
+
+    /// Switches the tone curve (PBR Neutral / none).
+    fn toggle_tonemap(&mut self) {
+        let Some(r) = &mut self.running else { return };
+        let o = &mut self.options.view;
+        o.tonemap = o.tonemap.other();
+        r.frame.set_display(o.exposure, o.tonemap);
+        log::info!("tone curve: {}", o.tonemap);
     }
 
     /// Changes the recursion depth of geometry reflections by `delta` (within 0–4).
@@ -359,7 +413,7 @@ impl App {
     /// The camera of this frame: the playing path's pose, else the fly camera moved by the
     /// held keys.
     fn update_camera(&mut self, dt: f32) -> Camera {
-        let paths = &self.data.scene.desc.camera_paths;
+        let paths = &self.data.scene.camera_paths;
         let k = |c| self.keys.contains(&c);
         let axis = |pos, neg| (k(pos) as i32 - k(neg) as i32) as f32;
         let dir = Vec3::new(
@@ -426,11 +480,12 @@ impl App {
             });
         r.frame.prepare(&r.gpu, &camera);
         r.frame.record(
+            &r.gpu.device,
             &mut encoder,
             &camera,
             FrameViews {
-                color: &view,
-                hdr: None,
+                radiance: &r.radiance_view,
+                display: &view,
                 depth: &r.depth_view,
             },
             None,
@@ -478,7 +533,7 @@ impl App {
     }
 
     fn title(&self) -> String {
-        let paths = &self.data.scene.desc.camera_paths;
+        let paths = &self.data.scene.camera_paths;
         let mut title = format!(
             "glint-view — {} — {:.1} ms ({:.0} fps) — reflections {}",
             self.data.scene.name,
@@ -542,7 +597,7 @@ impl App {
                     path_file.display()
                 );
                 // Playable at once in this session.
-                self.data.scene.desc.camera_paths.push(path);
+                self.data.scene.camera_paths.push(path);
             }
         }
         Ok(())
@@ -569,7 +624,11 @@ impl App {
             KeyCode::Digit9 => Some(8),
             _ => None,
         };
-        let paths = &self.data.scene.desc.camera_paths;
+        if let Some(key) = exposure_key(code) {
+            self.change_exposure(key);
+            return;
+        }
+        let paths = &self.data.scene.camera_paths;
         if let Some(i) = digit {
             match paths.get(i) {
                 Some(p) => {
@@ -607,6 +666,10 @@ impl App {
                 self.screenshot = Some(Screenshot::Key);
                 Ok(())
             }
+            KeyCode::KeyM => {
+                self.toggle_tonemap();
+                Ok(())
+            }
             KeyCode::KeyH => {
                 log::info!("{HELP}");
                 Ok(())
@@ -617,6 +680,17 @@ impl App {
             // A failed screenshot or recording is reported, not fatal.
             log::error!("{e}");
         }
+    }
+}
+
+/// The exposure change of a key: - darker, = (the + key) brighter, 0 back to auto (the
+/// number row and the keypad).
+pub fn exposure_key(code: KeyCode) -> Option<ExposureKey> {
+    match code {
+        KeyCode::Minus | KeyCode::NumpadSubtract => Some(ExposureKey::Lower),
+        KeyCode::Equal | KeyCode::NumpadAdd => Some(ExposureKey::Raise),
+        KeyCode::Digit0 | KeyCode::Numpad0 => Some(ExposureKey::Auto),
+        _ => None,
     }
 }
 
@@ -683,5 +757,26 @@ impl ApplicationHandler for App {
         if let Some(r) = &self.running {
             r.window.request_redraw();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::view::exposure::{Exposure, KEY_STEP_EV};
+
+    #[test]
+    fn exposure_keys_step_half_a_stop_and_zero_returns_to_auto() {
+        let auto = -2.0;
+        let mut e = Exposure::Auto;
+        for code in [KeyCode::Equal, KeyCode::Equal, KeyCode::Minus] {
+            e = e.step(exposure_key(code).unwrap(), auto);
+        }
+        assert_eq!(e, Exposure::Ev(auto + KEY_STEP_EV));
+        e = e.step(exposure_key(KeyCode::NumpadSubtract).unwrap(), auto);
+        assert_eq!(e, Exposure::Ev(auto));
+        e = e.step(exposure_key(KeyCode::Digit0).unwrap(), auto);
+        assert_eq!(e, Exposure::Auto);
+        assert_eq!(exposure_key(KeyCode::Digit1), None, "1-9 play paths");
     }
 }

@@ -28,7 +28,7 @@ pub(super) fn save_screenshot(
         }
         None => {
             log::info!("the surface cannot be copied: screenshot rendered offscreen");
-            let off = Offscreen::with_options(&r.gpu, data, w, h, false, r.frame.options())?;
+            let off = Offscreen::with_options(&r.gpu, data, w, h, r.frame.options())?;
             off.render(&r.gpu, camera)?;
             rgba_to_rgb(&off.read_rgba8(&r.gpu)?)
         }
