@@ -22,7 +22,7 @@ use common::*;
 use glam::{Vec2, Vec3};
 use glint::bake::{materials, radiosity_stage, scene_stage};
 use glint::brdf::pattern::closest_pattern;
-use glint::brdf::{Frame, Lobe};
+use glint::brdf::{Frame, Lobe, LobeModel};
 use glint::camera::Camera;
 use glint::eval::reference::{RenderOptions, render};
 use glint::materials::envmap::{self, CubeMap, MipFilter, MipPyramid};
@@ -136,6 +136,7 @@ fn regular_sampling_shader_matches_the_cpu_estimator() {
             mx: 0.1,
             my: 0.1,
             alpha: 0.0,
+            model: LobeModel::Kurt,
         },
         Lobe {
             ks: Vec3::new(0.8, 0.6, 0.4),
@@ -143,6 +144,7 @@ fn regular_sampling_shader_matches_the_cpu_estimator() {
             mx: 0.25,
             my: 0.08,
             alpha: 0.5,
+            model: LobeModel::Kurt,
         },
         Lobe {
             ks: Vec3::new(0.95, 0.64, 0.54),
@@ -150,6 +152,7 @@ fn regular_sampling_shader_matches_the_cpu_estimator() {
             mx: 0.01,
             my: 0.01,
             alpha: 0.0,
+            model: LobeModel::Kurt,
         },
     ];
     let inputs = probe_inputs();
