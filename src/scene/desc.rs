@@ -63,7 +63,7 @@ pub struct MaterialOverride {
 }
 
 /// The reflection model of a glossy lobe.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize, JsonSchema)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum LobeModel {
     /// Kurt et al. 2010 as the regular-sampling paper writes it (Luksch et al. Eq. 2):
@@ -77,7 +77,25 @@ pub enum LobeModel {
     Beckmann,
 }
 
+/// Read by hand so that a wrong name is an error naming the field and every choice.
+impl<'de> Deserialize<'de> for LobeModel {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<LobeModel, D::Error> {
+        let name = String::deserialize(d)?;
+        LobeModel::ALL
+            .into_iter()
+            .find(|m| m.name() == name)
+            .ok_or_else(|| {
+                serde::de::Error::custom(format!(
+                    "lobe `model` {name:?} is unknown: expected one of `kurt`, `ggx`, `beckmann`"
+                ))
+            })
+    }
+}
+
 impl LobeModel {
+    /// Every model.
+    pub const ALL: [LobeModel; 3] = [LobeModel::Kurt, LobeModel::Ggx, LobeModel::Beckmann];
+
     /// Whether this is the default model (`kurt`): scene.json and the bundle leave it out.
     pub fn is_kurt(&self) -> bool {
         *self == LobeModel::Kurt
