@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 use common::*;
 use glam::{Vec2, Vec3};
 use glint::bake::{materials, radiosity_stage, scene_stage};
-use glint::brdf::pattern::closest_pattern;
+use glint::brdf::pattern::closest_pattern_for;
 use glint::brdf::{Frame, Lobe, LobeModel};
 use glint::camera::Camera;
 use glint::eval::reference::{RenderOptions, render};
@@ -155,19 +155,39 @@ fn regular_sampling_shader_matches_the_cpu_estimator() {
             model: LobeModel::Kurt,
         },
     ];
+    shader_matches_the_cpu_estimator(&gpu, &lobes);
+}
+
+#[test]
+fn regular_sampling_shader_matches_the_cpu_estimator_for_ggx_and_beckmann_lobes() {
+    let gpu = gpu();
+    let lobes = [
+        Lobe {
+            ks: Vec3::new(0.9, 0.8, 0.7),
+            ..Lobe::of_model(LobeModel::Ggx, 0.04, 0.1, 0.1)
+        },
+        Lobe::of_model(LobeModel::Ggx, 0.5, 0.3, 0.06),
+        Lobe::of_model(LobeModel::Beckmann, 0.3, 0.2, 0.2),
+    ];
+    shader_matches_the_cpu_estimator(&gpu, &lobes);
+}
+
+/// `glossy_probe` (the shader's regular sampling and mirror lookup) against the CPU
+/// estimator for each lobe, environment and sample budget.
+fn shader_matches_the_cpu_estimator(gpu: &glint::view::gpu::Gpu, lobes: &[Lobe]) {
     let inputs = probe_inputs();
     for (name, env, relative) in environments() {
         let (mut worst, mut sum, mut n) = (0.0f32, 0.0f64, 0usize);
-        for lobe in lobes {
+        for &lobe in lobes {
             for budget in [1u32, 8, 20, 40] {
                 // One sample reads levels of 4×4 texels, where seamless and clamped filtering
                 // differ by tens of per cent: the smooth environment is compared from 8 up.
                 if budget == 1 && name == "smooth" {
                     continue;
                 }
-                let pattern = closest_pattern(lobe.mx, lobe.my, 0.1, budget, 64);
+                let pattern = closest_pattern_for(lobe.ndf(), lobe.mx, lobe.my, 0.1, budget, 64);
                 let got = glossy_probe(
-                    &gpu,
+                    gpu,
                     &reflector(lobe),
                     Some(std::slice::from_ref(&pattern)),
                     &env,
@@ -200,7 +220,7 @@ fn regular_sampling_shader_matches_the_cpu_estimator() {
                 );
             }
             // And the mirror lookup (0 samples) against its CPU form.
-            let got = glossy_probe(&gpu, &reflector(lobe), None, &env, &inputs).unwrap();
+            let got = glossy_probe(gpu, &reflector(lobe), None, &env, &inputs).unwrap();
             for ((normal, wo), g) in inputs.iter().zip(&got) {
                 let want = mirror_specular(&[lobe], *normal, *wo, |d| env.sample(d, 0.0));
                 assert!(
