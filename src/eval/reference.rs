@@ -1,6 +1,6 @@
 //! The reference renderer: a CPU path tracer over the same scene, BVH and BRDF as the bakers
-//! (diffuse k_d/π plus Kurt lobes), with next-event estimation on area lights and emissive
-//! triangles, MIS (power heuristic, as in the radiosity solver) between emitter and BRDF
+//! (diffuse k_d/π plus glossy lobes of any model), with next-event estimation on area lights
+//! and emissive triangles, MIS (power heuristic, as in the radiosity solver) between emitter and BRDF
 //! sampling, and Russian roulette. Besides images it path-traces D itself at probe points
 //! ([`trace_probes`]): the ground truth for the radiosity bake, with every transport path.
 //!
