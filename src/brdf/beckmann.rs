@@ -18,7 +18,7 @@
 
 use glam::Vec3;
 
-use super::clamp_roughness;
+use super::{above, clamp_roughness};
 
 /// erfc(x) for x ≥ 0 with fractional error below 1.2·10⁻⁷ (the Chebyshev fit of Press et
 /// al., Numerical Recipes 2nd ed. §6.2, `erfcc`), in f64.
@@ -37,7 +37,7 @@ fn erfc(x: f64) -> f64 {
 
 /// Smith's Λ(ω) for Beckmann (exact form); 0 along the normal, +∞ at or below the horizon.
 pub fn lambda(w: Vec3, mx: f32, my: f32) -> f32 {
-    if !(w.z > 0.0) {
+    if !above(w.z) {
         return f32::INFINITY;
     }
     let (mx, my) = (clamp_roughness(mx) as f64, clamp_roughness(my) as f64);

@@ -23,12 +23,12 @@ use std::f32::consts::PI;
 
 use glam::{Vec2, Vec3};
 
-use super::clamp_roughness;
+use super::{above, clamp_roughness};
 
 /// The anisotropic GGX distribution D(h) = 1 / (π α_x α_y ((h_x/α_x)² + (h_y/α_y)² + h_z²)²)
 /// (Heitz 2014 Eq. 72): ∫ D(h) cos θ_h dω_h = 1. 0 at or below the horizon.
 pub fn d(h: Vec3, ax: f32, ay: f32) -> f32 {
-    if !(h.z > 0.0) {
+    if !above(h.z) {
         return 0.0;
     }
     let (ax, ay) = (clamp_roughness(ax), clamp_roughness(ay));
@@ -40,7 +40,7 @@ pub fn d(h: Vec3, ax: f32, ay: f32) -> f32 {
 /// Smith's Λ(ω) for GGX (Heitz 2014 Eq. 86), written as a² / (2 (1 + √(1 + a²))) so that it
 /// keeps its precision near the normal; +∞ at or below the horizon.
 pub fn lambda(w: Vec3, ax: f32, ay: f32) -> f32 {
-    if !(w.z > 0.0) {
+    if !above(w.z) {
         return f32::INFINITY;
     }
     let (ax, ay) = (clamp_roughness(ax), clamp_roughness(ay));
@@ -99,7 +99,7 @@ pub fn sample_visible_normal(wo: Vec3, ax: f32, ay: f32, u: Vec2) -> Vec3 {
 /// Density of [`sample_visible_normal`] w.r.t. solid angle of h:
 /// D_ω_o(h) = G₁(ω_o) max(0, ω_o·h) D(h) / (ω_o·n) (Heitz 2018 Eq. 1).
 pub fn visible_normal_pdf(wo: Vec3, h: Vec3, ax: f32, ay: f32) -> f32 {
-    if !(wo.z > 0.0) {
+    if !above(wo.z) {
         return 0.0;
     }
     g1(wo, ax, ay) * wo.dot(h).max(0.0) * d(h, ax, ay) / wo.z
