@@ -24,7 +24,8 @@ struct CurvedLobe {
     ks: vec4<f32>,
     // m_x, m_y (clamped as the pattern uses them), ξ₀, the shadowing exponent α.
     rough: vec4<f32>,
-    // x: first sample in `pattern`, y: sample count, zw: unused.
+    // x: first sample in `pattern`, y: sample count, z: model (0 kurt, 1 ggx, 2 beckmann;
+    // `curved::model_code`), w: unused.
     samples: vec4<u32>,
     // x: p_h, the pattern's half-vector density (Eq. 18); yzw: unused.
     pdf: vec4<f32>,
@@ -87,12 +88,53 @@ fn beckmann_d(h: vec3<f32>, mx: f32, my: f32) -> f32 {
     return exp(-e) / (CURVED_PI * mx * my * c2 * c2);
 }
 
+// The anisotropic GGX distribution (`brdf::ggx::d`).
+fn ggx_d(h: vec3<f32>, ax: f32, ay: f32) -> f32 {
+    if h.z <= 0.0 {
+        return 0.0;
+    }
+    let x = h.x / ax;
+    let y = h.y / ay;
+    let s = x * x + y * y + h.z * h.z;
+    return 1.0 / (CURVED_PI * ax * ay * s * s);
+}
+
+// Smith's Λ for GGX (`brdf::ggx::lambda`).
+fn ggx_lambda(w: vec3<f32>, ax: f32, ay: f32) -> f32 {
+    let x = w.x * ax;
+    let y = w.y * ay;
+    let a2 = (x * x + y * y) / max(w.z * w.z, 1e-30);
+    return a2 / (2.0 * (1.0 + sqrt(1.0 + a2)));
+}
+
+// erfc for x ≥ 0 (`brdf::beckmann`: Numerical Recipes' erfcc fit).
+fn curved_erfc(x: f32) -> f32 {
+    let t = 1.0 / (1.0 + 0.5 * x);
+    let p = -x * x - 1.26551223 + t * (1.00002368 + t * (0.37409196 + t * (0.09678418
+        + t * (-0.18628806 + t * (0.27886807 + t * (-1.13520398 + t * (1.48851587
+        + t * (-0.82215223 + t * 0.17087277))))))));
+    return t * exp(p);
+}
+
+// Smith's Λ for Beckmann, exact form (`brdf::beckmann::lambda`).
+fn beckmann_lambda(w: vec3<f32>, mx: f32, my: f32) -> f32 {
+    let x = w.x * mx;
+    let y = w.y * my;
+    let s = sqrt(x * x + y * y);
+    if s == 0.0 {
+        return 0.0;
+    }
+    let a = w.z / s;
+    return max(0.5 * (exp(-a * a) / (a * 1.7724538509) - curved_erfc(a)), 0.0);
+}
+
 // 2 (w·h) h − w.
 fn reflect_about(w: vec3<f32>, h: vec3<f32>) -> vec3<f32> {
     return 2.0 * dot(w, h) * h - w;
 }
 
-// Eq. 2 without ks, in the tangent frame (`Lobe::eval`).
+// The lobe without ks, in the tangent frame (`Lobe::eval`): Eq. 2 for Kurt lobes,
+// F D G₂ / (4 (n·ω_i)(n·ω_o)) with GGX or Beckmann D and Smith's height-correlated G₂.
 fn lobe_eval(l: CurvedLobe, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
     let s = wo + wi;
     let len2 = dot(s, s);
@@ -100,11 +142,29 @@ fn lobe_eval(l: CurvedLobe, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
         return 0.0;
     }
     let h = s / sqrt(len2);
-    let d = beckmann_d(h, l.rough.x, l.rough.y);
+    let model = l.samples.z;
+    var d = 0.0;
+    if model == 1u {
+        d = ggx_d(h, l.rough.x, l.rough.y);
+    } else {
+        d = beckmann_d(h, l.rough.x, l.rough.y);
+    }
     if d == 0.0 {
         return 0.0;
     }
     let oh = max(dot(wo, h), COS_FLOOR);
+    if model != 0u {
+        var lambdas = 0.0;
+        if model == 1u {
+            lambdas = ggx_lambda(wo, l.rough.x, l.rough.y) + ggx_lambda(wi, l.rough.x, l.rough.y);
+        } else {
+            lambdas = beckmann_lambda(wo, l.rough.x, l.rough.y)
+                + beckmann_lambda(wi, l.rough.x, l.rough.y);
+        }
+        let g2 = 1.0 / (1.0 + lambdas);
+        return fresnel_schlick(l.ks.a, oh) * d * g2
+            / (4.0 * max(wi.z, COS_FLOOR) * max(wo.z, COS_FLOOR));
+    }
     var shadow = 1.0;
     if l.rough.w != 0.0 {
         shadow = pow(max(wi.z, COS_FLOOR) * max(wo.z, COS_FLOOR), l.rough.w);
@@ -112,9 +172,14 @@ fn lobe_eval(l: CurvedLobe, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
     return fresnel_schlick(l.ks.a, oh) * d / (4.0 * oh * shadow);
 }
 
-// Eq. 14–15: the lobe's cross-section area A at unit distance (`pattern::lobe_area`).
-fn lobe_area(mx: f32, my: f32, xi0: f32, wo: vec3<f32>) -> f32 {
-    let r = sqrt(max(-log(xi0), 0.0));
+// Eq. 14–15: the lobe's cross-section area A at unit distance (`pattern::lobe_area_for`),
+// the ξ₀ border at q(h) = ξ₀: e = −ln ξ₀ (Beckmann) or ξ₀^(−1/2) − 1 (GGX, model 1).
+fn lobe_area(mx: f32, my: f32, xi0: f32, wo: vec3<f32>, model: u32) -> f32 {
+    var e = max(-log(xi0), 0.0);
+    if model == 1u {
+        e = max(1.0 / sqrt(xi0) - 1.0, 0.0);
+    }
+    let r = sqrt(e);
     let wc = vec3<f32>(-wo.x, -wo.y, wo.z);
     let hu = normalize(vec3<f32>(r * mx, 0.0, 1.0));
     let hv = normalize(vec3<f32>(0.0, r * my, 1.0));
@@ -139,7 +204,7 @@ fn specular_regular(l: CurvedLobe, frame_m: mat3x3<f32>, wo_l: vec3<f32>) -> vec
         return vec3<f32>(0.0);
     }
     let n = f32(count);
-    let area = lobe_area(l.rough.x, l.rough.y, l.rough.z, wo_l); // Eq. 14–15
+    let area = lobe_area(l.rough.x, l.rough.y, l.rough.z, wo_l, l.samples.z); // Eq. 14–15
     let face = f32(curved.info.z);
     var sum = vec3<f32>(0.0);
     for (var k = 0u; k < count; k++) {

@@ -268,6 +268,43 @@ fn bad_values_name_their_field() {
 }
 
 #[test]
+fn lobes_name_their_model_and_a_bad_model_is_refused_naming_the_choices() {
+    let (_dir, path) = room_scene(
+        r#", "materials": { "FloorMat": { "lobes": [ { "model": "ggx", "ks": [1,1,1], "r0": 0.04, "mx": 0.09, "my": 0.09 } ] } }"#,
+    );
+    let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let m = scene
+        .materials
+        .iter()
+        .find(|m| m.name == "FloorMat")
+        .unwrap();
+    assert_eq!(m.lobes[0].model, glint::scene::LobeModel::Ggx);
+    assert_eq!(m.lobes[0].alpha, None);
+    let e = load_err(
+        r#", "materials": { "FloorMat": { "lobes": [ { "model": "phong", "ks": [1,1,1], "r0": 0.04, "mx": 0.1, "my": 0.1 } ] } }"#,
+    );
+    assert!(
+        e.contains("scene.json")
+            && e.contains("lobe `model` \"phong\" is unknown")
+            && e.contains("kurt")
+            && e.contains("ggx")
+            && e.contains("beckmann"),
+        "{e}"
+    );
+    let e = load_err(
+        r#", "materials": { "FloorMat": { "lobes": [ { "model": "beckmann", "ks": [1,1,1], "r0": 0.04, "mx": 0.1, "my": 0.1, "alpha": 0.5 } ] } }"#,
+    );
+    assert!(
+        e.contains("materials.FloorMat.lobes") && e.contains("remove alpha"),
+        "{e}"
+    );
+    let e = load_err(
+        r#", "materials": { "FloorMat": { "lobes": [ { "ks": [1,1,1], "r0": 0.04, "mx": 0.1, "my": 0.1 } ] } }"#,
+    );
+    assert!(e.contains("needs `alpha`"), "{e}");
+}
+
+#[test]
 fn glb_with_default_material_and_white_albedo_loads() {
     // A base colour of 1 is common in glTF; it is clamped below 1 with a warning, not refused.
     let dir = tempfile::tempdir().unwrap();

@@ -473,13 +473,15 @@ fn reflected_bunny_appears_where_the_mirrored_geometry_predicts() {
 
 /// Largest relative difference of the mean luminance over the reflected bunny (the interior of
 /// the predicted mask) between the viewer with impostor reflections and the reference path
-/// tracer. Measured 45% on lavapipe (viewer darker). The pass is not what limits it: the same
+/// tracer. Measured 62% on lavapipe (viewer darker; 45% before the glTF mirror mapped to a
+/// GGX lobe, whose albedo F, not Kurt's F cos θ, throws more light onto the bunny's underside in
+/// the reference, a term D lacks, see below). The pass is not what limits it: the same
 /// region drawn from the mirrored geometry with the same D and R (the planar reflections'
 /// geometry mode) differs from the reference just as much (see [`GEOMETRY_TOLERANCE`]). What
 /// does is what the viewer's equation leaves out: D is the diffuse radiosity only (the bunny
 /// seen directly is 26% darker than in the reference, its glossy lobe and the light the mirror
 /// throws onto its underside are missing), and ks·R from the draft materials stage.
-const REFERENCE_TOLERANCE: f64 = 0.5;
+const REFERENCE_TOLERANCE: f64 = 0.7;
 
 /// Largest relative difference of the same mean between impostor reflections and the mirrored
 /// geometry (same D, same ks·R): the impostor's own error (a 128² draft capture from one view

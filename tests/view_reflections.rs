@@ -58,7 +58,10 @@ const MONOTONE_SLACK: f64 = 0.02;
 
 /// Mean absolute difference (8-bit sRGB units) allowed between either mode and the reference
 /// path tracer (draft bakes on both sides; the path tracer's noise at 64 spp included).
-const PATH_TRACER_TOLERANCE: f64 = 16.0;
+/// Measured 16.2 (geometry mode) since the glTF mirror panel and teapot map to GGX lobes
+/// (glTF 2.0 Appendix B), whose mirror-limit albedo is F rather than Kurt's F cos θ: the
+/// teapot's cube-map term no longer offsets the quad lights' reflections the viewer lacks.
+const PATH_TRACER_TOLERANCE: f64 = 17.0;
 
 /// Mean absolute difference allowed between image and geometry mode for a mirror reflecting a
 /// flat wall, over the pixels the reflection changes, as a fraction of how much it changes

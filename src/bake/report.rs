@@ -97,7 +97,11 @@ impl fmt::Display for MaterialsReport {
                 let first = |s: String| if i == 0 { s } else { String::new() };
                 rows.push([
                     first(m.name.clone()),
-                    l.lobe.to_string(),
+                    if l.model.is_kurt() {
+                        l.lobe.to_string()
+                    } else {
+                        format!("{} ({})", l.lobe, l.model.name())
+                    },
                     format!("{} × {}", short(l.mx), short(l.my)),
                     if l.kernel_size == 1 {
                         "identity".into()

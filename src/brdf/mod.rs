@@ -1,8 +1,14 @@
 //! How glossy surfaces reflect: pure functions, no I/O.
 //!
-//! - [`kurt`]: the Kurt et al. 2010 multi-lobe BRDF as the regular-sampling paper states it
-//!   (Luksch et al., Eq. 1–10): Schlick Fresnel, anisotropic normalized Beckmann D, shadowing
-//!   exponent α, and importance sampling of half vectors and incident directions.
+//! - [`lobe`]: one glossy lobe of any model ([`Lobe`], eval/sample/pdf/albedo behind one
+//!   interface) and the BRDF f_r = k_d/π + Σ k_s f_lobe ([`Brdf`]). The models:
+//!   - [`kurt`]: the Kurt et al. 2010 multi-lobe BRDF as the regular-sampling paper states it
+//!     (Luksch et al., Eq. 1–10): Schlick Fresnel, anisotropic normalized Beckmann D,
+//!     shadowing exponent α, and importance sampling of half vectors and incident directions;
+//!   - [`ggx`]: the glTF 2.0 specular lobe (Appendix B): GGX D, height-correlated Smith G,
+//!     Schlick F, visible-normal sampling;
+//!   - [`beckmann`]: Cook–Torrance with Beckmann D, Smith G and Schlick F (Walter et al. 2007).
+//! - [`ndf`]: the Beckmann and GGX distributions behind one interface (D, falloff, cut-off).
 //! - [`cook_torrance`]: the Cook–Torrance specular term as Bastos et al. 1999 split it into a
 //!   kernel part D·G and a reflectance-modulation part F / (π (N·L)(N·V)) (Eq. 4).
 //! - [`pattern`]: regular sample patterns in half-vector space (Luksch §5–7, Eq. 11–18).
@@ -12,14 +18,23 @@
 //! roughness `mx`), y along the bitangent (`my`), z along the normal. Both ω_o (towards the
 //! viewer) and ω_i (towards the light) point away from the surface.
 
+pub mod beckmann;
 pub mod chi2;
 pub mod cook_torrance;
+pub mod ggx;
 pub mod kurt;
+pub mod lobe;
+pub mod ndf;
 pub mod pattern;
 
 use glam::Vec3;
 
-pub use kurt::{KurtBrdf, Lobe};
+pub use crate::scene::desc::LobeModel;
+pub use lobe::{Brdf, Lobe};
+pub use ndf::Ndf;
+
+/// The BRDF of Luksch et al. Eq. 1 under its former name; its lobes may be of any model.
+pub type KurtBrdf = Brdf;
 
 /// Smallest roughness the kernels use. Smaller values (including 0) are raised to it: the
 /// lobe is then far narrower than the precision of an f32 direction (6e-8 rad) permits

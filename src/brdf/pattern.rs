@@ -19,6 +19,10 @@
 //! produces (three circles at k·s₂ hold at most 4 + 8 + 12, four hold 34–40 for any θ_max
 //! below 90°), so glint keeps the equations and reports the difference.
 //!
+//! Patterns are built for either distribution ([`Ndf`]): the Beckmann one of Kurt and
+//! Beckmann lobes as the paper does (the functions without `_for`), or GGX, with q(h) and the
+//! cut-off of [`Ndf`] in place of Eq. 5 and 11 (θ_max where GGX's q(h) = 1/(1+e)² falls to ξ₀).
+//!
 //! For anisotropic lobes every sample with q(h) < ξ₀ is rejected, and each circle is also
 //! tried rotated by half a sample (φ offset π/n_k); the variant with the larger Σ q of its
 //! kept samples wins (ties: the unrotated one).
@@ -27,7 +31,8 @@ use std::f32::consts::PI;
 
 use glam::Vec3;
 
-use super::kurt::{beckmann_d, beckmann_exponent};
+use super::kurt::beckmann_exponent;
+use super::ndf::Ndf;
 use super::{COS_FLOOR, clamp_roughness, reflect};
 
 /// Which of the two spacings of Eq. 12.
@@ -59,8 +64,14 @@ impl Spacing {
 
 /// θ_max of Eq. 11: atan(√(−ln ξ₀) · max(m_x, m_y)), where q(h) of the wider axis is ξ₀.
 pub fn theta_max(xi0: f32, mx: f32, my: f32) -> f32 {
+    theta_max_for(Ndf::Beckmann, xi0, mx, my)
+}
+
+/// θ_max of Eq. 11 for distribution `ndf`: atan(√e_ξ₀ · max(m_x, m_y)) with
+/// e_ξ₀ = [`Ndf::exponent_limit`]`(ξ₀)`.
+pub fn theta_max_for(ndf: Ndf, xi0: f32, mx: f32, my: f32) -> f32 {
     let m = clamp_roughness(mx).max(clamp_roughness(my));
-    ((-xi0.clamp(f32::MIN_POSITIVE, 1.0).ln()).max(0.0).sqrt() * m).atan()
+    (ndf.exponent_limit(xi0).sqrt() * m).atan()
 }
 
 /// Circle spacing of Eq. 12: θ_max/(n_c+1) for s₁, θ_max/(n_c+2) for s₂.
@@ -83,6 +94,8 @@ pub fn circle_count(n0: u32, theta_i: f32, theta_0: f32) -> u32 {
 /// A regular pattern of half vectors for one lobe.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Pattern {
+    /// The distribution the pattern is built for.
+    pub ndf: Ndf,
     /// Spacing used.
     pub spacing: Spacing,
     /// Number of circles n_c (for s₁ the pole counts as the first).
@@ -128,14 +141,26 @@ fn half_vector(theta: f32, phi: f32) -> Vec3 {
 }
 
 /// Builds the pattern with `circles` circles (≥ 1) and the given spacing for roughness
-/// (m_x, m_y) and threshold ξ₀ ∈ (0, 1).
+/// (m_x, m_y) and threshold ξ₀ ∈ (0, 1), for the Beckmann distribution.
 pub fn regular_pattern(mx: f32, my: f32, xi0: f32, circles: u32, spacing: Spacing) -> Pattern {
+    regular_pattern_for(Ndf::Beckmann, mx, my, xi0, circles, spacing)
+}
+
+/// [`regular_pattern`] for distribution `ndf`.
+pub fn regular_pattern_for(
+    ndf: Ndf,
+    mx: f32,
+    my: f32,
+    xi0: f32,
+    circles: u32,
+    spacing: Spacing,
+) -> Pattern {
     let (mx, my) = (clamp_roughness(mx), clamp_roughness(my));
     let circles = circles.max(1);
-    let tmax = theta_max(xi0, mx, my);
+    let tmax = theta_max_for(ndf, xi0, mx, my);
     let step = circle_spacing(tmax, circles, spacing);
-    // q(h) ≥ ξ₀ ⇔ exponent ≤ −ln ξ₀ (compared on the exponent: no exp rounding).
-    let limit = -xi0.clamp(f32::MIN_POSITIVE, 1.0).ln();
+    // q(h) ≥ ξ₀ ⇔ exponent ≤ its limit (compared on the exponent: no exp rounding).
+    let limit = ndf.exponent_limit(xi0);
     let isotropic = mx == my;
     let mut hs = Vec::new();
     let rings: Vec<f32> = match spacing {
@@ -156,7 +181,10 @@ pub fn regular_pattern(mx: f32, my: f32, xi0: f32, circles: u32, spacing: Spacin
                 let e = beckmann_exponent(h, mx, my);
                 if e <= limit {
                     kept.push(h);
-                    score += (-e as f64).exp();
+                    score += match ndf {
+                        Ndf::Beckmann => (-e as f64).exp(),
+                        Ndf::Ggx => ndf.q_of_exponent(e) as f64,
+                    };
                 }
             }
             (kept, score)
@@ -169,12 +197,10 @@ pub fn regular_pattern(mx: f32, my: f32, xi0: f32, circles: u32, spacing: Spacin
             hs.extend(if score_b > score_a { b } else { a });
         }
     }
-    let pdf_constant = (hs
-        .iter()
-        .map(|&h| beckmann_d(h, mx, my) as f64)
-        .sum::<f64>()
-        / hs.len() as f64) as f32;
+    let pdf_constant =
+        (hs.iter().map(|&h| ndf.d(h, mx, my) as f64).sum::<f64>() / hs.len() as f64) as f32;
     Pattern {
+        ndf,
         spacing,
         circles,
         xi0,
@@ -189,11 +215,24 @@ pub fn regular_pattern(mx: f32, my: f32, xi0: f32, circles: u32, spacing: Spacin
 
 /// The pattern whose sample count is closest to `budget`, over both spacings and
 /// 1 … `max_circles` circles. Ties go to fewer samples, then s₁, then fewer circles.
+/// For the Beckmann distribution.
 pub fn closest_pattern(mx: f32, my: f32, xi0: f32, budget: u32, max_circles: u32) -> Pattern {
+    closest_pattern_for(Ndf::Beckmann, mx, my, xi0, budget, max_circles)
+}
+
+/// [`closest_pattern`] for distribution `ndf`.
+pub fn closest_pattern_for(
+    ndf: Ndf,
+    mx: f32,
+    my: f32,
+    xi0: f32,
+    budget: u32,
+    max_circles: u32,
+) -> Pattern {
     let mut best: Option<(u32, usize, Spacing, u32)> = None;
     for spacing in [Spacing::S1, Spacing::S2] {
         for circles in 1..=max_circles.max(1) {
-            let n = regular_pattern(mx, my, xi0, circles, spacing).len();
+            let n = regular_pattern_for(ndf, mx, my, xi0, circles, spacing).len();
             let key = (n.abs_diff(budget as usize) as u32, n, spacing, circles);
             if best.is_none_or(|b| key < b) {
                 best = Some(key);
@@ -205,7 +244,7 @@ pub fn closest_pattern(mx: f32, my: f32, xi0: f32, budget: u32, max_circles: u32
         }
     }
     let (_, _, spacing, circles) = best.expect("at least one pattern is built");
-    regular_pattern(mx, my, xi0, circles, spacing)
+    regular_pattern_for(ndf, mx, my, xi0, circles, spacing)
 }
 
 /// Largest angle fed to `tan` in [`lobe_area`]: the ellipse's semi-axis stays ≤ ~1000.
@@ -214,10 +253,15 @@ const ALPHA_MAX: f32 = PI / 2.0 - 1e-3;
 /// The area A = π u v of the lobe's elliptical cross-section at unit distance (Eq. 14–15),
 /// for viewing direction `wo` (tangent frame). The extreme half vectors at the ξ₀ border
 /// along x and y are reflected into ω_U, ω_V; α_U, α_V are their angles to the mirror
-/// direction ω_C, and u = tan α_U, v = tan α_V.
+/// direction ω_C, and u = tan α_U, v = tan α_V. For the Beckmann distribution.
 pub fn lobe_area(mx: f32, my: f32, xi0: f32, wo: Vec3) -> f32 {
+    lobe_area_for(Ndf::Beckmann, mx, my, xi0, wo)
+}
+
+/// [`lobe_area`] for distribution `ndf` (the ξ₀ border at e = [`Ndf::exponent_limit`]).
+pub fn lobe_area_for(ndf: Ndf, mx: f32, my: f32, xi0: f32, wo: Vec3) -> f32 {
     let (mx, my) = (clamp_roughness(mx), clamp_roughness(my));
-    let r = (-xi0.clamp(f32::MIN_POSITIVE, 1.0).ln()).max(0.0).sqrt();
+    let r = ndf.exponent_limit(xi0).sqrt();
     let hu = Vec3::new(r * mx, 0.0, 1.0).normalize();
     let hv = Vec3::new(0.0, r * my, 1.0).normalize();
     let wc = Vec3::new(-wo.x, -wo.y, wo.z);

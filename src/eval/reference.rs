@@ -1,6 +1,6 @@
 //! The reference renderer: a CPU path tracer over the same scene, BVH and BRDF as the bakers
-//! (diffuse k_d/π plus Kurt lobes), with next-event estimation on area lights and emissive
-//! triangles, MIS (power heuristic, as in the radiosity solver) between emitter and BRDF
+//! (diffuse k_d/π plus glossy lobes of any model), with next-event estimation on area lights
+//! and emissive triangles, MIS (power heuristic, as in the radiosity solver) between emitter and BRDF
 //! sampling, and Russian roulette. Besides images it path-traces D itself at probe points
 //! ([`trace_probes`]): the ground truth for the radiosity bake, with every transport path.
 //!
@@ -23,7 +23,7 @@ use rayon::prelude::*;
 
 use super::probe::{self, ProbeError, ProbePoint, ProbeValue};
 use super::{Image, luminance};
-use crate::brdf::{Frame, KurtBrdf};
+use crate::brdf::{Brdf, Frame};
 use crate::camera::Camera;
 use crate::geometry::{Bvh, ray_quad};
 use crate::progress::{Cancelled, Progress};
@@ -123,13 +123,13 @@ fn power(a: f32, b: f32) -> f32 {
 
 /// A BRDF with its strategy weights: diffuse (cosine) and one per lobe, by k luminance.
 struct Shader {
-    brdf: KurtBrdf,
+    brdf: Brdf,
     /// Selection probabilities: [diffuse, lobe 0, lobe 1, ...], summing to 1.
     select: Vec<f32>,
 }
 
 impl Shader {
-    fn new(brdf: KurtBrdf) -> Shader {
+    fn new(brdf: Brdf) -> Shader {
         let mut w: Vec<f32> = std::iter::once(luminance(brdf.kd))
             .chain(brdf.lobes.iter().map(|l| luminance(l.ks)))
             .map(|x| x.max(0.0))
@@ -189,7 +189,7 @@ impl<'a> Tracer<'a> {
             .materials
             .iter()
             .map(|m| {
-                let mut b = KurtBrdf::from(m);
+                let mut b = Brdf::from(m);
                 if opts.diffuse_only {
                     b.lobes.clear();
                 }
@@ -342,7 +342,7 @@ impl<'a> Tracer<'a> {
             ns = ng;
         }
         let frame = Frame::from_normal(ns);
-        let shader = Shader::new(KurtBrdf {
+        let shader = Shader::new(Brdf {
             kd: mat.albedo,
             lobes: Vec::new(),
         });

@@ -15,7 +15,7 @@
 use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 
-use crate::brdf::pattern::{Pattern, lobe_area, mip_level};
+use crate::brdf::pattern::{Pattern, lobe_area_for, mip_level};
 use crate::brdf::{Frame, Lobe, above};
 use crate::geometry::{Bvh, Hit};
 use crate::progress::{Cancelled, Progress};
@@ -466,7 +466,7 @@ pub fn specular_regular(
         return Vec3::ZERO;
     }
     let n = pattern.len() as u32;
-    let area = lobe_area(pattern.mx, pattern.my, pattern.xi0, wo_l); // Eq. 14–15
+    let area = lobe_area_for(pattern.ndf, pattern.mx, pattern.my, pattern.xi0, wo_l); // Eq. 14–15
     let face = env.base_size() as u32;
     let mut sum = Vec3::ZERO;
     for &h in &pattern.half_vectors {

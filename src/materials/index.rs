@@ -11,6 +11,7 @@ use super::envmap::{CubeMap, MipFilter, MipPyramid};
 use super::settings::MaterialsSettings;
 use crate::bundle::{Bundle, BundleError};
 use crate::image_io::{ExrImage, ImageError, decode_exr};
+use crate::scene::LobeModel;
 
 /// The stage's name in the bundle.
 pub const STAGE: &str = "materials";
@@ -57,6 +58,9 @@ pub struct IndexedMaterial {
 /// One lobe of an [`IndexedMaterial`]: its parameters and files.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct IndexedLobe {
+    /// Reflection model (absent: `kurt`).
+    #[serde(default, skip_serializing_if = "LobeModel::is_kurt")]
+    pub model: LobeModel,
     /// Specular colour k_s.
     pub ks: [f32; 3],
     /// Fresnel reflectance at normal incidence.
@@ -65,7 +69,7 @@ pub struct IndexedLobe {
     pub mx: f32,
     /// Roughness along the bitangent.
     pub my: f32,
-    /// Kurt's α.
+    /// Kurt's α (0 for the other models).
     pub alpha: f32,
     /// Whether m_x = m_y.
     pub isotropic: bool,

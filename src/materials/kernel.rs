@@ -8,7 +8,9 @@
 //! through the point (x·tan Δ, y·tan Δ, 1) of an image plane at unit distance, as in a
 //! pinhole reflected image whose pixels subtend Δ at its centre. Columns run along the
 //! tangent (roughness m_x), rows along the bitangent (m_y), row 0 at +y. Each texel's weight
-//! is D(h)·G (Cook–Torrance, [`crate::brdf::cook_torrance`]) times the texel's solid angle
+//! is the lobe's D(h)·G ([`Lobe::kernel_term`]: Cook–Torrance's for Kurt lobes as Bastos use
+//! it, [`crate::brdf::cook_torrance`]; the model's own D and Smith G₂ for GGX and Beckmann
+//! lobes) times the texel's solid angle
 //! (cos³ of its angle off-axis), averaged over a 4×4 sub-grid, then all weights are divided
 //! by their sum. As in Bastos the kernel is space-invariant: it ignores how the lobe
 //! stretches at grazing views.
@@ -17,7 +19,10 @@
 //!
 //! The lobe's angular radius in the reflected image is ρ = 2 atan(√(−ln ξ_K) m_max), where
 //! q(h) = ξ_K = 10⁻³ (for an isotropic lobe q(h) is uniform under Eq. 7, so exactly 99.9 % of
-//! D's mass lies inside). With the finest texel angle Δ_min of the quality preset:
+//! D's mass lies inside). For GGX, whose tail is heavier, the same q(h) = ξ_K
+//! ([`crate::brdf::Ndf::exponent_limit`]) gives ρ = 2 atan(√(ξ_K^(−1/2) − 1) α_max), inside
+//! which 1 − √ξ_K ≈ 96.8 % of an isotropic lobe's D cos θ_h mass lies (its cumulative
+//! distribution is e/(1 + e)). With the finest texel angle Δ_min of the quality preset:
 //! - ρ ≤ Δ_min/2 (a mirror: the lobe fits inside one texel): the identity, a 1×1 kernel of 1;
 //! - otherwise r = ⌈ρ/Δ_min⌉ texels; if that exceeds the preset's largest radius r_max, the
 //!   radius is r_max and Δ grows to ρ/r_max — the reflected image for such a rough material
@@ -27,7 +32,6 @@
 use glam::Vec3;
 
 use crate::brdf::Lobe;
-use crate::brdf::cook_torrance::CookTorrance;
 
 /// Fraction of q(h) at which the kernel's support ends.
 pub const KERNEL_CUTOFF: f32 = 1e-3;
@@ -72,10 +76,11 @@ impl Kernel {
     }
 }
 
-/// The lobe's angular radius ρ = 2 atan(√(−ln ξ_K) m_max) in the reflected image.
+/// The lobe's angular radius ρ = 2 atan(√e_K m_max) in the reflected image, e_K the
+/// exponent where the lobe's q(h) falls to ξ_K (−ln ξ_K for Beckmann).
 pub fn lobe_radius(lobe: &Lobe) -> f32 {
     let (mx, my) = lobe.roughness();
-    2.0 * ((-KERNEL_CUTOFF.ln()).sqrt() * mx.max(my)).atan()
+    2.0 * (lobe.ndf().exponent_limit(KERNEL_CUTOFF).sqrt() * mx.max(my)).atan()
 }
 
 /// The kernel of `lobe` (see the module documentation for size and layout).
@@ -99,12 +104,6 @@ pub fn kernel_for(lobe: &Lobe, settings: &KernelSettings) -> Kernel {
     } else {
         (wanted, min_angle)
     };
-    let (mx, my) = lobe.roughness();
-    let ct = CookTorrance {
-        r0: lobe.r0,
-        mx,
-        my,
-    };
     let tan = texel_angle.tan() as f64;
     let r = radius as i32;
     let n = (2 * r + 1) as usize;
@@ -122,7 +121,7 @@ pub fn kernel_for(lobe: &Lobe, settings: &KernelSettings) -> Kernel {
                     let inv = 1.0 / len2.sqrt();
                     let wi = Vec3::new((sx * inv) as f32, (sy * inv) as f32, inv as f32);
                     // Solid angle of an image-plane element at unit distance: cos³ dA.
-                    sum += ct.kernel_term(Vec3::Z, wi) as f64 * inv * inv * inv;
+                    sum += lobe.kernel_term(Vec3::Z, wi) as f64 * inv * inv * inv;
                 }
             }
             w[j * n + i] = sum;

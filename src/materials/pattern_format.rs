@@ -16,15 +16,15 @@
 //! | 32     | `f32`     | θ_max, radians (Eq. 11)                                          |
 //! | 36     | `f32`     | circle spacing, radians (Eq. 12)                                 |
 //! | 40     | `f32`     | PDF constant p_h = (1/N) Σ D(h_i), per steradian (Eq. 18)        |
-//! | 44     | `u32`     | reserved, 0 (pads the header to 48 bytes)                        |
-//! | 48     | N × 16 B  | per sample: `f32` h_x, h_y, h_z (unit half vector in the tangent frame: x tangent, y bitangent, z normal), `f32` q(h) (Eq. 5) |
+//! | 44     | `u32`     | distribution: 0 = Beckmann (Eq. 4–5; Kurt and Beckmann lobes), 1 = GGX |
+//! | 48     | N × 16 B  | per sample: `f32` h_x, h_y, h_z (unit half vector in the tangent frame: x tangent, y bitangent, z normal), `f32` q(h) (Eq. 5 for Beckmann, 1/(1+e)² for GGX: [`crate::brdf::Ndf::q`]) |
 //!
 //! The file is exactly 48 + 16 N bytes. Records are 16-byte `vec4`s, ready for a GPU buffer.
 //! In numpy: `np.frombuffer(b, '<f4', offset=48).reshape(-1, 4)`.
 
 use glam::Vec3;
 
-use crate::brdf::kurt::beckmann_q;
+use crate::brdf::Ndf;
 use crate::brdf::pattern::{Pattern, Spacing};
 
 /// The file's magic bytes.
@@ -56,6 +56,8 @@ pub enum PatternFormatError {
 /// A decoded pattern table.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PatternTable {
+    /// The distribution (header offset 44; 0 in files written before GGX existed).
+    pub ndf: Ndf,
     /// Spacing.
     pub spacing: Spacing,
     /// Circles.
@@ -93,13 +95,21 @@ pub fn encode_pattern(p: &Pattern) -> Vec<u8> {
     for v in [p.xi0, p.mx, p.my, p.theta_max, p.step, p.pdf_constant] {
         b.extend_from_slice(&v.to_le_bytes());
     }
-    b.extend_from_slice(&0u32.to_le_bytes());
+    b.extend_from_slice(&ndf_code(p.ndf).to_le_bytes());
     for h in &p.half_vectors {
-        for v in [h.x, h.y, h.z, beckmann_q(*h, p.mx, p.my)] {
+        for v in [h.x, h.y, h.z, p.ndf.q(*h, p.mx, p.my)] {
             b.extend_from_slice(&v.to_le_bytes());
         }
     }
     b
+}
+
+/// The header's code of a distribution.
+fn ndf_code(ndf: Ndf) -> u32 {
+    match ndf {
+        Ndf::Beckmann => 0,
+        Ndf::Ggx => 1,
+    }
 }
 
 /// Decodes a pattern table, checking magic, version and size.
@@ -137,6 +147,15 @@ pub fn decode_pattern(bytes: &[u8]) -> Result<PatternTable, PatternFormatError> 
             )));
         }
     };
+    let ndf = match u32_at(44) {
+        0 => Ndf::Beckmann,
+        1 => Ndf::Ggx,
+        d => {
+            return Err(PatternFormatError::Corrupt(format!(
+                "distribution {d} at offset 44 is neither 0 (Beckmann) nor 1 (GGX)"
+            )));
+        }
+    };
     let n = u32_at(12) as usize;
     let want = PATTERN_HEADER + 16 * n;
     if bytes.len() != want {
@@ -153,6 +172,7 @@ pub fn decode_pattern(bytes: &[u8]) -> Result<PatternTable, PatternFormatError> 
         q.push(f32_at(o + 12));
     }
     Ok(PatternTable {
+        ndf,
         spacing,
         circles: u32_at(16),
         xi0: f32_at(20),

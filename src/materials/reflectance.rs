@@ -17,7 +17,8 @@
 //! # Channels
 //!
 //! - `R`: Bastos's modulation, as above (per steradian; combine with a kernel normalized to 1).
-//! - `A`: the directional albedo ∫ f_lobe cos θ_i dω_i of the Kurt lobe for the same view
+//! - `A`: the directional albedo ∫ f_lobe cos θ_i dω_i of the lobe (any model,
+//!   [`Lobe::albedo`]) for the same view
 //!   (k_s left out, view cosine bounded the same way): the energy-consistent modulation for a
 //!   kernel normalized to 1, which is what a reference path tracer of the same BRDF reproduces.
 //!   It depends on the azimuth for anisotropic lobes (the reason for the 2D map).

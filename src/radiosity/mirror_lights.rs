@@ -18,7 +18,7 @@ use std::f32::consts::PI;
 use glam::Vec3;
 
 use super::emitters::{Emitters, luminance, stratified_point, var_of_mean};
-use crate::brdf::kurt::{Lobe, fresnel_schlick};
+use crate::brdf::Lobe;
 use crate::geometry::Bvh;
 use crate::sampling::{Rng, sample_triangle};
 use crate::scene::{Plane, ReflectorKind, Scene};
@@ -33,13 +33,12 @@ struct Mirror {
 }
 
 impl Mirror {
-    /// Reflectance for a ray meeting the mirror at cos θ = `c` to the plane's normal: Σ k_s F(c)
-    /// c^(1−2α), each lobe's directional albedo in its mirror limit (Kurt et al. Eq. 2 with
-    /// h = n and ω_i the reflection of ω_o).
+    /// Reflectance for a ray meeting the mirror at cos θ = `c` to the plane's normal:
+    /// Σ k_s × each lobe's directional albedo in its mirror limit ([`Lobe::mirror_reflectance`]).
     fn reflectance(&self, c: f32) -> Vec3 {
-        self.lobes.iter().fold(Vec3::ZERO, |acc, l| {
-            acc + l.ks * fresnel_schlick(l.r0, c) * c.max(1e-4).powf(1.0 - 2.0 * l.alpha)
-        })
+        self.lobes
+            .iter()
+            .fold(Vec3::ZERO, |acc, l| acc + l.ks * l.mirror_reflectance(c))
     }
 
     fn reflect_point(&self, q: Vec3) -> Vec3 {

@@ -27,7 +27,7 @@ use super::atlas::Atlas;
 use super::emitters::{Emitters, luminance, power};
 use super::mirror_lights::MirrorLights;
 use crate::brdf::Frame;
-use crate::brdf::kurt::Lobe;
+use crate::brdf::Lobe;
 use crate::geometry::{Bvh, Hit, ray_quad};
 use crate::sampling::{Rng, sample_triangle};
 use crate::scene::Scene;

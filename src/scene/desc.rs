@@ -57,26 +57,86 @@ pub struct MaterialOverride {
     /// Emitted radiance (linear RGB, W·sr⁻¹·m⁻², ≥ 0).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub emission: Option<[f32; 3]>,
-    /// Glossy lobes of the Kurt et al. 2010 model; `[]` makes the material purely diffuse.
+    /// Glossy lobes, each of the model it names (`kurt` when absent); `[]` makes the
+    /// material purely diffuse.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub lobes: Option<Vec<KurtLobe>>,
+    pub lobes: Option<Vec<LobeDesc>>,
 }
 
-/// One specular lobe of the Kurt et al. 2010 BRDF (regular-sampling paper, Eq. 1–5).
+/// The reflection model of a glossy lobe.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum LobeModel {
+    /// Kurt et al. 2010 as the regular-sampling paper writes it (Luksch et al. Eq. 2):
+    /// Beckmann D, shadowing exponent `alpha`, Schlick F. The default.
+    #[default]
+    Kurt,
+    /// The glTF 2.0 specular lobe (specification Appendix B): GGX D with α = `mx`, `my`,
+    /// height-correlated Smith G, Schlick F. glTF materials map to it.
+    Ggx,
+    /// Cook–Torrance with Beckmann D (m = `mx`, `my`), Smith G and Schlick F.
+    Beckmann,
+}
+
+/// Read by hand so that a wrong name is an error naming the field and every choice.
+impl<'de> Deserialize<'de> for LobeModel {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<LobeModel, D::Error> {
+        let name = String::deserialize(d)?;
+        LobeModel::ALL
+            .into_iter()
+            .find(|m| m.name() == name)
+            .ok_or_else(|| {
+                serde::de::Error::custom(format!(
+                    "lobe `model` {name:?} is unknown: expected one of `kurt`, `ggx`, `beckmann`"
+                ))
+            })
+    }
+}
+
+impl LobeModel {
+    /// Every model.
+    pub const ALL: [LobeModel; 3] = [LobeModel::Kurt, LobeModel::Ggx, LobeModel::Beckmann];
+
+    /// Whether this is the default model (`kurt`): scene.json and the bundle leave it out.
+    pub fn is_kurt(&self) -> bool {
+        *self == LobeModel::Kurt
+    }
+
+    /// The name scene.json uses.
+    pub fn name(self) -> &'static str {
+        match self {
+            LobeModel::Kurt => "kurt",
+            LobeModel::Ggx => "ggx",
+            LobeModel::Beckmann => "beckmann",
+        }
+    }
+}
+
+/// One glossy lobe: k_s times a reflection model (Luksch et al. Eq. 1). The parameters mean
+/// the same in every model; `alpha` belongs to `kurt` alone.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
-pub struct KurtLobe {
+pub struct LobeDesc {
+    /// Reflection model: `kurt` (default), `ggx` or `beckmann`.
+    #[serde(default, skip_serializing_if = "LobeModel::is_kurt")]
+    pub model: LobeModel,
     /// Lobe reflectivity k_s (linear RGB; colour of metals lives here).
     pub ks: [f32; 3],
-    /// Schlick Fresnel reflectance at normal incidence, in [0, 1].
+    /// Schlick Fresnel reflectance at normal incidence (F₀), in [0, 1].
     pub r0: f32,
-    /// Beckmann roughness along the tangent, > 0 (1e-4 is a mirror).
+    /// Width of the distribution along the tangent, > 0: Beckmann m (`kurt`, `beckmann`) or
+    /// GGX α (`ggx`; glTF roughness r gives α = r²). 1e-4 is a mirror.
     pub mx: f32,
-    /// Beckmann roughness along the bitangent, > 0.
+    /// Width of the distribution along the bitangent, > 0.
     pub my: f32,
-    /// Shadowing exponent α in [0, 1] (0 keeps the directional albedo ≤ 1).
-    pub alpha: f32,
+    /// `kurt` only, and required there: the shadowing exponent α in [0, 1] (0 keeps the
+    /// directional albedo ≤ 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub alpha: Option<f32>,
 }
+
+/// The lobe type under its former name (every lobe was a Kurt lobe).
+pub type KurtLobe = LobeDesc;
 
 /// A one- or two-sided quad light: points `corner + s·edge_u + t·edge_v`, s, t ∈ [0, 1].
 /// It emits towards `edge_u × edge_v`.

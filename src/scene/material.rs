@@ -3,20 +3,24 @@
 use glam::Vec3;
 use serde::Serialize;
 
-use super::desc::{KurtLobe, MaterialOverride};
+use super::desc::{LobeDesc, LobeModel, MaterialOverride};
 
 /// Roughness below which a dielectric glTF material gets a glossy lobe. Rougher ones are
-/// treated as diffuse: their Beckmann lobe (m = roughness² ≥ 0.36) is too wide for
-/// reflections to be worth baking.
+/// treated as diffuse: their GGX lobe (α = roughness² ≥ 0.36) is too wide for reflections to
+/// be worth baking, and the solver, probes and viewer treat such a wall as Lambertian.
 pub const GLOSSY_ROUGHNESS_MAX: f32 = 0.6;
 
-/// glTF's Fresnel reflectance at normal incidence for dielectrics.
+/// glTF's Fresnel reflectance at normal incidence for dielectrics (IOR 1.5).
 pub const DIELECTRIC_F0: f32 = 0.04;
 
-/// Smallest Beckmann roughness; below it a lobe is a mirror for every purpose.
-pub const MIN_BECKMANN_M: f32 = 1e-4;
+/// Smallest lobe width (GGX α or Beckmann m) a glTF material maps to; below it a lobe is a
+/// mirror for every purpose.
+pub const MIN_LOBE_WIDTH: f32 = 1e-4;
 
-/// A resolved material: diffuse albedo, emission and Kurt et al. lobes.
+/// The former name of [`MIN_LOBE_WIDTH`].
+pub const MIN_BECKMANN_M: f32 = MIN_LOBE_WIDTH;
+
+/// A resolved material: diffuse albedo, emission and glossy lobes.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Material {
     /// glTF material name (`default` for primitives without one).
@@ -26,7 +30,30 @@ pub struct Material {
     /// Emitted radiance (linear RGB).
     pub emission: Vec3,
     /// Specular lobes (empty: purely diffuse).
-    pub lobes: Vec<KurtLobe>,
+    pub lobes: Vec<LobeDesc>,
+}
+
+/// The `ggx` lobes whose sum is the glTF specular term with Schlick Fresnel of RGB
+/// reflectance `f0` at normal incidence and GGX width `alpha`.
+///
+/// glint's lobes have a scalar r0 and an RGB k_s, and k_s (r0 + (1 − r0) w) with
+/// w = (1 − V·H)⁵ equals f0 + (1 − f0) w for every w only when f0 is grey (k_s = 1, r0 = f0).
+/// A coloured f0 is split exactly into two lobes of the same D and G:
+/// f0 + (1 − f0) w = f0 · [r0 = 1: F ≡ 1] + (1 − f0) · [r0 = 0: F = w].
+pub fn gltf_specular_lobes(f0: Vec3, alpha: f32) -> Vec<LobeDesc> {
+    let lobe = |ks: Vec3, r0: f32| LobeDesc {
+        model: LobeModel::Ggx,
+        ks: ks.to_array(),
+        r0,
+        mx: alpha,
+        my: alpha,
+        alpha: None,
+    };
+    if f0.x == f0.y && f0.y == f0.z {
+        vec![lobe(Vec3::ONE, f0.x)]
+    } else {
+        vec![lobe(f0, 1.0), lobe(Vec3::ONE - f0, 0.0)]
+    }
 }
 
 impl Material {
@@ -48,16 +75,25 @@ impl Material {
             .min_by(|a, b| a.total_cmp(b))
     }
 
-    /// Maps a glTF metallic/roughness material to the Kurt model.
+    /// Maps a glTF metallic/roughness material to glint's k_d/π + Σ k_s f_lobe with `ggx`
+    /// lobes, following glTF 2.0 Appendix B:
     ///
-    /// - k_d = base colour × (1 − metallic): metals have no diffuse term; × (1 − 0.04) when
-    ///   there is a lobe, so a white glossy dielectric conserves energy at normal incidence.
-    /// - One lobe when the surface is smooth enough (roughness < [`GLOSSY_ROUGHNESS_MAX`]) or
-    ///   metallic ≥ 0.5: k_s = mix(white, base colour, metallic) carries the metal's colour,
-    ///   r0 = mix(0.04, 1, metallic) (0.04: the glTF dielectric F0), Beckmann m = roughness²
-    ///   (glTF roughness is perceptual: α_GGX = roughness², and Beckmann m ≈ α_GGX for the
-    ///   lobe widths used here), clamped to ≥ [`MIN_BECKMANN_M`]; isotropic, α = 0 so that
-    ///   the directional albedo stays ≤ 1.
+    /// ```text
+    /// f = mix(fresnel_mix(diffuse(c), spec), conductor_fresnel(c, spec), metallic)
+    ///   = (1 − metallic) c/π (1 − F_d) + spec · (f0 + (1 − f0)(1 − V·H)⁵),
+    /// f0 = mix(0.04, c, metallic),  F_d = 0.04 + 0.96 (1 − V·H)⁵,  spec = D V (α = roughness²)
+    /// ```
+    ///
+    /// - Specular: exactly the second term, as [`gltf_specular_lobes`] (one lobe for a grey
+    ///   f0, two for a coloured one); α = roughness² clamped to ≥ [`MIN_LOBE_WIDTH`],
+    ///   isotropic.
+    /// - Diffuse: glint's diffuse term is Lambertian (the radiosity solution is
+    ///   view-independent), so 1 − F_d is taken at normal incidence, V·H = 1:
+    ///   k_d = c (1 − metallic)(1 − 0.04). This is exact at normal incidence; towards grazing
+    ///   Appendix B moves up to 96 % of the diffuse energy into the lobe, which glint keeps in
+    ///   the diffuse term.
+    /// - Rough dielectrics (roughness ≥ [`GLOSSY_ROUGHNESS_MAX`] and metallic < 0.5) keep
+    ///   only the diffuse term, k_d = c (1 − metallic), as before.
     /// - emission = emissive factor × `KHR_materials_emissive_strength`.
     pub fn from_gltf(
         name: &str,
@@ -73,17 +109,12 @@ impl Material {
         let mut lobes = Vec::new();
         let mut albedo = base * (1.0 - metallic);
         if roughness < GLOSSY_ROUGHNESS_MAX || metallic >= 0.5 {
-            // What the lobe reflects at normal incidence is not also diffused.
+            // fresnel_mix at V·H = 1: what the lobe reflects at normal incidence is not also
+            // diffused.
             albedo *= 1.0 - DIELECTRIC_F0;
-            let ks = Vec3::ONE.lerp(base, metallic);
-            let m = (roughness * roughness).max(MIN_BECKMANN_M);
-            lobes.push(KurtLobe {
-                ks: ks.to_array(),
-                r0: DIELECTRIC_F0 + (1.0 - DIELECTRIC_F0) * metallic,
-                mx: m,
-                my: m,
-                alpha: 0.0,
-            });
+            let f0 = Vec3::splat(DIELECTRIC_F0).lerp(base, metallic);
+            let alpha = (roughness * roughness).max(MIN_LOBE_WIDTH);
+            lobes = gltf_specular_lobes(f0, alpha);
         }
         Material {
             name: name.to_owned(),
@@ -134,16 +165,42 @@ impl Material {
                 && l.my.is_finite()
                 && l.mx > 0.0
                 && l.my > 0.0
-                && (0.0..=1.0).contains(&l.alpha);
+                && l.alpha.is_none_or(|a| (0.0..=1.0).contains(&a));
+            let [r, g, b] = l.ks;
+            let alpha = l.alpha.map_or("none".to_string(), |a| a.to_string());
+            let model = l.model.name();
+            let named = if l.model.is_kurt() {
+                String::new()
+            } else {
+                format!("model {model}, ")
+            };
             if !ok {
-                let [r, g, b] = l.ks;
                 return Err((
                     "lobes",
                     format!(
-                        "lobe {i} (ks [{r}, {g}, {b}], r0 {}, mx {}, my {}, alpha {}): need ks ≥ 0, r0 and alpha in [0, 1], mx and my > 0 and finite",
-                        l.r0, l.mx, l.my, l.alpha
+                        "lobe {i} ({named}ks [{r}, {g}, {b}], r0 {}, mx {}, my {}, alpha {alpha}): need ks ≥ 0, r0 and alpha in [0, 1], mx and my > 0 and finite",
+                        l.r0, l.mx, l.my
                     ),
                 ));
+            }
+            match (l.model, l.alpha) {
+                (LobeModel::Kurt, None) => {
+                    return Err((
+                        "lobes",
+                        format!(
+                            "lobe {i} (model kurt): needs `alpha`, the shadowing exponent in [0, 1] (0 keeps the albedo ≤ 1)"
+                        ),
+                    ));
+                }
+                (LobeModel::Ggx | LobeModel::Beckmann, Some(_)) => {
+                    return Err((
+                        "lobes",
+                        format!(
+                            "lobe {i} (model {model}): `alpha` is the kurt model's shadowing exponent; {model} has Smith shadowing and takes ks, r0, mx, my (remove alpha)"
+                        ),
+                    ));
+                }
+                _ => {}
             }
         }
         Ok(())
@@ -169,6 +226,54 @@ mod tests {
         assert_eq!(l.ks, [1.0, 0.8, 0.3]);
         assert_eq!(l.r0, 1.0);
         assert!((l.mx - 0.01).abs() < 1e-7 && l.mx == l.my);
+        // Appendix B's conductor Fresnel f0 + (1 − f0)(1 − V·H)⁵ with f0 = base colour: the
+        // second lobe carries (1 − f0)(1 − V·H)⁵.
+        assert_eq!(m.lobes.len(), 2);
+        let w = m.lobes[1];
+        assert_eq!((w.r0, w.mx, w.model), (0.0, l.mx, LobeModel::Ggx));
+        for (k, want) in w.ks.iter().zip([0.0, 0.2, 0.7]) {
+            assert!((k - want).abs() < 1e-6);
+        }
+        assert_eq!(l.model, LobeModel::Ggx);
+        assert!(m.check().is_ok());
+    }
+
+    #[test]
+    fn gltf_specular_lobes_sum_to_the_rgb_schlick_fresnel() {
+        use crate::brdf::kurt::fresnel_schlick;
+        let f0 = Vec3::new(0.9, 0.6, 0.2);
+        let lobes = gltf_specular_lobes(f0, 0.2);
+        for u in [0.0f32, 0.1, 0.5, 0.9, 1.0] {
+            let got = lobes.iter().fold(Vec3::ZERO, |a, l| {
+                a + Vec3::from_array(l.ks) * fresnel_schlick(l.r0, u)
+            });
+            let w = (1.0 - u).powi(5);
+            let want = f0 + (Vec3::ONE - f0) * w;
+            assert!(
+                (got - want).abs().max_element() < 1e-6,
+                "u={u}: {got} vs {want}"
+            );
+        }
+        let grey = gltf_specular_lobes(Vec3::splat(0.04), 0.2);
+        assert_eq!(grey.len(), 1);
+        assert_eq!((grey[0].ks, grey[0].r0), ([1.0; 3], 0.04));
+    }
+
+    #[test]
+    fn alpha_belongs_to_kurt_alone() {
+        let mut m = Material::from_gltf("floor", [0.5; 4], 0.0, 0.3, [0.0; 3], 1.0);
+        m.lobes[0].alpha = Some(0.5);
+        let (field, msg) = m.check().unwrap_err();
+        assert_eq!(field, "lobes");
+        assert!(
+            msg.contains("model ggx") && msg.contains("remove alpha"),
+            "{msg}"
+        );
+        m.lobes[0].model = LobeModel::Kurt;
+        assert!(m.check().is_ok());
+        m.lobes[0].alpha = None;
+        let (_, msg) = m.check().unwrap_err();
+        assert!(msg.contains("needs `alpha`"), "{msg}");
     }
 
     #[test]
@@ -210,12 +315,13 @@ mod tests {
     #[test]
     fn overrides_replace_fields() {
         let mut m = Material::from_gltf("floor", [0.5; 4], 0.0, 1.0, [0.0; 3], 1.0);
-        let lobe = KurtLobe {
+        let lobe = LobeDesc {
+            model: LobeModel::Kurt,
             ks: [0.3; 3],
             r0: 0.05,
             mx: 0.1,
             my: 0.1,
-            alpha: 0.0,
+            alpha: Some(0.0),
         };
         m.apply(&MaterialOverride {
             albedo: Some([0.2, 0.2, 0.2]),

@@ -22,7 +22,8 @@ use glam::Vec3;
 
 pub use camera_path::{FOV_RANGE_DEG, MAX_CAMERA_COORD, MAX_FPS, MAX_KEYFRAME_TIME};
 pub use desc::{
-    AreaLightDesc, CameraPath, Keyframe, KurtLobe, Quality, ReflectorKind, SCENE_VERSION, SceneDesc,
+    AreaLightDesc, CameraPath, Keyframe, KurtLobe, LobeDesc, LobeModel, Quality, ReflectorKind,
+    SCENE_VERSION, SceneDesc,
 };
 pub use gltf_import::uri_path;
 pub use impostor::{Impostor, ImpostorBillboard, SURFACE_PLANARITY};

@@ -17,9 +17,11 @@
 //!   - `--glossy-samples 0`: Σ_lobes ks·F(n·ω_o)·cube(r), one lookup in the mirror direction
 //!     r (F: Schlick, Eq. 3); [`mirror_specular`] is the CPU form;
 //!   - `--glossy-samples N > 0`: per lobe, Eq. 9 over the regular pattern closest to N
-//!     samples ([`crate::brdf::pattern::closest_pattern`], the function the materials stage
-//!     bakes its pattern with, so at the bake's budget it is the baked pattern), the BRDF of
-//!     Eq. 2, the density of Eq. 17–18 and each sample's MIP level from Eq. 16;
+//!     samples ([`crate::brdf::pattern::closest_pattern_for`], the function the materials
+//!     stage bakes its pattern with, so at the bake's budget it is the baked pattern), the
+//!     lobe's BRDF (Eq. 2 for Kurt lobes, F D G₂ / (4 (n·ω_i)(n·ω_o)) with GGX or Beckmann D
+//!     and Smith G₂ for the others), the density of Eq. 17–18 and each sample's MIP level
+//!     from Eq. 16;
 //!     [`crate::materials::envmap::specular_regular`] is the CPU estimator the shader
 //!     is tested against.
 //! - Environment of the glossy term, chosen automatically per reflector: the materials
@@ -37,7 +39,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use crate::brdf::kurt::fresnel_schlick;
-use crate::brdf::pattern::{Pattern, closest_pattern};
+use crate::brdf::pattern::{Pattern, closest_pattern_for};
 use crate::brdf::{Lobe, reflect};
 use crate::camera::Camera;
 use crate::scene::{ReflectorKind, Scene};
@@ -170,13 +172,13 @@ pub fn mirror_specular(lobes: &[Lobe], n: Vec3, wo: Vec3, env: impl Fn(Vec3) -> 
 }
 
 /// The regular pattern per lobe for a budget of `samples` (the materials stage's
-/// [`closest_pattern`] with threshold `xi0`).
+/// [`closest_pattern_for`] with threshold `xi0`, for the lobe's distribution).
 pub fn patterns_for(lobes: &[Lobe], samples: u32, xi0: f32) -> Vec<Pattern> {
     lobes
         .iter()
         .map(|l| {
             let (mx, my) = l.roughness();
-            closest_pattern(mx, my, xi0, samples.max(1), MAX_CIRCLES)
+            closest_pattern_for(l.ndf(), mx, my, xi0, samples.max(1), MAX_CIRCLES)
         })
         .collect()
 }
@@ -189,10 +191,20 @@ pub struct CurvedLobe {
     pub ks: [f32; 4],
     /// m_x, m_y (the pattern's, clamped), ξ₀, α.
     pub rough: [f32; 4],
-    /// First sample in the pattern buffer, sample count, unused × 2.
+    /// First sample in the pattern buffer, sample count, model ([`model_code`]), unused.
     pub samples: [u32; 4],
     /// p_h (Eq. 18), unused × 3.
     pub pdf: [f32; 4],
+}
+
+/// The shader's code of a lobe model (`CurvedLobe.samples.z` in `shaders/curved.wgsl`).
+pub fn model_code(model: crate::scene::LobeModel) -> u32 {
+    use crate::scene::LobeModel;
+    match model {
+        LobeModel::Kurt => 0,
+        LobeModel::Ggx => 1,
+        LobeModel::Beckmann => 2,
+    }
 }
 
 /// The clip plane of a view that clips nothing ([`CurvedParams::clip`]).
@@ -231,10 +243,11 @@ impl CurvedParams {
             let (mx, my) = l.roughness();
             out.ks = l.ks.extend(l.r0).to_array();
             out.rough = [mx, my, DEFAULT_XI0, l.alpha];
+            out.samples[2] = model_code(l.model);
             if let Some((p, offsets)) = patterns {
                 let p = &p[k];
                 out.rough = [p.mx, p.my, p.xi0, l.alpha];
-                out.samples = [offsets[k], p.len() as u32, 0, 0];
+                out.samples = [offsets[k], p.len() as u32, model_code(l.model), 0];
                 out.pdf = [p.pdf_constant, 0.0, 0.0, 0.0];
             }
         }
@@ -335,10 +348,7 @@ mod tests {
     fn mirror_specular_is_ks_times_fresnel_times_the_mirror_direction() {
         let lobe = Lobe {
             ks: Vec3::new(0.9, 0.5, 0.2),
-            r0: 0.3,
-            mx: 0.01,
-            my: 0.01,
-            alpha: 0.0,
+            ..Lobe::new(0.3, 0.01, 0.01, 0.0)
         };
         let n = Vec3::Y;
         let wo = Vec3::new(1.0, 1.0, 0.0).normalize();

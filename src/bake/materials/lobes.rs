@@ -9,7 +9,7 @@ use rayon::prelude::*;
 use super::MaterialsError;
 use super::report::{LobeReport, MaterialReport};
 use crate::brdf::Lobe;
-use crate::brdf::pattern::{Pattern, closest_pattern};
+use crate::brdf::pattern::{Pattern, closest_pattern_for};
 use crate::bundle::StageWriter;
 use crate::image_io::{ChannelData, ExrCompression, Precision, encode_exr};
 use crate::materials::MaterialsSettings;
@@ -21,7 +21,7 @@ use crate::materials::pattern_format::encode_pattern;
 use crate::materials::reflectance::{self, ReflectanceMap, map_1d, sphere_map};
 use crate::progress::{Cancelled, Progress};
 use crate::scene::Scene;
-use crate::scene::desc::KurtLobe;
+use crate::scene::desc::LobeDesc;
 
 /// Everything baked for one lobe.
 pub struct LobeAssets {
@@ -45,7 +45,7 @@ fn bake_lobe(lobe: &Lobe, s: &MaterialsSettings) -> LobeAssets {
         map_1d: lobe
             .is_isotropic()
             .then(|| map_1d(lobe, s.map_1d_size, s.albedo_steps)),
-        pattern: closest_pattern(mx, my, s.xi0, s.sample_budget, s.max_circles),
+        pattern: closest_pattern_for(lobe.ndf(), mx, my, s.xi0, s.sample_budget, s.max_circles),
     }
 }
 
@@ -138,7 +138,7 @@ impl Counted<'_> {
 fn write_lobe(
     w: &mut Counted<'_>,
     base: &str,
-    desc: &KurtLobe,
+    desc: &LobeDesc,
     a: &LobeAssets,
 ) -> Result<IndexedLobe, MaterialsError> {
     let lobe = Lobe::from(desc);
@@ -173,11 +173,12 @@ fn write_lobe(
         encode_pattern(&a.pattern),
     )?;
     Ok(IndexedLobe {
+        model: desc.model,
         ks: desc.ks,
         r0: desc.r0,
         mx: desc.mx,
         my: desc.my,
-        alpha: desc.alpha,
+        alpha: desc.alpha.unwrap_or(0.0),
         isotropic: lobe.is_isotropic(),
         kernel: IndexedKernel {
             path: kernel_path,
@@ -208,9 +209,10 @@ fn write_lobe(
     })
 }
 
-fn lobe_report(l: usize, desc: &KurtLobe, a: &LobeAssets) -> LobeReport {
+fn lobe_report(l: usize, desc: &LobeDesc, a: &LobeAssets) -> LobeReport {
     LobeReport {
         lobe: l,
+        model: desc.model,
         mx: desc.mx,
         my: desc.my,
         kernel_size: a.kernel.size(),

@@ -3,6 +3,7 @@
 use serde::Serialize;
 
 use crate::bundle::StageRecord;
+use crate::scene::LobeModel;
 
 /// What the stage did.
 #[derive(Debug)]
@@ -18,6 +19,9 @@ pub enum Outcome {
 pub struct LobeReport {
     /// Lobe index within the material.
     pub lobe: usize,
+    /// Reflection model (left out for `kurt`).
+    #[serde(skip_serializing_if = "LobeModel::is_kurt")]
+    pub model: LobeModel,
     /// Roughness along the tangent.
     pub mx: f32,
     /// Roughness along the bitangent.
