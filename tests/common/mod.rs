@@ -90,6 +90,53 @@ pub fn quad(name: &'static str, material: usize, axis: usize, offset: f32, h: f3
     }
 }
 
+/// A slab mirror as real assets model one: a `w` × `h` box `d` thick whose front face is
+/// bevelled at 45° by `bevel` on every side (front inset by `bevel`, 20 triangles: front 2,
+/// back 2, bevels 8, sides 8), wound counter-clockwise seen from outside. The front's centre
+/// is `centre`, its normal `right` × `up` (both unit, perpendicular); the back lies `d` behind.
+pub fn slab(
+    name: &'static str,
+    material: usize,
+    centre: [f32; 3],
+    right: [f32; 3],
+    up: [f32; 3],
+    size: (f32, f32, f32),
+    bevel: f32,
+) -> MeshSpec {
+    use glam::Vec3;
+    let (w, h, d) = size;
+    let (c, r, u) = (Vec3::from(centre), Vec3::from(right), Vec3::from(up));
+    let n = r.cross(u);
+    // Local (x right, y up, z out of the front) to world.
+    let at = |x: f32, y: f32, z: f32| (c + r * x + u * y + n * z).to_array();
+    let (hw, hh) = (0.5 * w, 0.5 * h);
+    let (iw, ih) = (hw - bevel, hh - bevel);
+    let ring = |x: f32, y: f32, z: f32| [at(-x, -y, z), at(x, -y, z), at(x, y, z), at(-x, y, z)];
+    let front = ring(iw, ih, 0.0);
+    let rim = ring(hw, hh, -bevel);
+    let back = ring(hw, hh, -d);
+    let mut quads = vec![front, [back[0], back[3], back[2], back[1]]];
+    for k in 0..4 {
+        let j = (k + 1) % 4;
+        quads.push([rim[k], rim[j], front[j], front[k]]);
+        quads.push([back[k], back[j], rim[j], rim[k]]);
+    }
+    let mut positions = Vec::new();
+    let mut indices = Vec::new();
+    for q in quads {
+        let base = positions.len() as u32;
+        positions.extend(q);
+        indices.extend([base, base + 1, base + 2, base, base + 2, base + 3]);
+    }
+    MeshSpec {
+        name,
+        material,
+        positions,
+        indices,
+        normals: Vec::new(),
+    }
+}
+
 /// Writes `NAME.gltf` + `NAME.bin` into `dir` and returns the .gltf path.
 pub fn write_gltf(
     dir: &Path,
