@@ -1,10 +1,13 @@
 //! The single-level reflection passes on the GPU (`shaders/reflect.wgsl`): per reflector, the
 //! mirror pass (geometry re-rendered, or radiance-map splats from [`super::splat_maps`]) into
-//! M, and the composite that adds ks·(M*K)·R over the reflector. The math they use lives in
-//! [`super::splats`] and [`super::material`], the shader's inputs in [`super::params`].
+//! M (in image mode followed by [`super::hole_fill`]'s pull-push over the texels no splat
+//! covered), and the composite that adds ks·(M*K)·R over the reflector. The math they use
+//! lives in [`super::splats`] and [`super::material`], the shader's inputs in
+//! [`super::params`].
 
 use glam::{Mat4, Vec3};
 
+use super::hole_fill::{HoleFill, screen_rect};
 use super::map_target::{ReflectionMap, map_sampler};
 use super::params::{
     ReflectParams, composite_bind_group_layout, composite_group, params_group, params_layout,
@@ -38,6 +41,8 @@ struct ReflectorGpu {
     _sphere: wgpu::Texture,
     indices: wgpu::Buffer,
     index_count: u32,
+    /// Its triangles' vertices (the hole fill's screen rectangle).
+    outline: Vec<Vec3>,
 }
 
 /// The reflection passes (either source) of one [`Renderer`] at one frame size.
@@ -50,6 +55,8 @@ pub struct GeometryReflections {
     clip: f32,
     /// M, reused by every reflector in turn.
     map: ReflectionMap,
+    /// Image mode: the fill of M's uncovered texels.
+    hole_fill: Option<HoleFill>,
     width: u32,
     height: u32,
 }
@@ -156,6 +163,8 @@ impl GeometryReflections {
                 &composite_layout,
             );
             let map = ReflectionMap::new(gpu, "glint reflection texture", width, height);
+            let hole_fill = matches!(source, Source::Image { .. })
+                .then(|| HoleFill::new(gpu, &map.view, width, height));
             let sampler = map_sampler(device, "glint reflection sampler");
             let reflectors = planar
                 .into_iter()
@@ -202,6 +211,11 @@ impl GeometryReflections {
                             ],
                         }));
                     }
+                    let outline = reflector
+                        .triangles
+                        .iter()
+                        .flat_map(|&t| scene.triangles[t as usize].p)
+                        .collect();
                     let sphere = sphere_texture(gpu, &reflector.modulation);
                     let sphere_view = sphere.create_view(&wgpu::TextureViewDescriptor::default());
                     let composite_params_group = composite_group(
@@ -224,6 +238,7 @@ impl GeometryReflections {
                         composite_params_group,
                         _sphere: sphere,
                         indices: index_buffer,
+                        outline,
                     }
                 })
                 .collect();
@@ -235,6 +250,7 @@ impl GeometryReflections {
                 reflectors,
                 clip,
                 map,
+                hole_fill,
                 width,
                 height,
             }
@@ -372,9 +388,23 @@ impl GeometryReflections {
             .enumerate()
             .filter(|(_, r)| self.visible(r, camera))
             .collect();
+        let view_proj = crate::view::renderer::view_projection(
+            camera,
+            self.width as f32 / self.height.max(1) as f32,
+            1.0,
+        );
         for (k, &(slot, r)) in visible.iter().enumerate() {
+            let fill = match (self.source, &r.splats, &self.hole_fill) {
+                (Source::Image { .. }, Some(_), Some(f)) => {
+                    screen_rect(&view_proj, &r.outline, self.width, self.height)
+                        .map(|rect| (f, rect))
+                }
+                _ => None,
+            };
             {
-                let mut pass = self.map.begin_mirror(encoder, "glint mirror pass", false);
+                let mut pass = self
+                    .map
+                    .begin_mirror(encoder, "glint mirror pass", fill.is_some());
                 match (self.source, &r.splats) {
                     (Source::Image { .. }, Some(maps)) => {
                         pass.set_pipeline(&self.splat_pipeline);
@@ -402,6 +432,9 @@ impl GeometryReflections {
                         }
                     }
                 }
+            }
+            if let Some((f, rect)) = fill {
+                f.record(encoder, &self.map.view, &self.map.depth_view, rect);
             }
             let end = end_timestamp.filter(|_| k + 1 == visible.len());
             let mut pass = self.composite.begin(
