@@ -1,13 +1,11 @@
 //! The single-level reflection passes on the GPU (`shaders/reflect.wgsl`): per reflector, the
 //! mirror pass (geometry re-rendered, or radiance-map splats from [`super::splat_maps`]) into
-//! M (in image mode followed by [`super::hole_fill`]'s pull-push over the texels no splat
-//! covered), and the composite that adds ks·(M*K)·R over the reflector. The math they use
-//! lives in [`super::splats`] and [`super::material`], the shader's inputs in
-//! [`super::params`].
+//! M, and the composite that adds ks·(M*K)·R over the reflector (in image mode filling the
+//! texels no splat covered first, [`super::splats::fill_hole`]). The math they use lives in
+//! [`super::splats`] and [`super::material`], the shader's inputs in [`super::params`].
 
 use glam::{Mat4, Vec3};
 
-use super::hole_fill::{HoleFill, screen_rect};
 use super::map_target::{ReflectionMap, map_sampler};
 use super::params::{
     ReflectParams, composite_bind_group_layout, composite_group, params_group, params_layout,
@@ -41,8 +39,6 @@ struct ReflectorGpu {
     _sphere: wgpu::Texture,
     indices: wgpu::Buffer,
     index_count: u32,
-    /// Its triangles' vertices (the hole fill's screen rectangle).
-    outline: Vec<Vec3>,
 }
 
 /// The reflection passes (either source) of one [`Renderer`] at one frame size.
@@ -55,8 +51,6 @@ pub struct GeometryReflections {
     clip: f32,
     /// M, reused by every reflector in turn.
     map: ReflectionMap,
-    /// Image mode: the fill of M's uncovered texels.
-    hole_fill: Option<HoleFill>,
     width: u32,
     height: u32,
 }
@@ -163,8 +157,6 @@ impl GeometryReflections {
                 &composite_layout,
             );
             let map = ReflectionMap::new(gpu, "glint reflection texture", width, height);
-            let hole_fill = matches!(source, Source::Image { .. })
-                .then(|| HoleFill::new(gpu, &map.view, width, height));
             let sampler = map_sampler(device, "glint reflection sampler");
             let reflectors = planar
                 .into_iter()
@@ -211,11 +203,6 @@ impl GeometryReflections {
                             ],
                         }));
                     }
-                    let outline = reflector
-                        .triangles
-                        .iter()
-                        .flat_map(|&t| scene.triangles[t as usize].p)
-                        .collect();
                     let sphere = sphere_texture(gpu, &reflector.modulation);
                     let sphere_view = sphere.create_view(&wgpu::TextureViewDescriptor::default());
                     let composite_params_group = composite_group(
@@ -238,7 +225,6 @@ impl GeometryReflections {
                         composite_params_group,
                         _sphere: sphere,
                         indices: index_buffer,
-                        outline,
                     }
                 })
                 .collect();
@@ -250,7 +236,6 @@ impl GeometryReflections {
                 reflectors,
                 clip,
                 map,
-                hole_fill,
                 width,
                 height,
             }
@@ -332,6 +317,12 @@ impl GeometryReflections {
             let mut p = ReflectParams::new(&r.reflector, self.clip, camera.position);
             // Screen pixels per kernel texel at beyond-fraction 1 (scaled per pixel).
             p.kernel[0] = super::material::texel_pixels(r.reflector.kernel.texel_angle, 1.0, pitch);
+            // Image mode: M's uncovered texels are holes to fill, not empty reflections.
+            p.kernel[2] = if matches!(self.source, Source::Image { .. }) {
+                1.0
+            } else {
+                0.0
+            };
             gpu.queue.write_buffer(&r.params, 0, bytemuck::bytes_of(&p));
             if let (Source::Image { selection, count }, Some(maps)) = (self.source, &r.splats)
                 && self.visible(r, camera)
@@ -388,23 +379,9 @@ impl GeometryReflections {
             .enumerate()
             .filter(|(_, r)| self.visible(r, camera))
             .collect();
-        let view_proj = crate::view::renderer::view_projection(
-            camera,
-            self.width as f32 / self.height.max(1) as f32,
-            1.0,
-        );
         for (k, &(slot, r)) in visible.iter().enumerate() {
-            let fill = match (self.source, &r.splats, &self.hole_fill) {
-                (Source::Image { .. }, Some(_), Some(f)) => {
-                    screen_rect(&view_proj, &r.outline, self.width, self.height)
-                        .map(|rect| (f, rect))
-                }
-                _ => None,
-            };
             {
-                let mut pass = self
-                    .map
-                    .begin_mirror(encoder, "glint mirror pass", fill.is_some());
+                let mut pass = self.map.begin_mirror(encoder, "glint mirror pass", false);
                 match (self.source, &r.splats) {
                     (Source::Image { .. }, Some(maps)) => {
                         pass.set_pipeline(&self.splat_pipeline);
@@ -432,9 +409,6 @@ impl GeometryReflections {
                         }
                     }
                 }
-            }
-            if let Some((f, rect)) = fill {
-                f.record(encoder, &self.map.view, &self.map.depth_view, rect);
             }
             let end = end_timestamp.filter(|_| k + 1 == visible.len());
             let mut pass = self.composite.begin(
