@@ -17,12 +17,9 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 use glam::Vec3;
-use glint::bake::{radiance_stage, radiosity_stage, scene_stage};
 use glint::camera::Camera;
 use glint::geometry::Bvh;
-use glint::progress::Silent;
 use glint::scene::Scene;
-use glint::scene::desc::{Quality, RadiositySettings};
 use glint::view::headless::Offscreen;
 use glint::view::load::{ViewData, load};
 use glint::view::reflections::{self, ReflectionMode};
@@ -34,55 +31,38 @@ const MIRROR: Vec3 = Vec3::new(0.0, 1.4, -1.988);
 
 /// A rectangle corner, corner + u, corner + u + v, corner + v: facing u × v.
 fn rect(name: &'static str, material: usize, corner: Vec3, u: Vec3, v: Vec3) -> MeshSpec {
-    MeshSpec {
-        name,
-        material,
-        positions: [corner, corner + u, corner + u + v, corner + v]
-            .map(|p| p.to_array())
-            .to_vec(),
-        indices: vec![0, 1, 2, 0, 2, 3],
-        normals: Vec::new(),
-    }
+    let q = [corner, corner + u, corner + u + v, corner + v].map(|p| p.to_array());
+    common::quads(name, material, &[q])
 }
 
 /// An axis-aligned box of `size` about `centre`, faces outward.
 fn cuboid(name: &'static str, material: usize, centre: Vec3, size: Vec3) -> MeshSpec {
     let h = 0.5 * size;
-    let mut positions = Vec::new();
-    let mut indices = Vec::new();
+    let mut faces = Vec::new();
     for axis in 0..3 {
+        let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
         for sign in [-1.0f32, 1.0] {
-            let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
-            let mut n = Vec3::ZERO;
-            n[axis] = sign;
             let corner = |s: f32, t: f32| {
-                let mut p = centre + n * h[axis];
+                let mut p = centre;
+                p[axis] += sign * h[axis];
                 p[a] += s * h[a];
                 p[b] += t * h[b];
                 p.to_array()
             };
-            let base = positions.len() as u32;
-            positions.extend([
+            // Counter-clockwise seen from +axis; reversed for the −axis face.
+            let mut q = [
                 corner(-1.0, -1.0),
                 corner(1.0, -1.0),
                 corner(1.0, 1.0),
                 corner(-1.0, 1.0),
-            ]);
-            // Counter-clockwise seen from +axis; reversed for the −axis face.
-            if sign > 0.0 {
-                indices.extend([base, base + 1, base + 2, base, base + 2, base + 3]);
-            } else {
-                indices.extend([base, base + 2, base + 1, base, base + 3, base + 2]);
+            ];
+            if sign < 0.0 {
+                q.reverse();
             }
+            faces.push(q);
         }
     }
-    MeshSpec {
-        name,
-        material,
-        positions,
-        indices,
-        normals: Vec::new(),
-    }
+    common::quads(name, material, &faces)
 }
 
 /// Writes the room with a slab mirror (`slab`) or a single-quad mirror of the slab's front
@@ -152,21 +132,7 @@ fn bake_room(slab: bool) -> PathBuf {
     );
     let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
     let bundle = dir.join(format!("{name}.glint"));
-    let settings = RadiositySettings {
-        texel_density: 8.0,
-        rays: 32,
-        light_samples: 4,
-        bounces: 2,
-        tolerance: 1e-2,
-        glossy_depth: 0,
-        target_error: None,
-        stitch_seams: false,
-    };
-    scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
-    radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent)
-        .unwrap_or_else(|e| panic!("{e}"));
-    radiance_stage::bake(&scene, &bundle, Quality::Draft, false, &Silent)
-        .unwrap_or_else(|e| panic!("{e}"));
+    common::bake_with_radiance(&scene, &bundle, &common::quick_radiosity(2));
     bundle
 }
 

@@ -115,15 +115,21 @@ pub fn slab(
     let front = ring(iw, ih, 0.0);
     let rim = ring(hw, hh, -bevel);
     let back = ring(hw, hh, -d);
-    let mut quads = vec![front, [back[0], back[3], back[2], back[1]]];
+    let mut faces = vec![front, [back[0], back[3], back[2], back[1]]];
     for k in 0..4 {
         let j = (k + 1) % 4;
-        quads.push([rim[k], rim[j], front[j], front[k]]);
-        quads.push([back[k], back[j], rim[j], rim[k]]);
+        faces.push([rim[k], rim[j], front[j], front[k]]);
+        faces.push([back[k], back[j], rim[j], rim[k]]);
     }
+    quads(name, material, &faces)
+}
+
+/// A mesh of quads, each four corners counter-clockwise seen from the side it faces (two
+/// triangles: corners 0 1 2 and 0 2 3).
+pub fn quads(name: &'static str, material: usize, faces: &[[[f32; 3]; 4]]) -> MeshSpec {
     let mut positions = Vec::new();
     let mut indices = Vec::new();
-    for q in quads {
+    for q in faces {
         let base = positions.len() as u32;
         positions.extend(q);
         indices.extend([base, base + 1, base + 2, base, base + 2, base + 3]);
@@ -135,6 +141,45 @@ pub fn slab(
         indices,
         normals: Vec::new(),
     }
+}
+
+/// The reduced radiosity settings of the reflection tests (texel density 8, 32 rays, 4 light
+/// samples, `bounces`, no glossy transport, no refinement).
+#[cfg(feature = "view")]
+pub fn quick_radiosity(bounces: u32) -> glint::scene::desc::RadiositySettings {
+    glint::scene::desc::RadiositySettings {
+        texel_density: 8.0,
+        rays: 32,
+        light_samples: 4,
+        bounces,
+        tolerance: 1e-2,
+        glossy_depth: 0,
+        target_error: None,
+        stitch_seams: false,
+    }
+}
+
+/// Bakes `scene` into `bundle`: the scene stage, radiosity with `settings` and the radiance
+/// maps at draft quality. Panics with the error.
+#[cfg(feature = "view")]
+pub fn bake_with_radiance(
+    scene: &glint::scene::Scene,
+    bundle: &Path,
+    settings: &glint::scene::desc::RadiositySettings,
+) {
+    use glint::bake::{radiance_stage, radiosity_stage, scene_stage};
+    use glint::progress::Silent;
+    scene_stage::bake(scene, bundle, false).unwrap_or_else(|e| panic!("{e}"));
+    radiosity_stage::bake(scene, bundle, settings, false, &Silent)
+        .unwrap_or_else(|e| panic!("{e}"));
+    radiance_stage::bake(
+        scene,
+        bundle,
+        glint::scene::desc::Quality::Draft,
+        false,
+        &Silent,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
 }
 
 /// Writes `NAME.gltf` + `NAME.bin` into `dir` and returns the .gltf path.
