@@ -499,9 +499,9 @@ fn buffer_uri_outside_the_gltf_folder_loads_and_bakes_into_a_bundle() {
 }
 
 /// The room with a slab mirror "Mirror" (1 × 0.7 × 0.01 m, 5 mm bevels on the front, 20
-/// triangles) whose front faces +z at z = 0.5, and a sphere "Ball", with `reflector` as the
-/// only entry of `reflectors`.
-fn slab_scene(reflector: &str) -> (tempfile::TempDir, std::path::PathBuf) {
+/// triangles) whose front faces +z at z = 0.5, a sphere "Ball" and, with `wall`, a wall 2 mm
+/// behind the slab's back, with `reflector` as the only entry of `reflectors`.
+fn wall_slab_scene(reflector: &str, wall: bool) -> (tempfile::TempDir, std::path::PathBuf) {
     let dir = tempfile::tempdir().unwrap();
     let (mut meshes, mut materials) = room();
     materials.push(MaterialSpec {
@@ -522,12 +522,19 @@ fn slab_scene(reflector: &str) -> (tempfile::TempDir, std::path::PathBuf) {
         0.005,
     ));
     meshes.push(uv_sphere("Ball", 3, [0.0, 0.5, 0.0], 0.2, false));
+    if wall {
+        meshes.push(quad("Wall", 0, 2, 0.488, 2.0));
+    }
     write_gltf(dir.path(), "room", &meshes, &materials);
     let path = write_scene(
         dir.path(),
         &format!(r#"{{ "version": 1, "geometry": "room.gltf", "reflectors": [ {reflector} ] }}"#),
     );
     (dir, path)
+}
+
+fn slab_scene(reflector: &str) -> (tempfile::TempDir, std::path::PathBuf) {
+    wall_slab_scene(reflector, false)
 }
 
 /// The triangles of object `name`.
@@ -539,8 +546,9 @@ fn object_triangles(scene: &Scene, name: &str) -> Vec<u32> {
 /// A slab mirror declared planar reflects from its front (named by `face`: "+z" or a
 /// direction): the two front triangles, the plane z = 0.5 facing +z, an outline of
 /// 0.99 × 0.69 m (the front inside its bevels); the back and edges are not the reflector.
-/// `"auto"` (and no `face`) take the larger face set: the back (0.7 m² against the front's
-/// 0.683 m²), facing −z at z = 0.49.
+/// "-z" takes the back (facing −z at z = 0.49). `"auto"` (and no `face`), with a wall 2 mm
+/// behind the slab, takes the front although the back is larger (0.7 m² against 0.683 m²):
+/// front and back are within 10% in area, and the front has more open space before it.
 #[test]
 fn slab_mirror_is_a_planar_reflector_on_its_named_face() {
     use glint::radiance::sampling::ReflectorFrame;
@@ -574,7 +582,7 @@ fn slab_mirror_is_a_planar_reflector_on_its_named_face() {
         assert!((r.bounds.max.z - 0.5).abs() < 1e-6 && (r.bounds.min.z - 0.5).abs() < 1e-6);
         assert_eq!(scene.materials[r.material as usize].name, "MirrorMat");
     }
-    for face in ["", r#", "face": "auto""#, r#", "face": "-z""#] {
+    for face in [r#", "face": "-z""#, r#", "face": [0, 0.1, -1]"#] {
         let (_dir, path) = slab_scene(&format!(
             r#"{{ "mesh": "Mirror", "kind": "planar"{face} }}"#
         ));
@@ -589,6 +597,22 @@ fn slab_mirror_is_a_planar_reflector_on_its_named_face() {
         assert_eq!(
             r.triangles,
             object_triangles(&scene, "Mirror")[2..4].to_vec()
+        );
+    }
+    for face in ["", r#", "face": "auto""#] {
+        let (_dir, path) = wall_slab_scene(
+            &format!(r#"{{ "mesh": "Mirror", "kind": "planar"{face} }}"#),
+            true,
+        );
+        let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{face}: {e}"));
+        let r = &scene.reflectors[0];
+        assert!(
+            (r.plane.unwrap().normal - Vec3::Z).length() < 1e-6,
+            "{face}"
+        );
+        assert_eq!(
+            r.triangles,
+            object_triangles(&scene, "Mirror")[..2].to_vec()
         );
     }
     // A single quad is unchanged by a face that names its side, refused by one that does not.

@@ -135,6 +135,48 @@ pub fn coplanar_sets(triangles: &[Triangle], selected: &[u32], max_offset: f64) 
     out
 }
 
+/// Rays [`free_distance`] casts.
+pub const FREE_RAYS: u32 = 64;
+
+/// How open the space in front of a face set is: the mean distance (capped at `cap`) that
+/// [`FREE_RAYS`] cosine-distributed rays (a fixed 8 × 8 stratified pattern) travel from the
+/// set's area-weighted centroid, lifted by `lift` along its normal, before they hit a triangle
+/// of `bvh`. A mirror's back against a wall gets millimetres; its front, the room.
+pub fn free_distance(
+    set: &FaceSet,
+    triangles: &[Triangle],
+    bvh: &crate::geometry::Bvh,
+    lift: f32,
+    cap: f32,
+) -> f32 {
+    let (mut centroid, mut area) = (DVec3::ZERO, 0.0f64);
+    for &t in &set.triangles {
+        let t = &triangles[t as usize];
+        let a = t.area() as f64;
+        centroid += a * (t.p[0] + t.p[1] + t.p[2]).as_dvec3() / 3.0;
+        area += a;
+    }
+    let n = set.normal;
+    let origin = (centroid / area.max(1e-30)).as_vec3() + n * lift;
+    let (t, b) = crate::sampling::basis(n);
+    let side = (FREE_RAYS as f32).sqrt() as u32;
+    let mut sum = 0.0f32;
+    for i in 0..side {
+        for j in 0..side {
+            let u = glam::Vec2::new(
+                (i as f32 + 0.5) / side as f32,
+                (j as f32 + 0.5) / side as f32,
+            );
+            let d = crate::sampling::sample_cosine_hemisphere(u);
+            let dir = (t * d.x + b * d.y + n * d.z).normalize();
+            sum += bvh
+                .closest_hit(origin, dir, cap)
+                .map_or(cap, |h| h.t.min(cap));
+        }
+    }
+    sum / (side * side) as f32
+}
+
 /// A short description of the largest face sets for messages: "0.700 m² facing (0.00, 0.00,
 /// 1.00), 2 triangles; …".
 pub fn describe(sets: &[FaceSet]) -> String {

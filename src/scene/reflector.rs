@@ -152,6 +152,10 @@ fn dominant_material(triangles: &[Triangle], selected: &[u32]) -> u32 {
         .unwrap_or(0)
 }
 
+/// Face sets whose areas are within this factor of the largest's are a tie for `"auto"`,
+/// broken by the open space in front of them ([`faces::free_distance`]).
+const AMBIGUOUS_AREA: f64 = 0.9;
+
 /// The side of its object a planar reflector faces (scene.json's `face`).
 #[derive(Clone, Debug, PartialEq)]
 enum Side {
@@ -240,6 +244,35 @@ fn planar_face(
             faces::describe(&sets)
         )
     };
+    // "auto" between face sets of about equal area (a slab's front and back): the one with
+    // more open space in front of it (a wall-mounted mirror's back faces the wall).
+    let mut facing = facing;
+    let mut open_space = None;
+    if matches!(side, Side::Auto)
+        && facing
+            .get(1)
+            .is_some_and(|n| n.area >= AMBIGUOUS_AREA * facing[0].area)
+    {
+        let bvh = crate::geometry::Bvh::build(triangles);
+        let scene = Aabb::from_points(triangles.iter().flat_map(|t| t.p.iter())).diagonal();
+        let close: Vec<(f32, &FaceSet)> = facing
+            .iter()
+            .take_while(|s| s.area >= AMBIGUOUS_AREA * facing[0].area)
+            .map(|s| {
+                (
+                    faces::free_distance(s, triangles, &bvh, 1e-3 * size, scene),
+                    *s,
+                )
+            })
+            .collect();
+        // Most open first; equal distances keep the larger area (stable sort).
+        let mut order = close.clone();
+        order.sort_by(|a, b| b.0.total_cmp(&a.0));
+        open_space = Some((order[0].0, order[1].0));
+        let chosen = order[0].1;
+        facing.retain(|s| *s != chosen);
+        facing.insert(0, chosen);
+    }
     let Some(best) = facing.first() else {
         let Side::Toward(_, name) = side else {
             unreachable!("\"auto\" accepts every face set and there is at least one");
@@ -290,10 +323,17 @@ fn planar_face(
                     n.area, n.normal.x, n.normal.y, n.normal.z
                 )
             });
-            format!(
-                "face \"auto\": the largest of its {} coplanar face sets{next}; name the side with `face` to choose another",
-                sets.len()
-            )
+            match open_space {
+                None => format!(
+                    "face \"auto\": the largest of its {} coplanar face sets{next}; name the side with `face` to choose another",
+                    sets.len()
+                ),
+                Some((mine, other)) => format!(
+                    "face \"auto\": of its {} coplanar face sets, the largest are within {:.0}% of each other in area and this one has the most open space in front of it (rays travel {mine:.3} m on average, {other:.3} m in front of the next){next}; name the side with `face` to choose another",
+                    sets.len(),
+                    100.0 * (1.0 - AMBIGUOUS_AREA)
+                ),
+            }
         }
         Side::Toward(_, n) => format!("face {n}: the largest coplanar face set facing it"),
     };
@@ -305,9 +345,13 @@ fn planar_face(
         plane.normal.z,
         best.triangles.len(),
     );
-    if matches!(side, Side::Auto) && facing.get(1).is_some_and(|n| n.area >= 0.9 * best.area) {
+    let tie = match open_space {
+        Some((mine, other)) => other >= 0.9 * mine,
+        None => false,
+    };
+    if tie {
         log::warn!(
-            "reflector {name:?}: faces ({:.2}, {:.2}, {:.2}) by \"auto\", but another face set is within 10% of its area; name the side with `face` (\"+z\", [0, 0, 1], …)",
+            "reflector {name:?}: faces ({:.2}, {:.2}, {:.2}) by \"auto\", but another face set is within 10% of its area and of its open space in front; name the side with `face` (\"+z\", [0, 0, 1], …)",
             plane.normal.x,
             plane.normal.y,
             plane.normal.z

@@ -284,10 +284,11 @@ pub const FILL_RING: [(i32, i32); 8] = [
     (1, -1),
 ];
 
-/// The value of an M texel no splat covered (alpha 0): the mean of the covered texels (alpha
-/// > 0) among the [`FILL_RING`] directions on the nearest ring, of radius 1, 2, 4, … pixels,
-/// that has any; zero when nothing in the `width` × `height` image `m` (row-major) is
-/// covered along them. The composite's `fill_hole` (`shaders/reflect.wgsl`) on the CPU.
+/// The value of an M texel no splat covered (alpha 0): the mean of the covered texels
+/// (positive alpha) among the [`FILL_RING`] directions on the nearest ring, of radius 1, 2,
+/// 4, … pixels, that has any; zero when nothing in the `width` × `height` image `m`
+/// (row-major) is covered along them. The composite's `fill_hole` (`shaders/reflect.wgsl`)
+/// on the CPU.
 pub fn fill_hole(m: &[Vec4], width: u32, height: u32, x: i32, y: i32) -> Vec4 {
     let (w, h) = (width as i32, height as i32);
     let mut r = 1;
