@@ -116,12 +116,7 @@ fn write_failure(name: &str, gpu_img: &[u8], cpu_img: &[u8]) {
 }
 
 fn write_failure_sized(name: &str, size: (u32, u32), gpu_img: &[u8], cpu_img: &[u8]) {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .parent()
-        .unwrap()
-        .join("golden-failures")
-        .join(name);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::failure_dir(name);
     let rgb = |img: &[u8]| glint::view::headless::rgba_to_rgb(img);
     let diff: Vec<u8> = gpu_img
         .iter()

@@ -196,12 +196,7 @@ fn write_failure(
     frames: &[(&str, &[Vec3])],
     holes: &[(usize, usize)],
 ) {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .parent()
-        .unwrap()
-        .join("golden-failures")
-        .join(name);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::failure_dir(name);
     let png = |rgb: &[u8]| glint::image_io::encode_png(size.0, size.1, rgb, false).unwrap();
     for (file, f) in frames {
         let rgb = glint::view::headless::rgba_to_rgb(&glint::view::cpu_render::to_srgb8(f));
