@@ -14,7 +14,8 @@
 // 2. `vs_mirror`/`fs_composite`: the reflector's triangles drawn again over the frame, depth
 //    tested (GreaterEqual, reverse Z) against the scene pass's depth (the mask), adding
 //    ks·R × (M*K) at the same pixel (additive blend): K's taps gathered around the pixel,
-//    R from the 1D table (cos θ) or the sphere map (reflected direction).
+//    R from the 1D table (cos θ) or the sphere map (reflected direction). In image mode a
+//    pixel of the reflector whose M texel no splat covered is filled first (`fill_hole`).
 //
 // Keep `ReflectParams` in sync with `reflections::ReflectParams` (a test compares them).
 
@@ -30,7 +31,8 @@ struct ReflectParams {
     tangent: vec4<f32>,
     // xyz: the plane's bitangent; w: the sphere map's size in texels.
     bitangent: vec4<f32>,
-    // x: screen pixels per kernel texel for a point wholly beyond the plane; y: tap count.
+    // x: screen pixels per kernel texel for a point wholly beyond the plane; y: tap count;
+    // z: 1 = fill M's uncovered texels (image mode), 0 = they reflect nothing (geometry mode).
     kernel: vec4<f32>,
     // The composite's clip (`fs_composite`): in a recursive map (Nielsen §3.1), the parent
     // mirror's plane, xyz its normal, w = normal · point + clip distance; fragments p with
@@ -115,6 +117,38 @@ fn sphere_modulation(r: vec3<f32>) -> vec3<f32> {
     return textureLoad(sphere_map, vec2<i32>(i32(x), i32(y)), 0).rgb;
 }
 
+// Offsets of the 8 directions `fill_hole` samples (axes and diagonals).
+const RING = array<vec2<i32>, 8>(
+    vec2<i32>(1, 0), vec2<i32>(1, 1), vec2<i32>(0, 1), vec2<i32>(-1, 1),
+    vec2<i32>(-1, 0), vec2<i32>(-1, -1), vec2<i32>(0, -1), vec2<i32>(1, -1),
+);
+
+// An M texel no splat covered (image mode: a gap between splats, or a direction no selected
+// radiance map saw, as at grazing views beyond the maps' frusta): the mean of the covered
+// texels among 8 directions on the nearest ring, of radius 1, 2, 4, … pixels, that has any
+// (`splats::fill_hole` on the CPU). Zero when nothing is covered within the frame.
+fn fill_hole(p: vec2<i32>) -> vec4<f32> {
+    let size = vec2<i32>(textureDimensions(reflection));
+    for (var r = 1; r < 2 * max(size.x, size.y); r = r * 2) {
+        var sum = vec4<f32>(0.0);
+        var n = 0.0;
+        for (var k = 0; k < 8; k++) {
+            let q = p + RING[k] * r;
+            if all(q >= vec2<i32>(0)) && all(q < size) {
+                let t = textureLoad(reflection, q, 0);
+                if t.a > 0.0 {
+                    sum += t;
+                    n += 1.0;
+                }
+            }
+        }
+        if n > 0.0 {
+            return sum / n;
+        }
+    }
+    return vec4<f32>(0.0);
+}
+
 @fragment
 fn fs_composite(in: MirrorOut) -> FragmentOut {
     // A child reflector straddling its parent mirror's plane: the part behind the parent was
@@ -123,11 +157,16 @@ fn fs_composite(in: MirrorOut) -> FragmentOut {
     if dot(reflect_params.parent.xyz, in.world) <= reflect_params.parent.w {
         discard;
     }
-    let centre = textureLoad(reflection, vec2<i32>(floor(in.clip.xy)), 0);
+    var centre = textureLoad(reflection, vec2<i32>(floor(in.clip.xy)), 0);
+    let hole = centre.a <= 0.0 && reflect_params.kernel.z > 0.5;
+    if hole {
+        centre = fill_hole(vec2<i32>(floor(in.clip.xy)));
+    }
     var m = centre.rgb;
     let taps = u32(reflect_params.kernel.y);
-    // M*K: K's taps around the pixel, a texel spanning kernel.x × (beyond fraction) pixels.
-    if taps > 1u && centre.a > 0.0 {
+    // M*K: K's taps around the pixel, a texel spanning kernel.x × (beyond fraction) pixels
+    // (not around a filled texel: its neighbours are holes too, and the fill is a blur).
+    if taps > 1u && centre.a > 0.0 && !hole {
         let size = vec2<f32>(textureDimensions(reflection));
         let scale = reflect_params.kernel.x * centre.a;
         m = vec3<f32>(0.0);

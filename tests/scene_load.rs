@@ -649,3 +649,179 @@ fn gltf_camera_nodes_become_camera_paths() {
     let scene = Scene::load(&path).unwrap();
     assert_eq!(scene.camera_path(None).unwrap().name, "Overview");
 }
+
+/// The room with a slab mirror "Mirror" (1 × 0.7 × 0.01 m, 5 mm bevels on the front, 20
+/// triangles) whose front faces +z at z = 0.5, a sphere "Ball" and, with `wall`, a wall 2 mm
+/// behind the slab's back, with `reflector` as the only entry of `reflectors`.
+fn wall_slab_scene(reflector: &str, wall: bool) -> (tempfile::TempDir, std::path::PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let (mut meshes, mut materials) = room();
+    materials.push(MaterialSpec {
+        name: "MirrorMat",
+        base: [0.95, 0.95, 0.95, 1.0],
+        metallic: 1.0,
+        roughness: 0.0,
+        emissive: [0.0; 3],
+        strength: 1.0,
+    });
+    meshes.push(slab(
+        "Mirror",
+        3,
+        [0.0, 1.0, 0.5],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        (1.0, 0.7, 0.01),
+        0.005,
+    ));
+    meshes.push(uv_sphere("Ball", 3, [0.0, 0.5, 0.0], 0.2, false));
+    if wall {
+        meshes.push(quad("Wall", 0, 2, 0.488, 2.0));
+    }
+    write_gltf(dir.path(), "room", &meshes, &materials);
+    let path = write_scene(
+        dir.path(),
+        &format!(r#"{{ "version": 1, "geometry": "room.gltf", "reflectors": [ {reflector} ] }}"#),
+    );
+    (dir, path)
+}
+
+fn slab_scene(reflector: &str) -> (tempfile::TempDir, std::path::PathBuf) {
+    wall_slab_scene(reflector, false)
+}
+
+/// The triangles of object `name`.
+fn object_triangles(scene: &Scene, name: &str) -> Vec<u32> {
+    let o = scene.objects.iter().find(|o| o.is_named(name)).unwrap();
+    o.triangles.clone().collect()
+}
+
+/// A slab mirror declared planar reflects from its front (named by `face`: "+z" or a
+/// direction): the two front triangles, the plane z = 0.5 facing +z, an outline of
+/// 0.99 × 0.69 m (the front inside its bevels); the back and edges are not the reflector.
+/// "-z" takes the back (facing −z at z = 0.49). `"auto"` (and no `face`), with a wall 2 mm
+/// behind the slab, takes the front although the back is larger (0.7 m² against 0.683 m²):
+/// front and back are within 10% in area, and the front has more open space before it.
+#[test]
+fn slab_mirror_is_a_planar_reflector_on_its_named_face() {
+    use glint::radiance::sampling::ReflectorFrame;
+    for face in [r#""+z""#, "[0, 0.2, 1]"] {
+        let (_dir, path) = slab_scene(&format!(
+            r#"{{ "mesh": "Mirror", "kind": "planar", "face": {face} }}"#
+        ));
+        let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{face}: {e}"));
+        let all = object_triangles(&scene, "Mirror");
+        assert_eq!(all.len(), 20);
+        let r = &scene.reflectors[0];
+        assert_eq!(r.kind, ReflectorKind::Planar);
+        assert_eq!(
+            r.triangles,
+            all[..2].to_vec(),
+            "{face}: the front's two triangles"
+        );
+        let plane = r.plane.unwrap();
+        assert!(
+            (plane.normal - Vec3::Z).length() < 1e-6,
+            "{face}: {plane:?}"
+        );
+        assert!((plane.point - Vec3::new(0.0, 1.0, 0.5)).length() < 1e-5);
+        let frame = ReflectorFrame::new(&plane, r, &scene.triangles);
+        let (lo, hi) = (frame.size.min_element(), frame.size.max_element());
+        assert!(
+            (lo - 0.69).abs() < 1e-5 && (hi - 0.99).abs() < 1e-5,
+            "outline {}",
+            frame.size
+        );
+        assert!((r.bounds.max.z - 0.5).abs() < 1e-6 && (r.bounds.min.z - 0.5).abs() < 1e-6);
+        assert_eq!(scene.materials[r.material as usize].name, "MirrorMat");
+    }
+    for face in [r#", "face": "-z""#, r#", "face": [0, 0.1, -1]"#] {
+        let (_dir, path) = slab_scene(&format!(
+            r#"{{ "mesh": "Mirror", "kind": "planar"{face} }}"#
+        ));
+        let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{face}: {e}"));
+        let r = &scene.reflectors[0];
+        let plane = r.plane.unwrap();
+        assert!(
+            (plane.normal + Vec3::Z).length() < 1e-6,
+            "{face}: {plane:?}"
+        );
+        assert!((plane.point.z - 0.49).abs() < 1e-5);
+        assert_eq!(
+            r.triangles,
+            object_triangles(&scene, "Mirror")[2..4].to_vec()
+        );
+    }
+    for face in ["", r#", "face": "auto""#] {
+        let (_dir, path) = wall_slab_scene(
+            &format!(r#"{{ "mesh": "Mirror", "kind": "planar"{face} }}"#),
+            true,
+        );
+        let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{face}: {e}"));
+        let r = &scene.reflectors[0];
+        assert!(
+            (r.plane.unwrap().normal - Vec3::Z).length() < 1e-6,
+            "{face}"
+        );
+        assert_eq!(
+            r.triangles,
+            object_triangles(&scene, "Mirror")[..2].to_vec()
+        );
+    }
+    // A single quad is unchanged by a face that names its side, refused by one that does not.
+    let (_dir, path) = slab_scene(r#"{ "mesh": "Floor", "kind": "planar", "face": "+y" }"#);
+    let scene = Scene::load(&path).unwrap();
+    assert_eq!(scene.reflectors[0].triangles, vec![0, 1]);
+}
+
+/// Every way a planar face can be missing names the file, the field, the reflector and what
+/// was found: no face set faces the named side; a sphere (no face set dominates); a face that
+/// is not one; a face on a curved reflector.
+#[test]
+fn slab_mirror_errors_name_the_reflector_and_what_was_found() {
+    let err = |r: &str| {
+        let (_dir, path) = slab_scene(r);
+        match Scene::load(&path) {
+            Ok(_) => panic!("{r} loaded"),
+            Err(e) => e.to_string(),
+        }
+    };
+    let e = err(r#"{ "mesh": "Mirror", "kind": "planar", "face": "+x" }"#);
+    assert!(
+        e.contains("scene.json")
+            && e.contains("reflectors[0].face")
+            && e.contains("reflector \"Mirror\"")
+            && e.contains("the largest coplanar face set facing +x holds only 1%")
+            && e.contains("20 triangles form 10 coplanar face sets")
+            && e.contains("0.7000 m² facing (0.00, 0.00, -1.00)"),
+        "{e}"
+    );
+    // A side no face set faces at all.
+    let (_dir, path) = slab_scene(r#"{ "mesh": "Floor", "kind": "planar", "face": "-y" }"#);
+    let e = Scene::load(&path).unwrap_err().to_string();
+    assert!(
+        e.contains("reflectors[0].face")
+            && e.contains("no coplanar face set faces -y")
+            && e.contains("4.0000 m² facing (0.00, 1.00, 0.00), 2 triangles"),
+        "{e}"
+    );
+    let e = err(r#"{ "mesh": "Ball", "kind": "planar" }"#);
+    assert!(
+        e.contains("reflectors[0].kind")
+            && e.contains("reflector \"Ball\"")
+            && e.contains("face opposite ways")
+            && e.contains("declare it \"curved\""),
+        "{e}"
+    );
+    let e = err(r#"{ "mesh": "Mirror", "kind": "planar", "face": "front" }"#);
+    assert!(
+        e.contains("reflectors[0].face") && e.contains("\"front\" is not a face"),
+        "{e}"
+    );
+    let e = err(r#"{ "mesh": "Mirror", "kind": "planar", "face": [0, 0, 0] }"#);
+    assert!(e.contains("is not a direction"), "{e}");
+    let e = err(r#"{ "mesh": "Ball", "kind": "curved", "face": "+z" }"#);
+    assert!(
+        e.contains("reflectors[0].face") && e.contains("only a \"planar\" reflector"),
+        "{e}"
+    );
+}

@@ -28,7 +28,7 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 use glam::Vec3;
-use glint::bake::{materials, radiance_stage, radiosity_stage, scene_stage};
+use glint::bake::materials;
 use glint::camera::pose_at;
 use glint::geometry::Bvh;
 use glint::progress::Silent;
@@ -120,12 +120,7 @@ fn write_failure(name: &str, gpu_img: &[u8], cpu_img: &[u8]) {
 }
 
 fn write_failure_sized(name: &str, size: (u32, u32), gpu_img: &[u8], cpu_img: &[u8]) {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .parent()
-        .unwrap()
-        .join("golden-failures")
-        .join(name);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::failure_dir(name);
     let rgb = |img: &[u8]| glint::view::headless::rgba_to_rgb(img);
     let diff: Vec<u8> = gpu_img
         .iter()
@@ -578,22 +573,7 @@ fn mirror_reflecting_a_flat_wall_matches_in_both_modes() {
     );
     let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
     let bundle = dir.join("mirror.glint");
-    let settings = RadiositySettings {
-        texel_density: 8.0,
-        rays: 32,
-        light_samples: 4,
-        bounces: 2,
-        tolerance: 1e-2,
-        glossy_depth: 0,
-        target_error: None,
-        min_chart_texels: 0,
-        stitch_seams: false,
-    };
-    scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
-    radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent)
-        .unwrap_or_else(|e| panic!("{e}"));
-    radiance_stage::bake(&scene, &bundle, Quality::Draft, false, &Silent)
-        .unwrap_or_else(|e| panic!("{e}"));
+    common::bake_with_radiance(&scene, &bundle, &common::quick_radiosity(2));
     let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
     let r = reflections::reflectors_with_reflectance(&data);
     assert_eq!(r.len(), 1);

@@ -190,6 +190,25 @@ pub struct ReflectorDesc {
     /// Radiance-map overrides for this reflector (otherwise chosen from its glossiness).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub radiance: Option<RadianceOverride>,
+    /// The side a `planar` reflector reflects, for an object that is more than one plane (a
+    /// slab mirror: front, back and bevelled edges): `"+x"`, `"-x"`, `"+y"`, `"-y"`, `"+z"`,
+    /// `"-z"` or a direction `[x, y, z]`: the largest coplanar face set facing that side
+    /// (normal · direction > 0) reflects; `"auto"` (the default): the largest one, or between
+    /// sets within 10% in area (a slab's front and back) the one with more open space in
+    /// front of it, said in the log. The rest of the object is drawn as an ordinary surface.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub face: Option<FaceDesc>,
+}
+
+/// Which side of its object a planar reflector faces: a name (`"auto"`, `"+x"` … `"-z"`) or
+/// a direction.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(untagged)]
+pub enum FaceDesc {
+    /// `"auto"` or a signed axis, `"+x"` … `"-z"`.
+    Named(String),
+    /// A direction (need not be unit length).
+    Direction([f32; 3]),
 }
 
 fn default_scale() -> f32 {

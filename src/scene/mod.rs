@@ -2,11 +2,13 @@
 //!
 //! [`Scene::load`] reads and checks everything, in this order: [`desc`] (the file's schema and
 //! version), the glTF (`gltf_import`), [`material`] overrides, lights (`light`), the bake
-//! settings, reflectors (`reflector`, with `plane` fits), impostors (`impostor`) and camera
-//! paths (`camera_path`, then the glTF's cameras, `gltf_cameras`). Each part's types are re-exported here.
+//! settings, reflectors (`reflector`, with `plane` fits and, for a planar face of a solid, the
+//! coplanar face sets of [`faces`]), impostors (`impostor`) and camera paths (`camera_path`,
+//! then the glTF's cameras, `gltf_cameras`). Each part's types are re-exported here.
 
 mod camera_path;
 pub mod desc;
+pub mod faces;
 mod gltf_cameras;
 pub(crate) mod gltf_import;
 mod impostor;

@@ -20,6 +20,22 @@ pub(super) fn fit_plane(
     selected: &[u32],
     tol: f32,
 ) -> Result<Plane, String> {
+    let bounds = Aabb::from_points(
+        selected
+            .iter()
+            .flat_map(|&t| triangles[t as usize].p.iter()),
+    );
+    fit_plane_sized(triangles, selected, tol, bounds.diagonal())
+}
+
+/// [`fit_plane`] with the vertices' distances measured against `tol` × `size` (metres): the
+/// size of the object a face set belongs to rather than of the face set itself.
+pub(super) fn fit_plane_sized(
+    triangles: &[Triangle],
+    selected: &[u32],
+    tol: f32,
+    size: f32,
+) -> Result<Plane, String> {
     let mut normal_sum = glam::DVec3::ZERO;
     let mut centroid = glam::DVec3::ZERO;
     let mut area = 0.0f64;
@@ -39,12 +55,7 @@ pub(super) fn fit_plane(
         );
     }
     let centroid = centroid / area;
-    let bounds = Aabb::from_points(
-        selected
-            .iter()
-            .flat_map(|&t| triangles[t as usize].p.iter()),
-    );
-    let size = bounds.diagonal() as f64;
+    let size = size as f64;
     let worst = selected
         .iter()
         .flat_map(|&t| triangles[t as usize].p.iter())

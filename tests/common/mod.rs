@@ -90,6 +90,99 @@ pub fn quad(name: &'static str, material: usize, axis: usize, offset: f32, h: f3
     }
 }
 
+/// A slab mirror as real assets model one: a `w` × `h` box `d` thick whose front face is
+/// bevelled at 45° by `bevel` on every side (front inset by `bevel`, 20 triangles: front 2,
+/// back 2, bevels 8, sides 8), wound counter-clockwise seen from outside. The front's centre
+/// is `centre`, its normal `right` × `up` (both unit, perpendicular); the back lies `d` behind.
+pub fn slab(
+    name: &'static str,
+    material: usize,
+    centre: [f32; 3],
+    right: [f32; 3],
+    up: [f32; 3],
+    size: (f32, f32, f32),
+    bevel: f32,
+) -> MeshSpec {
+    use glam::Vec3;
+    let (w, h, d) = size;
+    let (c, r, u) = (Vec3::from(centre), Vec3::from(right), Vec3::from(up));
+    let n = r.cross(u);
+    // Local (x right, y up, z out of the front) to world.
+    let at = |x: f32, y: f32, z: f32| (c + r * x + u * y + n * z).to_array();
+    let (hw, hh) = (0.5 * w, 0.5 * h);
+    let (iw, ih) = (hw - bevel, hh - bevel);
+    let ring = |x: f32, y: f32, z: f32| [at(-x, -y, z), at(x, -y, z), at(x, y, z), at(-x, y, z)];
+    let front = ring(iw, ih, 0.0);
+    let rim = ring(hw, hh, -bevel);
+    let back = ring(hw, hh, -d);
+    let mut faces = vec![front, [back[0], back[3], back[2], back[1]]];
+    for k in 0..4 {
+        let j = (k + 1) % 4;
+        faces.push([rim[k], rim[j], front[j], front[k]]);
+        faces.push([back[k], back[j], rim[j], rim[k]]);
+    }
+    quads(name, material, &faces)
+}
+
+/// A mesh of quads, each four corners counter-clockwise seen from the side it faces (two
+/// triangles: corners 0 1 2 and 0 2 3).
+pub fn quads(name: &'static str, material: usize, faces: &[[[f32; 3]; 4]]) -> MeshSpec {
+    let mut positions = Vec::new();
+    let mut indices = Vec::new();
+    for q in faces {
+        let base = positions.len() as u32;
+        positions.extend(q);
+        indices.extend([base, base + 1, base + 2, base, base + 2, base + 3]);
+    }
+    MeshSpec {
+        name,
+        material,
+        positions,
+        indices,
+        normals: Vec::new(),
+    }
+}
+
+/// The reduced radiosity settings of the reflection tests (texel density 8, 32 rays, 4 light
+/// samples, `bounces`, no glossy transport, no refinement).
+#[cfg(feature = "view")]
+pub fn quick_radiosity(bounces: u32) -> glint::scene::desc::RadiositySettings {
+    glint::scene::desc::RadiositySettings {
+        texel_density: 8.0,
+        min_chart_texels: 0,
+        rays: 32,
+        light_samples: 4,
+        bounces,
+        tolerance: 1e-2,
+        glossy_depth: 0,
+        target_error: None,
+        stitch_seams: false,
+    }
+}
+
+/// Bakes `scene` into `bundle`: the scene stage, radiosity with `settings` and the radiance
+/// maps at draft quality. Panics with the error.
+#[cfg(feature = "view")]
+pub fn bake_with_radiance(
+    scene: &glint::scene::Scene,
+    bundle: &Path,
+    settings: &glint::scene::desc::RadiositySettings,
+) {
+    use glint::bake::{radiance_stage, radiosity_stage, scene_stage};
+    use glint::progress::Silent;
+    scene_stage::bake(scene, bundle, false).unwrap_or_else(|e| panic!("{e}"));
+    radiosity_stage::bake(scene, bundle, settings, false, &Silent)
+        .unwrap_or_else(|e| panic!("{e}"));
+    radiance_stage::bake(
+        scene,
+        bundle,
+        glint::scene::desc::Quality::Draft,
+        false,
+        &Silent,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+}
+
 /// Writes `NAME.gltf` + `NAME.bin` into `dir` and returns the .gltf path.
 pub fn write_gltf(
     dir: &Path,

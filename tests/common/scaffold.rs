@@ -37,3 +37,14 @@ pub const UPDATE_GOLDENS: &str = "GLINT_UPDATE_GOLDENS";
 pub fn update_goldens() -> bool {
     std::env::var_os(UPDATE_GOLDENS).is_some_and(|v| v == "1")
 }
+
+/// `target/golden-failures/NAME/`, created: where a failing image comparison writes its images.
+pub fn failure_dir(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .parent()
+        .expect("CARGO_TARGET_TMPDIR lies in the target folder")
+        .join("golden-failures")
+        .join(name);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}

@@ -14,7 +14,9 @@
 //!      baked radiance maps closest to the mirrored eye ([`super::radiance_maps::select`],
 //!      by angle or distance) reprojected as splats (instanced quads: WebGPU has no point
 //!      size), sized by Eq. 3 per quadtree node, culled per node, points skipped when
-//!      minified ([`splats`], on the GPU in [`splat_maps`]).
+//!      minified ([`splats`], on the GPU in [`splat_maps`]). Texels no splat covered (gaps,
+//!      and directions no selected map saw: at grazing views, beyond the maps' frusta) are
+//!      filled in the composite from the nearest covered ones ([`splats::fill_hole`]).
 //! 2. The composite: the reflector drawn again over the frame, depth-tested against the scene
 //!    pass (the mask), adding ks·R × (M*K) at the same pixel: the convolution with K is a
 //!    gather of K's significant taps, scaled per pixel ([`material`]), R from the sphere map

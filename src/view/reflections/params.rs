@@ -31,7 +31,8 @@ pub struct ReflectParams {
     pub tangent: [f32; 4],
     /// The plane's bitangent xyz; w: the sphere map's size in texels.
     pub bitangent: [f32; 4],
-    /// x: screen pixels per kernel texel at beyond-fraction 1 (per frame); y: tap count.
+    /// x: screen pixels per kernel texel at beyond-fraction 1 (per frame); y: tap count;
+    /// z: 1 to fill M's texels no splat covered (image mode, [`super::splats::fill_hole`]).
     pub kernel: [f32; 4],
     /// The composite's clip: in a recursive map, the parent mirror's plane (normal xyz,
     /// w = normal · point + clip distance), fragments p with xyz · p ≤ w discarded;

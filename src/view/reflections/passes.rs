@@ -1,6 +1,7 @@
 //! The single-level reflection passes on the GPU (`shaders/reflect.wgsl`): per reflector, the
 //! mirror pass (geometry re-rendered, or radiance-map splats from [`super::splat_maps`]) into
-//! M, and the composite that adds ks·(M*K)·R over the reflector. The math they use lives in
+//! M, and the composite that adds ks·(M*K)·R over the reflector (in image mode filling the
+//! texels no splat covered first, [`super::splats::fill_hole`]). The math they use lives in
 //! [`super::splats`] and [`super::material`], the shader's inputs in [`super::params`].
 
 use glam::{Mat4, Vec3};
@@ -316,6 +317,12 @@ impl GeometryReflections {
             let mut p = ReflectParams::new(&r.reflector, self.clip, camera.position);
             // Screen pixels per kernel texel at beyond-fraction 1 (scaled per pixel).
             p.kernel[0] = super::material::texel_pixels(r.reflector.kernel.texel_angle, 1.0, pitch);
+            // Image mode: M's uncovered texels are holes to fill, not empty reflections.
+            p.kernel[2] = if matches!(self.source, Source::Image { .. }) {
+                1.0
+            } else {
+                0.0
+            };
             gpu.queue.write_buffer(&r.params, 0, bytemuck::bytes_of(&p));
             if let (Source::Image { selection, count }, Some(maps)) = (self.source, &r.splats)
                 && self.visible(r, camera)
