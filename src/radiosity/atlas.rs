@@ -60,7 +60,8 @@ impl DensityRule {
     /// The density of a chart whose longer side is `side` metres.
     pub fn chart_density(&self, side: f32) -> f32 {
         let d = self.per_metre;
-        if self.min_across == 0 || !(side > 0.0) {
+        // A NaN or non-positive side (a degenerate chart) keeps the per-metre density.
+        if self.min_across == 0 || side.is_nan() || side <= 0.0 {
             return d;
         }
         let boost = (self.min_across as f32 / (side * d)).clamp(1.0, MAX_CHART_BOOST);
