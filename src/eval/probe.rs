@@ -228,10 +228,10 @@ pub fn diffuse_points_clear_of(
     if tris.is_empty() || total.is_nan() || total <= 0.0 {
         return out;
     }
-    // Points within a hair of another surface (a concave edge) are left out: there the
-    // reference's own rays, offset by the ray epsilon, pass the neighbouring wall, and it
-    // reads too dark (measured on glossy-room: 0.155 at 5 µm from a corner, 0.196 at 0.1 mm,
-    // D 0.196), so such a probe would measure the reference, not D.
+    // Points within a hair of another surface (a concave edge) are left out: rays that start
+    // within about 0.1 mm of a wall miss it (a BVH robustness limit), so the reference's paths
+    // escape there and it reads too dark (measured on glossy-room: 0.155 at 5 µm from a
+    // corner, 0.196 at 0.1 mm, D 0.196): such a probe would measure that, not D.
     let min_clearance = clearance_m.max(1e-4 * scene.bounds.diagonal());
     let mut rng = Rng::new(seed, 0);
     for _ in 0..64 * count {

@@ -163,8 +163,9 @@ pub enum AtlasError {
     BadDensity(f32),
 }
 
-/// Estimated texels of the atlas for `triangles` at `density`, before building it: charted
-/// area plus the padding of one chart per triangle group (an upper bound for memory checks).
+/// Estimated texels of the atlas for `triangles` under `rule`, before building it: charted
+/// area plus the padding of one chart per triangle group (an upper bound for memory checks);
+/// with a minimum per chart, each chart's own rectangle at its raised density.
 pub fn estimate_texels(triangles: &[Triangle], rule: DensityRule) -> f64 {
     let d = rule.per_metre as f64;
     if rule.min_across == 0 {
@@ -177,7 +178,7 @@ pub fn estimate_texels(triangles: &[Triangle], rule: DensityRule) -> f64 {
     make_charts(triangles)
         .iter()
         .map(|c| {
-            let extent = chart_extent(triangles, c);
+            let extent = chart_extent(&chart_plane_coords(triangles, c));
             let dc = rule.chart_density(extent.max_element()) as f64;
             let side = |e: f32| (e as f64 * dc).ceil() + (2 * BORDER) as f64;
             side(extent.x) * side(extent.y)
@@ -208,13 +209,8 @@ pub fn build_with(
     }
     let charts = make_charts(triangles);
     // Project each chart to its plane, in texels.
-    let mut projected: Vec<ProjectedChart> = charts
-        .iter()
-        .map(|c| {
-            let side = chart_extent(triangles, c).max_element();
-            project(triangles, c, rule.chart_density(side))
-        })
-        .collect();
+    let mut projected: Vec<ProjectedChart> =
+        charts.iter().map(|c| project(triangles, c, rule)).collect();
     for p in &projected {
         if p.w > MAX_PAGE || p.h > MAX_PAGE {
             return Err(AtlasError::ChartTooLarge {
@@ -348,27 +344,31 @@ fn chart_plane_coords(triangles: &[Triangle], chart: &[u32]) -> Vec<[Vec2; 3]> {
         .collect()
 }
 
-/// Width and height in metres of a chart's bounding rectangle on its projection plane.
-fn chart_extent(triangles: &[Triangle], chart: &[u32]) -> Vec2 {
-    let raw = chart_plane_coords(triangles, chart);
-    let min = raw.iter().flatten().fold(Vec2::INFINITY, |m, p| m.min(*p));
-    let max = raw
+/// The bounding rectangle (min, max) of chart coordinates.
+fn bounds(coords: &[[Vec2; 3]]) -> (Vec2, Vec2) {
+    let min = coords
+        .iter()
+        .flatten()
+        .fold(Vec2::INFINITY, |m, p| m.min(*p));
+    let max = coords
         .iter()
         .flatten()
         .fold(Vec2::NEG_INFINITY, |m, p| m.max(*p));
+    (min, max)
+}
+
+/// Width and height in metres of a chart's bounding rectangle on its projection plane.
+fn chart_extent(coords: &[[Vec2; 3]]) -> Vec2 {
+    let (min, max) = bounds(coords);
     (max - min).max(Vec2::ZERO)
 }
 
-fn project(triangles: &[Triangle], chart: &[u32], density: f32) -> ProjectedChart {
-    let raw: Vec<[Vec2; 3]> = chart_plane_coords(triangles, chart)
-        .into_iter()
-        .map(|c| c.map(|p| p * density))
-        .collect();
-    let min = raw.iter().flatten().fold(Vec2::INFINITY, |m, p| m.min(*p));
-    let max = raw
-        .iter()
-        .flatten()
-        .fold(Vec2::NEG_INFINITY, |m, p| m.max(*p));
+/// Projects a chart at the density `rule` gives it (from its size on its plane).
+fn project(triangles: &[Triangle], chart: &[u32], rule: DensityRule) -> ProjectedChart {
+    let metres = chart_plane_coords(triangles, chart);
+    let density = rule.chart_density(chart_extent(&metres).max_element());
+    let raw: Vec<[Vec2; 3]> = metres.into_iter().map(|c| c.map(|p| p * density)).collect();
+    let (min, max) = bounds(&raw);
     let ext = (max - min).max(Vec2::splat(1e-3));
     let shift = Vec2::splat(BORDER as f32) - min;
     ProjectedChart {

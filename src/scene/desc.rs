@@ -598,17 +598,13 @@ impl RadiositySettings {
         // enough for seams to be stitched without flattening a curved mesh's shading (on
         // bunny-mirror at 16 texels/m the bunny's charts are 1–2 texels wide). Draft leaves
         // seams unstitched: it is the quick look.
-        let (texel_density, min_chart, rays, light_samples, bounces, glossy_depth, tolerance) =
+        #[rustfmt::skip]
+        let (texel_density, min_chart, rays, light_samples, bounces, glossy_depth, tolerance, target, stitch) =
             match quality {
-                Quality::Draft => (8.0, 4, 64, 8, 8, 2, 1e-2),
-                Quality::Default => (16.0, 8, 256, 32, 16, 4, 3e-3),
-                Quality::High => (32.0, 12, 1024, 128, 32, 8, 1e-3),
+                Quality::Draft => (8.0, 4, 64, 8, 8, 2, 1e-2, 0.05, false),
+                Quality::Default => (16.0, 8, 256, 32, 16, 4, 3e-3, 0.02, true),
+                Quality::High => (32.0, 12, 1024, 128, 32, 8, 1e-3, 0.01, true),
             };
-        let (target, stitch) = match quality {
-            Quality::Draft => (0.05, false),
-            Quality::Default => (0.02, true),
-            Quality::High => (0.01, true),
-        };
         RadiositySettings {
             texel_density,
             min_chart_texels: min_chart,
