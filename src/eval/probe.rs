@@ -228,10 +228,11 @@ pub fn diffuse_points_clear_of(
     if tris.is_empty() || total.is_nan() || total <= 0.0 {
         return out;
     }
-    // Points within a hair of another surface (a concave edge) are left out: rays that start
-    // within about 0.1 mm of a wall miss it (a BVH robustness limit), so the reference's paths
-    // escape there and it reads too dark (measured on glossy-room: 0.155 at 5 µm from a
-    // corner, 0.196 at 0.1 mm, D 0.196): such a probe would measure that, not D.
+    // Points within a hair of another surface (a concave edge) are left out: there the
+    // reference's ray origins, moved off the surface by the scene's epsilon, can land beyond
+    // the other surface, and D changes faster than any texel resolves. (Before `Bvh` moved
+    // its rays' origins back, rays lost walls within 0.1 mm and such probes read 0.155
+    // against 0.196 a little further out, on glossy-room.)
     let min_clearance = clearance_m.max(1e-4 * scene.bounds.diagonal());
     let mut rng = Rng::new(seed, 0);
     for _ in 0..64 * count {
@@ -280,10 +281,9 @@ const CLEARANCE_DIRECTIONS: usize = 16;
 pub fn clearance(bvh: &Bvh, p: Vec3, n: Vec3) -> f32 {
     let (t, b) = crate::sampling::basis(n);
     let origin = bvh.offset_origin(p, n);
-    // Each ray starts `back` behind the point: a surface a few ray epsilons away is missed by
-    // a ray from the point itself (measured: a wall 5 µm away, none of 16 rays hit it), one
-    // `back` further is not. A first hit closer than `back` is a surface behind the point
-    // within `back`: clearance 0.
+    // Each ray starts `back` behind the point, so that a surface the point lies just beyond
+    // (a triangle poking through the other one at the edge) is found too: a first hit closer
+    // than `back` is such a surface, clearance 0.
     let back = 10.0 * bvh.epsilon().max(f32::MIN_POSITIVE);
     // 1° above the plane: the ray leaves the surface it starts on.
     let (lift_sin, lift_cos) = 1f32.to_radians().sin_cos();

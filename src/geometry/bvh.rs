@@ -105,7 +105,7 @@ impl Bvh {
         if self.ordered.is_empty() {
             return None;
         }
-        let ray = make_ray(origin, dir, t_max);
+        let (ray, back) = make_ray(origin, dir, t_max);
         let mut hit = RayHit::none();
         if !self
             .bvh
@@ -115,7 +115,7 @@ impl Bvh {
         }
         let slot = hit.primitive_id as usize;
         Some(Hit {
-            t: hit.t,
+            t: (hit.t - back).max(0.0),
             triangle: self.original[slot],
             bary: barycentrics(&self.ordered[slot], origin.into(), dir.into()),
         })
@@ -126,7 +126,7 @@ impl Bvh {
         if self.ordered.is_empty() {
             return false;
         }
-        let ray = make_ray(origin, dir, t_max);
+        let (ray, _) = make_ray(origin, dir, t_max);
         !self
             .bvh
             .ray_traverse_miss(ray, |r, id| intersect(&self.ordered[id], r))
@@ -148,12 +148,29 @@ pub fn scene_epsilon(bounds: &Aabb) -> f32 {
     1e-5 * bounds.diagonal()
 }
 
-/// An obvhs ray. Negative zeros in the direction become positive: obvhs picks a node's near
-/// slab by `d < 0` but inverts −0 to −∞, so an axis-aligned ray such as −Z (−0, −0, −1)
-/// would miss every node.
-fn make_ray(origin: Vec3, dir: Vec3, t_max: f32) -> Ray {
+/// The distance along the ray below which obvhs' CWBVH traversal culls a node
+/// (`cwbvh::node::EPSILON`, an absolute length, not relative to the scene).
+const NODE_T_MIN: f32 = 1e-4;
+
+/// An obvhs ray for the segment (0, t_max] from `origin`, and how far its origin was moved
+/// back along the ray.
+///
+/// obvhs' node test clamps each child box's entry distance to `NODE_T_MIN`, so a triangle
+/// nearer than that (a wall beside a texel in a concave corner, or a whole scene a few
+/// millimetres across) would never be reached. The origin is moved back by more than that
+/// distance and the triangle test keeps only hits beyond the moved distance, which are the
+/// hits in (0, t_max] of the caller's ray.
+///
+/// Negative zeros in the direction become positive: obvhs picks a node's near slab by
+/// `d < 0` but inverts −0 to −∞, so an axis-aligned ray such as −Z (−0, −0, −1) would miss
+/// every node.
+fn make_ray(origin: Vec3, dir: Vec3, t_max: f32) -> (Ray, f32) {
     let dir = dir + Vec3::ZERO; // IEEE: −0 + +0 = +0
-    Ray::new(origin.into(), dir.into(), 0.0, t_max)
+    // Two node epsilons, plus enough ulps of the coordinates that rounding the moved origin
+    // cannot bring it back inside the culled distance.
+    let back = 2.0 * NODE_T_MIN + origin.abs().max_element() * 16.0 * f32::EPSILON;
+    let moved = origin - dir * back;
+    (Ray::new(moved.into(), dir.into(), back, t_max + back), back)
 }
 
 /// Ray–triangle distance (Möller–Trumbore), `f32::INFINITY` for a miss. Edges are inclusive
@@ -264,6 +281,52 @@ mod tests {
                 "miss at ({x}, {x})"
             );
             assert!(bvh.occluded(o, -Vec3::Z, 2.0), "not occluded at ({x}, {x})");
+        }
+    }
+
+    /// Two walls meeting at a right angle along the y axis (floor z = 0, wall x = 0), `size`
+    /// across.
+    fn corner(size: f32) -> Vec<Triangle> {
+        let mut tris = quad(0.0, size, 0).to_vec();
+        // The wall x = 0: the floor quad turned about the y axis.
+        for t in quad(0.0, size, 1) {
+            let turn = |p: Vec3| Vec3::new(0.0, p.y, p.x + size);
+            tris.push(Triangle {
+                p: t.p.map(turn),
+                n: [Vec3::X; 3],
+                ..t
+            });
+        }
+        tris
+    }
+
+    #[test]
+    fn a_wall_right_beside_the_origin_is_hit_at_every_scale() {
+        // obvhs culls nodes nearer than 1e-4 along the ray; the wall is far nearer here. The
+        // smallest gap is the scene's own self-intersection offset (1e-5 of its diagonal).
+        for scale in [1e-5_f32, 1e-3, 1.0, 1e3] {
+            let bvh = Bvh::build(&corner(scale));
+            for gap in [1e-5_f32, 1e-4, 1e-2, 0.5] {
+                let d = gap * scale;
+                let o = Vec3::new(d, 0.3 * scale, 0.25 * scale);
+                let hit = bvh
+                    .closest_hit(o, -Vec3::X, f32::INFINITY)
+                    .unwrap_or_else(|| panic!("scale {scale}, gap {gap}: the wall was missed"));
+                assert_eq!(hit.triangle / 2, 1, "scale {scale}, gap {gap}: {hit:?}");
+                assert!(
+                    (hit.t - d).abs() <= 1e-3 * d + 1e3 * f32::EPSILON * scale,
+                    "scale {scale}, gap {gap}: t {} for a wall {d} away",
+                    hit.t
+                );
+                assert!(
+                    bvh.occluded(o, -Vec3::X, 2.0 * d),
+                    "scale {scale}, gap {gap}"
+                );
+                // Short of the wall: nothing, and nothing behind the origin either.
+                assert!(bvh.closest_hit(o, -Vec3::X, 0.5 * d).is_none());
+                assert!(!bvh.occluded(o, -Vec3::X, 0.5 * d));
+                assert!(bvh.closest_hit(o, Vec3::X, f32::INFINITY).is_none());
+            }
         }
     }
 
