@@ -48,6 +48,22 @@ impl Rng {
     }
 }
 
+/// Point `k` of the R2 sequence (Roberts 2018, the Kronecker sequence of the plastic
+/// number), shifted by `shift` modulo 1. Every prefix of it covers the unit square evenly, so
+/// an estimate over its first N points has far less variance than over N independent points
+/// when the integrand is smooth; the random shift (Cranley–Patterson rotation) makes each
+/// point uniform, so such an estimate stays unbiased.
+pub fn r2(k: u32, shift: Vec2) -> Vec2 {
+    // 1/g and 1/g² for g the plastic number, the root of x³ = x + 1.
+    const A: [f64; 2] = [0.754_877_666_246_692_7, 0.569_840_290_998_053_2];
+    let below_one = 1.0 - f32::EPSILON / 2.0;
+    let at = |i: usize, s: f32| {
+        let x = (s as f64 + (k as f64 + 1.0) * A[i]).fract();
+        (x as f32).min(below_one)
+    };
+    Vec2::new(at(0, shift.x), at(1, shift.y))
+}
+
 /// An orthonormal basis (t, b) completing unit `n` to a right-handed frame
 /// (Duff et al. 2017, "Building an Orthonormal Basis, Revisited": no branch on |n.z|).
 pub fn basis(n: Vec3) -> (Vec3, Vec3) {
@@ -94,6 +110,34 @@ pub fn sample_triangle(u: Vec2) -> Vec2 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn r2_prefixes_cover_the_square_evenly_and_integrate_well() {
+        let shift = Vec2::new(0.3, 0.8);
+        // 256 points in an 8 × 8 grid: 4 per cell on average; independent points leave
+        // some cell with 0 or 1 or 9+ nearly always.
+        let mut cells = [0u32; 64];
+        for k in 0..256 {
+            let u = r2(k, shift);
+            assert!(
+                (0.0..1.0).contains(&u.x) && (0.0..1.0).contains(&u.y),
+                "{u}"
+            );
+            cells[(u.x * 8.0) as usize + 8 * (u.y * 8.0) as usize] += 1;
+        }
+        assert!(cells.iter().all(|&c| (2..=6).contains(&c)), "{cells:?}");
+        // ∫∫ x y = 1/4: an independent 1024-point estimate errs by ~0.007 (1 σ).
+        let est: f64 = (0..1024)
+            .map(|k| {
+                let u = r2(k, shift);
+                (u.x * u.y) as f64
+            })
+            .sum::<f64>()
+            / 1024.0;
+        assert!((est - 0.25).abs() < 1e-3, "{est}");
+        // A point never reaches 1, whatever the shift.
+        assert!(r2(0, Vec2::splat(1.0 - f32::EPSILON)).max_element() < 1.0);
+    }
 
     #[test]
     fn rng_is_deterministic_and_streams_differ() {

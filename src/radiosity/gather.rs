@@ -4,14 +4,14 @@
 
 use std::f32::consts::PI;
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use super::atlas::{Atlas, TexelSample};
 use super::emitters::{Emitters, luminance, power, stratified_point, var_of_mean};
 use super::mirror_lights::MirrorLights;
 use super::transport::{Glossy, Term};
 use crate::geometry::Bvh;
-use crate::sampling::{Rng, basis, sample_cosine_hemisphere, sample_triangle};
+use crate::sampling::{Rng, basis, r2, sample_cosine_hemisphere, sample_triangle};
 use crate::scene::Scene;
 
 /// A sample is inside geometry when more than this fraction of its gathering rays hit back
@@ -81,12 +81,21 @@ impl Gathered {
     }
 }
 
-/// Gathers at sample `s` with `n_rays` cosine-distributed rays and `n_light` samples per
-/// emitter, drawing from `rng`.
+/// Where an element's gathering rays come from: points `first`.. of its shifted R2 sequence
+/// (the same shift in every batch, so the batches together are one prefix of it).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct RaySequence {
+    pub first: u32,
+    pub shift: Vec2,
+}
+
+/// Gathers at sample `s` with `n_rays` cosine-distributed rays (directions from `seq`) and
+/// `n_light` samples per emitter, drawing the rest from `rng`.
 pub(super) fn gather(
     cx: &Context,
     s: &TexelSample,
     rng: &mut Rng,
+    seq: RaySequence,
     n_rays: u32,
     n_light: u32,
 ) -> Gathered {
@@ -111,9 +120,10 @@ pub(super) fn gather(
     let mut backfaces = 0u32;
     let mut rays = 0u64;
 
-    // Gathering rays (cosine-distributed about the shading normal).
-    for _ in 0..n_rays {
-        let l = sample_cosine_hemisphere(rng.uniform2());
+    // Gathering rays (cosine-distributed about the shading normal), from a low-discrepancy
+    // sequence: the incoming radiance is smooth over most of the hemisphere.
+    for k in 0..n_rays {
+        let l = sample_cosine_hemisphere(r2(seq.first + k, seq.shift));
         let d = t * l.x + b * l.y + ns * l.z;
         rays += 1;
         if d.dot(ng) <= 0.0 {

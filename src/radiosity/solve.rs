@@ -21,7 +21,7 @@ use rayon::prelude::*;
 
 use super::atlas::{Atlas, TexelSample};
 use super::emitters::{Emitters, luminance};
-use super::gather::{Context, Gathered, gather};
+use super::gather::{Context, Gathered, RaySequence, gather};
 use super::mirror_lights::MirrorLights;
 use super::transport::{Glossy, Term};
 use crate::geometry::Bvh;
@@ -106,12 +106,17 @@ fn stream(round: u32, index: usize) -> u64 {
     ((round as u64) << 40) | index as u64
 }
 
+/// The stream of the shift of each element's ray sequence (no refinement round gets there).
+const SHIFT_STREAM_ROUND: u32 = 0xff_ffff;
+
 /// Gathers the elements `which` (indices into `samples`), in parallel, with per-element
-/// sample counts; `None` when cancelled.
+/// sample counts, continuing the ray sequences of what they `have`; `None` when cancelled.
+#[allow(clippy::too_many_arguments)]
 fn gather_all(
     cx: &Context,
     samples: &[TexelSample],
     which: &[(u32, u32, u32)],
+    have: Option<&[Gathered]>,
     seed: u64,
     round: u32,
     progress: &dyn Progress,
@@ -126,7 +131,11 @@ fn gather_all(
                 .iter()
                 .map(|&(i, rays, light)| {
                     let mut rng = Rng::new(seed, stream(round, i as usize));
-                    gather(cx, &samples[i as usize], &mut rng, rays, light)
+                    let seq = RaySequence {
+                        first: have.map_or(0, |g| g[i as usize].hits.len() as u32),
+                        shift: Rng::new(seed, stream(SHIFT_STREAM_ROUND, i as usize)).uniform2(),
+                    };
+                    gather(cx, &samples[i as usize], &mut rng, seq, rays, light)
                 })
                 .collect();
             progress.advance(chunk.len() as u64);
@@ -179,7 +188,8 @@ pub fn solve(
     let all: Vec<(u32, u32, u32)> = (0..samples.len() as u32)
         .map(|i| (i, rays, light))
         .collect();
-    let mut gathered = gather_all(&cx, samples, &all, set.seed, 0, progress).ok_or(Cancelled)?;
+    let mut gathered =
+        gather_all(&cx, samples, &all, None, set.seed, 0, progress).ok_or(Cancelled)?;
 
     let mut stats = SolveStats {
         elements: samples.len() as u64,
@@ -225,8 +235,16 @@ pub fn solve(
                 break;
             }
             progress.phase("refining", which.len() as u64);
-            let more =
-                gather_all(&cx, samples, &which, set.seed, round, progress).ok_or(Cancelled)?;
+            let more = gather_all(
+                &cx,
+                samples,
+                &which,
+                Some(&gathered),
+                set.seed,
+                round,
+                progress,
+            )
+            .ok_or(Cancelled)?;
             for (&(i, _, _), g) in which.iter().zip(more) {
                 let i = i as usize;
                 links[i].extend(&g, &resolve);
