@@ -85,6 +85,7 @@ fn bake_if_needed(scene: &Scene, bundle: &Path) {
         glossy_depth: 0,
         target_error: None,
         min_chart_texels: 0,
+        min_scene_texels: 0,
         stitch_seams: false,
     };
     radiosity_stage::bake(scene, bundle, &settings, false, &Silent)

@@ -158,7 +158,11 @@ fn main() {
             let base = LIVE.load(Ordering::Relaxed);
             PEAK.store(base, Ordering::Relaxed);
             let t = Instant::now();
-            let (atlas, samples) = atlas::build_with(&scene.triangles, s.density_rule()).unwrap();
+            let (atlas, samples) = atlas::build_with(
+                &scene.triangles,
+                s.density_rule(scene.bounds.longest_side()),
+            )
+            .unwrap();
             let mut sol = solve(&scene, &bvh, &atlas, &samples, &set, &Silent).unwrap();
             if s.stitch_seams {
                 seams::stitch_seams(&scene.triangles, &atlas, &samples, &mut sol.radiance);

@@ -97,6 +97,10 @@ pub struct RadiosityFlags {
     /// (by at most 16×); 0 uses --texel-density everywhere.
     #[arg(long, value_name = "N")]
     pub min_chart_texels: Option<u32>,
+    /// Texels across the scene's longest side, at least: a small scene gets a higher density
+    /// than --texel-density everywhere; 0 turns this off.
+    #[arg(long, value_name = "N")]
+    pub min_scene_texels: Option<u32>,
     /// Gathering rays per texel.
     #[arg(long, value_name = "N")]
     pub rays: Option<u32>,
@@ -128,6 +132,7 @@ impl RadiosityFlags {
         crate::scene::desc::RadiosityOverride {
             texel_density: self.texel_density,
             min_chart_texels: self.min_chart_texels,
+            min_scene_texels: self.min_scene_texels,
             rays: self.rays,
             light_samples: self.light_samples,
             bounces: self.bounces,

@@ -301,7 +301,9 @@ fn a_stage_shaded_with_a_d_replaced_meanwhile_is_refused_and_stays_stale() {
     let first = BakeSettings::resolve(&scene, Quality::Draft).unwrap();
     bake_all(&scene, &bundle, &first, false, &Silent).unwrap();
     let mut second = first.clone();
-    second.radiosity.texel_density *= 1.5;
+    // A different D: more gathering rays (the density of this small room is the scene-size
+    // minimum's, which a per-metre change would not move).
+    second.radiosity.rays *= 2;
     {
         // Another baker commits a new D while the radiance maps are being shaded with the old.
         let race = Midway::new(|| {
@@ -316,7 +318,7 @@ fn a_stage_shaded_with_a_d_replaced_meanwhile_is_refused_and_stays_stale() {
         );
     }
     // The same race against the materials stage (its d_source is D's identity too).
-    second.radiosity.texel_density *= 1.5;
+    second.radiosity.rays *= 2;
     {
         let race = Midway::new(|| {
             radiosity_stage::bake(&scene, &bundle, &second.radiosity, false, &Silent).unwrap();

@@ -138,6 +138,7 @@ fn diffuse_cornell_box_agrees_with_converged_radiosity() {
     let settings = RadiositySettings {
         texel_density: 8.0,
         min_chart_texels: 0,
+        min_scene_texels: 0,
         rays: 256,
         light_samples: 32,
         bounces: 16,

@@ -253,6 +253,7 @@ fn bakes_are_byte_identical_whatever_the_thread_count() {
     let settings = RadiositySettings {
         texel_density: 8.0,
         min_chart_texels: 0,
+        min_scene_texels: 0,
         rays: 64,
         light_samples: 8,
         bounces: 3,
@@ -308,6 +309,7 @@ fn cancelling_leaves_the_bundle_as_it_was() {
     let settings = RadiositySettings {
         texel_density: 8.0,
         min_chart_texels: 0,
+        min_scene_texels: 0,
         rays: 16,
         light_samples: 4,
         bounces: 2,

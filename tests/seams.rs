@@ -254,7 +254,11 @@ fn bunny_mirror_seams_are_below_one_percent_of_d_and_the_texel_noise() {
     let map = RadiosityMap::load(&Bundle::open(&out).unwrap())
         .unwrap()
         .unwrap();
-    let (atlas, samples) = atlas::build_with(&scene.triangles, settings.density_rule()).unwrap();
+    let (atlas, samples) = atlas::build_with(
+        &scene.triangles,
+        settings.density_rule(scene.bounds.longest_side()),
+    )
+    .unwrap();
     assert_eq!(
         (&atlas.pages, &atlas.tri_coords),
         (&map.atlas.pages, &map.atlas.tri_coords)
@@ -347,6 +351,7 @@ fn stitched_bakes_are_byte_identical_whatever_the_thread_count() {
     let settings = RadiositySettings {
         texel_density: 16.0,
         min_chart_texels: 0,
+        min_scene_texels: 0,
         rays: 32,
         light_samples: 4,
         bounces: 2,

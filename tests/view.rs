@@ -83,6 +83,7 @@ fn test_settings(texel_density: f32) -> RadiositySettings {
         glossy_depth: 0,
         target_error: None,
         min_chart_texels: 0,
+        min_scene_texels: 0,
         stitch_seams: false,
     }
 }

@@ -66,6 +66,7 @@ fn bundle() -> &'static Path {
                 glossy_depth: 0,
                 target_error: None,
                 min_chart_texels: 0,
+                min_scene_texels: 0,
                 stitch_seams: false,
             };
             settings.srdm = SrdmSettings {

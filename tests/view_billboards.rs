@@ -499,6 +499,7 @@ fn box_scene(root: &Path) -> (Scene, std::path::PathBuf) {
         glossy_depth: 0,
         target_error: None,
         min_chart_texels: 0,
+        min_scene_texels: 0,
         stitch_seams: false,
     };
     radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent)

@@ -46,6 +46,7 @@ fn radiosity_settings() -> RadiositySettings {
         glossy_depth: 0,
         target_error: None,
         min_chart_texels: 0,
+        min_scene_texels: 0,
         stitch_seams: false,
     }
 }

@@ -90,6 +90,7 @@ fn corridor() -> &'static ViewData {
             glossy_depth: 0,
             target_error: None,
             min_chart_texels: 0,
+            min_scene_texels: 0,
             stitch_seams: false,
         };
         scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
@@ -343,6 +344,7 @@ fn straddling() -> &'static ViewData {
             glossy_depth: 0,
             target_error: None,
             min_chart_texels: 0,
+            min_scene_texels: 0,
             stitch_seams: false,
         };
         scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));

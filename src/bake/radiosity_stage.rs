@@ -98,14 +98,15 @@ pub fn check(scene: &Scene, s: &RadiositySettings) -> Result<(), RadiosityError>
     }
     s.check(Some(scene.bounds.diagonal()))
         .map_err(|e| RadiosityError::Setting(e.to_string()))?;
-    let texels = atlas::estimate_texels(&scene.triangles, s.density_rule());
+    let rule = s.density_rule(scene.bounds.longest_side());
+    let texels = atlas::estimate_texels(&scene.triangles, rule);
     let need = memory_estimate(texels, s.rays, s.target_error.is_some());
     if let Some(avail) = available_memory()
         && need > avail
     {
         let gib = (1u64 << 30) as f64;
         return Err(RadiosityError::TooBig {
-            density: s.texel_density,
+            density: rule.per_metre,
             rays: s.rays,
             texels,
             need_gib: need / gib,
@@ -136,7 +137,16 @@ pub fn bake(
     // Before the compute: a bundle that cannot be written fails now.
     let mut w = StageWriter::begin(bundle, Stage::Radiosity.name())?;
     let bvh = scene.build_bvh();
-    let (atlas, samples) = atlas::build_with(&scene.triangles, settings.density_rule())?;
+    let rule = settings.density_rule(scene.bounds.longest_side());
+    if rule.per_metre != settings.texel_density {
+        log::info!(
+            "texel density {:.1} per metre: the scene's longest side, {:.2} m, gets `min_scene_texels` = {} texels",
+            rule.per_metre,
+            scene.bounds.longest_side(),
+            settings.min_scene_texels
+        );
+    }
+    let (atlas, samples) = atlas::build_with(&scene.triangles, rule)?;
     if samples.is_empty() {
         return Err(RadiosityError::Setting(format!(
             "`texel_density`: {} texels per metre gives no element",

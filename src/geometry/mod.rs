@@ -122,6 +122,15 @@ impl Aabb {
         }
     }
 
+    /// Length of the longest side (0 for an empty box).
+    pub fn longest_side(&self) -> f32 {
+        if self.min.cmple(self.max).all() {
+            (self.max - self.min).max_element()
+        } else {
+            0.0
+        }
+    }
+
     /// Centre point.
     pub fn center(&self) -> Vec3 {
         0.5 * (self.min + self.max)
