@@ -155,6 +155,7 @@ pub struct UnitReport {
     /// The shard.
     pub shard: PathBuf,
     /// Baked, or up to date.
+    #[serde(flatten)]
     pub status: StageStatus,
 }
 
