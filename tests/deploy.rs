@@ -280,11 +280,17 @@ fn wave_ids(scene: &Path, wave: u32) -> Vec<String> {
         .collect()
 }
 
-/// The unit a shard's marker names.
-fn marker_unit(shard: &Path) -> String {
-    let v: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(shard.join("unit.json")).unwrap()).unwrap();
-    v["unit"].as_str().unwrap().to_string()
+/// Checks that a script run succeeded and left a complete shard of wave 0's first unit.
+fn assert_baked_first_unit(out: &std::process::Output, scene: &Path, shards: &Path) {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let first = &wave_ids(scene, 0)[0];
+    let marker = shards.join(format!("{first}.glint/unit.json"));
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(marker).unwrap()).unwrap();
+    assert_eq!(v["unit"], first.as_str());
 }
 
 #[test]
@@ -372,13 +378,7 @@ fn the_kubernetes_indexed_jobs_parse_match_the_plan_and_their_pods_bake_a_unit()
                 .env("PATH", path_with_binaries(None))
                 .output()
                 .unwrap();
-            assert!(
-                out.status.success(),
-                "{}",
-                String::from_utf8_lossy(&out.stderr)
-            );
-            let first = &wave_ids(&scene, 0)[0];
-            assert_eq!(marker_unit(&shards.join(format!("{first}.glint"))), *first);
+            assert_baked_first_unit(&out, &scene, &shards);
         }
     }
 }
@@ -421,13 +421,7 @@ fn the_slurm_array_script_bakes_its_tasks_unit_and_submit_chains_the_waves() {
             .unwrap()
     };
     let out = task("0");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let first = &wave_ids(&scene, 0)[0];
-    assert_eq!(marker_unit(&shards.join(format!("{first}.glint"))), *first);
+    assert_baked_first_unit(&out, &scene, &shards);
     let out = task("99");
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("wave 0 has no unit 99"));

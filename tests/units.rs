@@ -182,12 +182,13 @@ fn the_plan_lists_every_unit_with_its_inputs_cost_and_wave() {
     assert!(
         cost("radiosity") > cost("radiance.TableTop") && cost("radiance.TableTop") > cost("scene")
     );
-    for wave in ["0", "1"] {
-        let (code, out, err) = bake(&[s(&scene), "--plan", "--wave", wave, "--quality", "draft"]);
+    for wave in [0u64, 1] {
+        let w = wave.to_string();
+        let (code, out, err) = bake(&[s(&scene), "--plan", "--wave", &w, "--quality", "draft"]);
         assert_eq!(code, 0, "{err}");
         let want: Vec<&str> = units
             .iter()
-            .filter(|u| u["wave"].to_string() == wave)
+            .filter(|u| u["wave"] == wave)
             .map(|u| u["id"].as_str().unwrap())
             .collect();
         assert_eq!(out.lines().collect::<Vec<_>>(), want, "wave {wave}");
@@ -244,6 +245,18 @@ fn a_failed_or_killed_unit_is_refused_by_name_and_rerunning_it_fixes_the_merge()
         bundle_tool(&args)
     };
 
+    let rerun = || {
+        bake(&[
+            s(&scene),
+            "--quality",
+            "draft",
+            "--unit",
+            unit,
+            "--bundle",
+            s(&shard),
+        ])
+    };
+
     // A damaged asset (a unit that wrote garbage, a disk that lost it): refused by name.
     let exr = std::fs::read_dir(&shard)
         .unwrap()
@@ -291,15 +304,7 @@ fn a_failed_or_killed_unit_is_refused_by_name_and_rerunning_it_fixes_the_merge()
     );
 
     // Rerunning that one unit fixes it; the others are untouched.
-    let (code, out, err) = bake(&[
-        s(&scene),
-        "--quality",
-        "draft",
-        "--unit",
-        unit,
-        "--bundle",
-        s(&shard),
-    ]);
+    let (code, out, err) = rerun();
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("baked"), "{out}");
     let (code, out, err) = merge("c.glint");
@@ -307,15 +312,7 @@ fn a_failed_or_killed_unit_is_refused_by_name_and_rerunning_it_fixes_the_merge()
     assert_same_as_whole(&tmp.path().join("c.glint"));
 
     // Run again, the unit is up to date.
-    let (code, out, err) = bake(&[
-        s(&scene),
-        "--quality",
-        "draft",
-        "--unit",
-        unit,
-        "--bundle",
-        s(&shard),
-    ]);
+    let (code, out, err) = rerun();
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("up to date"), "{out}");
 }
