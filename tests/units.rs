@@ -363,6 +363,40 @@ fn a_change_rebakes_only_the_units_whose_inputs_it_touches() {
     edit(&scene, |v| {
         v["materials"]["GlossyTable"]["lobes"][0]["mx"] = 0.2.into()
     });
+    // That material's unit alone rerun (into another folder): the merge refuses to mix its
+    // shard with those of the old plan, naming them.
+    let shard = tmp.path().join("new/material.GlossyTable.glint");
+    let (code, _, err) = bake(&[
+        s(&scene),
+        "--quality",
+        "draft",
+        "--unit",
+        "material.GlossyTable",
+        "--bundle",
+        s(&shard),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let mut args = vec![
+        "merge".to_string(),
+        s(&tmp.path().join("mixed.glint")).to_string(),
+    ];
+    args.extend(
+        shards_of(&shards)
+            .into_iter()
+            .filter(|p| !p.ends_with("material.GlossyTable.glint")),
+    );
+    args.push(s(&shard).to_string());
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let (code, _, err) = bundle_tool(&args);
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("radiosity.glint: unit `radiosity` belongs to another plan")
+            || err.contains(&format!(
+                "{}: unit `material.GlossyTable` belongs to another plan",
+                shard.display()
+            )),
+        "{err}"
+    );
     let baked = rebake(&scene, &shards, &merged);
     assert_eq!(
         baked,
