@@ -86,6 +86,48 @@ pub struct BakeArgs {
     pub json: bool,
 }
 
+/// `glint-bake`'s options: [`BakeArgs`], where `--bundle` is needed only for a bake, and the
+/// work-unit modes (`--plan`, `--unit`, `--units`).
+#[derive(clap::Args, Debug, Clone)]
+pub struct GlintBakeArgs {
+    /// The scene description (scene.json).
+    #[arg(value_name = "SCENE.json")]
+    pub scene: std::path::PathBuf,
+    /// The bundle folder to write into (created if missing), e.g. out/cornell-box.glint; with
+    /// `--unit`, the unit's shard (e.g. shards/radiosity.glint); with `--units`, where the
+    /// shards are merged.
+    #[arg(long, value_name = "OUT.glint", required_unless_present_any = ["plan", "units"])]
+    pub bundle: Option<std::path::PathBuf>,
+    /// Quality preset; default: the scene's `bake.quality`, else `default`.
+    #[arg(long, value_parser = parse_quality)]
+    pub quality: Option<crate::scene::Quality>,
+    /// Replace stages the bundle holds from another scene.
+    #[arg(long)]
+    pub force: bool,
+    /// Print a JSON report on stdout instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Print the work units the bake splits into (ID, wave, inputs' hashes, cost estimate)
+    /// instead of baking; with --json the whole plan.
+    #[arg(long, conflicts_with_all = ["unit", "units"])]
+    pub plan: bool,
+    /// With --plan: print only the IDs of the units of wave W (0: they read no other unit;
+    /// 1: they read the `radiosity` unit's shard), one a line.
+    #[arg(long, value_name = "W", requires = "plan")]
+    pub wave: Option<u32>,
+    /// Bake one work unit into the shard --bundle names (up to date: nothing is baked).
+    #[arg(long, value_name = "ID", conflicts_with = "units")]
+    pub unit: Option<String>,
+    /// With --unit: the `radiosity` unit's shard to read D from (default: `radiosity.glint`
+    /// beside the shard).
+    #[arg(long, value_name = "SHARD.glint", requires = "unit")]
+    pub d_shard: Option<std::path::PathBuf>,
+    /// Bake every work unit into DIR/ID.glint, one after another, leaving up-to-date units
+    /// alone; then merge them into --bundle when given.
+    #[arg(long, value_name = "DIR")]
+    pub units: Option<std::path::PathBuf>,
+}
+
 /// The radiosity stage's flags, one per setting of `bake.radiosity` in scene.json; each
 /// overrides the preset and the scene.
 #[derive(clap::Args, Debug, Clone, Default)]

@@ -1,14 +1,19 @@
 //! Bake stages: what a scene requires, and the stages that write into a bundle.
 
 pub mod materials;
+pub mod merge;
+pub mod part;
 pub mod plan;
 pub mod radiance_stage;
 pub mod radiosity_stage;
 pub mod report;
 pub mod run;
 pub mod scene_stage;
+pub mod shard;
 pub mod srdm_stage;
 pub mod tool;
+pub mod unit_tool;
+pub mod units;
 
 use std::path::Path;
 

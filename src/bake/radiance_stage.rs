@@ -31,6 +31,7 @@ use crate::radiosity::map::MapError;
 use crate::scene::{Quality, ReflectorKind, Scene};
 
 use super::Stage;
+use super::part::{Item, Part};
 
 /// Why the radiance stage failed.
 #[derive(Debug, thiserror::Error)]
@@ -137,31 +138,60 @@ pub fn bake(
     force: bool,
     progress: &dyn Progress,
 ) -> Result<StageRecord, RadianceError> {
+    bake_part(scene, dir, quality, force, Part::whole(), progress)
+}
+
+/// [`bake`] of `part`: every reflector, or one ([`Item::Reflector`]), shaded with D from
+/// the bundle written or from `part.d_from`.
+pub fn bake_part(
+    scene: &Scene,
+    dir: &Path,
+    quality: Quality,
+    force: bool,
+    part: Part<'_>,
+    progress: &dyn Progress,
+) -> Result<StageRecord, RadianceError> {
     let start = Instant::now();
     crate::bundle::check_scene(dir, &scene.content_hash, force)?;
     let no_radiosity = || RadianceError::NoRadiosity {
         dir: dir.to_owned(),
     };
-    let bundle = match Bundle::open(dir) {
-        Ok(b) => b,
-        Err(BundleError::MissingManifest { .. }) => return Err(no_radiosity()),
-        Err(e) => return Err(e.into()),
+    let (d, d_read, d_source) = match part.d_from {
+        Some(from) => {
+            let (d, identity) = super::part::require_d(from)?;
+            (d, None, Some(identity))
+        }
+        None => {
+            let bundle = match Bundle::open(dir) {
+                Ok(b) => b,
+                Err(BundleError::MissingManifest { .. }) => return Err(no_radiosity()),
+                Err(e) => return Err(e.into()),
+            };
+            // D as read, from this one manifest: recorded in the settings, and checked again
+            // at the commit so maps shaded with this D are never labelled with another.
+            let d_record = bundle
+                .stage(Stage::Radiosity.name())
+                .ok_or_else(no_radiosity)?;
+            let d_read = d_record.identity();
+            let d_source = (d_record.scene_hash == scene.content_hash).then(|| d_read.clone());
+            let d = RadiosityMap::load(&bundle)?.ok_or_else(no_radiosity)?;
+            (d, Some(d_read), d_source)
+        }
     };
-    // D as read, from this one manifest: recorded in the settings, and checked again at the
-    // commit so maps shaded with this D are never labelled with another.
-    let d_record = bundle
-        .stage(Stage::Radiosity.name())
-        .ok_or_else(no_radiosity)?;
-    let d_read = d_record.identity();
-    let d_source = (d_record.scene_hash == scene.content_hash).then(|| d_read.clone());
-    let d = RadiosityMap::load(&bundle)?.ok_or_else(no_radiosity)?;
     // Before the compute: a bundle that cannot be written fails now.
     let mut w = StageWriter::begin(dir, Stage::Radiance.name())?;
-    w.read_from(Stage::Radiosity.name(), &d_read);
+    if let Some(d_read) = &d_read {
+        w.read_from(Stage::Radiosity.name(), d_read);
+    }
     let bvh = scene.build_bvh();
     let shade = |h: &crate::geometry::Hit| d.radiance(h.triangle, h.bary);
     let limits = quadtree_limits(scene);
-    let plans = plans(scene, quality);
+    let plans: Vec<_> = plans(scene, quality)
+        .into_iter()
+        .enumerate()
+        .filter(|(k, _)| part.item.takes(Item::Reflector(*k)))
+        .map(|(_, p)| p)
+        .collect();
     let total: u64 = plans
         .iter()
         .map(|(_, _, p)| (p.elements[0] * p.elements[1] * p.cameras) as u64)

@@ -34,6 +34,7 @@ use crate::srdm::index::{INDEX_FILE, IndexedView, SrdmIndex};
 use crate::srdm::{ErrorStats, Srdm, SrdmError, SrdmParams, error_stats};
 
 use super::Stage;
+use super::part::{Item, Part};
 
 /// Why the SRDM stage failed.
 #[derive(Debug, thiserror::Error)]
@@ -133,6 +134,16 @@ fn folder_name(name: &str, index: usize, taken: &[String]) -> String {
     s
 }
 
+/// Each impostor's folder in the stage, in scene order.
+pub fn impostor_folders(scene: &Scene) -> Vec<String> {
+    let mut folders: Vec<String> = Vec::new();
+    for (i, imp) in scene.impostors.iter().enumerate() {
+        let folder = folder_name(&imp.name, i, &folders);
+        folders.push(folder);
+    }
+    folders
+}
+
 /// Bakes every view of every impostor of `scene` into the bundle at `bundle`; a scene with
 /// no impostor is skipped (nothing is written).
 pub fn bake(
@@ -140,6 +151,19 @@ pub fn bake(
     bundle: &Path,
     settings: &SrdmSettings,
     force: bool,
+    progress: &dyn Progress,
+) -> Result<SrdmOutcome, SrdmStageError> {
+    bake_part(scene, bundle, settings, force, Part::whole(), progress)
+}
+
+/// [`bake`] of `part`: every impostor, or one ([`Item::Impostor`]; `srdm/index.json` then
+/// lists its views only), coloured with D from the bundle written or from `part.d_from`.
+pub fn bake_part(
+    scene: &Scene,
+    bundle: &Path,
+    settings: &SrdmSettings,
+    force: bool,
+    part: Part<'_>,
     progress: &dyn Progress,
 ) -> Result<SrdmOutcome, SrdmStageError> {
     let start = Instant::now();
@@ -151,15 +175,29 @@ pub fn bake(
     }
     settings.check()?;
     crate::bundle::check_scene(bundle, &scene.content_hash, force)?;
-    let (colour, d_read) = colour_source_read(bundle, scene)?;
+    let (colour, d_read, check_d) = match part.d_from {
+        Some(from) => {
+            let (map, identity) = super::part::require_d(from).map_err(SrdmAssetError::from)?;
+            (
+                ColourSource::Radiosity(Box::new(map)),
+                Some(identity),
+                false,
+            )
+        }
+        None if part.item != Item::All => (ColourSource::Albedo, None, false),
+        None => {
+            let (colour, d_read) = colour_source_read(bundle, scene)?;
+            (colour, d_read, true)
+        }
+    };
 
     let mut w = StageWriter::begin(bundle, Stage::Srdm.name())?;
-    if let Some(d) = &d_read {
+    if let Some(d) = d_read.as_ref().filter(|_| check_d) {
         // Checked again at the commit: captures coloured with this D are never labelled
         // with another.
         w.read_from(Stage::Radiosity.name(), d);
     }
-    let mut folders: Vec<String> = Vec::new();
+    let folders = impostor_folders(scene);
     let mut views = Vec::new();
     let mut index = SrdmIndex {
         version: 1,
@@ -168,14 +206,16 @@ pub fn bake(
         views: Vec::new(),
     };
     for (ii, imp) in scene.impostors.iter().enumerate() {
-        let folder = folder_name(&imp.name, ii, &folders);
-        folders.push(folder.clone());
+        let folder = &folders[ii];
+        if !part.item.takes(Item::Impostor(ii)) {
+            continue;
+        }
         for v in 0..imp.views {
             let view = ViewToBake {
                 scene,
                 impostor: imp,
                 view: v,
-                folder: &folder,
+                folder,
             };
             let (entry, report) = view.bake(&mut w, settings, &colour, progress)?;
             index.views.push(entry);

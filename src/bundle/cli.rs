@@ -1,4 +1,4 @@
-//! `glint-bundle`'s command line: `stats`, `verify` and `ls` of a bundle. The binary parses
+//! `glint-bundle`'s command line: `stats`, `verify`, `merge` and `ls` of a bundle. The binary parses
 //! [`Args`] and calls [`run`].
 
 use std::io::Write;
@@ -16,7 +16,7 @@ use super::stats::{BundleStats, format_table, human_bytes};
     name = "glint-bundle",
     version,
     about = "Inspect and verify a glint asset bundle (NAME.glint/)",
-    after_help = "Examples:\n  glint-bundle stats out/cornell-box.glint\n  glint-bundle stats out/cornell-box.glint --json | jq .total\n  glint-bundle verify out/cornell-box.glint && echo intact\n  glint-bundle ls out/cornell-box.glint"
+    after_help = "Examples:\n  glint-bundle stats out/cornell-box.glint\n  glint-bundle merge out/glossy-room.glint shards/*.glint\n  glint-bundle stats out/cornell-box.glint --json | jq .total\n  glint-bundle verify out/cornell-box.glint && echo intact\n  glint-bundle ls out/cornell-box.glint"
 )]
 /// `glint-bundle`'s arguments: one subcommand.
 pub struct Args {
@@ -40,6 +40,20 @@ enum Command {
     Verify {
         /// The bundle folder.
         bundle: PathBuf,
+        /// Print a JSON report.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Assemble the shards of a bake's work units (`glint-bake SCENE --unit ID --bundle
+    /// SHARD.glint`) into one bundle, after checking that every unit of the plan is there
+    /// once, complete (its `unit.json` written), intact and baked for the same plan, and that
+    /// every unit that read D read the D assembled. Refuses, naming each bad shard, otherwise.
+    Merge {
+        /// The bundle to write (new, empty, or a bundle whose stages are replaced).
+        out: PathBuf,
+        /// Every unit's shard.
+        #[arg(required = true)]
+        shards: Vec<PathBuf>,
         /// Print a JSON report.
         #[arg(long)]
         json: bool,
@@ -117,6 +131,27 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             }
             if !problems.is_empty() {
                 return Ok(ExitCode::FAILURE);
+            }
+        }
+        Command::Merge {
+            out: bundle,
+            shards,
+            json,
+        } => {
+            let report = crate::bake::merge::merge(&bundle, &shards)?;
+            if json {
+                writeln!(out, "{}", serde_json::to_string_pretty(&report)?)?;
+            } else {
+                writeln!(
+                    out,
+                    "ok: {} — {} units of {} merged: {} stages ({}), {} assets",
+                    bundle.display(),
+                    report.units,
+                    report.scene,
+                    report.stages.len(),
+                    report.stages.join(", "),
+                    report.assets
+                )?;
             }
         }
         Command::Ls { bundle, json } => {

@@ -143,6 +143,9 @@ pub struct Scene {
     pub bounds: Aabb,
     /// BLAKE3 (hex) of scene.json, the glTF and its buffers: what a bake was made from.
     pub content_hash: String,
+    /// BLAKE3 (hex) of the glTF and its buffers with `scale`: what the triangles were made
+    /// from (scene.json's other fields left out), for work units that read geometry only.
+    pub geometry_hash: String,
     /// Triangles dropped as degenerate or non-finite.
     pub dropped_triangles: usize,
 }
@@ -214,6 +217,13 @@ impl Scene {
             hasher.update(bytes);
         }
         let content_hash = hasher.finalize().to_hex().to_string();
+        let mut hasher = blake3::Hasher::new();
+        hasher.update(&desc.scale.to_le_bytes());
+        for bytes in &imported.hashed_bytes {
+            hasher.update(&(bytes.len() as u64).to_le_bytes());
+            hasher.update(bytes);
+        }
+        let geometry_hash = hasher.finalize().to_hex().to_string();
 
         let mut materials = imported.materials;
         for m in &mut materials {
@@ -290,6 +300,7 @@ impl Scene {
             impostors,
             bounds,
             content_hash,
+            geometry_hash,
             dropped_triangles: imported.dropped,
         })
     }

@@ -35,14 +35,15 @@ pub fn curved_glossy_reflectors(scene: &Scene) -> Vec<usize> {
         .collect()
 }
 
-/// Captures, filters and writes the environment map of every glossy curved reflector with
-/// `shading` (`Err`: the reason they are skipped), adding an `env NAME` entry to `stats` for
-/// each.
+/// Captures, filters and writes the environment map of every glossy curved reflector `k`
+/// (in [`curved_glossy_reflectors`] order) that `take(k)` selects, with `shading` (`Err`: the
+/// reason they are skipped), adding an `env NAME` entry to `stats` for each.
 pub fn write_env_maps(
     w: &mut StageWriter,
     scene: &Scene,
     settings: &MaterialsSettings,
     shading: Result<EnvShading, String>,
+    take: &dyn Fn(usize) -> bool,
     progress: &dyn Progress,
     stats: &mut BTreeMap<String, serde_json::Value>,
 ) -> Result<WrittenEnvMaps, MaterialsError> {
@@ -75,6 +76,9 @@ pub fn write_env_maps(
         (curved.len() * 6 * capture.face_size) as u64,
     );
     for (k, &r) in curved.iter().enumerate() {
+        if !take(k) {
+            continue;
+        }
         let refl = &scene.reflectors[r];
         let centre = capture_centre(scene, &refl.triangles);
         let cube = capture_cube(

@@ -235,17 +235,16 @@ pub struct WrittenMaterials {
     pub lobes: usize,
 }
 
-/// Writes the files of every chosen material (`materials/<folder>/lobe<k>-…`), adding a
-/// `material NAME` entry to `stats` for each.
+/// Writes the files of every chosen material (`materials/<folder>/lobe<k>-…`, `folders` in
+/// the order of `chosen`), adding a `material NAME` entry to `stats` for each.
 pub fn write_materials(
     w: &mut StageWriter,
     scene: &Scene,
     chosen: &[usize],
+    folders: &[String],
     baked: &[Vec<LobeAssets>],
     stats: &mut BTreeMap<String, serde_json::Value>,
 ) -> Result<WrittenMaterials, MaterialsError> {
-    let folders =
-        crate::bundle::unique_folders(chosen.iter().map(|&i| scene.materials[i].name.as_str()));
     let mut out = WrittenMaterials {
         index: Vec::new(),
         reports: Vec::new(),

@@ -46,7 +46,10 @@ use crate::progress::{Cancelled, Progress};
 use crate::radiosity::CurrentD;
 use crate::scene::Scene;
 
+use super::part::{Item, Part};
 use super::{Stage, plan};
+pub use env_maps::curved_glossy_reflectors;
+pub use lobes::chosen_materials;
 
 /// Why the materials stage failed.
 #[derive(Debug, thiserror::Error)]
@@ -148,11 +151,43 @@ pub fn bake(
     force: bool,
     progress: &dyn Progress,
 ) -> Result<Outcome, MaterialsError> {
-    let shading = shade_with_d(bundle_dir, scene);
-    // The D read: the commit refuses if another baker replaced it meanwhile.
-    let d_read = shading.as_ref().ok().map(|s| s.source.clone());
+    bake_part(scene, bundle_dir, settings, force, Part::whole(), progress)
+}
+
+/// [`bake`] of `part`: everything, one material's lobes ([`Item::Material`]: no environment
+/// map) or one environment map ([`Item::EnvMap`]: no material), shaded with D from the
+/// bundle written or from `part.d_from`. `materials/index.json` lists what was baked.
+pub fn bake_part(
+    scene: &Scene,
+    bundle_dir: &Path,
+    settings: &MaterialsSettings,
+    force: bool,
+    part: Part<'_>,
+    progress: &dyn Progress,
+) -> Result<Outcome, MaterialsError> {
+    let (shading, d_read) = match (part.d_from, part.item) {
+        (Some(from), _) => {
+            let shading = crate::bake::part::require_d(from)
+                .map(|(map, source)| EnvShading {
+                    shade: Box::new(move |hit: &Hit| map.radiance(hit.triangle, hit.bary)),
+                    source,
+                })
+                .map_err(|e| format!("cannot read D from {}: {e}", from.display()));
+            (shading, None)
+        }
+        (None, Item::Material(_)) => (
+            Err("environment maps are baked by their own work units".to_string()),
+            None,
+        ),
+        (None, _) => {
+            let shading = shade_with_d(bundle_dir, scene);
+            // The D read: the commit refuses if another baker replaced it meanwhile.
+            let d_read = shading.as_ref().ok().map(|s| s.source.clone());
+            (shading, d_read)
+        }
+    };
     bake_reading(
-        scene, bundle_dir, settings, force, shading, d_read, progress,
+        scene, bundle_dir, settings, force, shading, d_read, part.item, progress,
     )
 }
 
@@ -166,11 +201,21 @@ pub fn bake_with(
     shading: Result<EnvShading, String>,
     progress: &dyn Progress,
 ) -> Result<Outcome, MaterialsError> {
-    bake_reading(scene, bundle_dir, settings, force, shading, None, progress)
+    bake_reading(
+        scene,
+        bundle_dir,
+        settings,
+        force,
+        shading,
+        None,
+        Item::All,
+        progress,
+    )
 }
 
-/// [`bake_with`], where `d_read` is the identity of the radiosity stage the shading read
-/// (checked again at the commit).
+/// [`bake_with`] of `item`, where `d_read` is the identity of the radiosity stage the
+/// shading read (checked again at the commit).
+#[allow(clippy::too_many_arguments)]
 fn bake_reading(
     scene: &Scene,
     bundle_dir: &Path,
@@ -178,6 +223,7 @@ fn bake_reading(
     force: bool,
     shading: Result<EnvShading, String>,
     d_read: Option<String>,
+    item: Item,
     progress: &dyn Progress,
 ) -> Result<Outcome, MaterialsError> {
     let start = Instant::now();
@@ -193,13 +239,27 @@ fn bake_reading(
     if let Some(d) = &d_read {
         w.read_from(Stage::Radiosity.name(), d);
     }
-    let chosen = lobes::chosen_materials(scene);
+    let all = lobes::chosen_materials(scene);
+    // Folder names are made over every chosen material, so one material's unit names its
+    // folder as the whole stage does.
+    let folders =
+        crate::bundle::unique_folders(all.iter().map(|&i| scene.materials[i].name.as_str()));
+    let (chosen, folders): (Vec<usize>, Vec<String>) = all
+        .iter()
+        .zip(folders)
+        .enumerate()
+        .filter(|(k, _)| item.takes(Item::Material(*k)))
+        .map(|(_, (&m, f))| (m, f))
+        .unzip();
     let baked = lobes::bake_lobes(scene, &chosen, settings, progress)?;
 
     let mut stats: BTreeMap<String, serde_json::Value> = BTreeMap::new();
-    let materials = lobes::write_materials(&mut w, scene, &chosen, &baked, &mut stats)?;
+    let materials = lobes::write_materials(&mut w, scene, &chosen, &folders, &baked, &mut stats)?;
     let d_source = shading.as_ref().ok().map(|s| s.source.clone());
-    let env = env_maps::write_env_maps(&mut w, scene, settings, shading, progress, &mut stats)?;
+    let take_env = |k: usize| item.takes(Item::EnvMap(k));
+    let env = env_maps::write_env_maps(
+        &mut w, scene, settings, shading, &take_env, progress, &mut stats,
+    )?;
     let index = MaterialsIndex {
         format: INDEX_FORMAT.into(),
         version: 1,

@@ -1,0 +1,330 @@
+//! A work unit's shard: a bundle holding the part of one stage that the unit baked, and
+//! `unit.json`, its completion marker, written last (temp + rename). A shard without the
+//! marker is incomplete: the unit failed or was killed, and the merge refuses it by name.
+//!
+//! A unit first removes the shard's marker, then commits its stage part (the bundle's atomic
+//! stage commit), then writes the marker: killed at any point, it leaves no marker. A unit
+//! whose shard already holds a marker with the unit's key, and whose assets are intact, is
+//! up to date: only the marker is rewritten, naming the current plan.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+
+use super::materials::{self, Outcome};
+use super::part::Part;
+use super::srdm_stage::{self, SrdmOutcome};
+use super::units::{Unit, UnitPlan};
+use super::{BakeSettings, Stage, StageStatus, radiance_stage, radiosity_stage, scene_stage};
+use crate::bundle::{Bundle, write_atomic};
+use crate::progress::Progress;
+use crate::scene::Scene;
+
+/// The marker's file name inside a shard.
+pub const MARKER: &str = "unit.json";
+/// `format` of a marker.
+pub const MARKER_FORMAT: &str = "glint-unit";
+
+/// `unit.json`: which unit a complete shard holds, from which plan.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Marker {
+    /// Always `glint-unit`.
+    pub format: String,
+    /// Marker version, 1.
+    pub version: u32,
+    /// The unit's ID.
+    pub unit: String,
+    /// The unit's key when it was baked.
+    pub key: String,
+    /// The stage the shard holds.
+    pub stage: String,
+    /// [`crate::bundle::StageRecord::identity`] of that stage as committed.
+    pub stage_identity: String,
+    /// The identity of the D the unit read (units that read D).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub read_d: Option<String>,
+    /// The plan the shard belongs to (rewritten when a later plan finds it up to date).
+    pub plan: UnitPlan,
+}
+
+/// Why a shard cannot be read or a unit cannot be baked. Messages name the shard.
+#[derive(Debug, thiserror::Error)]
+pub enum ShardError {
+    /// No marker: the unit never finished.
+    #[error(
+        "{}: incomplete shard: no {MARKER} (its unit failed or was killed before it finished); rerun its unit{}",
+        shard.display(), hint.as_deref().map(|u| format!(" (`glint-bake SCENE --unit {u} --bundle {}`)", shard.display())).unwrap_or_default()
+    )]
+    Incomplete {
+        /// The shard.
+        shard: PathBuf,
+        /// The unit, guessed from the shard's file name.
+        hint: Option<String>,
+    },
+    /// Anything else wrong with a shard.
+    #[error("{}: {why}", shard.display())]
+    Invalid {
+        /// The shard.
+        shard: PathBuf,
+        /// What is wrong.
+        why: String,
+    },
+}
+
+fn invalid(shard: &Path, why: impl Into<String>) -> ShardError {
+    ShardError::Invalid {
+        shard: shard.to_owned(),
+        why: why.into(),
+    }
+}
+
+/// The unit ID a shard's file name suggests (`radiance.Floor.glint` → `radiance.Floor`).
+fn unit_of_name(shard: &Path) -> Option<String> {
+    let name = shard.file_name()?.to_string_lossy().into_owned();
+    Some(name.strip_suffix(".glint").unwrap_or(&name).to_string())
+}
+
+/// Reads a shard's marker and checks the shard against it: the stage it names exists with
+/// the recorded identity and every asset matches its hash. Returns the marker and the opened
+/// shard.
+pub fn read_shard(shard: &Path) -> Result<(Marker, Bundle), ShardError> {
+    let path = shard.join(MARKER);
+    let text = match std::fs::read_to_string(&path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            return Err(ShardError::Incomplete {
+                shard: shard.to_owned(),
+                hint: unit_of_name(shard),
+            });
+        }
+        Err(e) => return Err(invalid(shard, format!("{MARKER}: {e}"))),
+    };
+    let marker: Marker = serde_json::from_str(&text)
+        .map_err(|e| invalid(shard, format!("{MARKER}: not a unit marker: {e}")))?;
+    if marker.format != MARKER_FORMAT || marker.version != 1 {
+        return Err(invalid(
+            shard,
+            format!(
+                "{MARKER}: format {:?} version {}, expected {MARKER_FORMAT:?} version 1",
+                marker.format, marker.version
+            ),
+        ));
+    }
+    let bundle = Bundle::open(shard).map_err(|e| invalid(shard, e.to_string()))?;
+    let record = bundle.stage(&marker.stage).ok_or_else(|| {
+        invalid(
+            shard,
+            format!(
+                "{MARKER} names stage `{}`, which the shard lacks",
+                marker.stage
+            ),
+        )
+    })?;
+    if record.identity() != marker.stage_identity {
+        return Err(invalid(
+            shard,
+            format!(
+                "stage `{}` differs from what unit `{}` committed (identity {:.12}…, the marker records {:.12}…): rerun the unit",
+                marker.stage,
+                marker.unit,
+                record.identity(),
+                marker.stage_identity
+            ),
+        ));
+    }
+    let problems = bundle.verify();
+    if let Some(p) = problems.first() {
+        return Err(invalid(
+            shard,
+            format!(
+                "{} damaged asset(s), e.g. {p}: rerun unit `{}`",
+                problems.len(),
+                marker.unit
+            ),
+        ));
+    }
+    Ok((marker, bundle))
+}
+
+/// What [`bake_unit`] did.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct UnitReport {
+    /// The unit.
+    pub unit: String,
+    /// The shard.
+    pub shard: PathBuf,
+    /// Baked, or up to date.
+    #[serde(flatten)]
+    pub status: StageStatus,
+}
+
+/// Bakes unit `id` of `plan` into the shard at `shard`, reading D (when the unit reads it)
+/// from `d_shard` (default: `radiosity.glint` beside the shard). Up to date when the shard
+/// holds this unit's key intact: then only the marker is rewritten with `plan`.
+pub fn bake_unit(
+    scene: &Scene,
+    settings: &BakeSettings,
+    plan: &UnitPlan,
+    id: &str,
+    shard: &Path,
+    d_shard: Option<&Path>,
+    progress: &dyn Progress,
+) -> anyhow::Result<UnitReport> {
+    let unit = plan.unit(id).ok_or_else(|| {
+        let ids: Vec<&str> = plan.units.iter().map(|u| u.id.as_str()).collect();
+        anyhow::anyhow!(
+            "{}: no work unit `{id}`; the scene's units are: {}",
+            scene.path.display(),
+            ids.join(", ")
+        )
+    })?;
+    crate::bundle::check_folder(shard)?;
+    let report = |status| UnitReport {
+        unit: id.into(),
+        shard: shard.to_owned(),
+        status,
+    };
+    if let Ok((old, _)) = read_shard(shard)
+        && old.unit == unit.id
+        && old.key == unit.key
+    {
+        if old.plan != *plan {
+            write_marker(
+                shard,
+                &Marker {
+                    plan: plan.clone(),
+                    ..old
+                },
+            )?;
+        }
+        return Ok(report(StageStatus::UpToDate));
+    }
+    let start = Instant::now();
+    match std::fs::remove_file(shard.join(MARKER)) {
+        Ok(()) => {}
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        Err(e) => anyhow::bail!("{}: cannot remove: {e}", shard.join(MARKER).display()),
+    }
+    let d_path = d_source(unit, shard, d_shard, plan)?;
+    let part = Part {
+        item: plan.item(unit),
+        d_from: d_path.as_deref(),
+    };
+    let stage = bake_stage_part(scene, settings, unit, shard, part, progress)?;
+    let read_d = match &d_path {
+        Some(p) => Some(super::part::require_d(p)?.1),
+        None => None,
+    };
+    let identity = Bundle::open(shard)?
+        .stage(stage.name())
+        .map(|r| r.identity())
+        .ok_or_else(|| {
+            anyhow::anyhow!(
+                "{}: unit `{id}` committed no `{}` stage",
+                shard.display(),
+                stage.name()
+            )
+        })?;
+    write_marker(
+        shard,
+        &Marker {
+            format: MARKER_FORMAT.into(),
+            version: 1,
+            unit: unit.id.clone(),
+            key: unit.key.clone(),
+            stage: stage.name().into(),
+            stage_identity: identity,
+            read_d,
+            plan: plan.clone(),
+        },
+    )?;
+    Ok(report(StageStatus::Baked {
+        seconds: start.elapsed().as_secs_f64(),
+    }))
+}
+
+fn write_marker(shard: &Path, marker: &Marker) -> anyhow::Result<()> {
+    let text = serde_json::to_string_pretty(marker)?;
+    write_atomic(&shard.join(MARKER), text.as_bytes())?;
+    Ok(())
+}
+
+/// The shard a unit reads D from: `d_shard`, else `radiosity.glint` beside `shard`; it must
+/// hold the plan's `radiosity` unit, complete.
+fn d_source(
+    unit: &Unit,
+    shard: &Path,
+    d_shard: Option<&Path>,
+    plan: &UnitPlan,
+) -> anyhow::Result<Option<PathBuf>> {
+    let Some(dep) = unit.depends_on.first() else {
+        return Ok(None);
+    };
+    let path = match d_shard {
+        Some(p) => p.to_owned(),
+        None => shard
+            .parent()
+            .unwrap_or(Path::new("."))
+            .join(format!("{dep}.glint")),
+    };
+    let (marker, _) = read_shard(&path).map_err(|e| {
+        anyhow::anyhow!("unit `{}` reads D from unit `{dep}`'s shard: {e}", unit.id)
+    })?;
+    let want = plan.unit(dep).map(|u| u.key.as_str());
+    if marker.unit != *dep || Some(marker.key.as_str()) != want {
+        anyhow::bail!(
+            "{}: holds unit `{}` with key {:.12}…, but unit `{}` needs unit `{dep}` of this plan (key {:.12}…): bake `{dep}` first",
+            path.display(),
+            marker.unit,
+            marker.key,
+            unit.id,
+            want.unwrap_or("none")
+        );
+    }
+    Ok(Some(path))
+}
+
+/// Bakes the stage part of `unit` into `shard` (replacing what it held); returns its stage.
+fn bake_stage_part(
+    scene: &Scene,
+    s: &BakeSettings,
+    unit: &Unit,
+    shard: &Path,
+    part: Part<'_>,
+    progress: &dyn Progress,
+) -> anyhow::Result<Stage> {
+    let force = true;
+    let stage = match unit.stage.as_str() {
+        "scene" => {
+            scene_stage::bake(scene, shard, force)?;
+            Stage::Scene
+        }
+        "radiosity" => {
+            radiosity_stage::bake(scene, shard, &s.radiosity, force, progress)?;
+            Stage::Radiosity
+        }
+        "materials" => {
+            if let Outcome::Skipped(why) =
+                materials::bake_part(scene, shard, &s.materials, force, part, progress)?
+            {
+                anyhow::bail!("unit `{}`: the materials stage is skipped: {why}", unit.id);
+            }
+            Stage::Materials
+        }
+        "radiance" => {
+            radiance_stage::bake_part(scene, shard, s.quality, force, part, progress)?;
+            Stage::Radiance
+        }
+        "srdm" => {
+            if let SrdmOutcome::Skipped { reason } =
+                srdm_stage::bake_part(scene, shard, &s.srdm, force, part, progress)?
+            {
+                anyhow::bail!("unit `{}`: the srdm stage is skipped: {reason}", unit.id);
+            }
+            Stage::Srdm
+        }
+        other => anyhow::bail!("unit `{}`: unknown stage `{other}`", unit.id),
+    };
+    Ok(stage)
+}

@@ -1,0 +1,372 @@
+//! Work units: a bake split into pieces that an existing job engine runs (a Slurm job array,
+//! a Kubernetes Indexed Job, GNU parallel), each baking one item of one stage into its own
+//! shard bundle; `glint-bundle merge` assembles the shards ([`super::merge`]).
+//!
+//! A unit's ID is `KIND[.NAME]`, file-name safe, so a shard is `ID.glint`:
+//! - `scene`: the scene stage;
+//! - `radiosity`: the whole radiosity stage (gathering and bounces). Its gathering may later
+//!   be split by atlas page range into `radiosity.pages.A-B` units with the bounces in a
+//!   `radiosity.bounces` unit: new IDs and kinds, so plans and shards of this version keep
+//!   their meaning;
+//! - `material.FOLDER`: one glossy material's lobes (kernel, reflectance, pattern);
+//! - `envmap.FOLDER`: one glossy curved reflector's environment map (reads D);
+//! - `radiance.FOLDER`: one glossy planar reflector's radiance maps (reads D);
+//! - `srdm.FOLDER`: one impostor's captures and SRDM tables (reads D when the scene has it).
+//!
+//! FOLDER is the item's folder in its stage. Each unit names its inputs by content hash
+//! (geometry, the materials, lights, settings… that its output is a function of); its `key`
+//! hashes those with the keys of the units it reads, so a unit whose key is unchanged is up
+//! to date, whatever else in the scene changed. Units of `wave` 0 read no other unit;
+//! those of wave 1 read D, the `radiosity` unit's shard.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use super::materials::{self, curved_glossy_reflectors, recorded_settings};
+use super::part::Item;
+use super::{BakeSettings, Stage, plan, radiance_stage, radiosity_stage, srdm_stage};
+use crate::scene::Scene;
+
+/// `format` of a plan.
+pub const PLAN_FORMAT: &str = "glint-units";
+/// Version of the plan format.
+pub const PLAN_VERSION: u32 = 1;
+
+/// What a scene's bake splits into.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct UnitPlan {
+    /// Always `glint-units`.
+    pub format: String,
+    /// Plan format version, 1.
+    pub version: u32,
+    /// The scene's name.
+    pub scene_name: String,
+    /// The scene's content hash (scene.json, glTF, buffers).
+    pub scene_hash: String,
+    /// The quality preset.
+    pub quality: String,
+    /// The glint that made the plan.
+    pub generator: String,
+    /// BLAKE3 over every unit's ID and key: shards of one plan carry the same.
+    pub plan_hash: String,
+    /// Per stage, the settings the assembled stage records, without `d_source` (the merge
+    /// adds the identity of the D it assembles).
+    pub stages: BTreeMap<String, serde_json::Value>,
+    /// The units, in the order the merge assembles them (stage order, then item order).
+    pub units: Vec<Unit>,
+}
+
+/// One work unit.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Unit {
+    /// `KIND[.NAME]`, file-name safe.
+    pub id: String,
+    /// The stage the unit bakes part (or all) of.
+    pub stage: String,
+    /// The scene's name of the item (material, reflector, impostor); none for whole stages.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub item: Option<String>,
+    /// Named inputs, each a BLAKE3 (hex) of what the unit reads.
+    pub inputs: BTreeMap<String, String>,
+    /// IDs of the units whose shards it reads.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub depends_on: Vec<String>,
+    /// BLAKE3 over the inputs and the keys of `depends_on`: same key, same output.
+    pub key: String,
+    /// Estimated work, in ray casts (or the equivalent evaluations): for scheduling.
+    pub cost: f64,
+    /// 0: reads no unit; 1: runs after wave 0.
+    pub wave: u32,
+}
+
+impl UnitPlan {
+    /// The unit with `id`.
+    pub fn unit(&self, id: &str) -> Option<&Unit> {
+        self.units.iter().find(|u| u.id == id)
+    }
+
+    /// The IDs of the units of `wave`.
+    pub fn wave(&self, wave: u32) -> impl Iterator<Item = &str> {
+        self.units
+            .iter()
+            .filter(move |u| u.wave == wave)
+            .map(|u| u.id.as_str())
+    }
+
+    /// The stage item a unit bakes.
+    pub fn item(&self, unit: &Unit) -> Item {
+        let k = self
+            .units
+            .iter()
+            .filter(|u| u.stage == unit.stage && kind(&u.id) == kind(&unit.id))
+            .position(|u| u.id == unit.id)
+            .unwrap_or(0);
+        match kind(&unit.id) {
+            "material" => Item::Material(k),
+            "envmap" => Item::EnvMap(k),
+            "radiance" => Item::Reflector(k),
+            "srdm" => Item::Impostor(k),
+            _ => Item::All,
+        }
+    }
+}
+
+/// The kind of a unit ID: what precedes its first `.`.
+pub fn kind(id: &str) -> &str {
+    id.split_once('.').map_or(id, |(k, _)| k)
+}
+
+/// BLAKE3 (hex) of a value's JSON.
+fn hash_json(v: &impl Serialize) -> String {
+    let bytes = serde_json::to_vec(v).expect("plan inputs serialize");
+    blake3::hash(&bytes).to_hex().to_string()
+}
+
+fn hash_str(s: &str) -> String {
+    blake3::hash(s.as_bytes()).to_hex().to_string()
+}
+
+/// A unit before its key is computed.
+struct Draft {
+    id: String,
+    stage: Stage,
+    item: Option<String>,
+    inputs: Vec<(&'static str, String)>,
+    reads_d: bool,
+    cost: f64,
+}
+
+/// The work units of `scene` baked with `settings`: one per stage item the whole bake
+/// (`glint-bake`) would write, with the same stages skipped. Two items whose folders clash
+/// are refused (the whole bake refuses them too).
+pub fn plan_units(scene: &Scene, settings: &BakeSettings) -> Result<UnitPlan, String> {
+    let needed = |s: Stage| plan(scene).iter().any(|p| p.stage == s && p.needed);
+    let generator = hash_str(&crate::bundle::manifest::generator());
+    let geometry = scene.geometry_hash.clone();
+    let all_materials = hash_json(&scene.materials);
+    let has_d = needed(Stage::Radiosity);
+    let mut drafts = vec![Draft {
+        id: "scene".into(),
+        stage: Stage::Scene,
+        item: None,
+        inputs: vec![("scene_files", scene.content_hash.clone())],
+        reads_d: false,
+        cost: 1.0,
+    }];
+    let mut stages = BTreeMap::from([("scene".to_string(), serde_json::json!({}))]);
+
+    if has_d {
+        let s = &settings.radiosity;
+        // Mirror lights read the reflectors (not their radiance-map overrides).
+        let reflectors: Vec<_> = scene
+            .desc
+            .reflectors
+            .iter()
+            .map(|r| {
+                let mut r = r.clone();
+                r.radiance = None;
+                r
+            })
+            .collect();
+        let texels = crate::radiosity::atlas::estimate_texels(&scene.triangles, s.density_rule());
+        let recorded = radiosity_stage::settings_json(s);
+        drafts.push(Draft {
+            id: "radiosity".into(),
+            stage: Stage::Radiosity,
+            item: None,
+            inputs: vec![
+                ("geometry", geometry.clone()),
+                ("materials", all_materials.clone()),
+                ("lights", hash_json(&scene.desc.lights)),
+                ("reflectors", hash_json(&reflectors)),
+                ("settings", hash_json(&recorded)),
+                ("generator", generator.clone()),
+            ],
+            reads_d: false,
+            cost: texels * (s.rays + s.light_samples) as f64,
+        });
+        stages.insert("radiosity".into(), recorded);
+    }
+
+    if needed(Stage::Materials) {
+        let s = &settings.materials;
+        let chosen = materials::chosen_materials(scene);
+        let folders =
+            crate::bundle::unique_folders(chosen.iter().map(|&i| scene.materials[i].name.as_str()));
+        let settings_hash = hash_json(s);
+        for (&m, folder) in chosen.iter().zip(&folders) {
+            let mat = &scene.materials[m];
+            let per_lobe =
+                (s.sphere_map_size as f64).powi(2) * s.albedo_steps as f64 + s.sample_budget as f64;
+            drafts.push(Draft {
+                id: format!("material.{folder}"),
+                stage: Stage::Materials,
+                item: Some(mat.name.clone()),
+                inputs: vec![
+                    ("material", hash_json(mat)),
+                    ("folder", hash_str(folder)),
+                    ("settings", settings_hash.clone()),
+                    ("generator", generator.clone()),
+                ],
+                reads_d: false,
+                cost: per_lobe * mat.lobes.len() as f64,
+            });
+        }
+        if has_d {
+            let curved = curved_glossy_reflectors(scene);
+            let env_folders = crate::bundle::unique_folders(
+                curved.iter().map(|&r| scene.reflectors[r].name.as_str()),
+            );
+            for (&r, folder) in curved.iter().zip(&env_folders) {
+                let refl = &scene.reflectors[r];
+                drafts.push(Draft {
+                    id: format!("envmap.{folder}"),
+                    stage: Stage::Materials,
+                    item: Some(refl.name.clone()),
+                    inputs: vec![
+                        ("geometry", geometry.clone()),
+                        ("materials", all_materials.clone()),
+                        ("reflector", hash_json(&scene.desc.reflectors[refl.index])),
+                        ("folder", hash_str(folder)),
+                        ("settings", settings_hash.clone()),
+                        ("generator", generator.clone()),
+                    ],
+                    reads_d: true,
+                    cost: 6.0 * (s.env_map_size as f64 * s.env_supersample as f64).powi(2),
+                });
+            }
+        }
+        stages.insert("materials".into(), recorded_settings(s, None));
+    }
+
+    if needed(Stage::Radiance) {
+        let quadtree = hash_json(&radiance_stage::quadtree_limits(scene));
+        for (ri, _, p) in radiance_stage::plans(scene, settings.quality) {
+            let refl = &scene.reflectors[ri];
+            drafts.push(Draft {
+                id: format!(
+                    "radiance.{}",
+                    crate::radiance::index::reflector_folder(&refl.name)
+                ),
+                stage: Stage::Radiance,
+                item: Some(refl.name.clone()),
+                inputs: vec![
+                    ("geometry", geometry.clone()),
+                    ("reflector", hash_json(&scene.desc.reflectors[refl.index])),
+                    (
+                        "material",
+                        hash_json(&scene.materials[refl.material as usize]),
+                    ),
+                    ("plan", hash_json(&p)),
+                    ("quadtree", quadtree.clone()),
+                    ("generator", generator.clone()),
+                ],
+                reads_d: true,
+                cost: (p.elements[0] * p.elements[1] * p.cameras) as f64
+                    * (p.resolution as f64).powi(2),
+            });
+        }
+        stages.insert(
+            "radiance".into(),
+            radiance_stage::settings_json(scene, settings.quality, None),
+        );
+    }
+
+    if needed(Stage::Srdm) {
+        let s = &settings.srdm;
+        // The views face the scene's first camera keyframe; without D, captures show albedo.
+        let first_key = scene
+            .camera_paths
+            .first()
+            .and_then(|p| p.keyframes.first())
+            .map(|k| k.position);
+        let folders = srdm_stage::impostor_folders(scene);
+        for ((imp, desc), folder) in scene
+            .impostors
+            .iter()
+            .zip(&scene.desc.impostors)
+            .zip(&folders)
+        {
+            let mut inputs = vec![
+                ("geometry", geometry.clone()),
+                ("impostor", hash_json(desc)),
+                ("folder", hash_str(folder)),
+                ("first_camera", hash_json(&first_key)),
+                ("settings", hash_json(s)),
+                ("generator", generator.clone()),
+            ];
+            if !has_d {
+                inputs.push(("materials", all_materials.clone()));
+            }
+            drafts.push(Draft {
+                id: format!("srdm.{folder}"),
+                stage: Stage::Srdm,
+                item: Some(imp.name.clone()),
+                inputs,
+                reads_d: has_d,
+                cost: imp.views as f64 * (s.resolution as f64).powi(2),
+            });
+        }
+        let colour = if has_d { "radiosity" } else { "albedo" };
+        stages.insert("srdm".into(), srdm_stage::settings_json(s, colour, None));
+    }
+
+    let radiosity_key = |units: &[Unit]| {
+        units
+            .iter()
+            .find(|u| u.id == "radiosity")
+            .map(|u| u.key.clone())
+    };
+    let mut units: Vec<Unit> = Vec::new();
+    for d in drafts {
+        if units.iter().any(|u| u.id == d.id) {
+            return Err(format!(
+                "{}: two items of stage `{}` share the folder of unit `{}`: rename one",
+                scene.path.display(),
+                d.stage.name(),
+                d.id
+            ));
+        }
+        let depends_on: Vec<String> = if d.reads_d && has_d {
+            vec!["radiosity".into()]
+        } else {
+            Vec::new()
+        };
+        let mut h = blake3::Hasher::new();
+        h.update(d.id.as_bytes());
+        for (name, value) in &d.inputs {
+            h.update(format!("\n{name}={value}").as_bytes());
+        }
+        if !depends_on.is_empty() {
+            let k = radiosity_key(&units).expect("radiosity is planned first");
+            h.update(format!("\nradiosity:{k}").as_bytes());
+        }
+        units.push(Unit {
+            wave: depends_on.len() as u32,
+            id: d.id,
+            stage: d.stage.name().into(),
+            item: d.item,
+            inputs: d.inputs.into_iter().map(|(k, v)| (k.into(), v)).collect(),
+            depends_on,
+            key: h.finalize().to_hex().to_string(),
+            cost: d.cost.round(),
+        });
+    }
+    let mut h = blake3::Hasher::new();
+    for u in &units {
+        h.update(format!("{} {}\n", u.id, u.key).as_bytes());
+    }
+    h.update(hash_json(&stages).as_bytes());
+    Ok(UnitPlan {
+        format: PLAN_FORMAT.into(),
+        version: PLAN_VERSION,
+        scene_name: scene.name.clone(),
+        scene_hash: scene.content_hash.clone(),
+        quality: settings.quality.name().into(),
+        generator: crate::bundle::manifest::generator(),
+        plan_hash: h.finalize().to_hex().to_string(),
+        stages,
+        units,
+    })
+}
