@@ -169,7 +169,10 @@ pub fn plan_units(scene: &Scene, settings: &BakeSettings) -> Result<UnitPlan, St
                 r
             })
             .collect();
-        let texels = crate::radiosity::atlas::estimate_texels(&scene.triangles, s.density_rule());
+        let texels = crate::radiosity::atlas::estimate_texels(
+            &scene.triangles,
+            s.density_rule(scene.bounds.longest_side()),
+        );
         let recorded = radiosity_stage::settings_json(s);
         drafts.push(Draft {
             id: "radiosity".into(),
