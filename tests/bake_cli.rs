@@ -301,8 +301,9 @@ fn a_stage_shaded_with_a_d_replaced_meanwhile_is_refused_and_stays_stale() {
     let first = BakeSettings::resolve(&scene, Quality::Draft).unwrap();
     bake_all(&scene, &bundle, &first, false, &Silent).unwrap();
     let mut second = first.clone();
-    // A different D: more gathering rays (the density of this small room is the scene-size
-    // minimum's, which a per-metre change would not move).
+    // A different D: more emitter samples and gathering rays (the density of this small room
+    // is the scene-size minimum's, which a per-metre change would not move).
+    second.radiosity.light_samples *= 2;
     second.radiosity.rays *= 2;
     {
         // Another baker commits a new D while the radiance maps are being shaded with the old.
@@ -318,6 +319,7 @@ fn a_stage_shaded_with_a_d_replaced_meanwhile_is_refused_and_stays_stale() {
         );
     }
     // The same race against the materials stage (its d_source is D's identity too).
+    second.radiosity.light_samples *= 2;
     second.radiosity.rays *= 2;
     {
         let race = Midway::new(|| {

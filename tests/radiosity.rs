@@ -174,8 +174,9 @@ fn parallel_square_matches_the_analytic_form_factor() {
     let scene = parallel_squares(dir.path(), 1.0, s as f32, c as f32);
     let (atlas, sol) = run(&scene, 16.0, 1024, 256, 1);
     for (px, pz) in [(0.0, 0.0), (0.3, -0.2), (-0.7, 0.6)] {
-        // Texel centres are at (i + 0.5)/16: evaluate the formula where the texel samples.
-        let snap = |v: f64| ((v * 16.0).floor() + 0.5) / 16.0;
+        // The receiver runs from texel centre to texel centre: centres are at −1 + i/16.
+        // Evaluate the formula where the texel samples.
+        let snap = |v: f64| (v * 16.0).round() / 16.0;
         let (px, pz) = (snap(px), snap(pz));
         let got = at(&scene, &atlas, &sol, Vec3::new(px as f32, 0.0, pz as f32)).x as f64;
         // L_r = ρ L F (the receiver emits nothing).

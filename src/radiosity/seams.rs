@@ -358,7 +358,7 @@ pub struct StitchSettings {
 impl Default for StitchSettings {
     fn default() -> Self {
         StitchSettings {
-            closeness: 3e-3,
+            closeness: 1e-3,
             smoothness: 1e-2,
             max_iterations: 4000,
             tolerance: 1e-5,
