@@ -11,6 +11,7 @@ use super::params::{
     ReflectParams, composite_bind_group_layout, composite_group, params_group, params_layout,
     planar_composite, shader_source, sphere_texture,
 };
+use super::pyramid::{Pyramid, PyramidPasses};
 use super::splat_maps::{FrameStats, SplatMaps, load_splat_maps};
 use super::splats::{self, Splat};
 use super::{
@@ -51,6 +52,9 @@ pub struct GeometryReflections {
     clip: f32,
     /// M, reused by every reflector in turn.
     map: ReflectionMap,
+    /// M's pyramid, rebuilt after each mirror pass.
+    pyramid: Pyramid,
+    pyramid_passes: PyramidPasses,
     width: u32,
     height: u32,
 }
@@ -158,6 +162,8 @@ impl GeometryReflections {
             );
             let map = ReflectionMap::new(gpu, "glint reflection texture", width, height);
             let sampler = map_sampler(device, "glint reflection sampler");
+            let pyramid_passes = PyramidPasses::new(device);
+            let pyramid = pyramid_passes.pyramid(gpu, &map.view, width, height);
             let reflectors = planar
                 .into_iter()
                 .zip(splats)
@@ -213,6 +219,7 @@ impl GeometryReflections {
                         &map.view,
                         &sampler,
                         &sphere_view,
+                        &pyramid.view,
                     );
                     ReflectorGpu {
                         splats,
@@ -236,6 +243,8 @@ impl GeometryReflections {
                 reflectors,
                 clip,
                 map,
+                pyramid,
+                pyramid_passes,
                 width,
                 height,
             }
@@ -269,14 +278,20 @@ impl GeometryReflections {
         r.index_count > 0 && signed_distance(&r.reflector.plane, camera.position) > 0.0
     }
 
-    /// How many render passes [`GeometryReflections::draw`] records for `camera` (two per
+    /// How many reflection maps [`GeometryReflections::draw`] draws for `camera` (one per
     /// reflector seen from its reflecting side).
-    pub fn pass_count(&self, camera: &Camera) -> usize {
-        2 * self
-            .reflectors
+    pub fn map_count(&self, camera: &Camera) -> usize {
+        self.reflectors
             .iter()
             .filter(|r| self.visible(r, camera))
             .count()
+    }
+
+    /// How many render passes [`GeometryReflections::draw`] records for `camera`: per map
+    /// ([`GeometryReflections::map_count`]), the mirror pass, one per level of M's pyramid
+    /// and the composite.
+    pub fn pass_count(&self, camera: &Camera) -> usize {
+        (2 + super::filter::level_count(self.width, self.height) as usize) * self.map_count(camera)
     }
 
     /// Writes each reflector's mirrored-view uniforms for `camera` and, in image mode, plans
@@ -410,6 +425,11 @@ impl GeometryReflections {
                     }
                 }
             }
+            self.pyramid_passes.record(
+                encoder,
+                &self.pyramid,
+                matches!(self.source, Source::Image { .. }),
+            );
             let end = end_timestamp.filter(|_| k + 1 == visible.len());
             let mut pass = self.composite.begin(
                 encoder,

@@ -10,6 +10,7 @@ use super::super::params::{
     ReflectParams, composite_bind_group_layout, composite_group, params_group, params_layout,
     planar_composite, shader_source, sphere_texture,
 };
+use super::super::pyramid::{Pyramid, PyramidPasses};
 use super::super::splats::pixel_tangent;
 use super::super::{
     CLIP_FRACTION, PlanarReflector, ReflectanceSettings, reflectors_with_materials,
@@ -59,6 +60,9 @@ pub struct RecursiveReflections {
     sampler: wgpu::Sampler,
     /// Figure 3: one reflection map per recursion level.
     levels: Vec<ReflectionMap>,
+    /// Each level's MIP pyramid, rebuilt once its map is complete.
+    pyramids: Vec<Pyramid>,
+    pyramid_passes: PyramidPasses,
     slots: Mutex<Vec<Slot>>,
     plan: Mutex<Plan>,
     clip: f32,
@@ -158,8 +162,13 @@ impl RecursiveReflections {
                 &frame_layout,
                 &composite_layout,
             );
-            let levels = (0..settings.depth)
+            let levels: Vec<ReflectionMap> = (0..settings.depth)
                 .map(|_| ReflectionMap::new(gpu, "glint recursion level map", width, height))
+                .collect();
+            let pyramid_passes = PyramidPasses::new(device);
+            let pyramids = levels
+                .iter()
+                .map(|l| pyramid_passes.pyramid(gpu, &l.view, width, height))
                 .collect();
             let sampler = map_sampler(device, "glint recursive reflection sampler");
             let mut vertices = Vec::new();
@@ -204,6 +213,8 @@ impl RecursiveReflections {
                 composite_layout,
                 sampler,
                 levels,
+                pyramids,
+                pyramid_passes,
                 slots: Mutex::new(Vec::new()),
                 plan: Mutex::new(Plan::default()),
                 clip,
@@ -240,9 +251,10 @@ impl RecursiveReflections {
     }
 
     /// Render passes [`RecursiveReflections::draw_timed`] records for the last prepared frame
-    /// (a scene pass and a composite per map).
+    /// (a scene pass, one per level of its pyramid and a composite per map).
     pub fn pass_count(&self) -> usize {
-        2 * self.plan.lock().map(|p| p.nodes.len()).unwrap_or(0)
+        (2 + crate::view::reflections::filter::level_count(self.width, self.height) as usize)
+            * self.plan.lock().map(|p| p.nodes.len()).unwrap_or(0)
     }
 
     fn new_slot(&self, gpu: &Gpu, renderer: &Renderer) -> Slot {
@@ -347,6 +359,7 @@ impl RecursiveReflections {
                     &self.levels[node.level].view,
                     &self.sampler,
                     &self.sphere_views[node.reflector],
+                    &self.pyramids[node.level].view,
                 );
                 slot.composite = Some((key, group));
             }
@@ -376,6 +389,7 @@ impl RecursiveReflections {
         };
         for (k, &root) in plan.roots.iter().enumerate() {
             self.draw_node(encoder, renderer, &plan, &slots, root, curved);
+            self.filter_node(encoder, &plan.nodes[root]);
             let end = end_timestamp.filter(|_| k + 1 == plan.roots.len());
             let mut pass = self.frame_composite.begin(
                 encoder,
@@ -403,6 +417,12 @@ impl RecursiveReflections {
         pass.set_vertex_buffer(0, renderer.vertex_buffer().slice(..));
         pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
         pass.draw_indexed(0..*count, 0, 0..1);
+    }
+
+    /// Builds the pyramid of `node`'s finished map, which its composite reads.
+    fn filter_node(&self, encoder: &mut wgpu::CommandEncoder, node: &Node) {
+        self.pyramid_passes
+            .record(encoder, &self.pyramids[node.level], false);
     }
 
     /// Figure 4's `DrawScene(mirror_view, depth + 1)`: node `id`'s mirrored view into its
@@ -434,6 +454,7 @@ impl RecursiveReflections {
         for &child in &node.children {
             // Map level + 1 is overwritten per child: generated, applied, discarded (§3.1).
             self.draw_node(encoder, renderer, plan, slots, child, curved);
+            self.filter_node(encoder, &plan.nodes[child]);
             let mut pass = level.begin_over(encoder, "glint recursive map composite");
             pass.set_pipeline(&self.map_composite_pipeline);
             pass.set_bind_group(0, &slots[id].frame_group, &[]);
