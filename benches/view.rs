@@ -23,7 +23,8 @@
 //! path's first keyframe, [`FIDELITY_SIZE`], [`FIDELITY_SPP`] paths per pixel: its noise is
 //! part of the figure), and over the reflectors' pixels against the CPU evaluation of the
 //! viewer's own equation (the viewer's share of the error). `GLINT_BENCH_TABLES` (a comma list
-//! of `frames`, `reflections`, `fidelity`; all by default) picks the tables.
+//! of `frames`, `reflections`, `fidelity`; all by default) picks the tables and
+//! `GLINT_BENCH_SCENES` (a comma list) the scenes.
 //!
 //! `cargo bench --bench view` (the `view` feature, on by default). The adapter is the one
 //! `Gpu::headless` picks: a hardware GPU when there is one, else Mesa's lavapipe; `WGPU_BACKEND`
@@ -88,6 +89,18 @@ fn main() {
     }
 }
 
+/// The scenes of `all` that `GLINT_BENCH_SCENES` (a comma list; all when unset) names.
+fn picked<'a>(all: &[&'a str]) -> Vec<&'a str> {
+    let only = std::env::var("GLINT_BENCH_SCENES").ok();
+    all.iter()
+        .copied()
+        .filter(|s| {
+            only.as_deref()
+                .is_none_or(|o| o.split(',').any(|w| w.trim() == *s))
+        })
+        .collect()
+}
+
 /// Each shipped scene's first camera path replayed, best of `repeats` runs.
 fn frame_table(gpu: &Gpu, work: &Path, adapter: &str, repeats: usize) {
     let mut rows = vec![
@@ -106,7 +119,7 @@ fn frame_table(gpu: &Gpu, work: &Path, adapter: &str, repeats: usize) {
         .map(String::from),
     ];
     let mut source = None;
-    for name in SCENES {
+    for name in picked(&SCENES) {
         let bundle = bake_if_needed(
             &repo(&format!("scenes/{name}/scene.json")),
             work,
@@ -219,7 +232,7 @@ fn reflection_table(gpu: &Gpu, work: &Path, repeats: usize) {
             2,
         ),
     ];
-    for name in ["glossy-room", "breakfast-room"] {
+    for name in picked(&["glossy-room", "breakfast-room"]) {
         let scene_json = repo(&format!("scenes/{name}/scene.json"));
         let bundle = bake_if_needed(&scene_json, work, name, false);
         let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
@@ -411,7 +424,7 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
         height: h as usize,
         rgb,
     };
-    for name in ["glossy-room", "breakfast-room", "bunny-mirror"] {
+    for name in picked(&["glossy-room", "breakfast-room", "bunny-mirror"]) {
         let scene_json = repo(&format!("scenes/{name}/scene.json"));
         let bundle = bake_if_needed(&scene_json, work, name, true);
         let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));

@@ -550,12 +550,12 @@ fn both_modes_approach_the_path_tracer_on_glossy_room() {
     }
 }
 
-/// A mirror (K = identity: roughness far below a kernel texel; R = 1: no materials stage;
-/// ks = 1) on the floor of a small room reflecting a flat diffuse wall: image mode matches
-/// geometry mode within [`MIRROR_TOLERANCE`], and the reflection is not vacuous.
-#[test]
-fn mirror_reflecting_a_flat_wall_matches_in_both_modes() {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("view-reflections-mirror");
+/// A small room (the tests' [`common::room`], its panel diffuse, the ceiling dimmed and
+/// facing down) whose floor is a mirror: a Kurt lobe of width `m`, ks = 1, r₀ = 1; viewed from
+/// one camera looking down at the panel's reflection. Baked (scene, radiosity, radiance maps;
+/// no materials stage) into `view-reflections-NAME` under the tests' temporary folder.
+fn floor_mirror_room(name: &str, m: f32) -> (Scene, PathBuf) {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("view-reflections-{name}"));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let (mut meshes, mut materials) = common::room();
@@ -567,15 +567,26 @@ fn mirror_reflecting_a_flat_wall_matches_in_both_modes() {
     common::write_gltf(&dir, "room", &meshes, &materials);
     let scene_json = common::write_scene(
         &dir,
-        r#"{ "version": 1, "name": "mirror-room", "geometry": "room.gltf",
-  "materials": { "FloorMat": { "albedo": [0.05, 0.05, 0.05], "lobes": [ { "ks": [1, 1, 1], "r0": 1.0, "mx": 0.0005, "my": 0.0005, "alpha": 0 } ] } },
-  "reflectors": [ { "mesh": "Floor", "kind": "planar" } ],
-  "camera_paths": [ { "name": "v", "fps": 30, "keyframes": [
-    { "time": 0.0, "position": [0.7, 0.9, 0.6], "target": [-0.9, 0.1, -0.1], "fov_y_deg": 60.0 } ] } ] }"#,
+        &format!(
+            r#"{{ "version": 1, "name": "{name}-room", "geometry": "room.gltf",
+  "materials": {{ "FloorMat": {{ "albedo": [0.05, 0.05, 0.05], "lobes": [ {{ "ks": [1, 1, 1], "r0": 1.0, "mx": {m}, "my": {m}, "alpha": 0 }} ] }} }},
+  "reflectors": [ {{ "mesh": "Floor", "kind": "planar" }} ],
+  "camera_paths": [ {{ "name": "v", "fps": 30, "keyframes": [
+    {{ "time": 0.0, "position": [0.7, 0.9, 0.6], "target": [-0.9, 0.1, -0.1], "fov_y_deg": 60.0 }} ] }} ] }}"#
+        ),
     );
     let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
-    let bundle = dir.join("mirror.glint");
+    let bundle = dir.join(format!("{name}.glint"));
     common::bake_with_radiance(&scene, &bundle, &common::quick_radiosity(2));
+    (scene, bundle)
+}
+
+/// A mirror (K = identity: roughness far below a kernel texel; R = 1: no materials stage;
+/// ks = 1) on the floor of a small room reflecting a flat diffuse wall: image mode matches
+/// geometry mode within [`MIRROR_TOLERANCE`], and the reflection is not vacuous.
+#[test]
+fn mirror_reflecting_a_flat_wall_matches_in_both_modes() {
+    let (_, bundle) = floor_mirror_room("mirror", 0.0005);
     let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
     let r = reflections::reflectors_with_reflectance(&data);
     assert_eq!(r.len(), 1);
@@ -730,26 +741,7 @@ fn edge_widths(
 /// GPU 1.52 px, CPU equation 1.57 px over 110 columns.
 #[test]
 fn near_mirror_reflection_keeps_its_edges_sharp() {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("view-reflections-near-mirror");
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    let (mut meshes, mut materials) = common::room();
-    let ceiling = meshes.pop().unwrap();
-    meshes.push(common::flip(ceiling));
-    materials[1] = common::MaterialSpec::diffuse("PanelMat", 0.8);
-    materials[2].strength = 1.5;
-    common::write_gltf(&dir, "room", &meshes, &materials);
-    let scene_json = common::write_scene(
-        &dir,
-        r#"{ "version": 1, "name": "near-mirror-room", "geometry": "room.gltf",
-  "materials": { "FloorMat": { "albedo": [0.05, 0.05, 0.05], "lobes": [ { "ks": [1, 1, 1], "r0": 1.0, "mx": 0.01, "my": 0.01, "alpha": 0 } ] } },
-  "reflectors": [ { "mesh": "Floor", "kind": "planar" } ],
-  "camera_paths": [ { "name": "v", "fps": 30, "keyframes": [
-    { "time": 0.0, "position": [0.7, 0.9, 0.6], "target": [-0.9, 0.1, -0.1], "fov_y_deg": 60.0 } ] } ] }"#,
-    );
-    let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
-    let bundle = dir.join("near-mirror.glint");
-    common::bake_with_radiance(&scene, &bundle, &common::quick_radiosity(2));
+    let (scene, bundle) = floor_mirror_room("near-mirror", 0.01);
     materials::bake(
         &scene,
         &bundle,

@@ -138,6 +138,25 @@ pub fn level(variance: f32, scale: f32) -> f32 {
     (0.5 * (4.0 * (variance * scale * scale + 1.0 / 6.0)).log2()).max(0.0)
 }
 
+/// The finest detail of M, in pixels, that the filter `taps` keep at `scale` pixels per
+/// kernel texel: 2^⌊L⌋ for the lowest level L read by a tap of at least half the mean
+/// weight (1 when such a tap reads level 0, as every tap of an ungathered kernel does; the
+/// lighter ones, single texels at the rim, carry too little weight to show detail). The
+/// filter averages finer detail away, so M may be drawn at this pitch: image mode thins its
+/// splats to it (Eq. 3's step).
+pub fn detail_pixels(taps: &[FilterTap], scale: f32) -> f32 {
+    let heavy = 0.5 / taps.len().max(1) as f32;
+    let v = taps
+        .iter()
+        .filter(|t| t.weight >= heavy)
+        .map(|t| t.variance)
+        .fold(f32::INFINITY, f32::min);
+    if !v.is_finite() {
+        return 1.0;
+    }
+    level(v, scale).floor().exp2()
+}
+
 /// A MIP pyramid of an image on the CPU, built and read as the GPU does: level k is
 /// max(1, ⌊w / 2^k⌋) × max(1, ⌊h / 2^k⌋), each texel the bilinear read of the level below at
 /// its centre (a 2×2 box where the sizes halve exactly), down to 1×1.
@@ -404,6 +423,22 @@ mod tests {
         assert!((b - a - 1.0).abs() < 1e-3, "{a} → {b}");
         // b²/4 = v·s²: a footprint of 2^L pixels has the cell's variance.
         assert!((level(1.0, 32.0) - 6.0).abs() < 1e-3);
+        // The detail M needs: the sharpest tap's footprint, whole levels, 1 for exact taps.
+        let tap = |variance| FilterTap {
+            offset: Vec2::ZERO,
+            weight: 0.5,
+            variance,
+        };
+        assert_eq!(detail_pixels(&[tap(1.0), tap(4.0)], 32.0), 64.0);
+        assert_eq!(detail_pixels(&[tap(1.0), tap(0.0)], 32.0), 1.0);
+        // A light rim tap does not hold the detail down.
+        let rim = FilterTap {
+            weight: 0.01,
+            ..tap(0.0)
+        };
+        assert_eq!(detail_pixels(&[tap(1.0), tap(4.0), rim], 32.0), 64.0);
+        assert_eq!(detail_pixels(&[tap(1.0)], 0.1), 1.0);
+        assert_eq!(detail_pixels(&[], 5.0), 1.0);
     }
 
     #[test]

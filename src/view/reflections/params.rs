@@ -6,7 +6,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use super::PlanarReflector;
-use super::filter::{FILTER_RINGS, MAX_FILTER_TAPS, filter_taps};
+use super::filter::{FILTER_RINGS, FilterTap, MAX_FILTER_TAPS, filter_taps};
 use super::material::{MODULATION_SIZE, Modulation};
 use crate::materials::reflectance;
 use crate::view::build::{LayoutBuilder, bind_group_layout, render_pipeline};
@@ -50,6 +50,18 @@ impl ReflectParams {
     /// The parameters of `reflector` with clip distance `clip`, seen from `eye` (kernel
     /// scale 0 until [`super::GeometryReflections::prepare`] sets it).
     pub fn new(reflector: &PlanarReflector, clip: f32, eye: Vec3) -> ReflectParams {
+        let filter = filter_taps(&reflector.kernel.taps, FILTER_RINGS);
+        Self::with_filter(reflector, &filter, clip, eye)
+    }
+
+    /// [`ReflectParams::new`] with the reflector's M*K filter already gathered
+    /// ([`filter_taps`] of its kernel, [`FILTER_RINGS`]).
+    pub fn with_filter(
+        reflector: &PlanarReflector,
+        filter: &[FilterTap],
+        clip: f32,
+        eye: Vec3,
+    ) -> ReflectParams {
         let n = reflector.plane.normal;
         let mut modulation = [[0.0; 4]; MODULATION_SIZE];
         let mut sphere = (0.0, 0.0);
@@ -61,9 +73,8 @@ impl ReflectParams {
             }
             Modulation::Sphere { size, .. } => sphere = (1.0, *size as f32),
         }
-        let filter = filter_taps(&reflector.kernel.taps, FILTER_RINGS);
         let mut taps = [[0.0; 4]; MAX_FILTER_TAPS];
-        for (t, k) in taps.iter_mut().zip(&filter) {
+        for (t, k) in taps.iter_mut().zip(filter) {
             *t = [k.offset.x, k.offset.y, k.weight, k.variance];
         }
         ReflectParams {

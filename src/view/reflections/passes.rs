@@ -6,7 +6,9 @@
 
 use glam::{Mat4, Vec3};
 
+use super::filter::{FILTER_RINGS, FilterTap, detail_pixels, filter_taps};
 use super::map_target::{ReflectionMap, map_sampler};
+use super::material::{beyond_fraction, texel_pixels};
 use super::params::{
     ReflectParams, composite_bind_group_layout, composite_group, params_group, params_layout,
     planar_composite, shader_source, sphere_texture,
@@ -32,6 +34,8 @@ use crate::view::renderer::{
 struct ReflectorGpu {
     splats: Option<SplatMaps>,
     reflector: PlanarReflector,
+    /// Its M*K filter ([`super::filter::filter_taps`]).
+    filter: Vec<FilterTap>,
     params: wgpu::Buffer,
     mirror_uniforms: wgpu::Buffer,
     mirror_frame_group: wgpu::BindGroup,
@@ -223,6 +227,7 @@ impl GeometryReflections {
                     );
                     ReflectorGpu {
                         splats,
+                        filter: filter_taps(&reflector.kernel.taps, FILTER_RINGS),
                         index_count: indices.len() as u32,
                         reflector,
                         params,
@@ -329,9 +334,11 @@ impl GeometryReflections {
             let u = renderer.uniforms(&mirrored, self.width, self.height);
             gpu.queue
                 .write_buffer(&r.mirror_uniforms, 0, bytemuck::bytes_of(&u));
-            let mut p = ReflectParams::new(&r.reflector, self.clip, camera.position);
+            let mut p =
+                ReflectParams::with_filter(&r.reflector, &r.filter, self.clip, camera.position);
             // Screen pixels per kernel texel at beyond-fraction 1 (scaled per pixel).
-            p.kernel[0] = super::material::texel_pixels(r.reflector.kernel.texel_angle, 1.0, pitch);
+            let texel = texel_pixels(r.reflector.kernel.texel_angle, 1.0, pitch);
+            p.kernel[0] = texel;
             // Image mode: M's uncovered texels are holes to fill, not empty reflections.
             p.kernel[2] = if matches!(self.source, Source::Image { .. }) {
                 1.0
@@ -342,6 +349,13 @@ impl GeometryReflections {
             if let (Source::Image { selection, count }, Some(maps)) = (self.source, &r.splats)
                 && self.visible(r, camera)
             {
+                // The detail of M the composite keeps at a reflected point: its filter's
+                // sharpest footprint at the point's beyond fraction.
+                let eye_side = signed_distance(&r.reflector.plane, camera.position);
+                let detail = |q: Vec3| {
+                    let f = beyond_fraction(signed_distance(&r.reflector.plane, q), eye_side);
+                    detail_pixels(&r.filter, texel * f)
+                };
                 maps.plan(
                     gpu,
                     &mirrored,
@@ -351,6 +365,7 @@ impl GeometryReflections {
                     count,
                     self.width,
                     self.height,
+                    &detail,
                 );
             }
         }

@@ -9,8 +9,10 @@
 //!   the reflected view, of one map pixel.
 //! - [`plan_map`]: per frame and selected map, the quadtree walked from the root: nodes
 //!   outside the reflected view culled, each visible leaf drawn with its Eq. 3 size, and when
-//!   minified (a map pixel smaller than a screen pixel) only the prefix of its points that
-//!   Eq. 3's step keeps, each splat grown by the step.
+//!   minified (a map pixel smaller than the detail M needs there: a screen pixel, or the
+//!   footprint of the sharpest tap of a glossy reflector's M*K filter,
+//!   [`super::filter::detail_pixels`]) only the prefix of its points that Eq. 3's step keeps,
+//!   each splat grown by the step.
 //!
 //! - [`fill_hole`]: what the composite reads where no splat covered M's texel.
 //!
@@ -318,7 +320,9 @@ pub type Draw = Range<u32>;
 /// What one selected map contributes to a frame: its draws (appended to `draws`, adjacent
 /// ranges merged) and its visible leaves' parameters (written into `params` at
 /// `node_base` + leaf index). `rank` is the map's place in its element's selection (0: best).
-/// Returns the number of nodes culled.
+/// `detail` gives, at a scene point, the finest detail of M in screen pixels that the
+/// composite keeps (≥ 1; 1 everywhere for a mirror): Eq. 3's step thins a leaf's points to
+/// it. Returns the number of nodes culled.
 #[allow(clippy::too_many_arguments)]
 pub fn plan_map(
     map: &MapSplats,
@@ -328,6 +332,7 @@ pub fn plan_map(
     planes: &[Vec4],
     width: u32,
     height: u32,
+    detail: &dyn Fn(Vec3) -> f32,
     params: &mut [NodeParams],
     draws: &mut Vec<Draw>,
 ) -> usize {
@@ -357,7 +362,7 @@ pub fn plan_map(
             culled += 1;
             continue;
         };
-        let k = step(size);
+        let k = step(size / detail(node.mean).max(1.0));
         // Eq. 3: the kept points' spacing is k map pixels; at least one screen pixel so a
         // splat always covers a pixel centre.
         let px = (size * k as f32 * SPLAT_OVERLAP).max(Vec2::ONE);
@@ -536,7 +541,7 @@ mod tests {
         assert_eq!(m.ranges[2], 128..256);
         assert!(m.splats[..128].iter().all(|s| s.node == 11));
         let mut params = vec![NodeParams::default(); 13];
-        let plan = |cam: &Camera, params: &mut [NodeParams]| {
+        let plan_with = |cam: &Camera, detail: f32, params: &mut [NodeParams]| {
             let vp = super::super::super::renderer::view_projection(cam, 1.0, 0.01);
             let mut draws = Vec::new();
             let culled = plan_map(
@@ -547,11 +552,13 @@ mod tests {
                 &frustum_planes(&vp),
                 100,
                 100,
+                &|_| detail,
                 params,
                 &mut draws,
             );
             (draws, culled)
         };
+        let plan = |cam: &Camera, params: &mut [NodeParams]| plan_with(cam, 1.0, params);
         // Close, looking at the whole map: both leaves in one merged draw, magnified.
         let up = Camera::look_at(
             Vec3::new(0.0, 0.0, 0.0),
@@ -564,6 +571,13 @@ mod tests {
         assert_eq!((draws[0].clone(), culled), (0..256, 0));
         assert!(params[11].half_ndc[0] > 1.0 / 100.0);
         assert!(params[11].depth_scale < 1.0, "rank 1 is pushed back");
+        // The same view where the composite keeps only 64-pixel detail (a rough lobe's
+        // filter): thinned as if minified, the kept splats grown by the step.
+        let magnified = params[11].half_ndc[0];
+        let (draws, _) = plan_with(&up, 64.0, &mut params);
+        let total: u32 = draws.iter().map(|d| d.end - d.start).sum();
+        assert!(total > 0 && total <= 64, "{draws:?}");
+        assert!(params[11].half_ndc[0] >= 2.0 * magnified);
         // Far away: minified, a quarter (or less) of each leaf.
         let far = Camera::look_at(
             Vec3::new(0.0, -400.0, 0.0),

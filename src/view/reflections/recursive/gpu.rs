@@ -5,6 +5,7 @@ use std::sync::Mutex;
 
 use glam::Vec3;
 
+use super::super::filter::{FILTER_RINGS, FilterTap, filter_taps};
 use super::super::map_target::{ReflectionMap, map_sampler};
 use super::super::params::{
     ReflectParams, composite_bind_group_layout, composite_group, params_group, params_layout,
@@ -46,6 +47,8 @@ struct Slot {
 pub struct RecursiveReflections {
     settings: RecursionSettings,
     reflectors: Vec<PlanarReflector>,
+    /// Each reflector's M*K filter ([`crate::view::reflections::filter::filter_taps`]).
+    filters: Vec<Vec<FilterTap>>,
     vertices: Vec<Vec<Vec3>>,
     indices: Vec<(wgpu::Buffer, u32)>,
     _spheres: Vec<wgpu::Texture>,
@@ -200,6 +203,10 @@ impl RecursiveReflections {
                 .collect();
             RecursiveReflections {
                 settings,
+                filters: reflectors
+                    .iter()
+                    .map(|r| filter_taps(&r.kernel.taps, FILTER_RINGS))
+                    .collect(),
                 reflectors,
                 vertices,
                 indices,
@@ -340,7 +347,8 @@ impl RecursiveReflections {
             u.encode_srgb = 0;
             gpu.queue
                 .write_buffer(&slot.uniforms, 0, bytemuck::bytes_of(&u));
-            let mut p = ReflectParams::new(r, self.clip, node.eye);
+            let mut p =
+                ReflectParams::with_filter(r, &self.filters[node.reflector], self.clip, node.eye);
             p.kernel[0] = super::super::material::texel_pixels(r.kernel.texel_angle, 1.0, pitch);
             // Nielsen §3.1: a map shows only what lies in front of its mirror, so the
             // composite of a child into its parent's map is clipped at the parent's plane too.
