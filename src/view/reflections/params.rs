@@ -172,17 +172,17 @@ pub(super) fn planar_composite(
 }
 
 /// The composite's group 1 on `layout` ([`composite_bind_group_layout`]): `params`, the
-/// reflected image `m`, the `sampler`, R's `sphere` map and M's `pyramid`.
+/// reflected image M and its pyramid (`maps`), the `sampler` and R's `sphere` map.
 pub(super) fn composite_group(
     device: &wgpu::Device,
     label: &str,
     layout: &wgpu::BindGroupLayout,
     params: &wgpu::Buffer,
-    m: &wgpu::TextureView,
+    maps: (&wgpu::TextureView, &wgpu::TextureView),
     sampler: &wgpu::Sampler,
     sphere: &wgpu::TextureView,
-    pyramid: &wgpu::TextureView,
 ) -> wgpu::BindGroup {
+    let (m, pyramid) = maps;
     device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some(label),
         layout,

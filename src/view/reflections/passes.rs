@@ -220,10 +220,9 @@ impl GeometryReflections {
                         "glint composite params",
                         &composite_layout,
                         &params,
-                        &map.view,
+                        (&map.view, &pyramid.view),
                         &sampler,
                         &sphere_view,
-                        &pyramid.view,
                     );
                     ReflectorGpu {
                         splats,

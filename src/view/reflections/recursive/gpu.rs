@@ -364,10 +364,12 @@ impl RecursiveReflections {
                     "glint recursive composite",
                     &self.composite_layout,
                     &slot.params,
-                    &self.levels[node.level].view,
+                    (
+                        &self.levels[node.level].view,
+                        &self.pyramids[node.level].view,
+                    ),
                     &self.sampler,
                     &self.sphere_views[node.reflector],
-                    &self.pyramids[node.level].view,
                 );
                 slot.composite = Some((key, group));
             }
