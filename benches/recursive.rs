@@ -127,7 +127,7 @@ fn main() {
                     let s = r.stats();
                     (s.maps, s.culled_frustum, s.culled_weight)
                 }
-                (None, Some(g)) => (g.pass_count(c) / 2, 0, 0),
+                (None, Some(g)) => (g.map_count(c), 0, 0),
                 (None, None) => (0, 0, 0),
             };
             off.render(&gpu, &timed[0])

@@ -17,6 +17,15 @@
 //! passes included), and the mean error against the reference path tracer and against the CPU
 //! evaluation of the same equation ([`reflection_table`]).
 //!
+//! A third table measures fidelity ([`fidelity_table`]): per shipped scene with glossy
+//! planar reflectors and per mode, the whole-frame relative RMSE and the relative RMSE over
+//! the reflectors' pixels against the reference path tracer at the same camera (each camera
+//! path's first keyframe, [`FIDELITY_SIZE`], [`FIDELITY_SPP`] paths per pixel: its noise is
+//! part of the figure), and over the reflectors' pixels against the CPU evaluation of the
+//! viewer's own equation (the viewer's share of the error). `GLINT_BENCH_TABLES` (a comma list
+//! of `frames`, `reflections`, `fidelity`; all by default) picks the tables and
+//! `GLINT_BENCH_SCENES` (a comma list) the scenes.
+//!
 //! `cargo bench --bench view` (the `view` feature, on by default). The adapter is the one
 //! `Gpu::headless` picks: a hardware GPU when there is one, else Mesa's lavapipe; `WGPU_BACKEND`
 //! narrows the choice. The table says which, and how the GPU time was measured.
@@ -27,6 +36,8 @@ use std::time::Instant;
 use glint::bake::{Stage, up_to_date};
 use glint::bake::{materials, radiance_stage};
 use glint::bundle::stats::format_table;
+use glint::eval::Image;
+use glint::eval::compare::compare;
 use glint::eval::reference::{self, RenderOptions};
 use glint::geometry::Bvh;
 use glint::progress::Silent;
@@ -64,6 +75,34 @@ fn main() {
         .and_then(|v| v.parse::<usize>().ok())
         .unwrap_or(REPEATS)
         .max(1);
+    let tables = std::env::var("GLINT_BENCH_TABLES")
+        .unwrap_or_else(|_| "frames,reflections,fidelity".to_string());
+    let wanted = |t: &str| tables.split(',').any(|w| w.trim() == t);
+    if wanted("frames") {
+        frame_table(&gpu, &work, &adapter, repeats);
+    }
+    if wanted("reflections") {
+        reflection_table(&gpu, &work, repeats);
+    }
+    if wanted("fidelity") {
+        fidelity_table(&gpu, &work);
+    }
+}
+
+/// The scenes of `all` that `GLINT_BENCH_SCENES` (a comma list; all when unset) names.
+fn picked<'a>(all: &[&'a str]) -> Vec<&'a str> {
+    let only = std::env::var("GLINT_BENCH_SCENES").ok();
+    all.iter()
+        .copied()
+        .filter(|s| {
+            only.as_deref()
+                .is_none_or(|o| o.split(',').any(|w| w.trim() == *s))
+        })
+        .collect()
+}
+
+/// Each shipped scene's first camera path replayed, best of `repeats` runs.
+fn frame_table(gpu: &Gpu, work: &Path, adapter: &str, repeats: usize) {
     let mut rows = vec![
         [
             "scene",
@@ -80,10 +119,10 @@ fn main() {
         .map(String::from),
     ];
     let mut source = None;
-    for name in SCENES {
+    for name in picked(&SCENES) {
         let bundle = bake_if_needed(
             &repo(&format!("scenes/{name}/scene.json")),
-            &work,
+            work,
             name,
             false,
         );
@@ -98,7 +137,7 @@ fn main() {
             ..ReplayOptions::default()
         };
         let t = (0..repeats)
-            .map(|_| replay_with(&gpu, &data, &options, &Silent).unwrap_or_else(|e| panic!("{e}")))
+            .map(|_| replay_with(gpu, &data, &options, &Silent).unwrap_or_else(|e| panic!("{e}")))
             .min_by(|a, b| a.summary.gpu_ms.median.total_cmp(&b.summary.gpu_ms.median))
             .expect("at least one run");
         // The kept run's timings.json (each replay rewrote it).
@@ -139,7 +178,6 @@ fn main() {
             &[false, true, false, true, true, true, true, true, true, true]
         )
     );
-    reflection_table(&gpu, &work, repeats);
 }
 
 /// Glossy reflections on glossy-room and breakfast-room (their bundles also get the draft
@@ -194,7 +232,7 @@ fn reflection_table(gpu: &Gpu, work: &Path, repeats: usize) {
             2,
         ),
     ];
-    for name in ["glossy-room", "breakfast-room"] {
+    for name in picked(&["glossy-room", "breakfast-room"]) {
         let scene_json = repo(&format!("scenes/{name}/scene.json"));
         let bundle = bake_if_needed(&scene_json, work, name, false);
         let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
@@ -321,3 +359,145 @@ const FRAME_STRIDE: usize = 8;
 
 /// Paths per pixel of the reference images.
 const REFERENCE_SPP: u32 = 32;
+
+/// Frame size of the fidelity table.
+const FIDELITY_SIZE: (u32, u32) = (192, 128);
+
+/// Paths per pixel of the fidelity table's references.
+const FIDELITY_SPP: u32 = 64;
+
+/// Per pixel of `camera`'s `width` × `height` view: whether its primary ray hits one of
+/// `reflectors` from its reflecting side (the pixels the reflection passes shade).
+fn reflector_mask(
+    bvh: &Bvh,
+    reflectors: &[reflections::PlanarReflector],
+    camera: &glint::camera::Camera,
+    width: u32,
+    height: u32,
+) -> Vec<bool> {
+    use glint::camera::Camera;
+    let mut of: std::collections::HashMap<u32, usize> = std::collections::HashMap::new();
+    for (i, r) in reflectors.iter().enumerate() {
+        for &t in &r.triangles {
+            of.insert(t, i);
+        }
+    }
+    let aspect = width as f32 / height as f32;
+    (0..width * height)
+        .map(|k| {
+            let ndc = Camera::pixel_ndc(k % width, k / width, width, height);
+            bvh.closest_hit(
+                camera.position,
+                camera.ray_direction(ndc, aspect),
+                f32::INFINITY,
+            )
+            .and_then(|hit| of.get(&hit.triangle))
+            .is_some_and(|&i| {
+                reflections::signed_distance(&reflectors[i].plane, camera.position) > 0.0
+            })
+        })
+        .collect()
+}
+
+/// Fidelity of both reflection modes (and reflections off): per shipped scene with glossy
+/// planar reflectors and per camera path's first keyframe, at [`FIDELITY_SIZE`] on draft
+/// bakes (materials and radiance stages too), the relative RMSE (`glint::eval::compare`, linear
+/// radiance) of the whole frame and of the reflectors' pixels against the reference path
+/// tracer ([`FIDELITY_SPP`] spp), and of the reflectors' pixels against the CPU equation
+/// ([`reflections::cpu_reference`], M*K exact: the viewer's own share).
+fn fidelity_table(gpu: &Gpu, work: &Path) {
+    let mut rows = vec![
+        [
+            "scene",
+            "camera",
+            "mode",
+            "frame rel. RMSE vs path tracer",
+            "reflector px rel. RMSE vs path tracer",
+            "reflector px rel. RMSE vs CPU eq.",
+            "reflector px",
+        ]
+        .map(String::from),
+    ];
+    let (w, h) = FIDELITY_SIZE;
+    let image = |rgb: Vec<glam::Vec3>| Image {
+        width: w as usize,
+        height: h as usize,
+        rgb,
+    };
+    for name in picked(&["glossy-room", "breakfast-room", "bunny-mirror"]) {
+        let scene_json = repo(&format!("scenes/{name}/scene.json"));
+        let bundle = bake_if_needed(&scene_json, work, name, true);
+        let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
+        if !up_to_date(&bundle, &scene, Stage::Radiance, None) {
+            radiance_stage::bake(&scene, &bundle, Quality::Draft, true, &Silent)
+                .unwrap_or_else(|e| panic!("{e}"));
+        }
+        let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
+        let reflectors = reflections::reflectors_with_reflectance(&data);
+        if reflectors.is_empty() {
+            continue;
+        }
+        let bvh = Bvh::build(&data.scene.triangles);
+        let mut off = Offscreen::new(gpu, &data, w, h).unwrap_or_else(|e| panic!("{e}"));
+        for path in &data.scene.camera_paths {
+            let camera = glint::camera::pose_at(path, 0.0);
+            let traced = reference::render(
+                &data.scene,
+                &bvh,
+                &camera,
+                &RenderOptions {
+                    width: w,
+                    height: h,
+                    spp: FIDELITY_SPP,
+                    seed: 1,
+                    ..RenderOptions::default()
+                },
+                &Silent,
+            )
+            .unwrap_or_else(|e| panic!("{e}"));
+            let traced = image(traced.image.rgb);
+            let equation = image(reflections::cpu_reference(
+                &data.scene,
+                &reflectors,
+                &bvh,
+                &data.map,
+                &camera,
+                w,
+                h,
+                1.0,
+            ));
+            let mask = reflector_mask(&bvh, &reflectors, &camera, w, h);
+            let pixels = mask.iter().filter(|m| **m).count();
+            for (label, mode) in [
+                ("geometry", ReflectionMode::Geometry),
+                ("image", ReflectionMode::Image),
+                ("off", ReflectionMode::Off),
+            ] {
+                off.set_reflections(gpu, &data, mode)
+                    .unwrap_or_else(|e| panic!("{e}"));
+                off.render(gpu, &camera).unwrap_or_else(|e| panic!("{e}"));
+                let frame = image(off.read_hdr(gpu).unwrap_or_else(|e| panic!("{e}")));
+                let rel = |b: &Image, m: Option<&[bool]>| {
+                    compare(&frame, b, m).map_or("-".to_string(), |r| format!("{:.3}", r.rel_rmse))
+                };
+                let masked = (pixels > 0).then_some(&mask[..]);
+                rows.push([
+                    name.to_string(),
+                    path.name.clone(),
+                    label.to_string(),
+                    rel(&traced, None),
+                    masked.map_or("-".to_string(), |m| rel(&traced, Some(m))),
+                    masked.map_or("-".to_string(), |m| rel(&equation, Some(m))),
+                    pixels.to_string(),
+                ]);
+            }
+        }
+    }
+    println!(
+        "\nfidelity at {w}x{h}, draft bakes, each camera path's first keyframe: relative RMSE (linear) vs the path tracer ({FIDELITY_SPP} spp, its noise included) and vs the CPU equation (M*K exact)\n"
+    );
+    print!(
+        "{}",
+        format_table(&rows, &[false, false, false, true, true, true, true])
+    );
+}

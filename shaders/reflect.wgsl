@@ -13,9 +13,12 @@
 //      size per quadtree node from Eq. 3 (`splat_nodes`), lower-ranked maps pushed back.
 // 2. `vs_mirror`/`fs_composite`: the reflector's triangles drawn again over the frame, depth
 //    tested (GreaterEqual, reverse Z) against the scene pass's depth (the mask), adding
-//    ks·R × (M*K) at the same pixel (additive blend): K's taps gathered around the pixel,
-//    R from the 1D table (cos θ) or the sphere map (reflected direction). In image mode a
-//    pixel of the reflector whose M texel no splat covered is filled first (`fill_hole`).
+//    ks·R × (M*K) at the same pixel (additive blend): M*K at a cost independent of K's width,
+//    K's taps gathered onto a regular pattern whose samples read M's MIP pyramid
+//    (`shaders/pyramid.wgsl`) at the level of their share of the lobe (`filter.rs`, Luksch
+//    et al. §5–6); R from the 1D table (cos θ) or the sphere map (reflected direction). In
+//    image mode a pixel of the reflector whose M texel no splat covered is filled first
+//    (`fill_hole`), and the pyramid counts holes for nothing.
 //
 // Keep `ReflectParams` in sync with `reflections::ReflectParams` (a test compares them).
 
@@ -31,7 +34,7 @@ struct ReflectParams {
     tangent: vec4<f32>,
     // xyz: the plane's bitangent; w: the sphere map's size in texels.
     bitangent: vec4<f32>,
-    // x: screen pixels per kernel texel for a point wholly beyond the plane; y: tap count;
+    // x: screen pixels per kernel texel for a point wholly beyond the plane; y: filter taps;
     // z: 1 = fill M's uncovered texels (image mode), 0 = they reflect nothing (geometry mode).
     kernel: vec4<f32>,
     // The composite's clip (`fs_composite`): in a recursive map (Nielsen §3.1), the parent
@@ -40,8 +43,9 @@ struct ReflectParams {
     parent: vec4<f32>,
     // ks·R at the 1D map's cosines C + (1 − C) s², s = k/63 (rgb).
     modulation: array<vec4<f32>, 64>,
-    // K's significant taps: xy offset in texels (x right, y up), z weight (they sum to 1).
-    taps: array<vec4<f32>, 128>,
+    // M*K's filter taps (`filter::filter_taps`): xy offset in kernel texels (x right, y up),
+    // z weight (they sum to 1), w per-axis variance of the kernel mass it stands for (texels²).
+    taps: array<vec4<f32>, 64>,
 };
 
 @group(1) @binding(2) var<uniform> reflect_params: ReflectParams;
@@ -50,6 +54,8 @@ struct ReflectParams {
 @group(1) @binding(5) var sphere_map: texture_2d<f32>;
 // Per quadtree node: xy half size in NDC, z clip-z scale (rank depth bias).
 @group(1) @binding(6) var<storage, read> splat_nodes: array<vec4<f32>>;
+// M's pyramid: (rgb·c, c) per level, c = 0 for a hole (`pyramid.wgsl`).
+@group(1) @binding(7) var pyramid: texture_2d<f32>;
 
 struct MirrorOut {
     @builtin(position) clip: vec4<f32>,
@@ -164,16 +170,22 @@ fn fs_composite(in: MirrorOut) -> FragmentOut {
     }
     var m = centre.rgb;
     let taps = u32(reflect_params.kernel.y);
-    // M*K: K's taps around the pixel, a texel spanning kernel.x × (beyond fraction) pixels
-    // (not around a filled texel: its neighbours are holes too, and the fill is a blur).
+    // M*K: the filter's taps around the pixel, a kernel texel spanning kernel.x × (beyond
+    // fraction) pixels, each reading the pyramid at ½ log₂(4 (v·scale² + 1/6))
+    // (`filter::level`); Σ w·rgb / Σ w·c (not around a filled texel: its neighbours are
+    // holes too, and the fill is a blur).
     if taps > 1u && centre.a > 0.0 && !hole {
-        let size = vec2<f32>(textureDimensions(reflection));
+        let size = vec2<f32>(textureDimensions(pyramid));
         let scale = reflect_params.kernel.x * centre.a;
-        m = vec3<f32>(0.0);
+        var sum = vec4<f32>(0.0);
         for (var i = 0u; i < taps; i = i + 1u) {
             let t = reflect_params.taps[i];
             let p = in.clip.xy + vec2<f32>(t.x, -t.y) * scale;
-            m = m + t.z * textureSampleLevel(reflection, reflection_sampler, p / size, 0.0).rgb;
+            let level = max(0.5 * log2(4.0 * (t.w * scale * scale + 1.0 / 6.0)), 0.0);
+            sum = sum + t.z * textureSampleLevel(pyramid, reflection_sampler, p / size, level);
+        }
+        if sum.a > 1e-4 {
+            m = sum.rgb / sum.a;
         }
     }
     let n = reflect_params.plane.xyz;

@@ -1,9 +1,11 @@
 //! The CPU reference of the reflection passes, for the golden-image tests: the same
-//! equation, L = D + ks·R·(M*K), ray traced instead of rasterized.
+//! equation, L = D + ks·R·(M*K), ray traced instead of rasterized, with M*K exact (K's taps)
+//! or as the GPU filters it ([`MkFilter`]).
 
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
+use super::filter::{FILTER_RINGS, Pyramid, exact, filter_taps};
 use super::material::{beyond_fraction, texel_pixels};
 use super::splats::pixel_tangent;
 use super::{CLIP_FRACTION, PlanarReflector, mirror_camera, signed_distance};
@@ -15,6 +17,20 @@ use crate::scene::Scene;
 /// Per pixel: radiance, beyond-fraction, and the reflector hit (index, point) if any.
 type Pixel = (Vec3, f32, Option<(usize, Vec3)>);
 
+/// How the CPU reference convolves M with K.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MkFilter {
+    /// K's taps as point reads of M (bilinear), the equation as written.
+    Exact,
+    /// K's taps, each kernel texel the box of pixels it covers on screen
+    /// ([`super::filter::exact`] `continuous`): the convolution without the aliasing of taps
+    /// spaced wider than a pixel.
+    Continuous,
+    /// The composite's constant-cost filter: the regular pattern reading M's pyramid
+    /// ([`super::filter`]).
+    Pyramid,
+}
+
 /// The CPU reference of the geometry-based mode. Per pixel, the view ray's nearest hit gives
 /// D; where it is a glossy planar reflector seen from its reflecting side, ks·R × (M*K) is
 /// added, with
@@ -25,7 +41,8 @@ type Pixel = (Vec3, f32, Option<(usize, Vec3)>);
 ///   texel spanning [`texel_pixels`] at the pixel's beyond-fraction (as `fs_composite`);
 /// - R: [`PlanarReflector::modulation_at`] at the hit.
 ///
-/// Linear × `exposure`, row 0 at the top, black where nothing is hit.
+/// Linear × `exposure`, row 0 at the top, black where nothing is hit. M*K exact
+/// ([`MkFilter::Exact`]; [`cpu_reference_filtered`] for the others).
 #[allow(clippy::too_many_arguments)]
 pub fn cpu_reference(
     scene: &Scene,
@@ -36,6 +53,32 @@ pub fn cpu_reference(
     width: u32,
     height: u32,
     exposure: f32,
+) -> Vec<Vec3> {
+    cpu_reference_filtered(
+        scene,
+        reflectors,
+        bvh,
+        map,
+        camera,
+        width,
+        height,
+        exposure,
+        MkFilter::Exact,
+    )
+}
+
+/// [`cpu_reference`] with M*K computed as `filter` says.
+#[allow(clippy::too_many_arguments)]
+pub fn cpu_reference_filtered(
+    scene: &Scene,
+    reflectors: &[PlanarReflector],
+    bvh: &Bvh,
+    map: &RadiosityMap,
+    camera: &Camera,
+    width: u32,
+    height: u32,
+    exposure: f32,
+    filter: MkFilter,
 ) -> Vec<Vec3> {
     let mut of_triangle = vec![usize::MAX; scene.triangles.len()];
     for (i, r) in reflectors.iter().enumerate() {
@@ -92,40 +135,44 @@ pub fn cpu_reference(
             }
             (Vec3::ZERO, 0.0, None)
         });
-        let at = |x: i64, y: i64| {
-            let x = x.clamp(0, width as i64 - 1) as usize;
-            let y = y.clamp(0, height as i64 - 1) as usize;
-            m[y * width as usize + x].0
-        };
-        // Bilinear at continuous pixel coordinates (centres at +½), clamp to edge.
-        let bilinear = |p: Vec2| {
-            let q = p - 0.5;
-            let (x0, y0) = (q.x.floor(), q.y.floor());
-            let (fx, fy) = (q.x - x0, q.y - y0);
-            let (x0, y0) = (x0 as i64, y0 as i64);
-            (at(x0, y0) * (1.0 - fx) + at(x0 + 1, y0) * fx) * (1.0 - fy)
-                + (at(x0, y0 + 1) * (1.0 - fx) + at(x0 + 1, y0 + 1) * fx) * fy
-        };
+        let texels: Vec<Vec4> = m.iter().map(|p| p.0.extend(1.0)).collect();
+        let pyramid = (filter == MkFilter::Pyramid).then(|| {
+            let rgb: Vec<Vec3> = m.iter().map(|p| p.0).collect();
+            Pyramid::of_image(width, height, &rgb, &vec![true; rgb.len()])
+        });
+        let taps = filter_taps(&refl.kernel.taps, FILTER_RINGS);
         let texel = texel_pixels(refl.kernel.texel_angle, 1.0, pitch);
+        let convolved: Vec<Option<Vec3>> = (0..primary.len())
+            .into_par_iter()
+            .map(|k| {
+                let (r, _) = primary[k].2?;
+                let (centre, f, _) = m[k];
+                if r != ri || refl.kernel.taps.len() <= 1 || f <= 0.0 {
+                    return Some(centre);
+                }
+                let pixel =
+                    Vec2::new((k % width as usize) as f32, (k / width as usize) as f32) + 0.5;
+                let scale = texel * f;
+                Some(match &pyramid {
+                    Some(p) => p.filtered(pixel, scale, &taps).unwrap_or(centre),
+                    None => exact(
+                        width,
+                        height,
+                        &texels,
+                        pixel,
+                        scale,
+                        &refl.kernel.taps,
+                        filter == MkFilter::Continuous,
+                    ),
+                })
+            })
+            .collect();
         for (k, p) in primary.iter().enumerate() {
             let Some((r, point)) = p.2 else { continue };
             if r != ri {
                 continue;
             }
-            let (centre, f, _) = m[k];
-            let mk = if refl.kernel.taps.len() > 1 && f > 0.0 {
-                let pixel =
-                    Vec2::new((k % width as usize) as f32, (k / width as usize) as f32) + 0.5;
-                refl.kernel
-                    .taps
-                    .iter()
-                    .map(|t| {
-                        t.weight * bilinear(pixel + Vec2::new(t.offset.x, -t.offset.y) * texel * f)
-                    })
-                    .sum()
-            } else {
-                centre
-            };
+            let mk = convolved[k].unwrap_or(m[k].0);
             out[k] += refl.modulation_at(point, camera.position) * mk;
         }
     }

@@ -66,12 +66,13 @@ impl ReflectionMap {
     }
 }
 
-/// The bilinear sampler the composite reads M with.
+/// The trilinear sampler the composite reads M's pyramid with.
 pub(super) fn map_sampler(device: &wgpu::Device, label: &str) -> wgpu::Sampler {
     device.create_sampler(&wgpu::SamplerDescriptor {
         label: Some(label),
         mag_filter: wgpu::FilterMode::Linear,
         min_filter: wgpu::FilterMode::Linear,
+        mipmap_filter: wgpu::MipmapFilterMode::Linear,
         ..Default::default()
     })
 }

@@ -4,7 +4,8 @@
 //!
 //! - **K**: the lobe's kernel texture (normalized D·G, `texel_angle_rad` radians per texel at
 //!   the reflection point). The viewer keeps its most significant taps ([`significant_taps`]:
-//!   [`KERNEL_MASS`] of the weight, at most [`MAX_TAPS`], renormalized). On screen a texel
+//!   [`KERNEL_MASS`] of the weight, renormalized), which the composite reads through the
+//!   constant-cost filter of [`super::filter`]. On screen a texel
 //!   spans tan Δ · f / pitch pixels ([`texel_pixels`]), f = the fraction of the reflected
 //!   ray's length beyond the reflector: a lobe of angle Δ at the reflection point blurs the
 //!   reflected point over t_beyond · tan Δ, seen from the mirrored eye at t_total. Objects
@@ -30,9 +31,6 @@ use crate::materials::reflectance;
 
 /// Entries of a 1D modulation table (the shader's `modulation` array).
 pub const MODULATION_SIZE: usize = 64;
-
-/// Most kernel taps the composite pass reads per pixel.
-pub const MAX_TAPS: usize = 128;
 
 /// Fraction of the kernel's weight its kept taps must hold.
 pub const KERNEL_MASS: f32 = 0.99;
@@ -308,7 +306,7 @@ pub fn load_material_from(
         }
         ScreenKernel {
             texel_angle: kernel.texel_angle_rad,
-            taps: significant_taps(w, image.width as u32, KERNEL_MASS, MAX_TAPS),
+            taps: significant_taps(w, image.width as u32, KERNEL_MASS, usize::MAX),
         }
     };
     Ok((

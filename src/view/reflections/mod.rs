@@ -18,9 +18,10 @@
 //!      and directions no selected map saw: at grazing views, beyond the maps' frusta) are
 //!      filled in the composite from the nearest covered ones ([`splats::fill_hole`]).
 //! 2. The composite: the reflector drawn again over the frame, depth-tested against the scene
-//!    pass (the mask), adding ks·R × (M*K) at the same pixel: the convolution with K is a
-//!    gather of K's significant taps, scaled per pixel ([`material`]), R from the sphere map
-//!    or the 1D map ([`ReflectanceLayout`]).
+//!    pass (the mask), adding ks·R × (M*K) at the same pixel: the convolution with K (scaled
+//!    per pixel, [`material`]) at a cost independent of K's width, a few taps of a regular
+//!    pattern reading M's MIP pyramid ([`filter`], built per map by `pyramid`), R from the
+//!    sphere map or the 1D map ([`ReflectanceLayout`]).
 //!
 //! [`cpu_reference`] is the same equation ray traced on the CPU, for the golden-image tests.
 //!
@@ -35,15 +36,17 @@ use crate::scene::desc::ReflectorKind;
 use crate::scene::{Plane, Scene};
 
 mod cpu;
+pub mod filter;
 mod map_target;
 pub mod material;
 mod params;
 mod passes;
+mod pyramid;
 pub mod recursive;
 mod splat_maps;
 pub mod splats;
 
-pub use cpu::cpu_reference;
+pub use cpu::{MkFilter, cpu_reference, cpu_reference_filtered};
 pub use material::{
     MODULATION_SIZE, Modulation, ReflectanceChannel, ReflectanceLayout, ScreenKernel,
     sample_modulation,

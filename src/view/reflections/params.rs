@@ -6,7 +6,8 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use super::PlanarReflector;
-use super::material::{MAX_TAPS, MODULATION_SIZE, Modulation};
+use super::filter::{FILTER_RINGS, FilterTap, MAX_FILTER_TAPS, filter_taps};
+use super::material::{MODULATION_SIZE, Modulation};
 use crate::materials::reflectance;
 use crate::view::build::{LayoutBuilder, bind_group_layout, render_pipeline};
 use crate::view::composite::Composite;
@@ -17,7 +18,7 @@ use crate::view::target::texture_2d;
 /// The parent clip of a composite that clips nothing ([`ReflectParams::parent`]).
 pub const NO_PARENT_CLIP: [f32; 4] = [0.0, 0.0, 0.0, -1.0];
 
-/// Mirrors `ReflectParams` in `shaders/reflect.wgsl` (3200 bytes).
+/// Mirrors `ReflectParams` in `shaders/reflect.wgsl` (2176 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct ReflectParams {
@@ -31,7 +32,7 @@ pub struct ReflectParams {
     pub tangent: [f32; 4],
     /// The plane's bitangent xyz; w: the sphere map's size in texels.
     pub bitangent: [f32; 4],
-    /// x: screen pixels per kernel texel at beyond-fraction 1 (per frame); y: tap count;
+    /// x: screen pixels per kernel texel at beyond-fraction 1 (per frame); y: filter tap count;
     /// z: 1 to fill M's texels no splat covered (image mode, [`super::splats::fill_hole`]).
     pub kernel: [f32; 4],
     /// The composite's clip: in a recursive map, the parent mirror's plane (normal xyz,
@@ -40,14 +41,27 @@ pub struct ReflectParams {
     pub parent: [f32; 4],
     /// ks·R at the 1D map's cosines (rgb; a unused).
     pub modulation: [[f32; 4]; MODULATION_SIZE],
-    /// K's taps: offset in texels (x right, y up), weight.
-    pub taps: [[f32; 4]; MAX_TAPS],
+    /// M*K's filter taps ([`super::filter::filter_taps`]): offset in kernel texels (x right,
+    /// y up), weight, per-axis variance (kernel texels²).
+    pub taps: [[f32; 4]; MAX_FILTER_TAPS],
 }
 
 impl ReflectParams {
     /// The parameters of `reflector` with clip distance `clip`, seen from `eye` (kernel
     /// scale 0 until [`super::GeometryReflections::prepare`] sets it).
     pub fn new(reflector: &PlanarReflector, clip: f32, eye: Vec3) -> ReflectParams {
+        let filter = filter_taps(&reflector.kernel.taps, FILTER_RINGS);
+        Self::with_filter(reflector, &filter, clip, eye)
+    }
+
+    /// [`ReflectParams::new`] with the reflector's M*K filter already gathered
+    /// ([`filter_taps`] of its kernel, [`FILTER_RINGS`]).
+    pub fn with_filter(
+        reflector: &PlanarReflector,
+        filter: &[FilterTap],
+        clip: f32,
+        eye: Vec3,
+    ) -> ReflectParams {
         let n = reflector.plane.normal;
         let mut modulation = [[0.0; 4]; MODULATION_SIZE];
         let mut sphere = (0.0, 0.0);
@@ -59,9 +73,9 @@ impl ReflectParams {
             }
             Modulation::Sphere { size, .. } => sphere = (1.0, *size as f32),
         }
-        let mut taps = [[0.0; 4]; MAX_TAPS];
-        for (t, k) in taps.iter_mut().zip(&reflector.kernel.taps) {
-            *t = [k.offset.x, k.offset.y, k.weight, 0.0];
+        let mut taps = [[0.0; 4]; MAX_FILTER_TAPS];
+        for (t, k) in taps.iter_mut().zip(filter) {
+            *t = [k.offset.x, k.offset.y, k.weight, k.variance];
         }
         ReflectParams {
             plane: n.extend(n.dot(reflector.plane.point)).to_array(),
@@ -69,12 +83,7 @@ impl ReflectParams {
             eye: eye.extend(reflectance::C_GRAZING).to_array(),
             tangent: reflector.tangent.extend(sphere.0).to_array(),
             bitangent: reflector.bitangent.extend(sphere.1).to_array(),
-            kernel: [
-                0.0,
-                reflector.kernel.taps.len().min(MAX_TAPS) as f32,
-                0.0,
-                0.0,
-            ],
+            kernel: [0.0, filter.len().min(MAX_FILTER_TAPS) as f32, 0.0, 0.0],
             parent: NO_PARENT_CLIP,
             modulation,
             taps,
@@ -125,8 +134,8 @@ pub(super) fn params_layout() -> LayoutBuilder {
         .uniform::<ReflectParams>(2, wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT)
 }
 
-/// The composite's bindings: params, the reflected image M (filterable), its sampler and the
-/// sphere-map R (read by texel).
+/// The composite's bindings: params, the reflected image M (filterable), the trilinear
+/// sampler, the sphere-map R (read by texel) and M's pyramid ([`super::pyramid`]).
 pub(super) fn composite_bind_group_layout(
     device: &wgpu::Device,
     label: &str,
@@ -137,6 +146,7 @@ pub(super) fn composite_bind_group_layout(
         .texture(3, fragment, d2, true)
         .sampler(4, fragment)
         .texture(5, fragment, d2, false)
+        .texture(7, fragment, d2, true)
         .build(device, label)
 }
 
@@ -162,16 +172,17 @@ pub(super) fn planar_composite(
 }
 
 /// The composite's group 1 on `layout` ([`composite_bind_group_layout`]): `params`, the
-/// reflected image `m` with its `sampler`, and R's `sphere` map.
+/// reflected image M and its pyramid (`maps`), the `sampler` and R's `sphere` map.
 pub(super) fn composite_group(
     device: &wgpu::Device,
     label: &str,
     layout: &wgpu::BindGroupLayout,
     params: &wgpu::Buffer,
-    m: &wgpu::TextureView,
+    maps: (&wgpu::TextureView, &wgpu::TextureView),
     sampler: &wgpu::Sampler,
     sphere: &wgpu::TextureView,
 ) -> wgpu::BindGroup {
+    let (m, pyramid) = maps;
     device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some(label),
         layout,
@@ -191,6 +202,10 @@ pub(super) fn composite_group(
             wgpu::BindGroupEntry {
                 binding: 5,
                 resource: wgpu::BindingResource::TextureView(sphere),
+            },
+            wgpu::BindGroupEntry {
+                binding: 7,
+                resource: wgpu::BindingResource::TextureView(pyramid),
             },
         ],
     })

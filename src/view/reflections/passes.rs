@@ -6,11 +6,14 @@
 
 use glam::{Mat4, Vec3};
 
+use super::filter::{FILTER_RINGS, FilterTap, detail_pixels, filter_taps};
 use super::map_target::{ReflectionMap, map_sampler};
+use super::material::{beyond_fraction, texel_pixels};
 use super::params::{
     ReflectParams, composite_bind_group_layout, composite_group, params_group, params_layout,
     planar_composite, shader_source, sphere_texture,
 };
+use super::pyramid::{Pyramid, PyramidPasses};
 use super::splat_maps::{FrameStats, SplatMaps, load_splat_maps};
 use super::splats::{self, Splat};
 use super::{
@@ -31,6 +34,8 @@ use crate::view::renderer::{
 struct ReflectorGpu {
     splats: Option<SplatMaps>,
     reflector: PlanarReflector,
+    /// Its M*K filter ([`super::filter::filter_taps`]).
+    filter: Vec<FilterTap>,
     params: wgpu::Buffer,
     mirror_uniforms: wgpu::Buffer,
     mirror_frame_group: wgpu::BindGroup,
@@ -51,6 +56,9 @@ pub struct GeometryReflections {
     clip: f32,
     /// M, reused by every reflector in turn.
     map: ReflectionMap,
+    /// M's pyramid, rebuilt after each mirror pass.
+    pyramid: Pyramid,
+    pyramid_passes: PyramidPasses,
     width: u32,
     height: u32,
 }
@@ -158,6 +166,8 @@ impl GeometryReflections {
             );
             let map = ReflectionMap::new(gpu, "glint reflection texture", width, height);
             let sampler = map_sampler(device, "glint reflection sampler");
+            let pyramid_passes = PyramidPasses::new(device);
+            let pyramid = pyramid_passes.pyramid(gpu, &map.view, width, height);
             let reflectors = planar
                 .into_iter()
                 .zip(splats)
@@ -210,12 +220,13 @@ impl GeometryReflections {
                         "glint composite params",
                         &composite_layout,
                         &params,
-                        &map.view,
+                        (&map.view, &pyramid.view),
                         &sampler,
                         &sphere_view,
                     );
                     ReflectorGpu {
                         splats,
+                        filter: filter_taps(&reflector.kernel.taps, FILTER_RINGS),
                         index_count: indices.len() as u32,
                         reflector,
                         params,
@@ -236,6 +247,8 @@ impl GeometryReflections {
                 reflectors,
                 clip,
                 map,
+                pyramid,
+                pyramid_passes,
                 width,
                 height,
             }
@@ -269,14 +282,20 @@ impl GeometryReflections {
         r.index_count > 0 && signed_distance(&r.reflector.plane, camera.position) > 0.0
     }
 
-    /// How many render passes [`GeometryReflections::draw`] records for `camera` (two per
+    /// How many reflection maps [`GeometryReflections::draw`] draws for `camera` (one per
     /// reflector seen from its reflecting side).
-    pub fn pass_count(&self, camera: &Camera) -> usize {
-        2 * self
-            .reflectors
+    pub fn map_count(&self, camera: &Camera) -> usize {
+        self.reflectors
             .iter()
             .filter(|r| self.visible(r, camera))
             .count()
+    }
+
+    /// How many render passes [`GeometryReflections::draw`] records for `camera`: per map
+    /// ([`GeometryReflections::map_count`]), the mirror pass, one per level of M's pyramid
+    /// and the composite.
+    pub fn pass_count(&self, camera: &Camera) -> usize {
+        (2 + super::filter::level_count(self.width, self.height) as usize) * self.map_count(camera)
     }
 
     /// Writes each reflector's mirrored-view uniforms for `camera` and, in image mode, plans
@@ -314,9 +333,11 @@ impl GeometryReflections {
             let u = renderer.uniforms(&mirrored, self.width, self.height);
             gpu.queue
                 .write_buffer(&r.mirror_uniforms, 0, bytemuck::bytes_of(&u));
-            let mut p = ReflectParams::new(&r.reflector, self.clip, camera.position);
+            let mut p =
+                ReflectParams::with_filter(&r.reflector, &r.filter, self.clip, camera.position);
             // Screen pixels per kernel texel at beyond-fraction 1 (scaled per pixel).
-            p.kernel[0] = super::material::texel_pixels(r.reflector.kernel.texel_angle, 1.0, pitch);
+            let texel = texel_pixels(r.reflector.kernel.texel_angle, 1.0, pitch);
+            p.kernel[0] = texel;
             // Image mode: M's uncovered texels are holes to fill, not empty reflections.
             p.kernel[2] = if matches!(self.source, Source::Image { .. }) {
                 1.0
@@ -327,6 +348,13 @@ impl GeometryReflections {
             if let (Source::Image { selection, count }, Some(maps)) = (self.source, &r.splats)
                 && self.visible(r, camera)
             {
+                // The detail of M the composite keeps at a reflected point: its filter's
+                // sharpest footprint at the point's beyond fraction.
+                let eye_side = signed_distance(&r.reflector.plane, camera.position);
+                let detail = |q: Vec3| {
+                    let f = beyond_fraction(signed_distance(&r.reflector.plane, q), eye_side);
+                    detail_pixels(&r.filter, texel * f)
+                };
                 maps.plan(
                     gpu,
                     &mirrored,
@@ -336,6 +364,7 @@ impl GeometryReflections {
                     count,
                     self.width,
                     self.height,
+                    &detail,
                 );
             }
         }
@@ -410,6 +439,11 @@ impl GeometryReflections {
                     }
                 }
             }
+            self.pyramid_passes.record(
+                encoder,
+                &self.pyramid,
+                matches!(self.source, Source::Image { .. }),
+            );
             let end = end_timestamp.filter(|_| k + 1 == visible.len());
             let mut pass = self.composite.begin(
                 encoder,

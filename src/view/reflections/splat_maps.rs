@@ -117,6 +117,7 @@ impl SplatMaps {
         count: usize,
         width: u32,
         height: u32,
+        detail: &dyn Fn(Vec3) -> f32,
     ) {
         let planes = splats::frustum_planes(view_proj);
         let chosen = select(&self.maps, eye, selection, count);
@@ -147,6 +148,7 @@ impl SplatMaps {
                 &planes,
                 width,
                 height,
+                detail,
                 &mut params,
                 &mut draws,
             );

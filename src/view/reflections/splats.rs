@@ -9,8 +9,10 @@
 //!   the reflected view, of one map pixel.
 //! - [`plan_map`]: per frame and selected map, the quadtree walked from the root: nodes
 //!   outside the reflected view culled, each visible leaf drawn with its Eq. 3 size, and when
-//!   minified (a map pixel smaller than a screen pixel) only the prefix of its points that
-//!   Eq. 3's step keeps, each splat grown by the step.
+//!   minified (a map pixel smaller than the detail M needs there: a screen pixel, or the
+//!   footprint of the sharpest tap of a glossy reflector's M*K filter,
+//!   [`super::filter::detail_pixels`]) only the prefix of its points that Eq. 3's step keeps,
+//!   each splat grown by the step.
 //!
 //! - [`fill_hole`]: what the composite reads where no splat covered M's texel.
 //!
@@ -24,8 +26,9 @@
 //! reflector (27 more per frame on glossy-room), and measured 10–15% slower in image mode on
 //! lavapipe; this fill's cost is below that machine's noise.
 //!
-//! Several maps per element, by priority: a lower-ranked map's splats have their depth scaled
-//! by [`RANK_DEPTH_SCALE`] per rank (reverse Z: pushed far behind everything of the better
+//! Several maps per element, by priority: a lower-ranked map is thinned by Eq. 3's step to
+//! every 2^rank-th point (it fills holes, which coarser splats fill as well) and its splats
+//! have their depth scaled by [`RANK_DEPTH_SCALE`] per rank (reverse Z: pushed far behind everything of the better
 //! ranks, their order among themselves kept), so they only fill what the better maps leave
 //! empty (holes between splats, disocclusions) and never paint their coarser or more oblique
 //! samples over the best map's, nor fatten silhouettes. Without this, more maps gave a
@@ -318,7 +321,9 @@ pub type Draw = Range<u32>;
 /// What one selected map contributes to a frame: its draws (appended to `draws`, adjacent
 /// ranges merged) and its visible leaves' parameters (written into `params` at
 /// `node_base` + leaf index). `rank` is the map's place in its element's selection (0: best).
-/// Returns the number of nodes culled.
+/// `detail` gives, at a scene point, the finest detail of M in screen pixels that the
+/// composite keeps (≥ 1; 1 everywhere for a mirror): Eq. 3's step thins a leaf's points to
+/// it. Returns the number of nodes culled.
 #[allow(clippy::too_many_arguments)]
 pub fn plan_map(
     map: &MapSplats,
@@ -328,6 +333,7 @@ pub fn plan_map(
     planes: &[Vec4],
     width: u32,
     height: u32,
+    detail: &dyn Fn(Vec3) -> f32,
     params: &mut [NodeParams],
     draws: &mut Vec<Draw>,
 ) -> usize {
@@ -357,7 +363,9 @@ pub fn plan_map(
             culled += 1;
             continue;
         };
-        let k = step(size);
+        // A lower-ranked map only fills what the better ones leave empty: its points at least
+        // 2^rank apart (a quarter of them per rank, each splat grown to match).
+        let k = step(size / detail(node.mean).max(1.0)).max(1 << rank.min(2));
         // Eq. 3: the kept points' spacing is k map pixels; at least one screen pixel so a
         // splat always covers a pixel centre.
         let px = (size * k as f32 * SPLAT_OVERLAP).max(Vec2::ONE);
@@ -536,22 +544,24 @@ mod tests {
         assert_eq!(m.ranges[2], 128..256);
         assert!(m.splats[..128].iter().all(|s| s.node == 11));
         let mut params = vec![NodeParams::default(); 13];
-        let plan = |cam: &Camera, params: &mut [NodeParams]| {
+        let plan_with = |cam: &Camera, detail: f32, rank: usize, params: &mut [NodeParams]| {
             let vp = super::super::super::renderer::view_projection(cam, 1.0, 0.01);
             let mut draws = Vec::new();
             let culled = plan_map(
                 &m,
                 10,
-                1,
+                rank,
                 cam,
                 &frustum_planes(&vp),
                 100,
                 100,
+                &|_| detail,
                 params,
                 &mut draws,
             );
             (draws, culled)
         };
+        let plan = |cam: &Camera, params: &mut [NodeParams]| plan_with(cam, 1.0, 0, params);
         // Close, looking at the whole map: both leaves in one merged draw, magnified.
         let up = Camera::look_at(
             Vec3::new(0.0, 0.0, 0.0),
@@ -563,7 +573,20 @@ mod tests {
         assert_eq!(draws.len(), 1, "{draws:?}");
         assert_eq!((draws[0].clone(), culled), (0..256, 0));
         assert!(params[11].half_ndc[0] > 1.0 / 100.0);
+        assert_eq!(params[11].depth_scale, 1.0);
+        // The second-ranked map of the same view: a quarter of the points, pushed back.
+        let (draws, _) = plan_with(&up, 1.0, 1, &mut params);
+        let total: u32 = draws.iter().map(|d| d.end - d.start).sum();
+        assert_eq!(total, 64, "{draws:?}");
         assert!(params[11].depth_scale < 1.0, "rank 1 is pushed back");
+        let (_, _) = plan(&up, &mut params);
+        // The same view where the composite keeps only 64-pixel detail (a rough lobe's
+        // filter): thinned as if minified, the kept splats grown by the step.
+        let magnified = params[11].half_ndc[0];
+        let (draws, _) = plan_with(&up, 64.0, 0, &mut params);
+        let total: u32 = draws.iter().map(|d| d.end - d.start).sum();
+        assert!(total > 0 && total <= 64, "{draws:?}");
+        assert!(params[11].half_ndc[0] >= 2.0 * magnified);
         // Far away: minified, a quarter (or less) of each leaf.
         let far = Camera::look_at(
             Vec3::new(0.0, -400.0, 0.0),

@@ -5,11 +5,13 @@ use std::sync::Mutex;
 
 use glam::Vec3;
 
+use super::super::filter::{FILTER_RINGS, FilterTap, filter_taps};
 use super::super::map_target::{ReflectionMap, map_sampler};
 use super::super::params::{
     ReflectParams, composite_bind_group_layout, composite_group, params_group, params_layout,
     planar_composite, shader_source, sphere_texture,
 };
+use super::super::pyramid::{Pyramid, PyramidPasses};
 use super::super::splats::pixel_tangent;
 use super::super::{
     CLIP_FRACTION, PlanarReflector, ReflectanceSettings, reflectors_with_materials,
@@ -45,6 +47,8 @@ struct Slot {
 pub struct RecursiveReflections {
     settings: RecursionSettings,
     reflectors: Vec<PlanarReflector>,
+    /// Each reflector's M*K filter ([`crate::view::reflections::filter::filter_taps`]).
+    filters: Vec<Vec<FilterTap>>,
     vertices: Vec<Vec<Vec3>>,
     indices: Vec<(wgpu::Buffer, u32)>,
     _spheres: Vec<wgpu::Texture>,
@@ -59,6 +63,9 @@ pub struct RecursiveReflections {
     sampler: wgpu::Sampler,
     /// Figure 3: one reflection map per recursion level.
     levels: Vec<ReflectionMap>,
+    /// Each level's MIP pyramid, rebuilt once its map is complete.
+    pyramids: Vec<Pyramid>,
+    pyramid_passes: PyramidPasses,
     slots: Mutex<Vec<Slot>>,
     plan: Mutex<Plan>,
     clip: f32,
@@ -158,8 +165,13 @@ impl RecursiveReflections {
                 &frame_layout,
                 &composite_layout,
             );
-            let levels = (0..settings.depth)
+            let levels: Vec<ReflectionMap> = (0..settings.depth)
                 .map(|_| ReflectionMap::new(gpu, "glint recursion level map", width, height))
+                .collect();
+            let pyramid_passes = PyramidPasses::new(device);
+            let pyramids = levels
+                .iter()
+                .map(|l| pyramid_passes.pyramid(gpu, &l.view, width, height))
                 .collect();
             let sampler = map_sampler(device, "glint recursive reflection sampler");
             let mut vertices = Vec::new();
@@ -191,6 +203,10 @@ impl RecursiveReflections {
                 .collect();
             RecursiveReflections {
                 settings,
+                filters: reflectors
+                    .iter()
+                    .map(|r| filter_taps(&r.kernel.taps, FILTER_RINGS))
+                    .collect(),
                 reflectors,
                 vertices,
                 indices,
@@ -204,6 +220,8 @@ impl RecursiveReflections {
                 composite_layout,
                 sampler,
                 levels,
+                pyramids,
+                pyramid_passes,
                 slots: Mutex::new(Vec::new()),
                 plan: Mutex::new(Plan::default()),
                 clip,
@@ -240,9 +258,10 @@ impl RecursiveReflections {
     }
 
     /// Render passes [`RecursiveReflections::draw_timed`] records for the last prepared frame
-    /// (a scene pass and a composite per map).
+    /// (a scene pass, one per level of its pyramid and a composite per map).
     pub fn pass_count(&self) -> usize {
-        2 * self.plan.lock().map(|p| p.nodes.len()).unwrap_or(0)
+        (2 + crate::view::reflections::filter::level_count(self.width, self.height) as usize)
+            * self.plan.lock().map(|p| p.nodes.len()).unwrap_or(0)
     }
 
     fn new_slot(&self, gpu: &Gpu, renderer: &Renderer) -> Slot {
@@ -328,7 +347,8 @@ impl RecursiveReflections {
             u.encode_srgb = 0;
             gpu.queue
                 .write_buffer(&slot.uniforms, 0, bytemuck::bytes_of(&u));
-            let mut p = ReflectParams::new(r, self.clip, node.eye);
+            let mut p =
+                ReflectParams::with_filter(r, &self.filters[node.reflector], self.clip, node.eye);
             p.kernel[0] = super::super::material::texel_pixels(r.kernel.texel_angle, 1.0, pitch);
             // Nielsen §3.1: a map shows only what lies in front of its mirror, so the
             // composite of a child into its parent's map is clipped at the parent's plane too.
@@ -344,7 +364,10 @@ impl RecursiveReflections {
                     "glint recursive composite",
                     &self.composite_layout,
                     &slot.params,
-                    &self.levels[node.level].view,
+                    (
+                        &self.levels[node.level].view,
+                        &self.pyramids[node.level].view,
+                    ),
                     &self.sampler,
                     &self.sphere_views[node.reflector],
                 );
@@ -376,6 +399,7 @@ impl RecursiveReflections {
         };
         for (k, &root) in plan.roots.iter().enumerate() {
             self.draw_node(encoder, renderer, &plan, &slots, root, curved);
+            self.filter_node(encoder, &plan.nodes[root]);
             let end = end_timestamp.filter(|_| k + 1 == plan.roots.len());
             let mut pass = self.frame_composite.begin(
                 encoder,
@@ -403,6 +427,12 @@ impl RecursiveReflections {
         pass.set_vertex_buffer(0, renderer.vertex_buffer().slice(..));
         pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
         pass.draw_indexed(0..*count, 0, 0..1);
+    }
+
+    /// Builds the pyramid of `node`'s finished map, which its composite reads.
+    fn filter_node(&self, encoder: &mut wgpu::CommandEncoder, node: &Node) {
+        self.pyramid_passes
+            .record(encoder, &self.pyramids[node.level], false);
     }
 
     /// Figure 4's `DrawScene(mirror_view, depth + 1)`: node `id`'s mirrored view into its
@@ -434,6 +464,7 @@ impl RecursiveReflections {
         for &child in &node.children {
             // Map level + 1 is overwritten per child: generated, applied, discarded (§3.1).
             self.draw_node(encoder, renderer, plan, slots, child, curved);
+            self.filter_node(encoder, &plan.nodes[child]);
             let mut pass = level.begin_over(encoder, "glint recursive map composite");
             pass.set_pipeline(&self.map_composite_pipeline);
             pass.set_bind_group(0, &slots[id].frame_group, &[]);
