@@ -439,3 +439,47 @@ fn bad_textures_are_errors_naming_file_material_and_texture() {
     let e = Scene::load(&scene_json).unwrap_err().to_string();
     assert!(e.contains("no TEXCOORD_1") && e.contains("Floor"), "{e}");
 }
+
+/// The scene stage carries the glTF's external images, so the bundle's own copy of the
+/// scene (what the viewer loads) samples the same textures; a texture under a path that
+/// leaves the glTF's folder is stored under `images/` and the copy's URI rewritten.
+#[test]
+fn the_bundle_carries_the_textures() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene_json = textured_room(dir.path());
+    // Image 2 from a sibling folder: `../shared/holes.png`.
+    let shared = dir.path().join("shared");
+    std::fs::create_dir(&shared).unwrap();
+    std::fs::rename(dir.path().join("img2.png"), shared.join("holes.png")).unwrap();
+    let sub = dir.path().join("scene");
+    std::fs::create_dir(&sub).unwrap();
+    for f in ["s.gltf", "s.bin", "img0.png", "img1.png", "scene.json"] {
+        std::fs::rename(dir.path().join(f), sub.join(f)).unwrap();
+    }
+    let _ = scene_json;
+    let gltf = sub.join("s.gltf");
+    let mut doc: Value = serde_json::from_slice(&std::fs::read(&gltf).unwrap()).unwrap();
+    doc["images"][2]["uri"] = json!("../shared/holes.png");
+    std::fs::write(&gltf, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let scene = Scene::load(sub.join("scene.json")).unwrap();
+    let bundle = dir.path().join("b.glint");
+    glint::bake::scene_stage::bake(&scene, &bundle, false).unwrap();
+    let b = glint::bundle::Bundle::open(&bundle).unwrap();
+    let stage = b.stage("scene").unwrap();
+    let images: Vec<&str> = stage
+        .assets
+        .iter()
+        .filter(|a| a.kind == "gltf-image")
+        .map(|a| a.path.as_str())
+        .collect();
+    assert_eq!(images.len(), 3, "{images:?}");
+    assert!(images.iter().any(|p| p.ends_with("images/2")), "{images:?}");
+    let copy = stage
+        .assets
+        .iter()
+        .find(|a| a.kind == "scene-json")
+        .unwrap();
+    let again = Scene::load(b.asset_path(copy)).unwrap();
+    assert_eq!(*again.textures, *scene.textures);
+    assert_eq!(again.materials, scene.materials);
+}

@@ -106,8 +106,9 @@ impl Material {
         !self.lobes.is_empty()
     }
 
-    /// Whether any texture modulates the material (then its lightmap texels hold D divided
-    /// by the base colour texture's texel mean; see [`super::texturing`]).
+    /// Whether any texture modulates the material (its lightmap texels average it over their
+    /// footprints; with a base colour texture they hold D over that texture's mean, see
+    /// [`super::texturing`]).
     pub fn is_textured(&self) -> bool {
         self.base_texture.is_some() || self.emissive_texture.is_some()
     }

@@ -2,19 +2,22 @@
 //! point; a lightmap texel's albedo and emission averaged over its footprint; the quantity the
 //! radiosity textures store for textured materials; and the cut-out test rays use.
 //!
-//! **What a lightmap texel stores.** For an untextured material a texel holds D, the exitant
-//! radiance (emission + reflection). For a textured material (a base colour or emissive
-//! texture) it holds the reflected part of D divided by the base colour texture's mean over
-//! the texel's footprint, t̄ (the texture alone, not the factor):
+//! **What a lightmap texel stores.** For a material without a base colour texture a texel
+//! holds D, the exitant radiance (emission + reflection; an emissive texture enters as its
+//! mean over the texel's footprint). For a material with a base colour texture it holds the
+//! reflected part of D divided by that texture's mean over the texel's footprint, t̄ (the
+//! texture alone, not the factor):
 //!
 //! ```text
-//! Q = (D − Ē) / t̄,      D(x) = Q · t(x) + E(x)
+//! Q = (D − Ē) / t̄ = k_d factor × irradiance / π,      D(x) = Q · t(x) + E(x)
 //! ```
 //!
-//! where t(x) is the base colour texture's linear RGB at x (1 without one) and E(x) the
-//! emission there (factor × emissive texture). This is the "D / albedo" engines store, so the
-//! viewer and every stage that shades a hit multiply by the full-resolution texture and show
-//! detail finer than the lightmap ([`Scene::d_at`]). The solve itself uses t̄ (the texel's
+//! where t(x) is the base colour texture's linear RGB at x and E(x) the emission there
+//! (factor × emissive texture). This is the "D / albedo" engines store (here D over the
+//! texture's part of the albedo), so every stage that shades a hit multiplies by the
+//! full-resolution texture and shows detail finer than the lightmap ([`Scene::d_at`]). It is
+//! also exactly what a glint that ignored textures stored (k_d was the factor alone), so
+//! bundles baked before textures were read stay valid. The solve itself uses t̄ (the texel's
 //! albedo is the factor × t̄) and Ē (the footprint mean of E).
 
 use std::sync::Arc;
@@ -84,8 +87,8 @@ pub struct TexelSurface {
     pub albedo: Vec3,
     /// Emission over the texel (factor × the emissive texture's footprint mean).
     pub emission: Vec3,
-    /// t̄, the base colour texture's footprint mean (1 without one), for a textured
-    /// material; `None` for an untextured one (its texel stores D itself).
+    /// t̄, the base colour texture's footprint mean, for a material with one; `None` for
+    /// others (their texel stores D itself).
     pub modulation: Option<Vec3>,
 }
 
@@ -129,8 +132,8 @@ impl Scene {
     }
 
     /// D at barycentrics `b` of `triangle` from `stored`, the radiosity texture's value
-    /// there: `stored` itself for an untextured material, else stored · t(x) + E(x) (see the
-    /// module comment).
+    /// there: `stored` itself for a material without a base colour texture, else
+    /// stored · t(x) + E(x) (see the module comment).
     pub fn d_at(&self, triangle: u32, b: Vec2, stored: Vec3) -> Vec3 {
         let tri = &self.triangles[triangle as usize];
         reconstruct_d(
@@ -155,12 +158,12 @@ impl Scene {
         }
         let lm = &atlas.tri_coords[s.triangle as usize];
         let mean = |t: &TextureRef| footprint_mean(&self.textures, t, tri, lm, s.bary).truncate();
-        let t_mean = m.base_texture.as_ref().map_or(Vec3::ONE, mean);
+        let t_mean = m.base_texture.as_ref().map(mean);
         let e_mean = m.emissive_texture.as_ref().map_or(Vec3::ONE, mean);
         TexelSurface {
-            albedo: m.albedo * t_mean,
+            albedo: m.albedo * t_mean.unwrap_or(Vec3::ONE),
             emission: m.emission * e_mean,
-            modulation: Some(t_mean),
+            modulation: t_mean,
         }
     }
 
@@ -243,13 +246,10 @@ pub fn reconstruct_d(
     b: Vec2,
     stored: Vec3,
 ) -> Vec3 {
-    if !m.is_textured() {
+    let Some(t) = &m.base_texture else {
         return stored;
-    }
-    let t = m
-        .base_texture
-        .as_ref()
-        .map_or(Vec3::ONE, |t| sample_at(images, t, tri, b).truncate());
+    };
+    let t = sample_at(images, t, tri, b).truncate();
     let e = m.emissive_texture.as_ref().map_or(m.emission, |t| {
         m.emission * sample_at(images, t, tri, b).truncate()
     });
@@ -269,8 +269,9 @@ pub fn cut_out(images: &[Image], m: &Material, tri: &Triangle, b: Vec2) -> bool 
     a < cutoff
 }
 
-/// The value a textured texel stores, Q = (D − Ē)/t̄ = reflected / t̄ (channels where t̄ is
-/// 0 reflect nothing and store 0); an untextured texel stores `emission + reflected`.
+/// The value a texel of a base-colour-textured material stores, Q = (D − Ē)/t̄ =
+/// reflected / t̄ (channels where t̄ is 0 reflect nothing and store 0); any other texel stores
+/// `emission + reflected`.
 pub fn stored_radiance(surface: &TexelSurface, reflected: Vec3) -> Vec3 {
     match surface.modulation {
         None => surface.emission + reflected,
