@@ -8,8 +8,10 @@ use glam::Vec3;
 
 use super::gpu::{Gpu, error_scoped};
 use super::renderer::RenderError;
+use super::surface_textures::SurfaceTextures;
 use super::target::HDR_FORMAT;
 use crate::radiosity::RadiosityMap;
+use crate::scene::Scene;
 
 /// The radiosity pages on the GPU: a texture array with its sampler.
 pub struct RadiosityTextures {
@@ -19,11 +21,25 @@ pub struct RadiosityTextures {
     pub(crate) sampler: wgpu::Sampler,
     /// Layer size in texels (the largest page's width and height).
     pub layer_size: [u32; 2],
+    /// The scene's textures and material records (a placeholder without a scene).
+    pub(crate) surfaces: SurfaceTextures,
 }
 
 impl RadiosityTextures {
-    /// Uploads every page of `map`, padded to the largest page by repeating edge texels.
+    /// Uploads every page of `map`, padded to the largest page by repeating edge texels; no
+    /// surface textures (D is drawn as stored).
     pub fn upload(gpu: &Gpu, map: &RadiosityMap) -> Result<RadiosityTextures, RenderError> {
+        Self::upload_for(gpu, map, None)
+    }
+
+    /// [`RadiosityTextures::upload`] with `scene`'s textures, which the scene pass multiplies
+    /// in at full resolution ([`super::surface_textures`]).
+    pub fn upload_for(
+        gpu: &Gpu,
+        map: &RadiosityMap,
+        scene: Option<&Scene>,
+    ) -> Result<RadiosityTextures, RenderError> {
+        let surfaces = SurfaceTextures::upload(gpu, scene)?;
         let pages = &map.atlas.pages;
         let width = pages.iter().map(|p| p.width).max().unwrap_or(1).max(1);
         let height = pages.iter().map(|p| p.height).max().unwrap_or(1).max(1);
@@ -102,6 +118,7 @@ impl RadiosityTextures {
                 view,
                 sampler,
                 layer_size: [width, height],
+                surfaces,
             }
         })?;
         Ok(textures)

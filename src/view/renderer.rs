@@ -53,7 +53,7 @@ pub struct FrameUniforms {
     pub encode_srgb: u32,
 }
 
-/// One vertex of the scene (24 bytes): `@location(0..=2)` of `VertexIn` in the shader.
+/// One vertex of the scene (44 bytes): `@location(0..=5)` of `VertexIn` in the shader.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct Vertex {
@@ -63,11 +63,18 @@ pub struct Vertex {
     pub lightmap: [f32; 2],
     /// Atlas page (texture-array layer).
     pub page: u32,
+    /// Texture coordinates, set 0 (`TEXCOORD_0`).
+    pub uv0: [f32; 2],
+    /// Texture coordinates, set 1 (zero without `TEXCOORD_1`).
+    pub uv1: [f32; 2],
+    /// Material index (into the material records of [`super::surface_textures`]).
+    pub material: u32,
 }
 
 /// The vertex attributes of [`Vertex`].
-const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 3] =
-    wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x2, 2 => Uint32];
+const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 6] = wgpu::vertex_attr_array![
+    0 => Float32x3, 1 => Float32x2, 2 => Uint32, 3 => Float32x2, 4 => Float32x2, 5 => Uint32
+];
 
 /// The vertex buffer layout of a [`SceneMesh`], for every pass that draws scene triangles.
 pub(crate) fn scene_vertex_layout() -> wgpu::VertexBufferLayout<'static> {
@@ -124,22 +131,26 @@ pub struct SceneMesh {
 
 impl SceneMesh {
     /// The mesh of `scene`'s triangles with `atlas`'s lightmap coordinates; corners equal in
-    /// position, lightmap coordinates and page (bit for bit) share a vertex.
+    /// every attribute (bit for bit) share a vertex.
     pub fn new(scene: &Scene, atlas: &Atlas) -> SceneMesh {
         let mut mesh = SceneMesh::default();
-        let mut ids: std::collections::HashMap<[u32; 6], u32> = std::collections::HashMap::new();
+        let mut ids: std::collections::HashMap<[u32; 11], u32> = std::collections::HashMap::new();
         for (t, (&page, c)) in scene
             .triangles
             .iter()
             .zip(atlas.tri_page.iter().zip(&atlas.tri_coords))
         {
-            for (p, uv) in t.p.iter().zip(c) {
+            let uv1 = t.uv1.unwrap_or([glam::Vec2::ZERO; 3]);
+            for (k, (p, uv)) in t.p.iter().zip(c).enumerate() {
                 let v = Vertex {
                     position: p.to_array(),
                     lightmap: uv.to_array(),
                     page,
+                    uv0: t.uv[k].to_array(),
+                    uv1: uv1[k].to_array(),
+                    material: t.material,
                 };
-                let key = bytemuck::cast::<Vertex, [u32; 6]>(v);
+                let key = bytemuck::cast::<Vertex, [u32; 11]>(v);
                 let next = mesh.vertices.len() as u32;
                 let id = *ids.entry(key).or_insert(next);
                 if id == next {
@@ -198,6 +209,11 @@ pub(crate) fn frame_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupL
         .uniform::<FrameUniforms>(0, visibility)
         .texture(1, visibility, wgpu::TextureViewDimension::D2Array, true)
         .sampler(2, visibility)
+        .texture(3, visibility, wgpu::TextureViewDimension::D2Array, true)
+        .storage(
+            4,
+            wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE,
+        )
         .build(device, "glint frame bind group layout")
 }
 
@@ -222,6 +238,14 @@ pub(crate) fn frame_bind_group(
             wgpu::BindGroupEntry {
                 binding: 2,
                 resource: wgpu::BindingResource::Sampler(&textures.sampler),
+            },
+            wgpu::BindGroupEntry {
+                binding: 3,
+                resource: wgpu::BindingResource::TextureView(&textures.surfaces.view),
+            },
+            wgpu::BindGroupEntry {
+                binding: 4,
+                resource: textures.surfaces.materials.as_entire_binding(),
             },
         ],
     })
@@ -268,7 +292,7 @@ impl Renderer {
                 max,
             });
         }
-        let textures = RadiosityTextures::upload(gpu, map)?;
+        let textures = RadiosityTextures::upload_for(gpu, map, Some(scene))?;
         let device = &gpu.device;
         let renderer = error_scoped(device, "creating the scene pipeline", || {
             let shader = shader(device, "glint view shader", SHADER_SOURCE);

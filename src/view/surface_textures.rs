@@ -1,0 +1,205 @@
+//! The scene's textures on the GPU, for the fragment shader's D(x) = Q · t(x) + E(x)
+//! ([`crate::scene::texturing`]): every image in one `Rgba8UnormSrgb` 2D texture array (each
+//! in its own layer at its own size from the corner, no resampling: full resolution), and one
+//! [`MaterialRecord`] per material saying which layer its base colour and emissive textures
+//! are, with their samplers and transforms. The shader filters by hand with `textureLoad`
+//! (wrap modes and bilinear weights exactly as [`crate::scene::texture::Image::sample`]).
+
+use bytemuck::{Pod, Zeroable};
+
+use super::build::buffer_init;
+use super::gpu::{Gpu, error_scoped};
+use super::renderer::RenderError;
+use crate::scene::Scene;
+use crate::scene::material::TextureRef;
+use crate::scene::texture::{Filter, Wrap};
+
+/// One texture slot of a material (48 bytes; `TexRef` in `shaders/view.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct TexRecord {
+    /// Layer (−1: no texture), width, height, UV set.
+    pub a: [f32; 4],
+    /// Wrap u, wrap v (0 repeat, 1 mirrored repeat, 2 clamp), nearest (1) or linear (0),
+    /// rotation in radians.
+    pub b: [f32; 4],
+    /// Offset u, v, scale u, v.
+    pub c: [f32; 4],
+}
+
+/// A material as the shader sees it (112 bytes; `MaterialRecord` in `shaders/view.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct MaterialRecord {
+    /// Base colour texture.
+    pub base: TexRecord,
+    /// Emissive texture.
+    pub emissive: TexRecord,
+    /// Emission factor (RGB, w unused).
+    pub emission: [f32; 4],
+}
+
+const NONE: TexRecord = TexRecord {
+    a: [-1.0, 1.0, 1.0, 0.0],
+    b: [0.0; 4],
+    c: [0.0, 0.0, 1.0, 1.0],
+};
+
+fn wrap(w: Wrap) -> f32 {
+    match w {
+        Wrap::Repeat => 0.0,
+        Wrap::MirroredRepeat => 1.0,
+        Wrap::ClampToEdge => 2.0,
+    }
+}
+
+fn record(scene: &Scene, t: Option<&TextureRef>) -> TexRecord {
+    let Some(t) = t else { return NONE };
+    let img = &scene.textures[t.image as usize];
+    TexRecord {
+        a: [
+            t.image as f32,
+            img.width as f32,
+            img.height as f32,
+            t.tex_coord as f32,
+        ],
+        b: [
+            wrap(t.sampler.wrap_u),
+            wrap(t.sampler.wrap_v),
+            if t.sampler.filter == Filter::Nearest {
+                1.0
+            } else {
+                0.0
+            },
+            t.transform.rotation,
+        ],
+        c: [
+            t.transform.offset.x,
+            t.transform.offset.y,
+            t.transform.scale.x,
+            t.transform.scale.y,
+        ],
+    }
+}
+
+/// The records of `scene`'s materials, in material order. A material without a base colour
+/// texture gets none for either slot: its texels hold D itself (see `scene::texturing`).
+pub fn material_records(scene: &Scene) -> Vec<MaterialRecord> {
+    let mut out: Vec<MaterialRecord> = scene
+        .materials
+        .iter()
+        .map(|m| match &m.base_texture {
+            None => MaterialRecord {
+                base: NONE,
+                emissive: NONE,
+                emission: [0.0; 4],
+            },
+            Some(base) => MaterialRecord {
+                base: record(scene, Some(base)),
+                emissive: record(scene, m.emissive_texture.as_ref()),
+                emission: m.emission.extend(0.0).to_array(),
+            },
+        })
+        .collect();
+    if out.is_empty() {
+        out.push(MaterialRecord {
+            base: NONE,
+            emissive: NONE,
+            emission: [0.0; 4],
+        });
+    }
+    out
+}
+
+/// The textures and material records on the GPU.
+pub struct SurfaceTextures {
+    pub(crate) view: wgpu::TextureView,
+    pub(crate) materials: wgpu::Buffer,
+}
+
+impl SurfaceTextures {
+    /// Uploads `scene`'s images and material records (`None`: a placeholder, every material
+    /// untextured).
+    pub fn upload(gpu: &Gpu, scene: Option<&Scene>) -> Result<SurfaceTextures, RenderError> {
+        let images = scene.map_or(&[][..], |s| s.textures.as_slice());
+        let width = images.iter().map(|i| i.width).max().unwrap_or(1);
+        let height = images.iter().map(|i| i.height).max().unwrap_or(1);
+        let layers = (images.len() as u32).max(1);
+        let limits = gpu.device.limits();
+        if width > limits.max_texture_dimension_2d
+            || height > limits.max_texture_dimension_2d
+            || layers > limits.max_texture_array_layers
+        {
+            return Err(RenderError::AtlasTooLarge {
+                width,
+                height,
+                layers,
+                max_side: limits.max_texture_dimension_2d,
+                max_layers: limits.max_texture_array_layers,
+            });
+        }
+        let records = match scene {
+            Some(s) => material_records(s),
+            None => vec![MaterialRecord {
+                base: NONE,
+                emissive: NONE,
+                emission: [0.0; 4],
+            }],
+        };
+        error_scoped(&gpu.device, "uploading the scene's textures", || {
+            let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("glint surface textures"),
+                size: wgpu::Extent3d {
+                    width,
+                    height,
+                    depth_or_array_layers: layers,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Rgba8UnormSrgb,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            });
+            for (layer, img) in images.iter().enumerate() {
+                gpu.queue.write_texture(
+                    wgpu::TexelCopyTextureInfo {
+                        texture: &texture,
+                        mip_level: 0,
+                        origin: wgpu::Origin3d {
+                            x: 0,
+                            y: 0,
+                            z: layer as u32,
+                        },
+                        aspect: wgpu::TextureAspect::All,
+                    },
+                    bytemuck::cast_slice(&img.texels),
+                    wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(img.width * 4),
+                        rows_per_image: Some(img.height),
+                    },
+                    wgpu::Extent3d {
+                        width: img.width,
+                        height: img.height,
+                        depth_or_array_layers: 1,
+                    },
+                );
+            }
+            let view = texture.create_view(&wgpu::TextureViewDescriptor {
+                label: Some("glint surface textures view"),
+                dimension: Some(wgpu::TextureViewDimension::D2Array),
+                ..Default::default()
+            });
+            let materials = buffer_init(
+                gpu,
+                "glint material records",
+                wgpu::BufferUsages::STORAGE,
+                bytemuck::cast_slice(&records),
+                std::mem::size_of::<MaterialRecord>() as u64,
+            );
+            SurfaceTextures { view, materials }
+        })
+        .map_err(RenderError::from)
+    }
+}
