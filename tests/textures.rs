@@ -473,7 +473,10 @@ fn the_bundle_carries_the_textures() {
         .map(|a| a.path.as_str())
         .collect();
     assert_eq!(images.len(), 3, "{images:?}");
-    assert!(images.iter().any(|p| p.ends_with("images/2")), "{images:?}");
+    assert!(
+        images.iter().any(|p| p.ends_with("/images/2")),
+        "{images:?}"
+    );
     let copy = stage
         .assets
         .iter()
@@ -549,4 +552,41 @@ fn the_viewer_shows_texture_detail_finer_than_the_lightmap() {
         .collect();
     let flips = reddish.windows(2).filter(|p| p[0] != p[1]).count();
     assert!(flips >= 6, "{flips} red/grey changes along row {row}");
+}
+
+/// A bundle whose scene stage predates the images (format 2.0) is refused with a message
+/// that says why and how to re-bake.
+#[cfg(feature = "view")]
+#[test]
+fn a_bundle_without_its_texture_images_says_to_re_bake() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Scene::load(textured_room(dir.path())).unwrap();
+    let bundle = dir.path().join("b.glint");
+    glint::bake::scene_stage::bake(&scene, &bundle, false).unwrap();
+    let settings = glint::scene::desc::RadiositySettings {
+        texel_density: 2.0,
+        ..common::quick_radiosity(1)
+    };
+    glint::bake::radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent).unwrap();
+    assert!(glint::view::load::load(&bundle).is_ok());
+    // As a 2.0 glint wrote it: no `gltf-image` assets.
+    let manifest = bundle.join("manifest.json");
+    let mut m: Value = serde_json::from_slice(&std::fs::read(&manifest).unwrap()).unwrap();
+    let dir_name = m["stages"]["scene"]["dir"].as_str().unwrap().to_string();
+    let assets = m["stages"]["scene"]["assets"].as_array_mut().unwrap();
+    for a in assets.iter().filter(|a| a["kind"] == "gltf-image") {
+        let logical = a["path"].as_str().unwrap();
+        let rest = logical.split_once('/').unwrap().1;
+        std::fs::remove_file(bundle.join(&dir_name).join(rest)).unwrap();
+    }
+    assets.retain(|a| a["kind"] != "gltf-image");
+    std::fs::write(&manifest, serde_json::to_vec_pretty(&m).unwrap()).unwrap();
+    let e = match glint::view::load::load(&bundle) {
+        Ok(_) => panic!("a bundle without its images loaded"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        e.contains("image 0") && e.contains("format 2.1") && e.contains("glint-bake --force"),
+        "{e}"
+    );
 }

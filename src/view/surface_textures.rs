@@ -203,3 +203,23 @@ impl SurfaceTextures {
         .map_err(RenderError::from)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::view::renderer::SHADER_SOURCE;
+
+    #[test]
+    fn records_match_the_wgsl_structs() {
+        crate::assert_wgsl_layout!(SHADER_SOURCE, "TexRef", TexRecord { a, b, c });
+        crate::assert_wgsl_layout!(
+            SHADER_SOURCE,
+            "MaterialRecord",
+            MaterialRecord {
+                base,
+                emissive,
+                emission
+            }
+        );
+    }
+}
