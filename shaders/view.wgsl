@@ -42,6 +42,9 @@ struct MaterialRecord {
     base: TexRef,
     emissive: TexRef,
     emission: vec4<f32>,
+    // alpha MASK: cutoff (< 0: opaque), alpha factor, cut-out texture layer (< 0: none)
+    alpha: vec4<f32>,
+    cutout: TexRef,
 };
 
 struct VertexIn {
@@ -117,6 +120,20 @@ fn sample_surface(t: TexRef, uv0: vec2<f32>, uv1: vec2<f32>) -> vec4<f32> {
     return mix(top, bottom, f.y);
 }
 
+// Whether the fragment lies in a cut-out (alpha MASK: factor × base colour alpha < cutoff),
+// as glint::scene::texturing::cut_out: rays pass there, so it is not drawn.
+fn cut_out(material: u32, uv0: vec2<f32>, uv1: vec2<f32>) -> bool {
+    let m = materials[material];
+    if m.alpha.x < 0.0 {
+        return false;
+    }
+    var a = m.alpha.y;
+    if m.alpha.z >= 0.0 {
+        a = a * sample_surface(m.cutout, uv0, uv1).a;
+    }
+    return a < m.alpha.x;
+}
+
 // D at the fragment from the stored texel value q (glint::scene::texturing): q itself for a
 // material without a base colour texture, else q · t(x) + E(x).
 fn surface_d(q: vec3<f32>, material: u32, uv0: vec2<f32>, uv1: vec2<f32>) -> vec3<f32> {
@@ -176,6 +193,9 @@ struct FragmentOut {
 
 @fragment
 fn fs_main(in: VertexOut) -> FragmentOut {
+    if cut_out(in.material, in.uv0, in.uv1) {
+        discard;
+    }
     let q = max(sample_radiosity(in.lightmap, in.page), vec3<f32>(0.0));
     let d = surface_d(q, in.material, in.uv0, in.uv1) * frame.exposure;
     var out: FragmentOut;

@@ -590,3 +590,52 @@ fn a_bundle_without_its_texture_images_says_to_re_bake() {
         "{e}"
     );
 }
+
+/// The shipped textured room bakes from its .glb and a scene.json without camera paths, and
+/// replays its glTF camera `view`: the frame shows the checker floor at full texture
+/// resolution and the plant's cut-outs.
+#[cfg(feature = "view")]
+#[test]
+fn the_textured_room_bakes_and_replays_its_gltf_camera() {
+    use common::{Recipe, shipped_bundle};
+    let bundle = shipped_bundle(&Recipe::every_needed_stage(
+        "textured-room",
+        glint::scene::desc::Quality::Draft,
+    ));
+    let out = tempfile::tempdir().unwrap();
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_glint-view"))
+        .args([
+            bundle.to_str().unwrap(),
+            "--replay",
+            "view",
+            "--headless",
+            "--size",
+            "180x120",
+            "--reflections",
+            "image",
+            "--out",
+            out.path().to_str().unwrap(),
+        ])
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}\n{}",
+        String::from_utf8_lossy(&run.stdout),
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let img = image::open(out.path().join("frame_00000.png"))
+        .unwrap()
+        .to_rgb8();
+    // The bottom rows are the checker floor: wood and cream alternate many times per row.
+    let row = img.height() - 6;
+    let dark: Vec<bool> = (0..img.width())
+        .map(|x| {
+            let p = img.get_pixel(x, row).0;
+            (p[0] as u32 + p[1] as u32 + p[2] as u32) < 3 * 150
+        })
+        .collect();
+    let flips = dark.windows(2).filter(|p| p[0] != p[1]).count();
+    assert!(flips >= 10, "{flips} checker edges along row {row}");
+}

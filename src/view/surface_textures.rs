@@ -11,7 +11,7 @@ use super::build::buffer_init;
 use super::gpu::{Gpu, error_scoped};
 use super::renderer::RenderError;
 use crate::scene::Scene;
-use crate::scene::material::TextureRef;
+use crate::scene::material::{AlphaMode, TextureRef};
 use crate::scene::texture::{Filter, Wrap};
 
 /// One texture slot of a material (48 bytes; `TexRef` in `shaders/view.wgsl`).
@@ -27,16 +27,22 @@ pub struct TexRecord {
     pub c: [f32; 4],
 }
 
-/// A material as the shader sees it (112 bytes; `MaterialRecord` in `shaders/view.wgsl`).
+/// A material as the shader sees it (128 bytes; `MaterialRecord` in `shaders/view.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct MaterialRecord {
-    /// Base colour texture.
+    /// Base colour texture (none: D is drawn as stored).
     pub base: TexRecord,
     /// Emissive texture.
     pub emissive: TexRecord,
     /// Emission factor (RGB, w unused).
     pub emission: [f32; 4],
+    /// Alpha MASK: cutoff (< 0: opaque), alpha factor, layer of the texture whose alpha
+    /// counts (< 0: the factor alone), unused; the texture is `cutout`.
+    pub alpha: [f32; 4],
+    /// The base colour texture for the alpha test (also for a material whose D is stored
+    /// as is).
+    pub cutout: TexRecord,
 }
 
 const NONE: TexRecord = TexRecord {
@@ -82,31 +88,41 @@ fn record(scene: &Scene, t: Option<&TextureRef>) -> TexRecord {
     }
 }
 
+/// A material drawn as stored, opaque.
+const PLAIN: MaterialRecord = MaterialRecord {
+    base: NONE,
+    emissive: NONE,
+    emission: [0.0; 4],
+    alpha: [-1.0, 1.0, -1.0, 0.0],
+    cutout: NONE,
+};
+
 /// The records of `scene`'s materials, in material order. A material without a base colour
-/// texture gets none for either slot: its texels hold D itself (see `scene::texturing`).
+/// texture gets none for either colour slot: its texels hold D itself (see
+/// `scene::texturing`); a MASK material's cut-out test reads its base colour alpha.
 pub fn material_records(scene: &Scene) -> Vec<MaterialRecord> {
     let mut out: Vec<MaterialRecord> = scene
         .materials
         .iter()
-        .map(|m| match &m.base_texture {
-            None => MaterialRecord {
-                base: NONE,
-                emissive: NONE,
-                emission: [0.0; 4],
-            },
-            Some(base) => MaterialRecord {
-                base: record(scene, Some(base)),
-                emissive: record(scene, m.emissive_texture.as_ref()),
-                emission: m.emission.extend(0.0).to_array(),
-            },
+        .map(|m| {
+            let mut r = match &m.base_texture {
+                None => PLAIN,
+                Some(base) => MaterialRecord {
+                    base: record(scene, Some(base)),
+                    emissive: record(scene, m.emissive_texture.as_ref()),
+                    emission: m.emission.extend(0.0).to_array(),
+                    ..PLAIN
+                },
+            };
+            if let AlphaMode::Mask { cutoff } = m.alpha_mode {
+                r.cutout = record(scene, m.base_texture.as_ref());
+                r.alpha = [cutoff, m.alpha_factor, r.cutout.a[0], 0.0];
+            }
+            r
         })
         .collect();
     if out.is_empty() {
-        out.push(MaterialRecord {
-            base: NONE,
-            emissive: NONE,
-            emission: [0.0; 4],
-        });
+        out.push(PLAIN);
     }
     out
 }
@@ -140,11 +156,7 @@ impl SurfaceTextures {
         }
         let records = match scene {
             Some(s) => material_records(s),
-            None => vec![MaterialRecord {
-                base: NONE,
-                emissive: NONE,
-                emission: [0.0; 4],
-            }],
+            None => vec![PLAIN],
         };
         error_scoped(&gpu.device, "uploading the scene's textures", || {
             let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
@@ -218,7 +230,9 @@ mod tests {
             MaterialRecord {
                 base,
                 emissive,
-                emission
+                emission,
+                alpha,
+                cutout
             }
         );
     }
