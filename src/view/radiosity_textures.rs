@@ -44,19 +44,7 @@ impl RadiosityTextures {
         let width = pages.iter().map(|p| p.width).max().unwrap_or(1).max(1);
         let height = pages.iter().map(|p| p.height).max().unwrap_or(1).max(1);
         let layers = (pages.len() as u32).max(1);
-        let limits = gpu.device.limits();
-        if width > limits.max_texture_dimension_2d
-            || height > limits.max_texture_dimension_2d
-            || layers > limits.max_texture_array_layers
-        {
-            return Err(RenderError::AtlasTooLarge {
-                width,
-                height,
-                layers,
-                max_side: limits.max_texture_dimension_2d,
-                max_layers: limits.max_texture_array_layers,
-            });
-        }
+        check_array_size(gpu, width, height, layers)?;
         let textures = error_scoped(&gpu.device, "uploading the radiosity textures", || {
             let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some("glint radiosity pages"),
@@ -123,6 +111,29 @@ impl RadiosityTextures {
         })?;
         Ok(textures)
     }
+}
+
+/// Whether a 2D texture array of `layers` layers of `width` × `height` fits the device.
+pub(crate) fn check_array_size(
+    gpu: &Gpu,
+    width: u32,
+    height: u32,
+    layers: u32,
+) -> Result<(), RenderError> {
+    let limits = gpu.device.limits();
+    if width > limits.max_texture_dimension_2d
+        || height > limits.max_texture_dimension_2d
+        || layers > limits.max_texture_array_layers
+    {
+        return Err(RenderError::AtlasTooLarge {
+            width,
+            height,
+            layers,
+            max_side: limits.max_texture_dimension_2d,
+            max_layers: limits.max_texture_array_layers,
+        });
+    }
+    Ok(())
 }
 
 /// A page as half-float RGBA texels, `layer_w` × `layer_h`, edge texels repeated beyond the

@@ -3,8 +3,14 @@
 //! [`super::target`], the wgpu builders in [`super::build`].
 //!
 //! - One indexed draw for the whole scene ([`SceneMesh`]): a vertex is a position, lightmap
-//!   coordinates in texels of its atlas page, and the page ([`Vertex`]); corners that agree on
-//!   all three are shared (within a chart they do), which lets the GPU's vertex cache work.
+//!   coordinates in texels of its atlas page, the page, both texture coordinate sets and the
+//!   material ([`Vertex`]); corners that agree on all of them are shared (within a chart they
+//!   do), which lets the GPU's vertex cache work.
+//! - The radiosity pages hold D, or for a material with a base colour texture D over that
+//!   texture's texel mean; the fragment shader multiplies the full-resolution texture back in
+//!   and adds textured emission (`surface_d`), and discards alpha-masked cut-outs, from the
+//!   scene's images and material records in the frame bind group
+//!   ([`super::surface_textures`]).
 //! - The atlas pages in one `Rgba16Float` 2D texture array, every layer the size of the largest
 //!   page; smaller pages are padded by repeating their edge texels, so the clamp-to-edge
 //!   sampler behaves at a page's edge exactly as the CPU's clamped lookups do.
@@ -107,6 +113,23 @@ pub enum RenderError {
         /// `max_texture_array_layers`.
         max_layers: u32,
     },
+    /// The scene's textures do not fit the device's texture limits (one layer per image, as
+    /// large as the largest image).
+    #[error(
+        "the scene's textures ({width}×{height} texels × {layers} images) exceed this GPU's limits ({max_side} texels per side, {max_layers} layers)"
+    )]
+    TexturesTooLarge {
+        /// Layer width.
+        width: u32,
+        /// Layer height.
+        height: u32,
+        /// Images.
+        layers: u32,
+        /// `max_texture_dimension_2d`.
+        max_side: u32,
+        /// `max_texture_array_layers`.
+        max_layers: u32,
+    },
     /// The reflection passes cannot be set up (a missing stage, an unreadable radiance map).
     #[error("reflections: {0}")]
     Reflections(String),
@@ -201,7 +224,8 @@ pub fn near_plane(scene: &Scene) -> f32 {
     (scene.bounds.diagonal() * NEAR_FRACTION).max(1e-6)
 }
 
-/// Bind group 0 of every entry point: the frame uniforms, the pages and their sampler.
+/// Bind group 0 of every entry point: the frame uniforms, the pages and their sampler, the
+/// scene's images and the material records.
 pub(crate) fn frame_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let visibility =
         wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;

@@ -141,19 +141,24 @@ impl SurfaceTextures {
         let width = images.iter().map(|i| i.width).max().unwrap_or(1);
         let height = images.iter().map(|i| i.height).max().unwrap_or(1);
         let layers = (images.len() as u32).max(1);
-        let limits = gpu.device.limits();
-        if width > limits.max_texture_dimension_2d
-            || height > limits.max_texture_dimension_2d
-            || layers > limits.max_texture_array_layers
-        {
-            return Err(RenderError::AtlasTooLarge {
-                width,
-                height,
-                layers,
-                max_side: limits.max_texture_dimension_2d,
-                max_layers: limits.max_texture_array_layers,
-            });
-        }
+        super::radiosity_textures::check_array_size(gpu, width, height, layers).map_err(
+            |e| match e {
+                RenderError::AtlasTooLarge {
+                    width,
+                    height,
+                    layers,
+                    max_side,
+                    max_layers,
+                } => RenderError::TexturesTooLarge {
+                    width,
+                    height,
+                    layers,
+                    max_side,
+                    max_layers,
+                },
+                e => e,
+            },
+        )?;
         let records = match scene {
             Some(s) => material_records(s),
             None => vec![PLAIN],
