@@ -311,7 +311,11 @@ fn fs_curved_mirror(in: CurvedOut) -> @location(0) vec4<f32> {
 
 @fragment
 fn fs_env(in: VertexOut) -> @location(0) vec4<f32> {
-    return vec4<f32>(max(sample_radiosity(in.lightmap, in.page), vec3<f32>(0.0)) * frame.exposure, 1.0);
+    if cut_out(in.material, in.uv0, in.uv1) {
+        discard;
+    }
+    let q = max(sample_radiosity(in.lightmap, in.page), vec3<f32>(0.0));
+    return vec4<f32>(surface_d(q, in.material, in.uv0, in.uv1) * frame.exposure, 1.0);
 }
 
 @fragment

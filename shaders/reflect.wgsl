@@ -62,6 +62,9 @@ struct MirrorOut {
     @location(0) lightmap: vec2<f32>,
     @location(1) @interpolate(flat) page: u32,
     @location(2) world: vec3<f32>,
+    @location(3) uv0: vec2<f32>,
+    @location(4) uv1: vec2<f32>,
+    @location(5) @interpolate(flat) material: u32,
 };
 
 @vertex
@@ -71,6 +74,9 @@ fn vs_mirror(v: VertexIn) -> MirrorOut {
     out.lightmap = v.lightmap;
     out.page = v.page;
     out.world = v.position;
+    out.uv0 = v.uv0;
+    out.uv1 = v.uv1;
+    out.material = v.material;
     return out;
 }
 
@@ -88,10 +94,11 @@ fn beyond(p: vec3<f32>) -> f32 {
 
 @fragment
 fn fs_mirror(in: MirrorOut) -> @location(0) vec4<f32> {
-    if side(in.world) <= reflect_params.ks.a {
+    if side(in.world) <= reflect_params.ks.a || cut_out(in.material, in.uv0, in.uv1) {
         discard;
     }
-    let d = max(sample_radiosity(in.lightmap, in.page), vec3<f32>(0.0)) * frame.exposure;
+    let q = max(sample_radiosity(in.lightmap, in.page), vec3<f32>(0.0));
+    let d = surface_d(q, in.material, in.uv0, in.uv1) * frame.exposure;
     return vec4<f32>(d, beyond(in.world));
 }
 

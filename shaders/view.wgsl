@@ -2,7 +2,8 @@
 //
 // One draw for the whole scene: every vertex carries its lightmap coordinates in texel units
 // of its atlas page and the page's layer in a 2D texture array of Rgba16Float radiosity
-// (linear exitant radiance D). The fragment shader reconstructs D with the uniform cubic
+// (linear exitant radiance D; for a material with a base colour texture, D over the texture's
+// texel mean, multiplied here by the full-resolution texture: `surface_d`). The fragment shader reconstructs D with the uniform cubic
 // B-spline as four bilinear taps (Sigg and Hadwiger 2005); `src/view/bicubic.rs` is the same
 // filter on the CPU (`bspline_4tap`) and the definition it is tested against (`bspline`).
 //
@@ -23,18 +24,46 @@ struct FrameUniforms {
 @group(0) @binding(0) var<uniform> frame: FrameUniforms;
 @group(0) @binding(1) var radiosity: texture_2d_array<f32>;
 @group(0) @binding(2) var radiosity_sampler: sampler;
+// The scene's images (sRGB, one per layer from the corner) and per-material records:
+// `src/view/surface_textures.rs` (keep `TexRef` and `MaterialRecord` in sync).
+@group(0) @binding(3) var surface_images: texture_2d_array<f32>;
+@group(0) @binding(4) var<storage, read> materials: array<MaterialRecord>;
+
+struct TexRef {
+    // layer (< 0: none), width, height, UV set
+    a: vec4<f32>,
+    // wrap u, wrap v (0 repeat, 1 mirrored repeat, 2 clamp), nearest, rotation
+    b: vec4<f32>,
+    // offset u, v, scale u, v (KHR_texture_transform)
+    c: vec4<f32>,
+};
+
+struct MaterialRecord {
+    base: TexRef,
+    emissive: TexRef,
+    emission: vec4<f32>,
+    // alpha MASK: cutoff (< 0: opaque), alpha factor, cut-out texture layer (< 0: none)
+    alpha: vec4<f32>,
+    cutout: TexRef,
+};
 
 struct VertexIn {
     @location(0) position: vec3<f32>,
     // Lightmap coordinates in texels of the vertex's page.
     @location(1) lightmap: vec2<f32>,
     @location(2) page: u32,
+    @location(3) uv0: vec2<f32>,
+    @location(4) uv1: vec2<f32>,
+    @location(5) material: u32,
 };
 
 struct VertexOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) lightmap: vec2<f32>,
     @location(1) @interpolate(flat) page: u32,
+    @location(2) uv0: vec2<f32>,
+    @location(3) uv1: vec2<f32>,
+    @location(4) @interpolate(flat) material: u32,
 };
 
 @vertex
@@ -43,7 +72,81 @@ fn vs_main(v: VertexIn) -> VertexOut {
     out.clip = frame.view_proj * vec4<f32>(v.position, 1.0);
     out.lightmap = v.lightmap;
     out.page = v.page;
+    out.uv0 = v.uv0;
+    out.uv1 = v.uv1;
+    out.material = v.material;
     return out;
+}
+
+// Integer texel index i folded into [0, n) (glint::scene::texture::wrap_index).
+fn wrap_index(i: i32, n: i32, mode: f32) -> i32 {
+    if mode > 1.5 {
+        return clamp(i, 0, n - 1);
+    }
+    if mode > 0.5 {
+        let m = ((i % (2 * n)) + 2 * n) % (2 * n);
+        return select(2 * n - 1 - m, m, m < n);
+    }
+    return ((i % n) + n) % n;
+}
+
+fn texel(t: TexRef, x: i32, y: i32) -> vec4<f32> {
+    let w = i32(t.a.y);
+    let h = i32(t.a.z);
+    let i = wrap_index(x, w, t.b.x);
+    let j = wrap_index(y, h, t.b.y);
+    return textureLoad(surface_images, vec2<i32>(i, j), i32(t.a.x), 0);
+}
+
+// Linear RGBA of texture `t` at the fragment's UVs, as Image::sample: the transform, then
+// nearest or bilinear between texel centres, wrapped.
+fn sample_surface(t: TexRef, uv0: vec2<f32>, uv1: vec2<f32>) -> vec4<f32> {
+    let uv_in = select(uv0, uv1, t.a.w > 0.5);
+    let s = sin(t.b.w);
+    let c = cos(t.b.w);
+    let q = uv_in * t.c.zw;
+    let uv = t.c.xy + vec2<f32>(c * q.x + s * q.y, -s * q.x + c * q.y);
+    let p = uv * t.a.yz - vec2<f32>(0.5);
+    if t.b.z > 0.5 {
+        let n = floor(p + vec2<f32>(0.5));
+        return texel(t, i32(n.x), i32(n.y));
+    }
+    let p0 = floor(p);
+    let f = p - p0;
+    let x0 = i32(p0.x);
+    let y0 = i32(p0.y);
+    let top = mix(texel(t, x0, y0), texel(t, x0 + 1, y0), f.x);
+    let bottom = mix(texel(t, x0, y0 + 1), texel(t, x0 + 1, y0 + 1), f.x);
+    return mix(top, bottom, f.y);
+}
+
+// Whether the fragment lies in a cut-out (alpha MASK: factor × base colour alpha < cutoff),
+// as glint::scene::texturing::cut_out: rays pass there, so it is not drawn.
+fn cut_out(material: u32, uv0: vec2<f32>, uv1: vec2<f32>) -> bool {
+    let m = materials[material];
+    if m.alpha.x < 0.0 {
+        return false;
+    }
+    var a = m.alpha.y;
+    if m.alpha.z >= 0.0 {
+        a = a * sample_surface(m.cutout, uv0, uv1).a;
+    }
+    return a < m.alpha.x;
+}
+
+// D at the fragment from the stored texel value q (glint::scene::texturing): q itself for a
+// material without a base colour texture, else q · t(x) + E(x).
+fn surface_d(q: vec3<f32>, material: u32, uv0: vec2<f32>, uv1: vec2<f32>) -> vec3<f32> {
+    let m = materials[material];
+    if m.base.a.x < 0.0 {
+        return q;
+    }
+    let t = sample_surface(m.base, uv0, uv1).rgb;
+    var e = m.emission.rgb;
+    if m.emissive.a.x >= 0.0 {
+        e = e * sample_surface(m.emissive, uv0, uv1).rgb;
+    }
+    return q * t + e;
 }
 
 // Cubic B-spline reconstruction at continuous texel coordinates `p` of layer `page`
@@ -90,7 +193,11 @@ struct FragmentOut {
 
 @fragment
 fn fs_main(in: VertexOut) -> FragmentOut {
-    let d = max(sample_radiosity(in.lightmap, in.page), vec3<f32>(0.0)) * frame.exposure;
+    if cut_out(in.material, in.uv0, in.uv1) {
+        discard;
+    }
+    let q = max(sample_radiosity(in.lightmap, in.page), vec3<f32>(0.0));
+    let d = surface_d(q, in.material, in.uv0, in.uv1) * frame.exposure;
     var out: FragmentOut;
     var color = d;
     if frame.encode_srgb != 0u {

@@ -290,11 +290,11 @@ fn bad_bundles_are_refused_with_a_message_naming_the_file() {
     bake(&dir, "radiosity", "h", &[("x.bin", "atlas", b"a")]).unwrap();
     let text = std::fs::read_to_string(dir.join(MANIFEST)).unwrap();
     let current = format!("\"{FORMAT_VERSION}\"");
-    assert_eq!(current, "\"2.0.0\"");
+    assert_eq!(current, "\"2.1.0\"");
     std::fs::write(dir.join(MANIFEST), text.replace(&current, "\"3.1.0\"")).unwrap();
     let e = Bundle::open(&dir).unwrap_err().to_string();
     assert!(
-        e.contains("3.1.0") && e.contains("2.0.0") && e.contains("newer"),
+        e.contains("3.1.0") && e.contains("2.1.0") && e.contains("newer"),
         "{e}"
     );
 

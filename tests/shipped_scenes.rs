@@ -95,8 +95,8 @@ fn check(scene: &Scene, want: &Expected) {
     let impostors: Vec<&str> = scene.impostors.iter().map(|i| i.name.as_str()).collect();
     assert_eq!(impostors, want.impostors, "{name}: impostors");
 
+    // scene.json's paths, then the glTF's camera nodes.
     let paths: Vec<(&str, usize)> = scene
-        .desc
         .camera_paths
         .iter()
         .map(|p| (p.name.as_str(), p.keyframes.len()))
@@ -108,7 +108,7 @@ fn check(scene: &Scene, want: &Expected) {
     );
     // Every keyframe looks at something, and not from inside or against it.
     let bvh = scene.build_bvh();
-    for p in &scene.desc.camera_paths {
+    for p in &scene.camera_paths {
         for k in &p.keyframes {
             let eye = Vec3::from(k.position);
             let dir = (Vec3::from(k.target) - eye).normalize();
@@ -133,7 +133,7 @@ fn check(scene: &Scene, want: &Expected) {
     }
     if want.cameras_inside {
         let b = scene.bounds;
-        for p in &scene.desc.camera_paths {
+        for p in &scene.camera_paths {
             for k in &p.keyframes {
                 let eye = Vec3::from(k.position);
                 assert!(
@@ -217,7 +217,7 @@ fn breakfast_room() {
                 ("ChairBaseFrontRight", ReflectorKind::Curved, None),
             ],
             impostors: &[],
-            paths: &[("walkthrough", 6), ("front", 1)],
+            paths: &[("walkthrough", 6), ("front", 1), ("Camera", 1)],
             cameras_inside: true,
         },
     );
@@ -391,5 +391,43 @@ fn bunny_mirror_generator_is_deterministic() {
     check_generator(
         "scenes/tools/make_bunny_mirror.py",
         "scenes/bunny-mirror/bunny-mirror.glb",
+    );
+}
+
+#[test]
+fn textured_room() {
+    let scene = load("textured-room");
+    check(
+        &scene,
+        &Expected {
+            triangles: 80,
+            lights: &[],
+            reflectors: &[("Mirror", ReflectorKind::Planar, Some([-1.0, 0.0, 0.0]))],
+            impostors: &[],
+            paths: &[("view", 1)],
+            cameras_inside: true,
+        },
+    );
+    let text = std::fs::read_to_string(repo("scenes/textured-room/scene.json")).unwrap();
+    assert!(
+        text.lines().count() <= 10 && !text.contains("camera_paths"),
+        "{text}"
+    );
+    assert_eq!(scene.textures.len(), 4, "checker, painting, leaf, window");
+    let material = |name: &str| scene.materials.iter().find(|m| m.name == name).unwrap();
+    assert!(
+        material("Floor").base_texture.is_some() && material("Painting").base_texture.is_some()
+    );
+    assert!(material("Leaves").has_cutouts() && material("Leaves").double_sided);
+    assert!(material("Curtain").double_sided && !material("Curtain").is_textured());
+    assert!(material("Window").emissive_texture.is_some());
+    assert!(emission_of(&scene, "Window").min_element() > 10.0);
+}
+
+#[test]
+fn textured_room_generator_is_deterministic() {
+    check_generator(
+        "scenes/tools/make_textured_room.py",
+        "scenes/textured-room/textured-room.glb",
     );
 }

@@ -768,12 +768,12 @@ fn newer_format_version_is_refused_naming_both_versions() {
     std::fs::write(
         &manifest,
         text.replace(
-            "\"format_version\": \"2.0.0\"",
+            "\"format_version\": \"2.1.0\"",
             "\"format_version\": \"3.0.0\"",
         ),
     )
     .unwrap();
-    let err = refused(&bundle, &["format version 3.0.0 is newer", "2.0.0"]);
+    let err = refused(&bundle, &["format version 3.0.0 is newer", "2.1.0"]);
     assert!(matches!(err, LoadError::Bundle { .. }));
 }
 

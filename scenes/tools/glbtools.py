@@ -8,10 +8,14 @@ float32 before it is written, and JSON keys keep insertion order).
 import json
 import math
 import struct
+import zlib
 
 GLB_MAGIC = 0x46546C67
 CHUNK_JSON = 0x4E4F534A
 CHUNK_BIN = 0x004E4942
+
+REPEAT = 10497
+CLAMP = 33071
 
 FLOAT = 5126
 UINT32 = 5125
@@ -52,6 +56,19 @@ class Geometry:
         self.positions = []
         self.normals = []
         self.indices = []
+        # TEXCOORD_0, one per vertex when used (quad_uv), else empty.
+        self.uvs = []
+
+    def quad_uv(self, corner, edge_u, edge_v, uv_scale=(1.0, 1.0), two_sided=False):
+        """`quad` with TEXCOORD_0 (0, 0) at `corner` to `uv_scale` at the far corner (v runs
+        along `edge_v`, downwards in the image); `two_sided` adds the same quad facing back."""
+        su, sv = uv_scale
+        self.quad(corner, edge_u, edge_v)
+        self.uvs += [(0.0, sv), (su, sv), (su, 0.0), (0.0, 0.0)]
+        if two_sided:
+            self.quad(corner, edge_v, edge_u)
+            self.uvs += [(0.0, sv), (0.0, 0.0), (su, 0.0), (su, sv)]
+        return self
 
     def quad(self, corner, edge_u, edge_v):
         """The quad corner + s·edge_u + t·edge_v (2 triangles), facing edge_u × edge_v."""
@@ -107,8 +124,22 @@ class GlbWriter:
         self.material_ids = {}
         self.uses_emissive_strength = False
 
-    def material(self, name, base, metallic=0.0, roughness=1.0, emissive=None, strength=None):
-        """Adds a metallic/roughness material; `emissive` × `strength` is its radiance."""
+    def material(
+        self,
+        name,
+        base,
+        metallic=0.0,
+        roughness=1.0,
+        emissive=None,
+        strength=None,
+        base_texture=None,
+        emissive_texture=None,
+        alpha_cutoff=None,
+        double_sided=False,
+    ):
+        """Adds a metallic/roughness material; `emissive` × `strength` is its radiance.
+        `base_texture`/`emissive_texture`: texture indices from `texture_png`; `alpha_cutoff`:
+        alphaMode MASK with that cutoff; `double_sided`: glTF doubleSided."""
         m = {
             "name": name,
             "pbrMetallicRoughness": {
@@ -117,11 +148,20 @@ class GlbWriter:
                 "roughnessFactor": f32(roughness),
             },
         }
+        if base_texture is not None:
+            m["pbrMetallicRoughness"]["baseColorTexture"] = {"index": base_texture}
         if emissive is not None:
             m["emissiveFactor"] = [f32(c) for c in emissive]
             if strength is not None and strength != 1.0:
                 m["extensions"] = {"KHR_materials_emissive_strength": {"emissiveStrength": f32(strength)}}
                 self.uses_emissive_strength = True
+        if emissive_texture is not None:
+            m["emissiveTexture"] = {"index": emissive_texture}
+        if alpha_cutoff is not None:
+            m["alphaMode"] = "MASK"
+            m["alphaCutoff"] = f32(alpha_cutoff)
+        if double_sided:
+            m["doubleSided"] = True
         self.material_ids[name] = len(self.doc["materials"])
         self.doc["materials"].append(m)
         return self.material_ids[name]
@@ -144,17 +184,81 @@ class GlbWriter:
         self.doc["accessors"].append(acc)
         return len(self.doc["accessors"]) - 1
 
+    def texture_png(self, png, wrap=10497, nearest=False):
+        """Adds PNG bytes as an image in the binary chunk, with a texture and its sampler
+        (`wrap` for both axes); returns the texture index."""
+        doc = self.doc
+        for key in ("images", "textures", "samplers"):
+            doc.setdefault(key, [])
+        while len(self.bin) % 4:
+            self.bin.append(0)
+        view = {"buffer": 0, "byteOffset": len(self.bin), "byteLength": len(png)}
+        self.bin += png
+        doc["bufferViews"].append(view)
+        doc["images"].append({"bufferView": len(doc["bufferViews"]) - 1, "mimeType": "image/png"})
+        sampler = {"wrapS": wrap, "wrapT": wrap}
+        if nearest:
+            sampler["magFilter"] = 9728
+        doc["samplers"].append(sampler)
+        doc["textures"].append({"source": len(doc["images"]) - 1, "sampler": len(doc["samplers"]) - 1})
+        return len(doc["textures"]) - 1
+
+    def camera(self, name, eye, target, yfov_deg, aspect=None):
+        """Adds a perspective camera node `name` at `eye` looking at `target` (+Y up)."""
+        f = normalize(sub(target, eye))
+        r = normalize(cross(f, (0.0, 1.0, 0.0)))
+        u = cross(r, f)
+        # Rotation matrix columns: right, up, back (−forward); as a quaternion.
+        m = [[r[0], u[0], -f[0]], [r[1], u[1], -f[1]], [r[2], u[2], -f[2]]]
+        tr = m[0][0] + m[1][1] + m[2][2]
+        if tr > 0:
+            s = math.sqrt(tr + 1.0) * 2
+            q = ((m[2][1] - m[1][2]) / s, (m[0][2] - m[2][0]) / s, (m[1][0] - m[0][1]) / s, 0.25 * s)
+        elif m[0][0] > m[1][1] and m[0][0] > m[2][2]:
+            s = math.sqrt(1.0 + m[0][0] - m[1][1] - m[2][2]) * 2
+            q = (0.25 * s, (m[0][1] + m[1][0]) / s, (m[0][2] + m[2][0]) / s, (m[2][1] - m[1][2]) / s)
+        elif m[1][1] > m[2][2]:
+            s = math.sqrt(1.0 + m[1][1] - m[0][0] - m[2][2]) * 2
+            q = ((m[0][1] + m[1][0]) / s, 0.25 * s, (m[1][2] + m[2][1]) / s, (m[0][2] - m[2][0]) / s)
+        else:
+            s = math.sqrt(1.0 + m[2][2] - m[0][0] - m[1][1]) * 2
+            q = ((m[0][2] + m[2][0]) / s, (m[1][2] + m[2][1]) / s, 0.25 * s, (m[1][0] - m[0][1]) / s)
+        persp = {"yfov": f32(math.radians(yfov_deg)), "znear": 0.05}
+        if aspect is not None:
+            persp["aspectRatio"] = f32(aspect)
+        self.doc.setdefault("cameras", []).append({"name": name, "type": "perspective", "perspective": persp})
+        self.doc["nodes"].append(
+            {
+                "name": name,
+                "camera": len(self.doc["cameras"]) - 1,
+                "translation": [f32(c) for c in eye],
+                "rotation": [f32(c) for c in q],
+            }
+        )
+        self.doc["scenes"][0]["nodes"].append(len(self.doc["nodes"]) - 1)
+
     def mesh(self, name, geometry, material):
         """Adds `geometry` (a Geometry) as mesh `name` with node `name`, using material `material`."""
         normals = [normalize(n) for n in geometry.normals]
         pos = self._vec3(geometry.positions, True)
         nor = self._vec3(normals, False)
+        uv = None
+        if geometry.uvs:
+            assert len(geometry.uvs) == len(geometry.positions), name
+            flat = [f32(c) for t in geometry.uvs for c in t]
+            data = struct.pack("<%df" % len(flat), *flat)
+            self.doc["accessors"].append(
+                {"bufferView": self._view(data, ARRAY_BUFFER), "componentType": FLOAT, "count": len(geometry.uvs), "type": "VEC2"}
+            )
+            uv = len(self.doc["accessors"]) - 1
         data = struct.pack("<%dI" % len(geometry.indices), *geometry.indices)
         self.doc["accessors"].append(
             {"bufferView": self._view(data, ELEMENT_ARRAY_BUFFER), "componentType": UINT32, "count": len(geometry.indices), "type": "SCALAR"}
         )
         idx = len(self.doc["accessors"]) - 1
         prim = {"attributes": {"POSITION": pos, "NORMAL": nor}, "indices": idx, "material": self.material_ids[material], "mode": 4}
+        if uv is not None:
+            prim["attributes"]["TEXCOORD_0"] = uv
         self.doc["meshes"].append({"name": name, "primitives": [prim]})
         self.doc["nodes"].append({"name": name, "mesh": len(self.doc["meshes"]) - 1})
         self.doc["scenes"][0]["nodes"].append(len(self.doc["nodes"]) - 1)
@@ -172,6 +276,21 @@ class GlbWriter:
         out += struct.pack("<II", len(text), CHUNK_JSON) + text
         out += struct.pack("<II", len(self.bin), CHUNK_BIN) + self.bin
         return bytes(out)
+
+
+def png_bytes(width, height, pixel):
+    """An RGBA8 PNG of `pixel(x, y)` → (r, g, b, a) in 0..255, deterministic (zlib level 9)."""
+    raw = bytearray()
+    for y in range(height):
+        raw.append(0)
+        for x in range(width):
+            raw += bytes(pixel(x, y))
+
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+
+    header = struct.pack(">IIBBBBB", width, height, 8, 6, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(bytes(raw), 9)) + chunk(b"IEND", b"")
 
 
 def read_glb_mesh(path):

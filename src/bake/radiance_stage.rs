@@ -184,7 +184,8 @@ pub fn bake_part(
         w.read_from(Stage::Radiosity.name(), d_read);
     }
     let bvh = scene.build_bvh();
-    let shade = |h: &crate::geometry::Hit| d.radiance(h.triangle, h.bary);
+    let shade =
+        |h: &crate::geometry::Hit| scene.d_at(h.triangle, h.bary, d.radiance(h.triangle, h.bary));
     let limits = quadtree_limits(scene);
     let plans: Vec<_> = plans(scene, quality)
         .into_iter()

@@ -38,7 +38,8 @@ pub fn summary(scene: &Scene) -> BTreeMap<String, serde_json::Value> {
 }
 
 /// Copies the scene into `bundle`'s `scene/` folder: `scene.json` (with `geometry` pointing
-/// at the copy) and the glTF file with every external buffer it names.
+/// at the copy) and the glTF file with every external buffer (`gltf-buffer`) and image
+/// (`gltf-image`: the textures the viewer and the stages sample) it names.
 pub fn bake(scene: &Scene, bundle: &Path, force: bool) -> Result<StageRecord, SceneStageError> {
     let start = Instant::now();
     let scene_dir = scene.path.parent().unwrap_or(Path::new("."));
@@ -55,11 +56,12 @@ pub fn bake(scene: &Scene, bundle: &Path, force: bool) -> Result<StageRecord, Sc
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "geometry.glb".into());
 
-    // External buffers of a .gltf, at the same relative paths; a buffer whose URI is not a
-    // plain relative path inside the glTF's folder (`../x.bin`, percent-escapes) is stored as
-    // `buffers/{index}.bin` and the copy's URI rewritten to it.
+    // External buffers and images of a .gltf, at the same relative paths; one whose URI is
+    // not a plain relative path inside the glTF's folder (`../x.bin`, percent-escapes) is
+    // stored as `buffers/{index}.bin` or `images/{index}` and the copy's URI rewritten to it.
     let gltf_dir = gltf_path.parent().unwrap_or(Path::new("."));
     let mut buffers = Vec::new();
+    let mut images = Vec::new();
     let mut renamed = Vec::new();
     if let Ok(doc) = gltf::Gltf::from_slice(&gltf_bytes) {
         for b in doc.document.buffers() {
@@ -71,10 +73,25 @@ pub fn bake(scene: &Scene, bundle: &Path, force: bool) -> Result<StageRecord, Sc
                     uri.to_string()
                 } else {
                     let name = format!("buffers/{}.bin", b.index());
-                    renamed.push((b.index(), name.clone()));
+                    renamed.push(("buffers", b.index(), name.clone()));
                     name
                 };
                 buffers.push((name, bytes));
+            }
+        }
+        for image in doc.document.images() {
+            if let gltf::image::Source::Uri { uri, .. } = image.source()
+                && !uri.starts_with("data:")
+            {
+                let bytes = read(&gltf_dir.join(uri_path(uri)))?;
+                let name = if is_plain_relative(uri) {
+                    uri.to_string()
+                } else {
+                    let name = format!("images/{}", image.index());
+                    renamed.push(("images", image.index(), name.clone()));
+                    name
+                };
+                images.push((name, bytes));
             }
         }
     }
@@ -97,6 +114,9 @@ pub fn bake(scene: &Scene, bundle: &Path, force: bool) -> Result<StageRecord, Sc
     for (name, bytes) in &buffers {
         w.write(name, "gltf-buffer", bytes)?;
     }
+    for (name, bytes) in &images {
+        w.write(name, "gltf-image", bytes)?;
+    }
     Ok(w.commit(StageInfo {
         scene_name: scene.name.clone(),
         scene_hash: scene.content_hash.clone(),
@@ -118,19 +138,21 @@ fn is_plain_relative(uri: &str) -> bool {
             .all(|c| !c.is_empty() && c != "." && c != "..")
 }
 
-/// The glTF JSON (`.gltf`) with `buffers[i].uri` set to each new name. A `.glb` with such a
-/// buffer is refused: its JSON chunk is not rewritten.
-fn rewrite_buffer_uris(gltf: &[u8], renamed: &[(usize, String)]) -> Result<Vec<u8>, String> {
+/// The glTF JSON (`.gltf`) with `buffers[i].uri` or `images[i].uri` set to each new name
+/// (`renamed`: array, index, name). A `.glb` with such a file is refused: its JSON chunk is
+/// not rewritten.
+fn rewrite_buffer_uris(gltf: &[u8], renamed: &[(&str, usize, String)]) -> Result<Vec<u8>, String> {
     if gltf.starts_with(b"glTF") {
+        let (array, i, _) = &renamed[0];
+        let what = array.trim_end_matches('s');
         return Err(format!(
-            "a .glb whose external buffer URI leaves its folder or is percent-escaped cannot be copied into a bundle (buffer {}); put the buffer beside the .glb",
-            renamed[0].0
+            "a .glb whose external {what} URI leaves its folder or is percent-escaped cannot be copied into a bundle ({what} {i}); put the file beside the .glb"
         ));
     }
     let mut doc: serde_json::Value =
         serde_json::from_slice(gltf).map_err(|e| format!("not JSON: {e}"))?;
-    for (i, name) in renamed {
-        doc["buffers"][*i]["uri"] = name.clone().into();
+    for (array, i, name) in renamed {
+        doc[*array][*i]["uri"] = name.clone().into();
     }
     Ok(serde_json::to_vec_pretty(&doc).expect("glTF JSON serializes"))
 }

@@ -8,6 +8,12 @@
 //! to the new stage. Version 1 bundles (no `dir`: the folder is the stage's name) are still
 //! read; a version 1 glint refuses a version 2 bundle as newer instead of looking for its
 //! files in the wrong folder.
+//!
+//! Version 2.1 adds the glTF's external images to the scene stage (kind `gltf-image`), and
+//! defines the radiosity textures of a material with a base colour texture as D over that
+//! texture's texel mean (`scene::texturing`), which is what a 2.0 glint stored for such a
+//! material (it read no textures): 2.0 bundles stay valid, except that a `.gltf` scene whose
+//! textures are external files must have its scene stage re-baked for the viewer to find them.
 
 use std::collections::BTreeMap;
 
@@ -20,7 +26,7 @@ pub const FORMAT_NAME: &str = "glint-bundle";
 /// The format version this build writes; it reads any 1.x.y and 2.x.y.
 pub const FORMAT_VERSION: FormatVersion = FormatVersion {
     major: 2,
-    minor: 0,
+    minor: 1,
     patch: 0,
 };
 

@@ -187,7 +187,9 @@ pub fn probe(
         .map(|pt| {
             let p = Vec3::from_array(pt.position);
             let surface = find_surface(scene, bvh, p, unit_normal(pt), reach);
-            answer(pt, surface, |s| map.radiance(s.triangle, s.bary))
+            answer(pt, surface, |s| {
+                scene.d_at(s.triangle, s.bary, map.radiance(s.triangle, s.bary))
+            })
         })
         .collect())
 }

@@ -234,13 +234,20 @@ impl<'a> Tracer<'a> {
                 break;
             };
             let tri = &self.scene.triangles[hit.triangle as usize];
-            let ng = tri.face_normal();
-            let cos_hit = -dir.dot(ng);
-            if cos_hit <= 0.0 {
-                break; // back face: black, as in the radiosity solver
-            }
             let mat = &self.scene.materials[tri.material as usize];
-            if mat.emission.max_element() > 0.0 {
+            let mut ng = tri.face_normal();
+            let mut cos_hit = -dir.dot(ng);
+            // A double-sided surface's back is a surface of the same material facing the
+            // other way; other back faces are black, as in the radiosity solver.
+            let back = cos_hit <= 0.0;
+            if back && !mat.double_sided {
+                break;
+            }
+            if back {
+                ng = -ng;
+                cos_hit = -cos_hit;
+            }
+            if !back && mat.emission.max_element() > 0.0 {
                 let w = match prev_pdf {
                     None => 1.0,
                     Some(p_bsdf) => {
@@ -249,13 +256,16 @@ impl<'a> Tracer<'a> {
                         power(p_bsdf, p_light)
                     }
                 };
-                l += throughput * mat.emission * w;
+                l += throughput * self.scene.emission_at(hit.triangle, hit.bary) * w;
             }
             if depth == self.opts.max_depth {
                 break;
             }
             let p = tri.point(hit.bary);
             let mut ns = tri.normal(hit.bary);
+            if back {
+                ns = -ns;
+            }
             if ns.dot(ng) <= 0.0 {
                 ns = ng;
             }
@@ -264,7 +274,17 @@ impl<'a> Tracer<'a> {
             if wo.z <= 0.0 {
                 break;
             }
-            let shader = &self.shaders[tri.material as usize];
+            let textured;
+            let shader = match &mat.base_texture {
+                None => &self.shaders[tri.material as usize],
+                Some(_) => {
+                    // The base colour texture scales k_d at the hit.
+                    let mut brdf = self.shaders[tri.material as usize].brdf.clone();
+                    brdf.kd = self.scene.albedo_at(hit.triangle, hit.bary);
+                    textured = Shader::new(brdf);
+                    &textured
+                }
+            };
             let o = self.bvh.offset_origin(p, ng);
             l += throughput * self.direct(shader, &frame, wo, p, o, ng, rng);
 
@@ -343,14 +363,18 @@ impl<'a> Tracer<'a> {
         }
         let frame = Frame::from_normal(ns);
         let shader = Shader::new(Brdf {
-            kd: mat.albedo,
+            kd: self.scene.albedo_at(triangle, bary),
             lobes: Vec::new(),
         });
         let p = tri.point(bary);
         let o = self.bvh.offset_origin(p, ng);
         // The diffuse BRDF does not depend on ω_o: any direction above the surface does.
         let wo = Vec3::Z;
-        let mut l = mat.emission + self.direct(&shader, &frame, wo, p, o, ng, rng);
+        let emission = match mat.emissive_texture {
+            None => mat.emission,
+            Some(_) => self.scene.emission_at(triangle, bary),
+        };
+        let mut l = emission + self.direct(&shader, &frame, wo, p, o, ng, rng);
         if let Some((d, pdf, weight)) = self.sample(&shader, &frame, wo, ng, rng) {
             l += self.trace(o, d, weight, Some(pdf), 1, rng);
         }
@@ -398,7 +422,8 @@ impl<'a> Tracer<'a> {
         if !self.emitters.tris.is_empty() {
             let t = self.emitters.pick(rng.uniform());
             let et = &self.scene.triangles[t as usize];
-            let q = et.point(sample_triangle(rng.uniform2()));
+            let at = sample_triangle(rng.uniform2());
+            let q = et.point(at);
             let to = q - p;
             let dist2 = to.length_squared();
             let dist = dist2.sqrt();
@@ -414,7 +439,7 @@ impl<'a> Tracer<'a> {
                     // Stop short of the emitter so that its own triangle does not occlude.
                     let reach = (dist - 4.0 * self.bvh.epsilon()).max(0.0);
                     if !self.bvh.occluded(origin, d, reach) {
-                        l += f * e * (wi.z * w / p_light);
+                        l += f * self.scene.emission_at(t, at) * (wi.z * w / p_light);
                     }
                 }
             }
@@ -657,7 +682,11 @@ pub fn render_radiosity(
                 if let Some(hit) = bvh.closest_hit(camera.position, dir, f32::INFINITY) {
                     let tri = &scene.triangles[hit.triangle as usize];
                     if dir.dot(tri.face_normal()) < 0.0 {
-                        let v = map.radiance(hit.triangle, hit.bary);
+                        let v = scene.d_at(
+                            hit.triangle,
+                            hit.bary,
+                            map.radiance(hit.triangle, hit.bary),
+                        );
                         for k in 0..3 {
                             sum[k] += v[k] as f64;
                         }

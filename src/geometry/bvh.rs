@@ -1,5 +1,6 @@
 //! Ray casting over the scene's triangles with an obvhs compressed wide BVH (CWBVH).
 
+use std::sync::Arc;
 use std::time::Duration;
 
 use glam::{Vec2, Vec3, Vec3A};
@@ -35,7 +36,13 @@ pub struct Bvh {
     original: Vec<u32>,
     bounds: Aabb,
     epsilon: f32,
+    /// Hits this rejects are passed through (alpha cut-outs); `None`: every hit counts.
+    filter: Option<HitFilter>,
 }
+
+/// Whether a hit on triangle (caller's index) at barycentrics counts; `false` lets the ray
+/// pass (see [`Bvh::with_filter`]).
+pub type HitFilter = Arc<dyn Fn(u32, Vec2) -> bool + Send + Sync>;
 
 impl Bvh {
     /// Builds the BVH (in parallel with rayon). The result does not depend on the thread count.
@@ -56,6 +63,7 @@ impl Bvh {
                 original: Vec::new(),
                 bounds,
                 epsilon: 0.0,
+                filter: None,
             };
         }
         let epsilon = scene_epsilon(&bounds);
@@ -76,6 +84,7 @@ impl Bvh {
             original,
             bounds,
             epsilon,
+            filter: None,
         }
     }
 
@@ -105,6 +114,9 @@ impl Bvh {
         if self.ordered.is_empty() {
             return None;
         }
+        if let Some(f) = &self.filter {
+            return self.closest_hit_where(origin, dir, t_max, &**f);
+        }
         let (ray, back) = make_ray(origin, dir, t_max);
         let mut hit = RayHit::none();
         if !self
@@ -126,6 +138,9 @@ impl Bvh {
         if self.ordered.is_empty() {
             return false;
         }
+        if let Some(f) = &self.filter {
+            return self.occluded_where(origin, dir, t_max, &**f);
+        }
         let (ray, _) = make_ray(origin, dir, t_max);
         !self
             .bvh
@@ -140,6 +155,78 @@ impl Bvh {
     /// Whether the BVH holds no triangle.
     pub fn is_empty(&self) -> bool {
         self.ordered.is_empty()
+    }
+}
+
+impl Bvh {
+    /// This BVH with `filter` applied to every query: a hit it rejects does not stop the ray
+    /// (an alpha-masked cut-out), the ray goes on to the next.
+    pub fn with_filter(mut self, filter: HitFilter) -> Bvh {
+        self.filter = Some(filter);
+        self
+    }
+
+    /// [`Bvh::closest_hit`] counting only hits `keep(triangle, bary)` accepts.
+    pub fn closest_hit_where(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        keep: &(dyn Fn(u32, Vec2) -> bool + Send + Sync),
+    ) -> Option<Hit> {
+        if self.ordered.is_empty() {
+            return None;
+        }
+        let (ray, back) = make_ray(origin, dir, t_max);
+        let test = |r: &Ray, id: usize| self.kept(r, id, origin, dir, keep);
+        let mut hit = RayHit::none();
+        if !self.bvh.ray_traverse(ray, &mut hit, test) {
+            return None;
+        }
+        let slot = hit.primitive_id as usize;
+        Some(Hit {
+            t: (hit.t - back).max(0.0),
+            triangle: self.original[slot],
+            bary: barycentrics(&self.ordered[slot], origin.into(), dir.into()),
+        })
+    }
+
+    /// [`Bvh::occluded`] counting only hits `keep(triangle, bary)` accepts.
+    pub fn occluded_where(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        keep: &(dyn Fn(u32, Vec2) -> bool + Send + Sync),
+    ) -> bool {
+        if self.ordered.is_empty() {
+            return false;
+        }
+        let (ray, _) = make_ray(origin, dir, t_max);
+        let test = |r: &Ray, id: usize| self.kept(r, id, origin, dir, keep);
+        !self.bvh.ray_traverse_miss(ray, test)
+    }
+
+    /// [`intersect`], but infinite when `keep` rejects the hit.
+    fn kept(
+        &self,
+        r: &Ray,
+        id: usize,
+        origin: Vec3,
+        dir: Vec3,
+        keep: &(dyn Fn(u32, Vec2) -> bool + Send + Sync),
+    ) -> f32 {
+        let t = intersect(&self.ordered[id], r);
+        if t.is_finite()
+            && !keep(
+                self.original[id],
+                barycentrics(&self.ordered[id], origin.into(), dir.into()),
+            )
+        {
+            f32::INFINITY
+        } else {
+            t
+        }
     }
 }
 
@@ -266,6 +353,26 @@ mod tests {
             // Pointing away: nothing.
             assert!(bvh.closest_hit(o, Vec3::Z, f32::INFINITY).is_none());
         }
+    }
+
+    #[test]
+    fn a_filter_lets_rejected_hits_through() {
+        let mut tris = quad(-2.0, 1.0, 0).to_vec();
+        tris.extend(quad(-5.0, 1.0, 1));
+        // Triangle 0 (the near quad's lower-right half, u > v side) is cut where bary.x > 0.5.
+        let bvh = Bvh::build(&tris).with_filter(Arc::new(|tri, b| !(tri == 0 && b.x > 0.5)));
+        let down = -Vec3::Z;
+        // Over triangle 0 near vertex 1 (x = 1, y = −1): cut, the far plane is hit.
+        let o = Vec3::new(0.8, -0.8, 0.0);
+        let h = bvh.closest_hit(o, down, f32::INFINITY).unwrap();
+        assert!((h.t - 5.0).abs() < 1e-5, "{h:?}");
+        assert!(!bvh.occluded(o, down, 4.0));
+        assert!(bvh.occluded(o, down, 6.0));
+        // Over triangle 0 near vertex 0: kept.
+        let o = Vec3::new(-0.5, -0.9, 0.0);
+        let h = bvh.closest_hit(o, down, f32::INFINITY).unwrap();
+        assert!((h.t - 2.0).abs() < 1e-5 && h.triangle == 0, "{h:?}");
+        assert!(bvh.occluded(o, down, 4.0));
     }
 
     #[test]

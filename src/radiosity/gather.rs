@@ -137,14 +137,21 @@ pub(super) fn gather(
                 let cos_l = -d.dot(hn);
                 if cos_l <= 0.0 {
                     backfaces += 1;
-                    hits.push(u32::MAX);
+                    // A double-sided surface's back reflects with its (shared) texel.
+                    hits.push(if scene.material_of(h.triangle).double_sided {
+                        cx.atlas.texel_at(cx.offsets, h.triangle, h.bary)
+                    } else {
+                        u32::MAX
+                    });
                     continue;
                 }
                 let mut constant = 0.0f64;
                 let e = scene.materials[ht.material as usize].emission;
                 if e.max_element() > 0.0 {
+                    let pdf_e = e;
+                    let e = scene.emission_at(h.triangle, h.bary);
                     // MIS against explicit emitter sampling (solid-angle densities).
-                    let p_light = cx.emitters.area_pdf(e) * h.t * h.t / cos_l;
+                    let p_light = cx.emitters.area_pdf(pdf_e) * h.t * h.t / cos_l;
                     let p_bsdf = l.z / PI;
                     let w = power(n_rays as f32, p_bsdf, n_light as f32, p_light);
                     // Irradiance/π from this ray: L · (cos/p_bsdf)/π/N = L/N.
@@ -208,9 +215,11 @@ pub(super) fn gather(
         let mut sum = Vec3::ZERO;
         let (mut y, mut y2) = (0.0f64, 0.0f64);
         for _ in 0..n_light {
-            let et = &scene.triangles[cx.emitters.pick(rng.uniform()) as usize];
+            let picked = cx.emitters.pick(rng.uniform());
+            let et = &scene.triangles[picked as usize];
             let e = scene.materials[et.material as usize].emission;
-            let q = et.point(sample_triangle(rng.uniform2()));
+            let at = sample_triangle(rng.uniform2());
+            let q = et.point(at);
             let w = q - origin;
             let dist2 = w.length_squared();
             let dist = dist2.sqrt();
@@ -231,7 +240,7 @@ pub(super) fn gather(
             let p_light = cx.emitters.area_pdf(e) * dist2 / cos_l;
             let p_bsdf = cos_s / PI;
             let wgt = power(n_light as f32, p_light, n_rays as f32, p_bsdf);
-            let c = e * (wgt * cos_s / p_light);
+            let c = scene.emission_at(picked, at) * (wgt * cos_s / p_light);
             sum += c;
             let v = luminance(c) as f64 / PI as f64;
             y += v;

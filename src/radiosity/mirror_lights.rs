@@ -176,9 +176,11 @@ impl MirrorLights {
             if !emitters.tris.is_empty() {
                 let (mut sum, mut y, mut y2) = (Vec3::ZERO, 0.0f64, 0.0f64);
                 for _ in 0..n_light {
-                    let et = &scene.triangles[emitters.pick(rng.uniform()) as usize];
+                    let picked = emitters.pick(rng.uniform());
+                    let et = &scene.triangles[picked as usize];
                     let e = scene.materials[et.material as usize].emission;
-                    let q = et.point(sample_triangle(rng.uniform2()));
+                    let at = sample_triangle(rng.uniform2());
+                    let q = et.point(at);
                     let Some((refl, cos_s, dist2, r)) = through(q, 2.0 * bvh.epsilon()) else {
                         continue;
                     };
@@ -187,7 +189,7 @@ impl MirrorLights {
                         continue;
                     }
                     let p_light = emitters.area_pdf(e) * dist2 / cos_l;
-                    let c = e * refl * (cos_s / p_light);
+                    let c = scene.emission_at(picked, at) * refl * (cos_s / p_light);
                     sum += c;
                     let v = luminance(c) as f64 / PI as f64;
                     y += v;

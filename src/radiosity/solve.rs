@@ -28,6 +28,7 @@ use crate::geometry::Bvh;
 use crate::progress::{Cancelled, Progress};
 use crate::sampling::Rng;
 use crate::scene::Scene;
+use crate::scene::texturing::{TexelSurface, stored_radiance};
 
 pub use super::gather::BACKFACE_LIMIT;
 
@@ -204,14 +205,13 @@ pub fn solve(
         .par_iter()
         .map(|g| Links::new(g, &resolve))
         .collect();
-    let albedo: Vec<Vec3> = samples
-        .iter()
-        .map(|s| scene.materials[scene.triangles[s.triangle as usize].material as usize].albedo)
+    // Albedo and emission over each element's texel (textures averaged over its footprint).
+    let surfaces: Vec<TexelSurface> = samples
+        .par_iter()
+        .map(|s| scene.texel_surface(atlas, s))
         .collect();
-    let emission: Vec<Vec3> = samples
-        .iter()
-        .map(|s| scene.materials[scene.triangles[s.triangle as usize].material as usize].emission)
-        .collect();
+    let albedo: Vec<Vec3> = surfaces.iter().map(|s| s.albedo).collect();
+    let emission: Vec<Vec3> = surfaces.iter().map(|s| s.emission).collect();
 
     // Jacobi iteration on reflected radiance.
     let mut lr: Vec<Vec3> = gathered
@@ -274,8 +274,13 @@ pub fn solve(
         stats.error_max = valid[valid.len() - 1];
     }
 
-    // Exitant radiance per texel: the resolved element's emission + reflection.
-    let exitant: Vec<Vec3> = emission.iter().zip(&lr).map(|(e, l)| *e + *l).collect();
+    // Exitant radiance per texel: the resolved element's emission + reflection (for a
+    // textured material, reflection over its texture's texel mean: scene::texturing).
+    let exitant: Vec<Vec3> = surfaces
+        .iter()
+        .zip(&lr)
+        .map(|(s, l)| stored_radiance(s, *l))
+        .collect();
     let radiance = resolve
         .iter()
         .map(|&r| {

@@ -206,13 +206,21 @@ impl<'a> Glossy<'a> {
             };
             let ht = &scene.triangles[h.triangle as usize];
             let cos_l = -d.dot(ht.face_normal());
-            if cos_l <= 0.0 {
-                break; // a back face is black, as for gathering rays
-            }
             let m = &scene.materials[ht.material as usize];
+            if cos_l <= 0.0 {
+                // A back face is black, as for gathering rays; a double-sided one reflects
+                // with its (shared) texel.
+                if m.double_sided && m.albedo.max_element() > 0.0 {
+                    terms.push(Term {
+                        texel: self.atlas.texel_at(self.offsets, h.triangle, h.bary),
+                        weight: beta,
+                    });
+                }
+                break;
+            }
             if emitters_here && m.emission.max_element() > 0.0 {
                 let p_light = self.emitters.area_pdf(m.emission) * h.t * h.t / cos_l;
-                out += beta * m.emission * power(1.0, pdf, 1.0, p_light);
+                out += beta * scene.emission_at(h.triangle, h.bary) * power(1.0, pdf, 1.0, p_light);
             }
             if m.albedo.max_element() > 0.0 {
                 terms.push(Term {
@@ -294,8 +302,10 @@ impl<'a> Glossy<'a> {
             l += f * light.radiance * (wi.z * w / p_light);
         }
         if !self.emitters.tris.is_empty() {
-            let et = &self.scene.triangles[self.emitters.pick(rng.uniform()) as usize];
-            let q = et.point(sample_triangle(rng.uniform2()));
+            let picked = self.emitters.pick(rng.uniform());
+            let et = &self.scene.triangles[picked as usize];
+            let at = sample_triangle(rng.uniform2());
+            let q = et.point(at);
             let to = q - p;
             let dist2 = to.length_squared();
             let dist = dist2.sqrt();
@@ -315,7 +325,7 @@ impl<'a> Glossy<'a> {
                         let e = self.scene.materials[et.material as usize].emission;
                         let p_light = self.emitters.area_pdf(e) * dist2 / cos_l;
                         let w = power(1.0, p_light, 1.0, lobes.pdf(wo, wi));
-                        l += f * e * (wi.z * w / p_light);
+                        l += f * self.scene.emission_at(picked, at) * (wi.z * w / p_light);
                     }
                 }
             }

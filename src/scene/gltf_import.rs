@@ -6,6 +6,8 @@ use std::path::{Path, PathBuf};
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use gltf::{Semantic, buffer::Source, mesh::Mode};
 
+use super::gltf_textures::Textures;
+use super::texture::Image;
 use super::{CameraPath, Object, SceneError, gltf_cameras, material::Material};
 use crate::geometry::Triangle;
 
@@ -17,6 +19,8 @@ pub struct Imported {
     pub objects: Vec<Object>,
     /// glTF materials in file order, then a default grey if some primitive has none.
     pub materials: Vec<Material>,
+    /// The images the materials' textures use (decoded once each).
+    pub textures: Vec<Image>,
     /// One one-keyframe path per perspective camera node, in traversal order, names unique.
     pub cameras: Vec<CameraPath>,
     /// Triangles dropped as degenerate or non-finite.
@@ -173,21 +177,23 @@ pub fn import_bytes(path: &Path, bytes: Vec<u8>, scale: f32) -> Result<Imported,
     }
     check_bounds(&gltf.document).map_err(err)?;
 
-    let mut materials: Vec<Material> = gltf
-        .document
-        .materials()
-        .map(|m| {
-            let pbr = m.pbr_metallic_roughness();
-            Material::from_gltf(
-                m.name().unwrap_or("unnamed"),
-                pbr.base_color_factor(),
-                pbr.metallic_factor(),
-                pbr.roughness_factor(),
-                m.emissive_factor(),
-                m.emissive_strength().unwrap_or(1.0),
-            )
-        })
-        .collect();
+    let mut textures = Textures::default();
+    let mut materials: Vec<Material> = Vec::new();
+    for m in gltf.document.materials() {
+        let pbr = m.pbr_metallic_roughness();
+        let mut material = Material::from_gltf(
+            m.name().unwrap_or("unnamed"),
+            pbr.base_color_factor(),
+            pbr.metallic_factor(),
+            pbr.roughness_factor(),
+            m.emissive_factor(),
+            m.emissive_strength().unwrap_or(1.0),
+        );
+        textures
+            .read_material(path, dir, &buffers, &m, &mut material)
+            .map_err(err)?;
+        materials.push(material);
+    }
     let default_material = materials.len() as u32;
     let mut uses_default = false;
 
@@ -195,6 +201,7 @@ pub fn import_bytes(path: &Path, bytes: Vec<u8>, scale: f32) -> Result<Imported,
         triangles: Vec::new(),
         objects: Vec::new(),
         materials: Vec::new(),
+        textures: Vec::new(),
         cameras: Vec::new(),
         dropped: 0,
         hashed_bytes: Vec::new(),
@@ -301,6 +308,20 @@ pub fn import_bytes(path: &Path, bytes: Vec<u8>, scale: f32) -> Result<Imported,
                     default_material
                 }
             };
+            if uv1.is_none()
+                && let Some(m) = materials.get(material as usize)
+                && [m.base_texture, m.emissive_texture]
+                    .iter()
+                    .flatten()
+                    .any(|t| t.tex_coord == 1)
+            {
+                return Err(err(format!(
+                    "mesh {}: material {} \"{}\" samples a texture with texCoord 1, but the primitive has no TEXCOORD_1",
+                    mesh_label(&mesh),
+                    material,
+                    m.name
+                )));
+            }
             for [a, b, c] in triangle_indices(prim.mode(), &indices) {
                 let (a, b, c) = if flip { (a, c, b) } else { (a, b, c) };
                 let idx = [a as usize, b as usize, c as usize];
@@ -366,6 +387,8 @@ pub fn import_bytes(path: &Path, bytes: Vec<u8>, scale: f32) -> Result<Imported,
         ));
     }
     out.materials = materials;
+    out.textures = std::mem::take(&mut textures.images);
+    hashed_bytes.append(&mut textures.hashed_bytes);
     hashed_bytes.shrink_to_fit();
     out.hashed_bytes = hashed_bytes;
     Ok(out)

@@ -4,6 +4,7 @@ use glam::Vec3;
 use serde::Serialize;
 
 use super::desc::{LobeDesc, LobeModel, MaterialOverride};
+use super::texture::{Sampler, UvTransform};
 
 /// Roughness below which a dielectric glTF material gets a glossy lobe. Rougher ones are
 /// treated as diffuse: their GGX lobe (α = roughness² ≥ 0.36) is too wide for reflections to
@@ -31,6 +32,49 @@ pub struct Material {
     pub emission: Vec3,
     /// Specular lobes (empty: purely diffuse).
     pub lobes: Vec<LobeDesc>,
+    /// glTF `baseColorTexture`: its RGB multiplies [`Material::albedo`], its alpha the alpha
+    /// factor (the texture modulates the diffuse term; a metal's F₀ keeps the factor).
+    #[serde(skip)]
+    pub base_texture: Option<TextureRef>,
+    /// glTF `emissiveTexture`: its RGB multiplies [`Material::emission`].
+    #[serde(skip)]
+    pub emissive_texture: Option<TextureRef>,
+    /// Base colour alpha factor (glTF `baseColorFactor[3]`).
+    #[serde(skip)]
+    pub alpha_factor: f32,
+    /// Whether rays pass through where alpha is below a cutoff.
+    #[serde(skip)]
+    pub alpha_mode: AlphaMode,
+    /// glTF `doubleSided`: a ray meeting the back face is reflected as by the front face (the
+    /// two sides share the surface's lightmap texels) instead of stopping as black.
+    #[serde(skip)]
+    pub double_sided: bool,
+}
+
+/// A material's use of one texture: which image, how it is sampled, which UV set.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TextureRef {
+    /// Index into [`super::Scene::textures`].
+    pub image: u32,
+    /// Sampler (wrap modes and filter).
+    pub sampler: Sampler,
+    /// Which UV set: 0 (`TEXCOORD_0`) or 1 (`TEXCOORD_1`).
+    pub tex_coord: u32,
+    /// `KHR_texture_transform`.
+    pub transform: UvTransform,
+}
+
+/// glTF `alphaMode`, as rays see it.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum AlphaMode {
+    /// Alpha ignored.
+    #[default]
+    Opaque,
+    /// Rays pass where alpha < `cutoff` (glTF MASK; BLEND is read as MASK with cutoff ½).
+    Mask {
+        /// glTF `alphaCutoff` (default ½).
+        cutoff: f32,
+    },
 }
 
 /// The `ggx` lobes whose sum is the glTF specular term with Schlick Fresnel of RGB
@@ -60,6 +104,18 @@ impl Material {
     /// Whether the material has at least one glossy lobe.
     pub fn is_glossy(&self) -> bool {
         !self.lobes.is_empty()
+    }
+
+    /// Whether any texture modulates the material (its lightmap texels average it over their
+    /// footprints; with a base colour texture they hold D over that texture's mean, see
+    /// [`super::texturing`]).
+    pub fn is_textured(&self) -> bool {
+        self.base_texture.is_some() || self.emissive_texture.is_some()
+    }
+
+    /// Whether rays may pass through the material (alpha MASK).
+    pub fn has_cutouts(&self) -> bool {
+        matches!(self.alpha_mode, AlphaMode::Mask { .. })
     }
 
     /// Whether the material emits light.
@@ -121,6 +177,11 @@ impl Material {
             albedo,
             emission: Vec3::from_array(emissive) * emissive_strength,
             lobes,
+            base_texture: None,
+            emissive_texture: None,
+            alpha_factor: base_color[3],
+            alpha_mode: AlphaMode::Opaque,
+            double_sided: false,
         }
     }
 

@@ -11,11 +11,14 @@ pub mod desc;
 pub mod faces;
 mod gltf_cameras;
 pub(crate) mod gltf_import;
+pub mod gltf_textures;
 mod impostor;
 mod light;
 pub mod material;
 mod plane;
 mod reflector;
+pub mod texture;
+pub mod texturing;
 
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -133,6 +136,9 @@ pub struct Scene {
     pub objects: Vec<Object>,
     /// Materials, indexed by [`Triangle::material`].
     pub materials: Vec<Material>,
+    /// The images materials' textures sample ([`material::TextureRef::image`]), one copy
+    /// each, shared with the ray-casting filter of cut-outs.
+    pub textures: std::sync::Arc<Vec<texture::Image>>,
     /// Explicit area lights.
     pub lights: Vec<AreaLight>,
     /// Reflectors, in scene.json order.
@@ -265,6 +271,7 @@ impl Scene {
 
         let triangles = imported.triangles;
         let objects = imported.objects;
+        let textures = imported.textures;
         let bounds = Aabb::from_points(triangles.iter().flat_map(|t| t.p.iter()));
 
         crate::bake::check_scene_settings(&desc.bake, bounds.diagonal())
@@ -295,6 +302,7 @@ impl Scene {
             triangles,
             objects,
             materials,
+            textures: std::sync::Arc::new(textures),
             lights,
             reflectors,
             impostors,
@@ -305,9 +313,14 @@ impl Scene {
         })
     }
 
-    /// Builds the ray-casting BVH over the scene's triangles.
+    /// Builds the ray-casting BVH over the scene's triangles; rays pass through alpha-masked
+    /// cut-outs ([`Scene::cutout_filter`]).
     pub fn build_bvh(&self) -> Bvh {
-        Bvh::build(&self.triangles)
+        let bvh = Bvh::build(&self.triangles);
+        match self.cutout_filter() {
+            Some(f) => bvh.with_filter(f),
+            None => bvh,
+        }
     }
 
     /// Whether anything emits light (area lights or emissive triangles).

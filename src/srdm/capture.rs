@@ -75,10 +75,8 @@ impl ColourSource {
     /// The colour at barycentrics `bary` of scene triangle `triangle`.
     pub fn colour(&self, scene: &Scene, triangle: u32, bary: Vec2) -> Vec3 {
         match self {
-            ColourSource::Albedo => {
-                scene.materials[scene.triangles[triangle as usize].material as usize].albedo
-            }
-            ColourSource::Radiosity(d) => d.radiance(triangle, bary),
+            ColourSource::Albedo => scene.albedo_at(triangle, bary),
+            ColourSource::Radiosity(d) => scene.d_at(triangle, bary, d.radiance(triangle, bary)),
         }
     }
 }

@@ -2,16 +2,18 @@
 //! scene's BVH, D looked up at the nearest hit with the same cubic B-spline the fragment shader
 //! uses ([`super::bicubic::radiance`]). The golden-image tests compare the GPU frame to this.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use crate::camera::Camera;
 use crate::geometry::Bvh;
 use crate::image_io::linear_to_srgb;
 use crate::radiosity::RadiosityMap;
+use crate::scene::Scene;
 
 /// Linear radiance × `exposure` per pixel of a `width` × `height` image, row 0 at the top;
-/// black where the ray hits nothing.
+/// black where the ray hits nothing. D as stored: for a scene with base colour textures,
+/// [`render_scene`] multiplies them in as the shader does.
 pub fn render(
     bvh: &Bvh,
     map: &RadiosityMap,
@@ -19,6 +21,35 @@ pub fn render(
     width: u32,
     height: u32,
     exposure: f32,
+) -> Vec<Vec3> {
+    render_with(bvh, map, camera, width, height, exposure, &|_, _, q| q)
+}
+
+/// [`render`] of `scene`: D at full texture resolution ([`Scene::d_at`], as `surface_d` in
+/// the shader).
+pub fn render_scene(
+    scene: &Scene,
+    bvh: &Bvh,
+    map: &RadiosityMap,
+    camera: &Camera,
+    width: u32,
+    height: u32,
+    exposure: f32,
+) -> Vec<Vec3> {
+    render_with(bvh, map, camera, width, height, exposure, &|t, b, q| {
+        scene.d_at(t, b, q)
+    })
+}
+
+#[allow(clippy::too_many_arguments)]
+fn render_with(
+    bvh: &Bvh,
+    map: &RadiosityMap,
+    camera: &Camera,
+    width: u32,
+    height: u32,
+    exposure: f32,
+    d: &(dyn Fn(u32, Vec2, Vec3) -> Vec3 + Sync),
 ) -> Vec<Vec3> {
     let aspect = width.max(1) as f32 / height.max(1) as f32;
     (0..height)
@@ -28,8 +59,9 @@ pub fn render(
                 let dir = camera.ray_direction(Camera::pixel_ndc(x, y, width, height), aspect);
                 match bvh.closest_hit(camera.position, dir, f32::INFINITY) {
                     Some(hit) => {
-                        super::bicubic::radiance(map, hit.triangle, hit.bary).max(Vec3::ZERO)
-                            * exposure
+                        let q =
+                            super::bicubic::radiance(map, hit.triangle, hit.bary).max(Vec3::ZERO);
+                        d(hit.triangle, hit.bary, q) * exposure
                     }
                     None => Vec3::ZERO,
                 }

@@ -86,6 +86,16 @@ pub enum LoadError {
         #[source]
         source: SceneError,
     },
+    /// The bundle's scene names texture files its scene stage did not copy (baked before
+    /// bundle format 2.1).
+    #[error("bundle {}: its scene does not load: {source}; its scene stage holds no texture images (it was baked before bundle format 2.1 carried them): re-bake it with `glint-bake --force`", bundle.display())]
+    SceneWithoutImages {
+        /// The bundle.
+        bundle: PathBuf,
+        /// The scene loader's error.
+        #[source]
+        source: SceneError,
+    },
     /// The radiosity stage cannot be read.
     #[error("bundle {}: radiosity stage: {source}", bundle.display())]
     Radiosity {
@@ -197,11 +207,21 @@ pub fn load(dir: &Path) -> Result<ViewData, LoadError> {
         .iter()
         .find(|a| a.kind == "scene-json")
         .ok_or_else(|| inconsistent("stage `scene` has no scene-json asset".into()))?;
-    let mut scene =
-        Scene::load(bundle.asset_path(scene_json)).map_err(|source| LoadError::Scene {
-            bundle: bundle_path.clone(),
-            source,
-        })?;
+    let has_images = scene_stage.assets.iter().any(|a| a.kind == "gltf-image");
+    let mut scene = Scene::load(bundle.asset_path(scene_json)).map_err(|source| {
+        // A scene stage from before format 2.1 did not copy the glTF's image files.
+        if !has_images && source.to_string().contains("image") {
+            LoadError::SceneWithoutImages {
+                bundle: bundle_path.clone(),
+                source,
+            }
+        } else {
+            LoadError::Scene {
+                bundle: bundle_path.clone(),
+                source,
+            }
+        }
+    })?;
     // The copy is scene.json re-serialized (geometry renamed, name filled in), so its text,
     // and with it `content_hash`, differ from the source's. Its assets were verified above:
     // it is the scene every stage recorded as `scene_hash`, so it takes that identity, and

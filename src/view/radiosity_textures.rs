@@ -8,8 +8,10 @@ use glam::Vec3;
 
 use super::gpu::{Gpu, error_scoped};
 use super::renderer::RenderError;
+use super::surface_textures::SurfaceTextures;
 use super::target::HDR_FORMAT;
 use crate::radiosity::RadiosityMap;
+use crate::scene::Scene;
 
 /// The radiosity pages on the GPU: a texture array with its sampler.
 pub struct RadiosityTextures {
@@ -19,28 +21,30 @@ pub struct RadiosityTextures {
     pub(crate) sampler: wgpu::Sampler,
     /// Layer size in texels (the largest page's width and height).
     pub layer_size: [u32; 2],
+    /// The scene's textures and material records (a placeholder without a scene).
+    pub(crate) surfaces: SurfaceTextures,
 }
 
 impl RadiosityTextures {
-    /// Uploads every page of `map`, padded to the largest page by repeating edge texels.
+    /// Uploads every page of `map`, padded to the largest page by repeating edge texels; no
+    /// surface textures (D is drawn as stored).
     pub fn upload(gpu: &Gpu, map: &RadiosityMap) -> Result<RadiosityTextures, RenderError> {
+        Self::upload_for(gpu, map, None)
+    }
+
+    /// [`RadiosityTextures::upload`] with `scene`'s textures, which the scene pass multiplies
+    /// in at full resolution ([`super::surface_textures`]).
+    pub fn upload_for(
+        gpu: &Gpu,
+        map: &RadiosityMap,
+        scene: Option<&Scene>,
+    ) -> Result<RadiosityTextures, RenderError> {
+        let surfaces = SurfaceTextures::upload(gpu, scene)?;
         let pages = &map.atlas.pages;
         let width = pages.iter().map(|p| p.width).max().unwrap_or(1).max(1);
         let height = pages.iter().map(|p| p.height).max().unwrap_or(1).max(1);
         let layers = (pages.len() as u32).max(1);
-        let limits = gpu.device.limits();
-        if width > limits.max_texture_dimension_2d
-            || height > limits.max_texture_dimension_2d
-            || layers > limits.max_texture_array_layers
-        {
-            return Err(RenderError::AtlasTooLarge {
-                width,
-                height,
-                layers,
-                max_side: limits.max_texture_dimension_2d,
-                max_layers: limits.max_texture_array_layers,
-            });
-        }
+        check_array_size(gpu, width, height, layers)?;
         let textures = error_scoped(&gpu.device, "uploading the radiosity textures", || {
             let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some("glint radiosity pages"),
@@ -102,10 +106,34 @@ impl RadiosityTextures {
                 view,
                 sampler,
                 layer_size: [width, height],
+                surfaces,
             }
         })?;
         Ok(textures)
     }
+}
+
+/// Whether a 2D texture array of `layers` layers of `width` × `height` fits the device.
+pub(crate) fn check_array_size(
+    gpu: &Gpu,
+    width: u32,
+    height: u32,
+    layers: u32,
+) -> Result<(), RenderError> {
+    let limits = gpu.device.limits();
+    if width > limits.max_texture_dimension_2d
+        || height > limits.max_texture_dimension_2d
+        || layers > limits.max_texture_array_layers
+    {
+        return Err(RenderError::AtlasTooLarge {
+            width,
+            height,
+            layers,
+            max_side: limits.max_texture_dimension_2d,
+            max_layers: limits.max_texture_array_layers,
+        });
+    }
+    Ok(())
 }
 
 /// A page as half-float RGBA texels, `layer_w` × `layer_h`, edge texels repeated beyond the

@@ -3,8 +3,14 @@
 //! [`super::target`], the wgpu builders in [`super::build`].
 //!
 //! - One indexed draw for the whole scene ([`SceneMesh`]): a vertex is a position, lightmap
-//!   coordinates in texels of its atlas page, and the page ([`Vertex`]); corners that agree on
-//!   all three are shared (within a chart they do), which lets the GPU's vertex cache work.
+//!   coordinates in texels of its atlas page, the page, both texture coordinate sets and the
+//!   material ([`Vertex`]); corners that agree on all of them are shared (within a chart they
+//!   do), which lets the GPU's vertex cache work.
+//! - The radiosity pages hold D, or for a material with a base colour texture D over that
+//!   texture's texel mean; the fragment shader multiplies the full-resolution texture back in
+//!   and adds textured emission (`surface_d`), and discards alpha-masked cut-outs, from the
+//!   scene's images and material records in the frame bind group
+//!   ([`super::surface_textures`]).
 //! - The atlas pages in one `Rgba16Float` 2D texture array, every layer the size of the largest
 //!   page; smaller pages are padded by repeating their edge texels, so the clamp-to-edge
 //!   sampler behaves at a page's edge exactly as the CPU's clamped lookups do.
@@ -53,7 +59,7 @@ pub struct FrameUniforms {
     pub encode_srgb: u32,
 }
 
-/// One vertex of the scene (24 bytes): `@location(0..=2)` of `VertexIn` in the shader.
+/// One vertex of the scene (44 bytes): `@location(0..=5)` of `VertexIn` in the shader.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct Vertex {
@@ -63,11 +69,18 @@ pub struct Vertex {
     pub lightmap: [f32; 2],
     /// Atlas page (texture-array layer).
     pub page: u32,
+    /// Texture coordinates, set 0 (`TEXCOORD_0`).
+    pub uv0: [f32; 2],
+    /// Texture coordinates, set 1 (zero without `TEXCOORD_1`).
+    pub uv1: [f32; 2],
+    /// Material index (into the material records of [`super::surface_textures`]).
+    pub material: u32,
 }
 
 /// The vertex attributes of [`Vertex`].
-const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 3] =
-    wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x2, 2 => Uint32];
+const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 6] = wgpu::vertex_attr_array![
+    0 => Float32x3, 1 => Float32x2, 2 => Uint32, 3 => Float32x2, 4 => Float32x2, 5 => Uint32
+];
 
 /// The vertex buffer layout of a [`SceneMesh`], for every pass that draws scene triangles.
 pub(crate) fn scene_vertex_layout() -> wgpu::VertexBufferLayout<'static> {
@@ -100,6 +113,23 @@ pub enum RenderError {
         /// `max_texture_array_layers`.
         max_layers: u32,
     },
+    /// The scene's textures do not fit the device's texture limits (one layer per image, as
+    /// large as the largest image).
+    #[error(
+        "the scene's textures ({width}×{height} texels × {layers} images) exceed this GPU's limits ({max_side} texels per side, {max_layers} layers)"
+    )]
+    TexturesTooLarge {
+        /// Layer width.
+        width: u32,
+        /// Layer height.
+        height: u32,
+        /// Images.
+        layers: u32,
+        /// `max_texture_dimension_2d`.
+        max_side: u32,
+        /// `max_texture_array_layers`.
+        max_layers: u32,
+    },
     /// The reflection passes cannot be set up (a missing stage, an unreadable radiance map).
     #[error("reflections: {0}")]
     Reflections(String),
@@ -124,22 +154,26 @@ pub struct SceneMesh {
 
 impl SceneMesh {
     /// The mesh of `scene`'s triangles with `atlas`'s lightmap coordinates; corners equal in
-    /// position, lightmap coordinates and page (bit for bit) share a vertex.
+    /// every attribute (bit for bit) share a vertex.
     pub fn new(scene: &Scene, atlas: &Atlas) -> SceneMesh {
         let mut mesh = SceneMesh::default();
-        let mut ids: std::collections::HashMap<[u32; 6], u32> = std::collections::HashMap::new();
+        let mut ids: std::collections::HashMap<[u32; 11], u32> = std::collections::HashMap::new();
         for (t, (&page, c)) in scene
             .triangles
             .iter()
             .zip(atlas.tri_page.iter().zip(&atlas.tri_coords))
         {
-            for (p, uv) in t.p.iter().zip(c) {
+            let uv1 = t.uv1.unwrap_or([glam::Vec2::ZERO; 3]);
+            for (k, (p, uv)) in t.p.iter().zip(c).enumerate() {
                 let v = Vertex {
                     position: p.to_array(),
                     lightmap: uv.to_array(),
                     page,
+                    uv0: t.uv[k].to_array(),
+                    uv1: uv1[k].to_array(),
+                    material: t.material,
                 };
-                let key = bytemuck::cast::<Vertex, [u32; 6]>(v);
+                let key = bytemuck::cast::<Vertex, [u32; 11]>(v);
                 let next = mesh.vertices.len() as u32;
                 let id = *ids.entry(key).or_insert(next);
                 if id == next {
@@ -190,7 +224,8 @@ pub fn near_plane(scene: &Scene) -> f32 {
     (scene.bounds.diagonal() * NEAR_FRACTION).max(1e-6)
 }
 
-/// Bind group 0 of every entry point: the frame uniforms, the pages and their sampler.
+/// Bind group 0 of every entry point: the frame uniforms, the pages and their sampler, the
+/// scene's images and the material records.
 pub(crate) fn frame_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let visibility =
         wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
@@ -198,6 +233,11 @@ pub(crate) fn frame_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupL
         .uniform::<FrameUniforms>(0, visibility)
         .texture(1, visibility, wgpu::TextureViewDimension::D2Array, true)
         .sampler(2, visibility)
+        .texture(3, visibility, wgpu::TextureViewDimension::D2Array, true)
+        .storage(
+            4,
+            wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE,
+        )
         .build(device, "glint frame bind group layout")
 }
 
@@ -222,6 +262,14 @@ pub(crate) fn frame_bind_group(
             wgpu::BindGroupEntry {
                 binding: 2,
                 resource: wgpu::BindingResource::Sampler(&textures.sampler),
+            },
+            wgpu::BindGroupEntry {
+                binding: 3,
+                resource: wgpu::BindingResource::TextureView(&textures.surfaces.view),
+            },
+            wgpu::BindGroupEntry {
+                binding: 4,
+                resource: textures.surfaces.materials.as_entire_binding(),
             },
         ],
     })
@@ -268,7 +316,7 @@ impl Renderer {
                 max,
             });
         }
-        let textures = RadiosityTextures::upload(gpu, map)?;
+        let textures = RadiosityTextures::upload_for(gpu, map, Some(scene))?;
         let device = &gpu.device;
         let renderer = error_scoped(device, "creating the scene pipeline", || {
             let shader = shader(device, "glint view shader", SHADER_SOURCE);
@@ -422,6 +470,9 @@ mod tests {
                 std::mem::offset_of!(Vertex, position),
                 std::mem::offset_of!(Vertex, lightmap),
                 std::mem::offset_of!(Vertex, page),
+                std::mem::offset_of!(Vertex, uv0),
+                std::mem::offset_of!(Vertex, uv1),
+                std::mem::offset_of!(Vertex, material),
             ],
             SHADER_SOURCE,
             "VertexIn",

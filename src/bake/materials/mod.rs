@@ -124,8 +124,16 @@ pub fn shade_with_d(bundle_dir: &Path, scene: &Scene) -> Result<EnvShading, Stri
         .load()
         .map_err(|e| format!("cannot read D from the `radiosity` stage: {e}"))?
         .ok_or_else(missing)?;
+    // Textured surfaces: D at full texture resolution (scene::texturing).
+    let textured = scene.textured_surfaces();
     Ok(EnvShading {
-        shade: Box::new(move |hit: &Hit| map.radiance(hit.triangle, hit.bary)),
+        shade: Box::new(move |hit: &Hit| {
+            let stored = map.radiance(hit.triangle, hit.bary);
+            match &textured {
+                Some(t) => t.d_at(hit.triangle, hit.bary, stored),
+                None => stored,
+            }
+        }),
         source,
     })
 }

@@ -88,7 +88,10 @@ pub fn cpu_reference_filtered(
     }
     let clip = (scene.bounds.diagonal() * CLIP_FRACTION).max(1e-5);
     let aspect = width.max(1) as f32 / height.max(1) as f32;
-    let d = |t: u32, bary| crate::view::bicubic::radiance(map, t, bary).max(Vec3::ZERO);
+    let d = |t: u32, bary| {
+        let q = crate::view::bicubic::radiance(map, t, bary).max(Vec3::ZERO);
+        scene.d_at(t, bary, q)
+    };
     let pixels = |f: &(dyn Fn(u32, u32) -> Pixel + Sync)| {
         (0..height)
             .into_par_iter()
