@@ -301,10 +301,11 @@ fn a_stage_shaded_with_a_d_replaced_meanwhile_is_refused_and_stays_stale() {
     let first = BakeSettings::resolve(&scene, Quality::Draft).unwrap();
     bake_all(&scene, &bundle, &first, false, &Silent).unwrap();
     let mut second = first.clone();
-    // A different D: more emitter samples and gathering rays (the density of this small room
-    // is the scene-size minimum's, which a per-metre change would not move).
-    second.radiosity.light_samples *= 2;
-    second.radiosity.rays *= 2;
+    // A different D: another atlas (D here is the ceiling's emission and light that does not
+    // depend on the sample counts; without the scene-size minimum, which sets this small room's
+    // density, the per-metre density decides).
+    second.radiosity.min_scene_texels = 0;
+    second.radiosity.texel_density *= 1.5;
     {
         // Another baker commits a new D while the radiance maps are being shaded with the old.
         let race = Midway::new(|| {
@@ -319,8 +320,7 @@ fn a_stage_shaded_with_a_d_replaced_meanwhile_is_refused_and_stays_stale() {
         );
     }
     // The same race against the materials stage (its d_source is D's identity too).
-    second.radiosity.light_samples *= 2;
-    second.radiosity.rays *= 2;
+    second.radiosity.texel_density *= 1.5;
     {
         let race = Midway::new(|| {
             radiosity_stage::bake(&scene, &bundle, &second.radiosity, false, &Silent).unwrap();

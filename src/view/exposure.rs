@@ -157,7 +157,9 @@ fn lattice(texels: f32) -> impl Iterator<Item = Vec2> {
 
 /// D at points spread over every triangle, each with the world area it stands for
 /// (triangle area / its points): the area measure of the scene's surfaces, read through the
-/// atlas (nearest texel).
+/// atlas (nearest texel). Black texels are left out: they hold no element (faces inside
+/// geometry, such as a box's bottom on the floor, which no view shows) or no light at all, and
+/// would pull the average to the luminance floor whatever the emitters' strength.
 pub fn surface_samples<'a>(
     triangles: &'a [Triangle],
     map: &'a RadiosityMap,
@@ -178,7 +180,10 @@ pub fn surface_samples<'a>(
                 .into_iter()
                 .filter_map(|bary| {
                     let i = atlas.texel_at(&offsets, t as u32, bary) as usize;
-                    texels.get(i).map(|&&c| (c, weight))
+                    texels
+                        .get(i)
+                        .filter(|c| c.max_element() > 0.0)
+                        .map(|&&c| (c, weight))
                 })
                 .collect();
             samples
