@@ -79,6 +79,7 @@ pub mod reflections;
 pub mod renderer;
 #[cfg(feature = "view")]
 pub mod replay;
+#[cfg(feature = "view")]
 pub mod surface_textures;
 #[cfg(feature = "view")]
 pub mod target;
