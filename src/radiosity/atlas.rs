@@ -180,10 +180,11 @@ pub fn estimate_texels(triangles: &[Triangle], rule: DensityRule) -> f64 {
         return area * d * d * 1.25 + charts * ((2 * BORDER + 3) as f64).powi(2);
     }
     // Raised densities depend on each chart's size: make the charts (cheap beside the solve).
-    make_charts(triangles)
+    let vid = weld(triangles);
+    make_charts(triangles, &vid)
         .iter()
         .map(|c| {
-            let extent = chart_extent(&chart_plane_coords(triangles, c));
+            let extent = chart_extent(&chart_plane_coords(triangles, &vid, c));
             let dc = rule.chart_density(extent.max_element()) as f64;
             let side = |e: f32| (e as f64 * dc).ceil().max(1.0) + (1 + 2 * BORDER) as f64;
             side(extent.x) * side(extent.y)
@@ -212,10 +213,13 @@ pub fn build_with(
     if let Some(result) = from_uv1(triangles, density) {
         return Ok(result);
     }
-    let charts = make_charts(triangles);
+    let vid = weld(triangles);
+    let charts = make_charts(triangles, &vid);
     // Project each chart to its plane, in texels.
-    let mut projected: Vec<ProjectedChart> =
-        charts.iter().map(|c| project(triangles, c, rule)).collect();
+    let mut projected: Vec<ProjectedChart> = charts
+        .iter()
+        .map(|c| project(triangles, &vid, c, rule))
+        .collect();
     for p in &projected {
         if p.w > MAX_PAGE || p.h > MAX_PAGE {
             return Err(AtlasError::ChartTooLarge {
@@ -277,8 +281,7 @@ pub fn weld(triangles: &[Triangle]) -> Vec<[u32; 3]> {
 }
 
 /// Groups triangles into charts (lists of triangle indices, in index order of their seeds).
-fn make_charts(triangles: &[Triangle]) -> Vec<Vec<u32>> {
-    let vid = weld(triangles);
+fn make_charts(triangles: &[Triangle], vid: &[[u32; 3]]) -> Vec<Vec<u32>> {
     let mut edges: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
     for (t, v) in vid.iter().enumerate() {
         for k in 0..3 {
@@ -338,17 +341,16 @@ struct ProjectedChart {
 /// The axes of a chart's projection plane (the first triangle's): along the chart's longest
 /// boundary edge (one no other triangle of the chart shares), so that a rectangle's sides lie
 /// along the texel grid, whatever its orientation in the scene.
-fn chart_axes(triangles: &[Triangle], chart: &[u32]) -> (Vec3, Vec3) {
+fn chart_axes(triangles: &[Triangle], vid: &[[u32; 3]], chart: &[u32]) -> (Vec3, Vec3) {
     let n = triangles[chart[0] as usize].face_normal();
-    let key = |p: Vec3| p.to_array().map(f32::to_bits);
-    let edge = |t: &Triangle, k: usize| {
-        let (a, b) = (key(t.p[k]), key(t.p[(k + 1) % 3]));
-        if a < b { (a, b) } else { (b, a) }
+    let edge = |t: usize, k: usize| {
+        let (a, b) = (vid[t][k], vid[t][(k + 1) % 3]);
+        (a.min(b), a.max(b))
     };
-    let mut uses: HashMap<([u32; 3], [u32; 3]), u32> = HashMap::new();
+    let mut uses: HashMap<(u32, u32), u32> = HashMap::new();
     for &i in chart {
         for k in 0..3 {
-            *uses.entry(edge(&triangles[i as usize], k)).or_default() += 1;
+            *uses.entry(edge(i as usize, k)).or_default() += 1;
         }
     }
     // In chart order, the first of the longest: deterministic.
@@ -356,7 +358,7 @@ fn chart_axes(triangles: &[Triangle], chart: &[u32]) -> (Vec3, Vec3) {
     for &i in chart {
         let t = &triangles[i as usize];
         for k in 0..3 {
-            if uses[&edge(t, k)] == 1 {
+            if uses[&edge(i as usize, k)] == 1 {
                 let d = t.p[(k + 1) % 3] - t.p[k];
                 let d = d - n * n.dot(d);
                 if d.length() > longest.0 {
@@ -373,8 +375,8 @@ fn chart_axes(triangles: &[Triangle], chart: &[u32]) -> (Vec3, Vec3) {
 }
 
 /// A chart's vertices in metres on its projection plane (see [`chart_axes`]).
-fn chart_plane_coords(triangles: &[Triangle], chart: &[u32]) -> Vec<[Vec2; 3]> {
-    let (t, b) = chart_axes(triangles, chart);
+fn chart_plane_coords(triangles: &[Triangle], vid: &[[u32; 3]], chart: &[u32]) -> Vec<[Vec2; 3]> {
+    let (t, b) = chart_axes(triangles, vid, chart);
     chart
         .iter()
         .map(|&i| {
@@ -411,8 +413,13 @@ fn chart_extent(coords: &[[Vec2; 3]]) -> Vec2 {
 /// texel intervals across): texels on the chart's sides sample the sides themselves. D then
 /// interpolates between the edge and the texel inside it, where otherwise it would hold the
 /// value half a texel in out to the edge, and D changes fastest at concave edges.
-fn project(triangles: &[Triangle], chart: &[u32], rule: DensityRule) -> ProjectedChart {
-    let metres = chart_plane_coords(triangles, chart);
+fn project(
+    triangles: &[Triangle],
+    vid: &[[u32; 3]],
+    chart: &[u32],
+    rule: DensityRule,
+) -> ProjectedChart {
+    let metres = chart_plane_coords(triangles, vid, chart);
     let (min, max) = bounds(&metres);
     let ext = (max - min).max(Vec2::ZERO);
     let density = rule.chart_density(ext.max_element());
