@@ -9,7 +9,7 @@ scene=scenes/glossy-room/scene.json
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 "$bin/glint-bake" "$scene" --quality draft --bundle "$tmp/whole.glint" >/dev/null 2>"$tmp/whole.log"
-for wave in 0 1; do
+for wave in 0 1 2; do
   "$bin/glint-bake" "$scene" --quality draft --plan --wave "$wave" \
     | xargs -P 2 -I{} "$bin/glint-bake" "$scene" --quality draft --unit {} --bundle "$tmp/shards/{}.glint" >/dev/null 2>>"$tmp/units.log"
 done

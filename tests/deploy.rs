@@ -298,7 +298,15 @@ fn the_kubernetes_indexed_jobs_parse_match_the_plan_and_their_pods_bake_a_unit()
     let text = std::fs::read_to_string(repo("deploy/k8s/glint-units.yaml")).unwrap();
     let docs = parse_yaml(&text);
     let names: Vec<&str> = docs.iter().map(|d| d.at("metadata.name").str()).collect();
-    assert_eq!(names, ["glint-wave-0", "glint-wave-1", "glint-merge"]);
+    assert_eq!(
+        names,
+        [
+            "glint-wave-0",
+            "glint-wave-1",
+            "glint-wave-2",
+            "glint-merge"
+        ]
+    );
     let scene = repo("scenes/glossy-room/scene.json");
     let tmp = tempfile::tempdir().unwrap();
     for (w, job) in docs.iter().enumerate() {
@@ -461,24 +469,26 @@ fn the_slurm_array_script_bakes_its_tasks_unit_and_submit_chains_the_waves() {
     );
     let calls = std::fs::read_to_string(&log).unwrap();
     let calls: Vec<&str> = calls.lines().collect();
-    assert_eq!(calls.len(), 3, "{calls:?}");
-    let (n0, n1) = (wave_ids(&scene, 0).len(), wave_ids(&scene, 1).len());
+    assert_eq!(calls.len(), 4, "{calls:?}");
+    // Each wave's array after the one before, sized by the plan's wave.
+    for (w, call) in calls[..3].iter().enumerate() {
+        let n = wave_ids(&scene, w as u32).len();
+        assert!(
+            call.contains(&format!("--array=0-{}", n - 1)) && call.contains(&format!("WAVE={w}")),
+            "{call}"
+        );
+        if w == 0 {
+            assert!(!call.contains("--dependency"), "{call}");
+        } else {
+            assert!(
+                call.contains(&format!("--dependency=afterok:{w}")),
+                "{call}"
+            );
+        }
+    }
     assert!(
-        calls[0].contains(&format!("--array=0-{}", n0 - 1)) && calls[0].contains("WAVE=0"),
+        calls[3].contains("--dependency=afterok:3") && calls[3].contains("glint-bundle merge"),
         "{}",
-        calls[0]
-    );
-    assert!(!calls[0].contains("--dependency"), "{}", calls[0]);
-    assert!(
-        calls[1].contains("--dependency=afterok:1")
-            && calls[1].contains(&format!("--array=0-{}", n1 - 1))
-            && calls[1].contains("WAVE=1"),
-        "{}",
-        calls[1]
-    );
-    assert!(
-        calls[2].contains("--dependency=afterok:2") && calls[2].contains("glint-bundle merge"),
-        "{}",
-        calls[2]
+        calls[3]
     );
 }

@@ -136,6 +136,8 @@ fn the_plan_lists_every_unit_with_its_inputs_cost_and_wave() {
         ids,
         [
             "scene",
+            "gather.0",
+            "gather.1",
             "radiosity",
             "material.GlossyFloor",
             "material.Mirror",
@@ -162,16 +164,25 @@ fn the_plan_lists_every_unit_with_its_inputs_cost_and_wave() {
         }
         assert!(u["cost"].as_f64().unwrap() > 0.0, "{u}");
         assert!(keys.insert(u["key"].as_str().unwrap().to_string()), "{u}");
-        // Units that read D wait for the radiosity unit; the others read no unit.
+        // The radiosity unit reads the gathering units' shards, the units that read D wait
+        // for it, and the others read no unit.
+        let id = u["id"].as_str().unwrap();
         let reads_d = ["envmap", "radiance", "srdm"]
             .iter()
-            .any(|k| u["id"].as_str().unwrap().starts_with(k));
-        assert_eq!(u["wave"], if reads_d { 1 } else { 0 }, "{u}");
-        assert_eq!(
-            u["depends_on"].as_array().map(|d| d.len()).unwrap_or(0),
-            reads_d as usize,
-            "{u}"
-        );
+            .any(|k| id.starts_with(k));
+        let reads: Vec<&str> = u["depends_on"]
+            .as_array()
+            .map(|d| d.iter().map(|x| x.as_str().unwrap()).collect())
+            .unwrap_or_default();
+        let (wave, want): (u64, Vec<&str>) = if reads_d {
+            (2, vec!["radiosity"])
+        } else if id == "radiosity" {
+            (1, vec!["gather.0", "gather.1"])
+        } else {
+            (0, vec![])
+        };
+        assert_eq!(u["wave"], wave, "{u}");
+        assert_eq!(reads, want, "{u}");
     }
     // The ray-heavy units cost more than the table lookups of the scene copy.
     let cost = |id: &str| {
@@ -182,7 +193,7 @@ fn the_plan_lists_every_unit_with_its_inputs_cost_and_wave() {
     assert!(
         cost("radiosity") > cost("radiance.TableTop") && cost("radiance.TableTop") > cost("scene")
     );
-    for wave in [0u64, 1] {
+    for wave in [0u64, 1, 2] {
         let w = wave.to_string();
         let (code, out, err) = bake(&[s(&scene), "--plan", "--wave", &w, "--quality", "draft"]);
         assert_eq!(code, 0, "{err}");
@@ -205,7 +216,7 @@ fn a_sharded_bake_merges_into_the_same_bytes_as_a_whole_bake() {
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
     let (code, out, err) = bundle_tool(&args);
     assert_eq!(code, 0, "{out}{err}");
-    assert!(out.contains("11 units"), "{out}");
+    assert!(out.contains("13 units"), "{out}");
     assert_same_as_whole(&merged);
 
     // A shard left out is named.
@@ -332,7 +343,7 @@ fn rebake(scene: &Path, shards: &Path, merged: &Path) -> Vec<String> {
     assert_eq!(code, 0, "{err}");
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();
     let units = v["units"].as_array().unwrap();
-    assert_eq!(units.len(), 11, "{out}");
+    assert_eq!(units.len(), 13, "{out}");
     units
         .iter()
         .filter(|u| u["status"] == "baked")
@@ -402,8 +413,10 @@ fn a_change_rebakes_only_the_units_whose_inputs_it_touches() {
         baked,
         [
             "scene",
-            "radiosity",
+            "gather.0",
+            "gather.1",
             "material.GlossyTable",
+            "radiosity",
             "envmap.Teapot",
             "radiance.Floor",
             "radiance.MirrorPanel",
@@ -430,4 +443,48 @@ fn a_change_rebakes_only_the_units_whose_inputs_it_touches() {
     let (code, _, err) = bake(&[s(&scene), "--quality", "draft", "--bundle", s(&whole)]);
     assert_eq!(code, 0, "{err}");
     assert_eq!(stages(&whole), stages(&merged));
+}
+
+#[test]
+fn the_radiosity_unit_needs_every_gathering_shard_and_then_solves_the_same_d() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (scene, shards) = copy_of_pristine(tmp.path());
+    let other = tmp.path().join("other");
+    std::fs::create_dir_all(&other).unwrap();
+    copy_dir(
+        &shards.join("gather.0.glint"),
+        &other.join("gather.0.glint"),
+    );
+    let radiosity = other.join("radiosity.glint");
+    let unit = || {
+        bake(&[
+            s(&scene),
+            "--quality",
+            "draft",
+            "--unit",
+            "radiosity",
+            "--bundle",
+            s(&radiosity),
+        ])
+    };
+    // gather.1's shard is missing: the unit says which and how to make it.
+    let (code, _, err) = unit();
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("unit `radiosity` reads unit `gather.1`'s shard")
+            && err.contains("--unit gather.1"),
+        "{err}"
+    );
+    assert!(!radiosity.join("unit.json").exists());
+
+    // With both, D is the bytes of the pristine sharded bake (and so of a whole bake).
+    copy_dir(
+        &shards.join("gather.1.glint"),
+        &other.join("gather.1.glint"),
+    );
+    let (code, out, err) = unit();
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("baked"), "{out}");
+    let d = |b: &Path| stages(b).remove("radiosity").unwrap();
+    assert_eq!(d(&radiosity), d(&shards.join("radiosity.glint")));
 }

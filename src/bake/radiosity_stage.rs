@@ -14,7 +14,9 @@ use crate::progress::{Cancelled, Progress};
 use crate::radiosity::atlas::{self, AtlasError};
 use crate::radiosity::format;
 use crate::radiosity::seams;
-use crate::radiosity::solve::{REFINE_BUDGET, SolveSettings, solve};
+use crate::radiosity::solve::{
+    GatherBatch, REFINE_BUDGET, SolveSettings, gather_batch, solve, solve_batches,
+};
 use crate::scene::Scene;
 use crate::scene::desc::RadiositySettings;
 
@@ -91,6 +93,11 @@ pub fn available_memory() -> Option<f64> {
 
 /// Checks settings and memory before anything is allocated.
 pub fn check(scene: &Scene, s: &RadiositySettings) -> Result<(), RadiosityError> {
+    check_share(scene, s, 1.0)
+}
+
+/// [`check`] for a bake that holds `share` of the elements' gathered rays (a gathering unit).
+fn check_share(scene: &Scene, s: &RadiositySettings, share: f64) -> Result<(), RadiosityError> {
     if !scene.has_emitters() {
         return Err(RadiosityError::NoEmitters {
             path: scene.path.clone(),
@@ -100,7 +107,7 @@ pub fn check(scene: &Scene, s: &RadiositySettings) -> Result<(), RadiosityError>
         .map_err(|e| RadiosityError::Setting(e.to_string()))?;
     let rule = s.density_rule(scene.bounds.longest_side());
     let texels = atlas::estimate_texels(&scene.triangles, rule);
-    let need = memory_estimate(texels, s.rays, s.target_error.is_some());
+    let need = memory_estimate(texels, s.rays, s.target_error.is_some()) * share;
     if let Some(avail) = available_memory()
         && need > avail
     {
@@ -123,6 +130,22 @@ pub fn settings_json(settings: &RadiositySettings) -> serde_json::Value {
     v
 }
 
+/// Where a radiosity bake's first gathering batch comes from.
+#[derive(Clone, Copy, Debug, Default)]
+pub enum Gathering<'a> {
+    /// Gathered here, every element.
+    #[default]
+    Here,
+    /// Read from the `gather` stages of these bundles (the gathering units' shards, in
+    /// order), whose batches tile the elements.
+    From(&'a [std::path::PathBuf]),
+}
+
+/// Stage name of a gathering unit's shard (not a stage of a whole bundle).
+pub const GATHER_STAGE: &str = "gather";
+/// Its one asset, in its stage folder.
+pub const GATHER_ASSET: &str = "elements.bin";
+
 /// Bakes the radiosity of `scene` into the bundle at `bundle`.
 pub fn bake(
     scene: &Scene,
@@ -131,11 +154,18 @@ pub fn bake(
     force: bool,
     progress: &dyn Progress,
 ) -> Result<StageRecord, RadiosityError> {
-    let start = Instant::now();
-    check(scene, settings)?;
-    crate::bundle::check_scene(bundle, &scene.content_hash, force)?;
-    // Before the compute: a bundle that cannot be written fails now.
-    let mut w = StageWriter::begin(bundle, Stage::Radiosity.name())?;
+    bake_from(scene, bundle, settings, force, Gathering::Here, progress)
+}
+
+/// What every radiosity bake and gathering unit computes before gathering.
+struct Prepared {
+    bvh: crate::geometry::Bvh,
+    atlas: atlas::Atlas,
+    samples: Vec<atlas::TexelSample>,
+    solve: SolveSettings,
+}
+
+fn prepare(scene: &Scene, settings: &RadiositySettings) -> Result<Prepared, RadiosityError> {
     let bvh = scene.build_bvh();
     let rule = settings.density_rule(scene.bounds.longest_side());
     if rule.per_metre != settings.texel_density {
@@ -159,7 +189,7 @@ pub fn bake(
         atlas.pages.len(),
         samples.len()
     );
-    let solve_settings = SolveSettings {
+    let solve = SolveSettings {
         rays: settings.rays,
         light_samples: settings.light_samples,
         bounces: settings.bounces,
@@ -168,10 +198,139 @@ pub fn bake(
         target_error: settings.target_error,
         seed: SEED,
     };
-    let mut solution = solve(scene, &bvh, &atlas, &samples, &solve_settings, progress)?;
+    Ok(Prepared {
+        bvh,
+        atlas,
+        samples,
+        solve,
+    })
+}
+
+/// The elements gathering unit `k` of `n` gathers: the `k`-th of `n` near-equal runs of the
+/// atlas's elements (chart order, so a run is a range of charts and pages).
+pub fn gather_range(elements: usize, k: usize, n: usize) -> std::ops::Range<u32> {
+    let at = |i: usize| (elements as u64 * i as u64 / n.max(1) as u64) as u32;
+    at(k)..at(k + 1)
+}
+
+/// Gathers the first batch of unit `k` of `n` ([`gather_range`]) into the `gather` stage of
+/// the shard at `shard`.
+pub fn bake_gather(
+    scene: &Scene,
+    shard: &Path,
+    settings: &RadiositySettings,
+    (k, n): (usize, usize),
+    progress: &dyn Progress,
+) -> Result<StageRecord, RadiosityError> {
+    let start = Instant::now();
+    // A first batch only: no refinement rays.
+    let first = RadiositySettings {
+        target_error: None,
+        ..settings.clone()
+    };
+    check_share(scene, &first, 1.0 / n.max(1) as f64)?;
+    let mut w = StageWriter::begin(shard, GATHER_STAGE)?;
+    let p = prepare(scene, settings)?;
+    let range = gather_range(p.samples.len(), k, n);
+    let batch = gather_batch(
+        scene,
+        &p.bvh,
+        &p.atlas,
+        &p.samples,
+        &p.solve,
+        range.clone(),
+        progress,
+    )?;
+    w.write(GATHER_ASSET, "radiosity-gather", &batch.encode(&p.samples))?;
+    let stats = BTreeMap::from([
+        ("elements".to_string(), p.samples.len().into()),
+        ("first".into(), range.start.into()),
+        ("end".into(), range.end.into()),
+    ]);
+    Ok(w.commit(StageInfo {
+        scene_name: scene.name.clone(),
+        scene_hash: scene.content_hash.clone(),
+        settings: settings_json(settings),
+        stats,
+        bake_seconds: start.elapsed().as_secs_f64(),
+        force: true,
+    })?)
+}
+
+/// Reads the gathering batches of `shards` (one at a time: the file and the batch are not
+/// held together longer than one shard).
+fn read_batches(
+    shards: &[std::path::PathBuf],
+    p: &Prepared,
+) -> Result<Vec<GatherBatch>, RadiosityError> {
+    let mut out = Vec::with_capacity(shards.len());
+    for shard in shards {
+        let bad = |why: String| {
+            RadiosityError::Setting(format!("{}: gathering shard: {why}", shard.display()))
+        };
+        let bundle = crate::bundle::Bundle::open(shard).map_err(|e| bad(e.to_string()))?;
+        let record = bundle
+            .stage(GATHER_STAGE)
+            .ok_or_else(|| bad(format!("has no `{GATHER_STAGE}` stage")))?;
+        let asset = record
+            .assets
+            .iter()
+            .find(|a| a.path == format!("{GATHER_STAGE}/{GATHER_ASSET}"))
+            .ok_or_else(|| bad(format!("has no {GATHER_STAGE}/{GATHER_ASSET}")))?;
+        let bytes = bundle.read_asset(asset).map_err(|e| bad(e.to_string()))?;
+        out.push(
+            GatherBatch::decode(&bytes, &p.atlas, &p.samples).map_err(|e| bad(e.to_string()))?,
+        );
+    }
+    let mut next = 0u32;
+    for (b, shard) in out.iter().zip(shards) {
+        if b.range.start != next {
+            return Err(RadiosityError::Setting(format!(
+                "{}: gathers elements {}..{}, but the next batch must start at element {next}",
+                shard.display(),
+                b.range.start,
+                b.range.end
+            )));
+        }
+        next = b.range.end;
+    }
+    if next as usize != p.samples.len() {
+        return Err(RadiosityError::Setting(format!(
+            "the gathering shards cover elements 0..{next} of {}",
+            p.samples.len()
+        )));
+    }
+    Ok(out)
+}
+
+/// [`bake`], with the first gathering batch from `gathering`.
+pub fn bake_from(
+    scene: &Scene,
+    bundle: &Path,
+    settings: &RadiositySettings,
+    force: bool,
+    gathering: Gathering<'_>,
+    progress: &dyn Progress,
+) -> Result<StageRecord, RadiosityError> {
+    let start = Instant::now();
+    check(scene, settings)?;
+    crate::bundle::check_scene(bundle, &scene.content_hash, force)?;
+    // Before the compute: a bundle that cannot be written fails now.
+    let mut w = StageWriter::begin(bundle, Stage::Radiosity.name())?;
+    let p = prepare(scene, settings)?;
+    let mut solution = match gathering {
+        Gathering::Here => solve(scene, &p.bvh, &p.atlas, &p.samples, &p.solve, progress)?,
+        Gathering::From(shards) => {
+            let batches = read_batches(shards, &p)?;
+            solve_batches(
+                scene, &p.bvh, &p.atlas, &p.samples, &p.solve, batches, progress,
+            )?
+        }
+    };
+    let (atlas, samples) = (&p.atlas, &p.samples);
     let seam = settings
         .stitch_seams
-        .then(|| seams::stitch_seams(&scene.triangles, &atlas, &samples, &mut solution.radiance));
+        .then(|| seams::stitch_seams(&scene.triangles, atlas, samples, &mut solution.radiance));
     if progress.cancelled() {
         return Err(Cancelled.into());
     }
@@ -191,7 +350,7 @@ pub fn bake(
         )?;
         w.write(&format!("page{i}.png"), "preview-png", &png)?;
     }
-    w.write("atlas.bin", "atlas", &format::encode(&atlas))?;
+    w.write("atlas.bin", "atlas", &format::encode(atlas))?;
 
     let st = &solution.stats;
     let mut stats = BTreeMap::from([
@@ -239,4 +398,24 @@ pub fn bake(
         bake_seconds: start.elapsed().as_secs_f64(),
         force,
     })?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::gather_range;
+
+    #[test]
+    fn gathering_runs_tile_the_elements_in_order() {
+        for (elements, n) in [(0, 2), (1, 2), (7, 3), (10_000, 7), (5, 5), (3, 8)] {
+            let mut next = 0;
+            for k in 0..n {
+                let r = gather_range(elements, k, n);
+                assert_eq!(r.start, next, "{elements} in {n}");
+                // Near-equal: no run differs from another by more than one element.
+                assert!(r.len() <= elements.div_ceil(n) && r.len() >= elements / n);
+                next = r.end;
+            }
+            assert_eq!(next as usize, elements);
+        }
+    }
 }

@@ -14,8 +14,9 @@ use serde::{Deserialize, Serialize};
 
 use super::materials::{self, Outcome};
 use super::part::Part;
+use super::radiosity_stage::Gathering;
 use super::srdm_stage::{self, SrdmOutcome};
-use super::units::{Unit, UnitPlan};
+use super::units::{GATHER, Unit, UnitPlan, kind};
 use super::{BakeSettings, Stage, StageStatus, radiance_stage, radiosity_stage, scene_stage};
 use crate::bundle::{Bundle, write_atomic};
 use crate::progress::Progress;
@@ -211,19 +212,18 @@ pub fn bake_unit(
         item: plan.item(unit),
         d_from: d_path.as_deref(),
     };
-    let stage = bake_stage_part(scene, settings, unit, shard, part, progress)?;
+    let stage = bake_stage_part(scene, settings, plan, unit, shard, part, progress)?;
     let read_d = match &d_path {
         Some(p) => Some(super::part::require_d(p)?.1),
         None => None,
     };
     let identity = Bundle::open(shard)?
-        .stage(stage.name())
+        .stage(stage)
         .map(|r| r.identity())
         .ok_or_else(|| {
             anyhow::anyhow!(
-                "{}: unit `{id}` committed no `{}` stage",
+                "{}: unit `{id}` committed no `{stage}` stage",
                 shard.display(),
-                stage.name()
             )
         })?;
     write_marker(
@@ -233,7 +233,7 @@ pub fn bake_unit(
             version: 1,
             unit: unit.id.clone(),
             key: unit.key.clone(),
-            stage: stage.name().into(),
+            stage: stage.into(),
             stage_identity: identity,
             read_d,
             plan: plan.clone(),
@@ -250,27 +250,24 @@ fn write_marker(shard: &Path, marker: &Marker) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The shard a unit reads D from: `d_shard`, else `radiosity.glint` beside `shard`; it must
-/// hold the plan's `radiosity` unit, complete.
-fn d_source(
+/// The shard of unit `dep` that `unit` reads: `given`, else `DEP.glint` beside `shard`; it
+/// must hold `dep` of this plan, complete.
+fn dep_shard(
     unit: &Unit,
+    dep: &str,
     shard: &Path,
-    d_shard: Option<&Path>,
+    given: Option<&Path>,
     plan: &UnitPlan,
-) -> anyhow::Result<Option<PathBuf>> {
-    let Some(dep) = unit.depends_on.first() else {
-        return Ok(None);
-    };
-    let path = match d_shard {
+) -> anyhow::Result<PathBuf> {
+    let path = match given {
         Some(p) => p.to_owned(),
         None => shard
             .parent()
             .unwrap_or(Path::new("."))
             .join(format!("{dep}.glint")),
     };
-    let (marker, _) = read_shard(&path).map_err(|e| {
-        anyhow::anyhow!("unit `{}` reads D from unit `{dep}`'s shard: {e}", unit.id)
-    })?;
+    let (marker, _) = read_shard(&path)
+        .map_err(|e| anyhow::anyhow!("unit `{}` reads unit `{dep}`'s shard: {e}", unit.id))?;
     let want = plan.unit(dep).map(|u| u.key.as_str());
     if marker.unit != *dep || Some(marker.key.as_str()) != want {
         anyhow::bail!(
@@ -282,27 +279,65 @@ fn d_source(
             want.unwrap_or("none")
         );
     }
-    Ok(Some(path))
+    Ok(path)
 }
 
-/// Bakes the stage part of `unit` into `shard` (replacing what it held); returns its stage.
+/// The shard a unit reads D from: `d_shard`, else `radiosity.glint` beside `shard`; it must
+/// hold the plan's `radiosity` unit, complete.
+fn d_source(
+    unit: &Unit,
+    shard: &Path,
+    d_shard: Option<&Path>,
+    plan: &UnitPlan,
+) -> anyhow::Result<Option<PathBuf>> {
+    if !unit.depends_on.iter().any(|d| d == "radiosity") {
+        return Ok(None);
+    }
+    dep_shard(unit, "radiosity", shard, d_shard, plan).map(Some)
+}
+
+/// The gathering shards the `radiosity` unit reads, beside `shard`, in plan order.
+fn gather_sources(unit: &Unit, shard: &Path, plan: &UnitPlan) -> anyhow::Result<Vec<PathBuf>> {
+    unit.depends_on
+        .iter()
+        .filter(|d| kind(d) == GATHER)
+        .map(|d| dep_shard(unit, d, shard, None, plan))
+        .collect()
+}
+
+/// Bakes the stage part of `unit` into `shard` (replacing what it held); returns the name of
+/// the stage it committed there.
 fn bake_stage_part(
     scene: &Scene,
     s: &BakeSettings,
+    plan: &UnitPlan,
     unit: &Unit,
     shard: &Path,
     part: Part<'_>,
     progress: &dyn Progress,
-) -> anyhow::Result<Stage> {
+) -> anyhow::Result<&'static str> {
     let force = true;
     let stage = match unit.stage.as_str() {
         "scene" => {
             scene_stage::bake(scene, shard, force)?;
-            Stage::Scene
+            Stage::Scene.name()
+        }
+        GATHER => {
+            let part = plan
+                .gather_part(unit)
+                .ok_or_else(|| anyhow::anyhow!("unit `{}` is no gathering unit", unit.id))?;
+            radiosity_stage::bake_gather(scene, shard, &s.radiosity, part, progress)?;
+            radiosity_stage::GATHER_STAGE
         }
         "radiosity" => {
-            radiosity_stage::bake(scene, shard, &s.radiosity, force, progress)?;
-            Stage::Radiosity
+            let gathers = gather_sources(unit, shard, plan)?;
+            let from = if gathers.is_empty() {
+                Gathering::Here
+            } else {
+                Gathering::From(&gathers)
+            };
+            radiosity_stage::bake_from(scene, shard, &s.radiosity, force, from, progress)?;
+            Stage::Radiosity.name()
         }
         "materials" => {
             if let Outcome::Skipped(why) =
@@ -310,11 +345,11 @@ fn bake_stage_part(
             {
                 anyhow::bail!("unit `{}`: the materials stage is skipped: {why}", unit.id);
             }
-            Stage::Materials
+            Stage::Materials.name()
         }
         "radiance" => {
             radiance_stage::bake_part(scene, shard, s.quality, force, part, progress)?;
-            Stage::Radiance
+            Stage::Radiance.name()
         }
         "srdm" => {
             if let SrdmOutcome::Skipped { reason } =
@@ -322,7 +357,7 @@ fn bake_stage_part(
             {
                 anyhow::bail!("unit `{}`: the srdm stage is skipped: {reason}", unit.id);
             }
-            Stage::Srdm
+            Stage::Srdm.name()
         }
         other => anyhow::bail!("unit `{}`: unknown stage `{other}`", unit.id),
     };

@@ -4,10 +4,12 @@
 //!
 //! A unit's ID is `KIND[.NAME]`, file-name safe, so a shard is `ID.glint`:
 //! - `scene`: the scene stage;
-//! - `radiosity`: the whole radiosity stage (gathering and bounces). Its gathering may later
-//!   be split by atlas page range into `radiosity.pages.A-B` units with the bounces in a
-//!   `radiosity.bounces` unit: new IDs and kinds, so plans and shards of this version keep
-//!   their meaning;
+//! - `gather.K`: the first gathering batch of the radiosity elements' K-th run (of N, chosen
+//!   from the cost: [`gather_units`]); elements are in atlas order, so a run is a range of
+//!   charts on a range of pages. Its shard holds a `gather` stage that only the `radiosity`
+//!   unit reads;
+//! - `radiosity`: the radiosity stage from the gathering units' batches: the bounces, and
+//!   the refinement rounds a target error asks for;
 //! - `material.FOLDER`: one glossy material's lobes (kernel, reflectance, pattern);
 //! - `envmap.FOLDER`: one glossy curved reflector's environment map (reads D);
 //! - `radiance.FOLDER`: one glossy planar reflector's radiance maps (reads D);
@@ -16,8 +18,9 @@
 //! FOLDER is the item's folder in its stage. Each unit names its inputs by content hash
 //! (geometry, the materials, lights, settings… that its output is a function of); its `key`
 //! hashes those with the keys of the units it reads, so a unit whose key is unchanged is up
-//! to date, whatever else in the scene changed. Units of `wave` 0 read no other unit;
-//! those of wave 1 read D, the `radiosity` unit's shard.
+//! to date, whatever else in the scene changed. Units of `wave` 0 read no other unit; the
+//! `radiosity` unit (wave 1) reads the gathering units' shards; the units of wave 2 read D,
+//! the `radiosity` unit's shard.
 
 use std::collections::BTreeMap;
 
@@ -76,7 +79,7 @@ pub struct Unit {
     pub key: String,
     /// Estimated work, in ray casts (or the equivalent evaluations): for scheduling.
     pub cost: f64,
-    /// 0: reads no unit; 1: runs after wave 0.
+    /// 0: reads no unit; otherwise one more than the highest wave among the units it reads.
     pub wave: u32,
 }
 
@@ -110,6 +113,36 @@ impl UnitPlan {
             _ => Item::All,
         }
     }
+
+    /// For a gathering unit, its run: (K, N) of [`crate::bake::radiosity_stage::gather_range`].
+    pub fn gather_part(&self, unit: &Unit) -> Option<(usize, usize)> {
+        if kind(&unit.id) != GATHER {
+            return None;
+        }
+        let gathers: Vec<&Unit> = self
+            .units
+            .iter()
+            .filter(|u| kind(&u.id) == GATHER)
+            .collect();
+        let k = gathers.iter().position(|u| u.id == unit.id)?;
+        Some((k, gathers.len()))
+    }
+}
+
+/// Kind (and stage name in its shard) of the gathering units.
+pub const GATHER: &str = "gather";
+
+/// Estimated ray casts one gathering unit is given (some tens of seconds on one core).
+pub const GATHER_UNIT_COST: f64 = 3.2e7;
+
+/// Most gathering units of a plan.
+pub const MAX_GATHER_UNITS: usize = 4096;
+
+/// How many gathering units share radiosity work of `cost` ray casts: one per
+/// [`GATHER_UNIT_COST`], at least two (so that every plan splits its gathering, and the
+/// `radiosity` unit only bounces and refines), at most [`MAX_GATHER_UNITS`].
+pub fn gather_units(cost: f64) -> usize {
+    ((cost / GATHER_UNIT_COST).ceil() as usize).clamp(2, MAX_GATHER_UNITS)
 }
 
 /// The kind of a unit ID: what precedes its first `.`.
@@ -130,10 +163,11 @@ fn hash_str(s: &str) -> String {
 /// A unit before its key is computed.
 struct Draft {
     id: String,
-    stage: Stage,
+    stage: &'static str,
     item: Option<String>,
     inputs: Vec<(&'static str, String)>,
-    reads_d: bool,
+    /// The units whose shards it reads (planned before it).
+    reads: Vec<String>,
     cost: f64,
 }
 
@@ -146,12 +180,19 @@ pub fn plan_units(scene: &Scene, settings: &BakeSettings) -> Result<UnitPlan, St
     let geometry = scene.geometry_hash.clone();
     let all_materials = hash_json(&scene.materials);
     let has_d = needed(Stage::Radiosity);
+    let reads_d = |reads: bool| {
+        if reads && has_d {
+            vec!["radiosity".to_string()]
+        } else {
+            Vec::new()
+        }
+    };
     let mut drafts = vec![Draft {
         id: "scene".into(),
-        stage: Stage::Scene,
+        stage: Stage::Scene.name(),
         item: None,
         inputs: vec![("scene_files", scene.content_hash.clone())],
-        reads_d: false,
+        reads: Vec::new(),
         cost: 1.0,
     }];
     let mut stages = BTreeMap::from([("scene".to_string(), serde_json::json!({}))]);
@@ -174,20 +215,37 @@ pub fn plan_units(scene: &Scene, settings: &BakeSettings) -> Result<UnitPlan, St
             s.density_rule(scene.bounds.longest_side()),
         );
         let recorded = radiosity_stage::settings_json(s);
+        let inputs = vec![
+            ("geometry", geometry.clone()),
+            ("materials", all_materials.clone()),
+            ("lights", hash_json(&scene.desc.lights)),
+            ("reflectors", hash_json(&reflectors)),
+            ("settings", hash_json(&recorded)),
+            ("generator", generator.clone()),
+        ];
+        let gather_cost = texels * (s.rays + s.light_samples) as f64;
+        let n = gather_units(gather_cost);
+        let gathers: Vec<String> = (0..n).map(|k| format!("{GATHER}.{k}")).collect();
+        for (k, id) in gathers.iter().enumerate() {
+            let mut inputs = inputs.clone();
+            inputs.push(("part", hash_str(&format!("{k}/{n}"))));
+            drafts.push(Draft {
+                id: id.clone(),
+                stage: GATHER,
+                item: None,
+                inputs,
+                reads: Vec::new(),
+                cost: (gather_cost / n as f64).ceil(),
+            });
+        }
         drafts.push(Draft {
             id: "radiosity".into(),
-            stage: Stage::Radiosity,
+            stage: Stage::Radiosity.name(),
             item: None,
-            inputs: vec![
-                ("geometry", geometry.clone()),
-                ("materials", all_materials.clone()),
-                ("lights", hash_json(&scene.desc.lights)),
-                ("reflectors", hash_json(&reflectors)),
-                ("settings", hash_json(&recorded)),
-                ("generator", generator.clone()),
-            ],
-            reads_d: false,
-            cost: texels * (s.rays + s.light_samples) as f64,
+            inputs,
+            reads: gathers,
+            // Each bounce reads every cached hit once, about a hundredth of a ray cast.
+            cost: texels * s.rays as f64 * s.bounces.max(1) as f64 / 100.0,
         });
         stages.insert("radiosity".into(), recorded);
     }
@@ -204,7 +262,7 @@ pub fn plan_units(scene: &Scene, settings: &BakeSettings) -> Result<UnitPlan, St
                 (s.sphere_map_size as f64).powi(2) * s.albedo_steps as f64 + s.sample_budget as f64;
             drafts.push(Draft {
                 id: format!("material.{folder}"),
-                stage: Stage::Materials,
+                stage: Stage::Materials.name(),
                 item: Some(mat.name.clone()),
                 inputs: vec![
                     ("material", hash_json(mat)),
@@ -212,7 +270,7 @@ pub fn plan_units(scene: &Scene, settings: &BakeSettings) -> Result<UnitPlan, St
                     ("settings", settings_hash.clone()),
                     ("generator", generator.clone()),
                 ],
-                reads_d: false,
+                reads: Vec::new(),
                 cost: per_lobe * mat.lobes.len() as f64,
             });
         }
@@ -225,7 +283,7 @@ pub fn plan_units(scene: &Scene, settings: &BakeSettings) -> Result<UnitPlan, St
                 let refl = &scene.reflectors[r];
                 drafts.push(Draft {
                     id: format!("envmap.{folder}"),
-                    stage: Stage::Materials,
+                    stage: Stage::Materials.name(),
                     item: Some(refl.name.clone()),
                     inputs: vec![
                         ("geometry", geometry.clone()),
@@ -235,7 +293,7 @@ pub fn plan_units(scene: &Scene, settings: &BakeSettings) -> Result<UnitPlan, St
                         ("settings", settings_hash.clone()),
                         ("generator", generator.clone()),
                     ],
-                    reads_d: true,
+                    reads: reads_d(true),
                     cost: 6.0 * (s.env_map_size as f64 * s.env_supersample as f64).powi(2),
                 });
             }
@@ -252,7 +310,7 @@ pub fn plan_units(scene: &Scene, settings: &BakeSettings) -> Result<UnitPlan, St
                     "radiance.{}",
                     crate::radiance::index::reflector_folder(&refl.name)
                 ),
-                stage: Stage::Radiance,
+                stage: Stage::Radiance.name(),
                 item: Some(refl.name.clone()),
                 inputs: vec![
                     ("geometry", geometry.clone()),
@@ -265,7 +323,7 @@ pub fn plan_units(scene: &Scene, settings: &BakeSettings) -> Result<UnitPlan, St
                     ("quadtree", quadtree.clone()),
                     ("generator", generator.clone()),
                 ],
-                reads_d: true,
+                reads: reads_d(true),
                 cost: (p.elements[0] * p.elements[1] * p.cameras) as f64
                     * (p.resolution as f64).powi(2),
             });
@@ -304,10 +362,10 @@ pub fn plan_units(scene: &Scene, settings: &BakeSettings) -> Result<UnitPlan, St
             }
             drafts.push(Draft {
                 id: format!("srdm.{folder}"),
-                stage: Stage::Srdm,
+                stage: Stage::Srdm.name(),
                 item: Some(imp.name.clone()),
                 inputs,
-                reads_d: has_d,
+                reads: reads_d(has_d),
                 cost: imp.views as f64 * (s.resolution as f64).powi(2),
             });
         }
@@ -315,43 +373,37 @@ pub fn plan_units(scene: &Scene, settings: &BakeSettings) -> Result<UnitPlan, St
         stages.insert("srdm".into(), srdm_stage::settings_json(s, colour, None));
     }
 
-    let radiosity_key = |units: &[Unit]| {
-        units
-            .iter()
-            .find(|u| u.id == "radiosity")
-            .map(|u| u.key.clone())
-    };
     let mut units: Vec<Unit> = Vec::new();
     for d in drafts {
         if units.iter().any(|u| u.id == d.id) {
             return Err(format!(
                 "{}: two items of stage `{}` share the folder of unit `{}`: rename one",
                 scene.path.display(),
-                d.stage.name(),
+                d.stage,
                 d.id
             ));
         }
-        let depends_on: Vec<String> = if d.reads_d && has_d {
-            vec!["radiosity".into()]
-        } else {
-            Vec::new()
-        };
         let mut h = blake3::Hasher::new();
         h.update(d.id.as_bytes());
         for (name, value) in &d.inputs {
             h.update(format!("\n{name}={value}").as_bytes());
         }
-        if !depends_on.is_empty() {
-            let k = radiosity_key(&units).expect("radiosity is planned first");
-            h.update(format!("\nradiosity:{k}").as_bytes());
+        let mut wave = 0;
+        for dep in &d.reads {
+            let u = units
+                .iter()
+                .find(|u| u.id == *dep)
+                .expect("a unit's inputs are planned before it");
+            h.update(format!("\n{dep}:{}", u.key).as_bytes());
+            wave = wave.max(u.wave + 1);
         }
         units.push(Unit {
-            wave: depends_on.len() as u32,
+            wave,
             id: d.id,
-            stage: d.stage.name().into(),
+            stage: d.stage.into(),
             item: d.item,
             inputs: d.inputs.into_iter().map(|(k, v)| (k.into(), v)).collect(),
-            depends_on,
+            depends_on: d.reads,
             key: h.finalize().to_hex().to_string(),
             cost: d.cost.round(),
         });

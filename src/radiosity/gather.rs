@@ -45,10 +45,13 @@ pub(super) struct Moments {
 pub(super) struct Gathered {
     /// Direct irradiance / π (so that L_r = ρ · (direct + mean incoming L_r)).
     pub direct: Vec3,
-    /// Per ray, the atlas texel hit on a front face (u32::MAX: miss or back face).
+    /// Gathering rays cast (the length of `hits` as gathered).
+    pub gathering_rays: u32,
+    /// Per ray, the atlas texel hit on a front face (u32::MAX: miss or back face). The solve
+    /// moves them into its resolved links and leaves this empty.
     pub hits: Vec<u32>,
     /// Texels reached through glossy reflection, with their weights (summed over the rays
-    /// like `hits`).
+    /// like `hits`; moved out like them).
     pub terms: Vec<Term>,
     pub inside: bool,
     /// Rays cast (gathering, shadow, glossy).
@@ -60,9 +63,10 @@ pub(super) struct Gathered {
 
 impl Gathered {
     /// Adds another batch of the same element's samples: the estimates are averaged with
-    /// weights proportional to their gathering rays (each batch is unbiased by itself).
-    pub fn merge(&mut self, other: Gathered) {
-        let (n1, n2) = (self.hits.len() as f64, other.hits.len() as f64);
+    /// weights proportional to their gathering rays (each batch is unbiased by itself). The
+    /// batches' `hits` and `terms` are the caller's to keep (the solve's links hold them).
+    pub fn merge(&mut self, other: &Gathered) {
+        let (n1, n2) = (self.gathering_rays as f64, other.gathering_rays as f64);
         let n = n1 + n2;
         let mix = |a: f32, b: f32| ((a as f64 * n1 + b as f64 * n2) / n) as f32;
         self.direct = Vec3::new(
@@ -74,8 +78,7 @@ impl Gathered {
             (n1 * n1 * self.moments.light_var + n2 * n2 * other.moments.light_var) / (n * n);
         self.moments.ray_const += other.moments.ray_const;
         self.moments.ray_const2 += other.moments.ray_const2;
-        self.hits.extend(other.hits);
-        self.terms.extend(other.terms);
+        self.gathering_rays += other.gathering_rays;
         self.rays += other.rays;
         self.light_samples += other.light_samples;
     }
@@ -269,6 +272,7 @@ pub(super) fn gather(
 
     Gathered {
         direct,
+        gathering_rays: n_rays,
         hits,
         terms,
         inside: backfaces as f32 > BACKFACE_LIMIT * n_rays as f32,

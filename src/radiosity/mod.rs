@@ -2,6 +2,7 @@
 //! diffuse light D, solved on lightmap texels and looked up by every other stage.
 
 pub mod atlas;
+pub mod batch;
 pub mod current;
 mod emitters;
 pub mod format;

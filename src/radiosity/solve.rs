@@ -15,11 +15,13 @@
 //! neighbours of the same chart, so they neither leak light nor darkness.
 
 use std::collections::VecDeque;
+use std::ops::Range;
 
 use glam::Vec3;
 use rayon::prelude::*;
 
 use super::atlas::{Atlas, TexelSample};
+pub use super::batch::GatherBatch;
 use super::emitters::{Emitters, luminance};
 use super::gather::{Context, Gathered, RaySequence, gather};
 use super::mirror_lights::MirrorLights;
@@ -133,7 +135,7 @@ fn gather_all(
                 .map(|&(i, rays, light)| {
                     let mut rng = Rng::new(seed, stream(round, i as usize));
                     let seq = RaySequence {
-                        first: have.map_or(0, |g| g[i as usize].hits.len() as u32),
+                        first: have.map_or(0, |g| g[i as usize].gathering_rays),
                         shift: Rng::new(seed, stream(SHIFT_STREAM_ROUND, i as usize)).uniform2(),
                     };
                     gather(cx, &samples[i as usize], &mut rng, seq, rays, light)
@@ -150,6 +152,80 @@ fn gather_all(
     Some(out)
 }
 
+/// The emitters gathering samples, owned for a solve's or a batch's [`Context`].
+struct Lights {
+    emitters: Emitters,
+    mirrors: Option<MirrorLights>,
+}
+
+impl Lights {
+    fn new(scene: &Scene, set: &SolveSettings) -> Lights {
+        Lights {
+            emitters: Emitters::new(scene),
+            // Mirror images of emitters are part of glossy transport.
+            mirrors: if set.glossy_depth > 0 {
+                MirrorLights::new(scene)
+            } else {
+                None
+            },
+        }
+    }
+
+    fn context<'a>(
+        &'a self,
+        scene: &'a Scene,
+        bvh: &'a Bvh,
+        atlas: &'a Atlas,
+        offsets: &'a [u32],
+        set: &SolveSettings,
+    ) -> Context<'a> {
+        Context {
+            scene,
+            bvh,
+            atlas,
+            offsets,
+            emitters: &self.emitters,
+            glossy: Glossy::new(
+                scene,
+                bvh,
+                atlas,
+                offsets,
+                &self.emitters,
+                set.glossy_depth,
+                self.mirrors.as_ref(),
+            ),
+            mirrors: self.mirrors.as_ref(),
+        }
+    }
+}
+
+/// The first gathering batch of the elements `range` (indices into `samples`): what a
+/// radiosity work unit computes. Every element draws from its own random streams, so the
+/// batches of any split, solved together by [`solve_batches`], give the bytes of [`solve`].
+pub fn gather_batch(
+    scene: &Scene,
+    bvh: &Bvh,
+    atlas: &Atlas,
+    samples: &[TexelSample],
+    set: &SolveSettings,
+    range: Range<u32>,
+    progress: &dyn Progress,
+) -> Result<GatherBatch, Cancelled> {
+    assert!(
+        range.end as usize <= samples.len(),
+        "batch beyond the elements"
+    );
+    let offsets = atlas.page_offsets();
+    let lights = Lights::new(scene, set);
+    let cx = lights.context(scene, bvh, atlas, &offsets, set);
+    let (rays, light) = (set.rays.max(1), set.light_samples.max(1));
+    progress.phase("gathering", range.len() as u64);
+    let which: Vec<(u32, u32, u32)> = range.clone().map(|i| (i, rays, light)).collect();
+    let elements =
+        gather_all(&cx, samples, &which, None, set.seed, 0, progress).ok_or(Cancelled)?;
+    Ok(GatherBatch { range, elements })
+}
+
 /// Solves the scene's radiosity on the atlas. `samples` come from [`super::atlas::build`].
 pub fn solve(
     scene: &Scene,
@@ -159,38 +235,50 @@ pub fn solve(
     set: &SolveSettings,
     progress: &dyn Progress,
 ) -> Result<Solution, Cancelled> {
-    let offsets = atlas.page_offsets();
-    let emitters = Emitters::new(scene);
-    // Mirror images of emitters are part of glossy transport.
-    let mirrors = if set.glossy_depth > 0 {
-        MirrorLights::new(scene)
-    } else {
-        None
-    };
-    let cx = Context {
+    let all = gather_batch(
         scene,
         bvh,
         atlas,
-        offsets: &offsets,
-        emitters: &emitters,
-        glossy: Glossy::new(
-            scene,
-            bvh,
-            atlas,
-            &offsets,
-            &emitters,
-            set.glossy_depth,
-            mirrors.as_ref(),
-        ),
-        mirrors: mirrors.as_ref(),
-    };
+        samples,
+        set,
+        0..samples.len() as u32,
+        progress,
+    )?;
+    solve_batches(scene, bvh, atlas, samples, set, vec![all], progress)
+}
+
+/// Solves from first gathering batches that cover every element once, in order (refinement
+/// rounds, when [`SolveSettings::target_error`] asks for them, gather here).
+pub fn solve_batches(
+    scene: &Scene,
+    bvh: &Bvh,
+    atlas: &Atlas,
+    samples: &[TexelSample],
+    set: &SolveSettings,
+    batches: Vec<GatherBatch>,
+    progress: &dyn Progress,
+) -> Result<Solution, Cancelled> {
+    let mut next = 0u32;
+    for b in &batches {
+        assert_eq!(
+            b.range.start, next,
+            "gathering batches must tile the elements in order"
+        );
+        next = b.range.end;
+    }
+    assert_eq!(
+        next as usize,
+        samples.len(),
+        "gathering batches must cover every element"
+    );
+    let offsets = atlas.page_offsets();
+    let lights = Lights::new(scene, set);
+    let cx = lights.context(scene, bvh, atlas, &offsets, set);
     let (rays, light) = (set.rays.max(1), set.light_samples.max(1));
-    progress.phase("gathering", samples.len() as u64);
-    let all: Vec<(u32, u32, u32)> = (0..samples.len() as u32)
-        .map(|i| (i, rays, light))
-        .collect();
-    let mut gathered =
-        gather_all(&cx, samples, &all, None, set.seed, 0, progress).ok_or(Cancelled)?;
+    let mut gathered: Vec<Gathered> = Vec::with_capacity(samples.len());
+    for b in batches {
+        gathered.extend(b.elements);
+    }
 
     let mut stats = SolveStats {
         elements: samples.len() as u64,
@@ -201,9 +289,10 @@ pub fn solve(
     // Each texel resolves to the nearest valid element of its chart.
     let (resolve, filled) = resolve_texels(atlas, samples, &gathered);
     stats.filled = filled;
+    // The rays' hits move into the links: each ray's hit is held once.
     let mut links: Vec<Links> = gathered
-        .par_iter()
-        .map(|g| Links::new(g, &resolve))
+        .par_iter_mut()
+        .map(|g| Links::take(g, &resolve))
         .collect();
     // Albedo and emission over each element's texel (textures averaged over its footprint).
     let surfaces: Vec<TexelSurface> = samples
@@ -245,10 +334,10 @@ pub fn solve(
                 progress,
             )
             .ok_or(Cancelled)?;
-            for (&(i, _, _), g) in which.iter().zip(more) {
+            for (&(i, _, _), mut g) in which.iter().zip(more) {
                 let i = i as usize;
-                links[i].extend(&g, &resolve);
-                gathered[i].merge(g);
+                links[i].extend(&mut g, &resolve);
+                gathered[i].merge(&g);
                 refined[i] = true;
             }
             stats.rounds = round;
@@ -303,16 +392,19 @@ struct Links {
 }
 
 impl Links {
-    fn new(g: &Gathered, resolve: &[u32]) -> Links {
+    /// The links of `g`'s rays, moved out of it.
+    fn take(g: &mut Gathered, resolve: &[u32]) -> Links {
         let mut l = Links {
-            hits: Vec::with_capacity(g.hits.len()),
+            hits: Vec::new(),
             terms: Vec::new(),
         };
         l.extend(g, resolve);
         l
     }
 
-    fn extend(&mut self, g: &Gathered, resolve: &[u32]) {
+    /// Adds the links of `g`'s rays, moved out of it (exact capacity: the solve's memory is
+    /// mostly these lists).
+    fn extend(&mut self, g: &mut Gathered, resolve: &[u32]) {
         let resolved = |h: u32| {
             if h == u32::MAX {
                 u32::MAX
@@ -320,9 +412,13 @@ impl Links {
                 resolve[h as usize]
             }
         };
-        self.hits.extend(g.hits.iter().map(|&h| resolved(h)));
+        let hits = std::mem::take(&mut g.hits);
+        self.hits.reserve_exact(hits.len());
+        self.hits.extend(hits.iter().map(|&h| resolved(h)));
+        let terms = std::mem::take(&mut g.terms);
+        self.terms.reserve_exact(terms.len());
         self.terms.extend(
-            g.terms
+            terms
                 .iter()
                 .map(|t| Term {
                     texel: resolved(t.texel),
@@ -480,7 +576,7 @@ fn more_samples(
         .zip(gathered)
         .enumerate()
         .filter_map(|(i, (&e, g))| {
-            let have = g.hits.len() as u64;
+            let have = g.gathering_rays as u64;
             if g.inside || e.is_nan() || e <= target || have >= max_rays {
                 return None;
             }
