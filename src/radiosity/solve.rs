@@ -94,6 +94,9 @@ pub struct SolveStats {
     pub error_median: f64,
     pub error_p95: f64,
     pub error_max: f64,
+    /// Bytes of the gathered rays the bounces read (their hits and glossy terms): what grows
+    /// with rays × elements.
+    pub cache_bytes: u64,
 }
 
 /// A converged solution.
@@ -349,6 +352,7 @@ pub fn solve_batches(
     }
     stats.refined = refined.iter().filter(|&&r| r).count() as u64;
     stats.rays_cast = gathered.iter().map(|g| g.rays).sum();
+    stats.cache_bytes = links.iter().map(Links::bytes).sum();
     let mut valid: Vec<f64> = error
         .iter()
         .zip(&gathered)
@@ -385,21 +389,50 @@ pub fn solve_batches(
 
 /// An element's gathering rays resolved to the elements they read.
 struct Links {
-    /// Per ray, the element hit (u32::MAX: miss, back face or no valid element).
-    hits: Vec<u32>,
+    /// The elements the rays read, in increasing order, as LEB128 gaps (the first from 0):
+    /// about 2 bytes a ray instead of 4. Rays that read nothing (a miss, a back face, a chart
+    /// with no valid element) are only counted in `rays`.
+    hits: Vec<u8>,
+    /// Gathering rays, those that read nothing included (the mean's denominator).
+    rays: u32,
     /// Elements reached through glossy reflection, with weights.
     terms: Vec<Term>,
 }
 
 impl Links {
+    /// Heap bytes held.
+    fn bytes(&self) -> u64 {
+        (self.hits.capacity() + self.terms.capacity() * size_of::<Term>()) as u64
+    }
+
     /// The links of `g`'s rays, moved out of it.
     fn take(g: &mut Gathered, resolve: &[u32]) -> Links {
         let mut l = Links {
             hits: Vec::new(),
+            rays: 0,
             terms: Vec::new(),
         };
         l.extend(g, resolve);
         l
+    }
+
+    /// The elements the rays read, in increasing order (one per ray that reads one).
+    fn hits(&self) -> impl Iterator<Item = u32> + '_ {
+        let (mut at, mut last) = (0usize, 0u32);
+        std::iter::from_fn(move || {
+            let (mut gap, mut shift) = (0u32, 0);
+            loop {
+                let b = *self.hits.get(at)?;
+                at += 1;
+                gap |= u32::from(b & 0x7f) << shift;
+                if b < 0x80 {
+                    break;
+                }
+                shift += 7;
+            }
+            last += gap;
+            Some(last)
+        })
     }
 
     /// Adds the links of `g`'s rays, moved out of it (exact capacity: the solve's memory is
@@ -412,9 +445,25 @@ impl Links {
                 resolve[h as usize]
             }
         };
-        let hits = std::mem::take(&mut g.hits);
-        self.hits.reserve_exact(hits.len());
-        self.hits.extend(hits.iter().map(|&h| resolved(h)));
+        let raw = std::mem::take(&mut g.hits);
+        self.rays += raw.len() as u32;
+        let mut hits: Vec<u32> = self.hits().collect();
+        hits.extend(raw.iter().map(|&h| resolved(h)).filter(|&e| e != u32::MAX));
+        drop(raw);
+        hits.sort_unstable();
+        let mut packed = Vec::with_capacity(hits.len() * 3);
+        let mut last = 0u32;
+        for h in hits {
+            let mut gap = h - last;
+            last = h;
+            while gap >= 0x80 {
+                packed.push(gap as u8 | 0x80);
+                gap >>= 7;
+            }
+            packed.push(gap as u8);
+        }
+        packed.shrink_to_fit();
+        self.hits = packed;
         let terms = std::mem::take(&mut g.terms);
         self.terms.reserve_exact(terms.len());
         self.terms.extend(
@@ -449,13 +498,11 @@ fn iterate(
             .into_par_iter()
             .map(|i| {
                 let mut sum = [0.0f64; 3];
-                for &h in &links[i].hits {
-                    if h != u32::MAX {
-                        let l = lr[h as usize];
-                        sum[0] += l.x as f64;
-                        sum[1] += l.y as f64;
-                        sum[2] += l.z as f64;
-                    }
+                for h in links[i].hits() {
+                    let l = lr[h as usize];
+                    sum[0] += l.x as f64;
+                    sum[1] += l.y as f64;
+                    sum[2] += l.z as f64;
                 }
                 for t in &links[i].terms {
                     let l = t.weight * lr[t.texel as usize];
@@ -463,7 +510,7 @@ fn iterate(
                     sum[1] += l.y as f64;
                     sum[2] += l.z as f64;
                 }
-                let n = links[i].hits.len().max(1) as f64;
+                let n = links[i].rays.max(1) as f64;
                 let incoming = Vec3::new(
                     (sum[0] / n) as f32,
                     (sum[1] / n) as f32,
@@ -507,19 +554,17 @@ fn relative_errors(
                 return 0.0;
             }
             let (mut u, mut u2) = (0.0f64, 0.0f64);
-            for &h in &links[i].hits {
-                if h != u32::MAX {
-                    let v = luminance(lr[h as usize]) as f64;
-                    u += v;
-                    u2 += v * v;
-                }
+            for h in links[i].hits() {
+                let v = luminance(lr[h as usize]) as f64;
+                u += v;
+                u2 += v * v;
             }
             for t in &links[i].terms {
                 let v = luminance(t.weight * lr[t.texel as usize]) as f64;
                 u += v;
                 u2 += v * v;
             }
-            let n = links[i].hits.len().max(1) as f64;
+            let n = links[i].rays.max(1) as f64;
             let (c, c2) = (g.moments.ray_const, g.moments.ray_const2);
             let mean = (u + c) / n;
             let second = (u2 + c2) / n + 2.0 * (u / n) * (c / n);
@@ -642,7 +687,56 @@ fn resolve_texels(
 
 #[cfg(test)]
 mod tests {
-    use super::fit_budget;
+    use glam::Vec3;
+
+    use super::{Gathered, Links, fit_budget};
+    use crate::radiosity::gather::Moments;
+
+    fn gathered(hits: Vec<u32>) -> Gathered {
+        Gathered {
+            direct: Vec3::ZERO,
+            gathering_rays: hits.len() as u32,
+            hits,
+            terms: Vec::new(),
+            inside: false,
+            rays: 0,
+            light_samples: 1,
+            moments: Moments::default(),
+        }
+    }
+
+    #[test]
+    fn links_keep_every_read_hit_once_sorted_and_count_every_ray() {
+        // Texel → element: texel 3 lies in a chart with no valid element.
+        let big = u32::MAX - 1;
+        let resolve = |t: u32| match t {
+            3 => u32::MAX,
+            9 => big,
+            t => t * 1000,
+        };
+        let texels = 10u32;
+        let map: Vec<u32> = (0..texels).map(resolve).collect();
+        let mut g = gathered(vec![5, u32::MAX, 0, 3, 9, 5, 1, 2]);
+        let mut l = Links::take(&mut g, &map);
+        assert!(g.hits.is_empty(), "the gathered hits move into the links");
+        assert_eq!(l.rays, 8);
+        assert_eq!(
+            l.hits().collect::<Vec<_>>(),
+            [0, 1000, 2000, 5000, 5000, big]
+        );
+        // A refinement batch merges in order; gaps of every LEB128 length read back.
+        let mut more = gathered(vec![7, 8, 0, u32::MAX]);
+        l.extend(&mut more, &map);
+        assert_eq!(l.rays, 12);
+        assert_eq!(
+            l.hits().collect::<Vec<_>>(),
+            [0, 0, 1000, 2000, 5000, 5000, 7000, 8000, big]
+        );
+        assert!(l.hits.len() < 9 * 4, "packed: {} bytes", l.hits.len());
+        // No ray reads anything: nothing stored, every ray still counted.
+        let l = Links::take(&mut gathered(vec![u32::MAX; 5]), &map);
+        assert_eq!((l.rays, l.hits().count(), l.hits.len()), (5, 0, 0));
+    }
 
     #[test]
     fn refinement_stays_within_its_ray_budget() {
