@@ -130,6 +130,24 @@ pub fn settings_json(settings: &RadiositySettings) -> serde_json::Value {
     v
 }
 
+/// What a radiosity or gathering stage records.
+fn stage_info(
+    scene: &Scene,
+    settings: &RadiositySettings,
+    stats: BTreeMap<String, serde_json::Value>,
+    start: Instant,
+    force: bool,
+) -> StageInfo {
+    StageInfo {
+        scene_name: scene.name.clone(),
+        scene_hash: scene.content_hash.clone(),
+        settings: settings_json(settings),
+        stats,
+        bake_seconds: start.elapsed().as_secs_f64(),
+        force,
+    }
+}
+
 /// Where a radiosity bake's first gathering batch comes from.
 #[derive(Clone, Copy, Debug, Default)]
 pub enum Gathering<'a> {
@@ -247,14 +265,7 @@ pub fn bake_gather(
         ("first".into(), range.start.into()),
         ("end".into(), range.end.into()),
     ]);
-    Ok(w.commit(StageInfo {
-        scene_name: scene.name.clone(),
-        scene_hash: scene.content_hash.clone(),
-        settings: settings_json(settings),
-        stats,
-        bake_seconds: start.elapsed().as_secs_f64(),
-        force: true,
-    })?)
+    Ok(w.commit(stage_info(scene, settings, stats, start, true))?)
 }
 
 /// Reads the gathering batches of `shards` (one at a time: the file and the batch are not
@@ -391,14 +402,7 @@ pub fn bake_from(
         }
         stats.insert("seam_edges".into(), seam.edges.into());
     }
-    Ok(w.commit(StageInfo {
-        scene_name: scene.name.clone(),
-        scene_hash: scene.content_hash.clone(),
-        settings: settings_json(settings),
-        stats,
-        bake_seconds: start.elapsed().as_secs_f64(),
-        force,
-    })?)
+    Ok(w.commit(stage_info(scene, settings, stats, start, force))?)
 }
 
 #[cfg(test)]
