@@ -490,8 +490,8 @@ mod tests {
                 }
             }
             assert!(
-                hits > 500,
-                "only {hits} of 2000 rays hit: the test scene is too sparse"
+                hits > 100,
+                "only {hits} of 500 rays hit: the test scene is too sparse"
             );
         }
     }
