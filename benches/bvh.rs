@@ -1,27 +1,59 @@
 //! BVH benchmark: build time and closest-hit / occlusion rays per second, for camera rays and
-//! for cosine-distributed rays leaving surfaces, single-threaded and on every core.
+//! for cosine-distributed rays leaving surfaces, on one thread (and on every core), compared
+//! with Embree on the same rays in the same run when its driver is built.
 //!
 //! `cargo bench --bench bvh [-- SCENE.json]` (default: scenes/breakfast-room/scene.json).
-//! Prints a table; figures are medians of several runs.
+//! Writes the triangles, both ray sets and glint's results to `target/bvh-rays/`. If
+//! `target/bvh-rays/embree_rays` exists (`benches/embree/build.sh`), it is started on those
+//! files and each of its passes is interleaved with one of glint's; the table then shows
+//! Embree's rate, the ratio and whether both found the same hits. Figures are medians of
+//! `RUNS` passes.
+//!
+//! `-- --options` adds rows for the other layouts tried, each on the same rays in the same
+//! run: obvhs' CWBVH as glint used it before (medium build, and the slow build with
+//! pre-splits) and obvhs' BVH2, each with a Möller–Trumbore test on the stored vertices.
 
+use std::io::{BufRead, BufReader, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
 use std::time::Instant;
 
 use glam::Vec3;
 use glint::bundle::stats::format_table;
+use glint::bundle::write_atomic;
 use glint::camera::{Camera, pose_at};
 use glint::geometry::Bvh;
 use glint::sampling::{Rng, basis, sample_cosine_hemisphere, sample_triangle};
 use glint::scene::Scene;
+use obvhs::BvhBuildParams;
 use rayon::prelude::*;
 
 const CAMERA_W: u32 = 1024;
 const CAMERA_H: u32 = 768;
 const DIFFUSE_RAYS: usize = 786_432;
 const RUNS: usize = 5;
+/// Relative distance difference within which glint's and Embree's hits count as the same.
+const SAME_T: f32 = 1e-4;
 
 struct RaySet {
+    name: &'static str,
     origins: Vec<Vec3>,
     dirs: Vec<Vec3>,
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum Query {
+    Closest,
+    Occluded,
+}
+
+impl Query {
+    fn name(self) -> &'static str {
+        match self {
+            Query::Closest => "closest",
+            Query::Occluded => "occluded",
+        }
+    }
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -40,6 +72,7 @@ fn camera_rays(scene: &Scene) -> RaySet {
     };
     let aspect = CAMERA_W as f32 / CAMERA_H as f32;
     let mut set = RaySet {
+        name: "camera",
         origins: Vec::new(),
         dirs: Vec::new(),
     };
@@ -63,6 +96,7 @@ fn diffuse_rays(scene: &Scene, bvh: &Bvh) -> RaySet {
     }
     let mut rng = Rng::new(42, 0);
     let mut set = RaySet {
+        name: "diffuse",
         origins: Vec::new(),
         dirs: Vec::new(),
     };
@@ -80,30 +114,303 @@ fn diffuse_rays(scene: &Scene, bvh: &Bvh) -> RaySet {
     set
 }
 
-/// Million rays per second for `query` over `rays`, on one thread or on rayon's pool.
-fn measure(
-    rays: &RaySet,
-    parallel: bool,
-    query: &(dyn Fn(Vec3, Vec3) -> bool + Sync),
-) -> (f64, f64) {
-    let mut rates = Vec::new();
-    let mut hits = 0usize;
-    for _ in 0..RUNS {
-        let start = Instant::now();
-        hits = if parallel {
-            (0..rays.dirs.len())
-                .into_par_iter()
-                .with_min_len(4096)
-                .filter(|&i| query(rays.origins[i], rays.dirs[i]))
-                .count()
-        } else {
-            (0..rays.dirs.len())
-                .filter(|&i| query(rays.origins[i], rays.dirs[i]))
-                .count()
-        };
-        rates.push(rays.dirs.len() as f64 / start.elapsed().as_secs_f64() / 1e6);
+/// Per ray: the hit distance (closest) or 1 (occluded), +∞ for a miss.
+fn results(bvh: &Bvh, rays: &RaySet, query: Query) -> Vec<f32> {
+    (0..rays.dirs.len())
+        .map(|i| {
+            let (o, d) = (rays.origins[i], rays.dirs[i]);
+            match query {
+                Query::Closest => bvh
+                    .closest_hit(o, d, f32::INFINITY)
+                    .map_or(f32::INFINITY, |h| h.t),
+                Query::Occluded => {
+                    if bvh.occluded(o, d, f32::INFINITY) {
+                        1.0
+                    } else {
+                        f32::INFINITY
+                    }
+                }
+            }
+        })
+        .collect()
+}
+
+/// One pass of `hit` over `rays` (seconds, hits), on one thread or on rayon's pool.
+fn pass(rays: &RaySet, hit: &(dyn Fn(Vec3, Vec3) -> bool + Sync), parallel: bool) -> (f64, usize) {
+    let hit = |i: usize| hit(rays.origins[i], rays.dirs[i]);
+    let start = Instant::now();
+    let hits = if parallel {
+        (0..rays.dirs.len())
+            .into_par_iter()
+            .with_min_len(4096)
+            .filter(|&i| hit(i))
+            .count()
+    } else {
+        (0..rays.dirs.len()).filter(|&i| hit(i)).count()
+    };
+    (start.elapsed().as_secs_f64(), std::hint::black_box(hits))
+}
+
+/// A ray caster under test: (closest-hit, occluded) per ray.
+struct Engine<'a> {
+    name: String,
+    closest: Box<dyn Fn(Vec3, Vec3) -> bool + Sync + 'a>,
+    occluded: Box<dyn Fn(Vec3, Vec3) -> bool + Sync + 'a>,
+}
+
+impl Engine<'_> {
+    fn query(&self, query: Query) -> &(dyn Fn(Vec3, Vec3) -> bool + Sync + '_) {
+        match query {
+            Query::Closest => &*self.closest,
+            Query::Occluded => &*self.occluded,
+        }
     }
-    (median(rates), hits as f64 / rays.dirs.len() as f64)
+}
+
+/// The other layouts measured with `--options`: obvhs' own BVHs and traversals.
+mod options {
+    use std::time::Duration;
+
+    use glam::{Vec3, Vec3A};
+    use obvhs::{
+        BvhBuildParams,
+        bvh2::{Bvh2, builder::build_bvh2_from_tris},
+        cwbvh::{CwBvh, builder::build_cwbvh_from_tris},
+        ray::{Ray, RayHit},
+        triangle::Triangle,
+    };
+
+    /// obvhs' CWBVH node test culls children nearer than this absolute distance; the origin
+    /// moves back past it (as glint's `Bvh` did while it used the CWBVH).
+    const NODE_T_MIN: f32 = 1e-4;
+
+    fn make_ray(origin: Vec3, dir: Vec3) -> Ray {
+        let dir = dir + Vec3::ZERO;
+        let back = 2.0 * NODE_T_MIN + origin.abs().max_element() * 16.0 * f32::EPSILON;
+        Ray::new(
+            (origin - dir * back).into(),
+            dir.into(),
+            back,
+            f32::INFINITY,
+        )
+    }
+
+    #[inline(always)]
+    fn intersect(t: &Triangle, ray: &Ray) -> f32 {
+        let e1 = t.v1 - t.v0;
+        let e2 = t.v2 - t.v0;
+        let pvec = ray.direction.cross(e2);
+        let det = e1.dot(pvec);
+        if det == 0.0 || !det.is_finite() {
+            return f32::INFINITY;
+        }
+        let inv = 1.0 / det;
+        let tvec = ray.origin - t.v0;
+        let u = tvec.dot(pvec) * inv;
+        if !(0.0..=1.0).contains(&u) {
+            return f32::INFINITY;
+        }
+        let qvec = tvec.cross(e1);
+        let v = ray.direction.dot(qvec) * inv;
+        if v < 0.0 || u + v > 1.0 {
+            return f32::INFINITY;
+        }
+        let d = e2.dot(qvec) * inv;
+        if d > ray.tmin && d <= ray.tmax {
+            d
+        } else {
+            f32::INFINITY
+        }
+    }
+
+    pub fn triangles(scene: &glint::scene::Scene) -> Vec<Triangle> {
+        scene
+            .triangles
+            .iter()
+            .map(|t| Triangle {
+                v0: Vec3A::from(t.p[0]),
+                v1: Vec3A::from(t.p[1]),
+                v2: Vec3A::from(t.p[2]),
+            })
+            .collect()
+    }
+
+    pub struct Cw {
+        bvh: CwBvh,
+        ordered: Vec<Triangle>,
+    }
+
+    impl Cw {
+        pub fn build(tris: &[Triangle], params: BvhBuildParams) -> Cw {
+            let bvh = build_cwbvh_from_tris(tris, params, &mut Duration::default());
+            let ordered = bvh
+                .primitive_indices
+                .iter()
+                .map(|&i| tris[i as usize])
+                .collect();
+            Cw { bvh, ordered }
+        }
+
+        pub fn closest(&self, o: Vec3, d: Vec3) -> bool {
+            let mut hit = RayHit::none();
+            self.bvh.ray_traverse(make_ray(o, d), &mut hit, |r, id| {
+                intersect(&self.ordered[id], r)
+            })
+        }
+
+        pub fn occluded(&self, o: Vec3, d: Vec3) -> bool {
+            !self
+                .bvh
+                .ray_traverse_miss(make_ray(o, d), |r, id| intersect(&self.ordered[id], r))
+        }
+    }
+
+    pub struct Two {
+        bvh: Bvh2,
+        ordered: Vec<Triangle>,
+    }
+
+    impl Two {
+        pub fn build(tris: &[Triangle], params: BvhBuildParams) -> Two {
+            let bvh = build_bvh2_from_tris(tris, params, &mut Duration::default());
+            let ordered = bvh
+                .primitive_indices
+                .iter()
+                .map(|&i| tris[i as usize])
+                .collect();
+            Two { bvh, ordered }
+        }
+
+        fn ray(o: Vec3, d: Vec3) -> Ray {
+            Ray::new(o.into(), (d + Vec3::ZERO).into(), 0.0, f32::INFINITY)
+        }
+
+        pub fn closest(&self, o: Vec3, d: Vec3) -> bool {
+            let mut hit = RayHit::none();
+            self.bvh.ray_traverse(Two::ray(o, d), &mut hit, |r, id| {
+                intersect(&self.ordered[id], r)
+            })
+        }
+
+        pub fn occluded(&self, o: Vec3, d: Vec3) -> bool {
+            !self
+                .bvh
+                .ray_traverse_miss(Two::ray(o, d), |r, id| intersect(&self.ordered[id], r))
+        }
+    }
+}
+
+fn f32_bytes(values: impl IntoIterator<Item = f32>) -> Vec<u8> {
+    values.into_iter().flat_map(f32::to_le_bytes).collect()
+}
+
+fn write(path: &Path, bytes: &[u8]) {
+    if let Err(e) = write_atomic(path, bytes) {
+        eprintln!("error: writing {}: {e}", path.display());
+        std::process::exit(1);
+    }
+}
+
+/// The Embree driver (`benches/embree/embree_rays.c`) running on the files in the ray folder.
+struct Embree {
+    child: Child,
+    stdin: ChildStdin,
+    stdout: BufReader<ChildStdout>,
+    build_ms: f64,
+}
+
+impl Embree {
+    fn start(dir: &Path) -> Option<Embree> {
+        let exe = dir.join("embree_rays");
+        if !exe.is_file() {
+            return None;
+        }
+        let mut child = Command::new(&exe)
+            .arg(dir)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .spawn()
+            .map_err(|e| eprintln!("warning: cannot start {}: {e}", exe.display()))
+            .ok()?;
+        let stdin = child.stdin.take()?;
+        let mut stdout = BufReader::new(child.stdout.take()?);
+        let mut line = String::new();
+        stdout.read_line(&mut line).ok()?;
+        let build_ms = match line.split_whitespace().collect::<Vec<_>>()[..] {
+            ["ready", ms, _] => ms.parse().ok()?,
+            _ => {
+                eprintln!(
+                    "warning: {} answered {line:?}, expected `ready MS N`",
+                    exe.display()
+                );
+                return None;
+            }
+        };
+        Some(Embree {
+            child,
+            stdin,
+            stdout,
+            build_ms,
+        })
+    }
+
+    /// One pass of Embree over the set (seconds, hits).
+    fn pass(&mut self, set: &str, query: Query) -> (f64, usize) {
+        writeln!(self.stdin, "{set} {}", query.name()).expect("embree_rays: stdin closed");
+        let mut line = String::new();
+        self.stdout
+            .read_line(&mut line)
+            .expect("embree_rays: stdout closed");
+        let mut it = line.split_whitespace();
+        let parsed = (|| Some((it.next()?.parse().ok()?, it.next()?.parse().ok()?)))();
+        parsed.unwrap_or_else(|| panic!("embree_rays answered {line:?}, expected `SECONDS HITS`"))
+    }
+}
+
+impl Drop for Embree {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// How glint's and Embree's results for one set and query compare.
+struct Agreement {
+    rays: usize,
+    glint_hits: usize,
+    embree_hits: usize,
+    /// Rays one hits and the other does not, or (closest) whose distances differ by more than
+    /// `SAME_T` relative.
+    differ: usize,
+}
+
+fn agreement(glint: &[f32], embree_file: &Path) -> Option<Agreement> {
+    let bytes = std::fs::read(embree_file).ok()?;
+    let embree: Vec<f32> = bytes
+        .chunks_exact(4)
+        .take(glint.len())
+        .map(|b| f32::from_le_bytes(b.try_into().unwrap()))
+        .collect();
+    if embree.len() != glint.len() {
+        return None;
+    }
+    let mut a = Agreement {
+        rays: glint.len(),
+        glint_hits: 0,
+        embree_hits: 0,
+        differ: 0,
+    };
+    for (&g, &e) in glint.iter().zip(&embree) {
+        a.glint_hits += g.is_finite() as usize;
+        a.embree_hits += e.is_finite() as usize;
+        let same = match (g.is_finite(), e.is_finite()) {
+            (true, true) => (g - e).abs() <= SAME_T * e.abs().max(g.abs()),
+            (false, false) => true,
+            _ => false,
+        };
+        a.differ += !same as usize;
+    }
+    Some(a)
 }
 
 fn main() {
@@ -125,58 +432,170 @@ fn main() {
     let builds: Vec<f64> = (0..RUNS)
         .map(|_| {
             let t = Instant::now();
-            let bvh = scene.build_bvh();
+            let bvh = Bvh::build(&scene.triangles);
             std::hint::black_box(&bvh);
             t.elapsed().as_secs_f64() * 1e3
         })
         .collect();
-    let bvh = scene.build_bvh();
+    // Without the scene's cut-out filter: Embree is given the bare triangles too.
+    let bvh = Bvh::build(&scene.triangles);
     let threads = rayon::current_num_threads();
+    let sets = [camera_rays(&scene), diffuse_rays(&scene, &bvh)];
+
+    let dir = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/target/bvh-rays"));
+    if let Err(e) = std::fs::create_dir_all(&dir) {
+        eprintln!("error: creating {}: {e}", dir.display());
+        std::process::exit(1);
+    }
+    write(
+        &dir.join("triangles.f32"),
+        &f32_bytes(
+            scene
+                .triangles
+                .iter()
+                .flat_map(|t| t.p)
+                .flat_map(|p| p.to_array()),
+        ),
+    );
+    for s in &sets {
+        let rays = s.origins.iter().zip(&s.dirs);
+        write(
+            &dir.join(format!("{}.rays", s.name)),
+            &f32_bytes(rays.flat_map(|(o, d)| [o.x, o.y, o.z, d.x, d.y, d.z])),
+        );
+    }
+    let mut embree = Embree::start(&dir);
 
     println!(
-        "BVH benchmark: {} ({} triangles), scene load {:.2} s, BVH build median {:.1} ms ({} threads), medians of {RUNS} runs\n",
+        "BVH benchmark: {} ({} triangles{}), scene load {:.2} s, BVH build median {:.1} ms ({} threads){}, medians of {RUNS} passes",
         scene.name,
         scene.triangles.len(),
+        if scene.cutout_filter().is_some() {
+            ", measured without its cut-out filter"
+        } else {
+            ""
+        },
         load_s,
         median(builds),
-        threads
+        threads,
+        match &embree {
+            Some(e) => format!(", Embree build {:.1} ms (1 thread)", e.build_ms),
+            None => String::new(),
+        }
     );
-    let sets = [
-        ("camera", camera_rays(&scene)),
-        ("diffuse", diffuse_rays(&scene, &bvh)),
-    ];
+    if embree.is_none() {
+        println!(
+            "(no Embree comparison: run benches/embree/build.sh to build {}/embree_rays)",
+            dir.display()
+        );
+    }
+    println!();
+
+    let options = std::env::args().any(|a| a == "--options");
+    let others = options.then(|| {
+        let tris = options::triangles(&scene);
+        (
+            options::Cw::build(&tris, BvhBuildParams::medium_build()),
+            options::Cw::build(&tris, BvhBuildParams::very_slow_build()),
+            options::Two::build(&tris, BvhBuildParams::medium_build()),
+        )
+    });
+    let mut engines = vec![Engine {
+        name: "glint".into(),
+        closest: Box::new(|o, d| bvh.closest_hit(o, d, f32::INFINITY).is_some()),
+        occluded: Box::new(|o, d| bvh.occluded(o, d, f32::INFINITY)),
+    }];
+    if let Some((cw, cw_split, two)) = &others {
+        engines.push(Engine {
+            name: "obvhs CWBVH medium".into(),
+            closest: Box::new(|o, d| cw.closest(o, d)),
+            occluded: Box::new(|o, d| cw.occluded(o, d)),
+        });
+        engines.push(Engine {
+            name: "obvhs CWBVH very slow, pre-split".into(),
+            closest: Box::new(|o, d| cw_split.closest(o, d)),
+            occluded: Box::new(|o, d| cw_split.occluded(o, d)),
+        });
+        engines.push(Engine {
+            name: "obvhs BVH2 medium".into(),
+            closest: Box::new(|o, d| two.closest(o, d)),
+            occluded: Box::new(|o, d| two.occluded(o, d)),
+        });
+    }
+
     let mut rows = vec![[
         "rays".to_string(),
         "query".to_string(),
-        "threads".to_string(),
+        "BVH".to_string(),
         "Mrays/s".to_string(),
+        "Embree Mrays/s".to_string(),
+        "÷ Embree".to_string(),
+        format!("{threads} threads"),
         "hit fraction".to_string(),
+        "hits differ from Embree".to_string(),
     ]];
-    let closest = |o: Vec3, d: Vec3| bvh.closest_hit(o, d, f32::INFINITY).is_some();
-    let occluded = |o: Vec3, d: Vec3| bvh.occluded(o, d, f32::INFINITY);
-    for (name, rays) in &sets {
-        for (qname, q) in [
-            (
-                "closest-hit",
-                &closest as &(dyn Fn(Vec3, Vec3) -> bool + Sync),
-            ),
-            ("occlusion", &occluded),
-        ] {
-            for parallel in [false, true] {
-                let (rate, frac) = measure(rays, parallel, q);
+    for set in &sets {
+        for query in [Query::Closest, Query::Occluded] {
+            let n = set.dirs.len() as f64;
+            let mine = results(&bvh, set, query);
+            let file = format!("{}-{}.f32", set.name, query.name());
+            write(
+                &dir.join(format!("glint-{file}")),
+                &f32_bytes(mine.iter().copied()),
+            );
+            // Interleaved: one pass of each per run, so all see the same machine load.
+            let mut ours = vec![Vec::new(); engines.len()];
+            let mut theirs = Vec::new();
+            for _ in 0..RUNS {
+                for (e, rates) in engines.iter().zip(&mut ours) {
+                    rates.push(n / pass(set, e.query(query), false).0 / 1e6);
+                }
+                if let Some(e) = embree.as_mut() {
+                    theirs.push(n / e.pass(set.name, query).0 / 1e6);
+                }
+            }
+            let theirs = (!theirs.is_empty()).then(|| median(theirs));
+            let agree = embree
+                .as_ref()
+                .and_then(|_| agreement(&mine, &dir.join(format!("embree-{file}"))));
+            let hits = mine.iter().filter(|t| t.is_finite()).count();
+            for (k, (e, rates)) in engines.iter().zip(ours).enumerate() {
+                let rate = median(rates);
+                let parallel = (k == 0).then(|| {
+                    let rates = (0..RUNS)
+                        .map(|_| n / pass(set, e.query(query), true).0 / 1e6)
+                        .collect();
+                    format!("{:.2}", median(rates))
+                });
                 rows.push([
-                    format!("{name} ({})", rays.dirs.len()),
-                    qname.to_string(),
-                    if parallel {
-                        threads.to_string()
-                    } else {
-                        "1".into()
-                    },
+                    format!("{} ({})", set.name, set.dirs.len()),
+                    query.name().to_string(),
+                    e.name.clone(),
                     format!("{rate:.2}"),
-                    format!("{frac:.3}"),
+                    theirs.map_or("-".into(), |t| format!("{t:.2}")),
+                    theirs.map_or("-".into(), |t| format!("{:.2}", rate / t)),
+                    parallel.unwrap_or_else(|| "-".into()),
+                    if k == 0 {
+                        format!("{:.3}", hits as f64 / n)
+                    } else {
+                        "-".into()
+                    },
+                    match (&agree, k) {
+                        (Some(a), 0) => format!(
+                            "{} of {} (hits {} vs {})",
+                            a.differ, a.rays, a.glint_hits, a.embree_hits
+                        ),
+                        _ => "-".to_string(),
+                    },
                 ]);
             }
         }
     }
-    print!("{}", format_table(&rows, &[false, false, true, true, true]));
+    print!(
+        "{}",
+        format_table(
+            &rows,
+            &[false, false, false, true, true, true, true, true, true]
+        )
+    );
 }

@@ -1,17 +1,15 @@
-//! Ray casting over the scene's triangles with an obvhs compressed wide BVH (CWBVH).
+//! Ray casting over the scene's triangles with a four-wide BVH ([`wide`]) built from obvhs'
+//! BVH2.
+
+mod wide;
 
 use std::sync::Arc;
-use std::time::Duration;
 
 use glam::{Vec2, Vec3, Vec3A};
-use obvhs::{
-    BvhBuildParams,
-    cwbvh::{CwBvh, builder::build_cwbvh_from_tris},
-    ray::{Ray, RayHit},
-    triangle::Triangle as BvhTriangle,
-};
+use obvhs::triangle::Triangle as BvhTriangle;
 
 use super::{Aabb, Triangle};
+use wide::{Tri, WideBvh, WideRay};
 
 /// The nearest intersection along a ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -26,14 +24,11 @@ pub struct Hit {
 
 /// A BVH over a triangle list, answering closest-hit and occlusion queries.
 ///
-/// Triangles are stored in the BVH's leaf order (obvhs hit ids index `primitive_indices`),
-/// which saves an indirection per intersection test.
+/// Triangles are stored in the BVH's leaf order as (v0, e1, e2), which saves an indirection
+/// and two subtractions per intersection test.
 pub struct Bvh {
-    bvh: CwBvh,
-    /// Triangles in leaf order.
-    ordered: Vec<BvhTriangle>,
-    /// For each leaf-order slot, the index of the triangle in the caller's list.
-    original: Vec<u32>,
+    /// `None` for an empty triangle list.
+    wide: Option<WideBvh>,
     bounds: Aabb,
     epsilon: f32,
     /// Hits this rejects are passed through (alpha cut-outs); `None`: every hit counts.
@@ -58,32 +53,16 @@ impl Bvh {
         let bounds = Aabb::from_points(triangles.iter().flat_map(|t| t.p.iter()));
         if tris.is_empty() {
             return Bvh {
-                bvh: CwBvh::default(),
-                ordered: Vec::new(),
-                original: Vec::new(),
+                wide: None,
                 bounds,
                 epsilon: 0.0,
                 filter: None,
             };
         }
-        let epsilon = scene_epsilon(&bounds);
-        let bvh = build_cwbvh_from_tris(
-            &tris,
-            BvhBuildParams::medium_build(),
-            &mut Duration::default(),
-        );
-        let ordered = bvh
-            .primitive_indices
-            .iter()
-            .map(|&i| tris[i as usize])
-            .collect();
-        let original = bvh.primitive_indices.clone();
         Bvh {
-            bvh,
-            ordered,
-            original,
+            wide: Some(WideBvh::build(&tris, wide::BUILD)),
             bounds,
-            epsilon,
+            epsilon: scene_epsilon(&bounds),
             filter: None,
         }
     }
@@ -113,56 +92,47 @@ impl Bvh {
     pub fn closest_hit(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<Hit> {
         match &self.filter {
             Some(f) => self.closest_hit_where(origin, dir, t_max, &**f),
-            None => self.nearest(origin, dir, t_max, |r, id| intersect(&self.ordered[id], r)),
+            None => {
+                let w = self.wide.as_ref()?;
+                let r = WideRay::new(origin.into(), dir.into());
+                let found = w.closest(&r, t_max, |_| true);
+                self.hit(w, &r, found)
+            }
         }
     }
 
-    /// The nearest hit by the triangle test `test` (a distance, infinite for a miss).
-    fn nearest(
-        &self,
-        origin: Vec3,
-        dir: Vec3,
-        t_max: f32,
-        test: impl Fn(&Ray, usize) -> f32,
-    ) -> Option<Hit> {
-        if self.ordered.is_empty() {
-            return None;
-        }
-        let (ray, back) = make_ray(origin, dir, t_max);
-        let mut hit = RayHit::none();
-        if !self.bvh.ray_traverse(ray, &mut hit, test) {
-            return None;
-        }
-        let slot = hit.primitive_id as usize;
+    /// The [`Hit`] for a found (slot, distance).
+    fn hit(&self, w: &WideBvh, r: &WideRay, found: Option<(usize, f32)>) -> Option<Hit> {
+        let (slot, t) = found?;
         Some(Hit {
-            t: (hit.t - back).max(0.0),
-            triangle: self.original[slot],
-            bary: barycentrics(&self.ordered[slot], origin.into(), dir.into()),
+            t,
+            triangle: w.original[slot],
+            bary: barycentrics(&w.tris[slot], r.o, r.d),
         })
     }
 
     /// Whether anything blocks the segment from `origin` along `dir` (unit) up to `t_max`.
     pub fn occluded(&self, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
-        if self.ordered.is_empty() {
-            return false;
-        }
         if let Some(f) = &self.filter {
             return self.occluded_where(origin, dir, t_max, &**f);
         }
-        let (ray, _) = make_ray(origin, dir, t_max);
-        !self
-            .bvh
-            .ray_traverse_miss(ray, |r, id| intersect(&self.ordered[id], r))
+        let Some(w) = &self.wide else {
+            return false;
+        };
+        let r = WideRay::new(origin.into(), dir.into());
+        w.any(&r, t_max, |_| true)
     }
 
-    /// Number of triangles (leaf slots) in the BVH.
+    /// Number of triangles in the BVH.
     pub fn len(&self) -> usize {
-        self.ordered.len()
+        self.wide
+            .as_ref()
+            .map_or(0, |w| w.original.iter().filter(|&&i| i != u32::MAX).count())
     }
 
     /// Whether the BVH holds no triangle.
     pub fn is_empty(&self) -> bool {
-        self.ordered.is_empty()
+        self.len() == 0
     }
 }
 
@@ -182,9 +152,10 @@ impl Bvh {
         t_max: f32,
         keep: &(dyn Fn(u32, Vec2) -> bool + Send + Sync),
     ) -> Option<Hit> {
-        self.nearest(origin, dir, t_max, |r, id| {
-            self.kept(r, id, origin, dir, keep)
-        })
+        let w = self.wide.as_ref()?;
+        let r = WideRay::new(origin.into(), dir.into());
+        let found = w.closest(&r, t_max, |slot| kept(w, &r, slot, keep));
+        self.hit(w, &r, found)
     }
 
     /// [`Bvh::occluded`] counting only hits `keep(triangle, bary)` accepts.
@@ -195,35 +166,22 @@ impl Bvh {
         t_max: f32,
         keep: &(dyn Fn(u32, Vec2) -> bool + Send + Sync),
     ) -> bool {
-        if self.ordered.is_empty() {
+        let Some(w) = &self.wide else {
             return false;
-        }
-        let (ray, _) = make_ray(origin, dir, t_max);
-        let test = |r: &Ray, id: usize| self.kept(r, id, origin, dir, keep);
-        !self.bvh.ray_traverse_miss(ray, test)
+        };
+        let r = WideRay::new(origin.into(), dir.into());
+        w.any(&r, t_max, |slot| kept(w, &r, slot, keep))
     }
+}
 
-    /// [`intersect`], but infinite when `keep` rejects the hit.
-    fn kept(
-        &self,
-        r: &Ray,
-        id: usize,
-        origin: Vec3,
-        dir: Vec3,
-        keep: &(dyn Fn(u32, Vec2) -> bool + Send + Sync),
-    ) -> f32 {
-        let t = intersect(&self.ordered[id], r);
-        if t.is_finite()
-            && !keep(
-                self.original[id],
-                barycentrics(&self.ordered[id], origin.into(), dir.into()),
-            )
-        {
-            f32::INFINITY
-        } else {
-            t
-        }
-    }
+/// Whether `keep` accepts the ray's hit on leaf slot `slot`.
+fn kept(
+    w: &WideBvh,
+    r: &WideRay,
+    slot: usize,
+    keep: &(dyn Fn(u32, Vec2) -> bool + Send + Sync),
+) -> bool {
+    keep(w.original[slot], barycentrics(&w.tris[slot], r.o, r.d))
 }
 
 /// The default self-intersection offset for a scene of these bounds.
@@ -231,72 +189,14 @@ pub fn scene_epsilon(bounds: &Aabb) -> f32 {
     1e-5 * bounds.diagonal()
 }
 
-/// The distance along the ray below which obvhs' CWBVH traversal culls a node
-/// (`cwbvh::node::EPSILON`, an absolute length, not relative to the scene).
-const NODE_T_MIN: f32 = 1e-4;
-
-/// An obvhs ray for the segment (0, t_max] from `origin`, and how far its origin was moved
-/// back along the ray.
-///
-/// obvhs' node test clamps each child box's entry distance to `NODE_T_MIN`, so a triangle
-/// nearer than that (a wall beside a texel in a concave corner, or a whole scene a few
-/// millimetres across) would never be reached. The origin is moved back by more than that
-/// distance and the triangle test keeps only hits beyond the moved distance, which are the
-/// hits in (0, t_max] of the caller's ray.
-///
-/// Negative zeros in the direction become positive: obvhs picks a node's near slab by
-/// `d < 0` but inverts −0 to −∞, so an axis-aligned ray such as −Z (−0, −0, −1) would miss
-/// every node.
-fn make_ray(origin: Vec3, dir: Vec3, t_max: f32) -> (Ray, f32) {
-    let dir = dir + Vec3::ZERO; // IEEE: −0 + +0 = +0
-    // Two node epsilons, plus enough ulps of the coordinates that rounding the moved origin
-    // cannot bring it back inside the culled distance.
-    let back = 2.0 * NODE_T_MIN + origin.abs().max_element() * 16.0 * f32::EPSILON;
-    let moved = origin - dir * back;
-    (Ray::new(moved.into(), dir.into(), back, t_max + back), back)
-}
-
-/// Ray–triangle distance (Möller–Trumbore), `f32::INFINITY` for a miss. Edges are inclusive
-/// with ordinary comparisons: obvhs' own test rejects a barycentric of −0.0 by its sign bit,
-/// so a ray through the shared edge of two triangles (a quad's diagonal) could miss both.
-#[inline(always)]
-fn intersect(t: &BvhTriangle, ray: &Ray) -> f32 {
-    let e1 = t.v1 - t.v0;
-    let e2 = t.v2 - t.v0;
-    let pvec = ray.direction.cross(e2);
-    let det = e1.dot(pvec);
-    if det == 0.0 || !det.is_finite() {
-        return f32::INFINITY;
-    }
-    let inv = 1.0 / det;
-    let tvec = ray.origin - t.v0;
-    let u = tvec.dot(pvec) * inv;
-    if !(0.0..=1.0).contains(&u) {
-        return f32::INFINITY;
-    }
-    let qvec = tvec.cross(e1);
-    let v = ray.direction.dot(qvec) * inv;
-    if v < 0.0 || u + v > 1.0 {
-        return f32::INFINITY;
-    }
-    let d = e2.dot(qvec) * inv;
-    if d > ray.tmin && d <= ray.tmax {
-        d
-    } else {
-        f32::INFINITY
-    }
-}
-
 /// Barycentrics of the ray's crossing of the triangle's plane (Möller–Trumbore), clamped
 /// into the triangle so attribute lookups at edges stay inside it.
-fn barycentrics(t: &BvhTriangle, o: Vec3A, d: Vec3A) -> Vec2 {
-    let e1 = t.v1 - t.v0;
-    let e2 = t.v2 - t.v0;
-    let pvec = d.cross(e2);
-    let inv_det = 1.0 / e1.dot(pvec);
+fn barycentrics(t: &Tri, o: Vec3A, d: Vec3A) -> Vec2 {
+    let pvec = d.cross(t.e2);
+    let inv_det = 1.0 / t.e1.dot(pvec);
     let tvec = o - t.v0;
     let u = (tvec.dot(pvec) * inv_det).clamp(0.0, 1.0);
-    let qvec = tvec.cross(e1);
+    let qvec = tvec.cross(t.e1);
     let v = (d.dot(qvec) * inv_det).clamp(0.0, 1.0 - u);
     Vec2::new(u, v)
 }

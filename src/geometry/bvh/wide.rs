@@ -1,0 +1,518 @@
+//! A four-wide BVH with plain float child boxes and triangles stored as (v0, e1, e2), traversed
+//! one ray at a time: a node's four child boxes are tested together in one 4-lane SIMD slab
+//! test (glam's `Vec4`: SSE2 on x86-64, NEON on aarch64), and the nearest hit child is
+//! visited first.
+//!
+//! Built by collapsing obvhs' BVH2 (PLOC build with reinsertion, leaves collapsed by SAH):
+//! each node takes up to four descendants, opening the inner child of largest surface area
+//! first (Wald, Benthin, Boulos 2008, "Getting Rid of Packets", §3.1; Dammertz et al. 2008,
+//! "Shallow Bounding Volume Hierarchies", §2).
+//!
+//! Box tests are conservative in floating point: each far distance is widened by 2γ(3)
+//! (Ize 2013, "Robust BVH Ray Traversal", §3), so a triangle is never skipped because its
+//! box was grazed.
+
+use glam::{Vec3A, Vec4};
+use obvhs::{
+    BvhBuildParams, bvh2::Bvh2, bvh2::builder::build_bvh2_from_tris,
+    triangle::Triangle as BvhTriangle,
+};
+use smallvec::SmallVec;
+use std::time::Duration;
+
+/// A lane with no child.
+const EMPTY: u32 = u32::MAX;
+
+/// 1 + 2γ(3) with γ(n) = nε / (1 − nε), ε = 2⁻²⁴ (Ize 2013, §3).
+const ROBUST_FAR: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+
+/// Directions below this magnitude per axis count as this (keeps 1/d finite: no NaN from
+/// 0 · ∞ when an axis-parallel ray starts on a box plane).
+const MIN_DIR: f32 = 1e-30;
+
+#[derive(Clone, Copy)]
+#[repr(C, align(64))]
+struct Node {
+    /// Child boxes by lane: lo x, hi x, lo y, hi y, lo z, hi z. An empty lane holds the
+    /// inverted box (lo +∞, hi −∞), which no ray enters.
+    bounds: [Vec4; 6],
+    /// Per lane: an inner child's node index, or a leaf's first triangle, or `EMPTY`.
+    child: [u32; 4],
+    /// Per lane: a leaf's triangle count; 0 for inner children and empty lanes.
+    count: [u32; 4],
+}
+
+/// A triangle as its first vertex and two edges (the part of Möller–Trumbore 1997 that
+/// does not depend on the ray).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Tri {
+    pub v0: Vec3A,
+    pub e1: Vec3A,
+    pub e2: Vec3A,
+}
+
+impl Tri {
+    fn new(t: &BvhTriangle) -> Tri {
+        Tri {
+            v0: t.v0,
+            e1: t.v1 - t.v0,
+            e2: t.v2 - t.v0,
+        }
+    }
+}
+
+/// A ray prepared for the slab tests.
+pub(super) struct WideRay {
+    pub o: Vec3A,
+    pub d: Vec3A,
+    o4: [Vec4; 3],
+    d4: [Vec4; 3],
+    inv4: [Vec4; 3],
+    /// Per axis, the `bounds` row entered first (lo for d ≥ 0) and left last.
+    near: [usize; 3],
+    far: [usize; 3],
+}
+
+impl WideRay {
+    pub fn new(o: Vec3A, d: Vec3A) -> WideRay {
+        let inv = |c: f32| {
+            if c.abs() < MIN_DIR {
+                1.0 / MIN_DIR
+            } else {
+                1.0 / c
+            }
+        };
+        let inv = [inv(d.x), inv(d.y), inv(d.z)];
+        // Axis a's rows are lo 2a and hi 2a + 1; a ray going −a enters through hi.
+        let neg = inv.map(|i| (i < 0.0) as usize);
+        WideRay {
+            o,
+            d,
+            o4: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
+            d4: [Vec4::splat(d.x), Vec4::splat(d.y), Vec4::splat(d.z)],
+            inv4: inv.map(Vec4::splat),
+            near: [neg[0], 2 + neg[1], 4 + neg[2]],
+            far: [1 - neg[0], 3 - neg[1], 5 - neg[2]],
+        }
+    }
+}
+
+/// Which children a node's four boxes let the ray into before `t_max`, and their entry
+/// distances.
+#[inline(always)]
+fn enter(node: &Node, r: &WideRay, t_max: f32) -> (u32, Vec4) {
+    let b = &node.bounds;
+    let tx0 = (b[r.near[0]] - r.o4[0]) * r.inv4[0];
+    let ty0 = (b[r.near[1]] - r.o4[1]) * r.inv4[1];
+    let tz0 = (b[r.near[2]] - r.o4[2]) * r.inv4[2];
+    let tx1 = (b[r.far[0]] - r.o4[0]) * r.inv4[0];
+    let ty1 = (b[r.far[1]] - r.o4[1]) * r.inv4[1];
+    let tz1 = (b[r.far[2]] - r.o4[2]) * r.inv4[2];
+    let t_in = tx0.max(ty0).max(tz0).max(Vec4::ZERO);
+    let t_out = (tx1.min(ty1).min(tz1) * ROBUST_FAR).min(Vec4::splat(t_max));
+    (t_in.cmple(t_out).bitmask(), t_in)
+}
+
+/// Four triangles' (v0, e1, e2) by lane, tested together (a leaf's triangles, padded with
+/// degenerate ones that no ray hits).
+#[derive(Clone, Copy)]
+#[repr(C, align(16))]
+struct Pack {
+    /// v0 x, y, z; e1 x, y, z; e2 x, y, z.
+    rows: [Vec4; 9],
+}
+
+impl Pack {
+    /// Per lane: whether the ray hits the triangle in (0, t_max), and the distance
+    /// (Möller–Trumbore 1997, four lanes at once). Edges are inclusive with ordinary
+    /// comparisons: a ray through the shared edge of two triangles (a quad's diagonal) hits one
+    /// of them whatever the sign of a zero.
+    #[inline(always)]
+    fn intersect(&self, r: &WideRay, t_max: f32) -> (u32, Vec4) {
+        let [v0x, v0y, v0z, e1x, e1y, e1z, e2x, e2y, e2z] = self.rows;
+        let [dx, dy, dz] = r.d4;
+        let px = dy * e2z - dz * e2y;
+        let py = dz * e2x - dx * e2z;
+        let pz = dx * e2y - dy * e2x;
+        let det = e1x * px + e1y * py + e1z * pz;
+        let inv = Vec4::ONE / det;
+        let tx = r.o4[0] - v0x;
+        let ty = r.o4[1] - v0y;
+        let tz = r.o4[2] - v0z;
+        let u = (tx * px + ty * py + tz * pz) * inv;
+        let qx = ty * e1z - tz * e1y;
+        let qy = tz * e1x - tx * e1z;
+        let qz = tx * e1y - ty * e1x;
+        let v = (dx * qx + dy * qy + dz * qz) * inv;
+        let t = (e2x * qx + e2y * qy + e2z * qz) * inv;
+        // NaN (a degenerate triangle: det 0) fails every comparison.
+        let ok = u.cmpge(Vec4::ZERO)
+            & u.cmple(Vec4::ONE)
+            & v.cmpge(Vec4::ZERO)
+            & (u + v).cmple(Vec4::ONE)
+            & t.cmpgt(Vec4::ZERO)
+            & t.cmplt(Vec4::splat(t_max))
+            & det.cmpne(Vec4::ZERO);
+        (ok.bitmask(), t)
+    }
+}
+
+/// The wide BVH; triangles in leaf order, four slots per leaf pack.
+pub(super) struct WideBvh {
+    nodes: Vec<Node>,
+    packs: Vec<Pack>,
+    /// The root: node 0 (count 0), or a single leaf (first pack, pack count).
+    root: (u32, u32),
+    /// Per slot (pack · 4 + lane): the triangle, degenerate in padding lanes.
+    pub tris: Vec<Tri>,
+    /// Per slot, the index of the triangle in the caller's list (`u32::MAX` in padding).
+    pub original: Vec<u32>,
+}
+
+/// The BVH2 build: obvhs' slow build (PLOC with a wide search, reinsertion, large triangles
+/// pre-split into several boxes; leaves collapsed by SAH with at most four triangles each: one
+/// pack). Against the medium build it traced 10–35% more rays per second on the Breakfast
+/// Room (270k triangles) for about five times the build time: 2.3 s against 0.46 s on two
+/// busy cores (benches/bvh.rs).
+pub(super) const BUILD: BvhBuildParams = BvhBuildParams {
+    max_prims_per_leaf: 4,
+    ..BvhBuildParams::slow_build()
+};
+
+impl WideBvh {
+    /// Builds over `tris` (in parallel with rayon; the result does not depend on the thread
+    /// count). `tris` must not be empty.
+    pub fn build(tris: &[BvhTriangle], params: BvhBuildParams) -> WideBvh {
+        let bvh2 = build_bvh2_from_tris(tris, params, &mut Duration::default());
+        let mut out = WideBvh {
+            nodes: Vec::new(),
+            packs: Vec::new(),
+            root: (0, 0),
+            tris: Vec::with_capacity(tris.len()),
+            original: Vec::with_capacity(tris.len()),
+        };
+        out.root = out.emit(&bvh2, tris, 0);
+        out
+    }
+
+    /// Appends BVH2 node `index` (a leaf's packs, or a wide node and its subtree) and returns
+    /// its (child, count) entry.
+    fn emit(&mut self, bvh2: &Bvh2, tris: &[BvhTriangle], index: usize) -> (u32, u32) {
+        let n = &bvh2.nodes[index];
+        if n.is_leaf() {
+            let first = self.packs.len() as u32;
+            let slots = &bvh2.primitive_indices
+                [n.first_index as usize..(n.first_index + n.prim_count) as usize];
+            for chunk in slots.chunks(4) {
+                let mut pack = Pack {
+                    rows: [Vec4::ZERO; 9],
+                };
+                for lane in 0..4 {
+                    let (tri, original) = match chunk.get(lane) {
+                        Some(&i) => (Tri::new(&tris[i as usize]), i),
+                        None => (
+                            Tri {
+                                v0: Vec3A::ZERO,
+                                e1: Vec3A::ZERO,
+                                e2: Vec3A::ZERO,
+                            },
+                            u32::MAX,
+                        ),
+                    };
+                    let values = [tri.v0, tri.e1, tri.e2].map(|v| v.to_array());
+                    for (row, &x) in values.iter().flatten().enumerate() {
+                        pack.rows[row][lane] = x;
+                    }
+                    self.tris.push(tri);
+                    self.original.push(original);
+                }
+                self.packs.push(pack);
+            }
+            return (first, self.packs.len() as u32 - first);
+        }
+        // Open the largest inner child until there are four.
+        let mut kids: SmallVec<[usize; 4]> =
+            SmallVec::from_slice(&[n.first_index as usize, n.first_index as usize + 1]);
+        while kids.len() < 4 {
+            let open = kids
+                .iter()
+                .enumerate()
+                .filter(|&(_, &k)| !bvh2.nodes[k].is_leaf())
+                .max_by(|a, b| {
+                    let area = |k: usize| bvh2.nodes[k].aabb().half_area();
+                    area(*a.1).total_cmp(&area(*b.1))
+                })
+                .map(|(i, _)| i);
+            let Some(i) = open else { break };
+            let k = kids[i];
+            let left = bvh2.nodes[k].first_index as usize;
+            kids[i] = left;
+            kids.insert(i + 1, left + 1);
+        }
+        let at = self.nodes.len();
+        self.nodes.push(Node {
+            bounds: [
+                Vec4::INFINITY,
+                Vec4::NEG_INFINITY,
+                Vec4::INFINITY,
+                Vec4::NEG_INFINITY,
+                Vec4::INFINITY,
+                Vec4::NEG_INFINITY,
+            ],
+            child: [EMPTY; 4],
+            count: [0; 4],
+        });
+        for (lane, &k) in kids.iter().enumerate() {
+            let (child, count) = self.emit(bvh2, tris, k);
+            let bb = bvh2.nodes[k].aabb();
+            let node = &mut self.nodes[at];
+            for (row, v) in [bb.min.x, bb.max.x, bb.min.y, bb.max.y, bb.min.z, bb.max.z]
+                .into_iter()
+                .enumerate()
+            {
+                node.bounds[row][lane] = v;
+            }
+            node.child[lane] = child;
+            node.count[lane] = count;
+        }
+        (at as u32, 0)
+    }
+
+    /// The nearest slot the ray hits in (0, t_max) that `keep` accepts, and its distance.
+    #[inline(always)]
+    pub fn closest(
+        &self,
+        r: &WideRay,
+        t_max: f32,
+        keep: impl Fn(usize) -> bool,
+    ) -> Option<(usize, f32)> {
+        self.traverse::<false>(r, t_max, keep)
+    }
+
+    /// Whether the ray hits a slot in (0, t_max) that `keep` accepts.
+    #[inline(always)]
+    pub fn any(&self, r: &WideRay, t_max: f32, keep: impl Fn(usize) -> bool) -> bool {
+        self.traverse::<true>(r, t_max, keep).is_some()
+    }
+
+    /// Nearest-child-first traversal; with `ANY`, stops at the first accepted hit.
+    #[inline(always)]
+    fn traverse<const ANY: bool>(
+        &self,
+        r: &WideRay,
+        mut t_max: f32,
+        keep: impl Fn(usize) -> bool,
+    ) -> Option<(usize, f32)> {
+        let mut best = None;
+        let mut stack: SmallVec<[(u32, u32, f32); 64]> = SmallVec::new();
+        let (mut child, mut count) = self.root;
+        loop {
+            if count > 0 {
+                for p in child..child + count {
+                    if let Some(hit) = self.pack_hit(p, r, &mut t_max, &keep) {
+                        best = Some(hit);
+                        if ANY {
+                            return best;
+                        }
+                    }
+                }
+            } else {
+                let node = &self.nodes[child as usize];
+                let (mut mask, t_in) = enter(node, r, t_max);
+                if ANY {
+                    // Any hit will do: test the leaves here first, before descending (large
+                    // triangles such as walls sit in leaves near the root).
+                    let mut leaves = mask;
+                    while leaves != 0 {
+                        let lane = leaves.trailing_zeros() as usize;
+                        leaves &= leaves - 1;
+                        if node.count[lane] > 0 {
+                            mask &= !(1 << lane);
+                            let first = node.child[lane];
+                            for p in first..first + node.count[lane] {
+                                if let Some(hit) = self.pack_hit(p, r, &mut t_max, &keep) {
+                                    return Some(hit);
+                                }
+                            }
+                        }
+                    }
+                }
+                if mask != 0 {
+                    if mask & (mask - 1) == 0 {
+                        let lane = mask.trailing_zeros() as usize;
+                        (child, count) = (node.child[lane], node.count[lane]);
+                        continue;
+                    }
+                    // Nearest first: push the others far to near.
+                    let t_in = t_in.to_array();
+                    let mut lanes = [(0.0f32, 0usize); 4];
+                    let mut n = 0;
+                    let mut m = mask;
+                    while m != 0 {
+                        let lane = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        let t = t_in[lane];
+                        let mut i = n;
+                        while i > 0 && lanes[i - 1].0 > t {
+                            lanes[i] = lanes[i - 1];
+                            i -= 1;
+                        }
+                        lanes[i] = (t, lane);
+                        n += 1;
+                    }
+                    for &(t, lane) in lanes[1..n].iter().rev() {
+                        stack.push((node.child[lane], node.count[lane], t));
+                    }
+                    let lane = lanes[0].1;
+                    (child, count) = (node.child[lane], node.count[lane]);
+                    continue;
+                }
+            }
+            loop {
+                let Some((c, k, t)) = stack.pop() else {
+                    return best;
+                };
+                if t <= t_max {
+                    (child, count) = (c, k);
+                    break;
+                }
+            }
+        }
+    }
+
+    /// The nearest hit in pack `p` below `t_max` that `keep` accepts (lowering `t_max` to it).
+    #[inline(always)]
+    fn pack_hit(
+        &self,
+        p: u32,
+        r: &WideRay,
+        t_max: &mut f32,
+        keep: &impl Fn(usize) -> bool,
+    ) -> Option<(usize, f32)> {
+        let (mut mask, t) = self.packs[p as usize].intersect(r, *t_max);
+        let t = t.to_array();
+        let mut best = None;
+        while mask != 0 {
+            let lane = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            let slot = p as usize * 4 + lane;
+            if t[lane] < *t_max && keep(slot) {
+                *t_max = t[lane];
+                best = Some((slot, t[lane]));
+            }
+        }
+        best
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A deterministic soup of `n` small triangles in the unit cube, and some large ones
+    /// crossing it (walls, which pre-splitting cuts up).
+    fn soup(n: usize) -> Vec<BvhTriangle> {
+        let mut state = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut v = |s: f32| {
+            let c = Vec3A::new(next(), next(), next());
+            c + (Vec3A::new(next(), next(), next()) - 0.5) * s
+        };
+        let mut tris: Vec<BvhTriangle> = (0..n)
+            .map(|_| BvhTriangle {
+                v0: v(0.0),
+                v1: v(0.1),
+                v2: v(0.1),
+            })
+            .collect();
+        for k in 0..4 {
+            let z = 0.2 * k as f32 + 0.1;
+            tris.push(BvhTriangle {
+                v0: Vec3A::new(-0.5, -0.5, z),
+                v1: Vec3A::new(1.5, -0.5, z),
+                v2: Vec3A::new(-0.5, 1.5, z + 0.3),
+            });
+        }
+        tris
+    }
+
+    /// The nearest hit by testing every triangle.
+    fn brute(tris: &[BvhTriangle], r: &WideRay) -> Option<(u32, f32)> {
+        let mut best: Option<(u32, f32)> = None;
+        for (i, t) in tris.iter().enumerate() {
+            let tri = Tri::new(t);
+            let rows = [tri.v0, tri.e1, tri.e2].map(|v| v.to_array());
+            let mut pack = Pack {
+                rows: [Vec4::ZERO; 9],
+            };
+            for (row, &x) in rows.iter().flatten().enumerate() {
+                pack.rows[row] = Vec4::splat(x);
+            }
+            let (mask, d) = pack.intersect(r, f32::INFINITY);
+            if mask & 1 != 0 && best.is_none_or(|(_, b)| d.x < b) {
+                best = Some((i as u32, d.x));
+            }
+        }
+        best
+    }
+
+    #[test]
+    fn traversal_finds_the_same_hits_as_testing_every_triangle() {
+        let tris = soup(1500);
+        for params in [BUILD, BvhBuildParams::medium_build()] {
+            let bvh = WideBvh::build(&tris, params);
+            let mut hits = 0;
+            for k in 0..500 {
+                let a = k as f32 * 0.618_034;
+                let o = Vec3A::new(
+                    0.5 + 0.9 * a.cos(),
+                    0.5 + 0.9 * a.sin(),
+                    (k % 7) as f32 / 6.0,
+                );
+                let target = Vec3A::new((a * 3.1).fract(), (a * 1.7).fract(), (a * 2.3).fract());
+                let d = (target - o).normalize();
+                let r = WideRay::new(o, d);
+                let want = brute(&tris, &r);
+                let got = bvh
+                    .closest(&r, f32::INFINITY, |_| true)
+                    .map(|(slot, t)| (bvh.original[slot], t));
+                assert_eq!(got, want, "ray {k}: {o} → {d}");
+                assert_eq!(bvh.any(&r, f32::INFINITY, |_| true), want.is_some());
+                if let Some((_, t)) = want {
+                    hits += 1;
+                    // Up to the hit, nothing; just beyond it, occluded.
+                    assert!(!bvh.any(&r, t, |_| true), "ray {k}");
+                    assert!(bvh.any(&r, t * 1.0001, |_| true), "ray {k}");
+                }
+            }
+            assert!(
+                hits > 100,
+                "only {hits} of 500 rays hit: the test scene is too sparse"
+            );
+        }
+    }
+
+    #[test]
+    fn the_build_does_not_depend_on_the_thread_count() {
+        let tris = soup(20_000);
+        let build = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| WideBvh::build(&tris, BUILD))
+        };
+        let (a, b) = (build(1), build(3));
+        assert_eq!(a.original, b.original);
+        assert_eq!(a.root, b.root);
+        assert_eq!(a.nodes.len(), b.nodes.len());
+        for (m, n) in a.nodes.iter().zip(&b.nodes) {
+            assert_eq!((m.child, m.count, m.bounds), (n.child, n.count, n.bounds));
+        }
+    }
+}
