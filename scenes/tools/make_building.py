@@ -36,7 +36,7 @@ from fractions import Fraction
 
 sys.dont_write_bytecode = True  # keep scenes/tools free of __pycache__
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from glbtools import ARRAY_BUFFER, CHUNK_BIN, CHUNK_JSON, ELEMENT_ARRAY_BUFFER, FLOAT, GLB_MAGIC, UINT32, f32  # noqa: E402
+from glbtools import ARRAY_BUFFER, CHUNK_BIN, CHUNK_JSON, ELEMENT_ARRAY_BUFFER, FLOAT, GLB_MAGIC, UINT32, f32, read_glb  # noqa: E402
 
 SCENES = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -51,22 +51,9 @@ class Source:
     """One shipped scene's .glb: meshes (name → primitives), materials and scene.json."""
 
     def __init__(self, folder, glb, scale=1.0):
-        with open(os.path.join(SCENES, folder, glb), "rb") as f:
-            data = f.read()
+        doc, blob = read_glb(os.path.join(SCENES, folder, glb))
         with open(os.path.join(SCENES, folder, "scene.json"), "rb") as f:
             self.desc = json.loads(f.read())
-        magic, _version, length = struct.unpack_from("<III", data, 0)
-        if magic != GLB_MAGIC:
-            raise ValueError("%s/%s is not a .glb file" % (folder, glb))
-        offset, doc, blob = 12, None, None
-        while offset < length:
-            size, kind = struct.unpack_from("<II", data, offset)
-            chunk = data[offset + 8 : offset + 8 + size]
-            offset += 8 + size
-            if kind == CHUNK_JSON:
-                doc = json.loads(chunk)
-            elif kind == CHUNK_BIN:
-                blob = chunk
         for node in doc["nodes"]:
             if "mesh" in node and any(k in node for k in ("translation", "rotation", "scale", "matrix", "children")):
                 raise ValueError("%s/%s: node %s has a transform; only untransformed meshes are copied" % (folder, glb, node.get("name")))
