@@ -66,15 +66,14 @@ fn is_broken_pipe(e: &anyhow::Error) -> bool {
     })
 }
 
-/// Options every bake tool takes (`#[command(flatten)]`).
+/// What every bake tool takes besides `--bundle`: the scene and how to bake it. Flattened
+/// into [`BakeArgs`] and [`GlintBakeArgs`], after their `--bundle` (so `--help` lists
+/// `--bundle` first).
 #[derive(clap::Args, Debug, Clone)]
-pub struct BakeArgs {
+pub struct BakeOptions {
     /// The scene description (scene.json).
     #[arg(value_name = "SCENE.json")]
     pub scene: std::path::PathBuf,
-    /// The bundle folder to write into (created if missing), e.g. out/cornell-box.glint.
-    #[arg(long, value_name = "OUT.glint")]
-    pub bundle: std::path::PathBuf,
     /// Quality preset; default: the scene's `bake.quality`, else `default`.
     #[arg(long, value_parser = parse_quality)]
     pub quality: Option<crate::scene::Quality>,
@@ -86,27 +85,27 @@ pub struct BakeArgs {
     pub json: bool,
 }
 
-/// `glint-bake`'s options: [`BakeArgs`], where `--bundle` is needed only for a bake, and the
+/// Options every bake tool takes (`#[command(flatten)]`).
+#[derive(clap::Args, Debug, Clone)]
+pub struct BakeArgs {
+    /// The bundle folder to write into (created if missing), e.g. out/cornell-box.glint.
+    #[arg(long, value_name = "OUT.glint")]
+    pub bundle: std::path::PathBuf,
+    #[command(flatten)]
+    pub options: BakeOptions,
+}
+
+/// `glint-bake`'s options: [`BakeOptions`], `--bundle` (needed only for a bake), and the
 /// work-unit modes (`--plan`, `--unit`, `--units`).
 #[derive(clap::Args, Debug, Clone)]
 pub struct GlintBakeArgs {
-    /// The scene description (scene.json).
-    #[arg(value_name = "SCENE.json")]
-    pub scene: std::path::PathBuf,
     /// The bundle folder to write into (created if missing), e.g. out/cornell-box.glint; with
     /// `--unit`, the unit's shard (e.g. shards/radiosity.glint); with `--units`, where the
     /// shards are merged.
     #[arg(long, value_name = "OUT.glint", required_unless_present_any = ["plan", "units"])]
     pub bundle: Option<std::path::PathBuf>,
-    /// Quality preset; default: the scene's `bake.quality`, else `default`.
-    #[arg(long, value_parser = parse_quality)]
-    pub quality: Option<crate::scene::Quality>,
-    /// Replace stages the bundle holds from another scene.
-    #[arg(long)]
-    pub force: bool,
-    /// Print a JSON report on stdout instead of text.
-    #[arg(long)]
-    pub json: bool,
+    #[command(flatten)]
+    pub options: BakeOptions,
     /// Print the work units the bake splits into (ID, wave, inputs' hashes, cost estimate)
     /// instead of baking; with --json the whole plan.
     #[arg(long, conflicts_with_all = ["unit", "units"])]

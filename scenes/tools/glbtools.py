@@ -293,8 +293,8 @@ def png_bytes(width, height, pixel):
     return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(bytes(raw), 9)) + chunk(b"IEND", b"")
 
 
-def read_glb_mesh(path):
-    """Positions, normals and indices of the first primitive of the first mesh of a .glb."""
+def read_glb(path):
+    """The JSON document (parsed) and the binary chunk of a .glb."""
     with open(path, "rb") as f:
         data = f.read()
     magic, _version, length = struct.unpack_from("<III", data, 0)
@@ -309,6 +309,12 @@ def read_glb_mesh(path):
             doc = json.loads(chunk)
         elif kind == CHUNK_BIN:
             blob = chunk
+    return doc, blob
+
+
+def read_glb_mesh(path):
+    """Positions, normals and indices of the first primitive of the first mesh of a .glb."""
+    doc, blob = read_glb(path)
     components = {5121: "B", 5123: "H", 5125: "I", 5126: "f"}
     widths = {"SCALAR": 1, "VEC3": 3}
 

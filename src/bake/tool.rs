@@ -50,8 +50,8 @@ fn flag_error(e: SettingError) -> anyhow::Error {
 
 /// Runs `tool` with `args`, writing its report to `out`.
 pub fn run(args: &BakeArgs, tool: Tool, out: &mut dyn Write) -> anyhow::Result<ExitCode> {
-    let scene = Scene::load(&args.scene)?;
-    let quality = args.quality.unwrap_or(scene.desc.bake.quality);
+    let scene = Scene::load(&args.options.scene)?;
+    let quality = args.options.quality.unwrap_or(scene.desc.bake.quality);
     match tool {
         Tool::All => bake_every_stage(args, &scene, quality, out),
         Tool::Radiosity(flags) => {
@@ -61,10 +61,11 @@ pub fn run(args: &BakeArgs, tool: Tool, out: &mut dyn Write) -> anyhow::Result<E
             radiosity_stage::check(&scene, &s)?;
             scene_stage_first(args, &scene)?;
             let progress = TerminalProgress::new();
-            let record = radiosity_stage::bake(&scene, &args.bundle, &s, args.force, &progress);
+            let record =
+                radiosity_stage::bake(&scene, &args.bundle, &s, args.options.force, &progress);
             progress.finish();
             let record = record.context("stage radiosity")?;
-            if args.json {
+            if args.options.json {
                 writeln!(out, "{}", serde_json::to_string_pretty(&record)?)?;
             } else {
                 writeln!(
@@ -89,11 +90,17 @@ pub fn run(args: &BakeArgs, tool: Tool, out: &mut dyn Write) -> anyhow::Result<E
                     message,
                 })?;
             let progress = TerminalProgress::new();
-            let outcome = materials::bake(&scene, &args.bundle, &settings, args.force, &progress);
+            let outcome = materials::bake(
+                &scene,
+                &args.bundle,
+                &settings,
+                args.options.force,
+                &progress,
+            );
             progress.finish();
             match outcome.context("stage materials")? {
                 Outcome::Skipped(reason) => skipped(args, &scene, Stage::Materials, &reason, out),
-                Outcome::Baked(report) if args.json => {
+                Outcome::Baked(report) if args.options.json => {
                     let v = serde_json::json!({
                         "bundle": args.bundle, "stage": "materials", "status": "baked",
                         "quality": quality.name(), "bake_seconds": report.record.bake_seconds,
@@ -131,10 +138,11 @@ pub fn run(args: &BakeArgs, tool: Tool, out: &mut dyn Write) -> anyhow::Result<E
                 return Ok(ExitCode::SUCCESS);
             }
             let progress = TerminalProgress::new();
-            let record = radiance_stage::bake(&scene, &args.bundle, quality, args.force, &progress);
+            let record =
+                radiance_stage::bake(&scene, &args.bundle, quality, args.options.force, &progress);
             progress.finish();
             let record = record.context("stage radiance")?;
-            if args.json {
+            if args.options.json {
                 writeln!(out, "{}", serde_json::to_string_pretty(&record)?)?;
             } else {
                 writeln!(
@@ -166,7 +174,7 @@ pub fn run(args: &BakeArgs, tool: Tool, out: &mut dyn Write) -> anyhow::Result<E
             }
             scene_stage_first(args, &scene)?;
             let progress = TerminalProgress::new();
-            let outcome = srdm_stage::bake(&scene, &args.bundle, &s, args.force, &progress);
+            let outcome = srdm_stage::bake(&scene, &args.bundle, &s, args.options.force, &progress);
             progress.finish();
             let (record, views, colour) = match outcome.context("stage srdm")? {
                 SrdmOutcome::Skipped { reason } => {
@@ -179,7 +187,7 @@ pub fn run(args: &BakeArgs, tool: Tool, out: &mut dyn Write) -> anyhow::Result<E
                     colour,
                 } => (record, views, colour),
             };
-            if args.json {
+            if args.options.json {
                 let v = serde_json::json!({ "stage": "srdm", "status": "baked", "record": record, "views": views });
                 writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
                 return Ok(ExitCode::SUCCESS);
@@ -219,14 +227,20 @@ fn bake_every_stage(
     let settings = BakeSettings::resolve(scene, quality)?;
     // One reporter for the whole run: it owns the process's only Ctrl-C handler.
     let progress = TerminalProgress::new();
-    let stages = bake_all(scene, &args.bundle, &settings, args.force, &progress);
+    let stages = bake_all(
+        scene,
+        &args.bundle,
+        &settings,
+        args.options.force,
+        &progress,
+    );
     progress.finish();
     let report = BakeReport {
         scene: scene.name.clone(),
         bundle: args.bundle.clone(),
         stages: stages?,
     };
-    if args.json {
+    if args.options.json {
         writeln!(out, "{}", serde_json::to_string_pretty(&report.to_json())?)?;
     } else {
         write!(out, "{report}")?;
@@ -237,9 +251,9 @@ fn bake_every_stage(
 /// A single-stage tool writes the scene stage first when the bundle lacks it (or holds
 /// another scene's, with `--force`).
 fn scene_stage_first(args: &BakeArgs, scene: &Scene) -> anyhow::Result<()> {
-    crate::bundle::check_scene(&args.bundle, &scene.content_hash, args.force)?;
+    crate::bundle::check_scene(&args.bundle, &scene.content_hash, args.options.force)?;
     if !up_to_date(&args.bundle, scene, Stage::Scene, None) {
-        scene_stage::bake(scene, &args.bundle, args.force).context("stage scene")?;
+        scene_stage::bake(scene, &args.bundle, args.options.force).context("stage scene")?;
     }
     Ok(())
 }
@@ -252,7 +266,7 @@ fn skipped(
     reason: &str,
     out: &mut dyn Write,
 ) -> anyhow::Result<ExitCode> {
-    if args.json {
+    if args.options.json {
         let v = serde_json::json!({
             "bundle": args.bundle, "stage": stage.name(), "status": "skipped", "reason": reason,
         });

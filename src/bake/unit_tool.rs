@@ -17,20 +17,17 @@ use crate::scene::Scene;
 pub fn run(args: &GlintBakeArgs, out: &mut dyn Write) -> anyhow::Result<ExitCode> {
     if !args.plan && args.unit.is_none() && args.units.is_none() {
         let bake = BakeArgs {
-            scene: args.scene.clone(),
             bundle: args.bundle.clone().expect("clap requires --bundle"),
-            quality: args.quality,
-            force: args.force,
-            json: args.json,
+            options: args.options.clone(),
         };
         return super::tool::run(&bake, super::tool::Tool::All, out);
     }
-    let scene = Scene::load(&args.scene)?;
-    let quality = args.quality.unwrap_or(scene.desc.bake.quality);
+    let scene = Scene::load(&args.options.scene)?;
+    let quality = args.options.quality.unwrap_or(scene.desc.bake.quality);
     let settings = BakeSettings::resolve(&scene, quality)?;
     let plan = plan_units(&scene, &settings).map_err(anyhow::Error::msg)?;
     if args.plan {
-        print_plan(&plan, args.wave, args.json, out)?;
+        print_plan(&plan, args.wave, args.options.json, out)?;
         return Ok(ExitCode::SUCCESS);
     }
     let progress = TerminalProgress::new();
@@ -59,7 +56,7 @@ pub fn run(args: &GlintBakeArgs, out: &mut dyn Write) -> anyhow::Result<ExitCode
         }
         _ => None,
     };
-    if args.json {
+    if args.options.json {
         let v = serde_json::json!({ "scene": scene.name, "units": reports, "merged": merged });
         writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
     } else {
