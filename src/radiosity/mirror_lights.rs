@@ -30,6 +30,10 @@ pub const MIRROR_ROUGHNESS: f32 = 0.02;
 struct Mirror {
     plane: Plane,
     lobes: Vec<Lobe>,
+    /// Bounds of the mirror's triangles, widened a little: a ray that crosses the plane
+    /// outside them cannot meet the mirror, and is not cast.
+    lo: Vec3,
+    hi: Vec3,
 }
 
 impl Mirror {
@@ -39,6 +43,18 @@ impl Mirror {
         self.lobes
             .iter()
             .fold(Vec3::ZERO, |acc, l| acc + l.ks * l.mirror_reflectance(c))
+    }
+
+    /// Whether the segment from `origin` (in front of the plane) along `d` may meet the mirror:
+    /// it crosses the plane inside the mirror's bounds.
+    fn may_meet(&self, origin: Vec3, d: Vec3) -> bool {
+        let n = self.plane.normal;
+        let along = d.dot(n);
+        if along >= 0.0 {
+            return false;
+        }
+        let p = origin + d * ((self.plane.point - origin).dot(n) / along);
+        p.cmpge(self.lo).all() && p.cmple(self.hi).all()
     }
 
     fn reflect_point(&self, q: Vec3) -> Vec3 {
@@ -70,15 +86,26 @@ impl MirrorLights {
                 continue;
             }
             let id = mirrors.len() as u32 + 1;
+            let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
             for &t in &r.triangles {
                 // Only the mirror's own material reflects as the mirror.
-                if scene.triangles[t as usize].material == r.material {
+                let tri = &scene.triangles[t as usize];
+                if tri.material == r.material {
                     mirror_of[t as usize] = id;
+                    for v in tri.p {
+                        lo = lo.min(v);
+                        hi = hi.max(v);
+                    }
                 }
             }
+            // Widened by a thousandth of its size and 10 µm: rounding never culls a ray that
+            // meets it.
+            let pad = Vec3::splat((hi - lo).max_element() * 1e-3 + 1e-5);
             mirrors.push(Mirror {
                 plane,
                 lobes: m.lobes.iter().map(Lobe::from).collect(),
+                lo: lo - pad,
+                hi: hi + pad,
             });
         }
         (!mirrors.is_empty()).then_some(MirrorLights { mirrors, mirror_of })
@@ -124,7 +151,7 @@ impl MirrorLights {
                 }
                 let d = w / dist;
                 let cos_s = d.dot(ns);
-                if cos_s <= 0.0 || d.dot(ng) <= 0.0 {
+                if cos_s <= 0.0 || d.dot(ng) <= 0.0 || !m.may_meet(origin, d) {
                     return None;
                 }
                 *rays += 1;
