@@ -119,7 +119,8 @@ impl PlanarReflector {
 }
 
 /// The scene's planar reflectors whose material has a glossy lobe, in scene order, with
-/// K = identity and R = 1.
+/// K = identity and ks·R = Σ k_s · Schlick's F at the view angle ([`material::fresnel_table`]:
+/// a coloured metal is tinted by its F₀, not the sum of its two lobes' k_s, about 1).
 pub fn glossy_planar_reflectors(scene: &Scene) -> Vec<PlanarReflector> {
     scene
         .reflectors
@@ -140,7 +141,7 @@ pub fn glossy_planar_reflectors(scene: &Scene) -> Vec<PlanarReflector> {
                 bitangent,
                 material: r.material,
                 ks,
-                modulation: Modulation::constant(ks),
+                modulation: Modulation::OneD(material::fresnel_table(&material.lobes)),
                 kernel: ScreenKernel::identity(),
                 triangles: r.triangles.clone(),
             })
@@ -162,7 +163,7 @@ pub fn reflectors_with_materials(
 ) -> Vec<PlanarReflector> {
     let mut reflectors = glossy_planar_reflectors(&data.scene);
     if data.bundle.stage("materials").is_none() {
-        log::info!("no materials stage: reflections use K = I, R = 1 (ks only)");
+        log::info!("no materials stage: reflections use K = I, ks·R = Σ ks·Schlick F");
         return reflectors;
     }
     let index = match crate::materials::MaterialsIndex::load(&data.bundle) {
