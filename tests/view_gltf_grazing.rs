@@ -271,6 +271,19 @@ fn gltf_metal_reflection_at_80_degrees_matches_the_path_tracer() {
                 .map(|(a, b)| ((*a - *b) * 4.0).abs())
                 .collect();
             std::fs::write(dir.join("diff-x4.png"), png(&diff)).unwrap();
+            let raw = |f: &[Vec3]| -> Vec<u8> {
+                f.iter()
+                    .flat_map(|v| v.to_array())
+                    .flat_map(|x| x.to_le_bytes())
+                    .collect()
+            };
+            std::fs::write(dir.join("viewer.f32"), raw(&frames[k])).unwrap();
+            std::fs::write(dir.join("pt.f32"), raw(&reference)).unwrap();
+            std::fs::write(
+                dir.join("mask.u8"),
+                mask.iter().map(|m| u8::from(*m)).collect::<Vec<u8>>(),
+            )
+            .unwrap();
             eprintln!("written to {}", dir.display());
         }
         errors.push((name, e, tolerance));
