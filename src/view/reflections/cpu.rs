@@ -38,7 +38,8 @@ pub enum MkFilter {
 ///   within `clip` of the plane as the GPU's clip plane does, with the fraction of the
 ///   reflected ray beyond the plane ([`beyond_fraction`]);
 /// - M*K: K's taps at the pixel, bilinear between pixel centres, clamped to the frame, a
-///   texel spanning [`texel_pixels`] at the pixel's beyond-fraction (as `fs_composite`);
+///   texel spanning [`texel_pixels`] at the pixel's beyond-fraction, squeezed by cos θ across
+///   the plane of incidence ([`Grazing`]; as `fs_composite`);
 /// - R: [`PlanarReflector::modulation_at`] at the hit.
 ///
 /// Linear × `exposure`, row 0 at the top, black where nothing is hit. M*K exact

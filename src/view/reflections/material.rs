@@ -11,7 +11,8 @@
 //!   reflected point over t_beyond · tan Δ, seen from the mirrored eye at t_total. Objects
 //!   touching the mirror stay sharp, far ones blur by the full lobe. Kernel columns run along
 //!   screen x, rows along screen up (exact for isotropic lobes, as Bastos's space-invariant
-//!   kernel is).
+//!   kernel is); the composite squeezes them by cos θ across the plane of incidence, where a
+//!   lobe seen at θ narrows ([`super::filter::Grazing`]).
 //! - **R**: per view direction, Σ over lobes of ks × a channel of the baked map, from the
 //!   sphere map (indexed by the reflected direction in the reflector's tangent frame) or the
 //!   1D grazing-dense map (indexed by cos θ), switchable ([`ReflectanceLayout`]). Channel

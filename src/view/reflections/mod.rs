@@ -19,7 +19,8 @@
 //!      filled in the composite from the nearest covered ones ([`splats::fill_hole`]).
 //! 2. The composite: the reflector drawn again over the frame, depth-tested against the scene
 //!    pass (the mask), adding ks·R × (M*K) at the same pixel: the convolution with K (scaled
-//!    per pixel, [`material`]) at a cost independent of K's width, a few taps of a regular
+//!    per pixel, [`material`], and narrowed across the plane of incidence at grazing views,
+//!    [`filter::Grazing`]) at a cost independent of K's width, a few taps of a regular
 //!    pattern reading M's MIP pyramid ([`filter`], built per map by `pyramid`), R from the
 //!    sphere map or the 1D map ([`ReflectanceLayout`]).
 //!
