@@ -163,7 +163,7 @@ pub fn capture(
     };
     let axis = frame.right.cross(frame.up);
     let lift = 1e-3 * radius + 1e-4;
-    let bvh = scene.build_bvh_of(&ids);
+    let bvh = scene.build_bvh_of(ids);
     let w = resolution as usize;
     let mut col = vec![[0.0f32; 4]; w * w];
     let mut nrm = vec![glam::Vec4::ZERO; w * w];
