@@ -162,6 +162,19 @@ fn fill_hole(p: vec2<i32>) -> vec4<f32> {
     return vec4<f32>(0.0);
 }
 
+// The unit screen direction (pixels, y down) of the plane of incidence's trace at world
+// point `p`: the derivative of p's pixel position along the normal `n` (`Grazing::at`).
+fn grazing_axis(p: vec3<f32>, n: vec3<f32>, size: vec2<f32>) -> vec2<f32> {
+    let c = frame.view_proj * vec4<f32>(p, 1.0);
+    let dc = frame.view_proj * vec4<f32>(n, 0.0);
+    let d = (dc.xy * c.w - c.xy * dc.w) / (c.w * c.w);
+    let along = vec2<f32>(d.x * size.x, -d.y * size.y);
+    if dot(along, along) > 1e-12 {
+        return normalize(along);
+    }
+    return vec2<f32>(1.0, 0.0);
+}
+
 @fragment
 fn fs_composite(in: MirrorOut) -> FragmentOut {
     // A child reflector straddling its parent mirror's plane: the part behind the parent was
@@ -181,14 +194,22 @@ fn fs_composite(in: MirrorOut) -> FragmentOut {
     // fraction) pixels, each reading the pyramid at ½ log₂(4 (v·scale² + 1/6))
     // (`filter::level`); Σ w·rgb / Σ w·c (not around a filled texel: its neighbours are
     // holes too, and the fill is a blur).
+    // At a grazing view the lobe narrows across the plane of incidence by cos θ
+    // (`filter::Grazing`): offsets squeezed across `axis`, levels from the variance's
+    // geometric mean over the two axes.
     if taps > 1u && centre.a > 0.0 && !hole {
         let size = vec2<f32>(textureDimensions(pyramid));
         let scale = reflect_params.kernel.x * centre.a;
+        let n = reflect_params.plane.xyz;
+        let cos_v = clamp(abs(dot(n, normalize(reflect_params.eye.xyz - in.world))), 1e-3, 1.0);
+        let axis = grazing_axis(in.world, n, size);
         var sum = vec4<f32>(0.0);
         for (var i = 0u; i < taps; i = i + 1u) {
             let t = reflect_params.taps[i];
-            let p = in.clip.xy + vec2<f32>(t.x, -t.y) * scale;
-            let level = max(0.5 * log2(4.0 * (t.w * scale * scale + 1.0 / 6.0)), 0.0);
+            let o = vec2<f32>(t.x, -t.y) * scale;
+            let along = axis * dot(o, axis);
+            let p = in.clip.xy + along + (o - along) * cos_v;
+            let level = max(0.5 * log2(4.0 * (t.w * cos_v * scale * scale + 1.0 / 6.0)), 0.0);
             sum = sum + t.z * textureSampleLevel(pyramid, reflection_sampler, p / size, level);
         }
         if sum.a > 1e-4 {

@@ -647,3 +647,104 @@ fn the_textured_room_bakes_and_replays_its_gltf_camera() {
     let flips = dark.windows(2).filter(|p| p[0] != p[1]).count();
     assert!(flips >= 10, "{flips} checker edges along row {row}");
 }
+
+/// A cut-out screen (alpha MASK, stripes of holes, green where opaque) 0.3 m in front of an
+/// opaque red board it hides entirely but for the holes; both one impostor object.
+fn screen_before_a_board(dir: &Path) -> PathBuf {
+    let meshes = vec![
+        quad(
+            "Board",
+            0,
+            Vec3::new(-0.4, -0.4, 0.0),
+            Vec3::X * 0.8,
+            Vec3::Y * 0.8,
+            1.0,
+        ),
+        quad(
+            "Screen",
+            1,
+            Vec3::new(-0.6, -0.6, 0.3),
+            Vec3::X * 1.2,
+            Vec3::Y * 1.2,
+            1.0,
+        ),
+    ];
+    // Rows along v: 0 and 2 opaque, 1 and 3 holes.
+    let holes: Vec<[u8; 4]> = (0..16)
+        .map(|i| [60, 160, 60, if (i / 4) % 2 == 0 { 255 } else { 0 }])
+        .collect();
+    let materials = json!([
+        {"name": "Board", "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.1, 0.1, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0}},
+        {"name": "Screen", "alphaMode": "MASK", "alphaCutoff": 0.5,
+         "pbrMetallicRoughness": {"baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0,
+            "baseColorTexture": {"index": 0}}}
+    ]);
+    write_gltf(
+        dir,
+        &meshes,
+        materials,
+        json!([{"source": 0, "sampler": 0}]),
+        json!([{"magFilter": 9728, "wrapS": 33071, "wrapT": 33071}]),
+        &[png(4, 4, &holes)],
+    )
+}
+
+/// The SRDM capture and the billboard capture of an impostor cast their rays through its
+/// cut-outs as every other ray caster does: where the screen's alpha is below the cutoff they
+/// see the red board behind it (without the scene's cut-out filter: nowhere), and each texel
+/// is the albedo the scene's own filtered BVH finds along the same ray.
+#[test]
+fn impostor_captures_see_through_cut_outs() {
+    use glint::scene::{Impostor, ImpostorBillboard};
+    use glint::srdm::billboard;
+    use glint::srdm::capture::{self, ColourSource};
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Scene::load(screen_before_a_board(dir.path())).unwrap();
+    let impostor = Impostor {
+        name: "both".into(),
+        objects: (0..scene.objects.len() as u32).collect(),
+        views: 1,
+        bounds: scene.bounds,
+        billboard: ImpostorBillboard::default(),
+    };
+    let ids = capture::impostor_triangles(&scene, &impostor);
+    assert_eq!(ids.len(), scene.triangles.len());
+    let red = |c: Vec3| c.x > 0.5 && c.y < 0.2;
+    let green = |c: Vec3| c.y > 0.2 && c.x < 0.2;
+    let bvh = scene.build_bvh();
+    // SRDM capture, view 0 (from +z: no camera path).
+    let camera = capture::view_camera(&scene, &impostor, 0, 64);
+    assert!(camera.view.forward.z < -0.9, "{}", camera.view.forward);
+    let c = capture::capture(&scene, &impostor, &camera, &ColourSource::Albedo, &Silent).unwrap();
+    let (mut reds, mut greens, mut differ) = (0, 0, 0);
+    for y in 0..64u32 {
+        for x in 0..64u32 {
+            let got = c.colour[(y * 64 + x) as usize];
+            let dir = camera.texel_ray(x, y);
+            let want = bvh
+                .closest_hit(camera.view.position, dir, f32::INFINITY)
+                .map_or(Vec3::ZERO, |h| scene.albedo_at(h.triangle, h.bary));
+            differ += usize::from((got - want).abs().max_element() > 1e-4);
+            reds += usize::from(red(got));
+            greens += usize::from(green(got));
+        }
+    }
+    eprintln!("SRDM capture: {reds} red, {greens} green, {differ} differ from the scene's rays");
+    assert_eq!(differ, 0);
+    assert!(reds > 200 && greens > 200, "{reds} red, {greens} green");
+    // Billboard capture, centroid placement, seen from +z.
+    let (b, _) = billboard::capture(
+        &scene,
+        &ids,
+        Vec3::new(0.0, 0.0, 5.0),
+        None,
+        64,
+        &ColourSource::Albedo,
+        false,
+    );
+    let rgb = |t: &[f32; 4]| Vec3::new(t[0], t[1], t[2]);
+    let reds = b.colour.iter().filter(|t| red(rgb(t))).count();
+    let greens = b.colour.iter().filter(|t| green(rgb(t))).count();
+    eprintln!("billboard: {reds} red, {greens} green");
+    assert!(reds > 200 && greens > 200, "{reds} red, {greens} green");
+}

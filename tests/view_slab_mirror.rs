@@ -20,20 +20,13 @@ use glam::Vec3;
 use glint::camera::Camera;
 use glint::geometry::Bvh;
 use glint::scene::Scene;
-use glint::view::headless::Offscreen;
 use glint::view::load::{ViewData, load};
 use glint::view::reflections::{self, ReflectionMode};
 
-use common::{MaterialSpec, MeshSpec, gpu};
+use common::{MaterialSpec, MeshSpec, rect};
 
 /// Centre of the mirror's front face (on the back wall, facing +z).
 const MIRROR: Vec3 = Vec3::new(0.0, 1.4, -1.988);
-
-/// A rectangle corner, corner + u, corner + u + v, corner + v: facing u × v.
-fn rect(name: &'static str, material: usize, corner: Vec3, u: Vec3, v: Vec3) -> MeshSpec {
-    let q = [corner, corner + u, corner + u + v, corner + v].map(|p| p.to_array());
-    common::quads(name, material, &[q])
-}
 
 /// An axis-aligned box of `size` about `centre`, faces outward.
 fn cuboid(name: &'static str, material: usize, centre: Vec3, size: Vec3) -> MeshSpec {
@@ -146,48 +139,6 @@ fn bundle(slab: bool) -> &'static Path {
     }
 }
 
-/// Pixels whose primary ray (as `cpu_reference` casts it) hits the mirror's reflecting face
-/// and whose 8 neighbours do too.
-fn mirror_mask(data: &ViewData, camera: &Camera, w: u32, h: u32) -> Vec<bool> {
-    let r = &data.scene.reflectors[0];
-    let bvh = Bvh::build(&data.scene.triangles);
-    let aspect = w as f32 / h as f32;
-    let hits: Vec<bool> = (0..h)
-        .flat_map(|y| (0..w).map(move |x| (x, y)))
-        .map(|(x, y)| {
-            let dir = camera.ray_direction(Camera::pixel_ndc(x, y, w, h), aspect);
-            bvh.closest_hit(camera.position, dir, f32::INFINITY)
-                .is_some_and(|hit| r.triangles.contains(&hit.triangle))
-        })
-        .collect();
-    let at = |x: i64, y: i64| {
-        x >= 0 && y >= 0 && x < w as i64 && y < h as i64 && hits[(y * w as i64 + x) as usize]
-    };
-    (0..h as i64)
-        .flat_map(|y| (0..w as i64).map(move |x| (x, y)))
-        .map(|(x, y)| (-1..=1).all(|dy| (-1..=1).all(|dx| at(x + dx, y + dy))))
-        .collect()
-}
-
-/// Linear HDR frames of `data` from `camera` in each mode.
-fn frames(
-    data: &ViewData,
-    camera: &Camera,
-    size: (u32, u32),
-    modes: &[ReflectionMode],
-) -> Vec<Vec<Vec3>> {
-    let gpu = gpu();
-    let mut off = Offscreen::new(&gpu, data, size.0, size.1).unwrap();
-    modes
-        .iter()
-        .map(|&mode| {
-            off.set_reflections(&gpu, data, mode).unwrap();
-            off.render(&gpu, camera).unwrap();
-            off.read_hdr(&gpu).unwrap()
-        })
-        .collect()
-}
-
 /// Writes the frames (sRGB PNG) and the holes (white on black) into
 /// `target/golden-failures/NAME/`.
 fn write_failure(
@@ -254,7 +205,7 @@ fn slab_mirror_reflects_like_a_single_quad_mirror_in_both_modes() {
         Vec3::Y,
         40f32.to_radians(),
     );
-    let mask = mirror_mask(&slab, &camera, SIZE.0, SIZE.1);
+    let mask = common::reflector_mask(&slab, 0, &camera, SIZE.0, SIZE.1);
     let pixels = mask.iter().filter(|m| **m).count();
     assert!(pixels > 2000, "the mirror covers {pixels} pixels");
     let modes = [
@@ -262,8 +213,8 @@ fn slab_mirror_reflects_like_a_single_quad_mirror_in_both_modes() {
         ReflectionMode::Geometry,
         ReflectionMode::Image,
     ];
-    let fs = frames(&slab, &camera, SIZE, &modes);
-    let fq = frames(&quad, &camera, SIZE, &modes);
+    let fs = common::hdr_frames(&slab, &camera, SIZE, &modes);
+    let fq = common::hdr_frames(&quad, &camera, SIZE, &modes);
     let bright: f64 = fs[1]
         .iter()
         .zip(&mask)
@@ -321,10 +272,10 @@ fn image_mode_leaves_no_hole_in_a_mirror_seen_at_80_degrees() {
         const SIZE: (u32, u32) = (400, 270);
         let dir = Vec3::new(80f32.to_radians().sin(), 0.0, 80f32.to_radians().cos());
         let camera = Camera::look_at(MIRROR + 1.6 * dir, MIRROR, Vec3::Y, 45f32.to_radians());
-        let mask = mirror_mask(&data, &camera, SIZE.0, SIZE.1);
+        let mask = common::reflector_mask(&data, 0, &camera, SIZE.0, SIZE.1);
         let pixels = mask.iter().filter(|m| **m).count();
         assert!(pixels > 1000, "the mirror covers {pixels} pixels");
-        let f = frames(
+        let f = common::hdr_frames(
             &data,
             &camera,
             SIZE,

@@ -323,6 +323,23 @@ impl Scene {
         }
     }
 
+    /// The ray-casting BVH over a subset of the scene's triangles (`ids`, indices into
+    /// [`Scene::triangles`]; hits name positions in `ids`), with the scene's cut-out filter
+    /// ([`Scene::cutout_filter`]) read through `ids`: an object's own captures see through
+    /// its alpha-masked texels as every other ray caster does.
+    pub fn build_bvh_of(&self, ids: &[u32]) -> Bvh {
+        let tris: Vec<crate::geometry::Triangle> =
+            ids.iter().map(|&t| self.triangles[t as usize]).collect();
+        let bvh = Bvh::build(&tris);
+        match self.cutout_filter() {
+            Some(f) => {
+                let ids = ids.to_vec();
+                bvh.with_filter(std::sync::Arc::new(move |t: u32, b| f(ids[t as usize], b)))
+            }
+            None => bvh,
+        }
+    }
+
     /// Whether anything emits light (area lights or emissive triangles).
     pub fn has_emitters(&self) -> bool {
         !self.lights.is_empty()

@@ -6,7 +6,7 @@
 use glam::{Vec2, Vec3};
 
 use super::capture::ColourSource;
-use crate::geometry::{Bvh, Triangle};
+use crate::geometry::Triangle;
 use crate::scene::Scene;
 
 /// Field of view of the billboard capture (§3: "a narrow field of view (10°) to avoid
@@ -163,7 +163,7 @@ pub fn capture(
     };
     let axis = frame.right.cross(frame.up);
     let lift = 1e-3 * radius + 1e-4;
-    let bvh = Bvh::build(&tris);
+    let bvh = scene.build_bvh_of(ids);
     let w = resolution as usize;
     let mut col = vec![[0.0f32; 4]; w * w];
     let mut nrm = vec![glam::Vec4::ZERO; w * w];

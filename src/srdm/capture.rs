@@ -14,7 +14,6 @@ use rayon::prelude::*;
 use super::{BACKGROUND, DepthMap, ImpostorCamera, MIN_DEPTH, SrdmError};
 use crate::bundle::BundleError;
 use crate::camera::Camera;
-use crate::geometry::{Bvh, Triangle};
 use crate::image_io::{self, ChannelData, ExrCompression, ImageError, Precision};
 use crate::progress::{Cancelled, Progress};
 use crate::radiosity::RadiosityMap;
@@ -203,8 +202,7 @@ pub fn capture(
     progress: &dyn Progress,
 ) -> Result<Capture, SrdmAssetError> {
     let ids = impostor_triangles(scene, impostor);
-    let tris: Vec<Triangle> = ids.iter().map(|&t| scene.triangles[t as usize]).collect();
-    let bvh = Bvh::build(&tris);
+    let bvh = scene.build_bvh_of(&ids);
     let w = camera.resolution as usize;
     let mut depth = vec![BACKGROUND; w * w];
     let mut rgb = vec![Vec3::ZERO; w * w];

@@ -158,7 +158,8 @@ pub struct ImpostorReflector {
 }
 
 /// The scene's reflectors with a glossy lobe: planar ones as the planar passes see them (R from
-/// the materials stage, given in `planar`), curved ones with R = 1.
+/// the materials stage, given in `planar`), curved ones with ks·R = Σ k_s · Schlick's F at the
+/// view angle ([`crate::view::reflections::material::fresnel_table`]).
 pub fn impostor_reflectors(scene: &Scene, planar: &[PlanarReflector]) -> Vec<ImpostorReflector> {
     let mut out: Vec<ImpostorReflector> = planar
         .iter()
@@ -186,7 +187,7 @@ pub fn impostor_reflectors(scene: &Scene, planar: &[PlanarReflector]) -> Vec<Imp
                 name: r.name.clone(),
                 triangles: r.triangles.clone(),
                 normal: None,
-                modulation: vec![ks; MODULATION_SIZE],
+                modulation: crate::view::reflections::material::fresnel_table(&m.lobes),
             });
         }
     }

@@ -364,6 +364,70 @@ pub fn uv_sphere(
     }
 }
 
+/// A rectangle corner, corner + u, corner + u + v, corner + v: facing u × v.
+pub fn rect(
+    name: &'static str,
+    material: usize,
+    corner: glam::Vec3,
+    u: glam::Vec3,
+    v: glam::Vec3,
+) -> MeshSpec {
+    let q = [corner, corner + u, corner + u + v, corner + v].map(|p| p.to_array());
+    quads(name, material, &[q])
+}
+
+/// Pixels whose primary ray (as `cpu_reference` and the reference path tracer cast it) hits
+/// the reflecting face of reflector `reflector` and whose 8 neighbours do too (rasterisation
+/// and ray casting disagree on edge pixels).
+#[cfg(feature = "view")]
+pub fn reflector_mask(
+    data: &glint::view::load::ViewData,
+    reflector: usize,
+    camera: &glint::camera::Camera,
+    w: u32,
+    h: u32,
+) -> Vec<bool> {
+    use glint::camera::Camera;
+    let r = &data.scene.reflectors[reflector];
+    let bvh = glint::geometry::Bvh::build(&data.scene.triangles);
+    let aspect = w as f32 / h as f32;
+    let hits: Vec<bool> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            let dir = camera.ray_direction(Camera::pixel_ndc(x, y, w, h), aspect);
+            bvh.closest_hit(camera.position, dir, f32::INFINITY)
+                .is_some_and(|hit| r.triangles.contains(&hit.triangle))
+        })
+        .collect();
+    let at = |x: i64, y: i64| {
+        x >= 0 && y >= 0 && x < w as i64 && y < h as i64 && hits[(y * w as i64 + x) as usize]
+    };
+    (0..h as i64)
+        .flat_map(|y| (0..w as i64).map(move |x| (x, y)))
+        .map(|(x, y)| (-1..=1).all(|dy| (-1..=1).all(|dx| at(x + dx, y + dy))))
+        .collect()
+}
+
+/// Linear HDR frames of `data` from `camera` in each reflection mode.
+#[cfg(feature = "view")]
+pub fn hdr_frames(
+    data: &glint::view::load::ViewData,
+    camera: &glint::camera::Camera,
+    size: (u32, u32),
+    modes: &[glint::view::reflections::ReflectionMode],
+) -> Vec<Vec<glam::Vec3>> {
+    let gpu = gpu();
+    let mut off = glint::view::headless::Offscreen::new(&gpu, data, size.0, size.1).unwrap();
+    modes
+        .iter()
+        .map(|&mode| {
+            off.set_reflections(&gpu, data, mode).unwrap();
+            off.render(&gpu, camera).unwrap();
+            off.read_hdr(&gpu).unwrap()
+        })
+        .collect()
+}
+
 /// Copies a folder recursively (a bundle, to damage the copy).
 pub fn copy_dir(from: &Path, to: &Path) {
     std::fs::create_dir_all(to).unwrap();

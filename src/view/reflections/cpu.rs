@@ -5,7 +5,7 @@
 use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
-use super::filter::{FILTER_RINGS, Pyramid, exact, filter_taps};
+use super::filter::{FILTER_RINGS, Grazing, Pyramid, exact, filter_taps};
 use super::material::{beyond_fraction, texel_pixels};
 use super::splats::pixel_tangent;
 use super::{CLIP_FRACTION, PlanarReflector, mirror_camera, signed_distance};
@@ -38,7 +38,8 @@ pub enum MkFilter {
 ///   within `clip` of the plane as the GPU's clip plane does, with the fraction of the
 ///   reflected ray beyond the plane ([`beyond_fraction`]);
 /// - M*K: K's taps at the pixel, bilinear between pixel centres, clamped to the frame, a
-///   texel spanning [`texel_pixels`] at the pixel's beyond-fraction (as `fs_composite`);
+///   texel spanning [`texel_pixels`] at the pixel's beyond-fraction, squeezed by cos θ across
+///   the plane of incidence ([`Grazing`]; as `fs_composite`);
 /// - R: [`PlanarReflector::modulation_at`] at the hit.
 ///
 /// Linear × `exposure`, row 0 at the top, black where nothing is hit. M*K exact
@@ -111,6 +112,8 @@ pub fn cpu_reference_filtered(
     });
     let mut out: Vec<Vec3> = primary.iter().map(|p| p.0).collect();
     let pitch = pixel_tangent(camera.fov_y, height);
+    let view_proj = crate::view::renderer::view_projection(camera, aspect, 0.01);
+    let size = Vec2::new(width as f32, height as f32);
     for (ri, refl) in reflectors.iter().enumerate() {
         if !primary.iter().any(|p| p.2.is_some_and(|(r, _)| r == ri)) {
             continue;
@@ -148,7 +151,7 @@ pub fn cpu_reference_filtered(
         let convolved: Vec<Option<Vec3>> = (0..primary.len())
             .into_par_iter()
             .map(|k| {
-                let (r, _) = primary[k].2?;
+                let (r, point) = primary[k].2?;
                 let (centre, f, _) = m[k];
                 if r != ri || refl.kernel.taps.len() <= 1 || f <= 0.0 {
                     return Some(centre);
@@ -156,8 +159,9 @@ pub fn cpu_reference_filtered(
                 let pixel =
                     Vec2::new((k % width as usize) as f32, (k / width as usize) as f32) + 0.5;
                 let scale = texel * f;
+                let grazing = Grazing::at(view_proj, point, plane.normal, camera.position, size);
                 Some(match &pyramid {
-                    Some(p) => p.filtered(pixel, scale, &taps).unwrap_or(centre),
+                    Some(p) => p.filtered(pixel, scale, &taps, &grazing).unwrap_or(centre),
                     None => exact(
                         width,
                         height,
@@ -166,6 +170,7 @@ pub fn cpu_reference_filtered(
                         scale,
                         &refl.kernel.taps,
                         filter == MkFilter::Continuous,
+                        &grazing,
                     ),
                 })
             })

@@ -24,6 +24,18 @@
 //! [0, top]: the filter's width follows the lobe's and goes to one texel as m → 0 or as
 //! the reflected point nears the mirror (scale → 0).
 //!
+//! # Grazing views
+//!
+//! K is the lobe's footprint seen along the normal (Bastos's space-invariant kernel). Seen at
+//! θ from the normal, a half vector tilted by δ across the plane of incidence turns the
+//! reflected ray by 2δ cos θ, one tilted within it by 2δ (r = 2 (v·h) h − v, differentiated
+//! at h = n): the lobe narrows across the plane of incidence by cos θ while keeping its
+//! length along it — the streaks a glossy floor shows at grazing views. Each pixel's taps
+//! are therefore squeezed by cos θ across the plane of incidence's trace on screen (the line
+//! through the pixel towards the normal's vanishing point; [`Grazing`]), and read at the
+//! level of their variance's geometric mean over the two axes (v cos θ: the pyramid's
+//! footprint is isotropic).
+//!
 //! # Coverage
 //!
 //! The pyramid holds (rgb·c, c): c = 1 for a texel of M that holds a reflection (image
@@ -31,7 +43,7 @@
 //! empty texel reflects black). The filtered value is Σ W·rgb / Σ W·c, so holes neither
 //! darken the blur nor need filling first.
 
-use glam::{Vec2, Vec3, Vec4};
+use glam::{Mat4, Vec2, Vec3, Vec4};
 
 use super::material::Tap;
 
@@ -50,6 +62,55 @@ pub struct FilterTap {
     pub weight: f32,
     /// Per-axis variance of the kernel mass it stands for, about `offset` (kernel texels²).
     pub variance: f32,
+}
+
+/// How K's footprint narrows on screen at a grazing view (see the module documentation):
+/// `cos` = cos θ between the view ray and the normal, `axis` the unit screen direction (pixels,
+/// y down) of the plane of incidence's trace at the pixel. The identity at normal incidence.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Grazing {
+    /// Unit screen direction of the plane of incidence (pixels, y down).
+    pub axis: Vec2,
+    /// cos θ of the view ray to the normal, in (0, 1].
+    pub cos: f32,
+}
+
+impl Grazing {
+    /// No narrowing (the kernel as baked).
+    pub const NONE: Grazing = Grazing {
+        axis: Vec2::X,
+        cos: 1.0,
+    };
+
+    /// At world point `p` of a reflector of unit normal `n` seen from `eye` through
+    /// `view_proj` (world to clip) on a `size` (pixels) target: the normal's direction on
+    /// screen at `p`'s pixel (the derivative of its pixel position along n) and |n·v|.
+    /// The shader's `grazing_axis` is the same.
+    pub fn at(view_proj: Mat4, p: Vec3, n: Vec3, eye: Vec3, size: Vec2) -> Grazing {
+        let c = view_proj * p.extend(1.0);
+        let dc = view_proj * n.extend(0.0);
+        let d = (dc.truncate().truncate() * c.w - c.truncate().truncate() * dc.w) / (c.w * c.w);
+        let along = Vec2::new(d.x * size.x, -d.y * size.y);
+        let axis = if along.length_squared() > 1e-12 {
+            along.normalize()
+        } else {
+            Vec2::X
+        };
+        let cos = n.dot((eye - p).normalize_or_zero()).abs().clamp(1e-3, 1.0);
+        Grazing { axis, cos }
+    }
+
+    /// A screen offset (pixels, y down) squeezed by cos θ across the axis.
+    pub fn offset(&self, o: Vec2) -> Vec2 {
+        let along = self.axis * o.dot(self.axis);
+        along + (o - along) * self.cos
+    }
+
+    /// A per-axis variance as the isotropic pyramid reads it: the geometric mean of the two
+    /// axes' variances, v·cos θ.
+    pub fn variance(&self, v: f32) -> f32 {
+        v * self.cos
+    }
 }
 
 /// Samples of a pattern with `rings` rings: 1 + 3·rings·(rings + 1).
@@ -235,15 +296,21 @@ impl Pyramid {
 
     /// M*K at continuous pixel `pixel` (centres at +½) with `scale` pixels per kernel texel,
     /// the filter `taps` reading the pyramid (`fs_composite`'s gather): Σ W·rgb / Σ W·c, or
-    /// `None` when no tap finds a covered texel.
-    pub fn filtered(&self, pixel: Vec2, scale: f32, taps: &[FilterTap]) -> Option<Vec3> {
+    /// `None` when no tap finds a covered texel; the taps squeezed as `grazing` says.
+    pub fn filtered(
+        &self,
+        pixel: Vec2,
+        scale: f32,
+        taps: &[FilterTap],
+        grazing: &Grazing,
+    ) -> Option<Vec3> {
         let (w, h, _) = &self.levels[0];
         let size = Vec2::new(*w as f32, *h as f32);
         let sum: Vec4 = taps
             .iter()
             .map(|t| {
-                let p = pixel + Vec2::new(t.offset.x, -t.offset.y) * scale;
-                t.weight * self.sample(p / size, level(t.variance, scale))
+                let p = pixel + grazing.offset(Vec2::new(t.offset.x, -t.offset.y) * scale);
+                t.weight * self.sample(p / size, level(grazing.variance(t.variance), scale))
             })
             .sum();
         (sum.w > 1e-4).then(|| sum.truncate() / sum.w)
@@ -254,7 +321,8 @@ impl Pyramid {
 /// bilinear read of the `width` × `height` image `m` (row 0 at the top) clamped to its edge.
 /// With `continuous`, each kernel texel is the box it stands for: ⌈scale⌉² reads spread over
 /// its scale × scale pixels (point taps spaced wider than a pixel alias thin features: the
-/// blocky pattern of a rough lobe seen at a wide scale).
+/// blocky pattern of a rough lobe seen at a wide scale). Offsets squeezed as `grazing` says.
+#[allow(clippy::too_many_arguments)]
 pub fn exact(
     width: u32,
     height: u32,
@@ -263,6 +331,7 @@ pub fn exact(
     scale: f32,
     taps: &[Tap],
     continuous: bool,
+    grazing: &Grazing,
 ) -> Vec3 {
     let size = Vec2::new(width as f32, height as f32);
     let n = if continuous {
@@ -278,10 +347,13 @@ pub fn exact(
         .collect();
     taps.iter()
         .map(|t| {
-            let centre = pixel + Vec2::new(t.offset.x, -t.offset.y) * scale;
+            let centre = Vec2::new(t.offset.x, -t.offset.y) * scale;
             let sum: Vec3 = sub
                 .iter()
-                .map(|s| bilinear(width, height, m, (centre + *s * scale) / size).truncate())
+                .map(|s| {
+                    let p = pixel + grazing.offset(centre + *s * scale);
+                    bilinear(width, height, m, p / size).truncate()
+                })
                 .sum();
             t.weight * sum / sub.len() as f32
         })
@@ -349,13 +421,42 @@ mod tests {
         for y in (margin..h - margin).step_by(4) {
             for x in (margin..w - margin).step_by(4) {
                 let p = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
-                let a = pyramid.filtered(p, scale, &filter).expect("covered");
-                let b = exact(w, h, &img, p, scale, &taps, true);
+                let a = pyramid
+                    .filtered(p, scale, &filter, &Grazing::NONE)
+                    .expect("covered");
+                let b = exact(w, h, &img, p, scale, &taps, true, &Grazing::NONE);
                 se += (a - b).length_squared() as f64;
                 s2 += b.length_squared() as f64;
             }
         }
         ((se / s2).sqrt(), filter.len())
+    }
+
+    /// A floor seen at 80° by an upright camera: the plane of incidence's trace is the screen's
+    /// vertical and offsets across it shrink by cos 80°; seen along the normal nothing shrinks.
+    #[test]
+    fn grazing_views_squeeze_the_kernel_across_the_plane_of_incidence() {
+        use crate::camera::Camera;
+        let a = 80f32.to_radians();
+        let target = Vec3::ZERO;
+        let eye = target + 1.6 * Vec3::new(0.0, a.cos(), a.sin());
+        let cam = Camera::look_at(eye, target, Vec3::Y, 40f32.to_radians());
+        let vp = crate::view::renderer::view_projection(&cam, 1.5, 0.01);
+        let g = Grazing::at(vp, target, Vec3::Y, eye, Vec2::new(150.0, 100.0));
+        assert!((g.cos - a.cos()).abs() < 1e-4, "{}", g.cos);
+        assert!(
+            g.axis.x.abs() < 1e-4 && (g.axis.y.abs() - 1.0).abs() < 1e-4,
+            "{}",
+            g.axis
+        );
+        let o = g.offset(Vec2::new(3.0, 2.0));
+        assert!((o - Vec2::new(3.0 * a.cos(), 2.0)).length() < 1e-3, "{o}");
+        assert!((g.variance(2.0) - 2.0 * a.cos()).abs() < 1e-5);
+        let top = Camera::look_at(Vec3::new(0.0, 2.0, 0.0), target, Vec3::Z, 0.7);
+        let vp = crate::view::renderer::view_projection(&top, 1.0, 0.01);
+        let g = Grazing::at(vp, target, Vec3::Y, top.position, Vec2::splat(100.0));
+        assert!((g.cos - 1.0).abs() < 1e-6);
+        assert!((g.offset(Vec2::new(3.0, 2.0)) - Vec2::new(3.0, 2.0)).length() < 1e-5);
     }
 
     #[test]
@@ -375,7 +476,7 @@ mod tests {
         let pyramid = Pyramid::of_image(w, h, &rgb, &vec![true; rgb.len()]);
         for (k, v) in rgb.iter().enumerate() {
             let p = Vec2::new((k as u32 % w) as f32 + 0.5, (k as u32 / w) as f32 + 0.5);
-            let got = pyramid.filtered(p, 50.0, &filter).unwrap();
+            let got = pyramid.filtered(p, 50.0, &filter, &Grazing::NONE).unwrap();
             assert!((got - *v).length() < 1e-5, "pixel {k}: {got} vs {v}");
         }
     }

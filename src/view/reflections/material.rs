@@ -11,7 +11,8 @@
 //!   reflected point over t_beyond · tan Δ, seen from the mirrored eye at t_total. Objects
 //!   touching the mirror stay sharp, far ones blur by the full lobe. Kernel columns run along
 //!   screen x, rows along screen up (exact for isotropic lobes, as Bastos's space-invariant
-//!   kernel is).
+//!   kernel is); the composite squeezes them by cos θ across the plane of incidence, where a
+//!   lobe seen at θ narrows ([`super::filter::Grazing`]).
 //! - **R**: per view direction, Σ over lobes of ks × a channel of the baked map, from the
 //!   sphere map (indexed by the reflected direction in the reflector's tangent frame) or the
 //!   1D grazing-dense map (indexed by cos θ), switchable ([`ReflectanceLayout`]). Channel
@@ -28,6 +29,7 @@ use crate::bundle::Bundle;
 use crate::materials::MaterialsIndex;
 use crate::materials::index::IndexedLobe;
 use crate::materials::reflectance;
+use crate::scene::desc::LobeDesc;
 
 /// Entries of a 1D modulation table (the shader's `modulation` array).
 pub const MODULATION_SIZE: usize = 64;
@@ -81,6 +83,23 @@ impl Modulation {
                 .collect(),
         }
     }
+}
+
+/// ks·F per 1D-map cosine for a reflector without a materials stage: Σ over `lobes` of
+/// k_s · Schlick's F(r₀, cos θ) (Kurt et al. 2010 Eq. 3; glTF 2.0 Appendix B's F), taken at
+/// the mirror direction (V·H = cos θ, the value a narrow lobe reflects). A glTF metal of
+/// coloured F₀, two lobes {k_s = F₀, r₀ = 1} + {k_s = 1 − F₀, r₀ = 0}, comes out F₀ at
+/// normal incidence and whitens towards grazing, as Schlick's F does; a lobe of r₀ = 1 is
+/// its k_s at every angle. Without the directional albedo's shadowing (that is R's part).
+pub fn fresnel_table(lobes: &[LobeDesc]) -> Vec<Vec3> {
+    (0..MODULATION_SIZE as u32)
+        .map(|k| {
+            let c = reflectance::map_1d_cos(k, MODULATION_SIZE as u32);
+            lobes.iter().fold(Vec3::ZERO, |sum, l| {
+                sum + Vec3::from_array(l.ks) * crate::brdf::kurt::fresnel_schlick(l.r0, c)
+            })
+        })
+        .collect()
 }
 
 /// Linear lookup of a 1D modulation table at view cosine `cos_theta`, as the 1D map is read
@@ -361,5 +380,47 @@ mod tests {
             "bastos".parse::<ReflectanceChannel>(),
             Ok(ReflectanceChannel::Bastos)
         );
+    }
+}
+
+#[cfg(test)]
+mod fresnel_tests {
+    use super::*;
+    use crate::scene::material::gltf_specular_lobes;
+
+    /// Without a materials stage a gold-like glTF metal (F₀ = (1, 0.77, 0.34): two lobes whose
+    /// k_s sum to white) reflects gold at normal incidence, F₀ itself, and stays gold-tinted
+    /// (blue below red) until it whitens at grazing as Schlick's F does; a grey F₀ is one lobe
+    /// and gives the same curve per channel.
+    #[test]
+    fn a_coloured_metal_without_materials_stage_reflects_its_f0_not_white() {
+        let f0 = Vec3::new(1.0, 0.77, 0.34);
+        let lobes = gltf_specular_lobes(f0, 0.04);
+        assert_eq!(lobes.len(), 2);
+        let ks_sum = lobes
+            .iter()
+            .fold(Vec3::ZERO, |a, l| a + Vec3::from_array(l.ks));
+        assert!((ks_sum - Vec3::ONE).abs().max_element() < 1e-6, "{ks_sum}");
+        let table = fresnel_table(&lobes);
+        let at = |c: f32| sample_modulation(&table, c);
+        assert!(
+            (at(1.0) - f0).abs().max_element() < 1e-4,
+            "normal: {}",
+            at(1.0)
+        );
+        for c in [1.0f32, 0.7, 0.5, 0.3] {
+            let v = at(c);
+            let want = f0 + (Vec3::ONE - f0) * (1.0 - c).powi(5);
+            assert!(
+                (v - want).abs().max_element() < 2e-3,
+                "cos {c}: {v} vs {want}"
+            );
+            assert!(v.z < 0.8 * v.x, "cos {c}: {v} is not gold");
+        }
+        let grazing = at(reflectance::C_GRAZING);
+        assert!(grazing.min_element() > 0.9, "grazing: {grazing}");
+        let grey = fresnel_table(&gltf_specular_lobes(Vec3::splat(0.04), 0.04));
+        let g = sample_modulation(&grey, 1.0);
+        assert!((g - Vec3::splat(0.04)).abs().max_element() < 1e-4, "{g}");
     }
 }

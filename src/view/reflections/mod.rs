@@ -19,7 +19,8 @@
 //!      filled in the composite from the nearest covered ones ([`splats::fill_hole`]).
 //! 2. The composite: the reflector drawn again over the frame, depth-tested against the scene
 //!    pass (the mask), adding ks·R × (M*K) at the same pixel: the convolution with K (scaled
-//!    per pixel, [`material`]) at a cost independent of K's width, a few taps of a regular
+//!    per pixel, [`material`], and narrowed across the plane of incidence at grazing views,
+//!    [`filter::Grazing`]) at a cost independent of K's width, a few taps of a regular
 //!    pattern reading M's MIP pyramid ([`filter`], built per map by `pyramid`), R from the
 //!    sphere map or the 1D map ([`ReflectanceLayout`]).
 //!
@@ -119,7 +120,8 @@ impl PlanarReflector {
 }
 
 /// The scene's planar reflectors whose material has a glossy lobe, in scene order, with
-/// K = identity and R = 1.
+/// K = identity and ks·R = Σ k_s · Schlick's F at the view angle ([`material::fresnel_table`]:
+/// a coloured metal is tinted by its F₀, not the sum of its two lobes' k_s, about 1).
 pub fn glossy_planar_reflectors(scene: &Scene) -> Vec<PlanarReflector> {
     scene
         .reflectors
@@ -140,7 +142,7 @@ pub fn glossy_planar_reflectors(scene: &Scene) -> Vec<PlanarReflector> {
                 bitangent,
                 material: r.material,
                 ks,
-                modulation: Modulation::constant(ks),
+                modulation: Modulation::OneD(material::fresnel_table(&material.lobes)),
                 kernel: ScreenKernel::identity(),
                 triangles: r.triangles.clone(),
             })
@@ -162,7 +164,7 @@ pub fn reflectors_with_materials(
 ) -> Vec<PlanarReflector> {
     let mut reflectors = glossy_planar_reflectors(&data.scene);
     if data.bundle.stage("materials").is_none() {
-        log::info!("no materials stage: reflections use K = I, R = 1 (ks only)");
+        log::info!("no materials stage: reflections use K = I, ks·R = Σ ks·Schlick F");
         return reflectors;
     }
     let index = match crate::materials::MaterialsIndex::load(&data.bundle) {
