@@ -172,7 +172,7 @@ impl GatherBatch {
                     "{n} hits for {gathering_rays} gathering rays"
                 )));
             }
-            let raw = r.take(n.checked_mul(4).ok_or_else(|| overflow())?)?;
+            let raw = r.take(n.checked_mul(4).ok_or_else(overflow)?)?;
             let hits: Vec<u32> = raw
                 .chunks_exact(4)
                 .map(|c| u32::from_le_bytes(c.try_into().expect("4 bytes")))
