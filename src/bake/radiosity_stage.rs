@@ -279,16 +279,9 @@ fn read_batches(
         let bad = |why: String| {
             RadiosityError::Setting(format!("{}: gathering shard: {why}", shard.display()))
         };
-        let bundle = crate::bundle::Bundle::open(shard).map_err(|e| bad(e.to_string()))?;
-        let record = bundle
-            .stage(GATHER_STAGE)
-            .ok_or_else(|| bad(format!("has no `{GATHER_STAGE}` stage")))?;
-        let asset = record
-            .assets
-            .iter()
-            .find(|a| a.path == format!("{GATHER_STAGE}/{GATHER_ASSET}"))
-            .ok_or_else(|| bad(format!("has no {GATHER_STAGE}/{GATHER_ASSET}")))?;
-        let bytes = bundle.read_asset(asset).map_err(|e| bad(e.to_string()))?;
+        let bytes = crate::bundle::Bundle::open(shard)
+            .and_then(|b| b.read_stage_file(GATHER_STAGE, GATHER_ASSET))
+            .map_err(|e| bad(e.to_string()))?;
         out.push(
             GatherBatch::decode(&bytes, &p.atlas, &p.samples).map_err(|e| bad(e.to_string()))?,
         );

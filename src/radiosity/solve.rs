@@ -214,19 +214,10 @@ pub fn gather_batch(
     range: Range<u32>,
     progress: &dyn Progress,
 ) -> Result<GatherBatch, Cancelled> {
-    assert!(
-        range.end as usize <= samples.len(),
-        "batch beyond the elements"
-    );
     let offsets = atlas.page_offsets();
     let lights = Lights::new(scene, set);
     let cx = lights.context(scene, bvh, atlas, &offsets, set);
-    let (rays, light) = (set.rays.max(1), set.light_samples.max(1));
-    progress.phase("gathering", range.len() as u64);
-    let which: Vec<(u32, u32, u32)> = range.clone().map(|i| (i, rays, light)).collect();
-    let elements =
-        gather_all(&cx, samples, &which, None, set.seed, 0, progress).ok_or(Cancelled)?;
-    Ok(GatherBatch { range, elements })
+    gather_first(&cx, samples, set, range, progress)
 }
 
 /// Solves the scene's radiosity on the atlas. `samples` come from [`super::atlas::build`].
@@ -238,16 +229,11 @@ pub fn solve(
     set: &SolveSettings,
     progress: &dyn Progress,
 ) -> Result<Solution, Cancelled> {
-    let all = gather_batch(
-        scene,
-        bvh,
-        atlas,
-        samples,
-        set,
-        0..samples.len() as u32,
-        progress,
-    )?;
-    solve_batches(scene, bvh, atlas, samples, set, vec![all], progress)
+    let offsets = atlas.page_offsets();
+    let lights = Lights::new(scene, set);
+    let cx = lights.context(scene, bvh, atlas, &offsets, set);
+    let all = gather_first(&cx, samples, set, 0..samples.len() as u32, progress)?;
+    solve_gathered(&cx, samples, set, vec![all], progress)
 }
 
 /// Solves from first gathering batches that cover every element once, in order (refinement
@@ -256,6 +242,39 @@ pub fn solve_batches(
     scene: &Scene,
     bvh: &Bvh,
     atlas: &Atlas,
+    samples: &[TexelSample],
+    set: &SolveSettings,
+    batches: Vec<GatherBatch>,
+    progress: &dyn Progress,
+) -> Result<Solution, Cancelled> {
+    let offsets = atlas.page_offsets();
+    let lights = Lights::new(scene, set);
+    let cx = lights.context(scene, bvh, atlas, &offsets, set);
+    solve_gathered(&cx, samples, set, batches, progress)
+}
+
+/// [`gather_batch`] in a context.
+fn gather_first(
+    cx: &Context,
+    samples: &[TexelSample],
+    set: &SolveSettings,
+    range: Range<u32>,
+    progress: &dyn Progress,
+) -> Result<GatherBatch, Cancelled> {
+    assert!(
+        range.end as usize <= samples.len(),
+        "batch beyond the elements"
+    );
+    let (rays, light) = (set.rays.max(1), set.light_samples.max(1));
+    progress.phase("gathering", range.len() as u64);
+    let which: Vec<(u32, u32, u32)> = range.clone().map(|i| (i, rays, light)).collect();
+    let elements = gather_all(cx, samples, &which, None, set.seed, 0, progress).ok_or(Cancelled)?;
+    Ok(GatherBatch { range, elements })
+}
+
+/// [`solve_batches`] in a context.
+fn solve_gathered(
+    cx: &Context,
     samples: &[TexelSample],
     set: &SolveSettings,
     batches: Vec<GatherBatch>,
@@ -274,9 +293,7 @@ pub fn solve_batches(
         samples.len(),
         "gathering batches must cover every element"
     );
-    let offsets = atlas.page_offsets();
-    let lights = Lights::new(scene, set);
-    let cx = lights.context(scene, bvh, atlas, &offsets, set);
+    let (scene, atlas) = (cx.scene, cx.atlas);
     let (rays, light) = (set.rays.max(1), set.light_samples.max(1));
     let mut gathered: Vec<Gathered> = Vec::with_capacity(samples.len());
     for b in batches {
@@ -328,7 +345,7 @@ pub fn solve_batches(
             }
             progress.phase("refining", which.len() as u64);
             let more = gather_all(
-                &cx,
+                cx,
                 samples,
                 &which,
                 Some(&gathered),
