@@ -145,7 +145,7 @@ pub struct RadiosityFlags {
     /// Gathering rays per texel.
     #[arg(long, value_name = "N")]
     pub rays: Option<u32>,
-    /// Emitter samples per texel, per area light and for the emissive triangles.
+    /// Emitter samples per texel, per area light and for the emissive triangles (with more than 8 emitters: 8 × this many, drawn from all of them by their weight).
     #[arg(long, value_name = "N")]
     pub light_samples: Option<u32>,
     /// Largest number of indirect bounces.

@@ -366,6 +366,10 @@ pub fn bake_from(
         ("texels_filled".into(), st.filled.into()),
         ("rays_cast".into(), st.rays_cast.into()),
         ("gather_cache_bytes".into(), st.cache_bytes.into()),
+        (
+            "gather_cache_terms_bytes".into(),
+            st.cache_terms_bytes.into(),
+        ),
         ("bounces".into(), st.bounces.into()),
         ("last_change".into(), st.last_change.into()),
         ("refine_rounds".into(), st.rounds.into()),

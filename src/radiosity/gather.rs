@@ -8,6 +8,7 @@ use glam::{Vec2, Vec3};
 
 use super::atlas::{Atlas, TexelSample};
 use super::emitters::{Emitters, luminance, power, stratified_point, var_of_mean};
+use super::many_lights::{Choice, LIGHTS_SAMPLED_EACH, ManyLights};
 use super::mirror_lights::MirrorLights;
 use super::transport::{Glossy, Term};
 use crate::geometry::Bvh;
@@ -28,6 +29,8 @@ pub(super) struct Context<'a> {
     pub glossy: Option<Glossy<'a>>,
     /// Emitters' images in near-mirror planar reflectors.
     pub mirrors: Option<&'a MirrorLights>,
+    /// The emitters as one per-point distribution, when there are too many to sample each.
+    pub many: Option<&'a ManyLights>,
 }
 
 /// Sums of one element's samples, for the variance of its estimate (luminance).
@@ -122,6 +125,9 @@ pub(super) fn gather(
     let mut via_glossy = Vec3::ZERO;
     let mut backfaces = 0u32;
     let mut rays = 0u64;
+    // With many emitters, one distribution over them all, and that many samples from it.
+    let many = cx.many.map(|m| (m, m.choose(origin, ns)));
+    let n_many = n_light * LIGHTS_SAMPLED_EACH as u32;
 
     // Gathering rays (cosine-distributed about the shading normal), from a low-discrepancy
     // sequence: the incoming radiance is smooth over most of the hemisphere.
@@ -154,9 +160,16 @@ pub(super) fn gather(
                     let pdf_e = e;
                     let e = scene.emission_at(h.triangle, h.bary);
                     // MIS against explicit emitter sampling (solid-angle densities).
-                    let p_light = cx.emitters.area_pdf(pdf_e) * h.t * h.t / cos_l;
+                    let (area_pdf, n_e) = match &many {
+                        None => (cx.emitters.area_pdf(pdf_e), n_light),
+                        Some((m, choice)) => {
+                            let k = m.emitter_of(h.triangle);
+                            (choice.prob(k) * m.area_pdf_in_group(k, pdf_e), n_many)
+                        }
+                    };
+                    let p_light = area_pdf * h.t * h.t / cos_l;
                     let p_bsdf = l.z / PI;
-                    let w = power(n_rays as f32, p_bsdf, n_light as f32, p_light);
+                    let w = power(n_rays as f32, p_bsdf, n_e as f32, p_light);
                     // Irradiance/π from this ray: L · (cos/p_bsdf)/π/N = L/N.
                     direct += e * w / n_rays as f32;
                     constant += luminance(e * w) as f64;
@@ -180,6 +193,79 @@ pub(super) fn gather(
         direct += via_glossy / n_rays as f32;
     }
 
+    match &many {
+        Some((m, choice)) => {
+            let (light, var) = sample_many(
+                cx, m, choice, origin, ns, ng, rng, n_many, n_rays, &mut rays,
+            );
+            direct += light;
+            moments.light_var += var;
+        }
+        // Added to `direct` and the variance light by light, in this order.
+        None => sample_each(
+            cx,
+            origin,
+            ns,
+            ng,
+            rng,
+            n_light,
+            n_rays,
+            &mut rays,
+            &mut direct,
+            &mut moments.light_var,
+        ),
+    }
+
+    // The emitters' images in mirrors.
+    if let Some(m) = cx.mirrors {
+        let (light, var) = m.direct(
+            scene,
+            bvh,
+            cx.emitters,
+            cx.many,
+            origin,
+            ns,
+            ng,
+            rng,
+            n_light,
+            &mut rays,
+        );
+        direct += light;
+        moments.light_var += var;
+    }
+
+    // Held until the solve packs them: no growth slack.
+    terms.shrink_to_fit();
+    Gathered {
+        direct,
+        gathering_rays: n_rays,
+        hits,
+        terms,
+        inside: backfaces as f32 > BACKFACE_LIMIT * n_rays as f32,
+        rays,
+        light_samples: n_light,
+        moments,
+    }
+}
+
+/// Irradiance/π at a point from `n_light` stratified samples of each area light and `n_light`
+/// samples of the emissive triangles (by area × luminance, MIS-weighted against `n_rays`
+/// cosine-distributed gathering rays), added to `direct` with its variance (luminance)
+/// added to `var`; counts the rays cast.
+#[allow(clippy::too_many_arguments)]
+fn sample_each(
+    cx: &Context,
+    origin: Vec3,
+    ns: Vec3,
+    ng: Vec3,
+    rng: &mut Rng,
+    n_light: u32,
+    n_rays: u32,
+    rays: &mut u64,
+    direct: &mut Vec3,
+    var: &mut f64,
+) {
+    let (scene, bvh) = (cx.scene, cx.bvh);
     // Area lights: stratified points on each quad.
     let grid = (n_light as f32).sqrt().ceil() as u32;
     for light in &scene.lights {
@@ -199,7 +285,7 @@ pub(super) fn gather(
             if cos_s <= 0.0 || cos_l <= 0.0 || d.dot(ng) <= 0.0 {
                 continue;
             }
-            rays += 1;
+            *rays += 1;
             if bvh.occluded(origin, d, dist * (1.0 - 1e-5)) {
                 continue;
             }
@@ -209,8 +295,8 @@ pub(super) fn gather(
             y += v;
             y2 += v * v;
         }
-        direct += sum * (light.area / n_light as f32) / PI;
-        moments.light_var += var_of_mean(y, y2, n_light);
+        *direct += sum * (light.area / n_light as f32) / PI;
+        *var += var_of_mean(y, y2, n_light);
     }
 
     // Emissive triangles: points in proportion to area × luminance.
@@ -235,7 +321,7 @@ pub(super) fn gather(
             if cos_s <= 0.0 || cos_l <= 0.0 || d.dot(ng) <= 0.0 {
                 continue;
             }
-            rays += 1;
+            *rays += 1;
             // Stop short of the emitter: it must not occlude itself.
             if bvh.occluded(origin, d, dist - 2.0 * bvh.epsilon().max(dist * 1e-5)) {
                 continue;
@@ -249,35 +335,68 @@ pub(super) fn gather(
             y += v;
             y2 += v * v;
         }
-        direct += sum / (n_light as f32 * PI);
-        moments.light_var += var_of_mean(y, y2, n_light);
+        *direct += sum / (n_light as f32 * PI);
+        *var += var_of_mean(y, y2, n_light);
     }
+}
 
-    // The emitters' images in mirrors.
-    if let Some(m) = cx.mirrors {
-        let (light, var) = m.direct(
-            scene,
-            bvh,
-            cx.emitters,
-            origin,
-            ns,
-            ng,
-            rng,
-            n_light,
-            &mut rays,
-        );
-        direct += light;
-        moments.light_var += var;
+/// Irradiance/π at a point from `n` samples of the emitters drawn from `choice` (stratified
+/// in the choice's variable), MIS-weighted against `n_rays` cosine-distributed gathering rays
+/// for emissive triangles; returns it with its variance (luminance) and counts the rays cast.
+#[allow(clippy::too_many_arguments)]
+fn sample_many(
+    cx: &Context,
+    many: &ManyLights,
+    choice: &Choice,
+    origin: Vec3,
+    ns: Vec3,
+    ng: Vec3,
+    rng: &mut Rng,
+    n: u32,
+    n_rays: u32,
+    rays: &mut u64,
+) -> (Vec3, f64) {
+    if choice.is_empty() {
+        return (Vec3::ZERO, 0.0);
     }
-
-    Gathered {
-        direct,
-        gathering_rays: n_rays,
-        hits,
-        terms,
-        inside: backfaces as f32 > BACKFACE_LIMIT * n_rays as f32,
-        rays,
-        light_samples: n_light,
-        moments,
+    let (scene, bvh) = (cx.scene, cx.bvh);
+    let mut sum = Vec3::ZERO;
+    let (mut y, mut y2) = (0.0f64, 0.0f64);
+    for k in 0..n {
+        let (e, p_pick) = choice.pick((k as f32 + rng.uniform()) / n as f32);
+        let lp = many.sample(scene, e, origin, rng);
+        let w = lp.q - origin;
+        let dist2 = w.length_squared();
+        let dist = dist2.sqrt();
+        if dist.is_nan() || dist <= 0.0 {
+            continue;
+        }
+        let d = w / dist;
+        let cos_s = d.dot(ns);
+        let cos_l = -d.dot(lp.normal);
+        if cos_s <= 0.0 || cos_l <= 0.0 || d.dot(ng) <= 0.0 {
+            continue;
+        }
+        *rays += 1;
+        // Stop short of an emissive triangle: it must not occlude itself.
+        let reach = match lp.triangle {
+            None => dist * (1.0 - 1e-5),
+            Some(_) => dist - 2.0 * bvh.epsilon().max(dist * 1e-5),
+        };
+        if bvh.occluded(origin, d, reach) {
+            continue;
+        }
+        let p_light = p_pick * lp.area_pdf * dist2 / cos_l;
+        // Gathering rays find emissive triangles too; area lights are not geometry.
+        let wgt = match lp.triangle {
+            None => 1.0,
+            Some(_) => power(n as f32, p_light, n_rays as f32, cos_s / PI),
+        };
+        let c = lp.radiance * (wgt * cos_s / p_light);
+        sum += c;
+        let v = luminance(c) as f64 / PI as f64;
+        y += v;
+        y2 += v * v;
     }
+    (sum / (n as f32 * PI), var_of_mean(y, y2, n))
 }

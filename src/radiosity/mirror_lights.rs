@@ -18,6 +18,7 @@ use std::f32::consts::PI;
 use glam::Vec3;
 
 use super::emitters::{Emitters, luminance, stratified_point, var_of_mean};
+use super::many_lights::{Choice, LIGHTS_SAMPLED_EACH, ManyLights};
 use crate::brdf::Lobe;
 use crate::geometry::Bvh;
 use crate::sampling::{Rng, sample_triangle};
@@ -61,6 +62,69 @@ impl Mirror {
         let n = self.plane.normal;
         q - n * (2.0 * (q - self.plane.point).dot(n))
     }
+
+    /// The corners of the mirror's (widened) bounds.
+    fn corners(&self) -> [Vec3; 8] {
+        let (lo, hi) = (self.lo, self.hi);
+        std::array::from_fn(|c| {
+            Vec3::new(
+                if c & 1 == 0 { lo.x } else { hi.x },
+                if c & 2 == 0 { lo.y } else { hi.y },
+                if c & 4 == 0 { lo.z } else { hi.z },
+            )
+        })
+    }
+
+    /// The light reaching `origin` (shading normal `ns`, face normal `ng`) from emitter point
+    /// `q` via this mirror (`id`): its reflectance, the cosine at the receiver, the distance²
+    /// to q's image and the reflected direction at the emitter; `None` when blocked or
+    /// outside the mirror. The segment to q stops `reach_short` before it.
+    #[allow(clippy::too_many_arguments)]
+    fn through(
+        &self,
+        id: u32,
+        mirror_of: &[u32],
+        scene: &Scene,
+        bvh: &Bvh,
+        origin: Vec3,
+        ns: Vec3,
+        ng: Vec3,
+        q: Vec3,
+        reach_short: f32,
+        rays: &mut u64,
+    ) -> Option<(Vec3, f32, f32, Vec3)> {
+        let image = self.reflect_point(q);
+        let w = image - origin;
+        let dist2 = w.length_squared();
+        let dist = dist2.sqrt();
+        if dist.is_nan() || dist <= 0.0 {
+            return None;
+        }
+        let d = w / dist;
+        let cos_s = d.dot(ns);
+        if cos_s <= 0.0 || d.dot(ng) <= 0.0 || !self.may_meet(origin, d) {
+            return None;
+        }
+        *rays += 1;
+        let h = bvh.closest_hit(origin, d, dist)?;
+        let tri = &scene.triangles[h.triangle as usize];
+        let c = -d.dot(self.plane.normal);
+        if mirror_of[h.triangle as usize] != id || c <= 0.0 {
+            return None;
+        }
+        if tri.face_normal().dot(d) >= 0.0 {
+            return None;
+        }
+        let n = self.plane.normal;
+        let r = d - n * (2.0 * d.dot(n));
+        let at = bvh.offset_origin(origin + d * h.t, n);
+        *rays += 1;
+        let rest = (dist - h.t) - reach_short;
+        if rest <= 0.0 || bvh.occluded(at, r, rest) {
+            return None;
+        }
+        Some((self.reflectance(c), cos_s, dist2, r))
+    }
 }
 
 /// The scene's near-mirror planar reflectors.
@@ -68,11 +132,15 @@ pub(super) struct MirrorLights {
     mirrors: Vec<Mirror>,
     /// Per triangle: its mirror's id (index + 1), 0 when it is not part of one.
     mirror_of: Vec<u32>,
+    /// With many emitters: per mirror, the distribution over the emitters of a receiver at
+    /// its centre (which emitters light the mirror, and how much).
+    per_mirror: Vec<Choice>,
 }
 
 impl MirrorLights {
-    /// `None` when the scene has no planar reflector whose material is a mirror.
-    pub fn new(scene: &Scene) -> Option<MirrorLights> {
+    /// `None` when the scene has no planar reflector whose material is a mirror. With `many`,
+    /// the emitters are sampled from one distribution ([`MirrorLights::direct`]).
+    pub fn new(scene: &Scene, many: Option<&ManyLights>) -> Option<MirrorLights> {
         let mut mirrors = Vec::new();
         let mut mirror_of = vec![0u32; scene.triangles.len()];
         for r in &scene.reflectors {
@@ -108,7 +176,18 @@ impl MirrorLights {
                 hi: hi + pad,
             });
         }
-        (!mirrors.is_empty()).then_some(MirrorLights { mirrors, mirror_of })
+        let per_mirror = match many {
+            None => Vec::new(),
+            Some(ml) => mirrors
+                .iter()
+                .map(|m| ml.choose_for(m.plane.point, m.plane.normal, &m.corners()))
+                .collect(),
+        };
+        (!mirrors.is_empty()).then_some(MirrorLights {
+            mirrors,
+            mirror_of,
+            per_mirror,
+        })
     }
 
     /// Whether `triangle` is part of a mirror whose emitter images are sampled here.
@@ -117,14 +196,16 @@ impl MirrorLights {
     }
 
     /// Irradiance/π at a point (`origin` offset from it, shading normal `ns`, face normal `ng`)
-    /// from the emitters' images in every mirror, `n_light` samples per emitter and mirror;
-    /// returns it with the variance of its luminance and counts the rays cast.
+    /// from the emitters' images in every mirror, `n_light` samples per emitter and mirror
+    /// (with `many`: `n_light` × [`LIGHTS_SAMPLED_EACH`] samples over all mirrors and
+    /// emitters); returns it with the variance of its luminance and counts the rays cast.
     #[allow(clippy::too_many_arguments)]
     pub fn direct(
         &self,
         scene: &Scene,
         bvh: &Bvh,
         emitters: &Emitters,
+        many: Option<&ManyLights>,
         origin: Vec3,
         ns: Vec3,
         ng: Vec3,
@@ -132,47 +213,29 @@ impl MirrorLights {
         n_light: u32,
         rays: &mut u64,
     ) -> (Vec3, f64) {
+        if let Some(ml) = many {
+            let n = n_light * LIGHTS_SAMPLED_EACH as u32;
+            return self.direct_many(scene, bvh, ml, origin, ns, ng, rng, n, rays);
+        }
         let mut total = Vec3::ZERO;
         let mut var = 0.0f64;
         for (id, m) in (1u32..).zip(&self.mirrors) {
             if (origin - m.plane.point).dot(m.plane.normal) <= 0.0 {
                 continue; // behind the mirror: it shows nothing here
             }
-            // The light reaching `origin` from emitter point `q` via the mirror, per unit
-            // solid-angle-free measure: (reflectance, cos at the receiver, distance², the
-            // reflected direction at the emitter); `None` when blocked or outside the mirror.
-            let mut through = |q: Vec3, reach_short: f32| -> Option<(Vec3, f32, f32, Vec3)> {
-                let image = m.reflect_point(q);
-                let w = image - origin;
-                let dist2 = w.length_squared();
-                let dist = dist2.sqrt();
-                if dist.is_nan() || dist <= 0.0 {
-                    return None;
-                }
-                let d = w / dist;
-                let cos_s = d.dot(ns);
-                if cos_s <= 0.0 || d.dot(ng) <= 0.0 || !m.may_meet(origin, d) {
-                    return None;
-                }
-                *rays += 1;
-                let h = bvh.closest_hit(origin, d, dist)?;
-                let tri = &scene.triangles[h.triangle as usize];
-                let c = -d.dot(m.plane.normal);
-                if self.mirror_of[h.triangle as usize] != id || c <= 0.0 {
-                    return None;
-                }
-                if tri.face_normal().dot(d) >= 0.0 {
-                    return None;
-                }
-                let n = m.plane.normal;
-                let r = d - n * (2.0 * d.dot(n));
-                let at = bvh.offset_origin(origin + d * h.t, n);
-                *rays += 1;
-                let rest = (dist - h.t) - reach_short;
-                if rest <= 0.0 || bvh.occluded(at, r, rest) {
-                    return None;
-                }
-                Some((m.reflectance(c), cos_s, dist2, r))
+            let mut through = |q: Vec3, reach_short: f32| {
+                m.through(
+                    id,
+                    &self.mirror_of,
+                    scene,
+                    bvh,
+                    origin,
+                    ns,
+                    ng,
+                    q,
+                    reach_short,
+                    rays,
+                )
             };
 
             for light in &scene.lights {
@@ -228,4 +291,101 @@ impl MirrorLights {
         }
         (total, var)
     }
+
+    /// [`MirrorLights::direct`] with many emitters: `n` samples, each a mirror chosen by what
+    /// it can reflect towards the point (its emitters' weight at its centre, the best cosine
+    /// it makes with `ns`, over distance² + its radius²), then an emitter from the mirror's
+    /// distribution, then a point on it.
+    #[allow(clippy::too_many_arguments)]
+    fn direct_many(
+        &self,
+        scene: &Scene,
+        bvh: &Bvh,
+        many: &ManyLights,
+        origin: Vec3,
+        ns: Vec3,
+        ng: Vec3,
+        rng: &mut Rng,
+        n: u32,
+        rays: &mut u64,
+    ) -> (Vec3, f64) {
+        let mut total_w = 0.0f32;
+        let cdf: Vec<f32> = self
+            .mirrors
+            .iter()
+            .zip(&self.per_mirror)
+            .map(|(m, choice)| {
+                total_w += mirror_weight(m, choice, origin, ns);
+                total_w
+            })
+            .collect();
+        if total_w <= 0.0 {
+            return (Vec3::ZERO, 0.0);
+        }
+        let (mut sum, mut y, mut y2) = (Vec3::ZERO, 0.0f64, 0.0f64);
+        for k in 0..n {
+            let x = (k as f32 + rng.uniform()) / n as f32 * total_w;
+            let i = cdf.partition_point(|&c| c <= x).min(cdf.len() - 1);
+            let p_mirror = (cdf[i] - if i == 0 { 0.0 } else { cdf[i - 1] }) / total_w;
+            let (m, choice) = (&self.mirrors[i], &self.per_mirror[i]);
+            if choice.is_empty() {
+                continue;
+            }
+            let (e, p_emitter) = choice.pick(rng.uniform());
+            let lp = many.sample(scene, e, m.reflect_point(origin), rng);
+            let reach_short = if lp.triangle.is_some() {
+                2.0 * bvh.epsilon()
+            } else {
+                0.0
+            };
+            let id = i as u32 + 1;
+            let Some((refl, cos_s, dist2, r)) = m.through(
+                id,
+                &self.mirror_of,
+                scene,
+                bvh,
+                origin,
+                ns,
+                ng,
+                lp.q,
+                reach_short,
+                rays,
+            ) else {
+                continue;
+            };
+            let cos_l = -r.dot(lp.normal);
+            if cos_l <= 0.0 {
+                continue;
+            }
+            let p = p_mirror * p_emitter * lp.area_pdf;
+            let c = lp.radiance * refl * (cos_s * cos_l / (dist2 * p));
+            sum += c;
+            let v = luminance(c) as f64 / PI as f64;
+            y += v;
+            y2 += v * v;
+        }
+        (sum / (n as f32 * PI), var_of_mean(y, y2, n))
+    }
+}
+
+/// Weight of mirror `m` (with its emitters' distribution `choice`) for a receiver at `origin`
+/// with normal `ns`: 0 when the receiver is behind it or it lies wholly below the receiver's
+/// plane.
+fn mirror_weight(m: &Mirror, choice: &Choice, origin: Vec3, ns: Vec3) -> f32 {
+    if choice.is_empty() || (origin - m.plane.point).dot(m.plane.normal) <= 0.0 {
+        return 0.0;
+    }
+    let (lo, hi) = (m.lo, m.hi);
+    let mut cos_r = 0.0f32;
+    for c in m.corners() {
+        let w = c - origin;
+        let len = w.length();
+        cos_r = cos_r.max(if len > 0.0 { w.dot(ns) / len } else { 1.0 });
+    }
+    if cos_r <= 0.0 {
+        return 0.0;
+    }
+    let centre = 0.5 * (lo + hi);
+    choice.total() * cos_r
+        / ((origin - centre).length_squared() + 0.25 * (hi - lo).length_squared())
 }

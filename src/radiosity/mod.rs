@@ -7,6 +7,7 @@ pub mod current;
 mod emitters;
 pub mod format;
 mod gather;
+mod many_lights;
 pub mod map;
 mod mirror_lights;
 pub mod seams;

@@ -24,6 +24,7 @@ use super::atlas::{Atlas, TexelSample};
 pub use super::batch::GatherBatch;
 use super::emitters::{Emitters, luminance};
 use super::gather::{Context, Gathered, RaySequence, gather};
+use super::many_lights::{LIGHTS_SAMPLED_EACH, ManyLights};
 use super::mirror_lights::MirrorLights;
 use super::transport::{Glossy, Term};
 use crate::geometry::Bvh;
@@ -49,12 +50,17 @@ pub const REFINE_BUDGET: u64 = 8;
 /// Samples per work item (progress and cancellation granularity).
 const CHUNK: usize = 256;
 
+/// Elements a refinement round gathers before packing their rays into the links.
+const REFINE_SLICE: usize = 16384;
+
 /// Solver settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SolveSettings {
     /// Gathering rays per texel.
     pub rays: u32,
-    /// Emitter samples per texel and per area light (and for all emissive triangles).
+    /// Emitter samples per texel and per area light (and for all emissive triangles); with
+    /// more than [`LIGHTS_SAMPLED_EACH`] emitters, that many times this drawn from all of them
+    /// ([`super::many_lights`]).
     pub light_samples: u32,
     /// Largest number of indirect bounces.
     pub bounces: u32,
@@ -97,6 +103,8 @@ pub struct SolveStats {
     /// Bytes of the gathered rays the bounces read (their hits and glossy terms): what grows
     /// with rays × elements.
     pub cache_bytes: u64,
+    /// The glossy terms' share of `cache_bytes`.
+    pub cache_terms_bytes: u64,
 }
 
 /// A converged solution.
@@ -159,18 +167,21 @@ fn gather_all(
 struct Lights {
     emitters: Emitters,
     mirrors: Option<MirrorLights>,
+    many: Option<ManyLights>,
 }
 
 impl Lights {
     fn new(scene: &Scene, set: &SolveSettings) -> Lights {
+        let many = ManyLights::new(scene, LIGHTS_SAMPLED_EACH);
         Lights {
             emitters: Emitters::new(scene),
             // Mirror images of emitters are part of glossy transport.
             mirrors: if set.glossy_depth > 0 {
-                MirrorLights::new(scene)
+                MirrorLights::new(scene, many.as_ref())
             } else {
                 None
             },
+            many,
         }
     }
 
@@ -196,8 +207,10 @@ impl Lights {
                 &self.emitters,
                 set.glossy_depth,
                 self.mirrors.as_ref(),
+                self.many.as_ref(),
             ),
             mirrors: self.mirrors.as_ref(),
+            many: self.many.as_ref(),
         }
     }
 }
@@ -344,21 +357,25 @@ fn solve_gathered(
                 break;
             }
             progress.phase("refining", which.len() as u64);
-            let more = gather_all(
-                cx,
-                samples,
-                &which,
-                Some(&gathered),
-                set.seed,
-                round,
-                progress,
-            )
-            .ok_or(Cancelled)?;
-            for (&(i, _, _), mut g) in which.iter().zip(more) {
-                let i = i as usize;
-                links[i].extend(&mut g, &resolve);
-                gathered[i].merge(&g);
-                refined[i] = true;
+            // A slice at a time: a round's raw rays (4 bytes each, and their glossy terms)
+            // are packed into the links before the next slice is gathered.
+            for slice in which.chunks(REFINE_SLICE) {
+                let more = gather_all(
+                    cx,
+                    samples,
+                    slice,
+                    Some(&gathered),
+                    set.seed,
+                    round,
+                    progress,
+                )
+                .ok_or(Cancelled)?;
+                for (&(i, _, _), mut g) in slice.iter().zip(more) {
+                    let i = i as usize;
+                    links[i].extend(&mut g, &resolve);
+                    gathered[i].merge(&g);
+                    refined[i] = true;
+                }
             }
             stats.rounds = round;
             iterate(
@@ -370,6 +387,10 @@ fn solve_gathered(
     stats.refined = refined.iter().filter(|&&r| r).count() as u64;
     stats.rays_cast = gathered.iter().map(|g| g.rays).sum();
     stats.cache_bytes = links.iter().map(Links::bytes).sum();
+    stats.cache_terms_bytes = links
+        .iter()
+        .map(|l| (l.terms.capacity() * size_of::<Term>()) as u64)
+        .sum();
     let mut valid: Vec<f64> = error
         .iter()
         .zip(&gathered)
@@ -481,17 +502,19 @@ impl Links {
         }
         packed.shrink_to_fit();
         self.hits = packed;
-        let terms = std::mem::take(&mut g.terms);
-        self.terms.reserve_exact(terms.len());
-        self.terms.extend(
-            terms
-                .iter()
-                .map(|t| Term {
-                    texel: resolved(t.texel),
-                    weight: t.weight,
-                })
-                .filter(|t| t.texel != u32::MAX),
-        );
+        let mut terms = std::mem::take(&mut g.terms);
+        // Resolved in place: a first batch's terms become the links' without a second copy.
+        terms.retain_mut(|t| {
+            t.texel = resolved(t.texel);
+            t.texel != u32::MAX
+        });
+        if self.terms.is_empty() {
+            terms.shrink_to_fit();
+            self.terms = terms;
+        } else {
+            self.terms.reserve_exact(terms.len());
+            self.terms.extend_from_slice(&terms);
+        }
     }
 }
 

@@ -25,6 +25,7 @@ use glam::Vec3;
 
 use super::atlas::Atlas;
 use super::emitters::{Emitters, luminance, power};
+use super::many_lights::{Choice, ManyLights};
 use super::mirror_lights::MirrorLights;
 use crate::brdf::Frame;
 use crate::brdf::Lobe;
@@ -107,10 +108,13 @@ pub(super) struct Glossy<'a> {
     /// Mirrors whose emitter images the solver samples directly: at a gathering ray's first
     /// reflection on one of them, emitters are left out (they would be counted twice).
     mirrors: Option<&'a MirrorLights>,
+    /// The emitters as one per-point distribution, when there are too many to sample each.
+    many: Option<&'a ManyLights>,
 }
 
 impl<'a> Glossy<'a> {
     /// `None` when there is nothing to follow (depth 0 or no glossy material).
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         scene: &'a Scene,
         bvh: &'a Bvh,
@@ -119,6 +123,7 @@ impl<'a> Glossy<'a> {
         emitters: &'a Emitters,
         depth: u32,
         mirrors: Option<&'a MirrorLights>,
+        many: Option<&'a ManyLights>,
     ) -> Option<Glossy<'a>> {
         let lobes: Vec<Option<Lobes>> = scene.materials.iter().map(Lobes::new).collect();
         (depth > 0 && lobes.iter().any(Option::is_some)).then_some(Glossy {
@@ -130,6 +135,7 @@ impl<'a> Glossy<'a> {
             lobes,
             depth,
             mirrors,
+            many,
         })
     }
 
@@ -171,8 +177,19 @@ impl<'a> Glossy<'a> {
             // Emitters seen in a mirror from the gathering element: sampled by MirrorLights.
             let emitters_here =
                 depth > 0 || !self.mirrors.is_some_and(|m| m.is_mirror(hit.triangle));
+            // With many emitters, this vertex's distribution over them.
+            let choice = match self.many {
+                Some(m) if emitters_here => Some(m.choose(origin, ns)),
+                _ => None,
+            };
             if emitters_here {
-                out += beta * self.next_event(lobes, &frame, wo, p, origin, ng, rng, rays);
+                out += beta
+                    * match &choice {
+                        None => self.next_event(lobes, &frame, wo, p, origin, ng, rng, rays),
+                        Some(c) => {
+                            self.next_event_many(lobes, &frame, wo, origin, ng, c, rng, rays)
+                        }
+                    };
             }
 
             let u_pick = rng.uniform();
@@ -199,7 +216,7 @@ impl<'a> Glossy<'a> {
             let next = self.bvh.closest_hit(origin, d, f32::INFINITY);
             if emitters_here {
                 let t_max = next.map_or(f32::INFINITY, |h| h.t);
-                out += beta * self.lights_along(origin, d, t_max, pdf);
+                out += beta * self.lights_along(origin, d, t_max, pdf, choice.as_ref());
             }
             let Some(h) = next else {
                 break;
@@ -219,7 +236,14 @@ impl<'a> Glossy<'a> {
                 break;
             }
             if emitters_here && m.emission.max_element() > 0.0 {
-                let p_light = self.emitters.area_pdf(m.emission) * h.t * h.t / cos_l;
+                let area_pdf = match (self.many, &choice) {
+                    (Some(many), Some(c)) => {
+                        let k = many.emitter_of(h.triangle);
+                        c.prob(k) * many.area_pdf_in_group(k, m.emission)
+                    }
+                    _ => self.emitters.area_pdf(m.emission),
+                };
+                let p_light = area_pdf * h.t * h.t / cos_l;
                 out += beta * scene.emission_at(h.triangle, h.bary) * power(1.0, pdf, 1.0, p_light);
             }
             if m.albedo.max_element() > 0.0 {
@@ -235,10 +259,18 @@ impl<'a> Glossy<'a> {
     }
 
     /// Emission of the area lights a lobe-sampled ray (density `pdf`) crosses before `t_max`,
-    /// MIS-weighted against their sampling in [`Glossy::next_event`].
-    fn lights_along(&self, origin: Vec3, d: Vec3, t_max: f32, pdf: f32) -> Vec3 {
+    /// MIS-weighted against their sampling in [`Glossy::next_event`] (or, with many emitters,
+    /// in [`Glossy::next_event_many`] from `choice`).
+    fn lights_along(
+        &self,
+        origin: Vec3,
+        d: Vec3,
+        t_max: f32,
+        pdf: f32,
+        choice: Option<&Choice>,
+    ) -> Vec3 {
         let mut sum = Vec3::ZERO;
-        for light in &self.scene.lights {
+        for (i, light) in self.scene.lights.iter().enumerate() {
             let Some(t) = ray_quad(origin, d, light.corner, light.edge_u, light.edge_v, t_max)
             else {
                 continue;
@@ -250,10 +282,63 @@ impl<'a> Glossy<'a> {
             if cos_l <= 0.0 {
                 continue;
             }
-            let p_light = t * t / (cos_l * light.area);
+            // Area lights come first among the many emitters.
+            let pick = choice.map_or(1.0, |c| c.prob(i));
+            let p_light = pick * t * t / (cos_l * light.area);
             sum += light.radiance * power(1.0, pdf, 1.0, p_light);
         }
         sum
+    }
+
+    /// Light reflected by the lobes from one point on the emitters drawn from `choice`,
+    /// MIS-weighted against lobe sampling.
+    #[allow(clippy::too_many_arguments)]
+    fn next_event_many(
+        &self,
+        lobes: &Lobes,
+        frame: &Frame,
+        wo: Vec3,
+        origin: Vec3,
+        ng: Vec3,
+        choice: &Choice,
+        rng: &mut Rng,
+        rays: &mut u64,
+    ) -> Vec3 {
+        let Some(many) = self.many else {
+            return Vec3::ZERO;
+        };
+        if choice.is_empty() {
+            return Vec3::ZERO;
+        }
+        let (k, p_pick) = choice.pick(rng.uniform());
+        let lp = many.sample(self.scene, k, origin, rng);
+        let to = lp.q - origin;
+        let dist2 = to.length_squared();
+        let dist = dist2.sqrt();
+        if dist.is_nan() || dist <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let d = to / dist;
+        let cos_l = -d.dot(lp.normal);
+        if cos_l <= 0.0 || d.dot(ng) <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let wi = frame.to_local(d);
+        let f = lobes.eval(wo, wi);
+        if f == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        *rays += 1;
+        let reach = match lp.triangle {
+            None => dist * (1.0 - 1e-5),
+            Some(_) => dist - 2.0 * self.bvh.epsilon().max(dist * 1e-5),
+        };
+        if self.bvh.occluded(origin, d, reach) {
+            return Vec3::ZERO;
+        }
+        let p_light = p_pick * lp.area_pdf * dist2 / cos_l;
+        let w = power(1.0, p_light, 1.0, lobes.pdf(wo, wi));
+        f * lp.radiance * (wi.z * w / p_light)
     }
 
     /// Light reflected by the lobes at `p` from one point on each area light and one on the

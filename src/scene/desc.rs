@@ -385,7 +385,8 @@ pub struct RadiosityOverride {
     /// Gathering rays per texel and bounce.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rays: Option<u32>,
-    /// Emitter samples per texel, per area light and for the emissive triangles.
+    /// Emitter samples per texel, per area light and for the emissive triangles (in a scene
+    /// with more than 8 emitters, 8 × this many drawn from all of them by their weight).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub light_samples: Option<u32>,
     /// Largest number of bounces.
@@ -579,7 +580,8 @@ pub struct RadiositySettings {
     pub min_scene_texels: u32,
     /// Gathering rays per texel and bounce.
     pub rays: u32,
-    /// Emitter samples per texel, per area light and for the emissive triangles.
+    /// Emitter samples per texel, per area light and for the emissive triangles (in a scene
+    /// with more than 8 emitters, 8 × this many drawn from all of them by their weight).
     pub light_samples: u32,
     /// Largest number of bounces.
     pub bounces: u32,

@@ -1,0 +1,164 @@
+//! Scenes with more emitters than each element samples one by one (a building's lamps): the
+//! radiosity solve draws its emitter samples from one per-element distribution over them all.
+//! D must stay unbiased (against the path-traced probes, which sample every emitter on their
+//! own), direct and through a mirror, and an element's rays must not grow with the emitters.
+
+mod common;
+
+use std::path::Path;
+
+use common::*;
+use glint::eval::probe::{self, diffuse_points};
+use glint::eval::reference::{ProbeTraceOptions, trace_probes};
+use glint::progress::Silent;
+use glint::radiosity::solve::{Solution, SolveSettings, solve};
+use glint::radiosity::{RadiosityMap, atlas};
+use glint::scene::Scene;
+
+/// A near-perfect mirror (as in tests/transport.rs).
+const MIRROR: &str = r#"{ "albedo": [0, 0, 0], "lobes": [{ "ks": [1, 1, 1], "r0": 1.0, "mx": 0.001, "my": 0.001, "alpha": 0.5 }] }"#;
+
+/// A closed box of half-size 0.5 with a mirror floor, `lamps` area lights of scene.json in a
+/// row under the ceiling and `panels` emissive ceiling panels (each its own quad, so its own
+/// group of emissive triangles); the lamps and panels share the same total power whatever
+/// their number. The room is split by a half-height wall at x = 0.1.
+fn lamps_box(dir: &Path, lamps: usize, panels: usize) -> Scene {
+    let mut meshes = Vec::new();
+    let names = ["X0", "X1", "Y0", "Y1", "Z0", "Z1"];
+    for axis in 0..3 {
+        let m0 = if axis == 1 { 1 } else { 0 };
+        meshes.push(quad(names[2 * axis], m0, axis, -0.5, 0.5));
+        meshes.push(flip(quad(names[2 * axis + 1], 0, axis, 0.5, 0.5)));
+    }
+    // A wall from the floor to mid-height, both faces.
+    let wall = [
+        [0.1, -0.5, -0.5],
+        [0.1, -0.5, 0.5],
+        [0.1, 0.0, 0.5],
+        [0.1, 0.0, -0.5],
+    ];
+    let mut back = wall;
+    back.reverse();
+    meshes.push(quads("wall", 0, &[wall, back]));
+    let strength = 12.0 / panels.max(1) as f32;
+    let faces: Vec<[[f32; 3]; 4]> = (0..panels)
+        .map(|i| {
+            let x0 = -0.45 + 0.9 * i as f32 / panels as f32;
+            let x1 = x0 + 0.6 / panels as f32;
+            // Facing down (−y), just under the ceiling.
+            [
+                [x0, 0.49, 0.2],
+                [x1, 0.49, 0.2],
+                [x1, 0.49, 0.35],
+                [x0, 0.49, 0.35],
+            ]
+        })
+        .collect();
+    if panels > 0 {
+        meshes.push(quads("panels", 2, &faces));
+    }
+    write_gltf(
+        dir,
+        "s",
+        &meshes,
+        &[
+            MaterialSpec::diffuse("walls", 0.6),
+            MaterialSpec::diffuse("floor", 0.5),
+            MaterialSpec::emitter("panel", [1.0, 1.0, 1.0], strength),
+        ],
+    );
+    let radiance = 40.0 / lamps.max(1) as f32;
+    let lights: Vec<String> = (0..lamps)
+        .map(|i| {
+            let x = -0.45 + 0.9 * i as f32 / lamps as f32;
+            format!(
+                r#"{{ "name": "lamp{i}", "corner": [{x}, 0.45, -0.3], "edge_u": [0.05, 0, 0], "edge_v": [0, 0, 0.2], "radiance": [{radiance}, {radiance}, {radiance}] }}"#
+            )
+        })
+        .collect();
+    let json = format!(
+        r#"{{ "version": 1, "geometry": "s.gltf", "materials": {{ "floor": {MIRROR} }}, "reflectors": [{{ "mesh": "Y0", "kind": "planar" }}], "lights": [{}] }}"#,
+        lights.join(", ")
+    );
+    Scene::load(write_scene(dir, &json)).unwrap()
+}
+
+fn settings(rays: u32, light_samples: u32) -> SolveSettings {
+    SolveSettings {
+        rays,
+        light_samples,
+        bounces: 64,
+        glossy_depth: 6,
+        tolerance: 1e-6,
+        target_error: None,
+        seed: 5,
+    }
+}
+
+fn solve_box(scene: &Scene, density: f32, set: &SolveSettings) -> (atlas::Atlas, Solution) {
+    let (atlas, samples) = atlas::build(&scene.triangles, density).unwrap();
+    let sol = solve(scene, &scene.build_bvh(), &atlas, &samples, set, &Silent).unwrap();
+    (atlas, sol)
+}
+
+#[test]
+fn many_emitters_sampled_by_their_weight_match_the_path_traced_probes() {
+    // 7 lamps + 5 panels = 12 emitters: more than are sampled each on their own.
+    let dir = tempfile::tempdir().unwrap();
+    let scene = lamps_box(dir.path(), 7, 5);
+    assert_eq!(scene.lights.len(), 7);
+    let bvh = scene.build_bvh();
+    let points = diffuse_points(&scene, &bvh, 48, 3);
+    assert_eq!(points.len(), 48);
+    let opts = ProbeTraceOptions {
+        paths: 4096,
+        ..Default::default()
+    };
+    let truth = trace_probes(&scene, &bvh, &points, 0.01, &opts, &Silent).unwrap();
+    let (atlas, sol) = solve_box(&scene, 8.0, &settings(1024, 32));
+    let map = RadiosityMap::from_texels(atlas, &sol.radiance);
+    let d = probe::probe(&scene, &bvh, &map, &points, 0.01).unwrap();
+    let m = probe::compare_probes(&d, &truth).unwrap();
+    eprintln!(
+        "D / truth {:.4}, rel RMSE {:.4} over {} probes",
+        m.mean_ratio, m.rel_rmse, m.probes
+    );
+    assert_eq!(m.probes, truth.len());
+    assert!(
+        (m.mean_ratio - 1.0).abs() < 0.03,
+        "D / truth = {:.4} (rel RMSE {:.4})",
+        m.mean_ratio,
+        m.rel_rmse
+    );
+    assert!(m.rel_rmse < 0.10, "rel RMSE {:.4}", m.rel_rmse);
+}
+
+#[test]
+fn an_elements_rays_do_not_grow_with_the_emitters() {
+    // The same power split over 12 or 48 emitters: with each sampled on its own, the shadow
+    // rays (and the mirror-image rays) would grow fourfold.
+    let dir = tempfile::tempdir().unwrap();
+    let rays_per_element = |lamps, panels| {
+        let sub = dir.path().join(format!("{lamps}-{panels}"));
+        std::fs::create_dir_all(&sub).unwrap();
+        let scene = lamps_box(&sub, lamps, panels);
+        let (_, sol) = solve_box(&scene, 4.0, &settings(32, 4));
+        let mean = |s: &Solution| s.radiance.iter().map(|v| v.y as f64).sum::<f64>();
+        (
+            sol.stats.rays_cast as f64 / sol.stats.elements as f64,
+            mean(&sol),
+        )
+    };
+    let (few, d_few) = rays_per_element(7, 5);
+    let (many, d_many) = rays_per_element(28, 20);
+    eprintln!("rays per element: 12 emitters {few:.1}, 48 emitters {many:.1}");
+    assert!(
+        many < 1.25 * few,
+        "12 emitters: {few:.1} rays an element; 48: {many:.1}"
+    );
+    // Both rooms are lit about alike (the same power, spread differently).
+    assert!(
+        (d_many / d_few - 1.0).abs() < 0.25,
+        "Σ D {d_few:.1} vs {d_many:.1}"
+    );
+}
