@@ -46,6 +46,10 @@ struct ReflectParams {
     // M*K's filter taps (`filter::filter_taps`): xy offset in kernel texels (x right, y up),
     // z weight (they sum to 1), w per-axis variance of the kernel mass it stands for (texels²).
     taps: array<vec4<f32>, 64>,
+    // K's shape per view cosine k/15 (`lobe_shape::LobeShape`): x its lean (kernel texels,
+    // towards higher elevation of the reflected ray), y its scale along the plane of
+    // incidence, z across it.
+    shape: array<vec4<f32>, 16>,
 };
 
 @group(1) @binding(2) var<uniform> reflect_params: ReflectParams;
@@ -175,6 +179,15 @@ fn grazing_axis(p: vec3<f32>, n: vec3<f32>, size: vec2<f32>) -> vec2<f32> {
     return vec2<f32>(1.0, 0.0);
 }
 
+// K's shape at view cosine c, linear between the table's entries (`LobeShape::at`).
+fn lobe_shape(c: f32) -> vec3<f32> {
+    let x = clamp(c, 0.0, 1.0) * 15.0;
+    let i = min(u32(floor(x)), 15u);
+    let j = min(i + 1u, 15u);
+    let f = x - f32(i);
+    return mix(reflect_params.shape[i].xyz, reflect_params.shape[j].xyz, f);
+}
+
 @fragment
 fn fs_composite(in: MirrorOut) -> FragmentOut {
     // A child reflector straddling its parent mirror's plane: the part behind the parent was
@@ -194,23 +207,48 @@ fn fs_composite(in: MirrorOut) -> FragmentOut {
     // fraction) pixels, each reading the pyramid at ½ log₂(4 (v·scale² + 1/6))
     // (`filter::level`); Σ w·rgb / Σ w·c (not around a filled texel: its neighbours are
     // holes too, and the fill is a blur).
-    // At a grazing view the lobe narrows across the plane of incidence by cos θ
-    // (`filter::Grazing`): offsets squeezed across `axis`, levels from the variance's
-    // geometric mean over the two axes.
+    // At a grazing view the lobe narrows across the plane of incidence and leans away from
+    // the horizon (`filter::Grazing`, `lobe_shape`): offsets scaled along and across `axis`
+    // and shifted down it by the lean, levels from the variance's geometric mean over the two
+    // axes.
     if taps > 1u && centre.a > 0.0 && !hole {
         let size = vec2<f32>(textureDimensions(pyramid));
         let scale = reflect_params.kernel.x * centre.a;
         let n = reflect_params.plane.xyz;
         let cos_v = clamp(abs(dot(n, normalize(reflect_params.eye.xyz - in.world))), 1e-3, 1.0);
         let axis = grazing_axis(in.world, n, size);
+        let shape = lobe_shape(cos_v);
+        // Reads per tap along the axis (`Grazing::reads`, at most `filter::MAX_READS`), each of variance own = max(V_across,
+        // 3 V_along / (n² + 2)), a step δ apart with V_along = own + δ²(n² − 1)/12
+        // (`Grazing::footprint`); one read: the variance's geometric mean.
+        let k2 = (shape.y * shape.y) / max(shape.z * shape.z, 1e-12);
+        var reads = 1u;
+        if k2 > 1.0 {
+            reads = clamp(u32(floor(sqrt(3.0 * k2 - 2.0))), 1u, 6u);
+        }
+        let n2 = f32(reads * reads);
         var sum = vec4<f32>(0.0);
         for (var i = 0u; i < taps; i = i + 1u) {
             let t = reflect_params.taps[i];
             let o = vec2<f32>(t.x, -t.y) * scale;
-            let along = axis * dot(o, axis);
-            let p = in.clip.xy + along + (o - along) * cos_v;
-            let level = max(0.5 * log2(4.0 * (t.w * cos_v * scale * scale + 1.0 / 6.0)), 0.0);
-            sum = sum + t.z * textureSampleLevel(pyramid, reflection_sampler, p / size, level);
+            let a = dot(o, axis);
+            let across = o - axis * a;
+            let p = in.clip.xy + axis * (a * shape.y - shape.x * scale) + across * shape.z;
+            var own = t.w * shape.y * shape.z * scale * scale;
+            var step = 0.0;
+            if reads > 1u {
+                let v_along = t.w * shape.y * shape.y * scale * scale;
+                let v_across = t.w * shape.z * shape.z * scale * scale;
+                own = max(v_across, 3.0 * v_along / (n2 + 2.0));
+                step = sqrt(12.0 * max(v_along - own, 0.0) / (n2 - 1.0));
+            }
+            let level = max(0.5 * log2(4.0 * (own + 1.0 / 6.0)), 0.0);
+            var taken = vec4<f32>(0.0);
+            for (var j = 0u; j < reads; j = j + 1u) {
+                let q = p + axis * step * (f32(j) - 0.5 * f32(reads - 1u));
+                taken = taken + textureSampleLevel(pyramid, reflection_sampler, q / size, level);
+            }
+            sum = sum + t.z / f32(reads) * taken;
         }
         if sum.a > 1e-4 {
             m = sum.rgb / sum.a;

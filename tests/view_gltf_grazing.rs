@@ -197,22 +197,64 @@ fn gltf_metal_reflection_at_80_degrees_matches_the_path_tracer() {
     let mask = common::reflector_mask(&data, 0, &camera, SIZE.0, SIZE.1);
     let pixels = mask.iter().filter(|m| **m).count();
     assert!(pixels > 3000, "the floor covers {pixels} pixels");
+    // `GLINT_GRAZING_SPP=n` renders the reference at n paths per pixel instead of [`SPP`];
+    // `GLINT_GRAZING_REUSE=1` reads it from (or writes it to) the tests' temporary folder, for
+    // measuring changes to the viewer against one longer reference.
+    let spp: u32 = std::env::var("GLINT_GRAZING_SPP")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(SPP);
+    let cache = std::env::var_os("GLINT_GRAZING_REUSE").map(|_| {
+        Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("view-gltf-grazing-pt-{spp}.f32"))
+    });
     let reference = {
         use glint::eval::reference::{self, RenderOptions};
         let bvh = Bvh::build(&data.scene.triangles);
         let opts = RenderOptions {
             width: SIZE.0,
             height: SIZE.1,
-            spp: SPP,
+            spp,
             seed: 7,
             ..RenderOptions::default()
         };
-        let t0 = std::time::Instant::now();
-        let r = reference::render(&data.scene, &bvh, &camera, &opts, &Silent).unwrap();
-        eprintln!("path tracer: {:.1} s", t0.elapsed().as_secs_f64());
+        let cached = cache.as_ref().and_then(|p| std::fs::read(p).ok()).map(|b| {
+            let f: Vec<f32> = b
+                .chunks_exact(4)
+                .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+                .collect();
+            let n = (SIZE.0 * SIZE.1) as usize;
+            let rgb = (0..n)
+                .map(|i| Vec3::from_slice(&f[3 * i..]))
+                .collect::<Vec<_>>();
+            let variance = f[3 * n..].to_vec();
+            (rgb, variance)
+        });
+        let (rgb, variance) = match cached {
+            Some(c) => c,
+            None => {
+                let t0 = std::time::Instant::now();
+                let r = reference::render(&data.scene, &bvh, &camera, &opts, &Silent).unwrap();
+                eprintln!(
+                    "path tracer: {:.1} s at {spp} spp",
+                    t0.elapsed().as_secs_f64()
+                );
+                if let Some(p) = &cache {
+                    let bytes: Vec<u8> = r
+                        .image
+                        .rgb
+                        .iter()
+                        .flat_map(|v| v.to_array())
+                        .chain(r.variance.iter().copied())
+                        .flat_map(|x| x.to_le_bytes())
+                        .collect();
+                    std::fs::write(p, bytes).unwrap();
+                }
+                (r.image.rgb, r.variance)
+            }
+        };
         // The estimate's own noise, relative, over the floor (luminance).
         let (mut var, mut sq) = (0.0f64, 0.0f64);
-        for ((v, p), m) in r.variance.iter().zip(&r.image.rgb).zip(&mask) {
+        for ((v, p), m) in variance.iter().zip(&rgb).zip(&mask) {
             if *m {
                 var += f64::from(*v);
                 sq += f64::from(glint::colour::luminance(*p)).powi(2);
@@ -224,12 +266,9 @@ fn gltf_metal_reflection_at_80_degrees_matches_the_path_tracer() {
         );
         // Of the block means (the variance of a mean of BLOCK² pixels, luminance for each
         // channel): what noise alone adds to the block RMSE.
-        let v: Vec<Vec3> = r.variance.iter().map(|v| Vec3::splat(*v)).collect();
+        let v: Vec<Vec3> = variance.iter().map(|v| Vec3::splat(*v)).collect();
         let (mut nv, mut nq) = (0.0f64, 0.0f64);
-        for (v, q) in block_means(&v, &mask)
-            .iter()
-            .zip(block_means(&r.image.rgb, &mask))
-        {
+        for (v, q) in block_means(&v, &mask).iter().zip(block_means(&rgb, &mask)) {
             if let (Some(v), Some(q)) = (v, q) {
                 nv += f64::from(v.element_sum()) / f64::from(BLOCK * BLOCK);
                 nq += f64::from(q.length_squared());
@@ -239,7 +278,7 @@ fn gltf_metal_reflection_at_80_degrees_matches_the_path_tracer() {
             "path tracer: noise of the block means {:.4}",
             (nv / nq).sqrt()
         );
-        r.image.rgb
+        rgb
     };
     let modes = [
         ReflectionMode::Off,
