@@ -10,15 +10,18 @@
 //    - `vs_mirror`/`fs_mirror` (geometry mode): the scene re-rendered, whatever lies behind
 //      the plane (or on it: the reflector itself) discarded, the clip plane;
 //    - `vs_splat`/`fs_splat` (image mode): radiance-map points as screen-aligned quads, their
-//      size per quadtree node from Eq. 3 (`splat_nodes`), lower-ranked maps pushed back.
+//      size per quadtree node from Eq. 3 (`splat_nodes`), lower-ranked maps pushed back, and
+//      so is each quad's overlap beyond its own Eq. 3 extent (it only fills gaps).
 // 2. `vs_mirror`/`fs_composite`: the reflector's triangles drawn again over the frame, depth
 //    tested (GreaterEqual, reverse Z) against the scene pass's depth (the mask), adding
 //    ks·R × (M*K) at the same pixel (additive blend): M*K at a cost independent of K's width,
 //    K's taps gathered onto a regular pattern whose samples read M's MIP pyramid
 //    (`shaders/pyramid.wgsl`) at the level of their share of the lobe (`filter.rs`, Luksch
-//    et al. §5–6); R from the 1D table (cos θ) or the sphere map (reflected direction). In
-//    image mode a pixel of the reflector whose M texel no splat covered is filled first
-//    (`fill_hole`), and the pyramid counts holes for nothing.
+//    et al. §5–6), shaped per view angle by the lobe's lean and widths (`lobe_shape.rs`) and
+//    read along the plane of incidence by up to 6 reads per tap; R from the 1D table (cos θ)
+//    or the sphere map (reflected direction). In image mode a pixel of the reflector whose M
+//    texel no splat covered is filled first (`fill_hole`), and the pyramid counts holes for
+//    nothing.
 //
 // Keep `ReflectParams` in sync with `reflections::ReflectParams` (a test compares them).
 
@@ -292,7 +295,12 @@ struct SplatOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) color: vec3<f32>,
     @location(1) @interpolate(flat) beyond: f32,
+    // The quad's corner coordinate, ±1 at its edges.
+    @location(2) corner: vec2<f32>,
 };
+
+// `splats::SPLAT_OVERLAP`: a splat's quad over its Eq. 3 extent.
+const SPLAT_OVERLAP: f32 = 1.5;
 
 @vertex
 fn vs_splat(@builtin(vertex_index) vi: u32, s: SplatIn) -> SplatOut {
@@ -304,10 +312,24 @@ fn vs_splat(@builtin(vertex_index) vi: u32, s: SplatIn) -> SplatOut {
     out.clip = vec4<f32>(c.xy + corner * node.xy * c.w, c.z * node.z, c.w);
     out.color = s.color * frame.exposure;
     out.beyond = beyond(s.position);
+    out.corner = corner;
     return out;
 }
 
+struct SplatFragment {
+    @location(0) color: vec4<f32>,
+    @builtin(frag_depth) depth: f32,
+};
+
+// A splat's own extent (Eq. 3's) at its depth; the overlap beyond it, which only closes gaps
+// between splats, pushed far back (depth × 10⁻³, reverse Z, as a lower rank is): it fills
+// what no splat's own extent covers but never paints over a neighbour's, so a surface in
+// front (an emitter before a wall) is not fattened by the overlap.
 @fragment
-fn fs_splat(in: SplatOut) -> @location(0) vec4<f32> {
-    return vec4<f32>(in.color, in.beyond);
+fn fs_splat(in: SplatOut) -> SplatFragment {
+    var out: SplatFragment;
+    out.color = vec4<f32>(in.color, in.beyond);
+    let own = max(abs(in.corner.x), abs(in.corner.y)) <= 1.0 / SPLAT_OVERLAP;
+    out.depth = select(in.clip.z * 1e-3, in.clip.z, own);
+    return out;
 }

@@ -34,8 +34,14 @@
 //! away from the horizon ([`super::lobe_shape`] measures both per view angle). Each pixel's
 //! taps are therefore scaled along and across the plane of incidence's trace on screen (the
 //! line through the pixel towards the normal's vanishing point; [`Grazing`]) and shifted along
-//! it by the lean, and read at the level of their variance's geometric mean over the two axes
-//! (the pyramid's footprint is isotropic).
+//! it by the lean. The pyramid's footprint is isotropic, so a tap whose lobe share is k times
+//! longer along the axis than across it is read n = ⌊√(3k² − 2)⌋ times (at most
+//! [`MAX_READS`]) along the axis, a step 2σ apart, each read of σ² = max(V_across,
+//! 3 V_along / (n² + 2)) ([`Grazing::footprint`]); one read is at the variance's geometric
+//! mean over the two axes. At 80° on a GGX α = 0.04 floor (`tests/view_gltf_grazing.rs`,
+//! relative RMSE against a 256-path reference, a lean of half the mean) at most 1 read gave
+//! 0.071, 2 0.069, 3 0.058, 4 0.055, 6 0.049, 9 0.048: one read leaves bands of the pattern's
+//! rings across the streaks.
 //!
 //! # Coverage
 //!

@@ -238,3 +238,16 @@ pub(super) fn params_group(
         }],
     })
 }
+
+#[cfg(test)]
+mod tests {
+    /// `fs_splat` tells a splat's own extent from its overlap by the Rust constant.
+    #[test]
+    fn the_splat_shader_uses_the_splat_overlap() {
+        let want = format!(
+            "const SPLAT_OVERLAP: f32 = {:?};",
+            super::super::SPLAT_OVERLAP
+        );
+        assert!(super::shader_source().contains(&want), "{want}");
+    }
+}
