@@ -321,15 +321,17 @@ struct SplatFragment {
     @builtin(frag_depth) depth: f32,
 };
 
-// A splat's own extent (Eq. 3's) at its depth; the overlap beyond it, which only closes gaps
-// between splats, pushed far back (depth × 10⁻³, reverse Z, as a lower rank is): it fills
-// what no splat's own extent covers but never paints over a neighbour's, so a surface in
-// front (an emitter before a wall) is not fattened by the overlap.
+// A splat's own extent, the disc inscribed in its Eq. 3 box, at its depth; the rest of the
+// quad, which only closes gaps between splats, pushed far back (depth × 10⁻³, reverse Z, as
+// a lower rank is): it fills what no splat's own disc covers but never paints over a
+// neighbour's, so a surface in front (an emitter before a wall) is not fattened by it. On the
+// 80° floor of `tests/view_gltf_grazing.rs` (image mode, relative RMSE): all of the quad at
+// its depth 0.251, the Eq. 3 box 0.142, the disc 0.131.
 @fragment
 fn fs_splat(in: SplatOut) -> SplatFragment {
     var out: SplatFragment;
     out.color = vec4<f32>(in.color, in.beyond);
-    let own = max(abs(in.corner.x), abs(in.corner.y)) <= 1.0 / SPLAT_OVERLAP;
+    let own = length(in.corner) <= 1.0 / SPLAT_OVERLAP;
     out.depth = select(in.clip.z * 1e-3, in.clip.z, own);
     return out;
 }

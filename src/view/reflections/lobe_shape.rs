@@ -86,7 +86,7 @@ fn measure(lobe: &Lobe, c: f32) -> Option<(f64, f64, f64)> {
             };
             let weight = f64::from(lobe.sample_weight(wo, wi));
             let z = wi.dot(r);
-            if !(weight > 0.0) || z <= 1e-3 {
+            if weight.is_nan() || weight <= 0.0 || z <= 1e-3 {
                 continue;
             }
             let u = f64::from((wi.dot(along) / z).atan());
@@ -145,7 +145,7 @@ impl LobeShape {
             return Self::mirror_limit();
         };
         let reference = 0.5 * (u0 + w0);
-        if !(reference > 1e-5) {
+        if reference.is_nan() || reference <= 1e-5 {
             return Self::mirror_limit();
         }
         let table = (0..SHAPE_SIZE)
