@@ -12,16 +12,30 @@
 //! the reflection alone (K, R, the radiance maps and the path tracer's noise).
 //!
 //! Compared as relative RMSE over 4×4-pixel blocks wholly on the floor (the path tracer's
-//! per-pixel noise at 64 spp is 7.9%; in the block means 1.8%). Measured: geometry mode 0.128
-//! (0.219 before K was squeezed across the plane of incidence at grazing views), image mode
-//! 0.290 (0.315). R is exact here (ks·R at 80° within 0.1% of the lobes' directional albedo,
-//! asserted). The issue's 5% is not met. Per row of blocks, geometry mode's error sits at the
-//! panels' reflected edges: 18% dark next to the horizon (K's taps there read M's empty
-//! texels, the mirrored view's part below the plane, as black: counting them as holes instead
-//! gives 0.121) and up to 30% bright at the panels' reflected top edge (the lobe at grazing is
-//! not the symmetric screen-space kernel: shadowing cuts its half towards the horizon). Image
-//! mode adds the hole fill's smear of the panels' light down the floor, where no radiance
-//! map saw the reflected direction.
+//! per-pixel noise at 64 spp is 7.9%; in the block means 1.8%). R is exact here (ks·R at 80°
+//! within 0.1% of the lobes' directional albedo, asserted). Measured against this 64-path
+//! reference (and against a 256-path one, block-mean noise 0.9%, in brackets):
+//!
+//! - K isotropic (as baked): geometry 0.219, image 0.315;
+//! - K squeezed by cos θ across the plane of incidence: 0.128 (0.127), 0.290 (0.294);
+//! - K shaped by the lobe's measured widths and median lean at the view angle
+//!   ([`glint::view::reflections::lobe_shape`]), up to 6 reads per tap along the plane of
+//!   incidence ([`glint::view::reflections::filter::Grazing`]): 0.047 (0.046), (0.251);
+//! - and a splat's quad beyond its own Eq. 3 box pushed back in depth: 0.047 (0.046), 0.141
+//!   (0.142); beyond the disc inscribed in the box: 0.047 (0.046), 0.130 (0.131).
+//!
+//! What remains in geometry mode: the panels' reflections' sides a little too bright (the
+//! reads' footprint is wider across the plane of incidence than the lobe: 6 reads cannot
+//! reach the lobe's 1 : 5.7 aspect), the rows nearest the camera (dim) 10–40% dark. In image
+//! mode, the panels' reflections are wider on each side than the path tracer's (about 2
+//! pixels with the Eq. 3 box: the splats' own extents reach past the panels' edges over the
+//! black wall behind, and the nearer panel wins; Eq. 3's size is the bounding box of the map
+//! pixel's image-plane footprint, `splats::point_size`), and the rows of the panels' bottom
+//! edges, next to the floor's far edge, are too bright by up to 10%.
+//!
+//! `GLINT_GRAZING_SPP=n` renders the reference at n paths per pixel; `GLINT_GRAZING_REUSE=1`
+//! keeps it in the tests' temporary folder between runs (to measure the viewer against one
+//! longer reference); `GLINT_GRAZING_IMAGES=1` writes the frames (below).
 
 #![cfg(feature = "view")]
 
@@ -54,14 +68,12 @@ const SIZE: (u32, u32) = (160, 108);
 const SPP: u32 = 64;
 
 /// Relative RMSE allowed between geometry mode's frame and the path tracer's over the
-/// floor's blocks: measured 0.128 (the path tracer's own noise there ≈ 0.018). The issue asks
-/// for 5%; before K was squeezed across the plane of incidence at grazing views
-/// ([`glint::view::reflections::filter::Grazing`]) the reflection was a wide isotropic blur.
-const GEOMETRY_TOLERANCE: f64 = 0.14;
+/// floor's blocks: the issue's 5%. Measured 0.047 (0.046 against a 256-path reference).
+const GEOMETRY_TOLERANCE: f64 = 0.05;
 
-/// The same for image mode: measured 0.290, most of it light the hole fill smears down the
-/// floor where no radiance map saw the reflected direction (at 80° the maps' frusta end).
-const IMAGE_TOLERANCE: f64 = 0.31;
+/// The same for image mode: measured 0.130 (0.131 against a 256-path reference); see the
+/// module documentation for what remains.
+const IMAGE_TOLERANCE: f64 = 0.14;
 
 /// Writes and bakes the room (scene, radiosity, materials and radiance stages, draft) into
 /// `view-gltf-grazing` under the tests' temporary folder; returns the bundle.
@@ -197,22 +209,63 @@ fn gltf_metal_reflection_at_80_degrees_matches_the_path_tracer() {
     let mask = common::reflector_mask(&data, 0, &camera, SIZE.0, SIZE.1);
     let pixels = mask.iter().filter(|m| **m).count();
     assert!(pixels > 3000, "the floor covers {pixels} pixels");
+    // The reference: [`SPP`] paths per pixel unless `GLINT_GRAZING_SPP` says otherwise, read
+    // from (or written to) the tests' temporary folder with `GLINT_GRAZING_REUSE`.
+    let spp: u32 = std::env::var("GLINT_GRAZING_SPP")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(SPP);
+    let cache = std::env::var_os("GLINT_GRAZING_REUSE").map(|_| {
+        Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("view-gltf-grazing-pt-{spp}.f32"))
+    });
     let reference = {
         use glint::eval::reference::{self, RenderOptions};
         let bvh = Bvh::build(&data.scene.triangles);
         let opts = RenderOptions {
             width: SIZE.0,
             height: SIZE.1,
-            spp: SPP,
+            spp,
             seed: 7,
             ..RenderOptions::default()
         };
-        let t0 = std::time::Instant::now();
-        let r = reference::render(&data.scene, &bvh, &camera, &opts, &Silent).unwrap();
-        eprintln!("path tracer: {:.1} s", t0.elapsed().as_secs_f64());
+        let cached = cache.as_ref().and_then(|p| std::fs::read(p).ok()).map(|b| {
+            let f: Vec<f32> = b
+                .chunks_exact(4)
+                .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+                .collect();
+            let n = (SIZE.0 * SIZE.1) as usize;
+            let rgb = (0..n)
+                .map(|i| Vec3::from_slice(&f[3 * i..]))
+                .collect::<Vec<_>>();
+            let variance = f[3 * n..].to_vec();
+            (rgb, variance)
+        });
+        let (rgb, variance) = match cached {
+            Some(c) => c,
+            None => {
+                let t0 = std::time::Instant::now();
+                let r = reference::render(&data.scene, &bvh, &camera, &opts, &Silent).unwrap();
+                eprintln!(
+                    "path tracer: {:.1} s at {spp} spp",
+                    t0.elapsed().as_secs_f64()
+                );
+                if let Some(p) = &cache {
+                    let bytes: Vec<u8> = r
+                        .image
+                        .rgb
+                        .iter()
+                        .flat_map(|v| v.to_array())
+                        .chain(r.variance.iter().copied())
+                        .flat_map(|x| x.to_le_bytes())
+                        .collect();
+                    std::fs::write(p, bytes).unwrap();
+                }
+                (r.image.rgb, r.variance)
+            }
+        };
         // The estimate's own noise, relative, over the floor (luminance).
         let (mut var, mut sq) = (0.0f64, 0.0f64);
-        for ((v, p), m) in r.variance.iter().zip(&r.image.rgb).zip(&mask) {
+        for ((v, p), m) in variance.iter().zip(&rgb).zip(&mask) {
             if *m {
                 var += f64::from(*v);
                 sq += f64::from(glint::colour::luminance(*p)).powi(2);
@@ -224,12 +277,9 @@ fn gltf_metal_reflection_at_80_degrees_matches_the_path_tracer() {
         );
         // Of the block means (the variance of a mean of BLOCK² pixels, luminance for each
         // channel): what noise alone adds to the block RMSE.
-        let v: Vec<Vec3> = r.variance.iter().map(|v| Vec3::splat(*v)).collect();
+        let v: Vec<Vec3> = variance.iter().map(|v| Vec3::splat(*v)).collect();
         let (mut nv, mut nq) = (0.0f64, 0.0f64);
-        for (v, q) in block_means(&v, &mask)
-            .iter()
-            .zip(block_means(&r.image.rgb, &mask))
-        {
+        for (v, q) in block_means(&v, &mask).iter().zip(block_means(&rgb, &mask)) {
             if let (Some(v), Some(q)) = (v, q) {
                 nv += f64::from(v.element_sum()) / f64::from(BLOCK * BLOCK);
                 nq += f64::from(q.length_squared());
@@ -239,7 +289,7 @@ fn gltf_metal_reflection_at_80_degrees_matches_the_path_tracer() {
             "path tracer: noise of the block means {:.4}",
             (nv / nq).sqrt()
         );
-        r.image.rgb
+        rgb
     };
     let modes = [
         ReflectionMode::Off,

@@ -38,8 +38,9 @@ pub enum MkFilter {
 ///   within `clip` of the plane as the GPU's clip plane does, with the fraction of the
 ///   reflected ray beyond the plane ([`beyond_fraction`]);
 /// - M*K: K's taps at the pixel, bilinear between pixel centres, clamped to the frame, a
-///   texel spanning [`texel_pixels`] at the pixel's beyond-fraction, squeezed by cos θ across
-///   the plane of incidence ([`Grazing`]; as `fs_composite`);
+///   texel spanning [`texel_pixels`] at the pixel's beyond-fraction, shaped along and across
+///   the plane of incidence by the lobe's shape at the view angle ([`Grazing`]; as
+///   `fs_composite`);
 /// - R: [`PlanarReflector::modulation_at`] at the hit.
 ///
 /// Linear × `exposure`, row 0 at the top, black where nothing is hit. M*K exact
@@ -159,7 +160,15 @@ pub fn cpu_reference_filtered(
                 let pixel =
                     Vec2::new((k % width as usize) as f32, (k / width as usize) as f32) + 0.5;
                 let scale = texel * f;
-                let grazing = Grazing::at(view_proj, point, plane.normal, camera.position, size);
+                let grazing = Grazing::at(
+                    view_proj,
+                    point,
+                    plane.normal,
+                    camera.position,
+                    size,
+                    &refl.kernel.shape,
+                    refl.kernel.texel_angle,
+                );
                 Some(match &pyramid {
                     Some(p) => p.filtered(pixel, scale, &taps, &grazing).unwrap_or(centre),
                     None => exact(

@@ -25,6 +25,7 @@
 
 use glam::{Vec2, Vec3};
 
+use super::lobe_shape::LobeShape;
 use crate::bundle::Bundle;
 use crate::materials::MaterialsIndex;
 use crate::materials::index::IndexedLobe;
@@ -148,6 +149,8 @@ pub struct ScreenKernel {
     pub texel_angle: f32,
     /// The taps, heaviest first.
     pub taps: Vec<Tap>,
+    /// How the lobe K was baked from leans and narrows at each view angle.
+    pub shape: LobeShape,
 }
 
 impl ScreenKernel {
@@ -159,6 +162,7 @@ impl ScreenKernel {
                 offset: Vec2::ZERO,
                 weight: 1.0,
             }],
+            shape: LobeShape::mirror_limit(),
         }
     }
 
@@ -326,6 +330,10 @@ pub fn load_material_from(
         ScreenKernel {
             texel_angle: kernel.texel_angle_rad,
             taps: significant_taps(w, image.width as u32, KERNEL_MASS, usize::MAX),
+            shape: LobeShape::of_lobe(&crate::brdf::Lobe {
+                alpha: lobe.alpha,
+                ..crate::brdf::Lobe::of_model(lobe.model, lobe.r0, lobe.mx, lobe.my)
+            }),
         }
     };
     Ok((

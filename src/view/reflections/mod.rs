@@ -38,6 +38,7 @@ use crate::scene::{Plane, Scene};
 
 mod cpu;
 pub mod filter;
+pub mod lobe_shape;
 mod map_target;
 pub mod material;
 mod params;
@@ -242,7 +243,8 @@ mod tests {
                 kernel,
                 parent,
                 modulation,
-                taps
+                taps,
+                shape
             }
         );
     }

@@ -7,6 +7,7 @@ use glam::Vec3;
 
 use super::PlanarReflector;
 use super::filter::{FILTER_RINGS, FilterTap, MAX_FILTER_TAPS, filter_taps};
+use super::lobe_shape::SHAPE_SIZE;
 use super::material::{MODULATION_SIZE, Modulation};
 use crate::materials::reflectance;
 use crate::view::build::{LayoutBuilder, bind_group_layout, render_pipeline};
@@ -18,7 +19,7 @@ use crate::view::target::texture_2d;
 /// The parent clip of a composite that clips nothing ([`ReflectParams::parent`]).
 pub const NO_PARENT_CLIP: [f32; 4] = [0.0, 0.0, 0.0, -1.0];
 
-/// Mirrors `ReflectParams` in `shaders/reflect.wgsl` (2176 bytes).
+/// Mirrors `ReflectParams` in `shaders/reflect.wgsl` (2432 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct ReflectParams {
@@ -44,6 +45,9 @@ pub struct ReflectParams {
     /// M*K's filter taps ([`super::filter::filter_taps`]): offset in kernel texels (x right,
     /// y up), weight, per-axis variance (kernel texels²).
     pub taps: [[f32; 4]; MAX_FILTER_TAPS],
+    /// K's shape per view cosine k / (SHAPE_SIZE − 1) ([`super::lobe_shape`]): x its lean in
+    /// kernel texels, y its scale along the plane of incidence, z across it.
+    pub shape: [[f32; 4]; SHAPE_SIZE],
 }
 
 impl ReflectParams {
@@ -77,6 +81,12 @@ impl ReflectParams {
         for (t, k) in taps.iter_mut().zip(filter) {
             *t = [k.offset.x, k.offset.y, k.weight, k.variance];
         }
+        let mut shape = [[0.0; 4]; SHAPE_SIZE];
+        let texel = reflector.kernel.texel_angle;
+        for (s, k) in shape.iter_mut().zip(&reflector.kernel.shape.table) {
+            let lean = if texel > 0.0 { k.lean / texel } else { 0.0 };
+            *s = [lean, k.along, k.across, 0.0];
+        }
         ReflectParams {
             plane: n.extend(n.dot(reflector.plane.point)).to_array(),
             ks: reflector.ks.extend(clip).to_array(),
@@ -87,6 +97,7 @@ impl ReflectParams {
             parent: NO_PARENT_CLIP,
             modulation,
             taps,
+            shape,
         }
     }
 }
@@ -226,4 +237,17 @@ pub(super) fn params_group(
             resource: params.as_entire_binding(),
         }],
     })
+}
+
+#[cfg(test)]
+mod tests {
+    /// `fs_splat` tells a splat's own extent from its overlap by the Rust constant.
+    #[test]
+    fn the_splat_shader_uses_the_splat_overlap() {
+        let want = format!(
+            "const SPLAT_OVERLAP: f32 = {:?};",
+            super::super::SPLAT_OVERLAP
+        );
+        assert!(super::shader_source().contains(&want), "{want}");
+    }
 }
