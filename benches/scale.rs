@@ -2,7 +2,8 @@
 //! `scenes/tools/make_building.py` at each size, bakes it stage by stage (each stage a child
 //! process: `glint-bake --unit scene`, then `glint-radiosity`, `glint-materials`,
 //! `glint-radiance` and `glint-srdm` into one bundle) and prints one table: per stage and size
-//! the bake time (wall clock of the child), its peak RSS (`wait4`'s `ru_maxrss`: the child's own
+//! the bake time (wall clock of the child, and its CPU time, user + system: on a shared
+//! machine the CPU time is the figure that does not depend on what else runs), its peak RSS (`wait4`'s `ru_maxrss`: the child's own
 //! high-water mark) and the bytes of the stage's assets in the bundle (`glint-bundle stats`);
 //! and per stage the growth exponent between consecutive sizes, log(cost ratio) / log(triangle
 //! ratio). Every figure is measured; nothing is estimated.
@@ -37,6 +38,8 @@ const STAGES: [(&str, &str, &[&str]); 5] = [
 #[derive(Clone, Copy, Debug)]
 struct Measured {
     seconds: f64,
+    /// User + system CPU seconds of the child (all its threads).
+    cpu_seconds: f64,
     peak_rss_bytes: u64,
     bundle_bytes: u64,
 }
@@ -55,9 +58,9 @@ struct SizeRun {
     stages: Vec<Option<Measured>>,
 }
 
-/// Runs `cmd` to its end; its wall time and peak RSS, or its exit status as an error.
+/// Runs `cmd` to its end; its wall time, CPU time and peak RSS, or its exit status as an error.
 #[cfg(unix)]
-fn run_measured(cmd: &mut Command) -> Result<(f64, u64), String> {
+fn run_measured(cmd: &mut Command) -> Result<(f64, f64, u64), String> {
     let start = Instant::now();
     let child = cmd.spawn().map_err(|e| format!("{cmd:?}: {e}"))?;
     let pid = child.id() as libc::pid_t;
@@ -79,7 +82,9 @@ fn run_measured(cmd: &mut Command) -> Result<(f64, u64), String> {
     }
     // Linux and the BSDs give ru_maxrss in KiB; macOS in bytes.
     let unit = if cfg!(target_os = "macos") { 1 } else { 1024 };
-    Ok((seconds, usage.ru_maxrss as u64 * unit))
+    let secs = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    let cpu = secs(usage.ru_utime) + secs(usage.ru_stime);
+    Ok((seconds, cpu, usage.ru_maxrss as u64 * unit))
 }
 
 fn repo() -> PathBuf {
@@ -143,13 +148,14 @@ fn bake_size(size: &str, seed: &str, quality: &str, work: &Path) -> SizeRun {
             .stderr(log);
         eprintln!("scale {size}: stage {stage}…");
         match run_measured(&mut cmd) {
-            Ok((seconds, rss)) => {
+            Ok((seconds, cpu_seconds, rss)) => {
                 eprintln!(
-                    "scale {size}: stage {stage}: {seconds:.1} s, peak RSS {:.0} MiB",
+                    "scale {size}: stage {stage}: {seconds:.1} s ({cpu_seconds:.1} s CPU), peak RSS {:.0} MiB",
                     rss as f64 / 1048576.0
                 );
                 stages.push(Some(Measured {
                     seconds,
+                    cpu_seconds,
                     peak_rss_bytes: rss,
                     bundle_bytes: 0,
                 }));
@@ -250,23 +256,24 @@ fn print_table(runs: &[SizeRun], quality: &str) {
         );
     }
     println!(
-        "\n{:<10} {:<6} {:>10} {:>14} {:>12}",
-        "stage", "size", "time s", "peak RSS MiB", "bundle MiB"
+        "\n{:<10} {:<6} {:>10} {:>10} {:>14} {:>12}",
+        "stage", "size", "time s", "CPU s", "peak RSS MiB", "bundle MiB"
     );
     for (k, (stage, _, _)) in STAGES.iter().enumerate() {
         for r in runs {
             match r.stages[k] {
                 Some(m) => println!(
-                    "{:<10} {:<6} {:>10.1} {:>14} {:>12}",
+                    "{:<10} {:<6} {:>10.1} {:>10.1} {:>14} {:>12}",
                     stage,
                     r.size,
                     m.seconds,
+                    m.cpu_seconds,
                     mib(m.peak_rss_bytes),
                     mib(m.bundle_bytes)
                 ),
                 None => println!(
-                    "{:<10} {:<6} {:>10} {:>14} {:>12}",
-                    stage, r.size, "failed", "—", "—"
+                    "{:<10} {:<6} {:>10} {:>10} {:>14} {:>12}",
+                    stage, r.size, "failed", "—", "—", "—"
                 ),
             }
         }
@@ -276,20 +283,26 @@ fn print_table(runs: &[SizeRun], quality: &str) {
     }
     println!("\ngrowth exponent d log(cost) / d log(triangles) between consecutive sizes");
     println!(
-        "{:<10} {:<11} {:>6} {:>9} {:>7}",
-        "stage", "sizes", "time", "peak RSS", "bundle"
+        "{:<10} {:<11} {:>6} {:>6} {:>9} {:>7}",
+        "stage", "sizes", "time", "CPU", "peak RSS", "bundle"
     );
     for (k, (stage, _, _)) in STAGES.iter().enumerate() {
         for w in runs.windows(2) {
             let (a, b) = (&w[0], &w[1]);
             let get = |r: &SizeRun, f: fn(&Measured) -> f64| r.stages[k].as_ref().map(f);
             println!(
-                "{:<10} {:<11} {:>6} {:>9} {:>7}",
+                "{:<10} {:<11} {:>6} {:>6} {:>9} {:>7}",
                 stage,
                 format!("{}→{}", a.size, b.size),
                 exponent(
                     get(a, |m| m.seconds),
                     get(b, |m| m.seconds),
+                    a.triangles,
+                    b.triangles
+                ),
+                exponent(
+                    get(a, |m| m.cpu_seconds),
+                    get(b, |m| m.cpu_seconds),
                     a.triangles,
                     b.triangles
                 ),
