@@ -24,7 +24,9 @@
 //! part of the figure), and over the reflectors' pixels against the CPU evaluation of the
 //! viewer's own equation (the viewer's share of the error). `GLINT_BENCH_TABLES` (a comma list
 //! of `frames`, `reflections`, `fidelity`; all by default) picks the tables and
-//! `GLINT_BENCH_SCENES` (a comma list) the scenes.
+//! `GLINT_BENCH_SCENES` (a comma list) the scenes, `GLINT_BENCH_MODES` (a comma list of
+//! `geometry`, `off`, `image1`, `image2`, `image4`, `image2d`; all by default) the reflection
+//! table's modes (geometry always runs: the ratios are to it).
 //!
 //! `cargo bench --bench view` (the `view` feature, on by default). The adapter is the one
 //! `Gpu::headless` picks: a hardware GPU when there is one, else Mesa's lavapipe; `WGPU_BACKEND`
@@ -198,8 +200,10 @@ fn reflection_table(gpu: &Gpu, work: &Path, repeats: usize) {
             "× geometry",
             "GPU all passes ms",
             "splats drawn",
+            "splat draw calls",
             "error vs path tracer",
             "error vs CPU eq.",
+            "reflector px error vs CPU eq.",
         ]
         .map(String::from),
     ];
@@ -232,6 +236,19 @@ fn reflection_table(gpu: &Gpu, work: &Path, repeats: usize) {
             2,
         ),
     ];
+    let only = std::env::var("GLINT_BENCH_MODES").ok();
+    let keys = ["geometry", "off", "image1", "image2", "image4", "image2d"];
+    let modes: Vec<_> = modes
+        .into_iter()
+        .zip(keys)
+        .filter(|(_, key)| {
+            *key == "geometry"
+                || only
+                    .as_deref()
+                    .is_none_or(|o| o.split(',').any(|w| w.trim() == *key))
+        })
+        .map(|(m, _)| m)
+        .collect();
     for name in picked(&["glossy-room", "breakfast-room"]) {
         let scene_json = repo(&format!("scenes/{name}/scene.json"));
         let bundle = bake_if_needed(&scene_json, work, name, false);
@@ -286,8 +303,16 @@ fn reflection_table(gpu: &Gpu, work: &Path, repeats: usize) {
             SIZE.1,
             1.0,
         ));
+        let mask = reflector_mask(&bvh, &reflectors, &view, SIZE.0, SIZE.1);
+        let masked = |img: &[u8]| -> Vec<u8> {
+            img.chunks_exact(4)
+                .zip(&mask)
+                .filter(|(_, m)| **m)
+                .flat_map(|(p, _)| p.iter().copied())
+                .collect()
+        };
         let mut geometry_ms = f64::NAN;
-        for (label, mode, selection, count) in modes {
+        for &(label, mode, selection, count) in &modes {
             let mut off =
                 Offscreen::new(gpu, &data, SIZE.0, SIZE.1).unwrap_or_else(|e| panic!("{e}"));
             off.options.selection = selection;
@@ -295,27 +320,31 @@ fn reflection_table(gpu: &Gpu, work: &Path, repeats: usize) {
             off.set_reflections(gpu, &data, mode)
                 .unwrap_or_else(|e| panic!("{e}"));
             off.render(gpu, &timed[0]).unwrap_or_else(|e| panic!("{e}")); // warm-up
-            let mut best: Option<(f64, f64, u64)> = None;
+            let mut best: Option<(f64, f64, u64, usize)> = None;
             for _ in 0..repeats {
                 let (mut frame, mut gpu_ms, mut splats) = (Vec::new(), Vec::new(), 0u64);
+                let mut draws = 0usize;
                 for c in &timed {
                     let t = off.render(gpu, c).unwrap_or_else(|e| panic!("{e}"));
                     frame.push(t.frame_ms);
                     gpu_ms.push(t.gpu_ms);
-                    splats += off.reflections().map_or(0, |r| {
-                        r.frame_stats().iter().map(|s| s.drawn_splats).sum::<u64>()
-                    });
+                    if let Some(r) = off.reflections() {
+                        let stats = r.frame_stats();
+                        splats += stats.iter().map(|s| s.drawn_splats).sum::<u64>();
+                        draws += stats.iter().map(|s| s.draws).sum::<usize>();
+                    }
                 }
                 let run = (
                     median(&mut frame),
                     median(&mut gpu_ms),
                     splats / timed.len() as u64,
+                    draws / timed.len(),
                 );
                 if best.is_none_or(|b| run.0 < b.0) {
                     best = Some(run);
                 }
             }
-            let (frame_ms, gpu_ms, splats) = best.expect("at least one run");
+            let (frame_ms, gpu_ms, splats, draws) = best.expect("at least one run");
             if mode == ReflectionMode::Geometry {
                 geometry_ms = frame_ms;
             }
@@ -333,23 +362,31 @@ fn reflection_table(gpu: &Gpu, work: &Path, repeats: usize) {
                 } else {
                     "-".to_string()
                 },
+                if mode == ReflectionMode::Image {
+                    draws.to_string()
+                } else {
+                    "-".to_string()
+                },
                 format!(
                     "{:.2}",
                     mean_diff(&half_size(&img, SIZE.0, SIZE.1), &traced)
                 ),
                 format!("{:.2}", mean_diff(&img, &equation)),
+                format!("{:.2}", mean_diff(&masked(&img), &masked(&equation))),
             ]);
         }
     }
     println!(
-        "\nglossy reflections at {}x{}: median frame time over every {FRAME_STRIDE}th frame of the first path (best of {repeats} runs), GPU time from the first pass's beginning to the last pass's end, mean error (8-bit sRGB) at the middle frame vs the path tracer ({REFERENCE_SPP} spp, both box-filtered 2x2) and vs the CPU equation\n",
+        "\nglossy reflections at {}x{}: median frame time over every {FRAME_STRIDE}th frame of the first path (best of {repeats} runs), GPU time from the first pass's beginning to the last pass's end, mean error (8-bit sRGB) at the middle frame vs the path tracer ({REFERENCE_SPP} spp, both box-filtered 2x2) and vs the CPU equation (whole frame, and over the reflectors' pixels)\n",
         SIZE.0, SIZE.1
     );
     print!(
         "{}",
         format_table(
             &rows,
-            &[false, true, false, true, true, true, true, true, true]
+            &[
+                false, true, false, true, true, true, true, true, true, true, true
+            ]
         )
     );
 }

@@ -61,6 +61,10 @@ struct ReflectParams {
 @group(1) @binding(5) var sphere_map: texture_2d<f32>;
 // Per quadtree node: xy half size in NDC, z clip-z scale (rank depth bias).
 @group(1) @binding(6) var<storage, read> splat_nodes: array<vec4<f32>>;
+// Image mode: the reflector's radiance-map points (`splats::Splat`), and this frame's kept
+// ones (indices into `splat_points`, `splat_maps::SplatMaps::plan`).
+@group(1) @binding(8) var<storage, read> splat_points: array<SplatPoint>;
+@group(1) @binding(9) var<storage, read> splat_kept: array<u32>;
 // M's pyramid: (rgb·c, c) per level, c = 0 for a hole (`pyramid.wgsl`).
 @group(1) @binding(7) var pyramid: texture_2d<f32>;
 
@@ -284,11 +288,16 @@ fn fs_composite(in: MirrorOut) -> FragmentOut {
 }
 
 // Image-based mode: the selected radiance maps' points as screen-aligned quads in the
-// mirrored view (instanced triangle strips; WebGPU has no point size), nearest wins.
-struct SplatIn {
-    @location(3) position: vec3<f32>,
-    @location(4) node: u32,
-    @location(5) color: vec3<f32>,
+// mirrored view, nearest wins (WebGPU has no point size). One non-instanced triangle list per
+// reflector: 6 vertices per kept point, the point read from `splat_points` through
+// `splat_kept`, so a frame's thinned and culled selection is one draw call (a software
+// rasteriser runs the vertex stage per instance: instanced quads cost a draw each).
+// Keep in sync with `splats::Splat` (a test compares them).
+struct SplatPoint {
+    position: vec3<f32>,
+    node: u32,
+    color: vec3<f32>,
+    pad: f32,
 };
 
 struct SplatOut {
@@ -302,9 +311,14 @@ struct SplatOut {
 // `splats::SPLAT_OVERLAP`: a splat's quad over its Eq. 3 extent.
 const SPLAT_OVERLAP: f32 = 1.5;
 
+// The quad's corner per vertex of its two triangles, as triangle-strip indices.
+const SPLAT_CORNER = array<u32, 6>(0u, 1u, 2u, 2u, 1u, 3u);
+
 @vertex
-fn vs_splat(@builtin(vertex_index) vi: u32, s: SplatIn) -> SplatOut {
-    let corner = vec2<f32>(f32(vi & 1u) * 2.0 - 1.0, f32((vi >> 1u) & 1u) * 2.0 - 1.0);
+fn vs_splat(@builtin(vertex_index) vi: u32) -> SplatOut {
+    let s = splat_points[splat_kept[vi / 6u]];
+    let ci = SPLAT_CORNER[vi % 6u];
+    let corner = vec2<f32>(f32(ci & 1u) * 2.0 - 1.0, f32((ci >> 1u) & 1u) * 2.0 - 1.0);
     let node = splat_nodes[s.node];
     let c = frame.view_proj * vec4<f32>(s.position, 1.0);
     var out: SplatOut;

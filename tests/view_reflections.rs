@@ -841,3 +841,171 @@ fn near_mirror_reflection_keeps_its_edges_sharp() {
         "edge width {got:.1} px vs the reference's {reference:.1} px"
     );
 }
+
+/// Per pixel of `camera`'s `width` × `height` view: whether its primary ray hits one of
+/// `reflectors` from its reflecting side (the pixels the composite shades).
+fn reflector_mask(
+    bvh: &Bvh,
+    reflectors: &[reflections::PlanarReflector],
+    camera: &glint::camera::Camera,
+    (width, height): (u32, u32),
+) -> Vec<bool> {
+    use glint::camera::Camera;
+    let mut of = std::collections::HashMap::new();
+    for (i, r) in reflectors.iter().enumerate() {
+        for &t in &r.triangles {
+            of.insert(t, i);
+        }
+    }
+    let aspect = width as f32 / height as f32;
+    (0..width * height)
+        .map(|k| {
+            let ndc = Camera::pixel_ndc(k % width, k / width, width, height);
+            bvh.closest_hit(
+                camera.position,
+                camera.ray_direction(ndc, aspect),
+                f32::INFINITY,
+            )
+            .and_then(|hit| of.get(&hit.triangle))
+            .is_some_and(|&i| {
+                reflections::signed_distance(&reflectors[i].plane, camera.position) > 0.0
+            })
+        })
+        .collect()
+}
+
+/// Image mode on glossy-room's `front` view (facing the near-mirror panel, the ceiling
+/// light reflected in it) at a small frame: over the reflectors' pixels, linear radiance
+/// against the CPU equation, relative RMSE (`glint::eval::compare`) within
+/// [`FRONT_REL_TOLERANCE`] and no pixel brighter than the brightest the geometry-based mode
+/// draws on the reflectors. Prints the light's rows in both images ('L' > 5, '.' off the
+/// reflectors) and the worst pixels.
+///
+/// Measured (draft bakes, 192×128): image 5.28, geometry 0.001. 27 reflector pixels show the
+/// reflected ceiling light's full radiance (19.1 against 0.14) one row below where the CPU
+/// equation and geometry mode draw it: the light strip appears twice as thick. Making
+/// sub-pixel splats keep their aspect (no one-pixel minimum across the view) changed no
+/// pixel, so the cause is not that clamp: either magnified splats overlapping (×1.5) past the
+/// light's edge, or texels under the light that no splat covered being filled from the
+/// nearest covered ring (`fill_hole`), which holds only the light there.
+#[test]
+#[ignore = "open: image mode draws the mirrored ceiling light one row too thick (relative RMSE 5.28 > 0.3); see the doc comment"]
+fn image_mode_facing_the_mirror_matches_the_cpu_equation_per_pixel() {
+    use glint::eval::Image;
+    use glint::eval::compare::compare;
+    const SMALL: (u32, u32) = (192, 128);
+    let data = load(glossy_bundle()).unwrap_or_else(|e| panic!("{e}"));
+    let gpu = gpu();
+    let camera = pose_at(data.scene.camera_path(Some("front")).unwrap(), 0.0);
+    let bvh = Bvh::build(&data.scene.triangles);
+    let reflectors = reflections::reflectors_with_reflectance(&data);
+    let image = |rgb: Vec<Vec3>| Image {
+        width: SMALL.0 as usize,
+        height: SMALL.1 as usize,
+        rgb,
+    };
+    let cpu = image(reflections::cpu_reference(
+        &data.scene,
+        &reflectors,
+        &bvh,
+        &data.map,
+        &camera,
+        SMALL.0,
+        SMALL.1,
+        1.0,
+    ));
+    let mask = reflector_mask(&bvh, &reflectors, &camera, SMALL);
+    let mut off = Offscreen::new(&gpu, &data, SMALL.0, SMALL.1).unwrap();
+    let mut frame = |mode| {
+        off.set_reflections(&gpu, &data, mode).unwrap();
+        off.render(&gpu, &camera).unwrap();
+        (
+            image(off.read_hdr(&gpu).unwrap()),
+            off.reflections().map(|r| r.frame_stats()),
+        )
+    };
+    let (geometry, _) = frame(ReflectionMode::Geometry);
+    let (img, stats) = frame(ReflectionMode::Image);
+    let rel = |a: &Image| compare(a, &cpu, Some(&mask)).unwrap().rel_rmse;
+    let (err_image, err_geometry) = (rel(&img), rel(&geometry));
+    let brightest = |a: &Image| {
+        a.rgb
+            .iter()
+            .zip(&mask)
+            .filter(|(_, m)| **m)
+            .map(|(p, _)| p.max_element())
+            .fold(0.0f32, f32::max)
+    };
+    let mut worst: Vec<(f32, usize)> = img
+        .rgb
+        .iter()
+        .zip(&cpu.rgb)
+        .enumerate()
+        .filter(|(k, _)| mask[*k])
+        .map(|(k, (a, b))| ((*a - *b).abs().max_element() / (b.max_element() + 0.1), k))
+        .collect();
+    worst.sort_by(|a, b| b.0.total_cmp(&a.0));
+    for &(e, k) in worst.iter().take(12) {
+        let (x, y) = (k as u32 % SMALL.0, k as u32 / SMALL.0);
+        eprintln!(
+            "({x}, {y}): image {}, geometry {}, CPU {} (rel {e:.2})",
+            img.rgb[k], geometry.rgb[k], cpu.rgb[k]
+        );
+    }
+    let bbox = |pred: &dyn Fn(usize) -> bool| {
+        let px: Vec<(u32, u32)> = (0..mask.len())
+            .filter(|&k| mask[k] && pred(k))
+            .map(|k| (k as u32 % SMALL.0, k as u32 / SMALL.0))
+            .collect();
+        let b = px.iter().fold((u32::MAX, u32::MAX, 0, 0), |b, p| {
+            (b.0.min(p.0), b.1.min(p.1), b.2.max(p.0), b.3.max(p.1))
+        });
+        (px.len(), b)
+    };
+    for y in 5..15u32 {
+        let row = |a: &Image| -> String {
+            (122..154u32)
+                .map(|x| {
+                    let k = (y * SMALL.0 + x) as usize;
+                    let v = a.rgb[k].max_element();
+                    if !mask[k] {
+                        '.'
+                    } else if v > 5.0 {
+                        'L'
+                    } else if v > 1.0 {
+                        'l'
+                    } else {
+                        '-'
+                    }
+                })
+                .collect()
+        };
+        eprintln!("{y:3} image {}  cpu {}", row(&img), row(&cpu));
+    }
+    eprintln!(
+        "bright in image, dark in CPU: {:?}; bright in CPU: {:?}; bright in geometry: {:?}",
+        bbox(&|k| img.rgb[k].max_element() > 5.0 && cpu.rgb[k].max_element() < 1.0),
+        bbox(&|k| cpu.rgb[k].max_element() > 5.0),
+        bbox(&|k| geometry.rgb[k].max_element() > 5.0),
+    );
+    eprintln!(
+        "front, reflector pixels ({}): rel. RMSE vs CPU eq. image {err_image:.3}, geometry {err_geometry:.3}; brightest image {}, geometry {}; {stats:?}",
+        mask.iter().filter(|m| **m).count(),
+        brightest(&img),
+        brightest(&geometry)
+    );
+    assert!(
+        err_image <= FRONT_REL_TOLERANCE,
+        "image mode: relative RMSE {err_image:.3} > {FRONT_REL_TOLERANCE} over the reflectors"
+    );
+    assert!(
+        brightest(&img) <= 1.05 * brightest(&geometry),
+        "image mode draws a reflector pixel at {} where geometry mode's brightest is {}",
+        brightest(&img),
+        brightest(&geometry)
+    );
+}
+
+/// Relative RMSE (linear) allowed between image mode and the CPU equation over the reflector
+/// pixels of glossy-room's `front` view at 192×128.
+const FRONT_REL_TOLERANCE: f64 = 0.3;

@@ -12,8 +12,9 @@
 //!      scene re-rendered, a clip plane discarding what lies behind the mirror;
 //!    - image-based ([`ReflectionMode::Image`], §8.1.3): per reflector element, the `count`
 //!      baked radiance maps closest to the mirrored eye ([`super::radiance_maps::select`],
-//!      by angle or distance) reprojected as splats (instanced quads: WebGPU has no point
-//!      size), sized by Eq. 3 per quadtree node, culled per node, points skipped when
+//!      by angle or distance) reprojected as splats (quads of two triangles: WebGPU has no point
+//!      size; the frame's kept points listed by index and drawn in one call per reflector),
+//!      sized by Eq. 3 per quadtree node, culled per node, points skipped when
 //!      minified ([`splats`], on the GPU in [`splat_maps`]). Texels no splat covered (gaps,
 //!      and directions no selected map saw: at grazing views, beyond the maps' frusta) are
 //!      filled in the composite from the nearest covered ones ([`splats::fill_hole`]).

@@ -15,7 +15,7 @@ use super::params::{
 };
 use super::pyramid::{Pyramid, PyramidPasses};
 use super::splat_maps::{FrameStats, SplatMaps, load_splat_maps};
-use super::splats::{self, Splat};
+use super::splats;
 use super::{
     CLIP_FRACTION, PlanarReflector, ReflectanceSettings, Source, mirror_camera, mirror_point,
     reflectors_with_materials, signed_distance,
@@ -138,6 +138,8 @@ impl GeometryReflections {
             let mirror_layout = params_layout().build(device, "glint mirror params layout");
             let splat_layout = params_layout()
                 .storage(6, wgpu::ShaderStages::VERTEX)
+                .storage(8, wgpu::ShaderStages::VERTEX)
+                .storage(9, wgpu::ShaderStages::VERTEX)
                 .build(device, "glint splat params layout");
             let composite_layout =
                 composite_bind_group_layout(device, "glint composite params layout");
@@ -151,8 +153,6 @@ impl GeometryReflections {
             let splat_pipeline =
                 render_pipeline("glint splat pipeline", &shader, "vs_splat", "fs_splat")
                     .layouts(&[&frame_layout, &splat_layout])
-                    .vertex(Splat::layout())
-                    .topology(wgpu::PrimitiveTopology::TriangleStrip)
                     .color(HDR_FORMAT, None)
                     .depth(reverse_z_depth(true, wgpu::CompareFunction::Greater))
                     .build(device);
@@ -209,6 +209,14 @@ impl GeometryReflections {
                                 wgpu::BindGroupEntry {
                                     binding: 6,
                                     resource: s.nodes.as_entire_binding(),
+                                },
+                                wgpu::BindGroupEntry {
+                                    binding: 8,
+                                    resource: s.points.as_entire_binding(),
+                                },
+                                wgpu::BindGroupEntry {
+                                    binding: 9,
+                                    resource: s.kept.as_entire_binding(),
                                 },
                             ],
                         }));
@@ -416,11 +424,11 @@ impl GeometryReflections {
                         pass.set_pipeline(&self.splat_pipeline);
                         pass.set_bind_group(0, &r.mirror_frame_group, &[]);
                         pass.set_bind_group(1, maps.group.as_ref(), &[]);
-                        pass.set_vertex_buffer(0, maps.instances.slice(..));
-                        if let Ok(plan) = maps.plan.lock() {
-                            for d in &plan.0 {
-                                pass.draw(0..4, d.clone());
-                            }
+                        // Every kept splat in one draw: 6 vertices (two triangles) each.
+                        if let Ok(plan) = maps.plan.lock()
+                            && plan.0 > 0
+                        {
+                            pass.draw(0..6 * plan.0, 0..1);
                         }
                     }
                     _ => {

@@ -25,25 +25,31 @@ pub struct FrameStats {
     pub drawn_splats: u64,
     /// Quadtree nodes culled.
     pub culled_nodes: usize,
-    /// Draw calls.
+    /// Draw calls (one for all drawn splats).
     pub draws: usize,
+    /// Ranges of contiguous splats drawn (what one draw call each would cost).
+    pub ranges: usize,
 }
 
-/// A reflector's maps on the GPU: every map's splats in one instance buffer, in quadtree
-/// order; the quadtrees stay on the CPU for per-frame culling and sizing.
+/// A reflector's maps on the GPU: every map's splats in one storage buffer, in quadtree
+/// order; the quadtrees stay on the CPU for per-frame culling and sizing, and each frame's
+/// kept splats are listed by index, so they are one draw however many ranges they form.
 pub(super) struct SplatMaps {
     maps: Vec<MapEntry>,
     /// Per map: its quadtree and node ranges (splats dropped after upload), node base.
     trees: Vec<(MapSplats, u32)>,
     node_count: usize,
-    /// Every map's splats, in quadtree order (instances of `vs_splat`).
-    pub(super) instances: wgpu::Buffer,
+    /// Every map's splats, in quadtree order (`splat_points`, binding 8 of the splat pass).
+    pub(super) points: wgpu::Buffer,
+    /// This frame's kept splats, indices into `points` (`splat_kept`, binding 9).
+    pub(super) kept: wgpu::Buffer,
     /// Per quadtree node, this frame's [`NodeParams`] (binding 6 of the splat pass).
     pub(super) nodes: wgpu::Buffer,
     /// The splat pass's group 1 (set by the pass that binds `nodes`).
     pub(super) group: Option<wgpu::BindGroup>,
-    /// The last prepared frame's draws and statistics.
-    pub(super) plan: Mutex<(Vec<splats::Draw>, FrameStats)>,
+    /// The last prepared frame's kept splat count (`vs_splat` draws 6 vertices each) and
+    /// statistics.
+    pub(super) plan: Mutex<(u32, FrameStats)>,
 }
 
 /// Reads reflector `reflector`'s radiance maps from the bundle and uploads their splats.
@@ -77,12 +83,18 @@ pub(super) fn load_splat_maps(
         trees.push((tree, node_base));
         node_base += count;
     }
-    let instances = buffer_init(
+    let points = buffer_init(
         gpu,
         "glint radiance-map splats",
-        wgpu::BufferUsages::VERTEX,
+        wgpu::BufferUsages::STORAGE,
         bytemuck::cast_slice(&all),
         32,
+    );
+    let kept = buffer(
+        &gpu.device,
+        "glint kept splats",
+        (all.len() as u64 * 4).max(16),
+        wgpu::BufferUsages::STORAGE,
     );
     let nodes = buffer(
         &gpu.device,
@@ -94,10 +106,11 @@ pub(super) fn load_splat_maps(
         maps: cams.maps,
         trees,
         node_count: node_base as usize,
-        instances,
+        points,
+        kept,
         nodes,
         group: None,
-        plan: Mutex::new((Vec::new(), FrameStats::default())),
+        plan: Mutex::new((0, FrameStats::default())),
     })
 }
 
@@ -153,12 +166,19 @@ impl SplatMaps {
                 &mut draws,
             );
         }
-        stats.draws = draws.len();
-        stats.drawn_splats = draws.iter().map(|d| u64::from(d.end - d.start)).sum();
+        let mut kept = Vec::new();
+        splats::kept_indices(&draws, &mut kept);
+        stats.ranges = draws.len();
+        stats.draws = usize::from(!kept.is_empty());
+        stats.drawn_splats = kept.len() as u64;
         gpu.queue
             .write_buffer(&self.nodes, 0, bytemuck::cast_slice(&params));
+        if !kept.is_empty() {
+            gpu.queue
+                .write_buffer(&self.kept, 0, bytemuck::cast_slice(&kept));
+        }
         if let Ok(mut plan) = self.plan.lock() {
-            *plan = (draws, stats);
+            *plan = (kept.len() as u32, stats);
         }
     }
 }

@@ -50,7 +50,8 @@ pub const SPLAT_OVERLAP: f32 = 1.5;
 /// loses to rank r unless it is 1000 times nearer, which a scene never is.
 pub const RANK_DEPTH_SCALE: f32 = 1e-3;
 
-/// One splat (32 bytes): a point of a radiance map, `@location(3..=5)` of `SplatIn`.
+/// One splat (32 bytes): a point of a radiance map, an element of `splat_points` (WGSL
+/// `SplatPoint`, read by `vs_splat` through the frame's kept indices).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Splat {
@@ -63,21 +64,6 @@ pub struct Splat {
     pub color: [f32; 3],
     /// Padding.
     pub _pad: f32,
-}
-
-/// The vertex attributes of [`Splat`] (`SplatIn`'s locations 3–5).
-const SPLAT_ATTRIBUTES: [wgpu::VertexAttribute; 3] =
-    wgpu::vertex_attr_array![3 => Float32x3, 4 => Uint32, 5 => Float32x3];
-
-impl Splat {
-    /// The instance-rate vertex buffer layout of the splat pass.
-    pub fn layout() -> wgpu::VertexBufferLayout<'static> {
-        wgpu::VertexBufferLayout {
-            array_stride: std::mem::size_of::<Splat>() as u64,
-            step_mode: wgpu::VertexStepMode::Instance,
-            attributes: &SPLAT_ATTRIBUTES,
-        }
-    }
 }
 
 /// Per-frame parameters of one quadtree node (16 bytes, `array<vec4<f32>>` in the shader).
@@ -318,6 +304,16 @@ pub fn fill_hole(m: &[Vec4], width: u32, height: u32, x: i32, y: i32) -> Vec4 {
 /// One draw: a range of splats.
 pub type Draw = Range<u32>;
 
+/// The splat indices of `draws`, in order: the frame's kept points as `vs_splat` reads them
+/// (one draw call for all ranges, however many the thinning leaves unmerged).
+pub fn kept_indices(draws: &[Draw], out: &mut Vec<u32>) {
+    out.clear();
+    out.reserve(draws.iter().map(|d| (d.end - d.start) as usize).sum());
+    for d in draws {
+        out.extend(d.clone());
+    }
+}
+
 /// What one selected map contributes to a frame: its draws (appended to `draws`, adjacent
 /// ranges merged) and its visible leaves' parameters (written into `params` at
 /// `node_base` + leaf index). `rank` is the map's place in its element's selection (0: best).
@@ -366,9 +362,14 @@ pub fn plan_map(
         // A lower-ranked map only fills what the better ones leave empty: its points at least
         // 2^rank apart (a quarter of them per rank, each splat grown to match).
         let k = step(size / detail(node.mean).max(1.0)).max(1 << rank.min(2));
-        // Eq. 3: the kept points' spacing is k map pixels; at least one screen pixel so a
-        // splat always covers a pixel centre.
-        let px = (size * k as f32 * SPLAT_OVERLAP).max(Vec2::ONE);
+        // Eq. 3: the kept points' spacing is k map pixels; grown (keeping its aspect) to at
+        // least one screen pixel along its major axis so that a splat covers a pixel centre.
+        // Not a pixel along both: where a surface is seen obliquely its points lie far closer
+        // than a pixel across the view, their splats already overlap there, and a one-pixel
+        // minimum would fatten thin bright features by up to half a pixel per side (a ceiling
+        // light seen in a mirror at 192×128 drew a row of the light's radiance below it).
+        let px = size * k as f32 * SPLAT_OVERLAP;
+        let px = px * (1.0 / px.max_element().max(1e-6)).max(1.0);
         params[(node_base as usize) + i] = NodeParams {
             half_ndc: [px.x / width.max(1) as f32, px.y / height.max(1) as f32],
             depth_scale,
@@ -389,18 +390,23 @@ mod tests {
     use super::*;
 
     #[test]
-    fn splat_matches_the_wgsl_input() {
-        crate::view::wgsl_layout::assert_vertex_layout(
-            &Splat::layout(),
-            std::mem::size_of::<Splat>(),
-            &[
-                std::mem::offset_of!(Splat, position),
-                std::mem::offset_of!(Splat, node),
-                std::mem::offset_of!(Splat, color),
-            ],
-            &super::super::shader_source(),
-            "SplatIn",
+    fn splat_matches_the_wgsl_struct() {
+        crate::assert_wgsl_layout!(
+            super::super::shader_source(),
+            "SplatPoint",
+            Splat {
+                position,
+                node,
+                color,
+                _pad
+            }
         );
+        // `splat_points: array<SplatPoint>`: one Splat per element.
+        let (stride, element) =
+            crate::view::wgsl_layout::wgsl_array(&super::super::shader_source(), "splat_points")
+                .unwrap_or_else(|e| panic!("splat_points: {e}"));
+        assert_eq!(stride as usize, std::mem::size_of::<Splat>());
+        assert!(element.starts_with("Struct"), "splat_points of {element}");
     }
 
     #[test]
@@ -578,6 +584,13 @@ mod tests {
         let (draws, _) = plan_with(&up, 1.0, 1, &mut params);
         let total: u32 = draws.iter().map(|d| d.end - d.start).sum();
         assert_eq!(total, 64, "{draws:?}");
+        // Its thinned ranges no longer merge, yet they are one list of kept splats (one draw):
+        // each leaf's prefix, in order.
+        assert_eq!(draws.len(), 2, "{draws:?}");
+        let mut kept = vec![7];
+        kept_indices(&draws, &mut kept);
+        let want: Vec<u32> = (0..32).chain(128..160).collect();
+        assert_eq!(kept, want);
         assert!(params[11].depth_scale < 1.0, "rank 1 is pushed back");
         let (_, _) = plan(&up, &mut params);
         // The same view where the composite keeps only 64-pixel detail (a rough lobe's
