@@ -303,7 +303,7 @@ fn reflection_table(gpu: &Gpu, work: &Path, repeats: usize) {
             SIZE.1,
             1.0,
         ));
-        let mask = reflector_mask(&bvh, &reflectors, &view, SIZE.0, SIZE.1);
+        let mask = reflections::reflector_pixels(&bvh, &reflectors, &view, SIZE.0, SIZE.1);
         let masked = |img: &[u8]| -> Vec<u8> {
             img.chunks_exact(4)
                 .zip(&mask)
@@ -403,39 +403,6 @@ const FIDELITY_SIZE: (u32, u32) = (192, 128);
 /// Paths per pixel of the fidelity table's references.
 const FIDELITY_SPP: u32 = 64;
 
-/// Per pixel of `camera`'s `width` × `height` view: whether its primary ray hits one of
-/// `reflectors` from its reflecting side (the pixels the reflection passes shade).
-fn reflector_mask(
-    bvh: &Bvh,
-    reflectors: &[reflections::PlanarReflector],
-    camera: &glint::camera::Camera,
-    width: u32,
-    height: u32,
-) -> Vec<bool> {
-    use glint::camera::Camera;
-    let mut of: std::collections::HashMap<u32, usize> = std::collections::HashMap::new();
-    for (i, r) in reflectors.iter().enumerate() {
-        for &t in &r.triangles {
-            of.insert(t, i);
-        }
-    }
-    let aspect = width as f32 / height as f32;
-    (0..width * height)
-        .map(|k| {
-            let ndc = Camera::pixel_ndc(k % width, k / width, width, height);
-            bvh.closest_hit(
-                camera.position,
-                camera.ray_direction(ndc, aspect),
-                f32::INFINITY,
-            )
-            .and_then(|hit| of.get(&hit.triangle))
-            .is_some_and(|&i| {
-                reflections::signed_distance(&reflectors[i].plane, camera.position) > 0.0
-            })
-        })
-        .collect()
-}
-
 /// Fidelity of both reflection modes (and reflections off): per shipped scene with glossy
 /// planar reflectors and per camera path's first keyframe, at [`FIDELITY_SIZE`] on draft
 /// bakes (materials and radiance stages too), the relative RMSE (`glint::eval::compare`, linear
@@ -503,7 +470,7 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
                 h,
                 1.0,
             ));
-            let mask = reflector_mask(&bvh, &reflectors, &camera, w, h);
+            let mask = reflections::reflector_pixels(&bvh, &reflectors, &camera, w, h);
             let pixels = mask.iter().filter(|m| **m).count();
             for (label, mode) in [
                 ("geometry", ReflectionMode::Geometry),

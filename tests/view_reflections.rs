@@ -842,38 +842,6 @@ fn near_mirror_reflection_keeps_its_edges_sharp() {
     );
 }
 
-/// Per pixel of `camera`'s `width` × `height` view: whether its primary ray hits one of
-/// `reflectors` from its reflecting side (the pixels the composite shades).
-fn reflector_mask(
-    bvh: &Bvh,
-    reflectors: &[reflections::PlanarReflector],
-    camera: &glint::camera::Camera,
-    (width, height): (u32, u32),
-) -> Vec<bool> {
-    use glint::camera::Camera;
-    let mut of = std::collections::HashMap::new();
-    for (i, r) in reflectors.iter().enumerate() {
-        for &t in &r.triangles {
-            of.insert(t, i);
-        }
-    }
-    let aspect = width as f32 / height as f32;
-    (0..width * height)
-        .map(|k| {
-            let ndc = Camera::pixel_ndc(k % width, k / width, width, height);
-            bvh.closest_hit(
-                camera.position,
-                camera.ray_direction(ndc, aspect),
-                f32::INFINITY,
-            )
-            .and_then(|hit| of.get(&hit.triangle))
-            .is_some_and(|&i| {
-                reflections::signed_distance(&reflectors[i].plane, camera.position) > 0.0
-            })
-        })
-        .collect()
-}
-
 /// Image mode on glossy-room's `front` view (facing the near-mirror panel, the ceiling
 /// light reflected in it) at a small frame: over the reflectors' pixels, linear radiance
 /// against the CPU equation, relative RMSE (`glint::eval::compare`) within
@@ -914,7 +882,7 @@ fn image_mode_facing_the_mirror_matches_the_cpu_equation_per_pixel() {
         SMALL.1,
         1.0,
     ));
-    let mask = reflector_mask(&bvh, &reflectors, &camera, SMALL);
+    let mask = reflections::reflector_pixels(&bvh, &reflectors, &camera, SMALL.0, SMALL.1);
     let mut off = Offscreen::new(&gpu, &data, SMALL.0, SMALL.1).unwrap();
     let mut frame = |mode| {
         off.set_reflections(&gpu, &data, mode).unwrap();

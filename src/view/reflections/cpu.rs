@@ -195,3 +195,35 @@ pub fn cpu_reference_filtered(
     }
     out.iter().map(|l| *l * exposure).collect()
 }
+
+/// Per pixel of `camera`'s `width` × `height` view, row by row: whether its primary ray
+/// first meets one of `reflectors` from its reflecting side (the pixels the reflection passes
+/// shade). The fidelity bench and tests score reflections on these pixels.
+pub fn reflector_pixels(
+    bvh: &Bvh,
+    reflectors: &[PlanarReflector],
+    camera: &Camera,
+    width: u32,
+    height: u32,
+) -> Vec<bool> {
+    let mut of = std::collections::HashMap::new();
+    for (i, r) in reflectors.iter().enumerate() {
+        for &t in &r.triangles {
+            of.insert(t, i);
+        }
+    }
+    let aspect = width as f32 / height as f32;
+    (0..width * height)
+        .into_par_iter()
+        .map(|k| {
+            let ndc = Camera::pixel_ndc(k % width, k / width, width, height);
+            bvh.closest_hit(
+                camera.position,
+                camera.ray_direction(ndc, aspect),
+                f32::INFINITY,
+            )
+            .and_then(|hit| of.get(&hit.triangle))
+            .is_some_and(|&i| signed_distance(&reflectors[i].plane, camera.position) > 0.0)
+        })
+        .collect()
+}

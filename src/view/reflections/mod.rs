@@ -49,7 +49,7 @@ pub mod recursive;
 mod splat_maps;
 pub mod splats;
 
-pub use cpu::{MkFilter, cpu_reference, cpu_reference_filtered};
+pub use cpu::{MkFilter, cpu_reference, cpu_reference_filtered, reflector_pixels};
 pub use material::{
     MODULATION_SIZE, Modulation, ReflectanceChannel, ReflectanceLayout, ScreenKernel,
     sample_modulation,
