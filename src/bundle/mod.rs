@@ -366,15 +366,23 @@ pub fn check_folder(dir: &Path) -> Result<(), BundleError> {
         source,
     })?;
     let mut foreign = Vec::new();
+    let mut manifest_appeared = false;
     for e in entries {
         let e = e.map_err(|source| BundleError::Io {
             path: dir.to_owned(),
             source,
         })?;
         let name = e.file_name().to_string_lossy().into_owned();
-        if !writer::is_own_scratch(&name) {
+        if name == MANIFEST {
+            manifest_appeared = true;
+        } else if !writer::is_own_scratch(&name) {
             foreign.push(name);
         }
+    }
+    // Another process made the folder a bundle between the two reads (a writer's first step
+    // under the lock is an empty manifest, written atomically).
+    if manifest_appeared && read_manifest(dir)?.is_some() {
+        return Ok(());
     }
     if foreign.is_empty() {
         return Ok(());
