@@ -363,36 +363,21 @@ fn sample_many(
     let mut sum = Vec3::ZERO;
     let (mut y, mut y2) = (0.0f64, 0.0f64);
     for k in 0..n {
-        let (e, p_pick) = choice.pick((k as f32 + rng.uniform()) / n as f32);
-        let lp = many.sample(scene, e, origin, rng);
-        let w = lp.q - origin;
-        let dist2 = w.length_squared();
-        let dist = dist2.sqrt();
-        if dist.is_nan() || dist <= 0.0 {
+        let u = (k as f32 + rng.uniform()) / n as f32;
+        let Some(dr) = many.draw_towards(scene, choice, u, origin, rng) else {
             continue;
-        }
-        let d = w / dist;
-        let cos_s = d.dot(ns);
-        let cos_l = -d.dot(lp.normal);
-        if cos_s <= 0.0 || cos_l <= 0.0 || d.dot(ng) <= 0.0 {
-            continue;
-        }
-        *rays += 1;
-        // Stop short of an emissive triangle: it must not occlude itself.
-        let reach = match lp.triangle {
-            None => dist * (1.0 - 1e-5),
-            Some(_) => dist - 2.0 * bvh.epsilon().max(dist * 1e-5),
         };
-        if bvh.occluded(origin, d, reach) {
+        let cos_s = dr.d.dot(ns);
+        if cos_s <= 0.0 || dr.d.dot(ng) <= 0.0 || !dr.visible(bvh, origin, rays) {
             continue;
         }
-        let p_light = p_pick * lp.area_pdf * dist2 / cos_l;
+        let p_light = dr.p_light;
         // Gathering rays find emissive triangles too; area lights are not geometry.
-        let wgt = match lp.triangle {
+        let wgt = match dr.point.triangle {
             None => 1.0,
             Some(_) => power(n as f32, p_light, n_rays as f32, cos_s / PI),
         };
-        let c = lp.radiance * (wgt * cos_s / p_light);
+        let c = dr.point.radiance * (wgt * cos_s / p_light);
         sum += c;
         let v = luminance(c) as f64 / PI as f64;
         y += v;

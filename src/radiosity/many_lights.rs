@@ -21,6 +21,7 @@ use std::collections::HashMap;
 use glam::Vec3;
 
 use super::emitters::luminance;
+use crate::geometry::Bvh;
 use crate::sampling::{Rng, sample_triangle};
 use crate::scene::Scene;
 
@@ -68,18 +69,59 @@ pub(super) struct LightPoint {
     pub triangle: Option<u32>,
 }
 
+/// A point drawn from a [`Choice`], seen from the receiver it was drawn for.
+pub(super) struct Drawn {
+    pub point: LightPoint,
+    /// Unit direction from the receiver to the point, and the distance.
+    pub d: Vec3,
+    pub dist: f32,
+    /// Density of the point per solid angle at the receiver: pick × area density × dist² / cos_l.
+    pub p_light: f32,
+}
+
+impl Drawn {
+    /// Whether nothing blocks the segment from `origin` to the point (stopping short of an
+    /// emissive triangle, which must not occlude itself); counts the ray.
+    pub fn visible(&self, bvh: &Bvh, origin: Vec3, rays: &mut u64) -> bool {
+        *rays += 1;
+        let dist = self.dist;
+        let reach = match self.point.triangle {
+            None => dist * (1.0 - 1e-5),
+            Some(_) => dist - 2.0 * bvh.epsilon().max(dist * 1e-5),
+        };
+        !bvh.occluded(origin, self.d, reach)
+    }
+}
+
+/// The 8 corners of the box `lo`–`hi`.
+pub(super) fn box_corners(lo: Vec3, hi: Vec3) -> [Vec3; 8] {
+    std::array::from_fn(|c| {
+        Vec3::new(
+            if c & 1 == 0 { lo.x } else { hi.x },
+            if c & 2 == 0 { lo.y } else { hi.y },
+            if c & 4 == 0 { lo.z } else { hi.z },
+        )
+    })
+}
+
+/// The largest cosine a direction from `at` to one of `points` makes with the unit normal
+/// `n`, at least 0: 0 when every point (so their whole convex hull) lies on or below `at`'s
+/// plane.
+pub(super) fn best_cosine(points: &[Vec3], at: Vec3, n: Vec3) -> f32 {
+    points.iter().fold(0.0f32, |best, &c| {
+        let w = c - at;
+        let len = w.length();
+        best.max(if len > 0.0 { w.dot(n) / len } else { 1.0 })
+    })
+}
+
 impl Emitter {
     /// Weight of this emitter for a receiver at `at` with unit normal `n`; `facing_from` are
     /// the receiver's points (one point, or a mirror's corners) tested against a quad's
     /// emitting side.
     fn weight(&self, at: Vec3, n: Vec3, facing_from: &[Vec3]) -> f32 {
         // The best cosine at the receiver: 0 when the whole emitter lies on or below its plane.
-        let mut cos_r = 0.0f32;
-        for &c in &self.hull {
-            let w = c - at;
-            let len = w.length();
-            cos_r = cos_r.max(if len > 0.0 { w.dot(n) / len } else { 1.0 });
-        }
+        let cos_r = best_cosine(&self.hull, at, n);
         if cos_r <= 0.0 {
             return 0.0;
         }
@@ -116,6 +158,18 @@ pub(super) struct Choice {
 }
 
 impl Choice {
+    /// The distribution ∝ `weights` (each ≥ 0).
+    pub fn from_weights(weights: impl Iterator<Item = f32>) -> Choice {
+        let mut total = 0.0f32;
+        let cdf = weights
+            .map(|w| {
+                total += w;
+                total
+            })
+            .collect();
+        Choice { cdf }
+    }
+
     /// Σ weights.
     pub fn total(&self) -> f32 {
         self.cdf.last().copied().unwrap_or(0.0)
@@ -184,15 +238,7 @@ impl ManyLights {
                 total += tri.area() as f64 * luminance(e) as f64;
                 cdf.push(total);
             }
-            let hull = (0..8)
-                .map(|c| {
-                    Vec3::new(
-                        if c & 1 == 0 { lo.x } else { hi.x },
-                        if c & 2 == 0 { lo.y } else { hi.y },
-                        if c & 4 == 0 { lo.z } else { hi.z },
-                    )
-                })
-                .collect();
+            let hull = box_corners(lo, hi).to_vec();
             emitters.push(Emitter {
                 kind: Kind::Group { tris, cdf },
                 power: total as f32,
@@ -212,16 +258,39 @@ impl ManyLights {
 
     /// [`ManyLights::choose`] with the receiver's points for the emitters' facing test.
     pub fn choose_for(&self, at: Vec3, n: Vec3, facing_from: &[Vec3]) -> Choice {
-        let mut total = 0.0f32;
-        let cdf = self
-            .emitters
-            .iter()
-            .map(|e| {
-                total += e.weight(at, n, facing_from);
-                total
-            })
-            .collect();
-        Choice { cdf }
+        Choice::from_weights(self.emitters.iter().map(|e| e.weight(at, n, facing_from)))
+    }
+
+    /// A point drawn from `choice` (`u` picks the emitter) for a receiver at `origin`, with
+    /// its direction and densities; `None` when it coincides with the receiver or faces away.
+    pub fn draw_towards(
+        &self,
+        scene: &Scene,
+        choice: &Choice,
+        u: f32,
+        origin: Vec3,
+        rng: &mut Rng,
+    ) -> Option<Drawn> {
+        let (k, p_pick) = choice.pick(u);
+        let point = self.sample(scene, k, origin, rng);
+        let w = point.q - origin;
+        let dist2 = w.length_squared();
+        let dist = dist2.sqrt();
+        if dist.is_nan() || dist <= 0.0 {
+            return None;
+        }
+        let d = w / dist;
+        let cos_l = -d.dot(point.normal);
+        if cos_l <= 0.0 {
+            return None;
+        }
+        let p_light = p_pick * point.area_pdf * dist2 / cos_l;
+        Some(Drawn {
+            point,
+            d,
+            dist,
+            p_light,
+        })
     }
 
     /// The emitter an emissive triangle belongs to.

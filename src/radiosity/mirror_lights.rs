@@ -18,7 +18,7 @@ use std::f32::consts::PI;
 use glam::Vec3;
 
 use super::emitters::{Emitters, luminance, stratified_point, var_of_mean};
-use super::many_lights::{Choice, LIGHTS_SAMPLED_EACH, ManyLights};
+use super::many_lights::{Choice, LIGHTS_SAMPLED_EACH, ManyLights, best_cosine, box_corners};
 use crate::brdf::Lobe;
 use crate::geometry::Bvh;
 use crate::sampling::{Rng, sample_triangle};
@@ -65,14 +65,7 @@ impl Mirror {
 
     /// The corners of the mirror's (widened) bounds.
     fn corners(&self) -> [Vec3; 8] {
-        let (lo, hi) = (self.lo, self.hi);
-        std::array::from_fn(|c| {
-            Vec3::new(
-                if c & 1 == 0 { lo.x } else { hi.x },
-                if c & 2 == 0 { lo.y } else { hi.y },
-                if c & 4 == 0 { lo.z } else { hi.z },
-            )
-        })
+        box_corners(self.lo, self.hi)
     }
 
     /// The light reaching `origin` (shading normal `ns`, face normal `ng`) from emitter point
@@ -309,28 +302,19 @@ impl MirrorLights {
         n: u32,
         rays: &mut u64,
     ) -> (Vec3, f64) {
-        let mut total_w = 0.0f32;
-        let cdf: Vec<f32> = self
-            .mirrors
-            .iter()
-            .zip(&self.per_mirror)
-            .map(|(m, choice)| {
-                total_w += mirror_weight(m, choice, origin, ns);
-                total_w
-            })
-            .collect();
-        if total_w <= 0.0 {
+        let mirrors = Choice::from_weights(
+            self.mirrors
+                .iter()
+                .zip(&self.per_mirror)
+                .map(|(m, choice)| mirror_weight(m, choice, origin, ns)),
+        );
+        if mirrors.is_empty() {
             return (Vec3::ZERO, 0.0);
         }
         let (mut sum, mut y, mut y2) = (Vec3::ZERO, 0.0f64, 0.0f64);
         for k in 0..n {
-            let x = (k as f32 + rng.uniform()) / n as f32 * total_w;
-            let i = cdf.partition_point(|&c| c <= x).min(cdf.len() - 1);
-            let p_mirror = (cdf[i] - if i == 0 { 0.0 } else { cdf[i - 1] }) / total_w;
+            let (i, p_mirror) = mirrors.pick((k as f32 + rng.uniform()) / n as f32);
             let (m, choice) = (&self.mirrors[i], &self.per_mirror[i]);
-            if choice.is_empty() {
-                continue;
-            }
             let (e, p_emitter) = choice.pick(rng.uniform());
             let lp = many.sample(scene, e, m.reflect_point(origin), rng);
             let reach_short = if lp.triangle.is_some() {
@@ -376,12 +360,7 @@ fn mirror_weight(m: &Mirror, choice: &Choice, origin: Vec3, ns: Vec3) -> f32 {
         return 0.0;
     }
     let (lo, hi) = (m.lo, m.hi);
-    let mut cos_r = 0.0f32;
-    for c in m.corners() {
-        let w = c - origin;
-        let len = w.length();
-        cos_r = cos_r.max(if len > 0.0 { w.dot(ns) / len } else { 1.0 });
-    }
+    let cos_r = best_cosine(&m.corners(), origin, ns);
     if cos_r <= 0.0 {
         return 0.0;
     }

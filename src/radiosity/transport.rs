@@ -310,35 +310,20 @@ impl<'a> Glossy<'a> {
         if choice.is_empty() {
             return Vec3::ZERO;
         }
-        let (k, p_pick) = choice.pick(rng.uniform());
-        let lp = many.sample(self.scene, k, origin, rng);
-        let to = lp.q - origin;
-        let dist2 = to.length_squared();
-        let dist = dist2.sqrt();
-        if dist.is_nan() || dist <= 0.0 {
+        let Some(dr) = many.draw_towards(self.scene, choice, rng.uniform(), origin, rng) else {
             return Vec3::ZERO;
-        }
-        let d = to / dist;
-        let cos_l = -d.dot(lp.normal);
-        if cos_l <= 0.0 || d.dot(ng) <= 0.0 {
-            return Vec3::ZERO;
-        }
-        let wi = frame.to_local(d);
-        let f = lobes.eval(wo, wi);
-        if f == Vec3::ZERO {
-            return Vec3::ZERO;
-        }
-        *rays += 1;
-        let reach = match lp.triangle {
-            None => dist * (1.0 - 1e-5),
-            Some(_) => dist - 2.0 * self.bvh.epsilon().max(dist * 1e-5),
         };
-        if self.bvh.occluded(origin, d, reach) {
+        if dr.d.dot(ng) <= 0.0 {
             return Vec3::ZERO;
         }
-        let p_light = p_pick * lp.area_pdf * dist2 / cos_l;
+        let wi = frame.to_local(dr.d);
+        let f = lobes.eval(wo, wi);
+        if f == Vec3::ZERO || !dr.visible(self.bvh, origin, rays) {
+            return Vec3::ZERO;
+        }
+        let p_light = dr.p_light;
         let w = power(1.0, p_light, 1.0, lobes.pdf(wo, wi));
-        f * lp.radiance * (wi.z * w / p_light)
+        f * dr.point.radiance * (wi.z * w / p_light)
     }
 
     /// Light reflected by the lobes at `p` from one point on each area light and one on the
