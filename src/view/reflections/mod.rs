@@ -177,18 +177,24 @@ pub fn reflectors_with_materials(
             return reflectors;
         }
     };
+    // Read (and K's lobe shape measured) once per material: a building's reflectors share a
+    // few materials.
+    let mut loaded = std::collections::HashMap::new();
     for r in &mut reflectors {
-        let name = &data.scene.materials[r.material as usize].name;
-        match material::load_material(
-            &data.bundle,
-            &index,
-            name,
-            settings.layout,
-            settings.channel,
-        ) {
+        let got = loaded.entry(r.material).or_insert_with(|| {
+            let name = &data.scene.materials[r.material as usize].name;
+            material::load_material(
+                &data.bundle,
+                &index,
+                name,
+                settings.layout,
+                settings.channel,
+            )
+        });
+        match got {
             Ok((kernel, modulation)) => {
-                r.kernel = kernel;
-                r.modulation = modulation;
+                r.kernel = kernel.clone();
+                r.modulation = modulation.clone();
             }
             Err(e) => log::warn!("reflector {}: {e}; K = I, R = 1", r.name),
         }
