@@ -12,6 +12,7 @@ pub mod map;
 mod mirror_lights;
 pub mod seams;
 pub mod solve;
+mod terms;
 mod transport;
 
 pub use current::{CurrentD, current_d, d_identity};

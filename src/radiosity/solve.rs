@@ -26,6 +26,7 @@ use super::emitters::{Emitters, luminance};
 use super::gather::{Context, Gathered, RaySequence, gather};
 use super::many_lights::{LIGHTS_SAMPLED_EACH, ManyLights};
 use super::mirror_lights::MirrorLights;
+use super::terms::PackedTerms;
 use super::transport::{Glossy, Term};
 use crate::geometry::Bvh;
 use crate::progress::{Cancelled, Progress};
@@ -387,10 +388,7 @@ fn solve_gathered(
     stats.refined = refined.iter().filter(|&&r| r).count() as u64;
     stats.rays_cast = gathered.iter().map(|g| g.rays).sum();
     stats.cache_bytes = links.iter().map(Links::bytes).sum();
-    stats.cache_terms_bytes = links
-        .iter()
-        .map(|l| (l.terms.capacity() * size_of::<Term>()) as u64)
-        .sum();
+    stats.cache_terms_bytes = links.iter().map(|l| l.terms.bytes()).sum();
     let mut valid: Vec<f64> = error
         .iter()
         .zip(&gathered)
@@ -433,14 +431,14 @@ struct Links {
     hits: Vec<u8>,
     /// Gathering rays, those that read nothing included (the mean's denominator).
     rays: u32,
-    /// Elements reached through glossy reflection, with weights.
-    terms: Vec<Term>,
+    /// Elements reached through glossy reflection, with weights (packed, exact).
+    terms: PackedTerms,
 }
 
 impl Links {
     /// Heap bytes held.
     fn bytes(&self) -> u64 {
-        (self.hits.capacity() + self.terms.capacity() * size_of::<Term>()) as u64
+        self.hits.capacity() as u64 + self.terms.bytes()
     }
 
     /// The links of `g`'s rays, moved out of it.
@@ -448,7 +446,7 @@ impl Links {
         let mut l = Links {
             hits: Vec::new(),
             rays: 0,
-            terms: Vec::new(),
+            terms: PackedTerms::default(),
         };
         l.extend(g, resolve);
         l
@@ -502,19 +500,11 @@ impl Links {
         }
         packed.shrink_to_fit();
         self.hits = packed;
-        let mut terms = std::mem::take(&mut g.terms);
-        // Resolved in place: a first batch's terms become the links' without a second copy.
-        terms.retain_mut(|t| {
-            t.texel = resolved(t.texel);
-            t.texel != u32::MAX
-        });
-        if self.terms.is_empty() {
-            terms.shrink_to_fit();
-            self.terms = terms;
-        } else {
-            self.terms.reserve_exact(terms.len());
-            self.terms.extend_from_slice(&terms);
-        }
+        let terms = std::mem::take(&mut g.terms);
+        self.terms.extend(terms.into_iter().filter_map(|t| {
+            let texel = resolved(t.texel);
+            (texel != u32::MAX).then_some(Term { texel, ..t })
+        }));
     }
 }
 
@@ -544,7 +534,7 @@ fn iterate(
                     sum[1] += l.y as f64;
                     sum[2] += l.z as f64;
                 }
-                for t in &links[i].terms {
+                for t in links[i].terms.iter() {
                     let l = t.weight * lr[t.texel as usize];
                     sum[0] += l.x as f64;
                     sum[1] += l.y as f64;
@@ -599,7 +589,7 @@ fn relative_errors(
                 u += v;
                 u2 += v * v;
             }
-            for t in &links[i].terms {
+            for t in links[i].terms.iter() {
                 let v = luminance(t.weight * lr[t.texel as usize]) as f64;
                 u += v;
                 u2 += v * v;
