@@ -56,6 +56,7 @@ const REFERENCE: SolveSettings = SolveSettings {
     target_error: None,
     tolerance: 0.0,
     seed: 99,
+    cache_budget: glint::radiosity::solve::CACHE_BUDGET,
 };
 
 fn luminance(c: Vec3) -> f64 {
@@ -154,6 +155,7 @@ fn main() {
                 target_error: s.target_error,
                 tolerance: s.tolerance,
                 seed: glint::bake::radiosity_stage::SEED,
+                cache_budget: glint::radiosity::solve::CACHE_BUDGET,
             };
             let base = LIVE.load(Ordering::Relaxed);
             PEAK.store(base, Ordering::Relaxed);

@@ -92,6 +92,7 @@ fn settings(rays: u32, light_samples: u32) -> SolveSettings {
         tolerance: 1e-6,
         target_error: None,
         seed: 5,
+        cache_budget: glint::radiosity::solve::CACHE_BUDGET,
     }
 }
 

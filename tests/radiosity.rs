@@ -49,6 +49,7 @@ fn run(
         target_error: None,
         tolerance: 1e-7,
         seed: 1,
+        cache_budget: glint::radiosity::solve::CACHE_BUDGET,
     };
     let sol = solve(scene, &bvh, &atlas, &samples, &set, &Silent).unwrap();
     (atlas, sol)

@@ -337,6 +337,7 @@ fn d_on_textured_cut_out_and_double_sided_surfaces_matches_the_path_tracer() {
         tolerance: 1e-5,
         target_error: None,
         seed: 7,
+        cache_budget: glint::radiosity::solve::CACHE_BUDGET,
     };
     let sol = solve(&scene, &bvh, &atlas, &samples, &set, &Silent).unwrap();
     let map = RadiosityMap::from_texels(atlas, &sol.radiance);

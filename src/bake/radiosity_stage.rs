@@ -15,7 +15,7 @@ use crate::radiosity::atlas::{self, AtlasError};
 use crate::radiosity::format;
 use crate::radiosity::seams;
 use crate::radiosity::solve::{
-    GatherBatch, REFINE_BUDGET, SolveSettings, gather_batch, solve, solve_batches,
+    CACHE_BUDGET, GatherBatch, REFINE_BUDGET, SolveSettings, gather_batch, solve, solve_batches,
 };
 use crate::scene::Scene;
 use crate::scene::desc::RadiositySettings;
@@ -215,6 +215,7 @@ fn prepare(scene: &Scene, settings: &RadiositySettings) -> Result<Prepared, Radi
         tolerance: settings.tolerance,
         target_error: settings.target_error,
         seed: SEED,
+        cache_budget: CACHE_BUDGET,
     };
     Ok(Prepared {
         bvh,
@@ -370,6 +371,7 @@ pub fn bake_from(
             "gather_cache_terms_bytes".into(),
             st.cache_terms_bytes.into(),
         ),
+        ("gather_frozen_rays".into(), st.frozen_rays.into()),
         ("bounces".into(), st.bounces.into()),
         ("last_change".into(), st.last_change.into()),
         ("refine_rounds".into(), st.rounds.into()),

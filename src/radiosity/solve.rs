@@ -48,6 +48,11 @@ pub const MAX_SAMPLE_FACTOR: u32 = 64;
 /// (see `bake::radiosity_stage::memory_estimate`).
 pub const REFINE_BUDGET: u64 = 8;
 
+/// Bytes of cached rays ([`SolveSettings::cache_budget`]) a bake holds at most by default:
+/// enough for every shipped scene at every preset (the largest, cornell-box at high, holds
+/// under 400 MB), a bound for a building.
+pub const CACHE_BUDGET: u64 = 2 << 30;
+
 /// Samples per work item (progress and cancellation granularity).
 const CHUNK: usize = 256;
 
@@ -76,6 +81,13 @@ pub struct SolveSettings {
     pub target_error: Option<f32>,
     /// Random seed (every texel draws from its own stream of it).
     pub seed: u64,
+    /// Bytes of cached rays (links and glossy terms, packed) the refinement may grow the cache
+    /// to. An element refined beyond it has its new rays read once, against the reflected
+    /// radiance of that moment, and kept as sums ([`Links::freeze`]): memory no longer grows
+    /// with rays × elements, at the price of those rays not following later bounces' changes
+    /// (they are gathered after the first batch has converged, so what they miss is the
+    /// refinement's own small corrections). Under the budget the solve is exact as before.
+    pub cache_budget: u64,
 }
 
 /// Figures of a solve.
@@ -106,6 +118,9 @@ pub struct SolveStats {
     pub cache_bytes: u64,
     /// The glossy terms' share of `cache_bytes`.
     pub cache_terms_bytes: u64,
+    /// Refinement gathering rays read once rather than cached: the cache reached
+    /// [`SolveSettings::cache_budget`].
+    pub frozen_rays: u64,
 }
 
 /// A converged solution.
@@ -371,9 +386,19 @@ fn solve_gathered(
                     progress,
                 )
                 .ok_or(Cancelled)?;
+                let mut held: u64 = links.iter().map(Links::held).sum();
                 for (&(i, _, _), mut g) in slice.iter().zip(more) {
                     let i = i as usize;
-                    links[i].extend(&mut g, &resolve);
+                    // A ray's hit packs into ~2 bytes and a glossy term into ~8.
+                    let adds = 2 * g.hits.len() as u64 + 8 * g.terms.len() as u64;
+                    if held + adds <= set.cache_budget {
+                        let before = links[i].held();
+                        links[i].extend(&mut g, &resolve);
+                        held = held + links[i].held() - before;
+                    } else {
+                        links[i].freeze(&mut g, &resolve, &lr);
+                        stats.frozen_rays += g.gathering_rays as u64;
+                    }
                     gathered[i].merge(&g);
                     refined[i] = true;
                 }
@@ -433,6 +458,21 @@ struct Links {
     rays: u32,
     /// Elements reached through glossy reflection, with weights (packed, exact).
     terms: PackedTerms,
+    /// Refinement rays read once instead of cached (over the cache budget).
+    frozen: Frozen,
+}
+
+/// Sums of rays read once against the reflected radiance of their gathering's time
+/// ([`SolveSettings::cache_budget`]).
+#[derive(Clone, Copy, Debug, Default)]
+struct Frozen {
+    /// Gathering rays (those that read nothing included).
+    rays: u32,
+    /// Σ over the rays' reads (hits and glossy terms) of the radiance read.
+    sum: [f64; 3],
+    /// Σ and Σ² of the reads' luminance (for the error estimate, read by read as the links').
+    u: f64,
+    u2: f64,
 }
 
 impl Links {
@@ -441,12 +481,46 @@ impl Links {
         self.hits.capacity() as u64 + self.terms.bytes()
     }
 
+    /// Bytes the links hold, by length (what the budget counts: independent of the
+    /// allocator).
+    fn held(&self) -> u64 {
+        self.hits.len() as u64 + self.terms.len_bytes()
+    }
+
+    /// Reads `g`'s rays once against `lr` and adds them to the frozen sums, leaving `g`'s
+    /// hits and terms empty.
+    fn freeze(&mut self, g: &mut Gathered, resolve: &[u32], lr: &[Vec3]) {
+        let f = &mut self.frozen;
+        let raw = std::mem::take(&mut g.hits);
+        f.rays += raw.len() as u32;
+        let mut read = |l: Vec3| {
+            f.sum[0] += l.x as f64;
+            f.sum[1] += l.y as f64;
+            f.sum[2] += l.z as f64;
+            let v = luminance(l) as f64;
+            f.u += v;
+            f.u2 += v * v;
+        };
+        for h in raw {
+            if h != u32::MAX && resolve[h as usize] != u32::MAX {
+                read(lr[resolve[h as usize] as usize]);
+            }
+        }
+        for t in std::mem::take(&mut g.terms) {
+            let e = resolve[t.texel as usize];
+            if e != u32::MAX {
+                read(t.weight * lr[e as usize]);
+            }
+        }
+    }
+
     /// The links of `g`'s rays, moved out of it.
     fn take(g: &mut Gathered, resolve: &[u32]) -> Links {
         let mut l = Links {
             hits: Vec::new(),
             rays: 0,
             terms: PackedTerms::default(),
+            frozen: Frozen::default(),
         };
         l.extend(g, resolve);
         l
@@ -540,7 +614,13 @@ fn iterate(
                     sum[1] += l.y as f64;
                     sum[2] += l.z as f64;
                 }
-                let n = links[i].rays.max(1) as f64;
+                let frozen = &links[i].frozen;
+                if frozen.rays > 0 {
+                    for (s, f) in sum.iter_mut().zip(frozen.sum) {
+                        *s += f;
+                    }
+                }
+                let n = (links[i].rays + frozen.rays).max(1) as f64;
                 let incoming = Vec3::new(
                     (sum[0] / n) as f32,
                     (sum[1] / n) as f32,
@@ -594,7 +674,12 @@ fn relative_errors(
                 u += v;
                 u2 += v * v;
             }
-            let n = links[i].rays.max(1) as f64;
+            let frozen = &links[i].frozen;
+            if frozen.rays > 0 {
+                u += frozen.u;
+                u2 += frozen.u2;
+            }
+            let n = (links[i].rays + frozen.rays).max(1) as f64;
             let (c, c2) = (g.moments.ray_const, g.moments.ray_const2);
             let mean = (u + c) / n;
             let second = (u2 + c2) / n + 2.0 * (u / n) * (c / n);

@@ -26,6 +26,11 @@ impl PackedTerms {
         self.bytes.capacity() as u64
     }
 
+    /// Bytes of packed terms (by length: independent of the allocator).
+    pub fn len_bytes(&self) -> u64 {
+        self.bytes.len() as u64
+    }
+
     /// Appends `terms` in order, keeping no spare capacity.
     pub fn extend(&mut self, terms: impl IntoIterator<Item = Term>) {
         for t in terms {
