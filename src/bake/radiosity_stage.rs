@@ -71,16 +71,18 @@ pub enum RadiosityError {
 }
 
 /// Memory a bake needs at most, in bytes, for `texels` elements with `rays` cached hits each,
-/// and up to [`REFINE_BUDGET`] times as many more when refining towards a target error.
+/// and, when refining towards a target error, up to [`REFINE_BUDGET`] times as many more,
+/// their cache bounded by [`CACHE_BUDGET`] (rays beyond it are read once, not held).
 pub fn memory_estimate(texels: f64, rays: u32, refine: bool) -> f64 {
-    let rays = rays as f64
-        * if refine {
-            1.0 + REFINE_BUDGET as f64
-        } else {
-            1.0
-        };
-    // Cached hit ids (4 B per ray), per-element data, per-atlas-texel maps and the solution.
-    texels * (rays * 4.0 + 96.0) + texels * 2.0 * 40.0
+    // Cached hit ids (4 B per ray as gathered), per-element data, per-atlas-texel maps and
+    // the solution.
+    let first = texels * rays as f64 * 4.0;
+    let more = if refine {
+        (first * REFINE_BUDGET as f64).min(CACHE_BUDGET as f64)
+    } else {
+        0.0
+    };
+    first + more + texels * 96.0 + texels * 2.0 * 40.0
 }
 
 /// Bytes of memory available to this process (Linux `MemAvailable`), if known.

@@ -44,8 +44,8 @@ pub const MAX_ROUNDS: u32 = 4;
 pub const MAX_SAMPLE_FACTOR: u32 = 64;
 
 /// Most gathering rays all refinement rounds together may add, as a multiple of the first
-/// batch's (elements × `rays`): every ray keeps its hit, so this bounds the solve's memory
-/// (see `bake::radiosity_stage::memory_estimate`).
+/// batch's (elements × `rays`): the refinement's time. Its memory is bounded by
+/// [`SolveSettings::cache_budget`] (see `bake::radiosity_stage::memory_estimate`).
 pub const REFINE_BUDGET: u64 = 8;
 
 /// Bytes of cached rays ([`SolveSettings::cache_budget`]) a bake holds at most by default:
