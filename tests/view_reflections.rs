@@ -851,11 +851,16 @@ fn near_mirror_reflection_keeps_its_edges_sharp() {
 ///
 /// Measured (draft bakes, 192×128): image 5.28, geometry 0.001. 27 reflector pixels show the
 /// reflected ceiling light's full radiance (19.1 against 0.14) one row below where the CPU
-/// equation and geometry mode draw it: the light strip appears twice as thick. Making
-/// sub-pixel splats keep their aspect (no one-pixel minimum across the view) changed no
-/// pixel, so the cause is not that clamp: either magnified splats overlapping (×1.5) past the
-/// light's edge, or texels under the light that no splat covered being filled from the
-/// nearest covered ring (`fill_hole`), which holds only the light there.
+/// equation and geometry mode draw it: the light strip appears twice as thick. Ruled out,
+/// each by a run that changed no pixel (3.369 before and after, final main of 2026-12-02):
+/// the one-pixel minimum size (sub-pixel splats keep their aspect), `SPLAT_OVERLAP` 1.5 →
+/// 1.0, and `fill_hole` returning 0. Ordering the gap-filling part of the quads farthest-first
+/// (3.37 → 1.04) or by distance from the splat's centre (1.75) removes the extra row but also
+/// most of the lamp's own rows: the lamp, a quad 2 cm below the ceiling seen nearly edge-on by
+/// both the maps and the mirrored eye, is drawn by splats whose Eq. 3 box is taller than the
+/// lamp's own projection. Eq. 3 sizes a map pixel's patch as if it faced the map camera; the
+/// fix is a footprint that follows the surface's slant (the map pixel's patch on the surface
+/// plane, projected into the reflected view), which needs a normal per point.
 #[test]
 #[ignore = "open: image mode draws the mirrored ceiling light one row too thick (relative RMSE 5.28 > 0.3); see the doc comment"]
 fn image_mode_facing_the_mirror_matches_the_cpu_equation_per_pixel() {
