@@ -150,3 +150,27 @@ fn no_boost_builds_the_rules_atlas_and_boosts_ignore_the_thread_count() {
         assert!(with_threads(n) == one, "boosts differ on {n} threads");
     }
 }
+
+#[test]
+fn contact_boost_is_a_setting_like_the_others() {
+    use glint::scene::desc::{Quality, RadiosityOverride, RadiositySettings};
+    let over: RadiosityOverride = serde_json::from_str(r#"{ "contact_boost": 3 }"#).unwrap();
+    let s = RadiositySettings::resolve(Quality::Default, &over);
+    assert_eq!(s.contact_boost, 3.0);
+    s.check(None).unwrap();
+    assert_eq!(RadiositySettings::preset(Quality::Draft).contact_boost, 0.0);
+    assert_eq!(RadiositySettings::preset(Quality::Default).contact_boost, 8.0);
+    for bad in [-1.0, 17.0, f32::NAN] {
+        let s = RadiositySettings {
+            contact_boost: bad,
+            ..RadiositySettings::preset(Quality::Default)
+        };
+        let e = s.check(None).unwrap_err().to_string();
+        assert!(e.contains("contact_boost"), "{e}");
+    }
+    // Settings recorded before the field existed read as off.
+    let mut json = serde_json::to_value(RadiositySettings::preset(Quality::High)).unwrap();
+    json.as_object_mut().unwrap().remove("contact_boost");
+    let old: RadiositySettings = serde_json::from_value(json).unwrap();
+    assert_eq!(old.contact_boost, 0.0);
+}
