@@ -10,10 +10,10 @@ use common::*;
 use glint::eval::probe::{self, ProbePoint};
 use glint::eval::reference::{ProbeTraceOptions, trace_probes};
 use glint::progress::Silent;
+use glint::radiosity::RadiosityMap;
 use glint::radiosity::atlas::{self, DensityRule};
 use glint::radiosity::contacts;
 use glint::radiosity::solve::{SolveSettings, solve};
-use glint::radiosity::RadiosityMap;
 use glint::scene::Scene;
 
 /// Height of the slab's underside above the floor.
@@ -25,12 +25,32 @@ fn slab_scene(dir: &Path) -> Scene {
     let c = |x: f32, y: f32, z: f32| [x * 0.2, y, z * 0.2];
     let faces = [
         // Top (+y), bottom (−y), then the four sides.
-        [c(-1., hi, 1.), c(1., hi, 1.), c(1., hi, -1.), c(-1., hi, -1.)],
-        [c(-1., lo, -1.), c(1., lo, -1.), c(1., lo, 1.), c(-1., lo, 1.)],
+        [
+            c(-1., hi, 1.),
+            c(1., hi, 1.),
+            c(1., hi, -1.),
+            c(-1., hi, -1.),
+        ],
+        [
+            c(-1., lo, -1.),
+            c(1., lo, -1.),
+            c(1., lo, 1.),
+            c(-1., lo, 1.),
+        ],
         [c(-1., lo, 1.), c(1., lo, 1.), c(1., hi, 1.), c(-1., hi, 1.)],
-        [c(1., lo, -1.), c(-1., lo, -1.), c(-1., hi, -1.), c(1., hi, -1.)],
+        [
+            c(1., lo, -1.),
+            c(-1., lo, -1.),
+            c(-1., hi, -1.),
+            c(1., hi, -1.),
+        ],
         [c(1., lo, 1.), c(1., lo, -1.), c(1., hi, -1.), c(1., hi, 1.)],
-        [c(-1., lo, -1.), c(-1., lo, 1.), c(-1., hi, 1.), c(-1., hi, -1.)],
+        [
+            c(-1., lo, -1.),
+            c(-1., lo, 1.),
+            c(-1., hi, 1.),
+            c(-1., hi, -1.),
+        ],
     ];
     let meshes = vec![
         quad("Floor", 0, 1, 0.0, 1.0),
@@ -42,7 +62,11 @@ fn slab_scene(dir: &Path) -> Scene {
         MaterialSpec::emitter("lamp", [1.0, 1.0, 1.0], 10.0),
     ];
     write_gltf(dir, "s", &meshes, &materials);
-    Scene::load(write_scene(dir, r#"{ "version": 1, "geometry": "s.gltf" }"#)).unwrap()
+    Scene::load(write_scene(
+        dir,
+        r#"{ "version": 1, "geometry": "s.gltf" }"#,
+    ))
+    .unwrap()
 }
 
 /// Probes on the slab's underside, 1–6 cm in from its rim, and on the floor just outside it.
@@ -108,10 +132,16 @@ fn contact_boosts_resolve_the_underside_of_a_hovering_slab() {
     assert_eq!(none.charts, 0);
     assert!(b.charts > 0 && b.asking > 0, "{b:?}");
     // Within the budget (the page packer rounds its width up to a power of two).
-    assert!(texels as f64 <= 4.0 * base_texels as f64, "{texels} vs {base_texels}");
+    assert!(
+        texels as f64 <= 4.0 * base_texels as f64,
+        "{texels} vs {base_texels}"
+    );
     // The underside darkens to ~0 within centimetres of its rim, so relative errors are
     // large at these probes (measured: 8.4 at 8 texels/m, 3.6 with boosts up to 8×).
-    assert!(off > 4.0, "without boosts the contact is not resolved: {off}");
+    assert!(
+        off > 4.0,
+        "without boosts the contact is not resolved: {off}"
+    );
     assert!(on < 0.6 * off, "with boosts {on}, without {off}");
 }
 
@@ -127,7 +157,11 @@ fn no_boost_builds_the_rules_atlas_and_boosts_ignore_the_thread_count() {
     let plain = atlas::build_with(&scene.triangles, rule).unwrap();
     for off in [0.0, 1.0] {
         let (a, s, b) = contacts::build(&scene, &bvh, rule, off).unwrap();
-        assert_eq!((a, s), plain, "contact_boost {off} must leave the atlas alone");
+        assert_eq!(
+            (a, s),
+            plain,
+            "contact_boost {off} must leave the atlas alone"
+        );
         assert_eq!(b.charts, 0);
     }
     // Boosts of exactly 1 are no boost.
@@ -145,7 +179,10 @@ fn no_boost_builds_the_rules_atlas_and_boosts_ignore_the_thread_count() {
     };
     let one = with_threads(1);
     assert!(one.2.charts > 0);
-    assert!(one.0 != plain.0, "the boosted atlas differs from the rule's");
+    assert!(
+        one.0 != plain.0,
+        "the boosted atlas differs from the rule's"
+    );
     for n in [2, 3] {
         assert!(with_threads(n) == one, "boosts differ on {n} threads");
     }
@@ -159,7 +196,10 @@ fn contact_boost_is_a_setting_like_the_others() {
     assert_eq!(s.contact_boost, 3.0);
     s.check(None).unwrap();
     assert_eq!(RadiositySettings::preset(Quality::Draft).contact_boost, 0.0);
-    assert_eq!(RadiositySettings::preset(Quality::Default).contact_boost, 8.0);
+    assert_eq!(
+        RadiositySettings::preset(Quality::Default).contact_boost,
+        8.0
+    );
     for bad in [-1.0, 17.0, f32::NAN] {
         let s = RadiositySettings {
             contact_boost: bad,

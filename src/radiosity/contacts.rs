@@ -35,6 +35,10 @@ pub const REACH: f32 = 2.0;
 /// Largest total texels of the boosted atlas, as a multiple of the first atlas's.
 pub const TEXEL_BUDGET: f64 = 2.0;
 
+/// A texel asks for a boost where the nearest distance changes by more than this fraction
+/// to a neighbouring texel ([`requests`]).
+pub const VARY: f32 = 0.25;
+
 /// A boost below this is not worth a chart's rebuild.
 const MIN_BOOST: f32 = 1.25;
 
@@ -62,7 +66,63 @@ pub struct Boosts {
 }
 
 /// Per texel sample: the density boost it asks for (1: none), capped at `max_boost`.
-fn requests(scene: &Scene, bvh: &Bvh, atlas: &Atlas, samples: &[TexelSample], max_boost: f32) -> Vec<f32> {
+///
+/// A texel asks only where the nearest distance changes from it to a neighbouring texel of
+/// its chart by more than [`VARY`] × the nearer of the two: under the middle of a lamp 2 cm below a
+/// ceiling, or of a panel in front of a wall, the distance is the same from texel to texel
+/// and so is D; at the panel's rim, or where a curved surface nears a floor, both change.
+fn requests(
+    scene: &Scene,
+    bvh: &Bvh,
+    atlas: &Atlas,
+    samples: &[TexelSample],
+    max_boost: f32,
+) -> Vec<f32> {
+    let near = nearest(scene, bvh, atlas, samples);
+    let offsets = atlas.page_offsets();
+    let at = |texel: u32| samples.binary_search_by_key(&texel, |s| s.texel).ok();
+    (0..samples.len())
+        .map(|i| {
+            let (h, d) = near[i];
+            if h <= 0.0 {
+                return 1.0;
+            }
+            let texel = samples[i].texel;
+            let chart = atlas.texel_chart[texel as usize];
+            let page = offsets.partition_point(|&o| o <= texel) - 1;
+            let size = atlas.pages[page];
+            let local = texel - offsets[page];
+            let (x, y) = (local % size.width, local / size.width);
+            let mut closest = d;
+            let mut varies = false;
+            for (dx, dy) in [(-1i64, 0i64), (1, 0), (0, -1), (0, 1)] {
+                let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+                if nx < 0 || ny < 0 || nx >= size.width as i64 || ny >= size.height as i64 {
+                    continue;
+                }
+                let t = offsets[page] + ny as u32 * size.width + nx as u32;
+                if atlas.texel_chart[t as usize] != chart {
+                    continue;
+                }
+                if let Some(j) = at(t) {
+                    let dn = near[j].1;
+                    if (dn - d).abs() > VARY * dn.min(d) {
+                        varies = true;
+                        closest = closest.min(dn);
+                    }
+                }
+            }
+            if !varies {
+                return 1.0;
+            }
+            (REACH * h / closest.max(1e-9)).clamp(1.0, max_boost)
+        })
+        .collect()
+}
+
+/// Per texel sample: its spacing h in metres (0: none to resolve) and the nearest hit of its
+/// proximity rays (at most [`REACH`] × h).
+fn nearest(scene: &Scene, bvh: &Bvh, atlas: &Atlas, samples: &[TexelSample]) -> Vec<(f32, f32)> {
     let (charts, vid) = atlas::charts(&scene.triangles);
     // Per chart, its welded vertices: a hit on a triangle touching one meets the chart.
     let chart_vertices: Vec<HashSet<u32>> = charts
@@ -77,20 +137,19 @@ fn requests(scene: &Scene, bvh: &Bvh, atlas: &Atlas, samples: &[TexelSample], ma
             // Charts without diffuse reflection hold D = 0: no need to resolve them.
             let m = scene.material_of(s.triangle);
             if chart == u32::MAX || (m.albedo.max_element() <= 0.0 && m.base_texture.is_none()) {
-                return 1.0;
+                return (0.0, 0.0);
             }
             // The texel's spacing in metres: the triangle's area in metres² per texel².
             let c = atlas.tri_coords[s.triangle as usize];
             let texels2 = 0.5 * (c[1] - c[0]).perp_dot(c[2] - c[0]).abs();
             let h = (tri.area() / texels2).sqrt();
             if !(h.is_finite() && h > 0.0) {
-                return 1.0;
+                return (0.0, 0.0);
             }
             let ng = tri.face_normal();
             let origin = bvh.offset_origin(tri.point(s.bary), ng);
             let (t, b) = crate::sampling::basis(ng);
-            let reach = REACH * h;
-            let mut nearest = reach;
+            let mut nearest = REACH * h;
             for k in 0..DIRECTIONS {
                 let l = direction(k);
                 let d = (t * l.x + b * l.y + ng * l.z).normalize();
@@ -102,7 +161,7 @@ fn requests(scene: &Scene, bvh: &Bvh, atlas: &Atlas, samples: &[TexelSample], ma
                     nearest = nearest.min(hit.t);
                 }
             }
-            (reach / nearest.max(1e-9)).clamp(1.0, max_boost)
+            (h, nearest)
         })
         .collect()
 }
