@@ -137,12 +137,12 @@ fn contact_boosts_resolve_the_underside_of_a_hovering_slab() {
         "{texels} vs {base_texels}"
     );
     // The underside darkens to ~0 within centimetres of its rim, so relative errors are
-    // large at these probes (measured: 8.4 at 8 texels/m, 3.6 with boosts up to 8×).
+    // large at these probes (measured: 8.4 at 8 texels/m, 1.6 with boosts up to 8×).
     assert!(
         off > 4.0,
         "without boosts the contact is not resolved: {off}"
     );
-    assert!(on < 0.6 * off, "with boosts {on}, without {off}");
+    assert!(on < 0.4 * off, "with boosts {on}, without {off}");
 }
 
 #[test]

@@ -219,8 +219,8 @@ pub fn boosts(
         (next, lack / cost.max(1.0))
     };
     let mut heap = std::collections::BinaryHeap::new();
-    for c in 0..n {
-        if asks[c].first().is_some_and(|&w| w >= MIN_BOOST) {
+    for (c, a) in asks.iter().enumerate() {
+        if a.first().is_some_and(|&w| w >= MIN_BOOST) {
             // Positive f64s order as their bits do.
             heap.push((step(c, 1.0).1.to_bits(), std::cmp::Reverse(c)));
         }
