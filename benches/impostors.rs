@@ -86,6 +86,7 @@ fn bake_if_needed(scene: &Scene, bundle: &Path) {
         target_error: None,
         min_chart_texels: 0,
         min_scene_texels: 0,
+        contact_boost: 0.0,
         stitch_seams: false,
     };
     radiosity_stage::bake(scene, bundle, &settings, false, &Silent)

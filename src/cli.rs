@@ -142,6 +142,10 @@ pub struct RadiosityFlags {
     /// than --texel-density everywhere; 0 turns this off.
     #[arg(long, value_name = "N")]
     pub min_scene_texels: Option<u32>,
+    /// Largest factor by which a chart's density is raised where other geometry comes within
+    /// two texels of it (contacts, near occluders; the atlas grows by at most 2×); 0 or 1: off.
+    #[arg(long, value_name = "F")]
+    pub contact_boost: Option<f32>,
     /// Gathering rays per texel.
     #[arg(long, value_name = "N")]
     pub rays: Option<u32>,
@@ -174,6 +178,7 @@ impl RadiosityFlags {
             texel_density: self.texel_density,
             min_chart_texels: self.min_chart_texels,
             min_scene_texels: self.min_scene_texels,
+            contact_boost: self.contact_boost,
             rays: self.rays,
             light_samples: self.light_samples,
             bounces: self.bounces,

@@ -139,6 +139,7 @@ fn diffuse_cornell_box_agrees_with_converged_radiosity() {
         texel_density: 8.0,
         min_chart_texels: 0,
         min_scene_texels: 0,
+        contact_boost: 0.0,
         rays: 256,
         light_samples: 32,
         bounces: 16,

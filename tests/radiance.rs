@@ -195,6 +195,7 @@ fn stage_bakes_maps_quadtrees_and_table_one() {
         texel_density: 4.0,
         min_chart_texels: 0,
         min_scene_texels: 0,
+        contact_boost: 0.0,
         rays: 16,
         light_samples: 4,
         bounces: 1,

@@ -12,7 +12,7 @@ use glint::bundle::Bundle;
 use glint::geometry::Triangle;
 use glint::progress::Silent;
 use glint::radiosity::RadiosityMap;
-use glint::radiosity::atlas::{self, Atlas, PageSize};
+use glint::radiosity::atlas::{Atlas, PageSize};
 use glint::radiosity::seams::{self, Filter, StitchSettings};
 use glint::scene::desc::RadiositySettings;
 use glint::scene::{Quality, Scene};
@@ -238,14 +238,24 @@ fn stitching_closes_a_jump_and_leaves_texels_away_from_the_seam_alone() {
 /// through the bilinear lookup of the bake stages nor through the viewer's B-spline, and the
 /// jump must be far below the texel-to-texel variation inside the same charts. Without
 /// stitching the jump's p95 is about 100% of D (the bunny's charts are a texel or two wide).
+///
+/// With the preset's contact boosts (charts near the floor and in folds at up to 8× their
+/// neighbours' density) the p95 stays below 1% of D but single seam pairs between a raised
+/// chart and its unraised neighbour reach a few percent: `max_jump` bounds that case.
 #[test]
 fn bunny_mirror_seams_are_below_one_percent_of_d_and_the_texel_noise() {
+    bunny_mirror_seams(0.0, 0.01);
+    bunny_mirror_seams(8.0, 0.06);
+}
+
+fn bunny_mirror_seams(contact_boost: f32, max_jump: f64) {
     let scene = Scene::load(
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/bunny-mirror/scene.json"),
     )
     .unwrap();
     let settings = RadiositySettings {
         stitch_seams: true,
+        contact_boost,
         ..RadiositySettings::preset(Quality::Default)
     };
     let dir = tempfile::tempdir().unwrap();
@@ -254,9 +264,12 @@ fn bunny_mirror_seams_are_below_one_percent_of_d_and_the_texel_noise() {
     let map = RadiosityMap::load(&Bundle::open(&out).unwrap())
         .unwrap()
         .unwrap();
-    let (atlas, samples) = atlas::build_with(
-        &scene.triangles,
+    // The stage's atlas: the rule's, with the preset's contact boosts.
+    let (atlas, samples, _) = glint::radiosity::contacts::build(
+        &scene,
+        &scene.build_bvh(),
         settings.density_rule(scene.bounds.longest_side()),
+        settings.contact_boost,
     )
     .unwrap();
     assert_eq!(
@@ -276,9 +289,11 @@ fn bunny_mirror_seams_are_below_one_percent_of_d_and_the_texel_noise() {
     let before = record.stats["seam_jump_p95_before"].as_f64().unwrap();
     for f in [Filter::Bilinear, Filter::BSpline] {
         let m = seams::measure(&atlas, &texels, &points, f);
-        println!("{f:?}: jump {m:?}, texel noise {noise:?}, p95 before stitching {before}");
+        println!(
+            "contact_boost {contact_boost}, {f:?}: jump {m:?}, texel noise {noise:?}, p95 before stitching {before}"
+        );
         assert!(m.pairs > 500, "{m:?}");
-        assert!(m.p95 <= 0.01 && m.max <= 0.01, "{f:?}: jump {m:?}");
+        assert!(m.p95 <= 0.01 && m.max <= max_jump, "{f:?}: jump {m:?}");
         assert!(
             m.p95 < 0.1 * noise.median,
             "{f:?}: jump {m:?}, noise {noise:?}"
@@ -352,6 +367,7 @@ fn stitched_bakes_are_byte_identical_whatever_the_thread_count() {
         texel_density: 16.0,
         min_chart_texels: 0,
         min_scene_texels: 0,
+        contact_boost: 0.0,
         rays: 32,
         light_samples: 4,
         bounces: 2,

@@ -84,6 +84,7 @@ fn test_settings(texel_density: f32) -> RadiositySettings {
         target_error: None,
         min_chart_texels: 0,
         min_scene_texels: 0,
+        contact_boost: 0.0,
         stitch_seams: false,
     }
 }

@@ -500,6 +500,7 @@ fn box_scene(root: &Path) -> (Scene, std::path::PathBuf) {
         target_error: None,
         min_chart_texels: 0,
         min_scene_texels: 0,
+        contact_boost: 0.0,
         stitch_seams: false,
     };
     radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent)

@@ -47,6 +47,7 @@ fn radiosity_settings() -> RadiositySettings {
         target_error: None,
         min_chart_texels: 0,
         min_scene_texels: 0,
+        contact_boost: 0.0,
         stitch_seams: false,
     }
 }

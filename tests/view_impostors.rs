@@ -339,6 +339,7 @@ fn bunny_bundle() -> &'static Path {
             target_error: None,
             min_chart_texels: 0,
             min_scene_texels: 0,
+            contact_boost: 0.0,
             stitch_seams: false,
         };
         let srdm = SrdmSettings {

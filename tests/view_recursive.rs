@@ -91,6 +91,7 @@ fn corridor() -> &'static ViewData {
             target_error: None,
             min_chart_texels: 0,
             min_scene_texels: 0,
+            contact_boost: 0.0,
             stitch_seams: false,
         };
         scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
@@ -345,6 +346,7 @@ fn straddling() -> &'static ViewData {
             target_error: None,
             min_chart_texels: 0,
             min_scene_texels: 0,
+            contact_boost: 0.0,
             stitch_seams: false,
         };
         scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));

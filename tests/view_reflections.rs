@@ -92,6 +92,7 @@ fn glossy_bundle() -> &'static Path {
             target_error: None,
             min_chart_texels: 0,
             min_scene_texels: 0,
+            contact_boost: 0.0,
             stitch_seams: false,
         };
         shipped_bundle(

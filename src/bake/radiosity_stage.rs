@@ -108,7 +108,7 @@ fn check_share(scene: &Scene, s: &RadiositySettings, share: f64) -> Result<(), R
     s.check(Some(scene.bounds.diagonal()))
         .map_err(|e| RadiosityError::Setting(e.to_string()))?;
     let rule = s.density_rule(scene.bounds.longest_side());
-    let texels = atlas::estimate_texels(&scene.triangles, rule);
+    let texels = atlas::estimate_texels(&scene.triangles, rule) * s.contact_texel_factor();
     let need = memory_estimate(texels, s.rays, s.target_error.is_some()) * share;
     if let Some(avail) = available_memory()
         && need > avail
@@ -196,7 +196,18 @@ fn prepare(scene: &Scene, settings: &RadiositySettings) -> Result<Prepared, Radi
             settings.min_scene_texels
         );
     }
-    let (atlas, samples) = atlas::build_with(&scene.triangles, rule)?;
+    let (atlas, samples, boosts) =
+        crate::radiosity::contacts::build(scene, &bvh, rule, settings.contact_boost)?;
+    if boosts.charts > 0 {
+        log::info!(
+            "contacts: {} texels ask for up to {}× the density; {} charts raised, {} → {} texels",
+            boosts.asking,
+            settings.contact_boost,
+            boosts.charts,
+            boosts.texels.0,
+            atlas.texel_count()
+        );
+    }
     if samples.is_empty() {
         return Err(RadiosityError::Setting(format!(
             "`texel_density`: {} texels per metre gives no element",

@@ -213,7 +213,7 @@ pub fn plan_units(scene: &Scene, settings: &BakeSettings) -> Result<UnitPlan, St
         let texels = crate::radiosity::atlas::estimate_texels(
             &scene.triangles,
             s.density_rule(scene.bounds.longest_side()),
-        );
+        ) * s.contact_texel_factor();
         let recorded = radiosity_stage::settings_json(s);
         let inputs = vec![
             ("geometry", geometry.clone()),

@@ -206,6 +206,16 @@ pub fn build_with(
     triangles: &[Triangle],
     rule: DensityRule,
 ) -> Result<(Atlas, Vec<TexelSample>), AtlasError> {
+    build_boosted(triangles, rule, &[])
+}
+
+/// [`build_with`], chart `c` (in [`charts`] order) at `boost[c]` × the density the rule gives
+/// it (1 for charts past the end of `boost`): an empty `boost` builds what [`build_with`] builds.
+pub fn build_boosted(
+    triangles: &[Triangle],
+    rule: DensityRule,
+    boost: &[f32],
+) -> Result<(Atlas, Vec<TexelSample>), AtlasError> {
     let density = rule.per_metre;
     if !(density.is_finite() && density > 0.0) {
         return Err(AtlasError::BadDensity(density));
@@ -218,7 +228,8 @@ pub fn build_with(
     // Project each chart to its plane, in texels.
     let mut projected: Vec<ProjectedChart> = charts
         .iter()
-        .map(|c| project(triangles, &vid, c, rule))
+        .enumerate()
+        .map(|(i, c)| project(triangles, &vid, c, rule, boost.get(i).copied()))
         .collect();
     for p in &projected {
         if p.w > MAX_PAGE || p.h > MAX_PAGE {
@@ -278,6 +289,13 @@ pub fn weld(triangles: &[Triangle]) -> Vec<[u32; 3]> {
             })
         })
         .collect()
+}
+
+/// The charts [`build_with`] makes of `triangles` (each a list of triangle indices), in the
+/// order of the atlas's chart ids, with the welded vertex ids of [`weld`].
+pub fn charts(triangles: &[Triangle]) -> (Vec<Vec<u32>>, Vec<[u32; 3]>) {
+    let vid = weld(triangles);
+    (make_charts(triangles, &vid), vid)
 }
 
 /// Groups triangles into charts (lists of triangle indices, in index order of their seeds).
@@ -406,7 +424,8 @@ fn chart_extent(coords: &[[Vec2; 3]]) -> Vec2 {
     (max - min).max(Vec2::ZERO)
 }
 
-/// Projects a chart at the density `rule` gives it (from its size on its plane).
+/// Projects a chart at the density `rule` gives it (from its size on its plane), times
+/// `boost` when given.
 ///
 /// The chart's bounding rectangle runs from the centre of its first texel to the centre of its
 /// last, in both directions (each direction's density raised a little, to a whole number of
@@ -418,11 +437,15 @@ fn project(
     vid: &[[u32; 3]],
     chart: &[u32],
     rule: DensityRule,
+    boost: Option<f32>,
 ) -> ProjectedChart {
     let metres = chart_plane_coords(triangles, vid, chart);
     let (min, max) = bounds(&metres);
     let ext = (max - min).max(Vec2::ZERO);
-    let density = rule.chart_density(ext.max_element());
+    let mut density = rule.chart_density(ext.max_element());
+    if let Some(b) = boost {
+        density *= b;
+    }
     let intervals = (ext * density).ceil().max(Vec2::ONE);
     let scale = Vec2::select(ext.cmpgt(Vec2::ZERO), intervals / ext, Vec2::splat(density));
     let shift = Vec2::splat(BORDER as f32 + 0.5);

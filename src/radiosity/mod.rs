@@ -3,6 +3,7 @@
 
 pub mod atlas;
 pub mod batch;
+pub mod contacts;
 pub mod current;
 mod emitters;
 pub mod format;

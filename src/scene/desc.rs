@@ -382,6 +382,10 @@ pub struct RadiosityOverride {
     /// above `texel_density` to meet it (0: off).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub min_scene_texels: Option<u32>,
+    /// Largest factor by which a chart's density is raised where other geometry comes within
+    /// two texels of it (contacts, near occluders); 0 or 1: off.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact_boost: Option<f32>,
     /// Gathering rays per texel and bounce.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rays: Option<u32>,
@@ -414,6 +418,7 @@ impl RadiosityOverride {
             texel_density,
             min_chart_texels,
             min_scene_texels,
+            contact_boost,
             rays,
             light_samples,
             bounces,
@@ -425,6 +430,7 @@ impl RadiosityOverride {
         s.texel_density = texel_density.unwrap_or(s.texel_density);
         s.min_chart_texels = min_chart_texels.unwrap_or(s.min_chart_texels);
         s.min_scene_texels = min_scene_texels.unwrap_or(s.min_scene_texels);
+        s.contact_boost = contact_boost.unwrap_or(s.contact_boost);
         s.rays = rays.unwrap_or(s.rays);
         s.light_samples = light_samples.unwrap_or(s.light_samples);
         s.bounces = bounces.unwrap_or(s.bounces);
@@ -578,6 +584,11 @@ pub struct RadiositySettings {
     /// model's shading does not depend on its units or its size. 0: off.
     #[serde(default)]
     pub min_scene_texels: u32,
+    /// Largest factor by which a chart's density is raised where other geometry comes within
+    /// two texels of it: contacts and near occluders, where D changes within a texel
+    /// ([`crate::radiosity::contacts`]; the atlas grows by at most 2×). 0 or 1: off.
+    #[serde(default)]
+    pub contact_boost: f32,
     /// Gathering rays per texel and bounce.
     pub rays: u32,
     /// Emitter samples per texel, per area light and for the emissive triangles (in a scene
@@ -624,6 +635,12 @@ impl RadiositySettings {
             texel_density,
             min_chart_texels: min_chart,
             min_scene_texels: min_scene,
+            contact_boost: match quality {
+                // Contacts and shadow edges a texel cannot resolve (see `contacts`): off at
+                // draft, the quick look.
+                Quality::Draft => 0.0,
+                Quality::Default | Quality::High => 8.0,
+            },
             rays,
             light_samples,
             bounces,
@@ -660,6 +677,13 @@ impl RadiositySettings {
                     "{d:?} texels per metre gives no element: the scene, {size:.3} m across, spans less than {MIN_SPAN_TEXELS} texel; use at least {:.3e}",
                     MIN_SPAN_TEXELS / size as f64
                 ),
+            ));
+        }
+        let b = self.contact_boost;
+        if !(b.is_finite() && (0.0..=16.0).contains(&b)) {
+            return Err(SettingError::new(
+                "contact_boost",
+                format!("{b} is not a factor in [0, 16] (0 or 1: off)"),
             ));
         }
         if self.rays == 0 {
@@ -711,6 +735,15 @@ impl RadiositySettings {
         crate::radiosity::atlas::DensityRule {
             per_metre: self.scene_density(scene_side),
             min_across: self.min_chart_texels,
+        }
+    }
+
+    /// The most by which contact boosts may multiply the atlas's texels.
+    pub fn contact_texel_factor(&self) -> f64 {
+        if self.contact_boost > 1.0 {
+            crate::radiosity::contacts::TEXEL_BUDGET
+        } else {
+            1.0
         }
     }
 

@@ -151,6 +151,7 @@ pub fn quick_radiosity(bounces: u32) -> glint::scene::desc::RadiositySettings {
         texel_density: 8.0,
         min_chart_texels: 0,
         min_scene_texels: 0,
+        contact_boost: 0.0,
         rays: 32,
         light_samples: 4,
         bounces,
