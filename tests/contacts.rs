@@ -99,6 +99,7 @@ fn settings() -> SolveSettings {
         tolerance: 1e-4,
         target_error: None,
         seed: 3,
+        cache_budget: glint::radiosity::solve::CACHE_BUDGET,
     }
 }
 
