@@ -15,6 +15,7 @@ pub mod seams;
 pub mod solve;
 mod terms;
 mod transport;
+mod varint;
 
 pub use current::{CurrentD, current_d, d_identity};
 pub use map::RadiosityMap;

@@ -28,6 +28,7 @@ use super::many_lights::{LIGHTS_SAMPLED_EACH, ManyLights};
 use super::mirror_lights::MirrorLights;
 use super::terms::PackedTerms;
 use super::transport::{Glossy, Term};
+use super::varint;
 use crate::geometry::Bvh;
 use crate::progress::{Cancelled, Progress};
 use crate::sampling::Rng;
@@ -366,6 +367,8 @@ fn solve_gathered(
     let mut error = relative_errors(&lr, &links, &gathered, &albedo, &emission);
     if let Some(target) = set.target_error {
         let mut budget = REFINE_BUDGET * rays as u64 * samples.len() as u64;
+        // Bytes the links hold, kept up to date as refinement adds to them.
+        let mut held: u64 = links.iter().map(Links::held).sum();
         for round in 1..=MAX_ROUNDS {
             let mut which = more_samples(&error, &gathered, target, rays, light);
             fit_budget(&mut which, &mut budget);
@@ -386,7 +389,6 @@ fn solve_gathered(
                     progress,
                 )
                 .ok_or(Cancelled)?;
-                let mut held: u64 = links.iter().map(Links::held).sum();
                 for (&(i, _, _), mut g) in slice.iter().zip(more) {
                     let i = i as usize;
                     // A ray's hit packs into ~2 bytes and a glossy term into ~8.
@@ -501,9 +503,10 @@ impl Links {
             f.u += v;
             f.u2 += v * v;
         };
-        for h in raw {
-            if h != u32::MAX && resolve[h as usize] != u32::MAX {
-                read(lr[resolve[h as usize] as usize]);
+        for h in raw.into_iter().filter(|&h| h != u32::MAX) {
+            let e = resolve[h as usize];
+            if e != u32::MAX {
+                read(lr[e as usize]);
             }
         }
         for t in std::mem::take(&mut g.terms) {
@@ -530,17 +533,7 @@ impl Links {
     fn hits(&self) -> impl Iterator<Item = u32> + '_ {
         let (mut at, mut last) = (0usize, 0u32);
         std::iter::from_fn(move || {
-            let (mut gap, mut shift) = (0u32, 0);
-            loop {
-                let b = *self.hits.get(at)?;
-                at += 1;
-                gap |= u32::from(b & 0x7f) << shift;
-                if b < 0x80 {
-                    break;
-                }
-                shift += 7;
-            }
-            last += gap;
+            last += varint::read(&self.hits, &mut at)? as u32;
             Some(last)
         })
     }
@@ -564,13 +557,8 @@ impl Links {
         let mut packed = Vec::with_capacity(hits.len() * 3);
         let mut last = 0u32;
         for h in hits {
-            let mut gap = h - last;
+            varint::push(&mut packed, u64::from(h - last));
             last = h;
-            while gap >= 0x80 {
-                packed.push(gap as u8 | 0x80);
-                gap >>= 7;
-            }
-            packed.push(gap as u8);
         }
         packed.shrink_to_fit();
         self.hits = packed;

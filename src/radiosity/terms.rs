@@ -2,7 +2,7 @@
 //! values: the solve reads them every bounce, and at building scale they were most of its
 //! memory (82% of the link cache of the 1/16 building at default, 16 bytes a term).
 //!
-//! Each term is one LEB128 varint, the zigzagged difference from the previous term's texel
+//! Each term is one LEB128 varint ([`super::varint`]), the zigzagged difference from the previous term's texel
 //! shifted left by one, its low bit set when the weight is grey (three equal components, as
 //! every path through grey lobes gives: one float then, else three). The floats are stored as
 //! their bits, so a term reads back exactly as it was pushed and the solve's sums do not
@@ -11,6 +11,7 @@
 use glam::Vec3;
 
 use super::transport::Term;
+use super::varint;
 
 /// Glossy terms, packed (module comment).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -39,12 +40,7 @@ impl PackedTerms {
             let zigzag = ((delta << 1) ^ (delta >> 31)) as u32;
             let grey = t.weight.x.to_bits() == t.weight.y.to_bits()
                 && t.weight.x.to_bits() == t.weight.z.to_bits();
-            let mut head = (u64::from(zigzag) << 1) | u64::from(grey);
-            while head >= 0x80 {
-                self.bytes.push(head as u8 | 0x80);
-                head >>= 7;
-            }
-            self.bytes.push(head as u8);
+            varint::push(&mut self.bytes, (u64::from(zigzag) << 1) | u64::from(grey));
             let floats: &[f32] = if grey {
                 &[t.weight.x]
             } else {
@@ -67,16 +63,7 @@ impl PackedTerms {
             f32::from_bits(u32::from_le_bytes(b))
         };
         std::iter::from_fn(move || {
-            let (mut head, mut shift) = (0u64, 0);
-            loop {
-                let b = *bytes.get(at)?;
-                at += 1;
-                head |= u64::from(b & 0x7f) << shift;
-                if b < 0x80 {
-                    break;
-                }
-                shift += 7;
-            }
+            let head = varint::read(bytes, &mut at)?;
             let zigzag = (head >> 1) as u32;
             let delta = ((zigzag >> 1) as i32) ^ -((zigzag & 1) as i32);
             texel = texel.wrapping_add(delta as u32);
