@@ -239,16 +239,16 @@ fn stitching_closes_a_jump_and_leaves_texels_away_from_the_seam_alone() {
 /// jump must be far below the texel-to-texel variation inside the same charts. Without
 /// stitching the jump's p95 is about 100% of D (the bunny's charts are a texel or two wide).
 ///
-/// With the preset's contact boosts (charts near the floor and in folds at up to 8× their
-/// neighbours' density) the p95 stays below 1% of D but single seam pairs between a raised
-/// chart and its unraised neighbour reach a few percent: `max_jump` bounds that case.
+/// Both without contact boosts and with the preset's (charts near the floor and in folds at
+/// up to 8× their neighbours' density, where D changes fastest): the stitch weighs each seam
+/// point by 1 / D, so the dark seams under the bunny close as well as the bright ones.
 #[test]
 fn bunny_mirror_seams_are_below_one_percent_of_d_and_the_texel_noise() {
-    bunny_mirror_seams(0.0, 0.01);
-    bunny_mirror_seams(8.0, 0.06);
+    bunny_mirror_seams(0.0);
+    bunny_mirror_seams(8.0);
 }
 
-fn bunny_mirror_seams(contact_boost: f32, max_jump: f64) {
+fn bunny_mirror_seams(contact_boost: f32) {
     let scene = Scene::load(
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/bunny-mirror/scene.json"),
     )
@@ -293,7 +293,7 @@ fn bunny_mirror_seams(contact_boost: f32, max_jump: f64) {
             "contact_boost {contact_boost}, {f:?}: jump {m:?}, texel noise {noise:?}, p95 before stitching {before}"
         );
         assert!(m.pairs > 500, "{m:?}");
-        assert!(m.p95 <= 0.01 && m.max <= max_jump, "{f:?}: jump {m:?}");
+        assert!(m.p95 <= 0.01 && m.max <= 0.01, "{f:?}: jump {m:?}");
         assert!(
             m.p95 < 0.1 * noise.median,
             "{f:?}: jump {m:?}, noise {noise:?}"

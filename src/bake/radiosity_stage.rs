@@ -413,6 +413,10 @@ pub fn bake_from(
             stats.insert(key.into(), v.into());
         }
         stats.insert("seam_edges".into(), seam.edges.into());
+        stats.insert(
+            "seam_stitch_iterations".into(),
+            seam.stitch.iterations.into(),
+        );
     }
     Ok(w.commit(stage_info(scene, settings, stats, start, force))?)
 }

@@ -30,6 +30,14 @@ use super::atlas::{Atlas, CHART_MAX_ANGLE_DEG, TexelSample, weld};
 use super::map::{bilinear, bspline_weights};
 use crate::geometry::Triangle;
 
+/// A seam point or texel darker than this fraction of the median seam point counts as this
+/// bright in [`stitch`]'s relative weights: a black seam has no jump to close.
+const RELATIVE_FLOOR: f64 = 0.02;
+
+/// Passes of [`stitch`] in [`stitch_seams`], each weighing the seam points by what the one
+/// before left.
+const STITCH_PASSES: usize = 2;
+
 /// Two ends closer than this in the atlas (texels) are the same place: no seam.
 const SAME_PLACE: f32 = 1e-3;
 
@@ -359,9 +367,9 @@ impl Default for StitchSettings {
     fn default() -> Self {
         StitchSettings {
             closeness: 1e-3,
-            smoothness: 1e-2,
+            smoothness: 3e-3,
             max_iterations: 4000,
-            tolerance: 1e-5,
+            tolerance: 1e-6,
         }
     }
 }
@@ -373,23 +381,29 @@ pub struct StitchStats {
     pub unknowns: usize,
     /// Seam constraints (seam points × filters).
     pub constraints: usize,
-    /// Conjugate-gradient iterations run (until the last channel converged).
+    /// Conjugate-gradient iterations run (until the last channel converged; summed over
+    /// the passes of [`stitch_seams`]).
     pub iterations: u32,
 }
 
 /// Makes D agree on both sides of every seam point through each of `filters`, changing
-/// only the texels those lookups read: minimises, over the change δ of those texels,
+/// only the texels those lookups read: minimises, over the relative change y of those
+/// texels (texel i changes by δ_i = s_i·y_i, s_i its luminance),
 ///
-/// Σ_points,filters |lookup_a − lookup_b|² + λ²·Σ_texels |δ|² + μ²·Σ_adjacent |δ_i − δ_j|²
+/// Σ_points,filters |(lookup_a − lookup_b) / D_p|² + λ²·Σ_texels |y|² + μ²·Σ_adjacent |y_i − y_j|²
 ///
-/// (λ = `closeness`, μ = `smoothness`; adjacent: 4-neighbours in one chart, a texel that does
-/// not change counting as δ = 0). The smoothness term makes the change a smooth field over
-/// each chart, which a chart one or two texels wide takes as a shift of its level, instead
-/// of texel-to-texel oscillations fitted to nearby constraints. The normal equations
-/// (AᵀA + λ²·I + μ²·L)·δ = −AᵀA·x₀ are solved for the three channels by conjugate gradients
-/// with a Jacobi preconditioner. Texels stay ≥ 0. Every sum runs in a fixed order (parallel
-/// over rows and texels, reductions over fixed chunks): the same texels whatever the thread
-/// count.
+/// (D_p the seam point's level, the mean of its two sides; s and D floored at
+/// [`RELATIVE_FLOOR`] × the median seam level; λ = `closeness`, μ = `smoothness`; adjacent:
+/// 4-neighbours in one chart, a texel that does not change counting as y = 0). Relative
+/// terms make a dark seam (under a model, at a contact) close as well as a bright one: in
+/// absolute terms its jump is small beside the pulls of brighter texels nearby. The
+/// smoothness term makes the change a smooth field over each chart, which a chart one or
+/// two texels wide takes as a shift of its level, instead of texel-to-texel oscillations
+/// fitted to nearby constraints. The normal equations (AᵀA + λ²·I + μ²·L)·y = −AᵀA·x₀ (A in
+/// these units, x₀ the texels over s) are solved for the three channels by conjugate
+/// gradients with a Jacobi preconditioner. Texels stay ≥ 0. Every sum runs in a fixed order
+/// (parallel over rows and texels, reductions over fixed chunks): the same texels whatever
+/// the thread count.
 pub fn stitch(
     atlas: &Atlas,
     texels: &mut [Vec3],
@@ -402,17 +416,34 @@ pub fn stitch(
     let mut row_start = vec![0usize];
     let mut entries: Vec<(u32, f32)> = Vec::new();
     let mut row = Vec::with_capacity(32);
-    for p in points {
+    // Each seam point's constraints weigh as 1 / D there (the mean of its two sides'
+    // bilinear lookups): the jump that matters is relative to D, and a dark seam under a
+    // model would otherwise give way to the pull of its brighter surroundings.
+    let level: Vec<f64> = points
+        .iter()
+        .map(|p| {
+            let [a, b] = [0, 1].map(|k| {
+                lookup(Filter::Bilinear, atlas, &offsets, texels, p.triangles[k], p.bary[k])
+            });
+            luminance((a + b) * 0.5)
+        })
+        .collect();
+    let floor = RELATIVE_FLOOR * median(&level);
+    if floor <= 0.0 {
+        return StitchStats::default();
+    }
+    for (p, &l) in points.iter().zip(&level) {
+        let weight = (1.0 / l.max(floor)) as f32;
         for &f in filters {
             row.clear();
-            footprint(f, atlas, &offsets, p.triangles[0], p.bary[0], 1.0, &mut row);
+            footprint(f, atlas, &offsets, p.triangles[0], p.bary[0], weight, &mut row);
             footprint(
                 f,
                 atlas,
                 &offsets,
                 p.triangles[1],
                 p.bary[1],
-                -1.0,
+                -weight,
                 &mut row,
             );
             row.sort_by_key(|e| e.0);
@@ -438,7 +469,17 @@ pub fn stitch(
         return stats;
     }
     let index = |t: u32| unknowns.binary_search(&t).unwrap();
-    let cols: Vec<(usize, f64)> = entries.iter().map(|&(t, w)| (index(t), w as f64)).collect();
+    // The unknowns are relative changes: texel i changes by scale_i·y_i, scale_i its own
+    // luminance (floored as the seam points are), so the pulls below are relative too and
+    // the rows' weights stay near those of the filters.
+    let scale: Vec<f64> = unknowns
+        .iter()
+        .map(|&t| luminance(texels[t as usize]).max(floor))
+        .collect();
+    let cols: Vec<(usize, f64)> = entries
+        .iter()
+        .map(|&(t, w)| (index(t), w as f64 * scale[index(t)]))
+        .collect();
     let n = unknowns.len();
     let rows: Vec<&[(usize, f64)]> = row_start.windows(2).map(|w| &cols[w[0]..w[1]]).collect();
     // Per unknown: its 4-neighbours in the same chart that also change, and how many stay.
@@ -519,7 +560,8 @@ pub fn stitch(
         .collect();
     let x0: Vec<[f64; 3]> = unknowns
         .iter()
-        .map(|&t| texels[t as usize].to_array().map(f64::from))
+        .zip(&scale)
+        .map(|(&t, &s)| texels[t as usize].to_array().map(|c| f64::from(c) / s))
         .collect();
     // b = −AᵀA·x₀
     let ax0 = row_products(&rows, &x0);
@@ -537,10 +579,18 @@ pub fn stitch(
         .collect();
     let (delta, iterations) = conjugate_gradients(&apply, &diag, &b, settings);
     stats.iterations = iterations;
-    for ((&t, x), d) in unknowns.iter().zip(&x0).zip(&delta) {
-        texels[t as usize] = Vec3::from_array([0, 1, 2].map(|c| (x[c] + d[c]).max(0.0) as f32));
+    for (((&t, x), d), &s) in unknowns.iter().zip(&x0).zip(&delta).zip(&scale) {
+        texels[t as usize] =
+            Vec3::from_array([0, 1, 2].map(|c| (s * (x[c] + d[c])).max(0.0) as f32));
     }
     stats
+}
+
+/// The median of the positive values (0 when there are none).
+fn median(values: &[f64]) -> f64 {
+    let mut sorted: Vec<f64> = values.iter().copied().filter(|&l| l > 0.0).collect();
+    sorted.sort_by(f64::total_cmp);
+    sorted.get(sorted.len() / 2).copied().unwrap_or(0.0)
 }
 
 /// A·v for the three channels, one row at a time.
@@ -680,13 +730,28 @@ pub fn stitch_seams(
         noise: texel_noise(atlas, samples, texels, Some(&charts)),
         ..Default::default()
     };
-    report.stitch = stitch(
-        atlas,
-        texels,
-        &points,
-        &[Filter::Bilinear, Filter::BSpline],
-        &StitchSettings::default(),
-    );
+    // Twice: the second pass weighs each seam point by the level the first one left there
+    // (the first weighs it by the mean of two sides that may differ by tens of percent).
+    // The second's right-hand side is what the first left, far smaller: its tolerance,
+    // relative to it, is looser.
+    for k in 0..STITCH_PASSES {
+        let defaults = StitchSettings::default();
+        let settings = StitchSettings {
+            tolerance: defaults.tolerance * if k == 0 { 1.0 } else { 100.0 },
+            ..defaults
+        };
+        let pass = stitch(
+            atlas,
+            texels,
+            &points,
+            &[Filter::Bilinear, Filter::BSpline],
+            &settings,
+        );
+        report.stitch = StitchStats {
+            iterations: report.stitch.iterations + pass.iterations,
+            ..pass
+        };
+    }
     report.after = measure(atlas, texels, &points, Filter::Bilinear);
     report.after_bspline = measure(atlas, texels, &points, Filter::BSpline);
     log::info!(
