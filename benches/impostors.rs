@@ -88,6 +88,7 @@ fn bake_if_needed(scene: &Scene, bundle: &Path) {
         min_scene_texels: 0,
         contact_boost: 0.0,
         stitch_seams: false,
+        cache_budget_mib: 2048,
     };
     radiosity_stage::bake(scene, bundle, &settings, false, &Silent)
         .unwrap_or_else(|e| panic!("{e}"));

@@ -1,5 +1,5 @@
 //! Radiosity presets on the speed-for-accuracy curve: per scene and preset, the target error,
-//! bake time (atlas + solve), rays, peak memory, the solver's own error estimate, and the error
+//! bake time (atlas with its contact boosts + solve + seam stitching), rays, peak memory, the solver's own error estimate, and the error
 //! of D against ground truth: D path-traced at 400 probes on the diffuse faces with every
 //! transport path (`glint::eval::reference::trace_probes`; `GLINT_BENCH_PATHS` paths each,
 //! default 4096), whose own noise is printed beside it, taken out, and the same error over the
@@ -20,7 +20,7 @@ use glint::eval::probe::{clearance, compare_probes, default_reach, diffuse_point
 use glint::eval::reference::{ProbeTraceOptions, trace_probes};
 use glint::progress::Silent;
 use glint::radiosity::solve::{SolveSettings, solve};
-use glint::radiosity::{RadiosityMap, atlas, seams};
+use glint::radiosity::{RadiosityMap, contacts, seams};
 use glint::scene::desc::RadiositySettings;
 use glint::scene::{Quality, Scene};
 
@@ -155,14 +155,17 @@ fn main() {
                 target_error: s.target_error,
                 tolerance: s.tolerance,
                 seed: glint::bake::radiosity_stage::SEED,
-                cache_budget: glint::radiosity::solve::CACHE_BUDGET,
+                cache_budget: s.cache_budget(),
             };
             let base = LIVE.load(Ordering::Relaxed);
             PEAK.store(base, Ordering::Relaxed);
             let t = Instant::now();
-            let (atlas, samples) = atlas::build_with(
-                &scene.triangles,
+            // The stage's atlas: the rule's, with the preset's contact boosts.
+            let (atlas, samples, _) = contacts::build(
+                &scene,
+                &bvh,
                 s.density_rule(scene.bounds.longest_side()),
+                s.contact_boost,
             )
             .unwrap();
             let mut sol = solve(&scene, &bvh, &atlas, &samples, &set, &Silent).unwrap();

@@ -169,6 +169,11 @@ pub struct RadiosityFlags {
     /// solved texels): true or false (default: on, except at draft).
     #[arg(long, value_name = "BOOL")]
     pub stitch_seams: Option<bool>,
+    /// MiB of refinement rays the gather cache holds at most (default 2048): rays beyond it
+    /// are read once and kept as sums, so memory stops growing with rays × texels; 0 caches
+    /// none.
+    #[arg(long, value_name = "MIB")]
+    pub cache_budget_mib: Option<u32>,
 }
 
 impl RadiosityFlags {
@@ -186,6 +191,7 @@ impl RadiosityFlags {
             tolerance: self.tolerance,
             target_error: self.target_error,
             stitch_seams: self.stitch_seams,
+            cache_budget_mib: self.cache_budget_mib,
         }
     }
 }

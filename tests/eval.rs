@@ -147,6 +147,7 @@ fn diffuse_cornell_box_agrees_with_converged_radiosity() {
         glossy_depth: 0,
         target_error: None,
         stitch_seams: false,
+        cache_budget_mib: 2048,
     };
     let bundle = shipped_bundle(&Recipe::new("cornell-box").then(Step::Radiosity(settings)));
     let map = RadiosityMap::load(&Bundle::open(&bundle).unwrap())

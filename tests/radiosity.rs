@@ -264,6 +264,7 @@ fn bakes_are_byte_identical_whatever_the_thread_count() {
         glossy_depth: 0,
         target_error: None,
         stitch_seams: false,
+        cache_budget_mib: 2048,
     };
     let bundles: Vec<_> = [1, 2, 3]
         .iter()
@@ -321,6 +322,7 @@ fn cancelling_leaves_the_bundle_as_it_was() {
         glossy_depth: 0,
         target_error: None,
         stitch_seams: false,
+        cache_budget_mib: 2048,
     };
     radiosity_stage::bake(&scene, &out, &settings, false, &Silent).unwrap();
     let manifest = std::fs::read(out.join("manifest.json")).unwrap();

@@ -375,6 +375,7 @@ fn stitched_bakes_are_byte_identical_whatever_the_thread_count() {
         glossy_depth: 0,
         target_error: None,
         stitch_seams: true,
+        cache_budget_mib: 2048,
     };
     let pages: Vec<Vec<u8>> = [1, 3]
         .iter()

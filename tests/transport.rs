@@ -396,3 +396,46 @@ fn refined_glossy_solves_are_identical_whatever_the_thread_count() {
         );
     }
 }
+
+/// The cache budget is a setting like the others (scene.json, CLI flag, sweep knob: one
+/// serialized field), and the radiosity stage passes it to the solve: with 0 MiB the same
+/// bake reads its refinement rays once (`gather_frozen_rays` > 0) and caches only the first
+/// batch; with the preset's 2 GiB it freezes none.
+#[test]
+fn the_cache_budget_is_a_setting_that_reaches_the_stage() {
+    use glint::bake::radiosity_stage;
+    use glint::bundle::Bundle;
+    use glint::scene::desc::{Quality, RadiosityOverride, RadiositySettings};
+    let over: RadiosityOverride = serde_json::from_str(r#"{ "cache_budget_mib": 0 }"#).unwrap();
+    let zero = RadiositySettings::resolve(Quality::Draft, &over);
+    assert_eq!((zero.cache_budget_mib, zero.cache_budget()), (0, 0));
+    let draft = RadiositySettings::preset(Quality::Draft);
+    assert_eq!(draft.cache_budget(), glint::radiosity::solve::CACHE_BUDGET);
+    // Settings recorded before the field existed read as the preset's budget.
+    let mut json = serde_json::to_value(&draft).unwrap();
+    json.as_object_mut().unwrap().remove("cache_budget_mib");
+    let old: RadiositySettings = serde_json::from_value(json).unwrap();
+    assert_eq!(old.cache_budget_mib, 2048);
+
+    let dir = tempfile::tempdir().unwrap();
+    let scene = lamp_box(dir.path());
+    let bake = |s: &RadiositySettings, name: &str| {
+        let out = dir.path().join(name);
+        let record = radiosity_stage::bake(&scene, &out, s, false, &Silent).unwrap();
+        let bundle = Bundle::open(&out).unwrap();
+        assert!(RadiosityMap::load(&bundle).unwrap().is_some());
+        let stat = |k: &str| record.stats[k].as_u64().unwrap();
+        (stat("gather_frozen_rays"), stat("gather_cache_bytes"))
+    };
+    let (frozen_default, bytes_default) = bake(&draft, "default.glint");
+    let (frozen_zero, bytes_zero) = bake(&zero, "zero.glint");
+    eprintln!(
+        "2 GiB: {frozen_default} frozen rays, {bytes_default} cache bytes; 0: {frozen_zero} frozen, {bytes_zero} bytes"
+    );
+    assert_eq!(frozen_default, 0);
+    assert!(frozen_zero > 0, "nothing refined with budget 0?");
+    assert!(
+        bytes_zero < bytes_default,
+        "{bytes_zero} vs {bytes_default}"
+    );
+}

@@ -86,6 +86,7 @@ fn test_settings(texel_density: f32) -> RadiositySettings {
         min_scene_texels: 0,
         contact_boost: 0.0,
         stitch_seams: false,
+        cache_budget_mib: 2048,
     }
 }
 

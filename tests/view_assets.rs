@@ -69,6 +69,7 @@ fn bundle() -> &'static Path {
                 min_scene_texels: 0,
                 contact_boost: 0.0,
                 stitch_seams: false,
+                cache_budget_mib: 2048,
             };
             settings.srdm = SrdmSettings {
                 domains: 4,

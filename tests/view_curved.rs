@@ -49,6 +49,7 @@ fn radiosity_settings() -> RadiositySettings {
         min_scene_texels: 0,
         contact_boost: 0.0,
         stitch_seams: false,
+        cache_budget_mib: 2048,
     }
 }
 

@@ -341,6 +341,7 @@ fn bunny_bundle() -> &'static Path {
             min_scene_texels: 0,
             contact_boost: 0.0,
             stitch_seams: false,
+            cache_budget_mib: 2048,
         };
         let srdm = SrdmSettings {
             domains: 30,

@@ -93,6 +93,7 @@ fn corridor() -> &'static ViewData {
             min_scene_texels: 0,
             contact_boost: 0.0,
             stitch_seams: false,
+            cache_budget_mib: 2048,
         };
         scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
         radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent)
@@ -348,6 +349,7 @@ fn straddling() -> &'static ViewData {
             min_scene_texels: 0,
             contact_boost: 0.0,
             stitch_seams: false,
+            cache_budget_mib: 2048,
         };
         scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
         radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent)

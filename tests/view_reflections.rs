@@ -94,6 +94,7 @@ fn glossy_bundle() -> &'static Path {
             min_scene_texels: 0,
             contact_boost: 0.0,
             stitch_seams: false,
+            cache_budget_mib: 2048,
         };
         shipped_bundle(
             &Recipe::new("glossy-room")

@@ -15,7 +15,7 @@ use crate::radiosity::atlas::{self, AtlasError};
 use crate::radiosity::format;
 use crate::radiosity::seams;
 use crate::radiosity::solve::{
-    CACHE_BUDGET, GatherBatch, REFINE_BUDGET, SolveSettings, gather_batch, solve, solve_batches,
+    GatherBatch, REFINE_BUDGET, SolveSettings, gather_batch, solve, solve_batches,
 };
 use crate::scene::Scene;
 use crate::scene::desc::RadiositySettings;
@@ -72,13 +72,13 @@ pub enum RadiosityError {
 
 /// Memory a bake needs at most, in bytes, for `texels` elements with `rays` cached hits each,
 /// and, when refining towards a target error, up to [`REFINE_BUDGET`] times as many more,
-/// their cache bounded by [`CACHE_BUDGET`] (rays beyond it are read once, not held).
-pub fn memory_estimate(texels: f64, rays: u32, refine: bool) -> f64 {
+/// their cache bounded by `cache_budget` bytes (rays beyond it are read once, not held).
+pub fn memory_estimate(texels: f64, rays: u32, refine: bool, cache_budget: u64) -> f64 {
     // Cached hit ids (4 B per ray as gathered), per-element data, per-atlas-texel maps and
     // the solution.
     let first = texels * rays as f64 * 4.0;
     let more = if refine {
-        (first * REFINE_BUDGET as f64).min(CACHE_BUDGET as f64)
+        (first * REFINE_BUDGET as f64).min(cache_budget as f64)
     } else {
         0.0
     };
@@ -109,7 +109,7 @@ fn check_share(scene: &Scene, s: &RadiositySettings, share: f64) -> Result<(), R
         .map_err(|e| RadiosityError::Setting(e.to_string()))?;
     let rule = s.density_rule(scene.bounds.longest_side());
     let texels = atlas::estimate_texels(&scene.triangles, rule) * s.contact_texel_factor();
-    let need = memory_estimate(texels, s.rays, s.target_error.is_some()) * share;
+    let need = memory_estimate(texels, s.rays, s.target_error.is_some(), s.cache_budget()) * share;
     if let Some(avail) = available_memory()
         && need > avail
     {
@@ -228,7 +228,7 @@ fn prepare(scene: &Scene, settings: &RadiositySettings) -> Result<Prepared, Radi
         tolerance: settings.tolerance,
         target_error: settings.target_error,
         seed: SEED,
-        cache_budget: CACHE_BUDGET,
+        cache_budget: settings.cache_budget(),
     };
     Ok(Prepared {
         bvh,

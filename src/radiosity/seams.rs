@@ -423,7 +423,14 @@ pub fn stitch(
         .iter()
         .map(|p| {
             let [a, b] = [0, 1].map(|k| {
-                lookup(Filter::Bilinear, atlas, &offsets, texels, p.triangles[k], p.bary[k])
+                lookup(
+                    Filter::Bilinear,
+                    atlas,
+                    &offsets,
+                    texels,
+                    p.triangles[k],
+                    p.bary[k],
+                )
             });
             luminance((a + b) * 0.5)
         })
@@ -436,7 +443,15 @@ pub fn stitch(
         let weight = (1.0 / l.max(floor)) as f32;
         for &f in filters {
             row.clear();
-            footprint(f, atlas, &offsets, p.triangles[0], p.bary[0], weight, &mut row);
+            footprint(
+                f,
+                atlas,
+                &offsets,
+                p.triangles[0],
+                p.bary[0],
+                weight,
+                &mut row,
+            );
             footprint(
                 f,
                 atlas,

@@ -409,6 +409,10 @@ pub struct RadiosityOverride {
     /// Make D agree across chart seams of smooth surfaces (least-squares stitching).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stitch_seams: Option<bool>,
+    /// MiB of refinement rays the gather cache holds at most (rays beyond it are read once
+    /// and kept as sums: memory stops growing with rays × texels); 0: none cached.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cache_budget_mib: Option<u32>,
 }
 
 impl RadiosityOverride {
@@ -426,6 +430,7 @@ impl RadiosityOverride {
             tolerance,
             target_error,
             stitch_seams,
+            cache_budget_mib,
         } = *self;
         s.texel_density = texel_density.unwrap_or(s.texel_density);
         s.min_chart_texels = min_chart_texels.unwrap_or(s.min_chart_texels);
@@ -436,6 +441,7 @@ impl RadiosityOverride {
         s.bounces = bounces.unwrap_or(s.bounces);
         s.glossy_depth = glossy_depth.unwrap_or(s.glossy_depth);
         s.tolerance = tolerance.unwrap_or(s.tolerance);
+        s.cache_budget_mib = cache_budget_mib.unwrap_or(s.cache_budget_mib);
         match target_error {
             // 0 turns refinement off: one batch of `rays` and `light_samples`.
             Some(0.0) => s.target_error = None,
@@ -611,6 +617,19 @@ pub struct RadiositySettings {
     /// `min_chart_texels` keeps charts wide enough that stitching keeps their shading).
     #[serde(default)]
     pub stitch_seams: bool,
+    /// MiB of refinement rays the gather cache holds at most
+    /// ([`crate::radiosity::solve::SolveSettings::cache_budget`]): rays beyond it are read
+    /// once, against the radiance of that moment, and kept as sums per element, so memory
+    /// stops growing with rays × texels (they then do not follow later bounces). 0: no
+    /// refinement ray cached. Records without it read as the default, 2048.
+    #[serde(default = "default_cache_budget_mib")]
+    pub cache_budget_mib: u32,
+}
+
+/// [`RadiositySettings::cache_budget_mib`] of every preset: 2 GiB
+/// ([`crate::radiosity::solve::CACHE_BUDGET`]).
+fn default_cache_budget_mib() -> u32 {
+    (crate::radiosity::solve::CACHE_BUDGET >> 20) as u32
 }
 
 impl RadiositySettings {
@@ -648,7 +667,13 @@ impl RadiositySettings {
             tolerance,
             target_error: Some(target),
             stitch_seams: stitch,
+            cache_budget_mib: default_cache_budget_mib(),
         }
+    }
+
+    /// [`Self::cache_budget_mib`] in bytes.
+    pub fn cache_budget(&self) -> u64 {
+        u64::from(self.cache_budget_mib) << 20
     }
 
     /// Checks every value: rays and light samples ≥ 1, tolerance in [0, 1), texel density

@@ -159,6 +159,7 @@ pub fn quick_radiosity(bounces: u32) -> glint::scene::desc::RadiositySettings {
         glossy_depth: 0,
         target_error: None,
         stitch_seams: false,
+        cache_budget_mib: 2048,
     }
 }
 
