@@ -202,8 +202,10 @@ fn main() {
                 m.reference_noise.map_or("-".into(), pct),
                 vs_converged.unwrap_or_else(|| "-".into()),
             ];
+            // Each row as it is measured: a long run (breakfast-room at high takes about an
+            // hour on 2 cores) leaves what it measured even when stopped.
+            eprintln!("row: {}", row.join(" | "));
             rows.push(row);
-            eprintln!("{} {} done", scene.name, q.name());
         }
     }
     println!(
