@@ -493,7 +493,10 @@ pub fn stitch(
         .collect();
     let cols: Vec<(usize, f64)> = entries
         .iter()
-        .map(|&(t, w)| (index(t), w as f64 * scale[index(t)]))
+        .map(|&(t, w)| {
+            let i = index(t);
+            (i, w as f64 * scale[i])
+        })
         .collect();
     let n = unknowns.len();
     let rows: Vec<&[(usize, f64)]> = row_start.windows(2).map(|w| &cols[w[0]..w[1]]).collect();
