@@ -26,7 +26,10 @@
 //! of `frames`, `reflections`, `fidelity`; all by default) picks the tables and
 //! `GLINT_BENCH_SCENES` (a comma list) the scenes, `GLINT_BENCH_MODES` (a comma list of
 //! `geometry`, `off`, `image1`, `image2`, `image4`, `image2d`; all by default) the reflection
-//! table's modes (geometry always runs: the ratios are to it).
+//! table's modes (geometry always runs: the ratios are to it). `GLINT_BENCH_FIDELITY_QUALITY`
+//! (`draft`, `default`, `high`), `GLINT_BENCH_FIDELITY_SIZE` (`WxH`) and
+//! `GLINT_BENCH_FIDELITY_SPP` set the fidelity table's bakes, frame and references (cached in
+//! `target/tmp/view-bench/references/`).
 //!
 //! `cargo bench --bench view` (the `view` feature, on by default). The adapter is the one
 //! `Gpu::headless` picks: a hardware GPU when there is one, else Mesa's lavapipe; `WGPU_BACKEND`
@@ -55,7 +58,7 @@ use glint::view::replay::GpuTimeSource;
 use glint::view::replay::schedule;
 
 mod common;
-use common::{bake_if_needed, gpu, half_size, mean_diff, median, repo};
+use common::{bake_at, bake_if_needed, gpu, half_size, mean_diff, median, repo};
 
 const SCENES: [&str; 4] = [
     "cornell-box",
@@ -397,43 +400,129 @@ const FRAME_STRIDE: usize = 8;
 /// Paths per pixel of the reference images.
 const REFERENCE_SPP: u32 = 32;
 
-/// Frame size of the fidelity table.
+/// Frame size of the fidelity table (`GLINT_BENCH_FIDELITY_SIZE`, `WxH`, overrides).
 const FIDELITY_SIZE: (u32, u32) = (192, 128);
 
-/// Paths per pixel of the fidelity table's references.
+/// Paths per pixel of each of the fidelity table's two references (`GLINT_BENCH_FIDELITY_SPP`
+/// overrides).
 const FIDELITY_SPP: u32 = 64;
 
+/// The fidelity table's settings: the bake preset (`GLINT_BENCH_FIDELITY_QUALITY`, draft by
+/// default), the frame size and the references' paths per pixel.
+fn fidelity_settings() -> (Quality, (u32, u32), u32) {
+    let var = |k: &str| std::env::var(k).ok().filter(|v| !v.trim().is_empty());
+    let quality = var("GLINT_BENCH_FIDELITY_QUALITY").map_or(Quality::Draft, |v| {
+        Quality::ALL
+            .into_iter()
+            .find(|q| q.name() == v.trim())
+            .unwrap_or_else(|| {
+                panic!("GLINT_BENCH_FIDELITY_QUALITY={v}: expected draft, default or high")
+            })
+    });
+    let size = var("GLINT_BENCH_FIDELITY_SIZE").map_or(FIDELITY_SIZE, |v| {
+        v.trim()
+            .split_once('x')
+            .and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)))
+            .filter(|&(w, h): &(u32, u32)| w > 0 && h > 0)
+            .unwrap_or_else(|| panic!("GLINT_BENCH_FIDELITY_SIZE={v}: expected WxH, e.g. 384x256"))
+    });
+    let spp = var("GLINT_BENCH_FIDELITY_SPP").map_or(FIDELITY_SPP, |v| {
+        v.trim()
+            .parse()
+            .ok()
+            .filter(|&n: &u32| n > 0)
+            .unwrap_or_else(|| panic!("GLINT_BENCH_FIDELITY_SPP={v}: expected a positive count"))
+    });
+    (quality, size, spp)
+}
+
+/// The path tracer's image of `camera` (`scene`'s path `path`, first keyframe) with `options`,
+/// read from `work/references/` when rendered before with the same settings (the scene's
+/// content hash is in the name), else rendered and kept there. The same file as
+/// `glint-eval reference SCENE --camera PATH --size WxH --spp N --seed S` writes.
+fn cached_reference(
+    scene: &Scene,
+    bvh: &Bvh,
+    work: &Path,
+    path: &str,
+    camera: &glint::camera::Camera,
+    options: &RenderOptions,
+) -> Image {
+    let (w, h, spp, seed) = (options.width, options.height, options.spp, options.seed);
+    let dir = work.join("references");
+    let file = dir.join(format!(
+        "{}-{}-{path}-{w}x{h}-{spp}spp-seed{seed}.exr",
+        scene.desc.name.as_deref().unwrap_or("scene"),
+        &scene.content_hash[..16.min(scene.content_hash.len())]
+    ));
+    if let Ok(bytes) = std::fs::read(&file)
+        && let Ok(image) = Image::from_exr(&bytes)
+        && image.width == w as usize
+        && image.height == h as usize
+    {
+        return image;
+    }
+    let start = Instant::now();
+    let traced =
+        reference::render(scene, bvh, camera, options, &Silent).unwrap_or_else(|e| panic!("{e}"));
+    eprintln!(
+        "traced {} {path} {w}x{h} {spp} spp seed {seed} in {:.1} s",
+        scene.desc.name.as_deref().unwrap_or("scene"),
+        start.elapsed().as_secs_f64()
+    );
+    let image = Image {
+        width: w as usize,
+        height: h as usize,
+        rgb: traced.image.rgb,
+    };
+    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
+    let tmp = file.with_extension("exr.tmp");
+    std::fs::write(&tmp, image.to_exr().unwrap_or_else(|e| panic!("{e}")))
+        .and_then(|()| std::fs::rename(&tmp, &file))
+        .unwrap_or_else(|e| panic!("{}: {e}", file.display()));
+    image
+}
+
 /// Fidelity of both reflection modes (and reflections off): per shipped scene with glossy
-/// planar reflectors and per camera path's first keyframe, at [`FIDELITY_SIZE`] on draft
-/// bakes (materials and radiance stages too), the relative RMSE (`glint::eval::compare`, linear
-/// radiance) of the whole frame and of the reflectors' pixels against the reference path
-/// tracer ([`FIDELITY_SPP`] spp), and of the reflectors' pixels against the CPU equation
-/// ([`reflections::cpu_reference`], M*K exact: the viewer's own share).
+/// planar reflectors and per camera path's first keyframe, on bakes at the preset of
+/// [`fidelity_settings`] (materials and radiance stages too), the relative RMSE
+/// (`glint::eval::compare`, linear radiance, per pixel) of the whole frame and of the
+/// reflectors' pixels against the reference path tracer, and of the reflectors' pixels
+/// against the CPU equation ([`reflections::cpu_reference`], M*K exact: the viewer's own
+/// share).
+///
+/// The reference is the mean of two path-traced images with seeds 1 and 2 (cached,
+/// [`cached_reference`]). Their difference measures its noise: for independent images
+/// A, B of the same variance, the mean's relative noise is rel(A, B) / 2, and a frame's
+/// error with the noise taken out is √(e² − noise²) (the "noise out" columns).
 fn fidelity_table(gpu: &Gpu, work: &Path) {
+    let (quality, (w, h), spp) = fidelity_settings();
     let mut rows = vec![
         [
             "scene",
             "camera",
             "mode",
-            "frame rel. RMSE vs path tracer",
-            "reflector px rel. RMSE vs path tracer",
-            "reflector px rel. RMSE vs CPU eq.",
+            "frame vs path tracer",
+            "noise out",
+            "reflector px vs path tracer",
+            "noise out",
+            "reflector px vs CPU eq.",
             "reflector px",
         ]
         .map(String::from),
     ];
-    let (w, h) = FIDELITY_SIZE;
     let image = |rgb: Vec<glam::Vec3>| Image {
         width: w as usize,
         height: h as usize,
         rgb,
     };
+    let mut noise_rows = Vec::new();
     for name in picked(&["glossy-room", "breakfast-room", "bunny-mirror"]) {
         let scene_json = repo(&format!("scenes/{name}/scene.json"));
-        let bundle = bake_if_needed(&scene_json, work, name, true);
+        let bundle = bake_at(&scene_json, work, name, true, quality);
         let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
         if !up_to_date(&bundle, &scene, Stage::Radiance, None) {
-            radiance_stage::bake(&scene, &bundle, Quality::Draft, true, &Silent)
+            radiance_stage::bake(&scene, &bundle, quality, true, &Silent)
                 .unwrap_or_else(|e| panic!("{e}"));
         }
         let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
@@ -445,21 +534,23 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
         let mut off = Offscreen::new(gpu, &data, w, h).unwrap_or_else(|e| panic!("{e}"));
         for path in &data.scene.camera_paths {
             let camera = glint::camera::pose_at(path, 0.0);
-            let traced = reference::render(
-                &data.scene,
-                &bvh,
-                &camera,
-                &RenderOptions {
+            let [a, b] = [1, 2].map(|seed| {
+                let options = RenderOptions {
                     width: w,
                     height: h,
-                    spp: FIDELITY_SPP,
-                    seed: 1,
+                    spp,
+                    seed,
                     ..RenderOptions::default()
-                },
-                &Silent,
-            )
-            .unwrap_or_else(|e| panic!("{e}"));
-            let traced = image(traced.image.rgb);
+                };
+                cached_reference(&scene, &bvh, work, &path.name, &camera, &options)
+            });
+            let traced = image(
+                a.rgb
+                    .iter()
+                    .zip(&b.rgb)
+                    .map(|(x, y)| 0.5 * (*x + *y))
+                    .collect(),
+            );
             let equation = image(reflections::cpu_reference(
                 &data.scene,
                 &reflectors,
@@ -472,6 +563,16 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
             ));
             let mask = reflections::reflector_pixels(&bvh, &reflectors, &camera, w, h);
             let pixels = mask.iter().filter(|m| **m).count();
+            let masked = (pixels > 0).then_some(&mask[..]);
+            // The mean's noise: half the relative difference of its two halves.
+            let noise =
+                |m: Option<&[bool]>| compare(&a, &b, m).map_or(f64::NAN, |r| 0.5 * r.rel_rmse);
+            let (noise_frame, noise_reflector) =
+                (noise(None), masked.map_or(f64::NAN, |m| noise(Some(m))));
+            noise_rows.push(format!(
+                "{name} {}: reference noise {noise_frame:.3} (frame), {noise_reflector:.3} (reflector px)",
+                path.name
+            ));
             for (label, mode) in [
                 ("geometry", ReflectionMode::Geometry),
                 ("image", ReflectionMode::Image),
@@ -481,27 +582,38 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
                     .unwrap_or_else(|e| panic!("{e}"));
                 off.render(gpu, &camera).unwrap_or_else(|e| panic!("{e}"));
                 let frame = image(off.read_hdr(gpu).unwrap_or_else(|e| panic!("{e}")));
-                let rel = |b: &Image, m: Option<&[bool]>| {
-                    compare(&frame, b, m).map_or("-".to_string(), |r| format!("{:.3}", r.rel_rmse))
-                };
-                let masked = (pixels > 0).then_some(&mask[..]);
+                let rel =
+                    |b: &Image, m: Option<&[bool]>| compare(&frame, b, m).map(|r| r.rel_rmse).ok();
+                let show = |e: Option<f64>| e.map_or("-".to_string(), |e| format!("{e:.3}"));
+                let out = |e: Option<f64>, n: f64| show(e.map(|e| (e * e - n * n).max(0.0).sqrt()));
+                let frame_error = rel(&traced, None);
+                let reflector_error = masked.and_then(|m| rel(&traced, Some(m)));
                 rows.push([
                     name.to_string(),
                     path.name.clone(),
                     label.to_string(),
-                    rel(&traced, None),
-                    masked.map_or("-".to_string(), |m| rel(&traced, Some(m))),
-                    masked.map_or("-".to_string(), |m| rel(&equation, Some(m))),
+                    show(frame_error),
+                    out(frame_error, noise_frame),
+                    show(reflector_error),
+                    out(reflector_error, noise_reflector),
+                    show(masked.and_then(|m| rel(&equation, Some(m)))),
                     pixels.to_string(),
                 ]);
             }
         }
     }
     println!(
-        "\nfidelity at {w}x{h}, draft bakes, each camera path's first keyframe: relative RMSE (linear) vs the path tracer ({FIDELITY_SPP} spp, its noise included) and vs the CPU equation (M*K exact)\n"
+        "\nfidelity at {w}x{h}, {} bakes, each camera path's first keyframe: relative RMSE (linear, per pixel) vs the path tracer (the mean of 2 × {spp} spp; \"noise out\": its noise taken out) and vs the CPU equation (M*K exact)\n",
+        quality.name()
     );
     print!(
         "{}",
-        format_table(&rows, &[false, false, false, true, true, true, true])
+        format_table(
+            &rows,
+            &[false, false, false, true, true, true, true, true, true]
+        )
     );
+    for line in noise_rows {
+        println!("{line}");
+    }
 }

@@ -54,9 +54,24 @@ pub fn mean_diff(a: &[u8], b: &[u8]) -> f64 {
 /// The scene's bundle in `work` with the scene and draft radiosity stages (and the draft
 /// materials stage when `with_materials`), each baked unless up to date.
 pub fn bake_if_needed(scene_json: &Path, work: &Path, name: &str, with_materials: bool) -> PathBuf {
-    let bundle = work.join(format!("{name}.glint"));
+    bake_at(scene_json, work, name, with_materials, Quality::Draft)
+}
+
+/// As [`bake_if_needed`] at the preset `quality`: the bundle is `NAME.glint` at draft and
+/// `NAME-QUALITY.glint` otherwise.
+pub fn bake_at(
+    scene_json: &Path,
+    work: &Path,
+    name: &str,
+    with_materials: bool,
+    quality: Quality,
+) -> PathBuf {
+    let bundle = match quality {
+        Quality::Draft => work.join(format!("{name}.glint")),
+        q => work.join(format!("{name}-{}.glint", q.name())),
+    };
     let scene = Scene::load(scene_json).unwrap_or_else(|e| panic!("{e}"));
-    let settings = RadiositySettings::resolve(Quality::Draft, &scene.desc.bake.radiosity);
+    let settings = RadiositySettings::resolve(quality, &scene.desc.bake.radiosity);
     let settings_json = radiosity_stage::settings_json(&settings);
     if !up_to_date(&bundle, &scene, Stage::Scene, None) {
         scene_stage::bake(&scene, &bundle, true).unwrap_or_else(|e| panic!("{e}"));
@@ -66,12 +81,13 @@ pub fn bake_if_needed(scene_json: &Path, work: &Path, name: &str, with_materials
         radiosity_stage::bake(&scene, &bundle, &settings, true, &Silent)
             .unwrap_or_else(|e| panic!("{e}"));
         eprintln!(
-            "baked {name} (draft) in {:.1} s",
+            "baked {name} ({}) in {:.1} s",
+            quality.name(),
             start.elapsed().as_secs_f64()
         );
     }
     if with_materials && !up_to_date(&bundle, &scene, Stage::Materials, None) {
-        let settings = materials::MaterialsSettings::preset(Quality::Draft);
+        let settings = materials::MaterialsSettings::preset(quality);
         materials::bake(&scene, &bundle, &settings, true, &Silent)
             .unwrap_or_else(|e| panic!("{e}"));
     }
