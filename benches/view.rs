@@ -412,19 +412,12 @@ const FIDELITY_SPP: u32 = 64;
 fn fidelity_settings() -> (Quality, (u32, u32), u32) {
     let var = |k: &str| std::env::var(k).ok().filter(|v| !v.trim().is_empty());
     let quality = var("GLINT_BENCH_FIDELITY_QUALITY").map_or(Quality::Draft, |v| {
-        Quality::ALL
-            .into_iter()
-            .find(|q| q.name() == v.trim())
-            .unwrap_or_else(|| {
-                panic!("GLINT_BENCH_FIDELITY_QUALITY={v}: expected draft, default or high")
-            })
+        glint::cli::parse_quality(v.trim())
+            .unwrap_or_else(|e| panic!("GLINT_BENCH_FIDELITY_QUALITY={v}: {e}"))
     });
     let size = var("GLINT_BENCH_FIDELITY_SIZE").map_or(FIDELITY_SIZE, |v| {
-        v.trim()
-            .split_once('x')
-            .and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)))
-            .filter(|&(w, h): &(u32, u32)| w > 0 && h > 0)
-            .unwrap_or_else(|| panic!("GLINT_BENCH_FIDELITY_SIZE={v}: expected WxH, e.g. 384x256"))
+        glint::cli::parse_size(v.trim())
+            .unwrap_or_else(|e| panic!("GLINT_BENCH_FIDELITY_SIZE={v}: {e}"))
     });
     let spp = var("GLINT_BENCH_FIDELITY_SPP").map_or(FIDELITY_SPP, |v| {
         v.trim()
@@ -438,7 +431,7 @@ fn fidelity_settings() -> (Quality, (u32, u32), u32) {
 
 /// The path tracer's image of `camera` (`scene`'s path `path`, first keyframe) with `options`,
 /// read from `work/references/` when rendered before with the same settings (the scene's
-/// content hash is in the name), else rendered and kept there. The same file as
+/// content hash is in the name), else rendered and kept there. The same image as
 /// `glint-eval reference SCENE --camera PATH --size WxH --spp N --seed S` writes.
 fn cached_reference(
     scene: &Scene,

@@ -209,7 +209,8 @@ pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
-fn parse_quality(s: &str) -> Result<crate::scene::Quality, String> {
+/// Parses a preset name (`draft`, `default`, `high`): the one `--quality` parser.
+pub fn parse_quality(s: &str) -> Result<crate::scene::Quality, String> {
     crate::scene::Quality::ALL
         .into_iter()
         .find(|q| q.name() == s)
