@@ -88,7 +88,7 @@ fn main() {
                             normal: frame.normal,
                             resolution: plan.resolution,
                         };
-                        let map = render(&cam, &bvh, 4.0 * bvh.epsilon(), &shade);
+                        let map = render(&cam, &bvh, &scene.triangles, 4.0 * bvh.epsilon(), &shade);
                         let exr = encode_map(
                             plan.resolution,
                             &map,

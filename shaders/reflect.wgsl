@@ -9,9 +9,10 @@
 //    reflected ray beyond the plane (K's per-pixel scale), 0 where nothing is reflected:
 //    - `vs_mirror`/`fs_mirror` (geometry mode): the scene re-rendered, whatever lies behind
 //      the plane (or on it: the reflector itself) discarded, the clip plane;
-//    - `vs_splat`/`fs_splat` (image mode): radiance-map points as screen-aligned quads, their
-//      size per quadtree node from Eq. 3 (`splat_nodes`), lower-ranked maps pushed back, and
-//      so is each quad's overlap beyond its own Eq. 3 extent (it only fills gaps).
+//    - `vs_splat`/`fs_splat` (image mode): radiance-map points as quads, each its map pixel's
+//      patch on its own surface (Eq. 3 per point, with the facet normal baked with the map)
+//      × the node's spacing (`splat_nodes`), lower-ranked maps pushed back, and so is each
+//      quad's overlap beyond its own patch (it only fills gaps).
 // 2. `vs_mirror`/`fs_composite`: the reflector's triangles drawn again over the frame, depth
 //    tested (GreaterEqual, reverse Z) against the scene pass's depth (the mask), adding
 //    ks·R × (M*K) at the same pixel (additive blend): M*K at a cost independent of K's width,
@@ -59,8 +60,26 @@ struct ReflectParams {
 @group(1) @binding(3) var reflection: texture_2d<f32>;
 @group(1) @binding(4) var reflection_sampler: sampler;
 @group(1) @binding(5) var sphere_map: texture_2d<f32>;
-// Per quadtree node: xy half size in NDC, z clip-z scale (rank depth bias).
-@group(1) @binding(6) var<storage, read> splat_nodes: array<vec4<f32>>;
+// Per quadtree node and frame (`splats::NodeParams`): a splat's size in map pixels, the
+// rank's depth scale, the node's map, half a pixel in NDC.
+struct SplatNode {
+    spacing: f32,
+    depth_scale: f32,
+    view: u32,
+    pad: f32,
+    pixel_ndc: vec2<f32>,
+    pad2: vec2<f32>,
+};
+// Per map, fixed (`splats::SplatView`): centre of projection (w: the element's depth), the
+// reflector's normal, one map pixel's edges on the element.
+struct SplatView {
+    centre: vec4<f32>,
+    normal: vec4<f32>,
+    pixel_u: vec4<f32>,
+    pixel_v: vec4<f32>,
+};
+@group(1) @binding(6) var<storage, read> splat_nodes: array<SplatNode>;
+@group(1) @binding(10) var<storage, read> splat_views: array<SplatView>;
 // Image mode: the reflector's radiance-map points (`splats::Splat`), and this frame's kept
 // ones (indices into `splat_points`, `splat_maps::SplatMaps::plan`).
 @group(1) @binding(8) var<storage, read> splat_points: array<SplatPoint>;
@@ -287,7 +306,7 @@ fn fs_composite(in: MirrorOut) -> FragmentOut {
     return out;
 }
 
-// Image-based mode: the selected radiance maps' points as screen-aligned quads in the
+// Image-based mode: the selected radiance maps' points as quads (parallelograms) in the
 // mirrored view, nearest wins (WebGPU has no point size). One non-instanced triangle list per
 // reflector: 6 vertices per kept point, the point read from `splat_points` through
 // `splat_kept`, so a frame's thinned and culled selection is one draw call (a software
@@ -297,7 +316,8 @@ struct SplatPoint {
     position: vec3<f32>,
     node: u32,
     color: vec3<f32>,
-    pad: f32,
+    // The surface's facet normal, octahedral, pack2x16snorm.
+    normal: u32,
 };
 
 struct SplatOut {
@@ -308,11 +328,50 @@ struct SplatOut {
     @location(2) corner: vec2<f32>,
 };
 
-// `splats::SPLAT_OVERLAP`: a splat's quad over its Eq. 3 extent.
+// `splats::SPLAT_OVERLAP`: a splat's quad over its own extent (its map pixel's patch).
 const SPLAT_OVERLAP: f32 = 1.5;
 
 // The quad's corner per vertex of its two triangles, as triangle-strip indices.
 const SPLAT_CORNER = array<u32, 6>(0u, 1u, 2u, 2u, 1u, 3u);
+
+// `splats::MIN_SLANT_COSINE`.
+const MIN_SLANT_COSINE: f32 = 0.1;
+
+fn octahedral_decode(e: vec2<f32>) -> vec3<f32> {
+    let z = 1.0 - abs(e.x) - abs(e.y);
+    var xy = e;
+    if z < 0.0 {
+        xy = (vec2<f32>(1.0) - abs(e.yx)) * select(vec2<f32>(-1.0), vec2<f32>(1.0), e >= vec2<f32>(0.0));
+    }
+    return normalize(vec3<f32>(xy, z));
+}
+
+// `splats::ndc_differential`: world vector a at clip position c, in NDC.
+fn ndc_differential(c: vec4<f32>, a: vec3<f32>) -> vec2<f32> {
+    let ac = frame.view_proj * vec4<f32>(a, 0.0);
+    return (ac.xy * c.w - c.xy * ac.w) / (c.w * c.w);
+}
+
+// `splats::footprint`: Eq. 3 on the surface's own plane, the NDC edges of a map pixel's patch
+// where its ray pyramid meets the surface through p with normal n (columns u, v), squeezed
+// per screen axis into Eq. 3's box.
+fn footprint(view: SplatView, p: vec3<f32>, n: vec3<f32>, c: vec4<f32>) -> mat2x2<f32> {
+    let ray = p - view.centre.xyz;
+    let scale = dot(ray, view.normal.xyz) / view.centre.w;
+    let w = normalize(ray);
+    let nw0 = dot(n, w);
+    let nw = select(min(nw0, -MIN_SLANT_COSINE), max(nw0, MIN_SLANT_COSINE), nw0 >= 0.0);
+    let au = view.pixel_u.xyz * scale;
+    let av = view.pixel_v.xyz * scale;
+    let su = au - w * (dot(n, au) / nw);
+    let sv = av - w * (dot(n, av) / nw);
+    let u = ndc_differential(c, su);
+    let v = ndc_differential(c, sv);
+    // Never wider or taller than Eq. 3's box.
+    let box_extent = abs(ndc_differential(c, au)) + abs(ndc_differential(c, av));
+    let s = min(box_extent / max(abs(u) + abs(v), vec2<f32>(1e-30)), vec2<f32>(1.0));
+    return mat2x2<f32>(u * s, v * s);
+}
 
 @vertex
 fn vs_splat(@builtin(vertex_index) vi: u32) -> SplatOut {
@@ -321,9 +380,18 @@ fn vs_splat(@builtin(vertex_index) vi: u32) -> SplatOut {
     let corner = vec2<f32>(f32(ci & 1u) * 2.0 - 1.0, f32((ci >> 1u) & 1u) * 2.0 - 1.0);
     let node = splat_nodes[s.node];
     let c = frame.view_proj * vec4<f32>(s.position, 1.0);
+    // Eq. 3, per point on its own surface: the patch itself, a parallelogram, × the node's
+    // spacing (`splats::splat_half_edges`), grown to a pixel along its box's major axis.
+    let n = octahedral_decode(unpack2x16snorm(s.normal));
+    let f = footprint(splat_views[node.view], s.position, n, c);
+    var k = 0.5 * node.spacing;
+    let pixels = (abs(f[0]) + abs(f[1])) * k / max(node.pixel_ndc, vec2<f32>(1e-30));
+    k = k * max(1.0 / max(max(pixels.x, pixels.y), 1e-6), 1.0);
+    // Behind the eye the quad is clipped whole; keep its corners finite.
+    let offset = select(vec2<f32>(0.0), (f * corner) * k, c.w > 0.0);
     var out: SplatOut;
-    // Eq. 3, point size (per node); lower-ranked maps' depth scaled back (reverse Z).
-    out.clip = vec4<f32>(c.xy + corner * node.xy * c.w, c.z * node.z, c.w);
+    // Lower-ranked maps' depth scaled back (reverse Z).
+    out.clip = vec4<f32>(c.xy + offset * c.w, c.z * node.depth_scale, c.w);
     out.color = s.color * frame.exposure;
     out.beyond = beyond(s.position);
     out.corner = corner;
@@ -335,12 +403,14 @@ struct SplatFragment {
     @builtin(frag_depth) depth: f32,
 };
 
-// A splat's own extent, the disc inscribed in its Eq. 3 box, at its depth; the rest of the
-// quad, which only closes gaps between splats, pushed far back (depth × 10⁻³, reverse Z, as
-// a lower rank is): it fills what no splat's own disc covers but never paints over a
-// neighbour's, so a surface in front (an emitter before a wall) is not fattened by it. On the
-// 80° floor of `tests/view_gltf_grazing.rs` (image mode, relative RMSE): all of the quad at
-// its depth 0.251, the Eq. 3 box 0.142, the disc 0.131.
+// A splat's own extent, the ellipse inscribed in its map pixel's patch (the quad over
+// SPLAT_OVERLAP), at its depth; the rest of the quad, which only closes gaps between splats,
+// pushed far back (depth × 10⁻³, reverse Z, as a lower rank is): it fills what no splat's own
+// extent covers but never paints over a neighbour's, so a surface in front (an emitter before
+// a wall) is not fattened by it. On the 80° floor of `tests/view_gltf_grazing.rs` (image
+// mode, relative RMSE): all of the quad at its depth 0.251, Eq. 3's box 0.142, the disc
+// inscribed in the box 0.131, the ellipse in the patch on the surface (squeezed into the box)
+// 0.114.
 @fragment
 fn fs_splat(in: SplatOut) -> SplatFragment {
     var out: SplatFragment;

@@ -63,7 +63,7 @@ fn render_with_emission(scene: &Scene, cam: &MapCamera) -> RadianceMap {
     let shade = |h: &glint::geometry::Hit| {
         scene.materials[scene.triangles[h.triangle as usize].material as usize].emission
     };
-    render(cam, &bvh, 4.0 * bvh.epsilon(), &shade)
+    render(cam, &bvh, &scene.triangles, 4.0 * bvh.epsilon(), &shade)
 }
 
 #[test]
@@ -81,6 +81,12 @@ fn a_flat_wall_gives_its_radiance_and_exact_depth_in_every_pixel() {
         let want_z = h - cam.centre.y; // depth along +Y from the centre of projection
         for (i, (c, z)) in map.rgb.iter().zip(&map.depth).enumerate() {
             assert_eq!(*c, Vec3::splat(2.0), "pixel {i}");
+            // The wall (a ceiling at y = h) is parallel to the floor: facet normal ±y.
+            let n = map.normals[i];
+            assert!(
+                (n.y.abs() - 1.0).abs() < 1e-6 && n.x == 0.0 && n.z == 0.0,
+                "pixel {i} normal {n}"
+            );
             assert!(
                 (z - want_z).abs() <= 1e-4 * want_z,
                 "camera {}: pixel {i} depth {z}, exact {want_z}",

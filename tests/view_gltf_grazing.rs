@@ -22,16 +22,18 @@
 //!   ([`glint::view::reflections::lobe_shape`]), up to 6 reads per tap along the plane of
 //!   incidence ([`glint::view::reflections::filter::Grazing`]): 0.047 (0.046), (0.251);
 //! - and a splat's quad beyond its own Eq. 3 box pushed back in depth: 0.047 (0.046), 0.141
-//!   (0.142); beyond the disc inscribed in the box: 0.047 (0.046), 0.130 (0.131).
+//!   (0.142); beyond the disc inscribed in the box: 0.047 (0.046), 0.130 (0.131);
+//! - each splat its map pixel's patch on its own surface (a parallelogram, facet normals
+//!   baked with the maps, `splats::footprint`): image 0.175, the panels' splats grown past
+//!   their edges; that patch squeezed per screen axis into Eq. 3's box: image 0.114.
 //!
 //! What remains in geometry mode: the panels' reflections' sides a little too bright (the
 //! reads' footprint is wider across the plane of incidence than the lobe: 6 reads cannot
 //! reach the lobe's 1 : 5.7 aspect), the rows nearest the camera (dim) 10–40% dark. In image
-//! mode, the panels' reflections are wider on each side than the path tracer's (about 2
-//! pixels with the Eq. 3 box: the splats' own extents reach past the panels' edges over the
-//! black wall behind, and the nearer panel wins; Eq. 3's size is the bounding box of the map
-//! pixel's image-plane footprint, `splats::point_size`), and the rows of the panels' bottom
-//! edges, next to the floor's far edge, are too bright by up to 10%.
+//! mode, the panels' reflections are wider on each side than the path tracer's (the splats'
+//! own extents reach past the panels' edges over the black wall behind, and the nearer
+//! panel wins), and the rows of the panels' bottom edges, next to the floor's far edge, are
+//! too bright by up to 10% (measured with Eq. 3's box).
 //!
 //! `GLINT_GRAZING_SPP=n` renders the reference at n paths per pixel; `GLINT_GRAZING_REUSE=1`
 //! keeps it in the tests' temporary folder between runs (to measure the viewer against one
@@ -71,9 +73,9 @@ const SPP: u32 = 64;
 /// floor's blocks: the 5%. Measured 0.047 (0.046 against a 256-path reference).
 const GEOMETRY_TOLERANCE: f64 = 0.05;
 
-/// The same for image mode: measured 0.130 (0.131 against a 256-path reference); see the
-/// module documentation for what remains.
-const IMAGE_TOLERANCE: f64 = 0.14;
+/// The same for image mode: measured 0.114 (0.130 with Eq. 3's box); see the module
+/// documentation for what remains.
+const IMAGE_TOLERANCE: f64 = 0.125;
 
 /// Writes and bakes the room (scene, radiosity, materials and radiance stages, draft) into
 /// `view-gltf-grazing` under the tests' temporary folder; returns the bundle.

@@ -4,8 +4,9 @@
 //! Writes, per reflector `NAME`:
 //! - `radiance/NAME/e{i}_{j}_c{k}.exr`: map k of element (i, j): R, G, B (half, linear
 //!   radiance = D at the hit), Z (float, depth along the reflector normal from the map's
-//!   centre of projection) and A (half: 1 where the pixel's ray hit the scene, 0 where it saw
-//!   nothing). Row 0 is the element's edge at its corner.
+//!   centre of projection), A (half: 1 where the pixel's ray hit the scene, 0 where it saw
+//!   nothing) and NX, NY (half: the hit triangle's facet normal, octahedral,
+//!   [`crate::radiance::normals`]; 0 for misses). Row 0 is the element's edge at its corner.
 //! - `radiance/NAME/e{i}_{j}_c{k}.qtree`: its quadtree ([`crate::radiance::quadtree`]).
 //! - `radiance/NAME/cameras.json`: every map's file stem, element, camera index and
 //!   [`MapCamera`] (centre of projection, element corner and edges, normal, resolution):
@@ -102,7 +103,12 @@ pub fn plans(scene: &Scene, quality: Quality) -> Vec<(usize, ReflectorFrame, Map
         .collect()
 }
 
-/// Encodes a map as EXR: RGB half, Z float, A half (hit mask).
+/// Version of what a map holds, recorded in the stage's settings so that maps baked before
+/// it are re-baked: 2 added the facet normals (NX, NY).
+pub const MAP_FORMAT: u32 = 2;
+
+/// Encodes a map as EXR: RGB half, Z float, A half (hit mask), NX and NY half (facet normal,
+/// octahedral).
 pub fn encode_map(
     res: u32,
     map: &RadianceMap,
@@ -110,6 +116,17 @@ pub fn encode_map(
     depth: Precision,
 ) -> Result<Vec<u8>, ImageError> {
     let a: Vec<f32> = map.hit.iter().map(|&h| if h { 1.0 } else { 0.0 }).collect();
+    let oct: Vec<glam::Vec2> = (map.normals.iter().zip(&map.hit))
+        .map(|(&n, &h)| {
+            if h {
+                crate::radiance::normals::encode(n)
+            } else {
+                glam::Vec2::ZERO
+            }
+        })
+        .collect();
+    let nx: Vec<f32> = oct.iter().map(|e| e.x).collect();
+    let ny: Vec<f32> = oct.iter().map(|e| e.y).collect();
     image_io::encode_rgb_exr_with(
         res as usize,
         res as usize,
@@ -124,6 +141,16 @@ pub fn encode_map(
                 name: "Z",
                 precision: depth,
                 samples: &map.depth,
+            },
+            ChannelData {
+                name: "NX",
+                precision: Precision::Half,
+                samples: &nx,
+            },
+            ChannelData {
+                name: "NY",
+                precision: Precision::Half,
+                samples: &ny,
             },
         ],
         compression,
@@ -224,7 +251,7 @@ pub fn bake_part(
                         normal: frame.normal,
                         resolution: plan.resolution,
                     };
-                    let map = render(&cam, &bvh, 4.0 * bvh.epsilon(), &shade);
+                    let map = render(&cam, &bvh, &scene.triangles, 4.0 * bvh.epsilon(), &shade);
                     rays += (plan.resolution * plan.resolution) as u64;
                     let stem = format!("e{i}_{j}_c{k}");
                     let exr = encode_map(
@@ -294,7 +321,7 @@ pub fn settings_json(scene: &Scene, quality: Quality, d_source: Option<&str>) ->
         .iter()
         .map(|(i, _, p)| serde_json::json!({ "reflector": scene.reflectors[*i].name, "plan": p }))
         .collect();
-    serde_json::json!({ "quality": quality.name(), "quadtree": quadtree_limits(scene), "reflectors": plans, "d_source": d_source })
+    serde_json::json!({ "quality": quality.name(), "map_format": MAP_FORMAT, "quadtree": quadtree_limits(scene), "reflectors": plans, "d_source": d_source })
 }
 
 /// Mean radiance of a map's hit pixels (for reports and tests).

@@ -255,6 +255,7 @@ fn run_qtree(_ctx: &TargetContext, input: &[u8]) -> Result<(), String> {
             rgb: [&ones, &ones, &ones],
             hit: &ones,
             z: &ones,
+            normal: Some([&ones, &ones]),
         };
         map_splats(&view, &image, nodes, 0)?;
     }

@@ -2,17 +2,18 @@
 //! sampled as images with depth from cameras on hemispheres behind it.
 
 pub mod index;
+pub mod normals;
 pub mod quadtree;
 pub mod sampling;
 
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::geometry::{Bvh, Hit};
+use crate::geometry::{Bvh, Hit, Triangle};
 use sampling::MapCamera;
 
-/// One rendered map: per pixel (row-major), radiance, depth, scene point and whether the
-/// pixel's ray hit anything.
+/// One rendered map: per pixel (row-major), radiance, depth, scene point, the hit surface's
+/// facet normal and whether the pixel's ray hit anything.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RadianceMap {
     /// Linear radiance (D at the hit, emission included); zero for misses.
@@ -21,20 +22,26 @@ pub struct RadianceMap {
     pub depth: Vec<f32>,
     /// Scene points; zero for misses.
     pub points: Vec<Vec3>,
+    /// Unit geometric (facet) normal of the hit triangle, either side; zero for misses. The
+    /// viewer sizes a point's splat by the surface's slant from it.
+    pub normals: Vec<Vec3>,
     /// Whether the pixel saw something.
     pub hit: Vec<bool>,
 }
 
-/// Ray casts one map: a ray per pixel from the element through the scene; `shade` gives the
-/// radiance of a hit (D looked up at it). Deterministic; parallel over rows.
+/// Ray casts one map: a ray per pixel from the element through the scene (`bvh` built over
+/// `triangles`); `shade` gives the radiance of a hit (D looked up at it). Deterministic;
+/// parallel over rows.
 pub fn render(
     cam: &MapCamera,
     bvh: &Bvh,
+    triangles: &[Triangle],
     normal_offset: f32,
     shade: &(dyn Fn(&Hit) -> Vec3 + Sync),
 ) -> RadianceMap {
     let res = cam.resolution;
-    let rows: Vec<Vec<(Vec3, f32, Vec3, bool)>> = (0..res)
+    type Pixel = (Vec3, f32, Vec3, Vec3, bool);
+    let rows: Vec<Vec<Pixel>> = (0..res)
         .into_par_iter()
         .map(|y| {
             (0..res)
@@ -46,9 +53,10 @@ pub fn render(
                     match bvh.closest_hit(o, d, f32::INFINITY) {
                         Some(h) => {
                             let p = o + d * h.t;
-                            (shade(&h), cam.depth(p), p, true)
+                            let n = triangles[h.triangle as usize].face_normal();
+                            (shade(&h), cam.depth(p), p, n, true)
                         }
-                        None => (Vec3::ZERO, 0.0, Vec3::ZERO, false),
+                        None => (Vec3::ZERO, 0.0, Vec3::ZERO, Vec3::ZERO, false),
                     }
                 })
                 .collect()
@@ -59,7 +67,8 @@ pub fn render(
         rgb: px.iter().map(|p| p.0).collect(),
         depth: px.iter().map(|p| p.1).collect(),
         points: px.iter().map(|p| p.2).collect(),
-        hit: px.iter().map(|p| p.3).collect(),
+        normals: px.iter().map(|p| p.3).collect(),
+        hit: px.iter().map(|p| p.4).collect(),
     }
 }
 

@@ -140,6 +140,7 @@ impl GeometryReflections {
                 .storage(6, wgpu::ShaderStages::VERTEX)
                 .storage(8, wgpu::ShaderStages::VERTEX)
                 .storage(9, wgpu::ShaderStages::VERTEX)
+                .storage(10, wgpu::ShaderStages::VERTEX)
                 .build(device, "glint splat params layout");
             let composite_layout =
                 composite_bind_group_layout(device, "glint composite params layout");
@@ -217,6 +218,10 @@ impl GeometryReflections {
                                 wgpu::BindGroupEntry {
                                     binding: 9,
                                     resource: s.kept.as_entire_binding(),
+                                },
+                                wgpu::BindGroupEntry {
+                                    binding: 10,
+                                    resource: s.views.as_entire_binding(),
                                 },
                             ],
                         }));

@@ -6,7 +6,7 @@ use std::sync::Mutex;
 
 use glam::{Mat4, Vec3};
 
-use super::splats::{self, MapImage, MapSplats, NodeParams};
+use super::splats::{self, MapImage, MapSplats, NodeParams, SplatView};
 use crate::camera::Camera;
 use crate::radiance::index::{MapEntry, load_cameras, read_map};
 use crate::view::build::{buffer, buffer_init};
@@ -45,6 +45,8 @@ pub(super) struct SplatMaps {
     pub(super) kept: wgpu::Buffer,
     /// Per quadtree node, this frame's [`NodeParams`] (binding 6 of the splat pass).
     pub(super) nodes: wgpu::Buffer,
+    /// Per map, its camera's [`SplatView`] (binding 10 of the splat pass).
+    pub(super) views: wgpu::Buffer,
     /// The splat pass's group 1 (set by the pass that binds `nodes`).
     pub(super) group: Option<wgpu::BindGroup>,
     /// The last prepared frame's kept splat count (`vs_splat` draws 6 vertices each) and
@@ -68,10 +70,17 @@ pub(super) fn load_splat_maps(
         let stored = read_map(&data.bundle, reflector, m).map_err(|e| e.to_string())?;
         let (image, nodes) = (stored.image, stored.nodes);
         let ch = |n: &str| image.channel(n).map_err(|e| at(e.to_string()));
+        // Bundles baked before the facet normals were stored have none: their splats keep
+        // Eq. 3's size parallel to the reflector.
+        let normal = match (image.channel("NX"), image.channel("NY")) {
+            (Ok(x), Ok(y)) => Some([x, y]),
+            _ => None,
+        };
         let map_image = MapImage {
             rgb: [ch("R")?, ch("G")?, ch("B")?],
             hit: ch("A")?,
             z: ch("Z")?,
+            normal,
         };
         let count = nodes.len() as u32;
         let mut tree = splats::map_splats(&m.view, &map_image, nodes, node_base).map_err(at)?;
@@ -90,6 +99,14 @@ pub(super) fn load_splat_maps(
         bytemuck::cast_slice(&all),
         32,
     );
+    let views: Vec<SplatView> = cams.maps.iter().map(|m| SplatView::new(&m.view)).collect();
+    let views = buffer_init(
+        gpu,
+        "glint radiance-map views",
+        wgpu::BufferUsages::STORAGE,
+        bytemuck::cast_slice(&views),
+        std::mem::size_of::<SplatView>() as u64,
+    );
     let kept = buffer(
         &gpu.device,
         "glint kept splats",
@@ -99,7 +116,7 @@ pub(super) fn load_splat_maps(
     let nodes = buffer(
         &gpu.device,
         "glint quadtree node params",
-        (node_base as u64 * std::mem::size_of::<NodeParams>() as u64).max(16),
+        (node_base as u64).max(1) * std::mem::size_of::<NodeParams>() as u64,
         wgpu::BufferUsages::STORAGE,
     );
     Ok(SplatMaps {
@@ -109,6 +126,7 @@ pub(super) fn load_splat_maps(
         points,
         kept,
         nodes,
+        views,
         group: None,
         plan: Mutex::new((0, FrameStats::default())),
     })
@@ -156,6 +174,7 @@ impl SplatMaps {
             stats.culled_nodes += splats::plan_map(
                 tree,
                 *base,
+                i as u32,
                 rank,
                 mirrored,
                 &planes,
