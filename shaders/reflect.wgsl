@@ -334,8 +334,9 @@ const SPLAT_OVERLAP: f32 = 1.5;
 // The quad's corner per vertex of its two triangles, as triangle-strip indices.
 const SPLAT_CORNER = array<u32, 6>(0u, 1u, 2u, 2u, 1u, 3u);
 
-// `splats::MIN_SLANT_COSINE`.
+// `splats::MIN_SLANT_COSINE` and `splats::MIN_SQUEEZE`.
 const MIN_SLANT_COSINE: f32 = 0.1;
+const MIN_SQUEEZE: f32 = 0.25;
 
 fn octahedral_decode(e: vec2<f32>) -> vec3<f32> {
     let z = 1.0 - abs(e.x) - abs(e.y);
@@ -354,7 +355,7 @@ fn ndc_differential(c: vec4<f32>, a: vec3<f32>) -> vec2<f32> {
 
 // `splats::footprint`: Eq. 3 on the surface's own plane, the NDC edges of a map pixel's patch
 // where its ray pyramid meets the surface through p with normal n (columns u, v), squeezed
-// per screen axis into Eq. 3's box.
+// per screen axis into Eq. 3's box (to no less than a quarter).
 fn footprint(view: SplatView, p: vec3<f32>, n: vec3<f32>, c: vec4<f32>) -> mat2x2<f32> {
     let ray = p - view.centre.xyz;
     let scale = dot(ray, view.normal.xyz) / view.centre.w;
@@ -367,9 +368,9 @@ fn footprint(view: SplatView, p: vec3<f32>, n: vec3<f32>, c: vec4<f32>) -> mat2x
     let sv = av - w * (dot(n, av) / nw);
     let u = ndc_differential(c, su);
     let v = ndc_differential(c, sv);
-    // Never wider or taller than Eq. 3's box.
+    // Never wider or taller than Eq. 3's box, nor squeezed below MIN_SQUEEZE.
     let box_extent = abs(ndc_differential(c, au)) + abs(ndc_differential(c, av));
-    let s = min(box_extent / max(abs(u) + abs(v), vec2<f32>(1e-30)), vec2<f32>(1.0));
+    let s = clamp(box_extent / max(abs(u) + abs(v), vec2<f32>(1e-30)), vec2<f32>(MIN_SQUEEZE), vec2<f32>(1.0));
     return mat2x2<f32>(u * s, v * s);
 }
 

@@ -250,4 +250,16 @@ mod tests {
         );
         assert!(super::shader_source().contains(&want), "{want}");
     }
+
+    /// `vs_splat` bounds a splat's footprint by the Rust constants.
+    #[test]
+    fn the_splat_shader_uses_the_footprint_bounds() {
+        use super::super::splats::{MIN_SLANT_COSINE, MIN_SQUEEZE};
+        for want in [
+            format!("const MIN_SLANT_COSINE: f32 = {MIN_SLANT_COSINE:?};"),
+            format!("const MIN_SQUEEZE: f32 = {MIN_SQUEEZE:?};"),
+        ] {
+            assert!(super::shader_source().contains(&want), "{want}");
+        }
+    }
 }

@@ -123,6 +123,10 @@ impl SplatView {
 /// 10× its size facing the map).
 pub const MIN_SLANT_COSINE: f32 = 0.1;
 
+/// The least fraction of a map pixel's patch, per screen axis, that [`footprint`] keeps when
+/// it squeezes the patch into Eq. 3's box.
+pub const MIN_SQUEEZE: f32 = 0.25;
+
 /// The screen-space (NDC) image of the world vector `a` at the point whose clip position is
 /// `c`, for world-to-clip `view_proj`: the Jacobian of the perspective divide applied to `a`.
 pub fn ndc_differential(view_proj: &Mat4, c: Vec4, a: Vec3) -> Vec2 {
@@ -160,6 +164,8 @@ impl Footprint {
 /// surface's edge drew over what lies beside it (panels on a black wall reflected in a
 /// floor at 80°: 0.130 → 0.175 relative RMSE against the path tracer), while Eq. 3's
 /// smaller splats leave those gaps to the overlap ring, which a neighbour's own splat wins.
+/// It keeps at least [`MIN_SQUEEZE`] of its extent, so a splat does not vanish where the eye
+/// sees the element's plane edge-on and Eq. 3's box has no height.
 /// `None` when `p` is behind the eye. `vs_splat` computes the same and draws the patch itself
 /// (a parallelogram), not its bounding box: where a′ is long and skewed on screen, the box
 /// would widen a thin feature by most of its length.
@@ -190,10 +196,11 @@ pub fn footprint(view: &SplatView, p: Vec3, n: Vec3, view_proj: &Mat4) -> Option
     };
     let d = |a: Vec3| ndc_differential(view_proj, c, slanted(a));
     let (u, v) = (d(au), d(av));
-    // Never wider or taller than Eq. 3's box: see the docs.
+    // Never wider or taller than Eq. 3's box, nor squeezed below MIN_SQUEEZE: see the docs.
     let box_extent =
         ndc_differential(view_proj, c, au).abs() + ndc_differential(view_proj, c, av).abs();
-    let s = (box_extent / (u.abs() + v.abs()).max(Vec2::splat(1e-30))).min(Vec2::ONE);
+    let s = (box_extent / (u.abs() + v.abs()).max(Vec2::splat(1e-30)))
+        .clamp(Vec2::splat(MIN_SQUEEZE), Vec2::ONE);
     Some(Footprint { u: u * s, v: v * s })
 }
 
@@ -637,7 +644,8 @@ mod tests {
         };
         let p = Vec3::new(0.3, 2.5, -0.2);
         // A ceiling (parallel to the reflector, either side), walls and slopes at several
-        // angles: the exact patch where the pixel's corner rays meet the surface, projected.
+        // angles: the exact patch where the pixel's corner rays meet the surface, projected,
+        // squeezed per axis into Eq. 3's box (the patch parallel to the reflector).
         for (eye, n) in [
             (Vec3::new(2.0, 0.5, 3.0), Vec3::Y),
             (Vec3::new(-1.0, 1.0, 2.0), -Vec3::Y),
@@ -649,7 +657,10 @@ mod tests {
             let n = n.normalize();
             assert!(n.dot((p - map.centre).normalize()).abs() > MIN_SLANT_COSINE);
             let vp = vp_of(eye, p);
-            let want = patch_extent(&map, p, n, &vp);
+            let exact = patch_extent(&map, p, n, &vp);
+            let want = exact
+                .min(patch_extent(&map, p, Vec3::Y, &vp))
+                .max(exact * MIN_SQUEEZE);
             let got = footprint(&view, p, n, &vp).unwrap().extent();
             assert!(
                 ((got - want) / want).abs().max_element() < 5e-3,
@@ -693,15 +704,16 @@ mod tests {
             "its width is unchanged"
         );
         // Seen from below, face-on, the same lamp's patch is taller than the box facing the
-        // map, which the eye sees edge-on.
+        // map, which the eye sees edge-on (no height at all): squeezed, to a quarter.
         let vp = vp_of(Vec3::new(0.0, -2.0, -6.0), lamp);
         let up = footprint(&wall_view, lamp, -Vec3::Y, &vp).unwrap().extent();
         let edge_on = footprint(&wall_view, lamp, -Vec3::Z, &vp).unwrap().extent();
-        assert!(up.y > 10.0 * edge_on.y, "{up} vs {edge_on}");
         let exact = patch_extent(&wall_map, lamp, -Vec3::Y, &vp);
+        assert!(edge_on.y < 1e-6 * exact.y, "{exact} vs {edge_on}");
+        let want = exact.min(edge_on).max(exact * MIN_SQUEEZE);
         assert!(
-            ((up - exact) / exact).abs().max_element() < 5e-3,
-            "{up} vs {exact}"
+            ((up - want) / want).abs().max_element() < 5e-3,
+            "{up} vs {want}"
         );
         // A surface the map sees exactly edge-on stretches 10× at most; no normal: Eq. 3's.
         let grazing = footprint(&wall_view, lamp, Vec3::X, &vp).unwrap().extent();
