@@ -171,7 +171,8 @@ impl Footprint {
 /// would widen a thin feature by most of its length.
 pub fn footprint(view: &SplatView, p: Vec3, n: Vec3, view_proj: &Mat4) -> Option<Footprint> {
     let c = *view_proj * p.extend(1.0);
-    if !(c.w > 0.0) {
+    // Also refuses a NaN w.
+    if c.w.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
     let centre = Vec4::from(view.centre);
