@@ -29,7 +29,10 @@
 //! table's modes (geometry always runs: the ratios are to it). `GLINT_BENCH_FIDELITY_QUALITY`
 //! (`draft`, `default`, `high`), `GLINT_BENCH_FIDELITY_SIZE` (`WxH`) and
 //! `GLINT_BENCH_FIDELITY_SPP` set the fidelity table's bakes, frame and references (cached in
-//! `target/tmp/view-bench/references/`).
+//! `target/tmp/view-bench/references/`); `GLINT_BENCH_FIDELITY_SUPERSAMPLE=s` (1 to 8, 1 by
+//! default) renders the viewer's frame at s × s samples a pixel, box-filtered as the path
+//! tracer's pixels are, for the path-tracer columns (at one sample a pixel the per-pixel
+//! error at every silhouette is the viewer's aliasing, not its light).
 //!
 //! `cargo bench --bench view` (the `view` feature, on by default). The adapter is the one
 //! `Gpu::headless` picks: a hardware GPU when there is one, else Mesa's lavapipe; `WGPU_BACKEND`
@@ -409,7 +412,7 @@ const FIDELITY_SPP: u32 = 64;
 
 /// The fidelity table's settings: the bake preset (`GLINT_BENCH_FIDELITY_QUALITY`, draft by
 /// default), the frame size and the references' paths per pixel.
-fn fidelity_settings() -> (Quality, (u32, u32), u32) {
+fn fidelity_settings() -> (Quality, (u32, u32), u32, u32) {
     let var = |k: &str| std::env::var(k).ok().filter(|v| !v.trim().is_empty());
     let quality = var("GLINT_BENCH_FIDELITY_QUALITY").map_or(Quality::Draft, |v| {
         glint::cli::parse_quality(v.trim())
@@ -426,7 +429,30 @@ fn fidelity_settings() -> (Quality, (u32, u32), u32) {
             .filter(|&n: &u32| n > 0)
             .unwrap_or_else(|| panic!("GLINT_BENCH_FIDELITY_SPP={v}: expected a positive count"))
     });
-    (quality, size, spp)
+    let ss = var("GLINT_BENCH_FIDELITY_SUPERSAMPLE").map_or(1, |v| {
+        v.trim()
+            .parse()
+            .ok()
+            .filter(|&n: &u32| (1..=8).contains(&n))
+            .unwrap_or_else(|| panic!("GLINT_BENCH_FIDELITY_SUPERSAMPLE={v}: expected 1 to 8"))
+    });
+    (quality, size, spp, ss)
+}
+
+/// The `w` × `h` image whose pixels are the means of `ss` × `ss` blocks of the row-major
+/// `(w·ss)` × `(h·ss)` image `fine`: a box filter over each pixel, the path tracer's.
+fn box_filter(fine: &[glam::Vec3], w: usize, h: usize, ss: usize) -> Vec<glam::Vec3> {
+    let stride = w * ss;
+    let mut out = vec![glam::Vec3::ZERO; w * h];
+    for (k, px) in out.iter_mut().enumerate() {
+        let (x, y) = (k % w, k / w);
+        for dy in 0..ss {
+            let row = (y * ss + dy) * stride + x * ss;
+            *px += fine[row..row + ss].iter().sum::<glam::Vec3>();
+        }
+        *px /= (ss * ss) as f32;
+    }
+    out
 }
 
 /// The path tracer's image of `camera` (`scene`'s path `path`, first keyframe) with `options`,
@@ -489,7 +515,7 @@ fn cached_reference(
 /// A, B of the same variance, the mean's relative noise is rel(A, B) / 2, and a frame's
 /// error with the noise taken out is √(e² − noise²) (the "noise out" columns).
 fn fidelity_table(gpu: &Gpu, work: &Path) {
-    let (quality, (w, h), spp) = fidelity_settings();
+    let (quality, (w, h), spp, ss) = fidelity_settings();
     let mut rows = vec![
         [
             "scene",
@@ -525,6 +551,8 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
         }
         let bvh = Bvh::build(&data.scene.triangles);
         let mut off = Offscreen::new(gpu, &data, w, h).unwrap_or_else(|e| panic!("{e}"));
+        let mut fine = (ss > 1)
+            .then(|| Offscreen::new(gpu, &data, w * ss, h * ss).unwrap_or_else(|e| panic!("{e}")));
         for path in &data.scene.camera_paths {
             let camera = glint::camera::pose_at(path, 0.0);
             let [a, b] = [1, 2].map(|seed| {
@@ -575,12 +603,25 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
                     .unwrap_or_else(|e| panic!("{e}"));
                 off.render(gpu, &camera).unwrap_or_else(|e| panic!("{e}"));
                 let frame = image(off.read_hdr(gpu).unwrap_or_else(|e| panic!("{e}")));
-                let rel =
-                    |b: &Image, m: Option<&[bool]>| compare(&frame, b, m).map(|r| r.rel_rmse).ok();
+                // Against the path tracer (a box filter over each pixel): the viewer's frame
+                // box-filtered from ss × ss samples per pixel.
+                let filtered = match &mut fine {
+                    Some(fine) => {
+                        fine.set_reflections(gpu, &data, mode)
+                            .unwrap_or_else(|e| panic!("{e}"));
+                        fine.render(gpu, &camera).unwrap_or_else(|e| panic!("{e}"));
+                        let hdr = fine.read_hdr(gpu).unwrap_or_else(|e| panic!("{e}"));
+                        image(box_filter(&hdr, w as usize, h as usize, ss as usize))
+                    }
+                    None => frame.clone(),
+                };
+                let rel = |a: &Image, b: &Image, m: Option<&[bool]>| {
+                    compare(a, b, m).map(|r| r.rel_rmse).ok()
+                };
                 let show = |e: Option<f64>| e.map_or("-".to_string(), |e| format!("{e:.3}"));
                 let out = |e: Option<f64>, n: f64| show(e.map(|e| (e * e - n * n).max(0.0).sqrt()));
-                let frame_error = rel(&traced, None);
-                let reflector_error = masked.and_then(|m| rel(&traced, Some(m)));
+                let frame_error = rel(&filtered, &traced, None);
+                let reflector_error = masked.and_then(|m| rel(&filtered, &traced, Some(m)));
                 rows.push([
                     name.to_string(),
                     path.name.clone(),
@@ -589,14 +630,14 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
                     out(frame_error, noise_frame),
                     show(reflector_error),
                     out(reflector_error, noise_reflector),
-                    show(masked.and_then(|m| rel(&equation, Some(m)))),
+                    show(masked.and_then(|m| rel(&frame, &equation, Some(m)))),
                     pixels.to_string(),
                 ]);
             }
         }
     }
     println!(
-        "\nfidelity at {w}x{h}, {} bakes, each camera path's first keyframe: relative RMSE (linear, per pixel) vs the path tracer (the mean of 2 × {spp} spp; \"noise out\": its noise taken out) and vs the CPU equation (M*K exact)\n",
+        "\nfidelity at {w}x{h}, {} bakes, each camera path's first keyframe: relative RMSE (linear, per pixel) vs the path tracer (the mean of 2 × {spp} spp; \"noise out\": its noise taken out; the viewer's frame box-filtered from {ss}×{ss} samples a pixel) and vs the CPU equation (M*K exact, at pixel centres)\n",
         quality.name()
     );
     print!(
