@@ -4,8 +4,8 @@
 //! glam's `Vec4`. Both give the same bits: the same operations in the same order, lane by
 //! lane.
 //!
-//! Against four-wide nodes, eight halve the tree's depth, and so the dependent node loads a
-//! ray waits for on its way to a leaf.
+//! Against four-wide nodes, eight cut the tree's depth by about a third, and with it the
+//! dependent node loads a ray waits for on its way to a leaf.
 
 use glam::Vec4;
 
