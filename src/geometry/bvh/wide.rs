@@ -309,6 +309,10 @@ impl WideBvh {
             } else {
                 let node = &self.nodes[child as usize];
                 let (mut mask, t_in) = enter(node, t_max);
+                if !ANY {
+                    // An occlusion query often stops early; prefetching for it measured slower.
+                    self.prefetch(node, mask);
+                }
                 if ANY {
                     // Any hit will do: test the leaves here first, before descending (large
                     // triangles such as walls sit in leaves near the root).
@@ -367,6 +371,36 @@ impl WideBvh {
                 }
             }
         }
+    }
+
+    /// Starts loading the children in `mask` (software prefetch), so that the cache misses of
+    /// those the ray visits later overlap with the work on the nearest instead of following it
+    /// (as Embree's traversal prefetches child nodes). Diffuse rays, whose nodes and leaves are
+    /// rarely in cache, gained about 10% for closest hits (benches/bvh.rs).
+    #[inline(always)]
+    fn prefetch(&self, node: &Node, mask: u32) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+            let mut m = mask;
+            while m != 0 {
+                let lane = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let (at, bytes) = if node.count[lane] > 0 {
+                    let p = self.packs.as_ptr().wrapping_add(node.child[lane] as usize);
+                    (p as *const i8, std::mem::size_of::<Pack>())
+                } else {
+                    let n = self.nodes.as_ptr().wrapping_add(node.child[lane] as usize);
+                    (n as *const i8, std::mem::size_of::<Node>())
+                };
+                for offset in (0..bytes).step_by(64) {
+                    // SAFETY: a prefetch never faults, whatever the address.
+                    unsafe { _mm_prefetch::<_MM_HINT_T0>(at.wrapping_add(offset)) };
+                }
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = (node, mask);
     }
 
     /// The nearest hit in pack `p` below `t_max` that `keep` accepts (lowering `t_max` to it).
