@@ -152,12 +152,13 @@ pub(super) struct WideBvh {
 }
 
 /// The BVH2 build: obvhs' slow build (PLOC with a wide search, reinsertion, large triangles
-/// pre-split into several boxes; leaves collapsed by SAH with at most four triangles each: one
-/// pack). Against the medium build it traced 10–35% more rays per second on the Breakfast
+/// pre-split into several boxes; leaves collapsed by SAH with at most eight triangles each: two
+/// packs; with eight-wide nodes this measured a few percent faster than four). Against the
+/// medium build it traced 10–35% more rays per second on the Breakfast
 /// Room (270k triangles) for about five times the build time: 2.3 s against 0.46 s on two
 /// busy cores (benches/bvh.rs).
 pub(super) const BUILD: BvhBuildParams = BvhBuildParams {
-    max_prims_per_leaf: 4,
+    max_prims_per_leaf: 8,
     ..BvhBuildParams::slow_build()
 };
 
