@@ -116,17 +116,12 @@ pub fn encode_map(
     depth: Precision,
 ) -> Result<Vec<u8>, ImageError> {
     let a: Vec<f32> = map.hit.iter().map(|&h| if h { 1.0 } else { 0.0 }).collect();
-    let oct: Vec<glam::Vec2> = (map.normals.iter().zip(&map.hit))
-        .map(|(&n, &h)| {
-            if h {
-                crate::radiance::normals::encode(n)
-            } else {
-                glam::Vec2::ZERO
-            }
-        })
-        .collect();
-    let nx: Vec<f32> = oct.iter().map(|e| e.x).collect();
-    let ny: Vec<f32> = oct.iter().map(|e| e.y).collect();
+    // A miss's normal is zero, which encodes as (0, 0).
+    let (nx, ny): (Vec<f32>, Vec<f32>) = map
+        .normals
+        .iter()
+        .map(|&n| crate::radiance::normals::encode(n).into())
+        .unzip();
     image_io::encode_rgb_exr_with(
         res as usize,
         res as usize,
