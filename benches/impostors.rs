@@ -87,6 +87,7 @@ fn bake_if_needed(scene: &Scene, bundle: &Path) {
         min_chart_texels: 0,
         min_scene_texels: 0,
         contact_boost: 0.0,
+        texels_per_radian: 0.0,
         stitch_seams: false,
         cache_budget_mib: 2048,
     };

@@ -55,6 +55,7 @@ use glint::view::gpu::Gpu;
 use glint::view::headless::Offscreen;
 use glint::view::headless::{ReplayOptions, replay_with};
 use glint::view::load::load;
+use glint::view::options::{CurvedMode, CurvedSettings};
 use glint::view::radiance_maps::Selection;
 use glint::view::reflections::{self, ReflectionMode};
 use glint::view::replay::GpuTimeSource;
@@ -439,6 +440,65 @@ fn fidelity_settings() -> (Quality, (u32, u32), u32, u32) {
     (quality, size, spp, ss)
 }
 
+/// Where `GLINT_BENCH_FIDELITY_DUMP` asks the fidelity table to write its images, for
+/// per-pixel study: raw little-endian `f32` RGB rows (`STEM-ref-a.f32`, `-ref-b`, `-equation`,
+/// one per mode), the primary hit's material and object per pixel centre (`STEM-hits.u32`,
+/// two `u32` a pixel, `u32::MAX` for a miss) and the materials' names (`STEM-materials.txt`).
+fn dump_dir() -> Option<std::path::PathBuf> {
+    let dir = std::env::var_os("GLINT_BENCH_FIDELITY_DUMP").filter(|v| !v.is_empty())?;
+    let dir = std::path::PathBuf::from(dir);
+    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
+    Some(dir)
+}
+
+fn dump_f32(stem: &Path, what: &str, rgb: &[glam::Vec3]) {
+    let bytes: Vec<u8> = rgb
+        .iter()
+        .flat_map(|p| p.to_array())
+        .flat_map(f32::to_le_bytes)
+        .collect();
+    let file = stem.with_file_name(format!(
+        "{}-{what}.f32",
+        stem.file_name().unwrap().to_string_lossy()
+    ));
+    std::fs::write(&file, bytes).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
+}
+
+fn dump_hits(
+    stem: &Path,
+    scene: &glint::scene::Scene,
+    bvh: &Bvh,
+    camera: &glint::camera::Camera,
+    w: u32,
+    h: u32,
+) {
+    let aspect = w as f32 / h as f32;
+    let bytes: Vec<u8> = (0..w * h)
+        .flat_map(|k| {
+            let ndc = glint::camera::Camera::pixel_ndc(k % w, k / w, w, h);
+            let hit = bvh.closest_hit(
+                camera.position,
+                camera.ray_direction(ndc, aspect),
+                f32::INFINITY,
+            );
+            let pair = hit.map_or([u32::MAX; 2], |hit| {
+                let t = &scene.triangles[hit.triangle as usize];
+                [t.material, t.object]
+            });
+            pair.into_iter().flat_map(u32::to_le_bytes)
+        })
+        .collect();
+    let name = stem.file_name().unwrap().to_string_lossy().to_string();
+    std::fs::write(stem.with_file_name(format!("{name}-hits.u32")), bytes)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let names: Vec<String> = scene.materials.iter().map(|m| m.name.clone()).collect();
+    std::fs::write(
+        stem.with_file_name(format!("{name}-materials.txt")),
+        names.join("\n"),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+}
+
 /// The `w` × `h` image whose pixels are the means of `ss` × `ss` blocks of the row-major
 /// `(w·ss)` × `(h·ss)` image `fine`: a box filter over each pixel, the path tracer's.
 fn box_filter(fine: &[glam::Vec3], w: usize, h: usize, ss: usize) -> Vec<glam::Vec3> {
@@ -553,6 +613,19 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
         let mut off = Offscreen::new(gpu, &data, w, h).unwrap_or_else(|e| panic!("{e}"));
         let mut fine = (ss > 1)
             .then(|| Offscreen::new(gpu, &data, w * ss, h * ss).unwrap_or_else(|e| panic!("{e}")));
+        // Curved reflectors as the README's replay draws them: live cube maps (Nielsen §3.2).
+        let curved = data
+            .scene
+            .desc
+            .reflectors
+            .iter()
+            .any(|r| r.kind == glint::scene::desc::ReflectorKind::Curved);
+        if curved {
+            for o in std::iter::once(&mut off).chain(fine.as_mut()) {
+                o.set_curved(gpu, &data, CurvedMode::Cubemap, CurvedSettings::default())
+                    .unwrap_or_else(|e| panic!("{e}"));
+            }
+        }
         for path in &data.scene.camera_paths {
             let camera = glint::camera::pose_at(path, 0.0);
             let [a, b] = [1, 2].map(|seed| {
@@ -583,6 +656,13 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
                 1.0,
             ));
             let mask = reflections::reflector_pixels(&bvh, &reflectors, &camera, w, h);
+            let dump = dump_dir().map(|dir| dir.join(format!("{name}-{}", path.name)));
+            if let Some(stem) = &dump {
+                dump_f32(stem, "ref-a", &a.rgb);
+                dump_f32(stem, "ref-b", &b.rgb);
+                dump_f32(stem, "equation", &equation.rgb);
+                dump_hits(stem, &data.scene, &bvh, &camera, w, h);
+            }
             let pixels = mask.iter().filter(|m| **m).count();
             let masked = (pixels > 0).then_some(&mask[..]);
             // The mean's noise: half the relative difference of its two halves.
@@ -620,6 +700,9 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
                 };
                 let show = |e: Option<f64>| e.map_or("-".to_string(), |e| format!("{e:.3}"));
                 let out = |e: Option<f64>, n: f64| show(e.map(|e| (e * e - n * n).max(0.0).sqrt()));
+                if let Some(stem) = &dump {
+                    dump_f32(stem, label, &filtered.rgb);
+                }
                 let frame_error = rel(&filtered, &traced, None);
                 let reflector_error = masked.and_then(|m| rel(&filtered, &traced, Some(m)));
                 rows.push([

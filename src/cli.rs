@@ -146,6 +146,11 @@ pub struct RadiosityFlags {
     /// two texels of it (contacts, near occluders; the atlas grows by at most 2×); 0 or 1: off.
     #[arg(long, value_name = "F")]
     pub contact_boost: Option<f32>,
+    /// Texels across a curved chart per radian its surface turns (a chart whose normals
+    /// spread by 1 rad, 57°, gets at least this many texels across; by at most 16× the
+    /// density); 0: off.
+    #[arg(long, value_name = "N")]
+    pub texels_per_radian: Option<f32>,
     /// Gathering rays per texel.
     #[arg(long, value_name = "N")]
     pub rays: Option<u32>,
@@ -184,6 +189,7 @@ impl RadiosityFlags {
             min_chart_texels: self.min_chart_texels,
             min_scene_texels: self.min_scene_texels,
             contact_boost: self.contact_boost,
+            texels_per_radian: self.texels_per_radian,
             rays: self.rays,
             light_samples: self.light_samples,
             bounces: self.bounces,

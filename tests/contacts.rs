@@ -154,6 +154,7 @@ fn no_boost_builds_the_rules_atlas_and_boosts_ignore_the_thread_count() {
     let rule = DensityRule {
         per_metre: 8.0,
         min_across: 4,
+        per_radian: 0.0,
     };
     let plain = atlas::build_with(&scene.triangles, rule).unwrap();
     for off in [0.0, 1.0] {

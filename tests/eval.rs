@@ -140,6 +140,7 @@ fn diffuse_cornell_box_agrees_with_converged_radiosity() {
         min_chart_texels: 0,
         min_scene_texels: 0,
         contact_boost: 0.0,
+        texels_per_radian: 0.0,
         rays: 256,
         light_samples: 32,
         bounces: 16,

@@ -202,6 +202,7 @@ fn stage_bakes_maps_quadtrees_and_table_one() {
         min_chart_texels: 0,
         min_scene_texels: 0,
         contact_boost: 0.0,
+        texels_per_radian: 0.0,
         rays: 16,
         light_samples: 4,
         bounces: 1,

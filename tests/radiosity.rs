@@ -257,6 +257,7 @@ fn bakes_are_byte_identical_whatever_the_thread_count() {
         min_chart_texels: 0,
         min_scene_texels: 0,
         contact_boost: 0.0,
+        texels_per_radian: 0.0,
         rays: 64,
         light_samples: 8,
         bounces: 3,
@@ -315,6 +316,7 @@ fn cancelling_leaves_the_bundle_as_it_was() {
         min_chart_texels: 0,
         min_scene_texels: 0,
         contact_boost: 0.0,
+        texels_per_radian: 0.0,
         rays: 16,
         light_samples: 4,
         bounces: 2,
@@ -413,4 +415,159 @@ fn glint_radiosity_refuses_another_scenes_bundle_without_force() {
         .unwrap();
     // The receiver's centre is lit.
     assert!(map.radiance(0, Vec2::new(0.3, 0.3)).x > 0.0);
+}
+
+/// A UV sphere of radius `r` at `centre`, `rings` × `segments` quads, wound outwards, with
+/// its smooth normals.
+fn sphere(
+    name: &'static str,
+    material: usize,
+    centre: Vec3,
+    r: f32,
+    rings: u32,
+    segments: u32,
+) -> MeshSpec {
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    for i in 0..=rings {
+        let theta = std::f32::consts::PI * i as f32 / rings as f32;
+        for j in 0..=segments {
+            let phi = std::f32::consts::TAU * j as f32 / segments as f32;
+            let n = Vec3::new(
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            );
+            positions.push((centre + r * n).to_array());
+            normals.push(n.to_array());
+        }
+    }
+    let at = |i: u32, j: u32| i * (segments + 1) + j;
+    let mut indices = Vec::new();
+    for i in 0..rings {
+        for j in 0..segments {
+            let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+            if i > 0 {
+                indices.extend([a, d, b]);
+            }
+            if i + 1 < rings {
+                indices.extend([b, d, c]);
+            }
+        }
+    }
+    MeshSpec {
+        name,
+        material,
+        positions,
+        indices,
+        normals,
+    }
+}
+
+#[test]
+fn texels_per_radian_resolves_the_shading_of_a_curved_surface() {
+    // A 10 cm sphere (albedo 0.5) lit from 5 m straight above by a 20 cm emitter, nothing
+    // else: D(p) = ρ/π · L_e · A / d² · max(0, n·l) to 0.1% (the lamp is nearly a point).
+    // At 16 texels a metre the sphere's charts are 1–2 texels across and a texel's value
+    // smears the cosine; with 24 texels a radian they follow it.
+    let dir = tempfile::tempdir().unwrap();
+    let (r, height, half, le) = (0.1f32, 5.0f32, 0.1f32, 100.0f32);
+    let scene = load(
+        dir.path(),
+        &[
+            sphere("Ball", 0, Vec3::ZERO, r, 24, 48),
+            flip(quad("Lamp", 1, 1, height, half)),
+        ],
+        &[
+            MaterialSpec::diffuse("Clay", 0.5),
+            emissive("Lamp", 0.0, le),
+        ],
+    );
+    let analytic = |p: Vec3| {
+        let n = p.normalize();
+        let to_lamp = Vec3::new(0.0, height, 0.0) - p;
+        let cos_lamp = to_lamp.y / to_lamp.length();
+        let e = le * (2.0 * half).powi(2) * cos_lamp * n.dot(to_lamp.normalize()).max(0.0)
+            / to_lamp.length_squared();
+        0.5 / std::f32::consts::PI * e
+    };
+    // Probe points on the lit cap, away from the terminator, on the facets under them.
+    // A Fibonacci spiral over the cap y > 0.3 (even in area).
+    let points: Vec<Vec3> = (0..300)
+        .map(|k| {
+            let y = 1.0 - 0.7 * (k as f32 + 0.5) / 300.0;
+            let phi = k as f32 * 2.399_963;
+            let s = (1.0 - y * y).sqrt();
+            Vec3::new(s * phi.cos(), y, s * phi.sin()) * r
+        })
+        .collect();
+    let error = |per_radian: f32| {
+        let rule = atlas::DensityRule {
+            per_metre: 16.0,
+            min_across: 0,
+            per_radian,
+        };
+        let (atlas, samples) = atlas::build_with(&scene.triangles, rule).unwrap();
+        let bvh = scene.build_bvh();
+        let set = SolveSettings {
+            rays: 16,
+            light_samples: 16,
+            bounces: 1,
+            glossy_depth: 0,
+            target_error: None,
+            tolerance: 1e-7,
+            seed: 1,
+            cache_budget: glint::radiosity::solve::CACHE_BUDGET,
+        };
+        let sol = solve(&scene, &bvh, &atlas, &samples, &set, &Silent).unwrap();
+        let mut se = 0.0f64;
+        for &p in &points {
+            // The facet under p: the nearest hit of a ray from outside towards the centre.
+            let hit = bvh
+                .closest_hit(p * 2.0, -p.normalize(), f32::INFINITY)
+                .unwrap();
+            let q = p * 2.0 - p.normalize() * hit.t;
+            let d = at(&scene, &atlas, &sol, q).x;
+            let exact = analytic(q);
+            se += ((d - exact) / exact).powi(2) as f64;
+        }
+        (se / points.len() as f64).sqrt()
+    };
+    let (off, on) = (error(0.0), error(24.0));
+    eprintln!(
+        "sphere's D vs the analytic cosine: rel. RMSE {off:.4} off, {on:.4} at 24 texels a radian"
+    );
+    assert!(on < 0.5 * off, "{off} → {on}");
+    assert!(on < 0.05, "{on}");
+}
+
+#[test]
+fn texels_per_radian_is_a_setting_like_the_others() {
+    use glint::scene::desc::{Quality, RadiosityOverride};
+    let over: RadiosityOverride = serde_json::from_str(r#"{ "texels_per_radian": 12 }"#).unwrap();
+    let s = RadiositySettings::resolve(Quality::Default, &over);
+    assert_eq!(s.texels_per_radian, 12.0);
+    s.check(None).unwrap();
+    let preset = |q| RadiositySettings::preset(q).texels_per_radian;
+    assert_eq!(
+        [
+            preset(Quality::Draft),
+            preset(Quality::Default),
+            preset(Quality::High)
+        ],
+        [0.0, 24.0, 36.0]
+    );
+    for bad in [-1.0, 161.0, f32::NAN, f32::INFINITY] {
+        let s = RadiositySettings {
+            texels_per_radian: bad,
+            ..RadiositySettings::preset(Quality::Default)
+        };
+        let e = s.check(None).unwrap_err().to_string();
+        assert!(e.contains("texels_per_radian"), "{e}");
+    }
+    // Settings recorded before the field existed read as off (so such bundles re-bake).
+    let mut json = serde_json::to_value(RadiositySettings::preset(Quality::High)).unwrap();
+    json.as_object_mut().unwrap().remove("texels_per_radian");
+    let old: RadiositySettings = serde_json::from_value(json).unwrap();
+    assert_eq!(old.texels_per_radian, 0.0);
 }

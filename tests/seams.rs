@@ -368,6 +368,7 @@ fn stitched_bakes_are_byte_identical_whatever_the_thread_count() {
         min_chart_texels: 0,
         min_scene_texels: 0,
         contact_boost: 0.0,
+        texels_per_radian: 0.0,
         rays: 32,
         light_samples: 4,
         bounces: 2,

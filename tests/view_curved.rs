@@ -48,6 +48,7 @@ fn radiosity_settings() -> RadiositySettings {
         min_chart_texels: 0,
         min_scene_texels: 0,
         contact_boost: 0.0,
+        texels_per_radian: 0.0,
         stitch_seams: false,
         cache_budget_mib: 2048,
     }

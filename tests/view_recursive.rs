@@ -92,6 +92,7 @@ fn corridor() -> &'static ViewData {
             min_chart_texels: 0,
             min_scene_texels: 0,
             contact_boost: 0.0,
+            texels_per_radian: 0.0,
             stitch_seams: false,
             cache_budget_mib: 2048,
         };
@@ -348,6 +349,7 @@ fn straddling() -> &'static ViewData {
             min_chart_texels: 0,
             min_scene_texels: 0,
             contact_boost: 0.0,
+            texels_per_radian: 0.0,
             stitch_seams: false,
             cache_budget_mib: 2048,
         };

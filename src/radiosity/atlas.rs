@@ -51,6 +51,11 @@ pub struct DensityRule {
     /// density is raised to meet it, by at most [`MAX_CHART_BOOST`]×: the density follows the
     /// surfaces' sizes, so a 0.5 m box gets as many texels across a wall as a 5 m room.
     pub min_across: u32,
+    /// Texels across a chart per radian its surface turns (0: off): a curved chart whose
+    /// normals spread by θ ([`chart_turn`]) gets at least θ × this many texels across, by at
+    /// most [`MAX_CHART_BOOST`]× its per-metre density, so that D follows the shading of a
+    /// curved mesh (a flat chart gets nothing from it).
+    pub per_radian: f32,
 }
 
 impl DensityRule {
@@ -59,17 +64,28 @@ impl DensityRule {
         DensityRule {
             per_metre,
             min_across: 0,
+            per_radian: 0.0,
         }
     }
 
-    /// The density of a chart whose longer side is `side` metres.
-    pub fn chart_density(&self, side: f32) -> f32 {
+    /// The density of a chart whose longer side is `side` metres and whose normals spread
+    /// by `turn` radians.
+    pub fn chart_density(&self, side: f32, turn: f32) -> f32 {
         let d = self.per_metre;
         // A NaN or non-positive side (a degenerate chart) keeps the per-metre density.
-        if self.min_across == 0 || side.is_nan() || side <= 0.0 {
+        if side.is_nan() || side <= 0.0 {
             return d;
         }
-        let boost = (self.min_across as f32 / (side * d)).clamp(1.0, MAX_CHART_BOOST);
+        let curved = if turn.is_finite() && self.per_radian > 0.0 {
+            turn * self.per_radian
+        } else {
+            0.0
+        };
+        let across = (self.min_across as f32).max(curved);
+        if across <= 0.0 {
+            return d;
+        }
+        let boost = (across / (side * d)).clamp(1.0, MAX_CHART_BOOST);
         d * boost
     }
 }
@@ -173,7 +189,7 @@ pub enum AtlasError {
 /// with a minimum per chart, each chart's own rectangle at its raised density.
 pub fn estimate_texels(triangles: &[Triangle], rule: DensityRule) -> f64 {
     let d = rule.per_metre as f64;
-    if rule.min_across == 0 {
+    if rule.min_across == 0 && rule.per_radian <= 0.0 {
         let area: f64 = triangles.iter().map(|t| t.area() as f64).sum();
         // Every chart adds its border; assume one chart per 64 triangles (curved meshes).
         let charts = (triangles.len() as f64 / 64.0).max(1.0);
@@ -185,7 +201,7 @@ pub fn estimate_texels(triangles: &[Triangle], rule: DensityRule) -> f64 {
         .iter()
         .map(|c| {
             let extent = chart_extent(&chart_plane_coords(triangles, &vid, c));
-            let dc = rule.chart_density(extent.max_element()) as f64;
+            let dc = rule.chart_density(extent.max_element(), chart_turn(triangles, c)) as f64;
             let side = |e: f32| (e as f64 * dc).ceil().max(1.0) + (1 + 2 * BORDER) as f64;
             side(extent.x) * side(extent.y)
         })
@@ -356,6 +372,28 @@ struct ProjectedChart {
     y: u32,
 }
 
+/// How far a chart's surface turns, in radians: the angular diameter of its face normals,
+/// estimated in two sweeps (the normal farthest from the first triangle's, then the largest
+/// angle from that one; exact for normals along one arc, within 2× otherwise). 0 for a flat
+/// chart.
+pub fn chart_turn(triangles: &[Triangle], chart: &[u32]) -> f32 {
+    let normal = |t: &u32| triangles[*t as usize].face_normal();
+    let Some(first) = chart.first().map(normal) else {
+        return 0.0;
+    };
+    let farthest = |from: Vec3| {
+        chart
+            .iter()
+            .map(normal)
+            .filter(|n| n.is_finite())
+            .min_by(|a, b| a.dot(from).total_cmp(&b.dot(from)))
+            .unwrap_or(from)
+    };
+    let a = farthest(first);
+    let b = farthest(a);
+    a.dot(b).clamp(-1.0, 1.0).acos()
+}
+
 /// The axes of a chart's projection plane (the first triangle's): along the chart's longest
 /// boundary edge (one no other triangle of the chart shares), so that a rectangle's sides lie
 /// along the texel grid, whatever its orientation in the scene.
@@ -442,7 +480,7 @@ fn project(
     let metres = chart_plane_coords(triangles, vid, chart);
     let (min, max) = bounds(&metres);
     let ext = (max - min).max(Vec2::ZERO);
-    let mut density = rule.chart_density(ext.max_element());
+    let mut density = rule.chart_density(ext.max_element(), chart_turn(triangles, chart));
     if let Some(b) = boost {
         density *= b;
     }
@@ -852,6 +890,7 @@ mod tests {
         let rule = DensityRule {
             per_metre: 4.0,
             min_across: 12,
+            per_radian: 0.0,
         };
         let (atlas, samples) = build_with(&tris, rule).unwrap();
         // Texels covered per face (2 triangles each).
@@ -872,10 +911,10 @@ mod tests {
             assert!((20.0..=22.0).contains(&large), "large face {face}: {large}");
         }
         // The boost is bounded: a 1 mm chart gets 16× the density, not 12 texels.
-        assert_eq!(rule.chart_density(0.001), 64.0);
-        assert_eq!(rule.chart_density(0.5), 24.0);
-        assert_eq!(rule.chart_density(5.0), 4.0);
-        assert_eq!(DensityRule::uniform(4.0).chart_density(0.5), 4.0);
+        assert_eq!(rule.chart_density(0.001, 0.0), 64.0);
+        assert_eq!(rule.chart_density(0.5, 0.0), 24.0);
+        assert_eq!(rule.chart_density(5.0, 0.0), 4.0);
+        assert_eq!(DensityRule::uniform(4.0).chart_density(0.5, 0.0), 4.0);
         // The estimate counts the raised density: within 2× of the atlas.
         let est = estimate_texels(&tris, rule);
         let built = atlas.texel_count() as f64;
@@ -885,6 +924,96 @@ mod tests {
             build_with(&tris, DensityRule::uniform(4.0)).unwrap(),
             build(&tris, 4.0).unwrap()
         );
+    }
+
+    /// A strip of `n` quads around the y axis, radius `r`, height `h`, from angle 0 to
+    /// `arc` radians: one chart while `arc` stays under the chart angle, turning by `arc`
+    /// minus one quad's step (face normals sit at the quads' middles).
+    fn cylinder_strip(r: f32, h: f32, arc: f32, n: usize) -> Vec<Triangle> {
+        let at = |k: usize, y: f32| {
+            let a = arc * k as f32 / n as f32;
+            Vec3::new(r * a.cos(), y, r * a.sin())
+        };
+        (0..n)
+            .flat_map(|k| {
+                let (a, b, c, d) = (at(k, 0.0), at(k + 1, 0.0), at(k + 1, h), at(k, h));
+                [tri([a, c, b], 0), tri([a, d, c], 0)]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn chart_turn_measures_how_far_a_curved_chart_turns_and_is_zero_when_flat() {
+        let cube = cube(Vec3::ZERO, 1.0, 0);
+        for c in &charts(&cube).0 {
+            assert_eq!(chart_turn(&cube, c), 0.0, "a cube face is flat");
+        }
+        // A 36° arc in 12 quads: face normals from 1.5° to 34.5°, all within the chart
+        // angle of the first.
+        let strip = cylinder_strip(0.1, 0.05, 36f32.to_radians(), 12);
+        let (strip_charts, _) = charts(&strip);
+        assert_eq!(strip_charts.len(), 1, "one chart under the chart angle");
+        let turn = chart_turn(&strip, &strip_charts[0]).to_degrees();
+        assert!((turn - 33.0).abs() < 0.01, "{turn}°");
+        assert_eq!(chart_turn(&strip, &[]), 0.0);
+    }
+
+    #[test]
+    fn curved_charts_get_texels_per_radian_and_flat_ones_keep_their_density() {
+        // A 36° strip of a 10 cm cylinder, 10 cm tall, beside a flat 10 cm cube, at 20
+        // texels per metre: 2 texels across each without the rule.
+        let mut tris = cylinder_strip(0.1, 0.1, 36f32.to_radians(), 12);
+        let square = cube(Vec3::splat(5.0), 0.1, 1);
+        tris.extend(square);
+        let rule = DensityRule {
+            per_metre: 20.0,
+            min_across: 0,
+            per_radian: 24.0,
+        };
+        let turn = 33f32.to_radians();
+        // The strip's chart is 0.1 m across its longer side (its height; the chord is 6 cm).
+        let d = rule.chart_density(0.1, turn);
+        assert!(
+            (d * 0.1 - turn * 24.0).abs() < 1e-3,
+            "{d}: {} texels across",
+            d * 0.1
+        );
+        assert_eq!(
+            rule.chart_density(0.1, 0.0),
+            20.0,
+            "flat: the per-metre density"
+        );
+        assert_eq!(rule.chart_density(0.001, turn), 320.0, "at most 16×");
+        assert_eq!(DensityRule::uniform(20.0).chart_density(0.1, turn), 20.0);
+        assert_eq!(rule.chart_density(0.1, f32::NAN), 20.0);
+        // In the atlas: 13.8 texels along the strip's height instead of 2, the cube's faces
+        // unchanged.
+        let count = |rule: DensityRule, object: u32| {
+            let (_, samples) = build_with(&tris, rule).unwrap();
+            let mut texels: Vec<u32> = samples
+                .iter()
+                .filter(|s| tris[s.triangle as usize].object == object)
+                .map(|s| s.texel)
+                .collect();
+            texels.sort_unstable();
+            texels.dedup();
+            texels.len()
+        };
+        let off = DensityRule::uniform(20.0);
+        assert_eq!(
+            count(rule, 1),
+            count(off, 1),
+            "flat faces keep their texels"
+        );
+        let (curved, plain) = (count(rule, 0), count(off, 0));
+        // 9 texels (3 × 3 sample points) without the rule; at least 13.8 × 8.5 with it.
+        assert!(
+            plain <= 12 && curved >= 117,
+            "strip: {plain} → {curved} texels"
+        );
+        let est = estimate_texels(&tris, rule);
+        let built = build_with(&tris, rule).unwrap().0.texel_count() as f64;
+        assert!(est > 0.5 * built && est < 2.0 * built, "{est} vs {built}");
     }
 
     #[test]

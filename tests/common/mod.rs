@@ -152,6 +152,7 @@ pub fn quick_radiosity(bounces: u32) -> glint::scene::desc::RadiositySettings {
         min_chart_texels: 0,
         min_scene_texels: 0,
         contact_boost: 0.0,
+        texels_per_radian: 0.0,
         rays: 32,
         light_samples: 4,
         bounces,
