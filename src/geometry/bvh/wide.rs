@@ -338,6 +338,18 @@ impl WideBvh {
                         (child, count) = (node.child[lane], node.count[lane]);
                         continue;
                     }
+                    if ANY {
+                        // Any hit will do: in lane order, unsorted.
+                        let first = mask.trailing_zeros() as usize;
+                        let mut m = mask & (mask - 1);
+                        while m != 0 {
+                            let lane = 31 - m.leading_zeros() as usize;
+                            m &= !(1 << lane);
+                            stack.push((node.child[lane], node.count[lane], t_in[lane]));
+                        }
+                        (child, count) = (node.child[first], node.count[first]);
+                        continue;
+                    }
                     // Nearest first: push the others far to near.
                     let mut lanes = [(0.0f32, 0usize); WIDTH];
                     let mut n = 0;
