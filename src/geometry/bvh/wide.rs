@@ -25,7 +25,7 @@ use obvhs::{
     BvhBuildParams, bvh2::Bvh2, bvh2::builder::build_bvh2_from_tris,
     triangle::Triangle as BvhTriangle,
 };
-use pack::{DEGENERATE, Pack};
+use pack::{DEGENERATE, Hits, Pack};
 use smallvec::SmallVec;
 use std::time::Duration;
 
@@ -86,6 +86,18 @@ impl WideRay {
             far: [1 - neg[0], 3 - neg[1], 5 - neg[2]],
         }
     }
+}
+
+/// A hit found in a leaf.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct LeafHit {
+    /// The leaf slot (pack · 4 + lane), and the triangle's index in the caller's list.
+    pub slot: usize,
+    pub original: u32,
+    /// Distance and barycentrics (u, v), as Möller–Trumbore computes them (unclamped).
+    pub t: f32,
+    pub u: f32,
+    pub v: f32,
 }
 
 /// Whether this CPU has AVX.
@@ -203,7 +215,7 @@ impl WideBvh {
         r: &WideRay,
         t_max: f32,
         keep: impl Fn(usize) -> bool,
-    ) -> Option<(usize, f32)> {
+    ) -> Option<LeafHit> {
         #[cfg(target_arch = "x86_64")]
         if self.avx {
             // SAFETY: `avx` is set only where the CPU has AVX.
@@ -244,7 +256,7 @@ impl WideBvh {
         r: &WideRay,
         t_max: f32,
         keep: impl Fn(usize) -> bool,
-    ) -> Option<(usize, f32)> {
+    ) -> Option<LeafHit> {
         let r8 = avx::Ray8::new(r);
         // SAFETY (both): this function runs only on CPUs with AVX.
         self.traverse::<ANY>(
@@ -264,8 +276,8 @@ impl WideBvh {
         mut t_max: f32,
         keep: impl Fn(usize) -> bool,
         enter: impl Fn(&Node, f32) -> (u32, [f32; WIDTH]),
-        pair: impl Fn(&[Pack; 2], f32) -> (u32, [f32; 8]),
-    ) -> Option<(usize, f32)> {
+        pair: impl Fn(&[Pack; 2], f32) -> Hits,
+    ) -> Option<LeafHit> {
         let mut best = None;
         let mut stack: SmallVec<[(u32, u32, f32); 64]> = SmallVec::new();
         let (mut child, mut count) = self.root;
@@ -397,33 +409,44 @@ impl WideBvh {
         r: &WideRay,
         t_max: &mut f32,
         keep: &impl Fn(usize) -> bool,
-        pair: &impl Fn(&[Pack; 2], f32) -> (u32, [f32; 8]),
-    ) -> Option<(usize, f32)> {
+        pair: &impl Fn(&[Pack; 2], f32) -> Hits,
+    ) -> Option<LeafHit> {
         let (mut p, end) = (first as usize, (first + count) as usize);
         let mut best = None;
         while p < end {
-            let (mut mask, t, packs) = if end - p >= 2 {
-                let (mask, t) = pair(self.packs[p..p + 2].try_into().unwrap(), *t_max);
-                (mask, t, 2)
+            let is_pair = end - p >= 2;
+            let hits = if is_pair {
+                pair(self.packs[p..p + 2].try_into().unwrap(), *t_max)
             } else {
-                let (mask, t4) = self.packs[p].intersect(r, *t_max);
-                let mut t = [0.0; 8];
-                t4.write_to_slice(&mut t[..4]);
-                (mask, t, 1)
+                self.packs[p].intersect(r, *t_max)
             };
+            let mut mask = hits.mask;
+            let mut found = None;
             while mask != 0 {
                 let lane = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
                 let slot = p * 4 + lane;
-                if t[lane] < *t_max && keep(slot) {
-                    *t_max = t[lane];
-                    best = Some((slot, t[lane]));
+                if hits.t[lane] < *t_max && keep(slot) {
+                    *t_max = hits.t[lane];
+                    found = Some(lane);
                     if ANY {
-                        return best;
+                        break;
                     }
                 }
             }
-            p += packs;
+            if let Some(lane) = found {
+                best = Some(LeafHit {
+                    slot: p * 4 + lane,
+                    original: self.original[p * 4 + lane],
+                    t: hits.t[lane],
+                    u: hits.u[lane],
+                    v: hits.v[lane],
+                });
+                if ANY {
+                    return best;
+                }
+            }
+            p += 1 + is_pair as usize;
         }
         best
     }
@@ -474,9 +497,9 @@ mod tests {
             for lane in 0..4 {
                 pack::set(&mut pack, lane, &tri);
             }
-            let (mask, d) = pack.intersect(r, f32::INFINITY);
-            if mask & 1 != 0 && best.is_none_or(|(_, b)| d.x < b) {
-                best = Some((i as u32, d.x));
+            let hits = pack.intersect(r, f32::INFINITY);
+            if hits.mask & 1 != 0 && best.is_none_or(|(_, b)| hits.t[0] < b) {
+                best = Some((i as u32, hits.t[0]));
             }
         }
         best
@@ -505,9 +528,13 @@ mod tests {
                 let d = (target - o).normalize();
                 let r = WideRay::new(o, d);
                 let want = brute(&tris, &r);
-                let got = bvh
-                    .closest(&r, f32::INFINITY, |_| true)
-                    .map(|(slot, t)| (bvh.original[slot], t));
+                let got = bvh.closest(&r, f32::INFINITY, |_| true).map(|h| {
+                    assert_eq!(h.original, bvh.original[h.slot]);
+                    // The leaf test's barycentrics are those computed afresh.
+                    let bary = super::super::barycentrics(&bvh.tris[h.slot], r.o, r.d);
+                    assert_eq!(super::super::clamp_bary(h.u, h.v), bary, "ray {k}");
+                    (h.original, h.t)
+                });
                 assert_eq!(got, want, "ray {k}: {o} → {d}");
                 assert_eq!(bvh.any(&r, f32::INFINITY, |_| true), want.is_some());
                 if let Some((_, t)) = want {

@@ -6,7 +6,7 @@ use std::arch::x86_64::*;
 
 use super::WideRay;
 use super::node::{Node, ROBUST_FAR, WIDTH};
-use super::pack::Pack;
+use super::pack::{Hits, Pack};
 
 /// A ray's origin, direction and inverse direction broadcast to eight lanes.
 #[derive(Clone, Copy)]
@@ -73,7 +73,7 @@ pub(super) unsafe fn enter(node: &Node, r: &WideRay, r8: &Ray8, t_max: f32) -> (
 ///
 /// As for [`enter`].
 #[inline(always)]
-pub(super) unsafe fn intersect_pair(pair: &[Pack; 2], r8: &Ray8, t_max: f32) -> (u32, [f32; 8]) {
+pub(super) unsafe fn intersect_pair(pair: &[Pack; 2], r8: &Ray8, t_max: f32) -> Hits {
     // SAFETY: the caller's CPU has AVX; a pair is 72 contiguous f32 (nine rows of eight), and
     // loadu/storeu have no alignment requirement.
     unsafe {
@@ -122,9 +122,16 @@ pub(super) unsafe fn intersect_pair(pair: &[Pack; 2], r8: &Ray8, t_max: f32) -> 
                 _mm256_cmp_ps::<_CMP_NEQ_UQ>(det, zero),
             ),
         );
-        let mut out = [0.0; 8];
-        _mm256_storeu_ps(out.as_mut_ptr(), t);
-        (_mm256_movemask_ps(ok) as u32, out)
+        let mut hits = Hits {
+            mask: _mm256_movemask_ps(ok) as u32,
+            t: [0.0; 8],
+            u: [0.0; 8],
+            v: [0.0; 8],
+        };
+        _mm256_storeu_ps(hits.t.as_mut_ptr(), t);
+        _mm256_storeu_ps(hits.u.as_mut_ptr(), u);
+        _mm256_storeu_ps(hits.v.as_mut_ptr(), v);
+        hits
     }
 }
 
@@ -137,7 +144,7 @@ mod tests {
     use super::*;
 
     #[target_feature(enable = "avx")]
-    fn avx_pair(pair: &[Pack; 2], r: &WideRay, t_max: f32) -> (u32, [f32; 8]) {
+    fn avx_pair(pair: &[Pack; 2], r: &WideRay, t_max: f32) -> Hits {
         // SAFETY: this function runs only on CPUs with AVX.
         unsafe { intersect_pair(pair, &Ray8::new(r), t_max) }
     }
@@ -188,12 +195,14 @@ mod tests {
             };
             let r = WideRay::new(o, d);
             let t_max = if k % 3 == 0 { next() } else { f32::INFINITY };
-            let (mask, t) = pack::intersect_pair(&pair, &r, t_max);
+            let want = pack::intersect_pair(&pair, &r, t_max);
             // SAFETY: AVX detected above.
-            let (avx_mask, avx_t) = unsafe { avx_pair(&pair, &r, t_max) };
-            assert_eq!(mask, avx_mask, "ray {k}");
-            assert_eq!(t.map(f32::to_bits), avx_t.map(f32::to_bits), "ray {k}");
-            hits += mask.count_ones();
+            let got = unsafe { avx_pair(&pair, &r, t_max) };
+            assert_eq!(want.mask, got.mask, "ray {k}");
+            for (a, b) in [(want.t, got.t), (want.u, got.u), (want.v, got.v)] {
+                assert_eq!(a.map(f32::to_bits), b.map(f32::to_bits), "ray {k}");
+            }
+            hits += want.mask.count_ones();
         }
         assert!(hits > 2000, "only {hits} hits");
     }

@@ -13,7 +13,19 @@ use super::{Tri, WideRay};
 #[derive(Clone, Copy)]
 #[repr(C, align(16))]
 pub(super) struct Pack {
-    pub rows: [Vec4; 9],
+    pub rows: [Vec4; ROWS],
+}
+
+/// Rows per pack.
+const ROWS: usize = 9;
+
+/// Per lane of a leaf test: which lanes the ray hits (bit per lane), and each lane's distance
+/// and barycentrics (u, v).
+pub(super) struct Hits {
+    pub mask: u32,
+    pub t: [f32; 8],
+    pub u: [f32; 8],
+    pub v: [f32; 8],
 }
 
 /// A triangle no ray hits (det 0): fills the lanes a leaf does not use.
@@ -27,14 +39,24 @@ impl Pack {
     /// A pack of degenerate triangles.
     pub fn empty() -> Pack {
         Pack {
-            rows: [Vec4::ZERO; 9],
+            rows: [Vec4::ZERO; ROWS],
         }
     }
 
-    /// Per lane: whether the ray hits the triangle in (0, t_max), and the distance.
+    /// Per lane (0–3): whether the ray hits the triangle in (0, t_max), and where.
     #[inline(always)]
-    pub fn intersect(&self, r: &WideRay, t_max: f32) -> (u32, Vec4) {
-        intersect4(self.rows, r, t_max)
+    pub fn intersect(&self, r: &WideRay, t_max: f32) -> Hits {
+        let (mask, [t, u, v]) = intersect4(self.rows, r, t_max);
+        let mut hits = Hits {
+            mask,
+            t: [0.0; 8],
+            u: [0.0; 8],
+            v: [0.0; 8],
+        };
+        t.write_to_slice(&mut hits.t[..4]);
+        u.write_to_slice(&mut hits.u[..4]);
+        v.write_to_slice(&mut hits.v[..4]);
+        hits
     }
 }
 
@@ -56,7 +78,7 @@ pub(super) fn set(pack: &mut Pack, lane: usize, tri: &Tri) {
 pub(super) fn set_pair(pair: &mut [Pack; 2], lane: usize, tri: &Tri) {
     for (row, x) in values(tri).enumerate() {
         let k = 2 * row + lane / 4;
-        pair[k / 9].rows[k % 9][lane % 4] = x;
+        pair[k / ROWS].rows[k % ROWS][lane % 4] = x;
     }
 }
 
@@ -65,27 +87,37 @@ pub(super) fn set_pair(pair: &mut [Pack; 2], lane: usize, tri: &Tri) {
 fn half(pair: &[Pack; 2], h: usize) -> [Vec4; 9] {
     std::array::from_fn(|row| {
         let k = 2 * row + h;
-        pair[k / 9].rows[k % 9]
+        pair[k / ROWS].rows[k % ROWS]
     })
 }
 
-/// Per lane of a pair (bit per lane, 0–7): whether the ray hits the triangle in (0, t_max),
-/// and the distances; two 4-lane halves.
+/// Per lane of a pair (0–7): whether the ray hits the triangle in (0, t_max), and where; two
+/// 4-lane halves.
 #[inline(always)]
-pub(super) fn intersect_pair(pair: &[Pack; 2], r: &WideRay, t_max: f32) -> (u32, [f32; 8]) {
-    let (m0, t0) = intersect4(half(pair, 0), r, t_max);
-    let (m1, t1) = intersect4(half(pair, 1), r, t_max);
-    let mut t = [0.0; 8];
-    t0.write_to_slice(&mut t[..4]);
-    t1.write_to_slice(&mut t[4..]);
-    (m0 | m1 << 4, t)
+pub(super) fn intersect_pair(pair: &[Pack; 2], r: &WideRay, t_max: f32) -> Hits {
+    let (m0, h0) = intersect4(half(pair, 0), r, t_max);
+    let (m1, h1) = intersect4(half(pair, 1), r, t_max);
+    let mut hits = Hits {
+        mask: m0 | m1 << 4,
+        t: [0.0; 8],
+        u: [0.0; 8],
+        v: [0.0; 8],
+    };
+    for (out, (lo, hi)) in [&mut hits.t, &mut hits.u, &mut hits.v]
+        .into_iter()
+        .zip(h0.into_iter().zip(h1))
+    {
+        lo.write_to_slice(&mut out[..4]);
+        hi.write_to_slice(&mut out[4..]);
+    }
+    hits
 }
 
-/// Möller–Trumbore on four lanes. Edges are inclusive with ordinary comparisons: a ray through
+/// Möller–Trumbore on four lanes: the hit mask, and (t, u, v) per lane. Edges are inclusive with ordinary comparisons: a ray through
 /// the shared edge of two triangles (a quad's diagonal) hits one of them whatever the sign of
 /// a zero.
 #[inline(always)]
-fn intersect4(rows: [Vec4; 9], r: &WideRay, t_max: f32) -> (u32, Vec4) {
+fn intersect4(rows: [Vec4; 9], r: &WideRay, t_max: f32) -> (u32, [Vec4; 3]) {
     let [v0x, v0y, v0z, e1x, e1y, e1z, e2x, e2y, e2z] = rows;
     let [dx, dy, dz] = r.d4;
     let px = dy * e2z - dz * e2y;
@@ -110,5 +142,5 @@ fn intersect4(rows: [Vec4; 9], r: &WideRay, t_max: f32) -> (u32, Vec4) {
         & t.cmpgt(Vec4::ZERO)
         & t.cmplt(Vec4::splat(t_max))
         & det.cmpne(Vec4::ZERO);
-    (ok.bitmask(), t)
+    (ok.bitmask(), [t, u, v])
 }
