@@ -320,9 +320,9 @@ impl WideBvh {
                         (child, count) = (node.child[lane], node.count[lane]);
                         continue;
                     }
+                    let first = mask.trailing_zeros() as usize;
                     if ANY {
                         // Any hit will do: in lane order, unsorted.
-                        let first = mask.trailing_zeros() as usize;
                         let mut m = mask & (mask - 1);
                         while m != 0 {
                             let lane = 31 - m.leading_zeros() as usize;
@@ -330,6 +330,19 @@ impl WideBvh {
                             stack.push((node.child[lane], node.count[lane], t_in[lane]));
                         }
                         (child, count) = (node.child[first], node.count[first]);
+                        continue;
+                    }
+                    let rest = mask & (mask - 1);
+                    if rest & (rest - 1) == 0 {
+                        // Two: the nearer (the first lane on a tie), the other pushed.
+                        let second = rest.trailing_zeros() as usize;
+                        let (near, far) = if t_in[second] < t_in[first] {
+                            (second, first)
+                        } else {
+                            (first, second)
+                        };
+                        stack.push((node.child[far], node.count[far], t_in[far]));
+                        (child, count) = (node.child[near], node.count[near]);
                         continue;
                     }
                     // Nearest first: push the others far to near.
