@@ -1,8 +1,10 @@
 //! An eight-wide BVH with plain float child boxes ([`node`]) and triangles stored as
 //! (v0, e1, e2) in packs of four, traversed one ray at a time: a node's eight child boxes are
 //! tested together in one SIMD slab test (AVX where the CPU has it, else two 4-lane halves
-//! with glam's `Vec4`: SSE2 on x86-64, NEON on aarch64), and the nearest hit child is visited
-//! first. A leaf's triangles are tested together ([`pack`]): four with `Vec4`, five to eight
+//! with glam's `Vec4`: SSE2 on x86-64, NEON on aarch64). Closest-hit queries visit the nearest
+//! hit child first; occlusion queries take them in lane order, unsorted (any hit will do, as
+//! in Embree's any-hit traversal: diffuse occlusion rays measured 0.72× Embree sorted, 1.00×
+//! unsorted). A leaf's triangles are tested together ([`pack`]): four with `Vec4`, five to eight
 //! in one AVX test.
 //!
 //! Built by collapsing obvhs' BVH2 (PLOC build with reinsertion, leaves collapsed by SAH):
