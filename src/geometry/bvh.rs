@@ -9,7 +9,7 @@ use glam::{Vec2, Vec3, Vec3A};
 use obvhs::triangle::Triangle as BvhTriangle;
 
 use super::{Aabb, Triangle};
-use wide::{Tri, WideBvh, WideRay};
+use wide::{LeafHit, Tri, WideBvh, WideRay};
 
 /// The nearest intersection along a ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -95,19 +95,19 @@ impl Bvh {
             None => {
                 let w = self.wide.as_ref()?;
                 let r = WideRay::new(origin.into(), dir.into());
-                let found = w.closest(&r, t_max, |_| true);
-                self.hit(w, &r, found)
+                self.hit(w.closest(&r, t_max, |_| true))
             }
         }
     }
 
-    /// The [`Hit`] for a found (slot, distance).
-    fn hit(&self, w: &WideBvh, r: &WideRay, found: Option<(usize, f32)>) -> Option<Hit> {
-        let (slot, t) = found?;
+    /// The [`Hit`] for a leaf's hit: its barycentrics clamped into the triangle (as
+    /// [`barycentrics`] gives them; the leaf test computes the same bits).
+    fn hit(&self, found: Option<LeafHit>) -> Option<Hit> {
+        let h = found?;
         Some(Hit {
-            t,
-            triangle: w.original[slot],
-            bary: barycentrics(&w.tris[slot], r.o, r.d),
+            t: h.t,
+            triangle: h.original,
+            bary: clamp_bary(h.u, h.v),
         })
     }
 
@@ -154,8 +154,7 @@ impl Bvh {
     ) -> Option<Hit> {
         let w = self.wide.as_ref()?;
         let r = WideRay::new(origin.into(), dir.into());
-        let found = w.closest(&r, t_max, |slot| kept(w, &r, slot, keep));
-        self.hit(w, &r, found)
+        self.hit(w.closest(&r, t_max, |slot| kept(w, &r, slot, keep)))
     }
 
     /// [`Bvh::occluded`] counting only hits `keep(triangle, bary)` accepts.
@@ -195,10 +194,16 @@ fn barycentrics(t: &Tri, o: Vec3A, d: Vec3A) -> Vec2 {
     let pvec = d.cross(t.e2);
     let inv_det = 1.0 / t.e1.dot(pvec);
     let tvec = o - t.v0;
-    let u = (tvec.dot(pvec) * inv_det).clamp(0.0, 1.0);
+    let u = tvec.dot(pvec) * inv_det;
     let qvec = tvec.cross(t.e1);
-    let v = (d.dot(qvec) * inv_det).clamp(0.0, 1.0 - u);
-    Vec2::new(u, v)
+    let v = d.dot(qvec) * inv_det;
+    clamp_bary(u, v)
+}
+
+/// Barycentrics clamped into the triangle.
+fn clamp_bary(u: f32, v: f32) -> Vec2 {
+    let u = u.clamp(0.0, 1.0);
+    Vec2::new(u, v.clamp(0.0, 1.0 - u))
 }
 
 #[cfg(test)]
