@@ -753,3 +753,101 @@ fn pattern_tables_round_trip_and_refuse_newer_versions() {
         Err(PatternFormatError::Magic)
     );
 }
+
+#[test]
+fn capture_sees_the_room_in_a_planar_mirror() {
+    // A 4 m box of six walls with distinct materials; a mirror panel 10 cm in front of the
+    // +x wall, facing the centre, declared a planar reflector. The +x face of a cube map
+    // taken at the centre sees the −x wall in the mirror, times the mirror's reflectance;
+    // before mirrors were followed it saw the mirror's own (black) D.
+    let dir = tempfile::tempdir().unwrap();
+    write_gltf(
+        dir.path(),
+        "room",
+        &[
+            quad("WallXp", 0, 0, 2.0, 2.0),
+            flip(quad("WallXn", 1, 0, -2.0, 2.0)),
+            flip(quad("WallYp", 2, 1, 2.0, 2.0)),
+            quad("WallYn", 3, 1, -2.0, 2.0),
+            flip(quad("WallZp", 4, 2, 2.0, 2.0)),
+            quad("WallZn", 5, 2, -2.0, 2.0),
+            flip(quad("Glass", 6, 0, 1.9, 1.9)),
+        ],
+        &[
+            MaterialSpec::diffuse("MatXp", 0.5),
+            MaterialSpec::diffuse("MatXn", 0.5),
+            MaterialSpec::diffuse("MatYp", 0.5),
+            MaterialSpec::diffuse("MatYn", 0.5),
+            MaterialSpec::diffuse("MatZp", 0.5),
+            MaterialSpec::diffuse("MatZn", 0.5),
+            MaterialSpec {
+                name: "Silver",
+                base: [0.95, 0.95, 0.95, 1.0],
+                metallic: 1.0,
+                roughness: 0.01,
+                emissive: [0.0; 3],
+                strength: 1.0,
+            },
+        ],
+    );
+    let load = |reflectors: &str| {
+        let json =
+            format!(r#"{{ "version": 1, "geometry": "room.gltf", "reflectors": [{reflectors}] }}"#);
+        Scene::load(write_scene(dir.path(), &json)).unwrap()
+    };
+    let scene = load(r#"{ "mesh": "Glass", "kind": "planar" }"#);
+    let bvh = scene.build_bvh();
+    let silver = scene
+        .materials
+        .iter()
+        .position(|m| m.name == "Silver")
+        .unwrap() as u32;
+    let xn = scene
+        .materials
+        .iter()
+        .position(|m| m.name == "MatXn")
+        .unwrap() as f32;
+    // Each material's id + 1 as its D; the mirror's D is 0, as a metal's is.
+    let shade = |hit: &glint::geometry::Hit| {
+        let m = scene.triangles[hit.triangle as usize].material;
+        Vec3::splat(if m == silver { 0.0 } else { m as f32 + 1.0 })
+    };
+    let settings = CaptureSettings {
+        face_size: 8,
+        supersample: 2,
+    };
+    let capture = |scene: &Scene| {
+        capture_cube(scene, &bvh, Vec3::ZERO, &settings, &[], &shade, &Silent).unwrap()
+    };
+    let cube = capture(&scene);
+    // The mirror's reflectance over the +x face's cosines (≥ cos 54.7°).
+    let lobes: Vec<Lobe> = scene.materials[silver as usize]
+        .lobes
+        .iter()
+        .map(Lobe::from)
+        .collect();
+    let reflectance =
+        |c: f32| -> f32 { lobes.iter().map(|l| l.ks.x * l.mirror_reflectance(c)).sum() };
+    let (lo, hi) = (
+        reflectance(1.0).min(reflectance(0.57)),
+        reflectance(1.0).max(reflectance(0.57)),
+    );
+    assert!(lo > 0.5, "a silver mirror reflects: {lo}");
+    // The middle 2 × 2 texels (directions within 14° of +x) meet the −x wall after the
+    // mirror; rays farther out reach the side walls first.
+    for y in 3..5 {
+        for x in 3..5 {
+            let t = cube.texels[cube.index(0, x, y)].x;
+            assert!(
+                t >= lo * (xn + 1.0) * 0.999 && t <= hi * (xn + 1.0) * 1.001,
+                "texel ({x}, {y}) of +x: {t}, want the −x wall ({}) × [{lo}, {hi}]",
+                xn + 1.0
+            );
+        }
+    }
+    // The other faces see their walls directly, as before.
+    assert!(cube.texels[cube.index(1, 4, 4)].x == xn + 1.0);
+    // A mirror that is not a reflector is only its own D.
+    let plain = capture(&load(""));
+    assert!((0..8).all(|y| (0..8).all(|x| plain.texels[plain.index(0, x, y)].x == 0.0)));
+}

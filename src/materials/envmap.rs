@@ -16,11 +16,11 @@ use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 
 use crate::brdf::pattern::{Pattern, lobe_area_for, mip_level};
-use crate::brdf::{Frame, Lobe, above};
+use crate::brdf::{Frame, Lobe, above, reflect};
 use crate::geometry::{Bvh, Hit};
 use crate::progress::{Cancelled, Progress};
 use crate::sampling::Rng;
-use crate::scene::Scene;
+use crate::scene::{ReflectorKind, Scene};
 
 /// The capture point of a reflector's environment map: the area-weighted centroid of its
 /// triangles (f64 sums), where the materials stage captures and the viewer renders the cube.
@@ -362,9 +362,36 @@ pub struct CaptureSettings {
 /// capture point is seen through; this bounds the number of its layers).
 const MAX_SKIPS: usize = 64;
 
+/// Reflections in near-mirror planar reflectors a capture ray follows, at most.
+pub const MAX_MIRROR_BOUNCES: u32 = 4;
+
+/// Per triangle, the lobes of the near-mirror planar reflector it belongs to (the
+/// reflector's own material only; [`crate::radiosity::is_mirror`]), else
+/// `None`.
+fn mirror_lobes(scene: &Scene) -> Vec<Option<std::sync::Arc<[Lobe]>>> {
+    let mut of = vec![None; scene.triangles.len()];
+    for r in &scene.reflectors {
+        let m = &scene.materials[r.material as usize];
+        if r.kind != ReflectorKind::Planar || !crate::radiosity::is_mirror(m) {
+            continue;
+        }
+        let lobes: std::sync::Arc<[Lobe]> = m.lobes.iter().map(Lobe::from).collect();
+        for &t in &r.triangles {
+            if scene.triangles[t as usize].material == r.material {
+                of[t as usize] = Some(lobes.clone());
+            }
+        }
+    }
+    of
+}
+
 /// Captures the scene around `centre` into a cube map by ray casting. Rays pass through the
 /// triangles listed in `see_through` (the object whose environment this is: its centroid is
 /// usually inside it); the first other surface hit is shaded by `shade`; misses are black.
+/// A ray that meets the front of a near-mirror planar reflector adds what `shade` gives
+/// there and goes on in the mirror direction, weighted by the mirror's reflectance
+/// (Σ k_s × [`Lobe::mirror_reflectance`]), for up to [`MAX_MIRROR_BOUNCES`] reflections: a
+/// mirror's D is (nearly) nothing, and what it shows is the room.
 /// Rows are independent work items, so the result does not depend on the thread count.
 /// Advances `progress` by one per face row.
 pub fn capture_cube(
@@ -396,12 +423,14 @@ pub fn capture_cube(
             )
         })
         .collect();
+    let mirrors = mirror_lobes(scene);
     let trace = |dir: Vec3| -> Vec3 {
-        let mut origin = centre;
+        let (mut origin, mut dir) = (centre, dir);
         let mut travelled = 0.0f32;
+        let (mut sum, mut weight, mut bounces) = (Vec3::ZERO, Vec3::ONE, 0);
         for _ in 0..MAX_SKIPS {
             match bvh.closest_hit(origin, dir, f32::MAX) {
-                None => return Vec3::ZERO,
+                None => return sum,
                 Some(hit) if skip.get(hit.triangle as usize).copied().unwrap_or(false) => {
                     let p = origin + dir * hit.t;
                     let next = bvh.offset_origin(p, dir);
@@ -409,14 +438,32 @@ pub fn capture_cube(
                     origin = next;
                 }
                 Some(hit) => {
-                    return shade(&Hit {
-                        t: travelled + hit.t,
-                        ..hit
-                    });
+                    sum += weight
+                        * shade(&Hit {
+                            t: travelled + hit.t,
+                            ..hit
+                        });
+                    let tri = &scene.triangles[hit.triangle as usize];
+                    let n = tri.face_normal();
+                    let c = -dir.dot(n);
+                    match &mirrors[hit.triangle as usize] {
+                        Some(lobes) if bounces < MAX_MIRROR_BOUNCES && c > 0.0 => {
+                            weight *= lobes
+                                .iter()
+                                .fold(Vec3::ZERO, |acc, l| acc + l.ks * l.mirror_reflectance(c));
+                            let p = origin + dir * hit.t;
+                            dir = reflect(-dir, n);
+                            let next = bvh.offset_origin(p, dir);
+                            travelled += (next - origin).length();
+                            origin = next;
+                            bounces += 1;
+                        }
+                        _ => return sum,
+                    }
                 }
             }
         }
-        Vec3::ZERO
+        sum
     };
     let rows: Vec<Vec<Vec3>> = (0..6 * size)
         .into_par_iter()

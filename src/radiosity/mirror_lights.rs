@@ -27,6 +27,12 @@ use crate::scene::{Plane, ReflectorKind, Scene};
 /// Largest Beckmann roughness of a lobe that is treated as a mirror here.
 pub const MIRROR_ROUGHNESS: f32 = 0.02;
 
+/// Whether `m` reflects as a mirror here: it has lobes, all of roughness ≤
+/// [`MIRROR_ROUGHNESS`].
+pub fn is_mirror(m: &crate::scene::material::Material) -> bool {
+    !m.lobes.is_empty() && m.lobes.iter().all(|l| l.mx.max(l.my) <= MIRROR_ROUGHNESS)
+}
+
 /// One near-mirror planar reflector.
 struct Mirror {
     plane: Plane,
@@ -141,9 +147,7 @@ impl MirrorLights {
                 continue;
             };
             let m = &scene.materials[r.material as usize];
-            let sharp =
-                !m.lobes.is_empty() && m.lobes.iter().all(|l| l.mx.max(l.my) <= MIRROR_ROUGHNESS);
-            if !sharp {
+            if !is_mirror(m) {
                 continue;
             }
             let id = mirrors.len() as u32 + 1;

@@ -147,8 +147,14 @@ pub fn recorded_settings(
 ) -> serde_json::Value {
     let mut v = serde_json::to_value(settings).expect("settings serialize");
     v["d_source"] = d_source.into();
+    v["env_capture"] = ENV_CAPTURE.into();
     v
 }
+
+/// How environment maps are captured, recorded in the stage's settings so that bundles
+/// captured otherwise re-bake: 2, rays go on through near-mirror planar reflectors
+/// ([`crate::materials::envmap::capture_cube`]; 1, absent: they stopped there, black).
+pub const ENV_CAPTURE: u32 = 2;
 
 /// Bakes the materials stage of `scene` into the bundle at `bundle_dir`, shading environment
 /// maps with D from the bundle ([`shade_with_d`]).
