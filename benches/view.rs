@@ -613,7 +613,12 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
         let mut off = Offscreen::new(gpu, &data, w, h).unwrap_or_else(|e| panic!("{e}"));
         let mut fine = (ss > 1)
             .then(|| Offscreen::new(gpu, &data, w * ss, h * ss).unwrap_or_else(|e| panic!("{e}")));
-        // Curved reflectors as the README's replay draws them: live cube maps (Nielsen §3.2).
+        // Curved reflectors by cube maps (Nielsen §3.2), glossy ones by regular sampling of
+        // the baked MIP environment map at the preset's sample budget (Luksch §6–7).
+        let curved_settings = CurvedSettings {
+            glossy_samples: glint::materials::MaterialsSettings::preset(quality).sample_budget,
+            ..CurvedSettings::default()
+        };
         let curved = data
             .scene
             .desc
@@ -622,7 +627,7 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
             .any(|r| r.kind == glint::scene::desc::ReflectorKind::Curved);
         if curved {
             for o in std::iter::once(&mut off).chain(fine.as_mut()) {
-                o.set_curved(gpu, &data, CurvedMode::Cubemap, CurvedSettings::default())
+                o.set_curved(gpu, &data, CurvedMode::Cubemap, curved_settings)
                     .unwrap_or_else(|e| panic!("{e}"));
             }
         }

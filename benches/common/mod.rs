@@ -86,8 +86,14 @@ pub fn bake_at(
             start.elapsed().as_secs_f64()
         );
     }
-    if with_materials && !up_to_date(&bundle, &scene, Stage::Materials, None) {
-        let settings = materials::MaterialsSettings::preset(quality);
+    let settings = materials::MaterialsSettings::preset(quality);
+    // The settings the stage records (D's identity and how env maps are captured included),
+    // so a re-baked D or a new capture re-bakes it.
+    let recorded = materials::recorded_settings(
+        &settings,
+        glint::radiosity::d_identity(&bundle, &scene.content_hash).as_deref(),
+    );
+    if with_materials && !up_to_date(&bundle, &scene, Stage::Materials, Some(&recorded)) {
         materials::bake(&scene, &bundle, &settings, true, &Silent)
             .unwrap_or_else(|e| panic!("{e}"));
     }
