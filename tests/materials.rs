@@ -17,9 +17,9 @@ use glint::brdf::pattern::{
 };
 use glint::brdf::{Frame, KurtBrdf, Lobe, reflect};
 use glint::materials::envmap::{
-    CaptureSettings, CubeMap, MipFilter, MipPyramid, capture_cube, face_direction, hammersley,
-    locate, specular_importance, specular_reference, specular_regular, texel_direction,
-    texel_solid_angle,
+    CaptureSettings, CubeMap, MAX_MIRROR_BOUNCES, MipFilter, MipPyramid, capture_cube,
+    face_direction, hammersley, locate, specular_importance, specular_reference, specular_regular,
+    texel_direction, texel_solid_angle,
 };
 use glint::materials::kernel::{KernelSettings, kernel_for};
 use glint::materials::pattern_format::{PatternFormatError, decode_pattern, encode_pattern};
@@ -625,6 +625,7 @@ fn capture_sees_the_surroundings_through_its_own_object() {
     let settings = CaptureSettings {
         face_size: 8,
         supersample: 2,
+        mirror_bounces: 0,
     };
     let ball = &scene.reflectors[0];
     let cube = capture_cube(
@@ -815,6 +816,7 @@ fn capture_sees_the_room_in_a_planar_mirror() {
     let settings = CaptureSettings {
         face_size: 8,
         supersample: 2,
+        mirror_bounces: MAX_MIRROR_BOUNCES,
     };
     let capture = |scene: &Scene| {
         capture_cube(scene, &bvh, Vec3::ZERO, &settings, &[], &shade, &Silent).unwrap()
@@ -847,7 +849,22 @@ fn capture_sees_the_room_in_a_planar_mirror() {
     }
     // The other faces see their walls directly, as before.
     assert!(cube.texels[cube.index(1, 4, 4)].x == xn + 1.0);
-    // A mirror that is not a reflector is only its own D.
+    // A mirror that is not a reflector, or a capture that follows no reflection (the
+    // viewer's live cube maps), shows only the mirror's own D.
     let plain = capture(&load(""));
     assert!((0..8).all(|y| (0..8).all(|x| plain.texels[plain.index(0, x, y)].x == 0.0)));
+    let unfollowed = capture_cube(
+        &scene,
+        &bvh,
+        Vec3::ZERO,
+        &CaptureSettings {
+            mirror_bounces: 0,
+            ..settings
+        },
+        &[],
+        &shade,
+        &Silent,
+    )
+    .unwrap();
+    assert!((0..8).all(|y| (0..8).all(|x| unfollowed.texels[unfollowed.index(0, x, y)].x == 0.0)));
 }

@@ -679,6 +679,7 @@ fn d_cube(
         &envmap::CaptureSettings {
             face_size: face as usize,
             supersample: 2,
+            mirror_bounces: 0,
         },
         &teapot.triangles,
         &|hit: &glint::geometry::Hit| {

@@ -356,13 +356,17 @@ pub struct CaptureSettings {
     pub face_size: usize,
     /// Rays per texel and axis: k² fixed points per texel (deterministic).
     pub supersample: u32,
+    /// Reflections in near-mirror planar reflectors a ray follows, at most (0: a mirror is
+    /// its own D, as the viewer's live cube maps draw it; the materials stage bakes with
+    /// [`MAX_MIRROR_BOUNCES`]).
+    pub mirror_bounces: u32,
 }
 
 /// Surfaces crossed from inside before giving up on a ray (a closed object around the
 /// capture point is seen through; this bounds the number of its layers).
 const MAX_SKIPS: usize = 64;
 
-/// Reflections in near-mirror planar reflectors a capture ray follows, at most.
+/// Reflections in near-mirror planar reflectors the materials stage's capture rays follow.
 pub const MAX_MIRROR_BOUNCES: u32 = 4;
 
 /// Per triangle, the lobes of the near-mirror planar reflector it belongs to (the
@@ -390,8 +394,8 @@ fn mirror_lobes(scene: &Scene) -> Vec<Option<std::sync::Arc<[Lobe]>>> {
 /// usually inside it); the first other surface hit is shaded by `shade`; misses are black.
 /// A ray that meets the front of a near-mirror planar reflector adds what `shade` gives
 /// there and goes on in the mirror direction, weighted by the mirror's reflectance
-/// (Σ k_s × [`Lobe::mirror_reflectance`]), for up to [`MAX_MIRROR_BOUNCES`] reflections: a
-/// mirror's D is (nearly) nothing, and what it shows is the room.
+/// (Σ k_s × [`Lobe::mirror_reflectance`]), for up to `settings.mirror_bounces` reflections:
+/// a mirror's D is (nearly) nothing, and what it shows is the room.
 /// Rows are independent work items, so the result does not depend on the thread count.
 /// Advances `progress` by one per face row.
 pub fn capture_cube(
@@ -447,7 +451,7 @@ pub fn capture_cube(
                     let n = tri.face_normal();
                     let c = -dir.dot(n);
                     match &mirrors[hit.triangle as usize] {
-                        Some(lobes) if bounces < MAX_MIRROR_BOUNCES && c > 0.0 => {
+                        Some(lobes) if bounces < settings.mirror_bounces && c > 0.0 => {
                             weight *= lobes
                                 .iter()
                                 .fold(Vec3::ZERO, |acc, l| acc + l.ks * l.mirror_reflectance(c));
