@@ -556,6 +556,24 @@ fn mip_filters_keep_constants_and_the_mean() {
 
 /// A 4 m closed box, one material per wall, with a glossy closed cube ("Ball") at the
 /// centre; returns the loaded scene.
+/// Six grey wall materials, MatXp … MatZn (material ids 0–5), then a metal `name` of base
+/// colour `base` and `roughness` (id 6).
+fn wall_materials_and(name: &'static str, base: f32, roughness: f32) -> Vec<MaterialSpec> {
+    let mut m: Vec<MaterialSpec> = ["MatXp", "MatXn", "MatYp", "MatYn", "MatZp", "MatZn"]
+        .into_iter()
+        .map(|w| MaterialSpec::diffuse(w, 0.5))
+        .collect();
+    m.push(MaterialSpec {
+        name,
+        base: [base, base, base, 1.0],
+        metallic: 1.0,
+        roughness,
+        emissive: [0.0; 3],
+        strength: 1.0,
+    });
+    m
+}
+
 fn box_scene(dir: &std::path::Path) -> Scene {
     let a = 0.25f32;
     let ball = MeshSpec {
@@ -589,22 +607,7 @@ fn box_scene(dir: &std::path::Path) -> Scene {
             quad("WallZn", 5, 2, -2.0, 2.0),
             ball,
         ],
-        &[
-            MaterialSpec::diffuse("MatXp", 0.5),
-            MaterialSpec::diffuse("MatXn", 0.5),
-            MaterialSpec::diffuse("MatYp", 0.5),
-            MaterialSpec::diffuse("MatYn", 0.5),
-            MaterialSpec::diffuse("MatZp", 0.5),
-            MaterialSpec::diffuse("MatZn", 0.5),
-            MaterialSpec {
-                name: "Chrome",
-                base: [0.9, 0.9, 0.9, 1.0],
-                metallic: 1.0,
-                roughness: 0.3,
-                emissive: [0.0; 3],
-                strength: 1.0,
-            },
-        ],
+        &wall_materials_and("Chrome", 0.9, 0.3),
     );
     let path = write_scene(
         dir,
@@ -774,22 +777,7 @@ fn capture_sees_the_room_in_a_planar_mirror() {
             quad("WallZn", 5, 2, -2.0, 2.0),
             flip(quad("Glass", 6, 0, 1.9, 1.9)),
         ],
-        &[
-            MaterialSpec::diffuse("MatXp", 0.5),
-            MaterialSpec::diffuse("MatXn", 0.5),
-            MaterialSpec::diffuse("MatYp", 0.5),
-            MaterialSpec::diffuse("MatYn", 0.5),
-            MaterialSpec::diffuse("MatZp", 0.5),
-            MaterialSpec::diffuse("MatZn", 0.5),
-            MaterialSpec {
-                name: "Silver",
-                base: [0.95, 0.95, 0.95, 1.0],
-                metallic: 1.0,
-                roughness: 0.01,
-                emissive: [0.0; 3],
-                strength: 1.0,
-            },
-        ],
+        &wall_materials_and("Silver", 0.95, 0.01),
     );
     let load = |reflectors: &str| {
         let json =

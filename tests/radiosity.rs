@@ -417,53 +417,6 @@ fn glint_radiosity_refuses_another_scenes_bundle_without_force() {
     assert!(map.radiance(0, Vec2::new(0.3, 0.3)).x > 0.0);
 }
 
-/// A UV sphere of radius `r` at `centre`, `rings` × `segments` quads, wound outwards, with
-/// its smooth normals.
-fn sphere(
-    name: &'static str,
-    material: usize,
-    centre: Vec3,
-    r: f32,
-    rings: u32,
-    segments: u32,
-) -> MeshSpec {
-    let mut positions = Vec::new();
-    let mut normals = Vec::new();
-    for i in 0..=rings {
-        let theta = std::f32::consts::PI * i as f32 / rings as f32;
-        for j in 0..=segments {
-            let phi = std::f32::consts::TAU * j as f32 / segments as f32;
-            let n = Vec3::new(
-                theta.sin() * phi.cos(),
-                theta.cos(),
-                theta.sin() * phi.sin(),
-            );
-            positions.push((centre + r * n).to_array());
-            normals.push(n.to_array());
-        }
-    }
-    let at = |i: u32, j: u32| i * (segments + 1) + j;
-    let mut indices = Vec::new();
-    for i in 0..rings {
-        for j in 0..segments {
-            let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
-            if i > 0 {
-                indices.extend([a, d, b]);
-            }
-            if i + 1 < rings {
-                indices.extend([b, d, c]);
-            }
-        }
-    }
-    MeshSpec {
-        name,
-        material,
-        positions,
-        indices,
-        normals,
-    }
-}
-
 #[test]
 fn texels_per_radian_resolves_the_shading_of_a_curved_surface() {
     // A 10 cm sphere (albedo 0.5) lit from 5 m straight above by a 20 cm emitter, nothing
@@ -475,7 +428,7 @@ fn texels_per_radian_resolves_the_shading_of_a_curved_surface() {
     let scene = load(
         dir.path(),
         &[
-            sphere("Ball", 0, Vec3::ZERO, r, 24, 48),
+            uv_sphere("Ball", 0, [0.0; 3], r, true),
             flip(quad("Lamp", 1, 1, height, half)),
         ],
         &[
