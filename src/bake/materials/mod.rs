@@ -10,7 +10,8 @@
 //!   ([`crate::materials::pattern_format`] specifies the file).
 //!
 //! Per `curved` reflector with a glossy material (`materials/env/<reflector>/mip<ℓ>.exr`,
-//! kind `env-mip`): the cube map seen from its centroid, shaded with D, and its MIP levels
+//! kind `env-mip`): the cube map seen from its centroid, shaded with D, rays going on through
+//! near-mirror planar reflectors ([`ENV_CAPTURE`]), and its MIP levels
 //! ([`crate::materials::envmap`]). These need the bundle's `radiosity` stage; without it they are skipped with
 //! the reason and the rest of the stage is baked.
 //!
