@@ -5,11 +5,11 @@ mod wide;
 
 use std::sync::Arc;
 
-use glam::{Vec2, Vec3, Vec3A};
+use glam::{Vec2, Vec3};
 use obvhs::triangle::Triangle as BvhTriangle;
 
 use super::{Aabb, Triangle};
-use wide::{LeafHit, Tri, WideBvh, WideRay};
+use wide::{LeafHit, WideBvh, WideRay};
 
 /// The nearest intersection along a ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -95,13 +95,13 @@ impl Bvh {
             None => {
                 let w = self.wide.as_ref()?;
                 let r = WideRay::new(origin.into(), dir.into());
-                self.hit(w.closest(&r, t_max, |_| true))
+                self.hit(w.closest(&r, t_max, |_, _, _| true))
             }
         }
     }
 
-    /// The [`Hit`] for a leaf's hit: its barycentrics clamped into the triangle (as
-    /// [`barycentrics`] gives them; the leaf test computes the same bits).
+    /// The [`Hit`] for a leaf's hit: its barycentrics clamped into the triangle so attribute
+    /// lookups at edges stay inside it.
     fn hit(&self, found: Option<LeafHit>) -> Option<Hit> {
         let h = found?;
         Some(Hit {
@@ -120,7 +120,7 @@ impl Bvh {
             return false;
         };
         let r = WideRay::new(origin.into(), dir.into());
-        w.any(&r, t_max, |_| true)
+        w.any(&r, t_max, |_, _, _| true)
     }
 
     /// Number of triangles in the BVH.
@@ -154,7 +154,7 @@ impl Bvh {
     ) -> Option<Hit> {
         let w = self.wide.as_ref()?;
         let r = WideRay::new(origin.into(), dir.into());
-        self.hit(w.closest(&r, t_max, |slot| kept(w, &r, slot, keep)))
+        self.hit(w.closest(&r, t_max, |slot, u, v| kept(w, slot, u, v, keep)))
     }
 
     /// [`Bvh::occluded`] counting only hits `keep(triangle, bary)` accepts.
@@ -169,18 +169,19 @@ impl Bvh {
             return false;
         };
         let r = WideRay::new(origin.into(), dir.into());
-        w.any(&r, t_max, |slot| kept(w, &r, slot, keep))
+        w.any(&r, t_max, |slot, u, v| kept(w, slot, u, v, keep))
     }
 }
 
-/// Whether `keep` accepts the ray's hit on leaf slot `slot`.
+/// Whether `keep` accepts the ray's hit on leaf slot `slot` at the leaf test's (u, v).
 fn kept(
     w: &WideBvh,
-    r: &WideRay,
     slot: usize,
+    u: f32,
+    v: f32,
     keep: &(dyn Fn(u32, Vec2) -> bool + Send + Sync),
 ) -> bool {
-    keep(w.original[slot], barycentrics(&w.tris[slot], r.o, r.d))
+    keep(w.original[slot], clamp_bary(u, v))
 }
 
 /// The default self-intersection offset for a scene of these bounds.
@@ -189,8 +190,9 @@ pub fn scene_epsilon(bounds: &Aabb) -> f32 {
 }
 
 /// Barycentrics of the ray's crossing of the triangle's plane (Möller–Trumbore), clamped
-/// into the triangle so attribute lookups at edges stay inside it.
-fn barycentrics(t: &Tri, o: Vec3A, d: Vec3A) -> Vec2 {
+/// into the triangle: what the leaf tests give, computed afresh (the tests compare them).
+#[cfg(test)]
+fn barycentrics(t: &wide::Tri, o: glam::Vec3A, d: glam::Vec3A) -> Vec2 {
     let pvec = d.cross(t.e2);
     let inv_det = 1.0 / t.e1.dot(pvec);
     let tvec = o - t.v0;

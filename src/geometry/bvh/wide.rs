@@ -60,8 +60,6 @@ impl Tri {
 
 /// A ray prepared for the slab tests.
 pub(super) struct WideRay {
-    pub o: Vec3A,
-    pub d: Vec3A,
     o4: [Vec4; 3],
     d4: [Vec4; 3],
     inv4: [Vec4; 3],
@@ -83,8 +81,6 @@ impl WideRay {
         // Axis a's rows are lo 2a and hi 2a + 1; a ray going −a enters through hi.
         let neg = inv.map(|i| (i < 0.0) as usize);
         WideRay {
-            o,
-            d,
             o4: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
             d4: [Vec4::splat(d.x), Vec4::splat(d.y), Vec4::splat(d.z)],
             inv4: inv.map(Vec4::splat),
@@ -120,9 +116,7 @@ pub(super) struct WideBvh {
     packs: Vec<Pack>,
     /// The root: node 0 (count 0), or a single leaf (first pack, pack count).
     root: (u32, u32),
-    /// Per slot (pack · 4 + lane): the triangle, degenerate in padding lanes.
-    pub tris: Vec<Tri>,
-    /// Per slot, the index of the triangle in the caller's list (`u32::MAX` in padding).
+    /// Per slot (pack · 4 + lane), the index of the triangle in the caller's list (`u32::MAX` in padding).
     pub original: Vec<u32>,
     /// Whether node boxes are tested with AVX (detected at build).
     avx: bool,
@@ -148,7 +142,6 @@ impl WideBvh {
             nodes: Vec::new(),
             packs: Vec::new(),
             root: (0, 0),
-            tris: Vec::with_capacity(tris.len()),
             original: Vec::with_capacity(tris.len()),
             avx: avx_detected(),
         };
@@ -178,7 +171,6 @@ impl WideBvh {
                     } else {
                         pack::set(&mut packs[0], lane, &tri);
                     }
-                    self.tris.push(tri);
                     self.original.push(original);
                 }
                 self.packs.extend_from_slice(&packs[..lanes / 4]);
@@ -214,13 +206,14 @@ impl WideBvh {
         (at as u32, 0)
     }
 
-    /// The nearest slot the ray hits in (0, t_max) that `keep` accepts, and its distance.
+    /// The nearest slot the ray hits in (0, t_max) that `keep(slot, u, v)` accepts (u, v: the
+    /// leaf test's barycentrics, unclamped), and its distance.
     #[inline(always)]
     pub fn closest(
         &self,
         r: &WideRay,
         t_max: f32,
-        keep: impl Fn(usize) -> bool,
+        keep: impl Fn(usize, f32, f32) -> bool,
     ) -> Option<LeafHit> {
         #[cfg(target_arch = "x86_64")]
         if self.avx {
@@ -236,9 +229,9 @@ impl WideBvh {
         )
     }
 
-    /// Whether the ray hits a slot in (0, t_max) that `keep` accepts.
+    /// Whether the ray hits a slot in (0, t_max) that `keep(slot, u, v)` accepts.
     #[inline(always)]
-    pub fn any(&self, r: &WideRay, t_max: f32, keep: impl Fn(usize) -> bool) -> bool {
+    pub fn any(&self, r: &WideRay, t_max: f32, keep: impl Fn(usize, f32, f32) -> bool) -> bool {
         #[cfg(target_arch = "x86_64")]
         if self.avx {
             // SAFETY: as in `closest`.
@@ -261,7 +254,7 @@ impl WideBvh {
         &self,
         r: &WideRay,
         t_max: f32,
-        keep: impl Fn(usize) -> bool,
+        keep: impl Fn(usize, f32, f32) -> bool,
     ) -> Option<LeafHit> {
         let r8 = avx::Ray8::new(r);
         // SAFETY (both): this function runs only on CPUs with AVX.
@@ -280,7 +273,7 @@ impl WideBvh {
         &self,
         r: &WideRay,
         mut t_max: f32,
-        keep: impl Fn(usize) -> bool,
+        keep: impl Fn(usize, f32, f32) -> bool,
         enter: impl Fn(&Node, f32) -> (u32, [f32; WIDTH]),
         pair: impl Fn(&[Pack; 2], f32) -> Hits,
     ) -> Option<LeafHit> {
@@ -432,7 +425,7 @@ impl WideBvh {
         count: u32,
         r: &WideRay,
         t_max: &mut f32,
-        keep: &impl Fn(usize) -> bool,
+        keep: &impl Fn(usize, f32, f32) -> bool,
         pair: &impl Fn(&[Pack; 2], f32) -> Hits,
     ) -> Option<LeafHit> {
         let (mut p, end) = (first as usize, (first + count) as usize);
@@ -450,7 +443,7 @@ impl WideBvh {
                 let lane = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
                 let slot = p * 4 + lane;
-                if hits.t[lane] < *t_max && keep(slot) {
+                if hits.t[lane] < *t_max && keep(slot, hits.u[lane], hits.v[lane]) {
                     *t_max = hits.t[lane];
                     found = Some(lane);
                     if ANY {
@@ -552,20 +545,21 @@ mod tests {
                 let d = (target - o).normalize();
                 let r = WideRay::new(o, d);
                 let want = brute(&tris, &r);
-                let got = bvh.closest(&r, f32::INFINITY, |_| true).map(|h| {
+                let got = bvh.closest(&r, f32::INFINITY, |_, _, _| true).map(|h| {
                     assert_eq!(h.original, bvh.original[h.slot]);
                     // The leaf test's barycentrics are those computed afresh.
-                    let bary = super::super::barycentrics(&bvh.tris[h.slot], r.o, r.d);
+                    let tri = Tri::new(&tris[h.original as usize]);
+                    let bary = super::super::barycentrics(&tri, o, d);
                     assert_eq!(super::super::clamp_bary(h.u, h.v), bary, "ray {k}");
                     (h.original, h.t)
                 });
                 assert_eq!(got, want, "ray {k}: {o} → {d}");
-                assert_eq!(bvh.any(&r, f32::INFINITY, |_| true), want.is_some());
+                assert_eq!(bvh.any(&r, f32::INFINITY, |_, _, _| true), want.is_some());
                 if let Some((_, t)) = want {
                     hits += 1;
                     // Up to the hit, nothing; just beyond it, occluded.
-                    assert!(!bvh.any(&r, t, |_| true), "ray {k}");
-                    assert!(bvh.any(&r, t * 1.0001, |_| true), "ray {k}");
+                    assert!(!bvh.any(&r, t, |_, _, _| true), "ray {k}");
+                    assert!(bvh.any(&r, t * 1.0001, |_, _, _| true), "ray {k}");
                 }
             }
             assert!(
