@@ -90,6 +90,7 @@ fn main() {
                     glossy_samples: 0,
                     face_size,
                     generations,
+                    parallax: true,
                 };
                 // The quietest of three builds (pipelines are created each time, not timed).
                 let mut best = f64::INFINITY;

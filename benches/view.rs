@@ -32,7 +32,9 @@
 //! `target/tmp/view-bench/references/`); `GLINT_BENCH_FIDELITY_SUPERSAMPLE=s` (1 to 8, 1 by
 //! default) renders the viewer's frame at s × s samples a pixel, box-filtered as the path
 //! tracer's pixels are, for the path-tracer columns (at one sample a pixel the per-pixel
-//! error at every silhouette is the viewer's aliasing, not its light).
+//! error at every silhouette is the viewer's aliasing, not its light);
+//! `GLINT_BENCH_CUBE_PARALLAX=off` turns the curved reflectors' distance-corrected lookups off
+//! (as `glint-view --cube-parallax off`).
 //!
 //! `cargo bench --bench view` (the `view` feature, on by default). The adapter is the one
 //! `Gpu::headless` picks: a hardware GPU when there is one, else Mesa's lavapipe; `WGPU_BACKEND`
@@ -617,6 +619,7 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
         // the baked MIP environment map at the preset's sample budget (Luksch §6–7).
         let curved_settings = CurvedSettings {
             glossy_samples: glint::materials::MaterialsSettings::preset(quality).sample_budget,
+            parallax: std::env::var("GLINT_BENCH_CUBE_PARALLAX").map_or(true, |v| v != "off"),
             ..CurvedSettings::default()
         };
         let curved = data

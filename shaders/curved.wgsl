@@ -7,7 +7,8 @@
 // bindings (group 1, bindings 0–1).
 //
 // Entry points:
-// - `vs_main`/`fs_env`: D into a cube face (linear Rgba16Float, the face camera in `frame`);
+// - `vs_main`/`fs_env`: D into a cube face (linear Rgba16Float, the face camera in `frame`),
+//   alpha the distance from the face camera (0 where nothing is seen);
 // - `vs_curved`/`fs_curved_env`: another curved reflector's mirror term in that face, looked
 //   up in the previous generation's cube map (McReynolds' scheme, as Nielsen adopts it);
 // - `vs_curved`/`fs_curved`: a curved reflector's pixels in the frame, ks·(Fresnel)·cube(r)
@@ -37,7 +38,8 @@ struct CurvedParams {
     // xyz: the reflector's centre (where its cube map was taken); w unused.
     centre: vec4<f32>,
     // x: lobes; y: 1 = regular sampling (Eq. 9), 0 = one mirror lookup; z: face size of the
-    // environment's level 0 (Eq. 16's N = z²); w: unused.
+    // environment's level 0 (Eq. 16's N = z²); w: 1 = distance-corrected lookups
+    // (`curved_lookup`), 0 = lookups from the centre.
     info: vec4<u32>,
     // Inside a planar mirror's pass (`fs_curved_mirror`): the mirror's plane, xyz its normal,
     // w = normal · point + clip distance; fragments p with xyz · p ≤ w are discarded.
@@ -49,12 +51,17 @@ struct CurvedParams {
 @group(1) @binding(5) var<storage, read> pattern: array<vec4<f32>>;
 @group(1) @binding(6) var env: texture_cube<f32>;
 @group(1) @binding(7) var env_sampler: sampler;
+// The reflector's live cube map: alpha holds each texel's distance from the centre (`fs_env`;
+// 0: nothing seen). The glossy term may read a baked pyramid from `env`, which has none.
+@group(1) @binding(9) var env_distance: texture_cube<f32>;
 
 const CURVED_PI: f32 = 3.14159265358979;
 // `brdf::COS_FLOOR`.
 const COS_FLOOR: f32 = 1e-6;
 // `pattern::ALPHA_MAX`.
 const ALPHA_MAX: f32 = 1.5697963;
+// `curved::PARALLAX_STEPS`.
+const PARALLAX_STEPS: u32 = 2u;
 
 // The tangent frame of `sampling::basis` (Duff et al. 2017): columns tangent, bitangent, n.
 fn curved_basis(n: vec3<f32>) -> mat3x3<f32> {
@@ -196,9 +203,35 @@ fn mip_level(area: f32, face: f32, n: f32, wi: vec3<f32>, h: vec3<f32>) -> f32 {
     return max(0.5 * log2(max(pixels, 1.0)), 0.0);
 }
 
+// Where the ray from the point `offset` away from the centre along unit `dir` meets the room,
+// as a direction from the centre: fixed-point steps on the distances `env_distance` stores
+// (`curved::parallax_direction`, distance impostors, Szirmay-Kalos et al. 2005). `dir` itself
+// when the correction is off or nothing was seen.
+fn curved_lookup(offset: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
+    if curved.info.w == 0u {
+        return dir;
+    }
+    let b = dot(offset, dir);
+    let c = dot(offset, offset);
+    var u = dir;
+    for (var k = 0u; k < PARALLAX_STEPS; k++) {
+        let s = textureSampleLevel(env_distance, env_sampler, u, 0.0).a;
+        if s <= 0.0 {
+            break;
+        }
+        let t = -b + sqrt(max(b * b - c + s * s, 0.0));
+        let q = offset + dir * t;
+        if dot(q, q) <= 0.0 {
+            break;
+        }
+        u = normalize(q);
+    }
+    return u;
+}
+
 // Eq. 9 with a regular pattern: (1/N) Σ L(ω_i) f(ω_i, ω_o) cos θ_i / p(ω_i), p from Eq. 17–18,
 // each L at its Eq. 16 level (`envmap::specular_regular`, ks included here).
-fn specular_regular(l: CurvedLobe, frame_m: mat3x3<f32>, wo_l: vec3<f32>) -> vec3<f32> {
+fn specular_regular(l: CurvedLobe, frame_m: mat3x3<f32>, wo_l: vec3<f32>, offset: vec3<f32>) -> vec3<f32> {
     let count = l.samples.y;
     if wo_l.z <= 0.0 || count == 0u {
         return vec3<f32>(0.0);
@@ -218,7 +251,7 @@ fn specular_regular(l: CurvedLobe, frame_m: mat3x3<f32>, wo_l: vec3<f32>) -> vec
         let f = lobe_eval(l, wo_l, wi); // Eq. 2
         let pdf = l.pdf.x / (4.0 * max(dot(h, wi), COS_FLOOR)); // Eq. 17
         if pdf > 0.0 {
-            let radiance = textureSampleLevel(env, env_sampler, wi_world, lod).rgb;
+            let radiance = textureSampleLevel(env, env_sampler, curved_lookup(offset, wi_world), lod).rgb;
             sum += radiance * (f * wi.z / pdf);
         }
     }
@@ -226,26 +259,27 @@ fn specular_regular(l: CurvedLobe, frame_m: mat3x3<f32>, wo_l: vec3<f32>) -> vec
 }
 
 // One lookup in the mirror direction, weighted by ks and Schlick's Fresnel at n·ω_o.
-fn specular_mirror(l: CurvedLobe, n: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
+fn specular_mirror(l: CurvedLobe, n: vec3<f32>, wo: vec3<f32>, offset: vec3<f32>) -> vec3<f32> {
     let c = dot(n, wo);
     if c <= 0.0 {
         return vec3<f32>(0.0);
     }
-    let r = reflect_about(wo, n);
+    let r = curved_lookup(offset, reflect_about(wo, n));
     return l.ks.rgb * fresnel_schlick(l.ks.a, c) * textureSampleLevel(env, env_sampler, r, 0.0).rgb;
 }
 
-// The specular radiance of every lobe at normal `n` seen from direction `wo` (unit, world).
-fn curved_specular(n: vec3<f32>, wo: vec3<f32>, regular: bool) -> vec3<f32> {
+// The specular radiance of every lobe at the point `offset` from the centre, with normal `n`,
+// seen from direction `wo` (unit, world).
+fn curved_specular(offset: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, regular: bool) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
     let frame_m = curved_basis(n);
     let wo_l = wo * frame_m; // to the tangent frame: dot with each column
     for (var i = 0u; i < min(curved.info.x, 2u); i++) {
         let l = curved.lobes[i];
         if regular {
-            sum += specular_regular(l, frame_m, wo_l);
+            sum += specular_regular(l, frame_m, wo_l, offset);
         } else {
-            sum += specular_mirror(l, n, wo);
+            sum += specular_mirror(l, n, wo, offset);
         }
     }
     return sum;
@@ -281,7 +315,8 @@ fn facing_normal(in: CurvedOut) -> vec3<f32> {
 @fragment
 fn fs_curved(in: CurvedOut) -> FragmentOut {
     let wo = normalize(curved.eye.xyz - in.world);
-    let c = curved_specular(facing_normal(in), wo, curved.info.y != 0u) * frame.exposure;
+    let offset = in.world - curved.centre.xyz;
+    let c = curved_specular(offset, facing_normal(in), wo, curved.info.y != 0u) * frame.exposure;
     var out: FragmentOut;
     // Added to kd·D of the scene pass by the blend state (as `fs_composite` of reflect.wgsl).
     var color = c;
@@ -305,7 +340,8 @@ fn fs_curved_mirror(in: CurvedOut) -> @location(0) vec4<f32> {
         discard;
     }
     let wo = normalize(curved.eye.xyz - in.world);
-    let c = curved_specular(facing_normal(in), wo, curved.info.y != 0u) * frame.exposure;
+    let offset = in.world - curved.centre.xyz;
+    let c = curved_specular(offset, facing_normal(in), wo, curved.info.y != 0u) * frame.exposure;
     return vec4<f32>(c, 0.0);
 }
 
@@ -315,13 +351,15 @@ fn fs_env(in: VertexOut) -> @location(0) vec4<f32> {
         discard;
     }
     let q = max(sample_radiosity(in.lightmap, in.page), vec3<f32>(0.0));
-    return vec4<f32>(surface_d(q, in.material, in.uv0, in.uv1) * frame.exposure, 1.0);
+    // Alpha: the distance from the face camera (the map's centre), for `curved_lookup`.
+    let distance = length(in.world - frame.eye.xyz);
+    return vec4<f32>(surface_d(q, in.material, in.uv0, in.uv1) * frame.exposure, distance);
 }
 
 @fragment
 fn fs_curved_env(in: CurvedOut) -> @location(0) vec4<f32> {
     let wo = normalize(curved.eye.xyz - in.world);
-    return vec4<f32>(curved_specular(facing_normal(in), wo, false), 0.0);
+    return vec4<f32>(curved_specular(in.world - curved.centre.xyz, facing_normal(in), wo, false), 0.0);
 }
 
 // MIP generation of live cube maps: one face of level ℓ from level ℓ − 1 (2×2 box).
@@ -355,7 +393,7 @@ struct GlossyProbe {
 @group(2) @binding(1) var<storage, read_write> glossy_out: array<vec4<f32>>;
 
 // Per input: the specular term (mode from `curved.info.y`); for `cs_env_probe`, the
-// environment at direction `normal.xyz` and level `normal.w`.
+// environment at direction `normal.xyz` and level `normal.w` (alpha: the live map's distance).
 @compute @workgroup_size(64)
 fn cs_glossy_probe(@builtin(global_invocation_id) id: vec3<u32>) {
     let k = id.x;
@@ -363,7 +401,7 @@ fn cs_glossy_probe(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let p = glossy_in[k];
-    glossy_out[k] = vec4<f32>(curved_specular(normalize(p.normal.xyz), normalize(p.wo.xyz), curved.info.y != 0u), 1.0);
+    glossy_out[k] = vec4<f32>(curved_specular(vec3<f32>(0.0), normalize(p.normal.xyz), normalize(p.wo.xyz), curved.info.y != 0u), 1.0);
 }
 
 @compute @workgroup_size(64)
@@ -373,5 +411,5 @@ fn cs_env_probe(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let p = glossy_in[k];
-    glossy_out[k] = vec4<f32>(textureSampleLevel(env, env_sampler, p.normal.xyz, p.normal.w).rgb, 1.0);
+    glossy_out[k] = textureSampleLevel(env, env_sampler, p.normal.xyz, p.normal.w);
 }

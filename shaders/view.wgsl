@@ -19,6 +19,8 @@ struct FrameUniforms {
     // 1: the colour target is not an sRGB format, so encode sRGB here; 0: the hardware does
     // or the target is linear (viewer frames draw linear radiance; display.wgsl encodes).
     encode_srgb: u32,
+    // xyz: the camera's position (cube faces store each fragment's distance from it).
+    eye: vec4<f32>,
 };
 
 @group(0) @binding(0) var<uniform> frame: FrameUniforms;
@@ -64,6 +66,7 @@ struct VertexOut {
     @location(2) uv0: vec2<f32>,
     @location(3) uv1: vec2<f32>,
     @location(4) @interpolate(flat) material: u32,
+    @location(5) world: vec3<f32>,
 };
 
 @vertex
@@ -75,6 +78,7 @@ fn vs_main(v: VertexIn) -> VertexOut {
     out.uv0 = v.uv0;
     out.uv1 = v.uv1;
     out.material = v.material;
+    out.world = v.position;
     return out;
 }
 

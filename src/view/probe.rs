@@ -146,6 +146,7 @@ pub fn bicubic_probe(
                 atlas_size: textures.layer_size.map(|v| v as f32),
                 exposure: 1.0,
                 encode_srgb: 0,
+                eye: [0.0; 4],
             };
             gpu.queue.write_buffer(&uniforms, 0, bytemuck::bytes_of(&u));
             let frame_group = frame_bind_group(device, &frame_layout, &uniforms, &textures);

@@ -57,6 +57,8 @@ pub struct FrameUniforms {
     pub exposure: f32,
     /// 1 when the shader must encode sRGB itself (non-sRGB target), else 0.
     pub encode_srgb: u32,
+    /// The camera's position (w unused): cube faces store each fragment's distance from it.
+    pub eye: [f32; 4],
 }
 
 /// One vertex of the scene (44 bytes): `@location(0..=5)` of `VertexIn` in the shader.
@@ -404,6 +406,7 @@ impl Renderer {
             // Radiance as baked, linear: the display pass applies exposure and encodes.
             exposure: 1.0,
             encode_srgb: 0,
+            eye: camera.position.extend(1.0).to_array(),
         }
     }
 
@@ -456,7 +459,8 @@ mod tests {
                 view_proj,
                 atlas_size,
                 exposure,
-                encode_srgb
+                encode_srgb,
+                eye
             }
         );
     }

@@ -75,6 +75,12 @@ pub struct ViewArgs {
     #[arg(long, value_name = "N", default_value_t = DEFAULT_GENERATIONS,
           value_parser = clap::value_parser!(u32).range(1..=8))]
     pub cube_generations: u32,
+    /// Curved reflectors: distance-corrected cube-map lookups (`on`): each point looks up where
+    /// its own reflected ray meets the room, found from the distances the live cube map
+    /// stores; `off`: Nielsen's lookup from the map's centre (right for a distant room only).
+    #[arg(long, value_name = "on|off", default_value = "on", value_parser = parse_on_off,
+          action = clap::ArgAction::Set)]
+    pub cube_parallax: bool,
     /// Geometry reflections: recursion depth 0–4 (Nielsen & Christensen 2002 §3.1): 0 draws
     /// no reflections (as `--reflections off`), 1 mirrors the scene once per reflector (the
     /// default), 2–4 also draw the reflectors seen in each reflection, one reflection map per
@@ -140,6 +146,7 @@ impl ViewArgs {
                 glossy_samples: self.glossy_samples,
                 face_size: self.cube_size,
                 generations: self.cube_generations,
+                parallax: self.cube_parallax,
             },
             recursion: RecursionSettings {
                 depth: self.recursion_depth.unwrap_or(1),
@@ -209,6 +216,8 @@ mod tests {
             "64",
             "--cube-generations",
             "3",
+            "--cube-parallax",
+            "off",
             "--recursion-depth",
             "3",
             "--reflection-cutoff",
@@ -234,6 +243,7 @@ mod tests {
                     glossy_samples: 8,
                     face_size: 64,
                     generations: 3,
+                    parallax: false,
                 },
                 recursion: RecursionSettings {
                     depth: 3,

@@ -274,6 +274,10 @@ pub struct CurvedSettings {
     pub face_size: u32,
     /// Generations of cube maps (1: no interreflection between curved reflectors).
     pub generations: u32,
+    /// Distance-corrected lookups ([`crate::view::curved::parallax_direction`]): each point
+    /// of the reflector looks up where its own reflected ray meets the room, not where a
+    /// ray from the map's centre does (Nielsen's maps assume a distant environment).
+    pub parallax: bool,
 }
 
 /// Face size of live cube maps unless set.
@@ -288,6 +292,7 @@ impl Default for CurvedSettings {
             glossy_samples: 0,
             face_size: DEFAULT_FACE_SIZE,
             generations: DEFAULT_GENERATIONS,
+            parallax: true,
         }
     }
 }

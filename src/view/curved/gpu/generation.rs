@@ -66,6 +66,7 @@ impl CurvedReflections {
                                 &rj.patterns,
                                 &self.maps[step.read][j].cube,
                                 &self.sampler,
+                                &self.maps[step.read][j].cube,
                             )
                         })
                     })
@@ -75,7 +76,8 @@ impl CurvedReflections {
                         encoder,
                         "glint cube face pass",
                         &[Some(&target.faces[0][face])],
-                        wgpu::Color::BLACK,
+                        // Alpha 0: no distance where nothing is drawn (`curved_lookup`).
+                        wgpu::Color::TRANSPARENT,
                         Some((&pipes.depth_view, false)),
                         None,
                     );

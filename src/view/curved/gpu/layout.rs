@@ -1,5 +1,6 @@
 //! The curved shader's inputs: the reflector vertex format, bind group 1 (parameters,
-//! patterns, environment cube, sampler) and its sampler.
+//! patterns, environment cube, sampler, the live cube whose alpha holds distances) and its
+//! sampler.
 
 use super::super::CurvedParams;
 use crate::view::build::bind_group_layout;
@@ -29,7 +30,8 @@ impl CurvedVertex {
 }
 
 /// Bind group 1 of the curved shader: the reflector's parameters, its sampling patterns,
-/// its environment cube and the cube's sampler.
+/// its environment cube, the cube's sampler and the live cube map whose alpha holds the
+/// distances of distance-corrected lookups.
 pub(super) fn curved_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let all =
         wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
@@ -39,6 +41,7 @@ pub(super) fn curved_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
         .storage(5, lookups)
         .texture(6, lookups, wgpu::TextureViewDimension::Cube, true)
         .sampler(7, lookups)
+        .texture(9, lookups, wgpu::TextureViewDimension::Cube, true)
         .build(device, "glint curved layout")
 }
 
@@ -56,7 +59,8 @@ pub(super) fn trilinear_sampler(device: &wgpu::Device) -> wgpu::Sampler {
     })
 }
 
-/// Bind group 1 of the curved shader ([`curved_layout`]).
+/// Bind group 1 of the curved shader ([`curved_layout`]): `distances` is the reflector's
+/// live cube map (or any cube when its parameters turn the correction off).
 pub(super) fn curved_group(
     device: &wgpu::Device,
     layout: &wgpu::BindGroupLayout,
@@ -64,6 +68,7 @@ pub(super) fn curved_group(
     patterns: &wgpu::Buffer,
     env: &wgpu::TextureView,
     sampler: &wgpu::Sampler,
+    distances: &wgpu::TextureView,
 ) -> wgpu::BindGroup {
     device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("glint curved group"),
@@ -84,6 +89,10 @@ pub(super) fn curved_group(
             wgpu::BindGroupEntry {
                 binding: 7,
                 resource: wgpu::BindingResource::Sampler(sampler),
+            },
+            wgpu::BindGroupEntry {
+                binding: 9,
+                resource: wgpu::BindingResource::TextureView(distances),
             },
         ],
     })

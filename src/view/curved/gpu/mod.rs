@@ -276,12 +276,13 @@ impl CurvedReflections {
                         Some(t) => (EnvSource::Baked, &t.cube, t.size),
                         None => (EnvSource::Live, &maps[final_set][i].cube, face_size),
                     };
-                    let base_params = CurvedParams::new(
+                    let mut base_params = CurvedParams::new(
                         &reflector,
                         regular.then_some((patterns.as_slice(), offsets.as_slice())),
                         reflector.centre,
                         env_size,
                     );
+                    base_params.info[3] = u32::from(settings.parallax);
                     let params = buffer_init(
                         gpu,
                         "glint curved params",
@@ -296,6 +297,7 @@ impl CurvedReflections {
                         &pattern_buffer,
                         env_view,
                         &sampler,
+                        &maps[final_set][i].cube,
                     );
                     ReflectorGpu {
                         vertex_count: verts.len() as u32,
@@ -448,6 +450,7 @@ impl CurvedReflections {
                     &r.patterns,
                     self.env_view(i),
                     &self.sampler,
+                    &self.maps[self.final_set][i].cube,
                 );
                 (params, group)
             })

@@ -21,24 +21,49 @@ impl CurvedReflections {
         index: usize,
         dirs: &[[f32; 4]],
     ) -> Result<Vec<Vec3>, RenderError> {
+        let texels = self.probe_live_texels(gpu, index, dirs)?;
+        Ok(texels.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())
+    }
+
+    /// The distance from the centre of reflector `index`'s live cube map (final generation)
+    /// to what it sees at `dirs` (xyz, w = MIP level), as distance-corrected lookups read it
+    /// (the map's alpha; 0: nothing seen). For tests.
+    pub fn probe_live_distances(
+        &self,
+        gpu: &Gpu,
+        index: usize,
+        dirs: &[[f32; 4]],
+    ) -> Result<Vec<f32>, RenderError> {
+        let texels = self.probe_live_texels(gpu, index, dirs)?;
+        Ok(texels.iter().map(|v| v[3]).collect())
+    }
+
+    fn probe_live_texels(
+        &self,
+        gpu: &Gpu,
+        index: usize,
+        dirs: &[[f32; 4]],
+    ) -> Result<Vec<[f32; 4]>, RenderError> {
         let r = &self.reflectors[index];
         let inputs: Vec<[f32; 8]> = dirs
             .iter()
             .map(|d| [d[0], d[1], d[2], d[3], 0.0, 0.0, 0.0, 0.0])
             .collect();
+        let map = &self.maps[self.final_set][index].cube;
         curved_probe(
             gpu,
             "cs_env_probe",
             &r.base_params,
             &r.patterns,
-            &self.maps[self.final_set][index].cube,
+            map,
             &inputs,
         )
     }
 }
 
 /// Runs `entry` (`cs_glossy_probe` or `cs_env_probe`) of `shaders/curved.wgsl` over `inputs`
-/// (normal or direction xyzw, ω_o xyzw) with `params`, `patterns` and environment `env`.
+/// (normal or direction xyzw, ω_o xyzw) with `params`, `patterns` and environment `env` (also
+/// bound as the distances, which `params` leave unread unless `info.w` is 1).
 fn curved_probe(
     gpu: &Gpu,
     entry: &'static str,
@@ -46,7 +71,7 @@ fn curved_probe(
     patterns: &wgpu::Buffer,
     env: &wgpu::TextureView,
     inputs: &[[f32; 8]],
-) -> Result<Vec<Vec3>, RenderError> {
+) -> Result<Vec<[f32; 4]>, RenderError> {
     if inputs.is_empty() {
         return Ok(Vec::new());
     }
@@ -72,7 +97,15 @@ fn curved_probe(
                 bytemuck::bytes_of(params),
                 MIN_BUFFER,
             );
-            let group1 = curved_group(device, &curved_layout, &params, patterns, env, &sampler);
+            let group1 = curved_group(
+                device,
+                &curved_layout,
+                &params,
+                patterns,
+                env,
+                &sampler,
+                env,
+            );
             let group0 = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("glint empty group"),
                 layout: &empty,
@@ -91,8 +124,7 @@ fn curved_probe(
         inputs.len(),
         (inputs.len() * 16) as u64,
     )?;
-    let values: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
-    Ok(values.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())
+    Ok(bytemuck::cast_slice::<u8, [f32; 4]>(&bytes).to_vec())
 }
 
 /// The shader's specular term of `reflector` (its lobes; regular sampling with `patterns`
@@ -125,12 +157,13 @@ pub fn glossy_probe(
         .iter()
         .map(|(n, wo)| [n.x, n.y, n.z, 0.0, wo.x, wo.y, wo.z, 0.0])
         .collect();
-    curved_probe(
+    let out = curved_probe(
         gpu,
         "cs_glossy_probe",
         &params,
         &pattern_buffer,
         &env.cube,
         &inputs,
-    )
+    )?;
+    Ok(out.iter().map(|v| Vec3::new(v[0], v[1], v[2])).collect())
 }
