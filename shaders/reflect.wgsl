@@ -326,6 +326,8 @@ struct SplatOut {
     @location(1) @interpolate(flat) beyond: f32,
     // The quad's corner coordinate, ±1 at its edges.
     @location(2) corner: vec2<f32>,
+    // The same point in the corner coordinates of the squeezed footprint (±1 at its edges).
+    @location(3) own: vec2<f32>,
 };
 
 // `splats::SPLAT_OVERLAP`: a splat's quad over its own extent (its map pixel's patch).
@@ -353,10 +355,16 @@ fn ndc_differential(c: vec4<f32>, a: vec3<f32>) -> vec2<f32> {
     return (ac.xy * c.w - c.xy * ac.w) / (c.w * c.w);
 }
 
-// `splats::footprint`: Eq. 3 on the surface's own plane, the NDC edges of a map pixel's patch
-// where its ray pyramid meets the surface through p with normal n (columns u, v), squeezed
-// per screen axis into Eq. 3's box (to no less than a quarter).
-fn footprint(view: SplatView, p: vec3<f32>, n: vec3<f32>, c: vec4<f32>) -> mat2x2<f32> {
+// `splats::footprint`: Eq. 3 on the surface's own plane, the NDC edges u, v of a map pixel's
+// patch where its ray pyramid meets the surface through p with normal n, and the squeeze per
+// screen axis that fits it into Eq. 3's box (to no less than a quarter).
+struct Patch {
+    u: vec2<f32>,
+    v: vec2<f32>,
+    squeeze: vec2<f32>,
+};
+
+fn footprint(view: SplatView, p: vec3<f32>, n: vec3<f32>, c: vec4<f32>) -> Patch {
     let ray = p - view.centre.xyz;
     let scale = dot(ray, view.normal.xyz) / view.centre.w;
     let w = normalize(ray);
@@ -371,8 +379,11 @@ fn footprint(view: SplatView, p: vec3<f32>, n: vec3<f32>, c: vec4<f32>) -> mat2x
     // Never wider or taller than Eq. 3's box, nor squeezed below MIN_SQUEEZE.
     let box_extent = abs(ndc_differential(c, au)) + abs(ndc_differential(c, av));
     let s = clamp(box_extent / max(abs(u) + abs(v), vec2<f32>(1e-30)), vec2<f32>(MIN_SQUEEZE), vec2<f32>(1.0));
-    return mat2x2<f32>(u * s, v * s);
+    return Patch(u, v, s);
 }
+
+// `splats::GAP_FILL_DEPTH`: the clip-z scale of the patch outside the squeezed footprint.
+const GAP_FILL_DEPTH: f32 = 0.95;
 
 @vertex
 fn vs_splat(@builtin(vertex_index) vi: u32) -> SplatOut {
@@ -382,20 +393,27 @@ fn vs_splat(@builtin(vertex_index) vi: u32) -> SplatOut {
     let node = splat_nodes[s.node];
     let c = frame.view_proj * vec4<f32>(s.position, 1.0);
     // Eq. 3, per point on its own surface: the patch itself, a parallelogram, × the node's
-    // spacing (`splats::splat_half_edges`), grown to a pixel along its box's major axis.
+    // spacing (`splats::splat_half_edges`), grown to a pixel along its squeezed box's major
+    // axis. The whole patch is drawn; `own` locates each corner in the squeezed footprint.
     let n = octahedral_decode(unpack2x16snorm(s.normal));
-    let f = footprint(splat_views[node.view], s.position, n, c);
+    let shape = footprint(splat_views[node.view], s.position, n, c);
+    let f = mat2x2<f32>(shape.u * shape.squeeze, shape.v * shape.squeeze);
+    let whole = mat2x2<f32>(shape.u, shape.v);
     var k = 0.5 * node.spacing;
     let pixels = (abs(f[0]) + abs(f[1])) * k / max(node.pixel_ndc, vec2<f32>(1e-30));
     k = k * max(1.0 / max(max(pixels.x, pixels.y), 1e-6), 1.0);
     // Behind the eye the quad is clipped whole; keep its corners finite.
-    let offset = select(vec2<f32>(0.0), (f * corner) * k, c.w > 0.0);
+    let offset = select(vec2<f32>(0.0), (whole * corner) * k, c.w > 0.0);
+    let det = f[0].x * f[1].y - f[1].x * f[0].y;
+    let inv = mat2x2<f32>(vec2<f32>(f[1].y, -f[0].y), vec2<f32>(-f[1].x, f[0].x)) * (1.0 / det);
+    let own = select(corner, inv * (whole * corner), abs(det) > 1e-30);
     var out: SplatOut;
     // Lower-ranked maps' depth scaled back (reverse Z).
     out.clip = vec4<f32>(c.xy + offset * c.w, c.z * node.depth_scale, c.w);
     out.color = s.color * frame.exposure;
     out.beyond = beyond(s.position);
     out.corner = corner;
+    out.own = own;
     return out;
 }
 
@@ -404,19 +422,22 @@ struct SplatFragment {
     @builtin(frag_depth) depth: f32,
 };
 
-// A splat's own extent, the ellipse inscribed in its map pixel's patch (the quad over
-// SPLAT_OVERLAP), at its depth; the rest of the quad, which only closes gaps between splats,
-// pushed far back (depth × 10⁻³, reverse Z, as a lower rank is): it fills what no splat's own
-// extent covers but never paints over a neighbour's, so a surface in front (an emitter before
-// a wall) is not fattened by it. On the 80° floor of `tests/view_gltf_grazing.rs` (image
-// mode, relative RMSE): all of the quad at its depth 0.251, Eq. 3's box 0.142, the disc
-// inscribed in the box 0.131, the ellipse in the patch on the surface (squeezed into the box)
-// 0.114.
+// A splat's own extent, the ellipse inscribed in its squeezed footprint (the quad over
+// SPLAT_OVERLAP), at its depth; the rest of the whole patch's ellipse a little behind
+// (GAP_FILL_DEPTH): it closes the gaps the squeeze leaves between rows of splats on a curved
+// model, yet loses to a neighbour's own extent at nearly the same depth, so a panel does not
+// spill onto the wall it hangs on; the quad's remaining overlap ring far back (depth × 10⁻³,
+// reverse Z, as a lower rank is): it fills what no splat covers but never paints over one, so
+// a surface in front (an emitter before a wall) is not fattened by it. On the 80° floor of
+// `tests/view_gltf_grazing.rs` (image mode, relative RMSE): all of the quad at its depth
+// 0.251, Eq. 3's box 0.142, the disc inscribed in the box 0.131, the ellipse in the patch
+// squeezed into the box 0.114, with the whole patch's gap fill 0.107.
 @fragment
 fn fs_splat(in: SplatOut) -> SplatFragment {
     var out: SplatFragment;
     out.color = vec4<f32>(in.color, in.beyond);
-    let own = length(in.corner) <= 1.0 / SPLAT_OVERLAP;
-    out.depth = select(in.clip.z * 1e-3, in.clip.z, own);
+    let own = length(in.own) <= 1.0 / SPLAT_OVERLAP;
+    let inside = length(in.corner) <= 1.0 / SPLAT_OVERLAP;
+    out.depth = select(select(in.clip.z * 1e-3, in.clip.z * GAP_FILL_DEPTH, inside), in.clip.z, own);
     return out;
 }

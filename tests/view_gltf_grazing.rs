@@ -25,7 +25,10 @@
 //!   (0.142); beyond the disc inscribed in the box: 0.047 (0.046), 0.130 (0.131);
 //! - each splat its map pixel's patch on its own surface (a parallelogram, facet normals
 //!   baked with the maps, `splats::footprint`): image 0.175, the panels' splats grown past
-//!   their edges; that patch squeezed per screen axis into Eq. 3's box: image 0.114.
+//!   their edges; that patch squeezed per screen axis into Eq. 3's box: image 0.114;
+//! - the whole patch drawn behind the squeezed one, pushed back 5% of its distance
+//!   (`splats::GAP_FILL_DEPTH`, which closes the gaps between rows of a curved model's
+//!   splats): image 0.107.
 //!
 //! What remains in geometry mode: the panels' reflections' sides a little too bright (the
 //! reads' footprint is wider across the plane of incidence than the lobe: 6 reads cannot
@@ -73,9 +76,9 @@ const SPP: u32 = 64;
 /// floor's blocks: the 5%. Measured 0.047 (0.046 against a 256-path reference).
 const GEOMETRY_TOLERANCE: f64 = 0.05;
 
-/// The same for image mode: measured 0.114 (0.130 with Eq. 3's box); see the module
-/// documentation for what remains.
-const IMAGE_TOLERANCE: f64 = 0.125;
+/// The same for image mode: measured 0.107 (0.114 without the gap fill, 0.130 with Eq. 3's
+/// box); see the module documentation for what remains.
+const IMAGE_TOLERANCE: f64 = 0.115;
 
 /// Writes and bakes the room (scene, radiosity, materials and radiance stages, draft) into
 /// `view-gltf-grazing` under the tests' temporary folder; returns the bundle.

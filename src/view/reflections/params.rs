@@ -251,6 +251,16 @@ mod tests {
         assert!(super::shader_source().contains(&want), "{want}");
     }
 
+    /// `fs_splat` pushes a splat's gap fill back by the Rust constant.
+    #[test]
+    fn the_splat_shader_uses_the_gap_fill_depth() {
+        let want = format!(
+            "const GAP_FILL_DEPTH: f32 = {:?};",
+            super::super::splats::GAP_FILL_DEPTH
+        );
+        assert!(super::shader_source().contains(&want), "{want}");
+    }
+
     /// `vs_splat` bounds a splat's footprint by the Rust constants.
     #[test]
     fn the_splat_shader_uses_the_footprint_bounds() {

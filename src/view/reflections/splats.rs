@@ -47,6 +47,14 @@ use crate::radiance::sampling::MapCamera;
 /// where the reflected view sees a surface more obliquely than the map did.
 pub const SPLAT_OVERLAP: f32 = 1.5;
 
+/// Clip-z scale of the part of a splat's patch outside its squeezed [`footprint`] (the gap
+/// fill, reverse Z: pushed about 5% of its distance back): it loses to any splat's own extent
+/// within that distance (a panel's spill onto the wall it hangs on) but wins over what lies
+/// far behind (a wall seen between the rows of a model's splats). Measured, image mode: 0.9,
+/// 0.95 and 0.99 give the glTF gold floor at 80° 0.109, 0.107 and 0.107 against the path
+/// tracer; 0.95 brings bunny-mirror's orbit from 13.0% to 9.7%.
+pub const GAP_FILL_DEPTH: f32 = 0.95;
+
 /// Clip-z scale per rank of a lower-ranked map (depth × this^rank, reverse Z): rank r + 1
 /// loses to rank r unless it is 1000 times nearer, which a scene never is.
 pub const RANK_DEPTH_SCALE: f32 = 1e-3;
@@ -170,6 +178,24 @@ impl Footprint {
 /// (a parallelogram), not its bounding box: where a′ is long and skewed on screen, the box
 /// would widen a thin feature by most of its length.
 pub fn footprint(view: &SplatView, p: Vec3, n: Vec3, view_proj: &Mat4) -> Option<Footprint> {
+    let (whole, s) = patch(view, p, n, view_proj)?;
+    Some(Footprint {
+        u: whole.u * s,
+        v: whole.v * s,
+    })
+}
+
+/// The map pixel's whole patch on the surface ([`footprint`] before the squeeze), which
+/// `vs_splat` draws: the squeezed footprint's inscribed ellipse at the point's depth, the rest
+/// of the patch's ellipse at [`GAP_FILL_DEPTH`] × it, and the remaining overlap ring far back
+/// (× [`RANK_DEPTH_SCALE`]). The squeeze alone left gaps between the rows of a curved model's
+/// splats, which the wall behind filled: stripes.
+pub fn whole_patch(view: &SplatView, p: Vec3, n: Vec3, view_proj: &Mat4) -> Option<Footprint> {
+    patch(view, p, n, view_proj).map(|(whole, _)| whole)
+}
+
+/// The patch on the surface and its squeeze per screen axis ([`footprint`]).
+fn patch(view: &SplatView, p: Vec3, n: Vec3, view_proj: &Mat4) -> Option<(Footprint, Vec2)> {
     let c = *view_proj * p.extend(1.0);
     // Also refuses a NaN w.
     if c.w.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
@@ -202,7 +228,7 @@ pub fn footprint(view: &SplatView, p: Vec3, n: Vec3, view_proj: &Mat4) -> Option
         ndc_differential(view_proj, c, au).abs() + ndc_differential(view_proj, c, av).abs();
     let s = (box_extent / (u.abs() + v.abs()).max(Vec2::splat(1e-30)))
         .clamp(Vec2::splat(MIN_SQUEEZE), Vec2::ONE);
-    Some(Footprint { u: u * s, v: v * s })
+    Some((Footprint { u, v }, s))
 }
 
 /// A splat's half edges in NDC: its [`footprint`]'s edges × half the node's spacing, grown,
@@ -667,6 +693,14 @@ mod tests {
                 ((got - want) / want).abs().max_element() < 5e-3,
                 "n {n}: {got} vs {want}"
             );
+            // The whole patch, drawn to fill gaps, is the exact one, and the squeezed
+            // footprint lies within it.
+            let whole = whole_patch(&view, p, n, &vp).unwrap().extent();
+            assert!(
+                ((whole - exact) / exact).abs().max_element() < 5e-3,
+                "n {n}: whole {whole} vs {exact}"
+            );
+            assert!(got.cmple(whole * (1.0 + 1e-6)).all(), "{got} vs {whole}");
         }
         // A wall the map sees 5° from edge-on: stretched no further than at 1 / 0.1.
         let vp = vp_of(Vec3::new(2.0, 0.5, 3.0), p);
