@@ -781,54 +781,56 @@ fn glossy_room_teapot_matches_the_reference_path_tracer() {
 /// (64² texels, bilinear), rasterised vs ray-cast visibility at edges in the map, f16.
 const CPU_MIRROR_TOLERANCE: f64 = 0.08;
 
-/// The cube map of D (bicubic, as the viewer filters it) seen from `teapot`'s centre through
-/// its own triangles: what the mirror equation reflects.
+/// What `teapot`'s cube map sees from its centre through its own triangles, ray cast at
+/// `supersample`² rays a texel and shaded by `shade`.
+fn teapot_cube(
+    data: &glint::view::load::ViewData,
+    bvh: &glint::geometry::Bvh,
+    teapot: &CurvedReflector,
+    face: u32,
+    supersample: u32,
+    shade: &(dyn Fn(&glint::geometry::Hit) -> Vec3 + Sync),
+) -> CubeMap {
+    let settings = envmap::CaptureSettings {
+        face_size: face as usize,
+        supersample,
+        mirror_bounces: 0,
+    };
+    envmap::capture_cube(
+        &data.scene,
+        bvh,
+        teapot.centre,
+        &settings,
+        &teapot.triangles,
+        shade,
+        &Silent,
+    )
+    .unwrap()
+}
+
+/// The cube map of D (bicubic, as the viewer filters it) seen from `teapot`'s centre: what
+/// the mirror equation reflects.
 fn d_cube(
     data: &glint::view::load::ViewData,
     bvh: &glint::geometry::Bvh,
     teapot: &CurvedReflector,
     face: u32,
 ) -> CubeMap {
-    envmap::capture_cube(
-        &data.scene,
-        bvh,
-        teapot.centre,
-        &envmap::CaptureSettings {
-            face_size: face as usize,
-            supersample: 2,
-            mirror_bounces: 0,
-        },
-        &teapot.triangles,
-        &|hit: &glint::geometry::Hit| {
-            glint::view::bicubic::radiance(&data.map, hit.triangle, hit.bary).max(Vec3::ZERO)
-        },
-        &Silent,
-    )
-    .unwrap()
+    teapot_cube(data, bvh, teapot, face, 2, &|hit| {
+        glint::view::bicubic::radiance(&data.map, hit.triangle, hit.bary).max(Vec3::ZERO)
+    })
 }
 
-/// The distances from `teapot`'s centre to what its cube map sees (x of each texel), ray
-/// cast through its own triangles: what distance-corrected lookups read from the live map.
+/// The distances from `teapot`'s centre to what its cube map sees (x of each texel): what
+/// distance-corrected lookups read from the live map (one ray a texel, as the GPU rasterises
+/// one distance a texel).
 fn distance_cube(
     data: &glint::view::load::ViewData,
     bvh: &glint::geometry::Bvh,
     teapot: &CurvedReflector,
     face: u32,
 ) -> CubeMap {
-    envmap::capture_cube(
-        &data.scene,
-        bvh,
-        teapot.centre,
-        &envmap::CaptureSettings {
-            face_size: face as usize,
-            supersample: 1,
-            mirror_bounces: 0,
-        },
-        &teapot.triangles,
-        &|hit: &glint::geometry::Hit| Vec3::splat(hit.t),
-        &Silent,
-    )
-    .unwrap()
+    teapot_cube(data, bvh, teapot, face, 1, &|hit| Vec3::splat(hit.t))
 }
 
 #[test]
