@@ -17,9 +17,9 @@ use glint::brdf::pattern::{
 };
 use glint::brdf::{Frame, KurtBrdf, Lobe, reflect};
 use glint::materials::envmap::{
-    CaptureSettings, CubeMap, MAX_MIRROR_BOUNCES, MipFilter, MipPyramid, capture_cube,
-    face_direction, hammersley, locate, specular_importance, specular_reference, specular_regular,
-    texel_direction, texel_solid_angle,
+    CaptureSettings, CubeMap, ENV_GLOSSY_SAMPLES, MAX_MIRROR_BOUNCES, MipFilter, MipPyramid,
+    capture_cube, face_direction, hammersley, locate, specular_importance, specular_reference,
+    specular_regular, texel_direction, texel_solid_angle,
 };
 use glint::materials::kernel::{KernelSettings, kernel_for};
 use glint::materials::pattern_format::{PatternFormatError, decode_pattern, encode_pattern};
@@ -629,6 +629,7 @@ fn capture_sees_the_surroundings_through_its_own_object() {
         face_size: 8,
         supersample: 2,
         mirror_bounces: 0,
+        glossy_samples: 0,
     };
     let ball = &scene.reflectors[0];
     let cube = capture_cube(
@@ -759,6 +760,79 @@ fn pattern_tables_round_trip_and_refuse_newer_versions() {
 }
 
 #[test]
+fn capture_adds_what_a_glossy_surface_reflects() {
+    // The room of `capture_sees_the_room_in_a_planar_mirror`, every wall's D 1 and the
+    // panel's 0, the panel satin (GGX, roughness 0.2: glossy, not a mirror) and no reflector.
+    // With lobe samples, the +x face sees the panel's reflection of a uniform room: its ks
+    // times the lobe's directional albedo (a white furnace); without, its D alone, 0.
+    let dir = tempfile::tempdir().unwrap();
+    write_gltf(
+        dir.path(),
+        "room",
+        &[
+            quad("WallXp", 0, 0, 2.0, 2.0),
+            flip(quad("WallXn", 1, 0, -2.0, 2.0)),
+            flip(quad("WallYp", 2, 1, 2.0, 2.0)),
+            quad("WallYn", 3, 1, -2.0, 2.0),
+            flip(quad("WallZp", 4, 2, 2.0, 2.0)),
+            quad("WallZn", 5, 2, -2.0, 2.0),
+            flip(quad("Panel", 6, 0, 1.9, 1.9)),
+        ],
+        &wall_materials_and("Satin", 0.9, 0.2),
+    );
+    let json = r#"{ "version": 1, "geometry": "room.gltf" }"#;
+    let scene = Scene::load(write_scene(dir.path(), json)).unwrap();
+    let bvh = scene.build_bvh();
+    let satin = scene
+        .materials
+        .iter()
+        .position(|m| m.name == "Satin")
+        .unwrap();
+    assert!(!glint::radiosity::is_mirror(&scene.materials[satin]));
+    let shade = |hit: &glint::geometry::Hit| {
+        let m = scene.triangles[hit.triangle as usize].material as usize;
+        Vec3::splat(if m == satin { 0.0 } else { 1.0 })
+    };
+    let capture = |glossy_samples: u32| {
+        let settings = CaptureSettings {
+            face_size: 8,
+            supersample: 2,
+            mirror_bounces: MAX_MIRROR_BOUNCES,
+            glossy_samples,
+        };
+        capture_cube(&scene, &bvh, Vec3::ZERO, &settings, &[], &shade, &Silent).unwrap()
+    };
+    let plain = capture(0);
+    let glossy = capture(ENV_GLOSSY_SAMPLES);
+    let lobes: Vec<Lobe> = scene.materials[satin]
+        .lobes
+        .iter()
+        .map(Lobe::from)
+        .collect();
+    // Directions within 14° of +x: the panel faces them within 14° of its normal.
+    for y in 3..5 {
+        for x in 3..5 {
+            let d = face_direction(
+                0,
+                (x as f32 + 0.5) / 4.0 - 1.0,
+                (y as f32 + 0.5) / 4.0 - 1.0,
+            )
+            .normalize();
+            let wo = Vec3::new(0.0, (1.0 - d.x * d.x).max(0.0).sqrt(), d.x);
+            let want: f32 = lobes.iter().map(|l| l.ks.x * l.albedo(wo, 64)).sum();
+            let got = glossy.texels[glossy.index(0, x, y)].x;
+            assert_eq!(plain.texels[plain.index(0, x, y)].x, 0.0);
+            assert!(
+                (got - want).abs() <= 0.03 * want,
+                "texel ({x}, {y}): {got}, want ks × albedo {want}"
+            );
+        }
+    }
+    // A wall (no lobes) is its D either way.
+    assert_eq!(glossy.texels[glossy.index(1, 4, 4)].x, 1.0);
+}
+
+#[test]
 fn capture_sees_the_room_in_a_planar_mirror() {
     // A 4 m box of six walls with distinct materials; a mirror panel 10 cm in front of the
     // +x wall, facing the centre, declared a planar reflector. The +x face of a cube map
@@ -805,6 +879,7 @@ fn capture_sees_the_room_in_a_planar_mirror() {
         face_size: 8,
         supersample: 2,
         mirror_bounces: MAX_MIRROR_BOUNCES,
+        glossy_samples: 0,
     };
     let capture = |scene: &Scene| {
         capture_cube(scene, &bvh, Vec3::ZERO, &settings, &[], &shade, &Silent).unwrap()

@@ -795,6 +795,7 @@ fn teapot_cube(
         face_size: face as usize,
         supersample,
         mirror_bounces: 0,
+        glossy_samples: 0,
     };
     envmap::capture_cube(
         &data.scene,

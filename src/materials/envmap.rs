@@ -360,7 +360,15 @@ pub struct CaptureSettings {
     /// its own D, as the viewer's live cube maps draw it; the materials stage bakes with
     /// [`MAX_MIRROR_BOUNCES`]).
     pub mirror_bounces: u32,
+    /// Lobe samples per ray at a glossy surface that is not followed as a mirror: what it
+    /// reflects of D towards the capture point is added to its D (0: D alone, as the
+    /// viewer's live cube maps draw it; the materials stage bakes with
+    /// [`ENV_GLOSSY_SAMPLES`]).
+    pub glossy_samples: u32,
 }
+
+/// Lobe samples per capture ray at glossy surfaces in the materials stage's environment maps.
+pub const ENV_GLOSSY_SAMPLES: u32 = 16;
 
 /// Surfaces crossed from inside before giving up on a ray (a closed object around the
 /// capture point is seen through; this bounds the number of its layers).
@@ -389,13 +397,43 @@ fn mirror_lobes(scene: &Scene) -> Vec<Option<std::sync::Arc<[Lobe]>>> {
     of
 }
 
+/// Per triangle, the lobes of its material when it has any (glossy), else `None`.
+fn glossy_lobes(scene: &Scene) -> Vec<Option<std::sync::Arc<[Lobe]>>> {
+    let of_material: Vec<Option<std::sync::Arc<[Lobe]>>> = scene
+        .materials
+        .iter()
+        .map(|m| (!m.lobes.is_empty()).then(|| m.lobes.iter().map(Lobe::from).collect()))
+        .collect();
+    scene
+        .triangles
+        .iter()
+        .map(|t| of_material.get(t.material as usize).cloned().flatten())
+        .collect()
+}
+
+/// The `j`-th of `n` lobe samples of capture ray `seed`: Hammersley points shifted by the
+/// ray's own R2 offset (Roberts 2018; a Cranley–Patterson rotation), so that neighbouring
+/// texels do not share one pattern's error, and nothing depends on threads.
+fn lobe_sample_point(j: u32, n: u32, seed: u64) -> Vec2 {
+    let s = seed as f64 + 0.5;
+    let offset = Vec2::new(
+        (s * 0.754_877_666_246_692_7).fract() as f32,
+        (s * 0.569_840_290_998_053_3).fract() as f32,
+    );
+    let u = hammersley(j, n) + offset;
+    Vec2::new(u.x.fract(), u.y.fract()).min(Vec2::splat(1.0 - f32::EPSILON))
+}
+
 /// Captures the scene around `centre` into a cube map by ray casting. Rays pass through the
 /// triangles listed in `see_through` (the object whose environment this is: its centroid is
 /// usually inside it); the first other surface hit is shaded by `shade`; misses are black.
 /// A ray that meets the front of a near-mirror planar reflector adds what `shade` gives
 /// there and goes on in the mirror direction, weighted by the mirror's reflectance
 /// (Σ k_s × [`Lobe::mirror_reflectance`]), for up to `settings.mirror_bounces` reflections:
-/// a mirror's D is (nearly) nothing, and what it shows is the room.
+/// a mirror's D is (nearly) nothing, and what it shows is the room. At any other surface
+/// with glossy lobes it adds, besides D, what the lobes reflect of the room's D towards the
+/// ray (`settings.glossy_samples` samples of each lobe, Σ k_s · f cos θ_i / p; one bounce:
+/// the sampled rays see `shade` alone): a glossy table shows the lamp's highlight.
 /// Rows are independent work items, so the result does not depend on the thread count.
 /// Advances `progress` by one per face row.
 pub fn capture_cube(
@@ -428,7 +466,52 @@ pub fn capture_cube(
         })
         .collect();
     let mirrors = mirror_lobes(scene);
-    let trace = |dir: Vec3| -> Vec3 {
+    let glossy = if settings.glossy_samples > 0 {
+        glossy_lobes(scene)
+    } else {
+        Vec::new()
+    };
+    // The first hit along a ray that is not on `see_through`, and the distance travelled to
+    // the origin its `t` counts from.
+    let first_hit = |mut origin: Vec3, dir: Vec3| -> Option<(Hit, f32)> {
+        let mut travelled = 0.0f32;
+        for _ in 0..MAX_SKIPS {
+            let hit = bvh.closest_hit(origin, dir, f32::MAX)?;
+            if !skip.get(hit.triangle as usize).copied().unwrap_or(false) {
+                return Some((hit, travelled));
+            }
+            let next = bvh.offset_origin(origin + dir * hit.t, dir);
+            travelled += (next - origin).length();
+            origin = next;
+        }
+        None
+    };
+    // What the lobes of a glossy surface at `p` (face normal `n`, either side) reflect of
+    // `shade` towards −`dir`.
+    let glossy_term = |lobes: &[Lobe], p: Vec3, n: Vec3, dir: Vec3, seed: u64| -> Vec3 {
+        let frame = Frame::from_normal(if n.dot(dir) < 0.0 { n } else { -n });
+        let wo = frame.to_local(-dir);
+        let count = settings.glossy_samples;
+        let mut sum = Vec3::ZERO;
+        for lobe in lobes {
+            let mut lobe_sum = Vec3::ZERO;
+            for j in 0..count {
+                let Some(wi) = lobe.sample(wo, lobe_sample_point(j, count, seed)) else {
+                    continue;
+                };
+                let w = frame.to_world(wi);
+                if let Some((hit, travelled)) = first_hit(bvh.offset_origin(p, w), w) {
+                    lobe_sum += shade(&Hit {
+                        t: travelled + hit.t,
+                        ..hit
+                    }) * lobe.sample_weight(wo, wi);
+                }
+            }
+            sum += lobe.ks * lobe_sum / count as f32;
+        }
+        sum
+    };
+    let trace = |dir: Vec3, seed: u64| -> Vec3 {
         let (mut origin, mut dir) = (centre, dir);
         let mut travelled = 0.0f32;
         let (mut sum, mut weight, mut bounces) = (Vec3::ZERO, Vec3::ONE, 0);
@@ -450,19 +533,24 @@ pub fn capture_cube(
                     let tri = &scene.triangles[hit.triangle as usize];
                     let n = tri.face_normal();
                     let c = -dir.dot(n);
+                    let p = origin + dir * hit.t;
                     match &mirrors[hit.triangle as usize] {
                         Some(lobes) if bounces < settings.mirror_bounces && c > 0.0 => {
                             weight *= lobes
                                 .iter()
                                 .fold(Vec3::ZERO, |acc, l| acc + l.ks * l.mirror_reflectance(c));
-                            let p = origin + dir * hit.t;
                             dir = reflect(-dir, n);
                             let next = bvh.offset_origin(p, dir);
                             travelled += (next - origin).length();
                             origin = next;
                             bounces += 1;
                         }
-                        _ => return sum,
+                        _ => {
+                            if let Some(Some(lobes)) = glossy.get(hit.triangle as usize) {
+                                sum += weight * glossy_term(lobes, p, n, dir, seed);
+                            }
+                            return sum;
+                        }
                     }
                 }
             }
@@ -479,10 +567,12 @@ pub fn capture_cube(
             let out = (0..size)
                 .map(|x| {
                     let mut sum = Vec3::ZERO;
-                    for &o in &offsets {
+                    let texel = ((face * size + y) * size + x) as u64;
+                    for (i, &o) in offsets.iter().enumerate() {
                         let s = 2.0 * (x as f32 + o.x) / size as f32 - 1.0;
                         let t = 2.0 * (y as f32 + o.y) / size as f32 - 1.0;
-                        sum += trace(face_direction(face, s, t).normalize());
+                        let seed = texel * offsets.len() as u64 + i as u64;
+                        sum += trace(face_direction(face, s, t).normalize(), seed);
                     }
                     sum / offsets.len() as f32
                 })

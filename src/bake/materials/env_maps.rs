@@ -69,6 +69,7 @@ pub fn write_env_maps(
         face_size: settings.env_map_size as usize,
         supersample: settings.env_supersample,
         mirror_bounces: crate::materials::envmap::MAX_MIRROR_BOUNCES,
+        glossy_samples: crate::materials::envmap::ENV_GLOSSY_SAMPLES,
     };
     let env_folders =
         crate::bundle::unique_folders(curved.iter().map(|&r| scene.reflectors[r].name.as_str()));

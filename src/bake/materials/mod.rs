@@ -153,9 +153,11 @@ pub fn recorded_settings(
 }
 
 /// How environment maps are captured, recorded in the stage's settings so that bundles
-/// captured otherwise re-bake: 2, rays go on through near-mirror planar reflectors
-/// ([`crate::materials::envmap::capture_cube`]; 1, absent: they stopped there, black).
-pub const ENV_CAPTURE: u32 = 2;
+/// captured otherwise re-bake: 3, glossy surfaces add what their lobes reflect of D
+/// ([`crate::materials::envmap::ENV_GLOSSY_SAMPLES`] samples a ray); 2, rays go on through
+/// near-mirror planar reflectors ([`crate::materials::envmap::capture_cube`]); 1, absent:
+/// they stopped there, black.
+pub const ENV_CAPTURE: u32 = 3;
 
 /// Bakes the materials stage of `scene` into the bundle at `bundle_dir`, shading environment
 /// maps with D from the bundle ([`shade_with_d`]).
