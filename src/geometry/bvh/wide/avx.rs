@@ -7,6 +7,7 @@ use std::arch::x86_64::*;
 use super::WideRay;
 use super::node::{Node, ROBUST_FAR, WIDTH};
 use super::pack::{Hits, Pack};
+use super::packet::Frustum;
 
 /// A ray's origin, direction and inverse direction broadcast to eight lanes.
 #[derive(Clone, Copy)]
@@ -56,6 +57,72 @@ pub(super) unsafe fn enter(node: &Node, r: &WideRay, r8: &Ray8, t_max: f32) -> (
         let t_out = _mm256_min_ps(
             _mm256_mul_ps(
                 _mm256_min_ps(_mm256_min_ps(tx1, ty1), tz1),
+                _mm256_set1_ps(ROBUST_FAR),
+            ),
+            _mm256_set1_ps(t_max),
+        );
+        let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t_in, t_out)) as u32;
+        let mut out = [0.0; WIDTH];
+        _mm256_storeu_ps(out.as_mut_ptr(), t_in);
+        (mask, out)
+    }
+}
+
+/// A packet's [`Frustum`] broadcast to eight lanes.
+#[derive(Clone, Copy)]
+pub(super) struct Frustum8 {
+    near_o: [__m256; 3],
+    far_o: [__m256; 3],
+    inv_lo: [__m256; 3],
+    inv_hi: [__m256; 3],
+}
+
+impl Frustum8 {
+    #[target_feature(enable = "avx")]
+    pub fn new(f: &Frustum) -> Frustum8 {
+        let splat = |v: [f32; 3]| v.map(|x| _mm256_set1_ps(x));
+        Frustum8 {
+            near_o: splat(f.near_o),
+            far_o: splat(f.far_o),
+            inv_lo: splat(f.inv_lo),
+            inv_hi: splat(f.inv_hi),
+        }
+    }
+}
+
+/// [`Frustum::enter`] with AVX.
+///
+/// # Safety
+///
+/// As for [`enter`].
+#[inline(always)]
+pub(super) unsafe fn enter_frustum(
+    node: &Node,
+    f: &Frustum,
+    f8: &Frustum8,
+    t_max: f32,
+) -> (u32, [f32; WIDTH]) {
+    // SAFETY: as in `enter`.
+    unsafe {
+        let (sub, mul) = (_mm256_sub_ps, _mm256_mul_ps);
+        let near = |a: usize| {
+            let x = sub(
+                _mm256_loadu_ps(node.bounds[f.near[a]].as_ptr()),
+                f8.near_o[a],
+            );
+            _mm256_min_ps(mul(x, f8.inv_lo[a]), mul(x, f8.inv_hi[a]))
+        };
+        let far = |a: usize| {
+            let x = sub(_mm256_loadu_ps(node.bounds[f.far[a]].as_ptr()), f8.far_o[a]);
+            _mm256_max_ps(mul(x, f8.inv_lo[a]), mul(x, f8.inv_hi[a]))
+        };
+        let t_in = _mm256_max_ps(
+            _mm256_max_ps(_mm256_max_ps(near(0), near(1)), near(2)),
+            _mm256_setzero_ps(),
+        );
+        let t_out = _mm256_min_ps(
+            _mm256_mul_ps(
+                _mm256_min_ps(_mm256_min_ps(far(0), far(1)), far(2)),
                 _mm256_set1_ps(ROBUST_FAR),
             ),
             _mm256_set1_ps(t_max),
