@@ -407,9 +407,6 @@ impl WideBvh {
     ) -> [Option<LeafHit>; PACKET] {
         let all = |_: usize, _: f32, _: f32| true;
         let Some(f) = Frustum::new(rays) else {
-            if std::env::var_os("PACKET_DEBUG").is_some() {
-                eprintln!("packet fallback");
-            }
             return rays.each_ref().map(|r| self.closest(r, t_max, all));
         };
         let (mut hits, redo) = 'run: {
@@ -426,9 +423,6 @@ impl WideBvh {
                 |p, i, t| pack::intersect_pair(p, &rays[i], t),
             )
         };
-        if std::env::var_os("PACKET_DEBUG").is_some() {
-            eprintln!("packet redo {redo:08b}");
-        }
         let mut m = redo;
         while m != 0 {
             let i = m.trailing_zeros() as usize;
