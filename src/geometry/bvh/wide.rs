@@ -29,8 +29,8 @@ use obvhs::{
     triangle::Triangle as BvhTriangle,
 };
 use pack::{DEGENERATE, Hits, Pack};
-use packet::Frustum;
 pub(super) use packet::PACKET;
+use packet::{Frustum, Rays};
 use smallvec::SmallVec;
 use std::time::Duration;
 
@@ -409,17 +409,18 @@ impl WideBvh {
         let Some(f) = Frustum::new(rays) else {
             return rays.each_ref().map(|r| self.closest(r, t_max, all));
         };
+        let soa = Rays::new(rays);
         let (mut hits, redo) = 'run: {
             #[cfg(target_arch = "x86_64")]
             if self.avx {
                 // SAFETY: `avx` is set only where the CPU has AVX.
-                break 'run unsafe { self.packet_avx(rays, &f, t_max) };
+                break 'run unsafe { self.packet_avx(rays, &f, &soa, t_max) };
             }
             self.traverse_packet(
                 rays,
                 t_max,
                 |n, t| f.enter(n, t),
-                |n, i, t| n.enter(&rays[i], t).0,
+                |n, lane, t| soa.enter(&f, n, lane, t),
                 |p, i, t| pack::intersect_pair(p, &rays[i], t),
             )
         };
@@ -439,16 +440,18 @@ impl WideBvh {
         &self,
         rays: &[WideRay; PACKET],
         f: &Frustum,
+        soa: &Rays,
         t_max: f32,
     ) -> ([Option<LeafHit>; PACKET], u32) {
         let f8 = avx::Frustum8::new(f);
         let r8 = rays.each_ref().map(|r| avx::Ray8::new(r));
+        let soa8 = avx::Rays8::new(soa);
         // SAFETY (all): this function runs only on CPUs with AVX.
         self.traverse_packet(
             rays,
             t_max,
             |n, t| unsafe { avx::enter_frustum(n, f, &f8, t) },
-            |n, i, t| unsafe { avx::enter(n, &rays[i], &r8[i], t) }.0,
+            |n, lane, t| unsafe { avx::enter_rays(n, lane, f, &soa8, t) },
             |p, i, t| unsafe { avx::intersect_pair(p, &r8[i], t) },
         )
     }
@@ -466,7 +469,7 @@ impl WideBvh {
         rays: &[WideRay; PACKET],
         t_max0: f32,
         frustum: impl Fn(&Node, f32) -> (u32, [f32; WIDTH]),
-        enter: impl Fn(&Node, usize, f32) -> u32,
+        enter_rays: impl Fn(&Node, usize, &[f32; PACKET]) -> u32,
         pair: impl Fn(&[Pack; 2], usize, f32) -> Hits,
     ) -> ([Option<LeafHit>; PACKET], u32) {
         const ALL: u32 = (1 << PACKET) - 1;
@@ -508,29 +511,15 @@ impl WideBvh {
                     m &= m - 1;
                     leaves |= ((node.count[lane] > 0) as u32) << lane;
                 }
-                if leaves != 0 {
-                    rays_of = [0; WIDTH];
-                    for (i, &lim) in t_lim.iter().enumerate() {
-                        let mut m = enter(node, i, lim) & leaves;
-                        while m != 0 {
-                            let lane = m.trailing_zeros() as usize;
-                            m &= m - 1;
-                            rays_of[lane] |= 1 << i;
-                        }
-                    }
-                    let mut m = leaves;
-                    while m != 0 {
-                        let lane = m.trailing_zeros() as usize;
-                        m &= m - 1;
-                        if rays_of[lane] == 0 {
-                            mask &= !(1 << lane);
-                        }
-                    }
-                    let mut m = mask & !leaves;
-                    while m != 0 {
-                        let lane = m.trailing_zeros() as usize;
-                        m &= m - 1;
-                        rays_of[lane] = ALL;
+                // Each leaf only for the rays that enter its box.
+                let mut m = leaves;
+                while m != 0 {
+                    let lane = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    let r = enter_rays(node, lane, &t_lim);
+                    rays_of[lane] = r;
+                    if r == 0 {
+                        mask &= !(1 << lane);
                     }
                 }
                 if mask != 0 {
@@ -606,20 +595,20 @@ impl WideBvh {
                 mask &= mask - 1;
                 let slot = p * 4 + lane;
                 let t = hits.t[lane];
-                let original = self.original[slot];
-                if let Some(b) = best {
-                    // Within NEAR_TIE of the nearest so far, on another triangle (the same
-                    // triangle in another leaf, pre-split, gives the same bits).
-                    if b.original != original && t >= b.t * NEAR_TIE_DOWN && t <= b.t * NEAR_TIE_UP
-                    {
-                        tied = true;
-                    }
+                // Within NEAR_TIE of the nearest so far, on another triangle (the same triangle
+                // in another leaf, pre-split, gives the same bits).
+                if let Some(b) = best
+                    && t >= b.t * NEAR_TIE_DOWN
+                    && t <= b.t * NEAR_TIE_UP
+                    && self.original[slot] != b.original
+                {
+                    tied = true;
                 }
                 if t < *t_max {
                     *t_max = t;
                     *best = Some(LeafHit {
                         slot,
-                        original,
+                        original: self.original[slot],
                         t,
                         u: hits.u[lane],
                         v: hits.v[lane],

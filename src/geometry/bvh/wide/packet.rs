@@ -106,3 +106,41 @@ impl Frustum {
         (m0 | m1 << 4, t)
     }
 }
+
+/// A packet's origins and inverse directions by axis, a lane per ray.
+pub(super) struct Rays {
+    pub o: [[f32; PACKET]; 3],
+    pub inv: [[f32; PACKET]; 3],
+}
+
+impl Rays {
+    pub fn new(rays: &[WideRay; PACKET]) -> Rays {
+        Rays {
+            o: std::array::from_fn(|a| rays.each_ref().map(|r| r.o4[a].x)),
+            inv: std::array::from_fn(|a| rays.each_ref().map(|r| r.inv4[a].x)),
+        }
+    }
+
+    /// Which of the rays enter the child box in `lane` before their `t_max`: [`Node::enter`]
+    /// for each ray (the same operations, so the same bits), the rays in lanes; two 4-lane
+    /// halves.
+    #[inline(always)]
+    pub fn enter(&self, f: &Frustum, node: &Node, lane: usize, t_max: &[f32; PACKET]) -> u32 {
+        let half = |h: usize| {
+            let o = |a: usize| Vec4::from_slice(&self.o[a][4 * h..4 * h + 4]);
+            let inv = |a: usize| Vec4::from_slice(&self.inv[a][4 * h..4 * h + 4]);
+            let t = |row: usize, a: usize| (Vec4::splat(node.bounds[row][lane]) - o(a)) * inv(a);
+            let tx0 = t(f.near[0], 0);
+            let ty0 = t(f.near[1], 1);
+            let tz0 = t(f.near[2], 2);
+            let tx1 = t(f.far[0], 0);
+            let ty1 = t(f.far[1], 1);
+            let tz1 = t(f.far[2], 2);
+            let t_in = tx0.max(ty0).max(tz0).max(Vec4::ZERO);
+            let t_lim = Vec4::from_slice(&t_max[4 * h..4 * h + 4]);
+            let t_out = (tx1.min(ty1).min(tz1) * ROBUST_FAR).min(t_lim);
+            t_in.cmple(t_out).bitmask()
+        };
+        half(0) | half(1) << 4
+    }
+}
