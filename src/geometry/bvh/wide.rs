@@ -5,7 +5,8 @@
 //! hit child first; occlusion queries take them in lane order, unsorted (any hit will do, as
 //! in Embree's any-hit traversal: diffuse occlusion rays measured 0.72× Embree sorted, 1.00×
 //! unsorted). A leaf's triangles are tested together ([`pack`]): four with `Vec4`, five to eight
-//! in one AVX test.
+//! in one AVX test. Coherent rays can also be traced eight at a time ([`packet`]), with the
+//! same hits.
 //!
 //! Built by collapsing obvhs' BVH2 (PLOC build with reinsertion, leaves collapsed by SAH):
 //! each node takes up to eight descendants, opening the inner child of largest surface area
@@ -410,12 +411,7 @@ impl WideBvh {
             return rays.each_ref().map(|r| self.closest(r, t_max, all));
         };
         let soa = Rays::new(rays);
-        let (mut hits, redo) = 'run: {
-            #[cfg(target_arch = "x86_64")]
-            if self.avx {
-                // SAFETY: `avx` is set only where the CPU has AVX.
-                break 'run unsafe { self.packet_avx(rays, &f, &soa, t_max) };
-            }
+        let portable = || {
             self.traverse_packet(
                 rays,
                 t_max,
@@ -424,6 +420,15 @@ impl WideBvh {
                 |p, i, t| pack::intersect_pair(p, &rays[i], t),
             )
         };
+        #[cfg(target_arch = "x86_64")]
+        let (mut hits, redo) = if self.avx {
+            // SAFETY: `avx` is set only where the CPU has AVX.
+            unsafe { self.packet_avx(rays, &f, &soa, t_max) }
+        } else {
+            portable()
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let (mut hits, redo) = portable();
         let mut m = redo;
         while m != 0 {
             let i = m.trailing_zeros() as usize;
@@ -457,9 +462,9 @@ impl WideBvh {
     }
 
     /// Packet traversal, nearest child first by the packet's entry bound: `frustum` tests a
-    /// node's children for the packet, `enter` for ray i (done where a node has leaf children
-    /// the packet enters: each ray tests only the leaves it enters alone), `pair` a pair of
-    /// packs for ray i. Returns the hits and, as a bit per ray, the rays whose nearest hit may
+    /// node's children for the packet, `enter_rays` which rays enter the child box in a lane
+    /// (done for the leaf children the packet enters: each ray tests only the leaves whose box
+    /// it enters alone, with the single-ray test's bits), `pair` a pair of packs for ray i. Returns the hits and, as a bit per ray, the rays whose nearest hit may
     /// depend on the order leaves were visited in: another triangle hit within [`NEAR_TIE`]
     /// (relative) of the nearest. Boxes are entered up to that much beyond a ray's nearest hit,
     /// so a triangle that a box's rounding puts slightly before the box is still seen.

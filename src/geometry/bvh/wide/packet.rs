@@ -10,9 +10,11 @@
 //! every leaf box it would reach alone (up to the order, which only its current nearest hit
 //! prunes), and its leaf tests are the single-ray tests: same bits.
 //!
-//! The order does matter where a ray hits two triangles in different leaves at exactly the
-//! same distance: alone it keeps the first it visits. Those rays are flagged and traced again
-//! alone, so the hits are those of single-ray traversal.
+//! The order does matter where a ray hits two triangles at the same distance: alone it keeps
+//! the first it visits. A ray that meets another triangle within a small relative distance of
+//! its nearest hit (boxes are entered that far beyond it, so rounding that puts a triangle's
+//! hit just before its box's entry is covered) is traced again alone, so the hits are those of
+//! single-ray traversal. Measured: 0.4% of the bench's camera rays (benches/embree/README.md).
 
 use glam::Vec4;
 
