@@ -7,7 +7,9 @@
 //! `target/bvh-rays/embree_rays` exists (`benches/embree/build.sh`), it is started on those
 //! files and each of its passes is interleaved with one of glint's; the table then shows
 //! Embree's rate, the ratio and whether both found the same hits. Figures are medians of
-//! `RUNS` passes.
+//! `RUNS` passes. Camera closest hits are also traced in packets of eight consecutive rays
+//! (`Bvh::closest_hits`), against Embree's single rays and its `rtcIntersect8` on the same
+//! packets, and checked bit for bit against glint's single rays.
 //!
 //! `-- --options` adds rows for the other layouts tried, each on the same rays in the same
 //! run: obvhs' CWBVH as glint used it before (medium build, and the slow build with
@@ -148,6 +150,17 @@ fn pass(rays: &RaySet, hit: &(dyn Fn(Vec3, Vec3) -> bool + Sync), parallel: bool
     } else {
         (0..rays.dirs.len()).filter(|&i| hit(i)).count()
     };
+    (start.elapsed().as_secs_f64(), std::hint::black_box(hits))
+}
+
+/// One pass of glint's packet traversal over `rays` ([`Bvh::closest_hits`]: packets of eight
+/// consecutive rays, the set's order kept), on one thread (seconds, hits).
+fn packet_pass(bvh: &Bvh, rays: &RaySet) -> (f64, usize) {
+    let start = Instant::now();
+    let mut hits = 0;
+    bvh.closest_hits(&rays.origins, &rays.dirs, f32::INFINITY, |_, h| {
+        hits += h.is_some() as usize
+    });
     (start.elapsed().as_secs_f64(), std::hint::black_box(hits))
 }
 
@@ -354,9 +367,10 @@ impl Embree {
         })
     }
 
-    /// One pass of Embree over the set (seconds, hits).
-    fn pass(&mut self, set: &str, query: Query) -> (f64, usize) {
-        writeln!(self.stdin, "{set} {}", query.name()).expect("embree_rays: stdin closed");
+    /// One pass of Embree over the set (seconds, hits): `query` is `closest`, `occluded` or
+    /// `closest8` (`rtcIntersect8` on packets of eight consecutive rays).
+    fn pass(&mut self, set: &str, query: &str) -> (f64, usize) {
+        writeln!(self.stdin, "{set} {query}").expect("embree_rays: stdin closed");
         let mut line = String::new();
         self.stdout
             .read_line(&mut line)
@@ -546,14 +560,95 @@ fn main() {
             // Interleaved: one pass of each per run, so all see the same machine load.
             let mut ours = vec![Vec::new(); engines.len()];
             let mut theirs = Vec::new();
+            // Camera closest hits: also glint's packets and Embree's (rtcIntersect8), the
+            // ratios taken pass by pass against Embree's single rays and packets.
+            let packets = set.name == "camera" && query == Query::Closest;
+            let (mut packet_rates, mut vs_single, mut vs_packets) =
+                (Vec::new(), Vec::new(), Vec::new());
+            let mut theirs8 = Vec::new();
             for _ in 0..RUNS {
                 for (e, rates) in engines.iter().zip(&mut ours) {
                     rates.push(n / pass(set, e.query(query), false).0 / 1e6);
                 }
+                if packets {
+                    packet_rates.push(n / packet_pass(&bvh, set).0 / 1e6);
+                }
                 if let Some(e) = embree.as_mut() {
-                    theirs.push(n / e.pass(set.name, query).0 / 1e6);
+                    theirs.push(n / e.pass(set.name, query.name()).0 / 1e6);
+                    if packets {
+                        theirs8.push(n / e.pass(set.name, "closest8").0 / 1e6);
+                        let k = theirs.len() - 1;
+                        vs_single.push(packet_rates[k] / theirs[k]);
+                        vs_packets.push(packet_rates[k] / theirs8[k]);
+                    }
                 }
             }
+            let packet_rows = packets.then(|| {
+                // The packets' hits against single rays': the same triangle and distance bits.
+                let mut single = Vec::with_capacity(set.dirs.len());
+                for i in 0..set.dirs.len() {
+                    single.push(bvh.closest_hit(set.origins[i], set.dirs[i], f32::INFINITY));
+                }
+                let mut differ = 0;
+                bvh.closest_hits(&set.origins, &set.dirs, f32::INFINITY, |i, h| {
+                    let bits = |h: Option<glint::geometry::Hit>| {
+                        h.map(|h| {
+                            (
+                                h.triangle,
+                                h.t.to_bits(),
+                                h.bary.to_array().map(f32::to_bits),
+                            )
+                        })
+                    };
+                    differ += (bits(h) != bits(single[i])) as usize;
+                });
+                let rate = median(packet_rates.clone());
+                let name = |against: &str| format!("glint, packets of 8 (÷ Embree {against})");
+                let embree_col = |r: &[f64]| (!r.is_empty()).then(|| median(r.to_vec()));
+                let (e1, e8) = (embree_col(&theirs), embree_col(&theirs8));
+                let r1 = (!vs_single.is_empty()).then(|| median(vs_single.clone()));
+                let r8 = (!vs_packets.is_empty()).then(|| median(vs_packets.clone()));
+                let agree8 = embree.as_ref().and_then(|_| {
+                    agreement(
+                        &mine,
+                        &dir.join(format!("embree-{}-closest8.f32", set.name)),
+                    )
+                });
+                let fmt = |x: Option<f64>| x.map_or("-".into(), |x| format!("{x:.2}"));
+                [
+                    [
+                        format!("{} ({})", set.name, set.dirs.len()),
+                        query.name().to_string(),
+                        name("1 ray"),
+                        format!("{rate:.2}"),
+                        fmt(e1),
+                        fmt(r1),
+                        "-".into(),
+                        "-".into(),
+                        format!(
+                            "{differ} of {} differ from glint's single rays",
+                            set.dirs.len()
+                        ),
+                    ],
+                    [
+                        format!("{} ({})", set.name, set.dirs.len()),
+                        query.name().to_string(),
+                        name("rtcIntersect8"),
+                        format!("{rate:.2}"),
+                        fmt(e8),
+                        fmt(r8),
+                        "-".into(),
+                        "-".into(),
+                        match agree8 {
+                            Some(a) => format!(
+                                "{} of {} (hits {} vs {})",
+                                a.differ, a.rays, a.glint_hits, a.embree_hits
+                            ),
+                            None => "-".into(),
+                        },
+                    ],
+                ]
+            });
             let theirs = (!theirs.is_empty()).then(|| median(theirs));
             let agree = embree
                 .as_ref()
@@ -589,6 +684,7 @@ fn main() {
                     },
                 ]);
             }
+            rows.extend(packet_rows.into_iter().flatten());
         }
     }
     print!(

@@ -4,7 +4,8 @@
  *
  * Protocol: `embree_rays DIR` loads DIR/triangles.f32 and DIR/{camera,diffuse}.rays, builds
  * the scene, prints `ready <build ms>`, then answers each stdin line `SET QUERY` (QUERY:
- * closest or occluded) with `<seconds> <hits>` after one pass over the set. The first pass of
+ * closest, occluded, or closest8: rtcIntersect8 on packets of eight consecutive rays, the
+ * set's order kept) with `<seconds> <hits>` after one pass over the set. The first pass of
  * each SET QUERY also writes DIR/embree-SET-QUERY.f32: per ray the hit distance (closest) or
  * 1/0 (occluded), +inf for a miss, followed by the hit triangle index as u32 (closest only).
  *
@@ -43,6 +44,17 @@ struct RTCRayHit {
   struct RTCRay ray;
   struct RTCHit hit;
 };
+/* Eight rays and hits, SoA (embree4/rtcore_ray.h's RTCRayHit8). */
+struct __attribute__((aligned(32))) RTCRayHit8 {
+  float org_x[8], org_y[8], org_z[8], tnear[8];
+  float dir_x[8], dir_y[8], dir_z[8], time[8];
+  float tfar[8];
+  unsigned mask[8], id[8], flags[8];
+  float Ng_x[8], Ng_y[8], Ng_z[8], u[8], v[8];
+  unsigned primID[8], geomID[8];
+  unsigned instID[1][8];
+  unsigned spare[4][8]; /* as in RTCHit */
+};
 
 RTCDevice rtcNewDevice(const char *config);
 int rtcGetDeviceError(RTCDevice device);
@@ -57,6 +69,7 @@ void rtcReleaseGeometry(RTCGeometry geometry);
 void rtcCommitScene(RTCScene scene);
 void rtcIntersect1(RTCScene scene, struct RTCRayHit *rayhit, void *args);
 void rtcOccluded1(RTCScene scene, struct RTCRay *ray, void *args);
+void rtcIntersect8(const int *valid, RTCScene scene, struct RTCRayHit8 *rayhit, void *args);
 
 static float *read_floats(const char *dir, const char *name, size_t *count) {
   char path[4096];
@@ -89,7 +102,7 @@ struct RaySet {
   const char *name;
   float *rays; /* ox oy oz dx dy dz per ray */
   size_t n;
-  int dumped[2];
+  int dumped[3];
 };
 
 int main(int argc, char **argv) {
@@ -104,7 +117,7 @@ int main(int argc, char **argv) {
   size_t nf;
   float *tris = read_floats(dir, "triangles.f32", &nf);
   size_t ntri = nf / 9;
-  struct RaySet sets[2] = {{"camera", 0, 0, {0, 0}}, {"diffuse", 0, 0, {0, 0}}};
+  struct RaySet sets[2] = {{"camera", 0, 0, {0, 0, 0}}, {"diffuse", 0, 0, {0, 0, 0}}};
   for (int s = 0; s < 2; s++) {
     char name[64];
     snprintf(name, sizeof name, "%s.rays", sets[s].name);
@@ -147,19 +160,48 @@ int main(int argc, char **argv) {
     struct RaySet *set = NULL;
     for (int s = 0; s < 2; s++)
       if (!strcmp(set_name, sets[s].name)) set = &sets[s];
-    int closest = !strcmp(query, "closest");
+    int closest8 = !strcmp(query, "closest8");
+    int closest = closest8 || !strcmp(query, "closest");
     if (!set || (!closest && strcmp(query, "occluded"))) {
       printf("error unknown set or query: %s", line);
       fflush(stdout);
       continue;
     }
-    int dump = !set->dumped[closest];
+    int kind = closest + closest8;
+    int dump = !set->dumped[kind];
     float *out_t = dump ? malloc(set->n * sizeof(float)) : NULL;
     unsigned *out_id = dump ? malloc(set->n * sizeof(unsigned)) : NULL;
     size_t hits = 0;
     const float *r = set->rays;
     double start = now();
-    if (closest) {
+    if (closest8) {
+      /* Whole packets of eight; the last few rays (if any) in a packet of fewer. */
+      static const int all[8] = {-1, -1, -1, -1, -1, -1, -1, -1};
+      for (size_t i = 0; i < set->n; i += 8, r += 48) {
+        struct RTCRayHit8 rh;
+        int valid[8];
+        size_t k = set->n - i < 8 ? set->n - i : 8;
+        for (size_t j = 0; j < 8; j++) {
+          const float *q = r + 6 * (j < k ? j : 0);
+          valid[j] = j < k ? -1 : 0;
+          rh.org_x[j] = q[0]; rh.org_y[j] = q[1]; rh.org_z[j] = q[2];
+          rh.dir_x[j] = q[3]; rh.dir_y[j] = q[4]; rh.dir_z[j] = q[5];
+          rh.tnear[j] = 0.0f; rh.tfar[j] = INFINITY; rh.time[j] = 0.0f;
+          rh.mask[j] = (unsigned)-1; rh.id[j] = 0; rh.flags[j] = 0;
+          rh.geomID[j] = RTC_INVALID_GEOMETRY_ID;
+          rh.instID[0][j] = RTC_INVALID_GEOMETRY_ID;
+        }
+        rtcIntersect8(k == 8 ? all : valid, scene, &rh, NULL);
+        for (size_t j = 0; j < k; j++) {
+          int hit = rh.geomID[j] != RTC_INVALID_GEOMETRY_ID;
+          hits += hit;
+          if (dump) {
+            out_t[i + j] = hit ? rh.tfar[j] : INFINITY;
+            out_id[i + j] = hit ? rh.primID[j] : (unsigned)-1;
+          }
+        }
+      }
+    } else if (closest) {
       for (size_t i = 0; i < set->n; i++, r += 6) {
         struct RTCRayHit rh;
         rh.ray.org_x = r[0]; rh.ray.org_y = r[1]; rh.ray.org_z = r[2];
@@ -201,7 +243,7 @@ int main(int argc, char **argv) {
       rename(tmp, path);
       free(out_t);
       free(out_id);
-      set->dumped[closest] = 1;
+      set->dumped[kind] = 1;
     }
     printf("%.6f %zu\n", secs, hits);
     fflush(stdout);

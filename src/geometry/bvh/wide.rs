@@ -5,7 +5,8 @@
 //! hit child first; occlusion queries take them in lane order, unsorted (any hit will do, as
 //! in Embree's any-hit traversal: diffuse occlusion rays measured 0.72× Embree sorted, 1.00×
 //! unsorted). A leaf's triangles are tested together ([`pack`]): four with `Vec4`, five to eight
-//! in one AVX test.
+//! in one AVX test. Coherent rays can also be traced eight at a time ([`packet`]), with the
+//! same hits.
 //!
 //! Built by collapsing obvhs' BVH2 (PLOC build with reinsertion, leaves collapsed by SAH):
 //! each node takes up to eight descendants, opening the inner child of largest surface area
@@ -20,6 +21,7 @@
 mod avx;
 mod node;
 mod pack;
+mod packet;
 
 use glam::{Vec3A, Vec4};
 use node::{Node, WIDTH};
@@ -28,6 +30,8 @@ use obvhs::{
     triangle::Triangle as BvhTriangle,
 };
 use pack::{DEGENERATE, Hits, Pack};
+pub(super) use packet::PACKET;
+use packet::{Frustum, Rays};
 use smallvec::SmallVec;
 use std::time::Duration;
 
@@ -38,6 +42,13 @@ const PREFETCH_LINES: usize = 4;
 /// Directions below this magnitude per axis count as this (keeps 1/d finite: no NaN from
 /// 0 · ∞ when an axis-parallel ray starts on a box plane).
 const MIN_DIR: f32 = 1e-30;
+
+/// Relative distance within which two triangles' hits count as a near tie in packet traversal
+/// (their order decides which one a ray keeps, see [`WideBvh::traverse_packet`]): far wider
+/// than the rounding of a box's entry distance or of a hit's.
+const NEAR_TIE: f32 = 1.0 / 4096.0;
+const NEAR_TIE_UP: f32 = 1.0 + NEAR_TIE;
+const NEAR_TIE_DOWN: f32 = 1.0 - NEAR_TIE;
 
 /// A triangle as its first vertex and two edges (the part of Möller–Trumbore 1997 that
 /// does not depend on the ray).
@@ -103,7 +114,7 @@ pub(super) struct LeafHit {
 }
 
 /// Whether this CPU has AVX.
-fn avx_detected() -> bool {
+pub(super) fn avx_detected() -> bool {
     #[cfg(target_arch = "x86_64")]
     return std::arch::is_x86_feature_detected!("avx");
     #[cfg(not(target_arch = "x86_64"))]
@@ -147,6 +158,12 @@ impl WideBvh {
         };
         out.root = out.emit(&bvh2, tris, 0);
         out
+    }
+
+    /// Switches the AVX tests off (or on, where the CPU has AVX), to test both.
+    #[cfg(test)]
+    pub fn set_avx(&mut self, on: bool) {
+        self.avx = on && avx_detected();
     }
 
     /// Appends BVH2 node `index` (a leaf's packs, or a wide node and its subtree) and returns
@@ -378,6 +395,234 @@ impl WideBvh {
                 }
             }
         }
+    }
+
+    /// Each ray's nearest hit in (0, t_max), as [`WideBvh::closest`] with every hit kept
+    /// finds it alone (the same triangle, distance and barycentrics to the bit), the rays
+    /// traversing the tree together ([`packet`]). For coherent rays: a packet whose rays go
+    /// different ways along an axis is traced one ray at a time.
+    pub fn closest_packet(
+        &self,
+        rays: &[WideRay; PACKET],
+        t_max: f32,
+    ) -> [Option<LeafHit>; PACKET] {
+        let all = |_: usize, _: f32, _: f32| true;
+        let Some(f) = Frustum::new(rays) else {
+            return rays.each_ref().map(|r| self.closest(r, t_max, all));
+        };
+        let soa = Rays::new(rays);
+        let portable = || {
+            self.traverse_packet(
+                rays,
+                t_max,
+                |n, t| f.enter(n, t),
+                |n, lane, t| soa.enter(&f, n, lane, t),
+                |p, i, t| pack::intersect_pair(p, &rays[i], t),
+            )
+        };
+        #[cfg(target_arch = "x86_64")]
+        let (mut hits, redo) = if self.avx {
+            // SAFETY: `avx` is set only where the CPU has AVX.
+            unsafe { self.packet_avx(rays, &f, &soa, t_max) }
+        } else {
+            portable()
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let (mut hits, redo) = portable();
+        let mut m = redo;
+        while m != 0 {
+            let i = m.trailing_zeros() as usize;
+            m &= m - 1;
+            hits[i] = self.closest(&rays[i], t_max, all);
+        }
+        hits
+    }
+
+    /// [`WideBvh::traverse_packet`] compiled for AVX, with AVX node and leaf tests.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    fn packet_avx(
+        &self,
+        rays: &[WideRay; PACKET],
+        f: &Frustum,
+        soa: &Rays,
+        t_max: f32,
+    ) -> ([Option<LeafHit>; PACKET], u32) {
+        let f8 = avx::Frustum8::new(f);
+        let r8 = rays.each_ref().map(|r| avx::Ray8::new(r));
+        let soa8 = avx::Rays8::new(soa);
+        // SAFETY (all): this function runs only on CPUs with AVX.
+        self.traverse_packet(
+            rays,
+            t_max,
+            |n, t| unsafe { avx::enter_frustum(n, f, &f8, t) },
+            |n, lane, t| unsafe { avx::enter_rays(n, lane, f, &soa8, t) },
+            |p, i, t| unsafe { avx::intersect_pair(p, &r8[i], t) },
+        )
+    }
+
+    /// Packet traversal, nearest child first by the packet's entry bound: `frustum` tests a
+    /// node's children for the packet, `enter_rays` which rays enter the child box in a lane
+    /// (done for the leaf children the packet enters: each ray tests only the leaves whose box
+    /// it enters alone, with the single-ray test's bits), `pair` a pair of packs for ray i. Returns the hits and, as a bit per ray, the rays whose nearest hit may
+    /// depend on the order leaves were visited in: another triangle hit within [`NEAR_TIE`]
+    /// (relative) of the nearest. Boxes are entered up to that much beyond a ray's nearest hit,
+    /// so a triangle that a box's rounding puts slightly before the box is still seen.
+    #[inline(always)]
+    fn traverse_packet(
+        &self,
+        rays: &[WideRay; PACKET],
+        t_max0: f32,
+        frustum: impl Fn(&Node, f32) -> (u32, [f32; WIDTH]),
+        enter_rays: impl Fn(&Node, usize, &[f32; PACKET]) -> u32,
+        pair: impl Fn(&[Pack; 2], usize, f32) -> Hits,
+    ) -> ([Option<LeafHit>; PACKET], u32) {
+        const ALL: u32 = (1 << PACKET) - 1;
+        let mut t_max = [t_max0; PACKET];
+        // The limit boxes are entered within: t_max widened by NEAR_TIE.
+        let mut t_lim = [t_max0; PACKET];
+        let mut best: [Option<LeafHit>; PACKET] = [None; PACKET];
+        let mut ties = 0u32;
+        let mut stack: SmallVec<[(u32, u32, f32, u32); 64]> = SmallVec::new();
+        let (mut child, mut count) = self.root;
+        let mut active = ALL;
+        loop {
+            if count > 0 {
+                let mut m = active;
+                while m != 0 {
+                    let i = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    let near_tie = self.leaf_hit_tied(
+                        child,
+                        count,
+                        &rays[i],
+                        &mut t_max[i],
+                        &mut best[i],
+                        &|p, t| pair(p, i, t),
+                    );
+                    ties |= (near_tie as u32) << i;
+                    t_lim[i] = t_max[i] * NEAR_TIE_UP;
+                }
+            } else {
+                let node = &self.nodes[child as usize];
+                let packet_lim = t_lim.iter().fold(0.0f32, |a, &b| a.max(b));
+                let (mut mask, t_in) = frustum(node, packet_lim);
+                self.prefetch(node, mask);
+                let mut rays_of = [ALL; WIDTH];
+                let mut leaves = 0u32;
+                let mut m = mask;
+                while m != 0 {
+                    let lane = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    leaves |= ((node.count[lane] > 0) as u32) << lane;
+                }
+                // Each leaf only for the rays that enter its box.
+                let mut m = leaves;
+                while m != 0 {
+                    let lane = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    let r = enter_rays(node, lane, &t_lim);
+                    rays_of[lane] = r;
+                    if r == 0 {
+                        mask &= !(1 << lane);
+                    }
+                }
+                if mask != 0 {
+                    // Nearest first: push the others far to near.
+                    let mut lanes = [(0.0f32, 0usize); WIDTH];
+                    let mut n = 0;
+                    let mut m = mask;
+                    while m != 0 {
+                        let lane = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        let t = t_in[lane];
+                        let mut i = n;
+                        while i > 0 && lanes[i - 1].0 > t {
+                            lanes[i] = lanes[i - 1];
+                            i -= 1;
+                        }
+                        lanes[i] = (t, lane);
+                        n += 1;
+                    }
+                    for &(t, lane) in lanes[1..n].iter().rev() {
+                        stack.push((node.child[lane], node.count[lane], t, rays_of[lane]));
+                    }
+                    let lane = lanes[0].1;
+                    (child, count, active) = (node.child[lane], node.count[lane], rays_of[lane]);
+                    continue;
+                }
+            }
+            loop {
+                let Some((c, k, t, rays_in)) = stack.pop() else {
+                    return (best, ties);
+                };
+                let mut live = 0;
+                let mut m = rays_in;
+                while m != 0 {
+                    let i = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    live |= ((t <= t_lim[i]) as u32) << i;
+                }
+                if live != 0 {
+                    (child, count, active) = (c, k, live);
+                    break;
+                }
+            }
+        }
+    }
+
+    /// [`WideBvh::leaf_hit`] for one ray of a packet (every hit kept), updating its nearest hit
+    /// `best` and `t_max`; whether another triangle's hit lay within [`NEAR_TIE`] of the
+    /// nearest hit so far (before or after this leaf lowered it).
+    #[inline(always)]
+    fn leaf_hit_tied(
+        &self,
+        first: u32,
+        count: u32,
+        r: &WideRay,
+        t_max: &mut f32,
+        best: &mut Option<LeafHit>,
+        pair: &impl Fn(&[Pack; 2], f32) -> Hits,
+    ) -> bool {
+        let (mut p, end) = (first as usize, (first + count) as usize);
+        let mut tied = false;
+        while p < end {
+            let is_pair = end - p >= 2;
+            let lim = *t_max * NEAR_TIE_UP;
+            let hits = if is_pair {
+                pair(self.packs[p..p + 2].try_into().unwrap(), lim)
+            } else {
+                self.packs[p].intersect(r, lim)
+            };
+            let mut mask = hits.mask;
+            while mask != 0 {
+                let lane = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let slot = p * 4 + lane;
+                let t = hits.t[lane];
+                // Within NEAR_TIE of the nearest so far, on another triangle (the same triangle
+                // in another leaf, pre-split, gives the same bits).
+                if let Some(b) = best
+                    && t >= b.t * NEAR_TIE_DOWN
+                    && t <= b.t * NEAR_TIE_UP
+                    && self.original[slot] != b.original
+                {
+                    tied = true;
+                }
+                if t < *t_max {
+                    *t_max = t;
+                    *best = Some(LeafHit {
+                        slot,
+                        original: self.original[slot],
+                        t,
+                        u: hits.u[lane],
+                        v: hits.v[lane],
+                    });
+                }
+            }
+            p += 1 + is_pair as usize;
+        }
+        tied
     }
 
     /// Starts loading the children in `mask` (software prefetch), so that the cache misses of

@@ -7,6 +7,7 @@ use std::arch::x86_64::*;
 use super::WideRay;
 use super::node::{Node, ROBUST_FAR, WIDTH};
 use super::pack::{Hits, Pack};
+use super::packet::{Frustum, Rays};
 
 /// A ray's origin, direction and inverse direction broadcast to eight lanes.
 #[derive(Clone, Copy)]
@@ -65,6 +66,171 @@ pub(super) unsafe fn enter(node: &Node, r: &WideRay, r8: &Ray8, t_max: f32) -> (
         _mm256_storeu_ps(out.as_mut_ptr(), t_in);
         (mask, out)
     }
+}
+
+/// A packet's [`Frustum`] broadcast to eight lanes.
+#[derive(Clone, Copy)]
+pub(super) struct Frustum8 {
+    near_o: [__m256; 3],
+    far_o: [__m256; 3],
+    inv_lo: [__m256; 3],
+    inv_hi: [__m256; 3],
+}
+
+impl Frustum8 {
+    #[target_feature(enable = "avx")]
+    pub fn new(f: &Frustum) -> Frustum8 {
+        let splat = |v: [f32; 3]| v.map(|x| _mm256_set1_ps(x));
+        Frustum8 {
+            near_o: splat(f.near_o),
+            far_o: splat(f.far_o),
+            inv_lo: splat(f.inv_lo),
+            inv_hi: splat(f.inv_hi),
+        }
+    }
+}
+
+/// A slab plane's distance bound for the packet: the lower (or, with `UPPER`, the upper) of
+/// (row − o)·inv_lo and (row − o)·inv_hi.
+///
+/// # Safety
+///
+/// As for [`enter`]; `row` points to eight f32.
+#[inline(always)]
+unsafe fn slab_bound<const UPPER: bool>(
+    row: *const f32,
+    o: __m256,
+    inv_lo: __m256,
+    inv_hi: __m256,
+) -> __m256 {
+    // SAFETY: as documented.
+    unsafe {
+        let x = _mm256_sub_ps(_mm256_loadu_ps(row), o);
+        let (a, b) = (_mm256_mul_ps(x, inv_lo), _mm256_mul_ps(x, inv_hi));
+        if UPPER {
+            _mm256_max_ps(a, b)
+        } else {
+            _mm256_min_ps(a, b)
+        }
+    }
+}
+
+/// [`Frustum::enter`] with AVX.
+///
+/// # Safety
+///
+/// As for [`enter`].
+#[inline(always)]
+pub(super) unsafe fn enter_frustum(
+    node: &Node,
+    f: &Frustum,
+    f8: &Frustum8,
+    t_max: f32,
+) -> (u32, [f32; WIDTH]) {
+    // SAFETY: as in `enter`. (No closures: one not inlined is compiled without AVX, and its
+    // intrinsics become calls.)
+    unsafe {
+        let b = &node.bounds;
+        let (o, lo, hi) = (f8.near_o, f8.inv_lo, f8.inv_hi);
+        let nx = slab_bound::<false>(b[f.near[0]].as_ptr(), o[0], lo[0], hi[0]);
+        let ny = slab_bound::<false>(b[f.near[1]].as_ptr(), o[1], lo[1], hi[1]);
+        let nz = slab_bound::<false>(b[f.near[2]].as_ptr(), o[2], lo[2], hi[2]);
+        let o = f8.far_o;
+        let fx = slab_bound::<true>(b[f.far[0]].as_ptr(), o[0], lo[0], hi[0]);
+        let fy = slab_bound::<true>(b[f.far[1]].as_ptr(), o[1], lo[1], hi[1]);
+        let fz = slab_bound::<true>(b[f.far[2]].as_ptr(), o[2], lo[2], hi[2]);
+        let t_in = _mm256_max_ps(
+            _mm256_max_ps(_mm256_max_ps(nx, ny), nz),
+            _mm256_setzero_ps(),
+        );
+        let t_out = _mm256_min_ps(
+            _mm256_mul_ps(
+                _mm256_min_ps(_mm256_min_ps(fx, fy), fz),
+                _mm256_set1_ps(ROBUST_FAR),
+            ),
+            _mm256_set1_ps(t_max),
+        );
+        let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t_in, t_out)) as u32;
+        let mut out = [0.0; WIDTH];
+        _mm256_storeu_ps(out.as_mut_ptr(), t_in);
+        (mask, out)
+    }
+}
+
+/// A packet's [`Rays`] in AVX registers.
+#[derive(Clone, Copy)]
+pub(super) struct Rays8 {
+    o: [__m256; 3],
+    inv: [__m256; 3],
+}
+
+impl Rays8 {
+    #[target_feature(enable = "avx")]
+    pub fn new(r: &Rays) -> Rays8 {
+        // SAFETY: each row is eight f32; loadu has no alignment requirement.
+        unsafe {
+            Rays8 {
+                o: [
+                    _mm256_loadu_ps(r.o[0].as_ptr()),
+                    _mm256_loadu_ps(r.o[1].as_ptr()),
+                    _mm256_loadu_ps(r.o[2].as_ptr()),
+                ],
+                inv: [
+                    _mm256_loadu_ps(r.inv[0].as_ptr()),
+                    _mm256_loadu_ps(r.inv[1].as_ptr()),
+                    _mm256_loadu_ps(r.inv[2].as_ptr()),
+                ],
+            }
+        }
+    }
+}
+
+/// [`Rays::enter`] with AVX.
+///
+/// # Safety
+///
+/// As for [`enter`].
+#[inline(always)]
+pub(super) unsafe fn enter_rays(
+    node: &Node,
+    lane: usize,
+    f: &Frustum,
+    r8: &Rays8,
+    t_max: &[f32; 8],
+) -> u32 {
+    // SAFETY: as in `enter`; `t_max` is eight f32. No closures (see `enter_frustum`).
+    unsafe {
+        let b = &node.bounds;
+        let tx0 = slab(b[f.near[0]][lane], r8.o[0], r8.inv[0]);
+        let ty0 = slab(b[f.near[1]][lane], r8.o[1], r8.inv[1]);
+        let tz0 = slab(b[f.near[2]][lane], r8.o[2], r8.inv[2]);
+        let tx1 = slab(b[f.far[0]][lane], r8.o[0], r8.inv[0]);
+        let ty1 = slab(b[f.far[1]][lane], r8.o[1], r8.inv[1]);
+        let tz1 = slab(b[f.far[2]][lane], r8.o[2], r8.inv[2]);
+        let t_in = _mm256_max_ps(
+            _mm256_max_ps(_mm256_max_ps(tx0, ty0), tz0),
+            _mm256_setzero_ps(),
+        );
+        let t_out = _mm256_min_ps(
+            _mm256_mul_ps(
+                _mm256_min_ps(_mm256_min_ps(tx1, ty1), tz1),
+                _mm256_set1_ps(ROBUST_FAR),
+            ),
+            _mm256_loadu_ps(t_max.as_ptr()),
+        );
+        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t_in, t_out)) as u32
+    }
+}
+
+/// (b − o)·inv, b broadcast.
+///
+/// # Safety
+///
+/// As for [`enter`].
+#[inline(always)]
+unsafe fn slab(b: f32, o: __m256, inv: __m256) -> __m256 {
+    // SAFETY: as documented.
+    unsafe { _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(b), o), inv) }
 }
 
 /// [`super::pack::intersect_pair`] with AVX: Möller–Trumbore on a pair's eight lanes at once.
