@@ -11,7 +11,8 @@
 //!
 //! Per `curved` reflector with a glossy material (`materials/env/<reflector>/mip<ℓ>.exr`,
 //! kind `env-mip`): the cube map seen from its centroid, shaded with D, rays going on through
-//! near-mirror planar reflectors ([`ENV_CAPTURE`]), and its MIP levels
+//! near-mirror planar reflectors and other glossy surfaces adding what they reflect of D
+//! ([`ENV_CAPTURE`]), and its MIP levels
 //! ([`crate::materials::envmap`]). These need the bundle's `radiosity` stage; without it they are skipped with
 //! the reason and the rest of the stage is baked.
 //!
