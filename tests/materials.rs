@@ -759,15 +759,18 @@ fn pattern_tables_round_trip_and_refuse_newer_versions() {
     );
 }
 
-#[test]
-fn capture_adds_what_a_glossy_surface_reflects() {
-    // The room of `capture_sees_the_room_in_a_planar_mirror`, every wall's D 1 and the
-    // panel's 0, the panel satin (GGX, roughness 0.2: glossy, not a mirror) and no reflector.
-    // With lobe samples, the +x face sees the panel's reflection of a uniform room: its ks
-    // times the lobe's directional albedo (a white furnace); without, its D alone, 0.
-    let dir = tempfile::tempdir().unwrap();
+/// A 4 m box of six walls with distinct materials (`wall_materials_and`) and a panel `mesh`
+/// of material `name` 10 cm in front of the +x wall, facing the centre, written as
+/// `room.gltf` in `dir`.
+fn panel_room(
+    dir: &std::path::Path,
+    mesh: &'static str,
+    name: &'static str,
+    base: f32,
+    roughness: f32,
+) {
     write_gltf(
-        dir.path(),
+        dir,
         "room",
         &[
             quad("WallXp", 0, 0, 2.0, 2.0),
@@ -776,10 +779,20 @@ fn capture_adds_what_a_glossy_surface_reflects() {
             quad("WallYn", 3, 1, -2.0, 2.0),
             flip(quad("WallZp", 4, 2, 2.0, 2.0)),
             quad("WallZn", 5, 2, -2.0, 2.0),
-            flip(quad("Panel", 6, 0, 1.9, 1.9)),
+            flip(quad(mesh, 6, 0, 1.9, 1.9)),
         ],
-        &wall_materials_and("Satin", 0.9, 0.2),
+        &wall_materials_and(name, base, roughness),
     );
+}
+
+#[test]
+fn capture_adds_what_a_glossy_surface_reflects() {
+    // The room of `capture_sees_the_room_in_a_planar_mirror`, every wall's D 1 and the
+    // panel's 0, the panel satin (GGX, roughness 0.2: glossy, not a mirror) and no reflector.
+    // With lobe samples, the +x face sees the panel's reflection of a uniform room: its ks
+    // times the lobe's directional albedo (a white furnace); without, its D alone, 0.
+    let dir = tempfile::tempdir().unwrap();
+    panel_room(dir.path(), "Panel", "Satin", 0.9, 0.2);
     let json = r#"{ "version": 1, "geometry": "room.gltf" }"#;
     let scene = Scene::load(write_scene(dir.path(), json)).unwrap();
     let bvh = scene.build_bvh();
@@ -839,20 +852,7 @@ fn capture_sees_the_room_in_a_planar_mirror() {
     // taken at the centre sees the −x wall in the mirror, times the mirror's reflectance;
     // before mirrors were followed it saw the mirror's own (black) D.
     let dir = tempfile::tempdir().unwrap();
-    write_gltf(
-        dir.path(),
-        "room",
-        &[
-            quad("WallXp", 0, 0, 2.0, 2.0),
-            flip(quad("WallXn", 1, 0, -2.0, 2.0)),
-            flip(quad("WallYp", 2, 1, 2.0, 2.0)),
-            quad("WallYn", 3, 1, -2.0, 2.0),
-            flip(quad("WallZp", 4, 2, 2.0, 2.0)),
-            quad("WallZn", 5, 2, -2.0, 2.0),
-            flip(quad("Glass", 6, 0, 1.9, 1.9)),
-        ],
-        &wall_materials_and("Silver", 0.95, 0.01),
-    );
+    panel_room(dir.path(), "Glass", "Silver", 0.95, 0.01);
     let load = |reflectors: &str| {
         let json =
             format!(r#"{{ "version": 1, "geometry": "room.gltf", "reflectors": [{reflectors}] }}"#);
