@@ -66,11 +66,15 @@ struct VertexOut {
     @location(2) uv0: vec2<f32>,
     @location(3) uv1: vec2<f32>,
     @location(4) @interpolate(flat) material: u32,
-    @location(5) world: vec3<f32>,
 };
 
 @vertex
 fn vs_main(v: VertexIn) -> VertexOut {
+    return scene_vertex(v);
+}
+
+// `vs_main`'s work, callable by other entry points (`vs_env` in curved.wgsl).
+fn scene_vertex(v: VertexIn) -> VertexOut {
     var out: VertexOut;
     out.clip = frame.view_proj * vec4<f32>(v.position, 1.0);
     out.lightmap = v.lightmap;
@@ -78,7 +82,6 @@ fn vs_main(v: VertexIn) -> VertexOut {
     out.uv0 = v.uv0;
     out.uv1 = v.uv1;
     out.material = v.material;
-    out.world = v.position;
     return out;
 }
 

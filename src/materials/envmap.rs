@@ -397,31 +397,12 @@ fn mirror_lobes(scene: &Scene) -> Vec<Option<std::sync::Arc<[Lobe]>>> {
     of
 }
 
-/// Per triangle, the lobes of its material when it has any (glossy), else `None`.
-fn glossy_lobes(scene: &Scene) -> Vec<Option<std::sync::Arc<[Lobe]>>> {
-    let of_material: Vec<Option<std::sync::Arc<[Lobe]>>> = scene
-        .materials
-        .iter()
-        .map(|m| (!m.lobes.is_empty()).then(|| m.lobes.iter().map(Lobe::from).collect()))
-        .collect();
-    scene
-        .triangles
-        .iter()
-        .map(|t| of_material.get(t.material as usize).cloned().flatten())
-        .collect()
-}
-
-/// The `j`-th of `n` lobe samples of capture ray `seed`: Hammersley points shifted by the
-/// ray's own R2 offset (Roberts 2018; a Cranley–Patterson rotation), so that neighbouring
-/// texels do not share one pattern's error, and nothing depends on threads.
-fn lobe_sample_point(j: u32, n: u32, seed: u64) -> Vec2 {
-    let s = seed as f64 + 0.5;
-    let offset = Vec2::new(
-        (s * 0.754_877_666_246_692_7).fract() as f32,
-        (s * 0.569_840_290_998_053_3).fract() as f32,
-    );
-    let u = hammersley(j, n) + offset;
-    Vec2::new(u.x.fract(), u.y.fract()).min(Vec2::splat(1.0 - f32::EPSILON))
+/// The `j`-th of `n` lobe samples of capture ray `seed`: a Hammersley point shifted by the
+/// ray's own point of the R2 sequence ([`crate::sampling::r2`]; a Cranley–Patterson
+/// rotation), so that neighbouring texels do not share one pattern's error, and nothing
+/// depends on threads.
+fn lobe_sample_point(j: u32, n: u32, seed: u32) -> Vec2 {
+    crate::sampling::r2(seed, hammersley(j, n))
 }
 
 /// Captures the scene around `centre` into a cube map by ray casting. Rays pass through the
@@ -466,19 +447,20 @@ pub fn capture_cube(
         })
         .collect();
     let mirrors = mirror_lobes(scene);
-    let glossy = if settings.glossy_samples > 0 {
-        glossy_lobes(scene)
-    } else {
-        Vec::new()
-    };
-    // The first hit along a ray that is not on `see_through`, and the distance travelled to
-    // the origin its `t` counts from.
-    let first_hit = |mut origin: Vec3, dir: Vec3| -> Option<(Hit, f32)> {
+    // Per material, its glossy lobes (none: not sampled).
+    let glossy: Vec<Vec<Lobe>> = scene
+        .materials
+        .iter()
+        .map(|m| m.lobes.iter().map(Lobe::from).collect())
+        .collect();
+    // The first hit along a ray that is not on `see_through`: the hit, the origin its `t`
+    // counts from, and the distance travelled to that origin.
+    let first_hit = |mut origin: Vec3, dir: Vec3| -> Option<(Hit, Vec3, f32)> {
         let mut travelled = 0.0f32;
         for _ in 0..MAX_SKIPS {
             let hit = bvh.closest_hit(origin, dir, f32::MAX)?;
             if !skip.get(hit.triangle as usize).copied().unwrap_or(false) {
-                return Some((hit, travelled));
+                return Some((hit, origin, travelled));
             }
             let next = bvh.offset_origin(origin + dir * hit.t, dir);
             travelled += (next - origin).length();
@@ -488,7 +470,7 @@ pub fn capture_cube(
     };
     // What the lobes of a glossy surface at `p` (face normal `n`, either side) reflect of
     // `shade` towards −`dir`.
-    let glossy_term = |lobes: &[Lobe], p: Vec3, n: Vec3, dir: Vec3, seed: u64| -> Vec3 {
+    let glossy_term = |lobes: &[Lobe], p: Vec3, n: Vec3, dir: Vec3, seed: u32| -> Vec3 {
         let frame = Frame::from_normal(if n.dot(dir) < 0.0 { n } else { -n });
         let wo = frame.to_local(-dir);
         let count = settings.glossy_samples;
@@ -500,7 +482,7 @@ pub fn capture_cube(
                     continue;
                 };
                 let w = frame.to_world(wi);
-                if let Some((hit, travelled)) = first_hit(bvh.offset_origin(p, w), w) {
+                if let Some((hit, _, travelled)) = first_hit(bvh.offset_origin(p, w), w) {
                     lobe_sum += shade(&Hit {
                         t: travelled + hit.t,
                         ..hit
@@ -511,47 +493,42 @@ pub fn capture_cube(
         }
         sum
     };
-    let trace = |dir: Vec3, seed: u64| -> Vec3 {
+    // One ray from the centre: each surface it meets adds its D, a mirror sends it on (up
+    // to `mirror_bounces` times), any other glossy surface adds its reflection and ends it.
+    let trace = |dir: Vec3, seed: u32| -> Vec3 {
         let (mut origin, mut dir) = (centre, dir);
         let mut travelled = 0.0f32;
-        let (mut sum, mut weight, mut bounces) = (Vec3::ZERO, Vec3::ONE, 0);
-        for _ in 0..MAX_SKIPS {
-            match bvh.closest_hit(origin, dir, f32::MAX) {
-                None => return sum,
-                Some(hit) if skip.get(hit.triangle as usize).copied().unwrap_or(false) => {
-                    let p = origin + dir * hit.t;
+        let (mut sum, mut weight) = (Vec3::ZERO, Vec3::ONE);
+        for bounce in 0..=settings.mirror_bounces {
+            let Some((hit, at, skipped)) = first_hit(origin, dir) else {
+                break;
+            };
+            travelled += skipped;
+            sum += weight
+                * shade(&Hit {
+                    t: travelled + hit.t,
+                    ..hit
+                });
+            let tri = &scene.triangles[hit.triangle as usize];
+            let n = tri.face_normal();
+            let c = -dir.dot(n);
+            let p = at + dir * hit.t;
+            match &mirrors[hit.triangle as usize] {
+                Some(lobes) if bounce < settings.mirror_bounces && c > 0.0 => {
+                    weight *= lobes
+                        .iter()
+                        .fold(Vec3::ZERO, |acc, l| acc + l.ks * l.mirror_reflectance(c));
+                    dir = reflect(-dir, n);
                     let next = bvh.offset_origin(p, dir);
-                    travelled += (next - origin).length();
+                    travelled += (next - at).length();
                     origin = next;
                 }
-                Some(hit) => {
-                    sum += weight
-                        * shade(&Hit {
-                            t: travelled + hit.t,
-                            ..hit
-                        });
-                    let tri = &scene.triangles[hit.triangle as usize];
-                    let n = tri.face_normal();
-                    let c = -dir.dot(n);
-                    let p = origin + dir * hit.t;
-                    match &mirrors[hit.triangle as usize] {
-                        Some(lobes) if bounces < settings.mirror_bounces && c > 0.0 => {
-                            weight *= lobes
-                                .iter()
-                                .fold(Vec3::ZERO, |acc, l| acc + l.ks * l.mirror_reflectance(c));
-                            dir = reflect(-dir, n);
-                            let next = bvh.offset_origin(p, dir);
-                            travelled += (next - origin).length();
-                            origin = next;
-                            bounces += 1;
-                        }
-                        _ => {
-                            if let Some(Some(lobes)) = glossy.get(hit.triangle as usize) {
-                                sum += weight * glossy_term(lobes, p, n, dir, seed);
-                            }
-                            return sum;
-                        }
+                _ => {
+                    let lobes = &glossy[tri.material as usize];
+                    if settings.glossy_samples > 0 && !lobes.is_empty() {
+                        sum += weight * glossy_term(lobes, p, n, dir, seed);
                     }
+                    break;
                 }
             }
         }
@@ -571,7 +548,8 @@ pub fn capture_cube(
                     for (i, &o) in offsets.iter().enumerate() {
                         let s = 2.0 * (x as f32 + o.x) / size as f32 - 1.0;
                         let t = 2.0 * (y as f32 + o.y) / size as f32 - 1.0;
-                        let seed = texel * offsets.len() as u64 + i as u64;
+                        // Wraps past 2³² rays: any distinct-enough index will do.
+                        let seed = (texel * offsets.len() as u64 + i as u64) as u32;
                         sum += trace(face_direction(face, s, t).normalize(), seed);
                     }
                     sum / offsets.len() as f32
