@@ -90,6 +90,7 @@ fn bake_if_needed(scene: &Scene, bundle: &Path) {
         texels_per_radian: 0.0,
         stitch_seams: false,
         cache_budget_mib: 2048,
+        max_elements: 0,
     };
     radiosity_stage::bake(scene, bundle, &settings, false, &Silent)
         .unwrap_or_else(|e| panic!("{e}"));

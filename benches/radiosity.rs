@@ -164,7 +164,9 @@ fn main() {
             let (atlas, samples, _) = contacts::build(
                 &scene,
                 &bvh,
-                s.density_rule(scene.bounds.longest_side()),
+                glint::bake::radiosity_stage::density_rule(&scene, &s)
+                    .unwrap()
+                    .0,
                 s.contact_boost,
             )
             .unwrap();

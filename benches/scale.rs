@@ -15,6 +15,8 @@
 //! - `GLINT_SCALE_SEED`: the generator's seed (default 1).
 //! - `GLINT_SCALE_DIR`: where scenes and bundles go (default: cargo's target tmp dir, `scale/`);
 //!   a size whose bundle is there already is re-baked from scratch.
+//! - `GLINT_SCALE_BIN`: a folder holding the `glint-*` binaries to measure (default: this
+//!   build's), e.g. a copy taken before rebuilding, so that a long run is not changed under it.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -87,6 +89,14 @@ fn run_measured(cmd: &mut Command) -> Result<(f64, f64, u64), String> {
     Ok((seconds, cpu, usage.ru_maxrss as u64 * unit))
 }
 
+/// The binary `built` (this build's path to it), from `GLINT_SCALE_BIN` when that is set.
+fn binary(built: &str) -> PathBuf {
+    match std::env::var_os("GLINT_SCALE_BIN") {
+        Some(dir) => PathBuf::from(dir).join(Path::new(built).file_name().expect("binary name")),
+        None => PathBuf::from(built),
+    }
+}
+
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
@@ -137,7 +147,7 @@ fn bake_size(size: &str, seed: &str, quality: &str, work: &Path) -> SizeRun {
     let mut stages = Vec::new();
     for (stage, tool, extra) in STAGES {
         let log = std::fs::File::create(dir.join(format!("{stage}.log"))).expect("stage log");
-        let mut cmd = Command::new(tool);
+        let mut cmd = Command::new(binary(tool));
         cmd.arg(&scene)
             .args(extra)
             .arg("--bundle")
@@ -171,7 +181,7 @@ fn bake_size(size: &str, seed: &str, quality: &str, work: &Path) -> SizeRun {
         }
     }
     stages.resize(STAGES.len(), None);
-    let stats = Command::new(env!("CARGO_BIN_EXE_glint-bundle"))
+    let stats = Command::new(binary(env!("CARGO_BIN_EXE_glint-bundle")))
         .args(["stats", "--json"])
         .arg(&bundle)
         .output()

@@ -179,6 +179,11 @@ pub struct RadiosityFlags {
     /// none.
     #[arg(long, value_name = "MIB")]
     pub cache_budget_mib: Option<u32>,
+    /// Most elements (lightmap texels with a sample) the atlas may hold, as estimated before
+    /// baking (default: 1M at draft, 2M at default, 8M at high): a larger scene gets every
+    /// density scaled down by one factor until it fits; 0: no limit.
+    #[arg(long, value_name = "N")]
+    pub max_elements: Option<u64>,
 }
 
 impl RadiosityFlags {
@@ -198,6 +203,7 @@ impl RadiosityFlags {
             target_error: self.target_error,
             stitch_seams: self.stitch_seams,
             cache_budget_mib: self.cache_budget_mib,
+            max_elements: self.max_elements,
         }
     }
 }

@@ -153,7 +153,7 @@ fn no_boost_builds_the_rules_atlas_and_boosts_ignore_the_thread_count() {
     let bvh = scene.build_bvh();
     let rule = DensityRule {
         per_metre: 8.0,
-        min_across: 4,
+        min_across: 4.0,
         per_radian: 0.0,
     };
     let plain = atlas::build_with(&scene.triangles, rule).unwrap();

@@ -149,6 +149,7 @@ fn diffuse_cornell_box_agrees_with_converged_radiosity() {
         target_error: None,
         stitch_seams: false,
         cache_budget_mib: 2048,
+        max_elements: 0,
     };
     let bundle = shipped_bundle(&Recipe::new("cornell-box").then(Step::Radiosity(settings)));
     let map = RadiosityMap::load(&Bundle::open(&bundle).unwrap())

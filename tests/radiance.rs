@@ -211,6 +211,7 @@ fn stage_bakes_maps_quadtrees_and_table_one() {
         target_error: None,
         stitch_seams: false,
         cache_budget_mib: 2048,
+        max_elements: 0,
     };
     radiosity_stage::bake(&scene, &out, &rs, false, &Silent).unwrap();
     let rec = radiance_stage::bake(&scene, &out, Quality::Draft, false, &Silent).unwrap();

@@ -266,6 +266,7 @@ fn bakes_are_byte_identical_whatever_the_thread_count() {
         target_error: None,
         stitch_seams: false,
         cache_budget_mib: 2048,
+        max_elements: 0,
     };
     let bundles: Vec<_> = [1, 2, 3]
         .iter()
@@ -325,6 +326,7 @@ fn cancelling_leaves_the_bundle_as_it_was() {
         target_error: None,
         stitch_seams: false,
         cache_budget_mib: 2048,
+        max_elements: 0,
     };
     radiosity_stage::bake(&scene, &out, &settings, false, &Silent).unwrap();
     let manifest = std::fs::read(out.join("manifest.json")).unwrap();
@@ -367,8 +369,10 @@ fn no_emitters_and_impossible_sizes_are_refused_clearly() {
     assert!(e.contains("scene.json") && e.contains("no emitters"), "{e}");
 
     let scene = parallel_squares(dir.path(), 1.0, 0.5, 0.5);
+    // With no element limit, a density no memory holds is refused before anything is made.
     let huge = RadiositySettings {
         texel_density: 1e6,
+        max_elements: 0,
         ..s
     };
     let e = radiosity_stage::check(&scene, &huge)
@@ -378,6 +382,55 @@ fn no_emitters_and_impossible_sizes_are_refused_clearly() {
         e.contains("GiB") && e.contains("lower --texel-density"),
         "{e}"
     );
+    // Under the preset's limit the same density is scaled down to fit it.
+    let limited = RadiositySettings {
+        texel_density: 1e6,
+        ..s
+    };
+    assert!(limited.max_elements > 0);
+    radiosity_stage::check(&scene, &limited).unwrap();
+}
+
+#[test]
+fn a_scene_over_max_elements_bakes_at_one_lower_density_within_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = parallel_squares(dir.path(), 1.0, 0.5, 0.5);
+    let settings = |max_elements| RadiositySettings {
+        texel_density: 64.0,
+        min_chart_texels: 0,
+        min_scene_texels: 0,
+        contact_boost: 0.0,
+        texels_per_radian: 0.0,
+        rays: 16,
+        light_samples: 4,
+        bounces: 2,
+        tolerance: 0.0,
+        glossy_depth: 0,
+        target_error: None,
+        stitch_seams: false,
+        cache_budget_mib: 2048,
+        max_elements,
+    };
+    let elements = |max| {
+        let out = dir.path().join(format!("m{max}.glint"));
+        let record = radiosity_stage::bake(&scene, &out, &settings(max), false, &Silent).unwrap();
+        record.stats["elements"].as_u64().unwrap()
+    };
+    let all = elements(0);
+    assert!(all > 4000, "{all}");
+    // A limit above them changes nothing; a quarter of them halves the density.
+    assert_eq!(elements(2 * all), all);
+    let quarter = elements(all / 4);
+    assert!(
+        quarter <= all / 4 && quarter > all / 6,
+        "{quarter} elements for a limit of {}",
+        all / 4
+    );
+    // Fewer than the charts need at any density: refused, naming the setting.
+    let e = radiosity_stage::check(&scene, &settings(3))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("`max_elements` 3") && e.contains("raise"), "{e}");
 }
 
 #[test]
@@ -457,7 +510,7 @@ fn texels_per_radian_resolves_the_shading_of_a_curved_surface() {
     let error = |per_radian: f32| {
         let rule = atlas::DensityRule {
             per_metre: 16.0,
-            min_across: 0,
+            min_across: 0.0,
             per_radian,
         };
         let (atlas, samples) = atlas::build_with(&scene.triangles, rule).unwrap();

@@ -274,7 +274,7 @@ fn bunny_mirror_seams(contact_boost: f32, texels_per_radian: f32) {
     let (atlas, samples, _) = glint::radiosity::contacts::build(
         &scene,
         &scene.build_bvh(),
-        settings.density_rule(scene.bounds.longest_side()),
+        radiosity_stage::density_rule(&scene, &settings).unwrap().0,
         settings.contact_boost,
     )
     .unwrap();
@@ -383,6 +383,7 @@ fn stitched_bakes_are_byte_identical_whatever_the_thread_count() {
         target_error: None,
         stitch_seams: true,
         cache_budget_mib: 2048,
+        max_elements: 0,
     };
     let pages: Vec<Vec<u8>> = [1, 3]
         .iter()

@@ -88,6 +88,7 @@ fn test_settings(texel_density: f32) -> RadiositySettings {
         texels_per_radian: 0.0,
         stitch_seams: false,
         cache_budget_mib: 2048,
+        max_elements: 0,
     }
 }
 

@@ -71,6 +71,7 @@ fn bundle() -> &'static Path {
                 texels_per_radian: 0.0,
                 stitch_seams: false,
                 cache_budget_mib: 2048,
+                max_elements: 0,
             };
             settings.srdm = SrdmSettings {
                 domains: 4,

@@ -504,6 +504,7 @@ fn box_scene(root: &Path) -> (Scene, std::path::PathBuf) {
         texels_per_radian: 0.0,
         stitch_seams: false,
         cache_budget_mib: 2048,
+        max_elements: 0,
     };
     radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent)
         .unwrap_or_else(|e| panic!("{e}"));

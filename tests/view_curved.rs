@@ -52,6 +52,7 @@ fn radiosity_settings() -> RadiositySettings {
         texels_per_radian: 0.0,
         stitch_seams: false,
         cache_budget_mib: 2048,
+        max_elements: 0,
     }
 }
 

@@ -343,6 +343,7 @@ fn bunny_bundle() -> &'static Path {
             texels_per_radian: 0.0,
             stitch_seams: false,
             cache_budget_mib: 2048,
+            max_elements: 0,
         };
         let srdm = SrdmSettings {
             domains: 30,

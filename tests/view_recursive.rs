@@ -95,6 +95,7 @@ fn corridor() -> &'static ViewData {
             texels_per_radian: 0.0,
             stitch_seams: false,
             cache_budget_mib: 2048,
+        max_elements: 0,
         };
         scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
         radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent)
@@ -352,6 +353,7 @@ fn straddling() -> &'static ViewData {
             texels_per_radian: 0.0,
             stitch_seams: false,
             cache_budget_mib: 2048,
+            max_elements: 0,
         };
         scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
         radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent)

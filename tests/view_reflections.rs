@@ -96,6 +96,7 @@ fn glossy_bundle() -> &'static Path {
             texels_per_radian: 0.0,
             stitch_seams: false,
             cache_budget_mib: 2048,
+            max_elements: 0,
         };
         shipped_bundle(
             &Recipe::new("glossy-room")

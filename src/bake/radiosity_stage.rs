@@ -85,6 +85,30 @@ pub fn memory_estimate(texels: f64, rays: u32, refine: bool, cache_budget: u64) 
     first + more + texels * 96.0 + texels * 2.0 * 40.0
 }
 
+/// The density rule `settings` give `scene` ([`RadiositySettings::density_rule`]), every
+/// density scaled down by one factor where the scene would have more than
+/// [`RadiositySettings::max_elements`]; with that factor (1: as asked).
+pub fn density_rule(
+    scene: &Scene,
+    settings: &RadiositySettings,
+) -> Result<(atlas::DensityRule, f32), RadiosityError> {
+    let rule = settings.density_rule(scene.bounds.longest_side());
+    if settings.max_elements == 0 {
+        return Ok((rule, 1.0));
+    }
+    let shapes = atlas::ChartShapes::with_charts(&scene.triangles);
+    let factor = settings.contact_texel_factor();
+    match atlas::fit_elements(&shapes, rule, factor, settings.max_elements as f64) {
+        Some(s) if s >= 1.0 => Ok((rule, 1.0)),
+        Some(s) => Ok((rule.scaled(s), s)),
+        None => Err(RadiosityError::Setting(format!(
+            "`max_elements` {}: the scene's charts need about {:.0} elements even a texel or two across each; raise `max_elements` (0: no limit)",
+            settings.max_elements,
+            shapes.elements(rule.scaled(atlas::MIN_FIT_SCALE)) * factor,
+        ))),
+    }
+}
+
 /// Bytes of memory available to this process (Linux `MemAvailable`), if known.
 pub fn available_memory() -> Option<f64> {
     let text = std::fs::read_to_string("/proc/meminfo").ok()?;
@@ -107,7 +131,7 @@ fn check_share(scene: &Scene, s: &RadiositySettings, share: f64) -> Result<(), R
     }
     s.check(Some(scene.bounds.diagonal()))
         .map_err(|e| RadiosityError::Setting(e.to_string()))?;
-    let rule = s.density_rule(scene.bounds.longest_side());
+    let (rule, _) = density_rule(scene, s)?;
     let texels = atlas::estimate_texels(&scene.triangles, rule) * s.contact_texel_factor();
     let need = memory_estimate(texels, s.rays, s.target_error.is_some(), s.cache_budget()) * share;
     if let Some(avail) = available_memory()
@@ -187,8 +211,15 @@ struct Prepared {
 
 fn prepare(scene: &Scene, settings: &RadiositySettings) -> Result<Prepared, RadiosityError> {
     let bvh = scene.build_bvh();
-    let rule = settings.density_rule(scene.bounds.longest_side());
-    if rule.per_metre != settings.texel_density {
+    let (rule, scale) = density_rule(scene, settings)?;
+    if scale < 1.0 {
+        log::info!(
+            "texel density {:.2} per metre ({:.3} × every density asked): the scene would have more than `max_elements` = {} elements",
+            rule.per_metre,
+            scale,
+            settings.max_elements
+        );
+    } else if rule.per_metre != settings.texel_density {
         log::info!(
             "texel density {:.1} per metre: the scene's longest side, {:.2} m, gets `min_scene_texels` = {} texels",
             rule.per_metre,

@@ -50,7 +50,7 @@ pub struct DensityRule {
     /// Texels across each chart's longer side, at least (0: per metre only). A small chart's
     /// density is raised to meet it, by at most [`MAX_CHART_BOOST`]×: the density follows the
     /// surfaces' sizes, so a 0.5 m box gets as many texels across a wall as a 5 m room.
-    pub min_across: u32,
+    pub min_across: f32,
     /// Texels across a chart per radian its surface turns (0: off): a curved chart whose
     /// normals spread by θ ([`chart_turn`]) gets at least θ × this many texels across, by at
     /// most [`MAX_CHART_BOOST`]× its per-metre density, so that D follows the shading of a
@@ -63,8 +63,18 @@ impl DensityRule {
     pub fn uniform(per_metre: f32) -> Self {
         DensityRule {
             per_metre,
-            min_across: 0,
+            min_across: 0.0,
             per_radian: 0.0,
+        }
+    }
+
+    /// This rule with every density `s` × as high: the same proportions between charts, a
+    /// coarser (s < 1) atlas ([`fit_elements`]).
+    pub fn scaled(self, s: f32) -> DensityRule {
+        DensityRule {
+            per_metre: self.per_metre * s,
+            min_across: self.min_across * s,
+            per_radian: self.per_radian * s,
         }
     }
 
@@ -81,7 +91,7 @@ impl DensityRule {
         } else {
             0.0
         };
-        let across = (self.min_across as f32).max(curved);
+        let across = self.min_across.max(curved);
         if across <= 0.0 {
             return d;
         }
@@ -188,24 +198,114 @@ pub enum AtlasError {
 /// area plus the padding of one chart per triangle group (an upper bound for memory checks);
 /// with a minimum per chart, each chart's own rectangle at its raised density.
 pub fn estimate_texels(triangles: &[Triangle], rule: DensityRule) -> f64 {
-    let d = rule.per_metre as f64;
-    if rule.min_across == 0 && rule.per_radian <= 0.0 {
-        let area: f64 = triangles.iter().map(|t| t.area() as f64).sum();
-        // Every chart adds its border; assume one chart per 64 triangles (curved meshes).
-        let charts = (triangles.len() as f64 / 64.0).max(1.0);
-        return area * d * d * 1.25 + charts * ((2 * BORDER + 3) as f64).powi(2);
+    ChartShapes::new(triangles, rule).texels(rule)
+}
+
+/// What the estimates read of a scene's charts: their area and count, and, where a rule
+/// raises densities per chart, each chart's extent and turn (made once, read at any rule).
+pub struct ChartShapes {
+    area: f64,
+    triangles: usize,
+    /// (extent in metres, turn in radians) per chart; `None` when only the area is needed.
+    charts: Option<Vec<(Vec2, f32)>>,
+}
+
+impl ChartShapes {
+    /// The shapes `rule`'s estimates need: the charts only when it raises densities per chart
+    /// (they cost a chart-making pass, cheap beside the solve).
+    pub fn new(triangles: &[Triangle], rule: DensityRule) -> Self {
+        Self::make(triangles, rule.min_across > 0.0 || rule.per_radian > 0.0)
     }
-    // Raised densities depend on each chart's size: make the charts (cheap beside the solve).
-    let vid = weld(triangles);
-    make_charts(triangles, &vid)
-        .iter()
-        .map(|c| {
-            let extent = chart_extent(&chart_plane_coords(triangles, &vid, c));
-            let dc = rule.chart_density(extent.max_element(), chart_turn(triangles, c)) as f64;
-            let side = |e: f32| (e as f64 * dc).ceil().max(1.0) + (1 + 2 * BORDER) as f64;
-            side(extent.x) * side(extent.y)
-        })
-        .sum()
+
+    /// The shapes with every chart's extent and turn, whatever the rule.
+    pub fn with_charts(triangles: &[Triangle]) -> Self {
+        Self::make(triangles, true)
+    }
+
+    fn make(triangles: &[Triangle], charts: bool) -> Self {
+        let charts = charts.then(|| {
+            let vid = weld(triangles);
+            make_charts(triangles, &vid)
+                .iter()
+                .map(|c| {
+                    let extent = chart_extent(&chart_plane_coords(triangles, &vid, c));
+                    (extent, chart_turn(triangles, c))
+                })
+                .collect()
+        });
+        ChartShapes {
+            area: triangles.iter().map(|t| t.area() as f64).sum(),
+            triangles: triangles.len(),
+            charts,
+        }
+    }
+
+    /// Estimated atlas texels under `rule` ([`estimate_texels`]).
+    pub fn texels(&self, rule: DensityRule) -> f64 {
+        let raised = rule.min_across > 0.0 || rule.per_radian > 0.0;
+        match &self.charts {
+            Some(charts) if raised => charts
+                .iter()
+                .map(|&(extent, turn)| {
+                    let dc = rule.chart_density(extent.max_element(), turn) as f64;
+                    let side = |e: f32| (e as f64 * dc).ceil().max(1.0) + (1 + 2 * BORDER) as f64;
+                    side(extent.x) * side(extent.y)
+                })
+                .sum(),
+            _ => {
+                let d = rule.per_metre as f64;
+                // Every chart adds its border; assume one chart per 64 triangles (curved meshes).
+                let charts = (self.triangles as f64 / 64.0).max(1.0);
+                self.area * d * d * 1.25 + charts * ((2 * BORDER + 3) as f64).powi(2)
+            }
+        }
+    }
+
+    /// Estimated elements (texels with a sample) under `rule`: each chart's grid of texel
+    /// centres, its padding left out (an upper bound: a chart's rectangle is never less than
+    /// what its triangles cover). Needs the charts ([`Self::with_charts`]).
+    pub fn elements(&self, rule: DensityRule) -> f64 {
+        let charts = self
+            .charts
+            .as_ref()
+            .expect("ChartShapes::elements needs the charts (ChartShapes::with_charts)");
+        charts
+            .iter()
+            .map(|&(extent, turn)| {
+                let dc = rule.chart_density(extent.max_element(), turn) as f64;
+                let side = |e: f32| (e as f64 * dc).ceil().max(1.0) + 1.0;
+                side(extent.x) * side(extent.y)
+            })
+            .sum()
+    }
+}
+
+/// Smallest scale [`fit_elements`] goes down to: there every chart is a texel or two across,
+/// whatever density was asked (2⁻³⁰).
+pub const MIN_FIT_SCALE: f32 = 1.0 / (1u32 << 30) as f32;
+
+/// The largest scale s ≤ 1 at which `rule.scaled(s)` gives at most `max` elements, `factor` ×
+/// [`ChartShapes::elements`] (the contact boosts' most), or `None` when not even
+/// [`MIN_FIT_SCALE`] does (the charts alone need more). Deterministic: a fixed bisection of
+/// log₂ s.
+pub fn fit_elements(shapes: &ChartShapes, rule: DensityRule, factor: f64, max: f64) -> Option<f32> {
+    let fits = |s: f32| shapes.elements(rule.scaled(s)) * factor <= max;
+    if fits(1.0) {
+        return Some(1.0);
+    }
+    if !fits(MIN_FIT_SCALE) {
+        return None;
+    }
+    let (mut lo, mut hi) = (MIN_FIT_SCALE.log2(), 0.0f32);
+    for _ in 0..32 {
+        let mid = 0.5 * (lo + hi);
+        if fits(mid.exp2()) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Some(lo.exp2())
 }
 
 /// Builds the atlas and the texel samples for `triangles` at `density` texels per metre.
@@ -889,7 +989,7 @@ mod tests {
         tris.extend(cube(Vec3::splat(10.0), 5.0, 1));
         let rule = DensityRule {
             per_metre: 4.0,
-            min_across: 12,
+            min_across: 12.0,
             per_radian: 0.0,
         };
         let (atlas, samples) = build_with(&tris, rule).unwrap();
@@ -923,6 +1023,71 @@ mod tests {
         assert_eq!(
             build_with(&tris, DensityRule::uniform(4.0)).unwrap(),
             build(&tris, 4.0).unwrap()
+        );
+    }
+
+    #[test]
+    fn a_scene_over_its_element_budget_gets_one_lower_density_for_every_chart() {
+        // Forty 0.5 m cubes and a 5 m one, at 4 per metre with 12 texels across each chart.
+        let mut tris: Vec<Triangle> = (0..40)
+            .flat_map(|k| cube(Vec3::new(2.0 * k as f32, 0.0, 0.0), 0.5, 0))
+            .collect();
+        tris.extend(cube(Vec3::splat(-10.0), 5.0, 1));
+        let rule = DensityRule {
+            per_metre: 4.0,
+            min_across: 12.0,
+            per_radian: 0.5,
+        };
+        let shapes = ChartShapes::with_charts(&tris);
+        let full = shapes.elements(rule);
+        // The estimate bounds what the atlas covers, and not loosely (these charts are squares).
+        let (_, samples) = build_with(&tris, rule).unwrap();
+        let covered = samples
+            .iter()
+            .map(|s| s.texel)
+            .collect::<std::collections::HashSet<_>>();
+        let covered = covered.len() as f64;
+        assert!(
+            covered <= full && full < 1.5 * covered,
+            "{covered} covered, {full} estimated"
+        );
+        // Within the budget nothing changes.
+        assert_eq!(fit_elements(&shapes, rule, 2.0, 2.0 * full), Some(1.0));
+        // A quarter of it: one scale for every density, the largest that fits.
+        for factor in [1.0, 2.0] {
+            let max = factor * full / 4.0;
+            let s = fit_elements(&shapes, rule, factor, max).unwrap();
+            assert!(s > 0.3 && s < 0.6, "scale {s}");
+            let fitted = rule.scaled(s);
+            assert_eq!(
+                (fitted.per_metre, fitted.min_across, fitted.per_radian),
+                (4.0 * s, 12.0 * s, 0.5 * s)
+            );
+            assert!(shapes.elements(fitted) * factor <= max);
+            assert!(
+                shapes.elements(rule.scaled(s * 1.01)) * factor > max,
+                "not the largest"
+            );
+            // The atlas built at the fitted rule keeps within the budget.
+            let (_, samples) = build_with(&tris, fitted).unwrap();
+            assert!(
+                samples.len() as f64 * factor <= max,
+                "{} samples",
+                samples.len()
+            );
+            // Every chart keeps its proportion: the small cubes' faces are still as many
+            // texels across as the large cube's (min_across scaled like the density).
+            let ratio = |r: DensityRule| r.chart_density(0.5, 0.0) / r.chart_density(5.0, 0.0);
+            assert!((ratio(fitted) / ratio(rule) - 1.0).abs() < 1e-5);
+        }
+        // Fewer elements than the charts need even as a texel or two each: refused.
+        assert_eq!(fit_elements(&shapes, rule, 1.0, 100.0), None);
+        // The texel estimate reads the same shapes at any rule.
+        assert_eq!(shapes.texels(rule), estimate_texels(&tris, rule));
+        let uniform = DensityRule::uniform(4.0);
+        assert_eq!(
+            ChartShapes::new(&tris, uniform).texels(uniform),
+            shapes.texels(uniform)
         );
     }
 
@@ -967,7 +1132,7 @@ mod tests {
         tris.extend(square);
         let rule = DensityRule {
             per_metre: 20.0,
-            min_across: 0,
+            min_across: 0.0,
             per_radian: 24.0,
         };
         let turn = 33f32.to_radians();

@@ -417,6 +417,10 @@ pub struct RadiosityOverride {
     /// and kept as sums: memory stops growing with rays × texels); 0: none cached.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cache_budget_mib: Option<u32>,
+    /// Most elements the atlas may hold (estimated): a larger scene gets every density scaled
+    /// down by one factor until it fits; 0: no limit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_elements: Option<u64>,
 }
 
 impl RadiosityOverride {
@@ -436,6 +440,7 @@ impl RadiosityOverride {
             target_error,
             stitch_seams,
             cache_budget_mib,
+            max_elements,
         } = *self;
         s.texel_density = texel_density.unwrap_or(s.texel_density);
         s.min_chart_texels = min_chart_texels.unwrap_or(s.min_chart_texels);
@@ -448,6 +453,7 @@ impl RadiosityOverride {
         s.glossy_depth = glossy_depth.unwrap_or(s.glossy_depth);
         s.tolerance = tolerance.unwrap_or(s.tolerance);
         s.cache_budget_mib = cache_budget_mib.unwrap_or(s.cache_budget_mib);
+        s.max_elements = max_elements.unwrap_or(s.max_elements);
         match target_error {
             // 0 turns refinement off: one batch of `rays` and `light_samples`.
             Some(0.0) => s.target_error = None,
@@ -640,7 +646,24 @@ pub struct RadiositySettings {
     /// refinement ray cached. Records without it read as the default, 2048.
     #[serde(default = "default_cache_budget_mib")]
     pub cache_budget_mib: u32,
+    /// Most elements (lightmap texels with a sample) the atlas may hold, as estimated before
+    /// baking with the contact boosts' most: a scene that would have more at these densities
+    /// gets every density (`texel_density`, `min_chart_texels`, `texels_per_radian`) scaled
+    /// down by one factor until it fits, so that a building bakes in bounded time and memory
+    /// with the proportions of a room. 0: no limit. Records without it read as no limit.
+    #[serde(default)]
+    pub max_elements: u64,
 }
+
+/// [`RadiositySettings::max_elements`] of the presets (estimated elements, an upper bound of
+/// what the atlas gets). Every shipped scene is below them, so they change nothing there; a
+/// building of 2M triangles is not: at default it would have about 8M elements (25,000 CPU
+/// seconds of gathering) and is baked at about a third of the density instead.
+pub const MAX_ELEMENTS_DRAFT: u64 = 1_000_000;
+/// See [`MAX_ELEMENTS_DRAFT`].
+pub const MAX_ELEMENTS_DEFAULT: u64 = 2_000_000;
+/// See [`MAX_ELEMENTS_DRAFT`].
+pub const MAX_ELEMENTS_HIGH: u64 = 8_000_000;
 
 /// [`RadiositySettings::cache_budget_mib`] of every preset: 2 GiB
 /// ([`crate::radiosity::solve::CACHE_BUDGET`]).
@@ -693,6 +716,11 @@ impl RadiositySettings {
             target_error: Some(target),
             stitch_seams: stitch,
             cache_budget_mib: default_cache_budget_mib(),
+            max_elements: match quality {
+                Quality::Draft => MAX_ELEMENTS_DRAFT,
+                Quality::Default => MAX_ELEMENTS_DEFAULT,
+                Quality::High => MAX_ELEMENTS_HIGH,
+            },
         }
     }
 
@@ -791,7 +819,7 @@ impl RadiositySettings {
     pub fn density_rule(&self, scene_side: f32) -> crate::radiosity::atlas::DensityRule {
         crate::radiosity::atlas::DensityRule {
             per_metre: self.scene_density(scene_side),
-            min_across: self.min_chart_texels,
+            min_across: self.min_chart_texels as f32,
             per_radian: self.texels_per_radian,
         }
     }

@@ -161,6 +161,7 @@ pub fn quick_radiosity(bounces: u32) -> glint::scene::desc::RadiositySettings {
         target_error: None,
         stitch_seams: false,
         cache_budget_mib: 2048,
+        max_elements: 0,
     }
 }
 
