@@ -166,7 +166,7 @@ fn main() {
                 &bvh,
                 glint::bake::radiosity_stage::density_rule(&scene, &s)
                     .unwrap()
-                    .0,
+                    .rule,
                 s.contact_boost,
             )
             .unwrap();

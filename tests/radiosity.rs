@@ -253,20 +253,10 @@ fn bakes_are_byte_identical_whatever_the_thread_count() {
     let dir = tempfile::tempdir().unwrap();
     let scene = parallel_squares(dir.path(), 1.0, 0.5, 0.5);
     let settings = RadiositySettings {
-        texel_density: 8.0,
-        min_chart_texels: 0,
-        min_scene_texels: 0,
-        contact_boost: 0.0,
-        texels_per_radian: 0.0,
         rays: 64,
         light_samples: 8,
         bounces: 3,
-        tolerance: 0.0,
-        glossy_depth: 0,
-        target_error: None,
-        stitch_seams: false,
-        cache_budget_mib: 2048,
-        max_elements: 0,
+        ..small_settings()
     };
     let bundles: Vec<_> = [1, 2, 3]
         .iter()
@@ -307,12 +297,9 @@ impl Progress for CancelAfter {
     }
 }
 
-#[test]
-fn cancelling_leaves_the_bundle_as_it_was() {
-    let dir = tempfile::tempdir().unwrap();
-    let scene = parallel_squares(dir.path(), 1.0, 0.5, 0.5);
-    let out = dir.path().join("c.glint");
-    let settings = RadiositySettings {
+/// Cheap settings on a plain atlas (no raised charts, contacts or seams, no element limit).
+fn small_settings() -> RadiositySettings {
+    RadiositySettings {
         texel_density: 8.0,
         min_chart_texels: 0,
         min_scene_texels: 0,
@@ -327,7 +314,15 @@ fn cancelling_leaves_the_bundle_as_it_was() {
         stitch_seams: false,
         cache_budget_mib: 2048,
         max_elements: 0,
-    };
+    }
+}
+
+#[test]
+fn cancelling_leaves_the_bundle_as_it_was() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = parallel_squares(dir.path(), 1.0, 0.5, 0.5);
+    let out = dir.path().join("c.glint");
+    let settings = small_settings();
     radiosity_stage::bake(&scene, &out, &settings, false, &Silent).unwrap();
     let manifest = std::fs::read(out.join("manifest.json")).unwrap();
     let read_page = || {
@@ -397,19 +392,8 @@ fn a_scene_over_max_elements_bakes_at_one_lower_density_within_it() {
     let scene = parallel_squares(dir.path(), 1.0, 0.5, 0.5);
     let settings = |max_elements| RadiositySettings {
         texel_density: 64.0,
-        min_chart_texels: 0,
-        min_scene_texels: 0,
-        contact_boost: 0.0,
-        texels_per_radian: 0.0,
-        rays: 16,
-        light_samples: 4,
-        bounces: 2,
-        tolerance: 0.0,
-        glossy_depth: 0,
-        target_error: None,
-        stitch_seams: false,
-        cache_budget_mib: 2048,
         max_elements,
+        ..small_settings()
     };
     let elements = |max| {
         let out = dir.path().join(format!("m{max}.glint"));

@@ -274,7 +274,9 @@ fn bunny_mirror_seams(contact_boost: f32, texels_per_radian: f32) {
     let (atlas, samples, _) = glint::radiosity::contacts::build(
         &scene,
         &scene.build_bvh(),
-        radiosity_stage::density_rule(&scene, &settings).unwrap().0,
+        radiosity_stage::density_rule(&scene, &settings)
+            .unwrap()
+            .rule,
         settings.contact_boost,
     )
     .unwrap();

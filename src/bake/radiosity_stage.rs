@@ -85,28 +85,63 @@ pub fn memory_estimate(texels: f64, rays: u32, refine: bool, cache_budget: u64) 
     first + more + texels * 96.0 + texels * 2.0 * 40.0
 }
 
-/// The density rule `settings` give `scene` ([`RadiositySettings::density_rule`]), every
-/// density scaled down by one factor where the scene would have more than
-/// [`RadiositySettings::max_elements`]; with that factor (1: as asked).
+/// The densities a radiosity bake of a scene uses, with what its estimates read.
+#[derive(Debug)]
+pub struct Density {
+    /// The rule `settings` give the scene ([`RadiositySettings::density_rule`]), every
+    /// density scaled down by [`Self::scale`].
+    pub rule: atlas::DensityRule,
+    /// The one factor on every density asked (1: as asked; less where the scene would have
+    /// more than [`RadiositySettings::max_elements`]).
+    pub scale: f32,
+    /// The scene's charts as the estimates read them (made once per bake).
+    shapes: atlas::ChartShapes,
+}
+
+impl Density {
+    /// Estimated atlas texels under [`Self::rule`], before contact boosts
+    /// ([`atlas::estimate_texels`]).
+    pub fn texels(&self) -> f64 {
+        self.shapes.texels(self.rule)
+    }
+}
+
+/// The [`Density`] `settings` give `scene`.
 pub fn density_rule(
     scene: &Scene,
     settings: &RadiositySettings,
-) -> Result<(atlas::DensityRule, f32), RadiosityError> {
+) -> Result<Density, RadiosityError> {
     let rule = settings.density_rule(scene.bounds.longest_side());
     if settings.max_elements == 0 {
-        return Ok((rule, 1.0));
+        return Ok(Density {
+            rule,
+            scale: 1.0,
+            shapes: atlas::ChartShapes::new(&scene.triangles, rule),
+        });
     }
     let shapes = atlas::ChartShapes::with_charts(&scene.triangles);
     let factor = settings.contact_texel_factor();
-    match atlas::fit_elements(&shapes, rule, factor, settings.max_elements as f64) {
-        Some(s) if s >= 1.0 => Ok((rule, 1.0)),
-        Some(s) => Ok((rule.scaled(s), s)),
-        None => Err(RadiosityError::Setting(format!(
-            "`max_elements` {}: the scene's charts need about {:.0} elements even a texel or two across each; raise `max_elements` (0: no limit)",
-            settings.max_elements,
-            shapes.elements(rule.scaled(atlas::MIN_FIT_SCALE)) * factor,
-        ))),
-    }
+    let (rule, scale) = match atlas::fit_elements(
+        &shapes,
+        rule,
+        factor,
+        settings.max_elements as f64,
+    ) {
+        Some(s) if s >= 1.0 => (rule, 1.0),
+        Some(s) => (rule.scaled(s), s),
+        None => {
+            return Err(RadiosityError::Setting(format!(
+                "`max_elements` {}: the scene's charts need about {:.0} elements even a texel or two across each; raise `max_elements` (0: no limit)",
+                settings.max_elements,
+                shapes.elements(rule.scaled(atlas::MIN_FIT_SCALE)) * factor,
+            )));
+        }
+    };
+    Ok(Density {
+        rule,
+        scale,
+        shapes,
+    })
 }
 
 /// Bytes of memory available to this process (Linux `MemAvailable`), if known.
@@ -117,13 +152,17 @@ pub fn available_memory() -> Option<f64> {
     Some(kib * 1024.0)
 }
 
-/// Checks settings and memory before anything is allocated.
-pub fn check(scene: &Scene, s: &RadiositySettings) -> Result<(), RadiosityError> {
+/// Checks settings and memory before anything is allocated; the densities the bake uses.
+pub fn check(scene: &Scene, s: &RadiositySettings) -> Result<Density, RadiosityError> {
     check_share(scene, s, 1.0)
 }
 
 /// [`check`] for a bake that holds `share` of the elements' gathered rays (a gathering unit).
-fn check_share(scene: &Scene, s: &RadiositySettings, share: f64) -> Result<(), RadiosityError> {
+fn check_share(
+    scene: &Scene,
+    s: &RadiositySettings,
+    share: f64,
+) -> Result<Density, RadiosityError> {
     if !scene.has_emitters() {
         return Err(RadiosityError::NoEmitters {
             path: scene.path.clone(),
@@ -131,22 +170,22 @@ fn check_share(scene: &Scene, s: &RadiositySettings, share: f64) -> Result<(), R
     }
     s.check(Some(scene.bounds.diagonal()))
         .map_err(|e| RadiosityError::Setting(e.to_string()))?;
-    let (rule, _) = density_rule(scene, s)?;
-    let texels = atlas::estimate_texels(&scene.triangles, rule) * s.contact_texel_factor();
+    let density = density_rule(scene, s)?;
+    let texels = density.texels() * s.contact_texel_factor();
     let need = memory_estimate(texels, s.rays, s.target_error.is_some(), s.cache_budget()) * share;
     if let Some(avail) = available_memory()
         && need > avail
     {
         let gib = (1u64 << 30) as f64;
         return Err(RadiosityError::TooBig {
-            density: rule.per_metre,
+            density: density.rule.per_metre,
             rays: s.rays,
             texels,
             need_gib: need / gib,
             avail_gib: avail / gib,
         });
     }
-    Ok(())
+    Ok(density)
 }
 
 /// The settings as recorded in the manifest (with the seed), for up-to-date checks.
@@ -209,9 +248,13 @@ struct Prepared {
     solve: SolveSettings,
 }
 
-fn prepare(scene: &Scene, settings: &RadiositySettings) -> Result<Prepared, RadiosityError> {
+fn prepare(
+    scene: &Scene,
+    settings: &RadiositySettings,
+    density: Density,
+) -> Result<Prepared, RadiosityError> {
     let bvh = scene.build_bvh();
-    let (rule, scale) = density_rule(scene, settings)?;
+    let Density { rule, scale, .. } = density;
     if scale < 1.0 {
         log::info!(
             "texel density {:.2} per metre ({:.3} × every density asked): the scene would have more than `max_elements` = {} elements",
@@ -291,9 +334,9 @@ pub fn bake_gather(
         target_error: None,
         ..settings.clone()
     };
-    check_share(scene, &first, 1.0 / n.max(1) as f64)?;
+    let density = check_share(scene, &first, 1.0 / n.max(1) as f64)?;
     let mut w = StageWriter::begin(shard, GATHER_STAGE)?;
-    let p = prepare(scene, settings)?;
+    let p = prepare(scene, settings, density)?;
     let range = gather_range(p.samples.len(), k, n);
     let batch = gather_batch(
         scene,
@@ -362,11 +405,11 @@ pub fn bake_from(
     progress: &dyn Progress,
 ) -> Result<StageRecord, RadiosityError> {
     let start = Instant::now();
-    check(scene, settings)?;
+    let density = check(scene, settings)?;
     crate::bundle::check_scene(bundle, &scene.content_hash, force)?;
     // Before the compute: a bundle that cannot be written fails now.
     let mut w = StageWriter::begin(bundle, Stage::Radiosity.name())?;
-    let p = prepare(scene, settings)?;
+    let p = prepare(scene, settings, density)?;
     let mut solution = match gathering {
         Gathering::Here => solve(scene, &p.bvh, &p.atlas, &p.samples, &p.solve, progress)?,
         Gathering::From(shards) => {

@@ -211,10 +211,13 @@ pub fn plan_units(scene: &Scene, settings: &BakeSettings) -> Result<UnitPlan, St
             })
             .collect();
         // A scene `max_elements` refuses fails in its units; its cost is estimated as asked.
-        let rule = radiosity_stage::density_rule(scene, s)
-            .map_or_else(|_| s.density_rule(scene.bounds.longest_side()), |r| r.0);
-        let texels = crate::radiosity::atlas::estimate_texels(&scene.triangles, rule)
-            * s.contact_texel_factor();
+        let texels = match radiosity_stage::density_rule(scene, s) {
+            Ok(density) => density.texels(),
+            Err(_) => crate::radiosity::atlas::estimate_texels(
+                &scene.triangles,
+                s.density_rule(scene.bounds.longest_side()),
+            ),
+        } * s.contact_texel_factor();
         let recorded = radiosity_stage::settings_json(s);
         let inputs = vec![
             ("geometry", geometry.clone()),

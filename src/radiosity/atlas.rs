@@ -203,6 +203,7 @@ pub fn estimate_texels(triangles: &[Triangle], rule: DensityRule) -> f64 {
 
 /// What the estimates read of a scene's charts: their area and count, and, where a rule
 /// raises densities per chart, each chart's extent and turn (made once, read at any rule).
+#[derive(Debug)]
 pub struct ChartShapes {
     area: f64,
     triangles: usize,
