@@ -91,6 +91,7 @@ fn main() {
                     face_size,
                     generations,
                     parallax: true,
+                    self_occlusion: true,
                 };
                 // The quietest of three builds (pipelines are created each time, not timed).
                 let mut best = f64::INFINITY;

@@ -34,7 +34,8 @@
 //! tracer's pixels are, for the path-tracer columns (at one sample a pixel the per-pixel
 //! error at every silhouette is the viewer's aliasing, not its light);
 //! `GLINT_BENCH_CUBE_PARALLAX=off` turns the curved reflectors' distance-corrected lookups off
-//! (as `glint-view --cube-parallax off`).
+//! (as `glint-view --cube-parallax off`); `GLINT_BENCH_CUBE_SELF_OCCLUSION=off` likewise
+//! (`--cube-self-occlusion off`).
 //!
 //! `cargo bench --bench view` (the `view` feature, on by default). The adapter is the one
 //! `Gpu::headless` picks: a hardware GPU when there is one, else Mesa's lavapipe; `WGPU_BACKEND`
@@ -620,6 +621,8 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
         let curved_settings = CurvedSettings {
             glossy_samples: glint::materials::MaterialsSettings::preset(quality).sample_budget,
             parallax: std::env::var("GLINT_BENCH_CUBE_PARALLAX").map_or(true, |v| v != "off"),
+            self_occlusion: std::env::var("GLINT_BENCH_CUBE_SELF_OCCLUSION")
+                .map_or(true, |v| v != "off"),
             ..CurvedSettings::default()
         };
         let curved = data

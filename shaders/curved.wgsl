@@ -9,6 +9,8 @@
 // Entry points:
 // - `vs_env`/`fs_env`: D into a cube face (linear Rgba16Float, the face camera in `frame`),
 //   alpha the distance from the face camera (0 where nothing is seen);
+// - `vs_env`/`fs_env` over a reflector's own triangles and `vs_curved`/`fs_own_normal`, the
+//   farthest kept: its own shell (D, normals), which `own_hit` marches;
 // - `vs_curved`/`fs_curved_env`: another curved reflector's mirror term in that face, looked
 //   up in the previous generation's cube map (McReynolds' scheme, as Nielsen adopts it);
 // - `vs_curved`/`fs_curved`: a curved reflector's pixels in the frame, ks·(Fresnel)·cube(r)
@@ -35,7 +37,8 @@ struct CurvedLobe {
 struct CurvedParams {
     // xyz: the eye (the camera, or the centre of the cube map being rendered); w: LOD bias.
     eye: vec4<f32>,
-    // xyz: the reflector's centre (where its cube map was taken); w unused.
+    // xyz: the reflector's centre (where its cube map was taken); w: the radius of its bounding
+    // sphere when rays are tested against its own shell (`own_hit`), 0 when not.
     centre: vec4<f32>,
     // x: lobes; y: 1 = regular sampling (Eq. 9), 0 = one mirror lookup; z: face size of the
     // environment's level 0 (Eq. 16's N = z²); w: 1 = distance-corrected lookups
@@ -54,6 +57,12 @@ struct CurvedParams {
 // The reflector's live cube map: alpha holds each texel's distance from the centre (`fs_env`;
 // 0: nothing seen). The glossy term may read a baked pyramid from `env`, which has none.
 @group(1) @binding(9) var env_distance: texture_cube<f32>;
+// The reflector's own outer shell seen from its centre (`fs_env` over its own triangles, the
+// farthest surface kept): rgb its D, alpha its distance from the centre (0: none).
+@group(1) @binding(10) var own_shell: texture_cube<f32>;
+// The same shell's normals (`fs_own_normal`): xyz the interpolated vertex normal, alpha the
+// distance (0: none).
+@group(1) @binding(11) var own_normal: texture_cube<f32>;
 
 const CURVED_PI: f32 = 3.14159265358979;
 // `brdf::COS_FLOOR`.
@@ -62,6 +71,9 @@ const COS_FLOOR: f32 = 1e-6;
 const ALPHA_MAX: f32 = 1.5697963;
 // `curved::PARALLAX_STEPS`.
 const PARALLAX_STEPS: u32 = 2u;
+// `curved::OWN_STEPS`, `curved::OWN_MARGIN`.
+const OWN_STEPS: u32 = 16u;
+const OWN_MARGIN: f32 = 0.02;
 
 // The tangent frame of `sampling::basis` (Duff et al. 2017): columns tangent, bitangent, n.
 fn curved_basis(n: vec3<f32>) -> mat3x3<f32> {
@@ -229,6 +241,72 @@ fn curved_lookup(offset: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
     return u;
 }
 
+// Whether the ray from the point `offset` away from the centre along unit `dir` meets the
+// reflector itself (`curved::own_hit`): xyz the direction from the centre where it enters the
+// own shell, w 1; w 0 when it leaves the bounding sphere without (or the test is off).
+fn own_hit(offset: vec3<f32>, dir: vec3<f32>) -> vec4<f32> {
+    let radius = curved.centre.w;
+    if radius <= 0.0 {
+        return vec4<f32>(0.0);
+    }
+    let b = dot(offset, dir);
+    let c = dot(offset, offset);
+    let t_exit = -b + sqrt(max(b * b - c + radius * radius, 0.0));
+    var outside = false;
+    for (var k = 1u; k <= OWN_STEPS; k++) {
+        let f = f32(k) / f32(OWN_STEPS);
+        let q = offset + dir * (t_exit * f * f);
+        let r = length(q);
+        if r <= 0.0 {
+            continue;
+        }
+        let s = textureSampleLevel(own_shell, env_sampler, q / r, 0.0).a;
+        if s > 0.0 && r < s * (1.0 - OWN_MARGIN) {
+            if outside {
+                return vec4<f32>(q / r, 1.0);
+            }
+        } else {
+            outside = true;
+        }
+    }
+    return vec4<f32>(0.0);
+}
+
+// What the ray along `dir` sees of the reflector's own shell at direction `u` from the centre
+// (`curved::own_radiance`): the shell's kd·D plus each lobe's mirror term there, ks·F(n·ω_o)
+// times one distance-corrected lookup (no further own test: one self-reflection).
+fn own_radiance(u: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
+    let shell = textureSampleLevel(own_shell, env_sampler, u, 0.0);
+    let m = textureSampleLevel(own_normal, env_sampler, u, 0.0).xyz;
+    if dot(m, m) <= 1e-12 {
+        return shell.rgb;
+    }
+    let wo = -dir;
+    var n = normalize(m);
+    if dot(n, wo) < 0.0 {
+        n = -n;
+    }
+    let c = dot(n, wo);
+    let seen = curved_lookup(u * shell.a, reflect_about(wo, n));
+    let l_env = textureSampleLevel(env, env_sampler, seen, 0.0).rgb;
+    var sum = shell.rgb;
+    for (var i = 0u; i < min(curved.info.x, 2u); i++) {
+        let l = curved.lobes[i];
+        sum += l.ks.rgb * fresnel_schlick(l.ks.a, c) * l_env;
+    }
+    return sum;
+}
+
+// The radiance the reflected ray from `offset` along `dir` brings: the reflector's own shell
+// where it meets it, else the environment at level `lod`, distance-corrected.
+fn curved_environment(offset: vec3<f32>, dir: vec3<f32>, lod: f32) -> vec3<f32> {
+    let own = own_hit(offset, dir);
+    if own.w > 0.0 {
+        return own_radiance(own.xyz, dir);
+    }
+    return textureSampleLevel(env, env_sampler, curved_lookup(offset, dir), lod).rgb;
+}
+
 // Eq. 9 with a regular pattern: (1/N) Σ L(ω_i) f(ω_i, ω_o) cos θ_i / p(ω_i), p from Eq. 17–18,
 // each L at its Eq. 16 level (`envmap::specular_regular`, ks included here).
 fn specular_regular(l: CurvedLobe, frame_m: mat3x3<f32>, wo_l: vec3<f32>, offset: vec3<f32>) -> vec3<f32> {
@@ -251,7 +329,7 @@ fn specular_regular(l: CurvedLobe, frame_m: mat3x3<f32>, wo_l: vec3<f32>, offset
         let f = lobe_eval(l, wo_l, wi); // Eq. 2
         let pdf = l.pdf.x / (4.0 * max(dot(h, wi), COS_FLOOR)); // Eq. 17
         if pdf > 0.0 {
-            let radiance = textureSampleLevel(env, env_sampler, curved_lookup(offset, wi_world), lod).rgb;
+            let radiance = curved_environment(offset, wi_world, lod);
             sum += radiance * (f * wi.z / pdf);
         }
     }
@@ -264,8 +342,8 @@ fn specular_mirror(l: CurvedLobe, n: vec3<f32>, wo: vec3<f32>, offset: vec3<f32>
     if c <= 0.0 {
         return vec3<f32>(0.0);
     }
-    let r = curved_lookup(offset, reflect_about(wo, n));
-    return l.ks.rgb * fresnel_schlick(l.ks.a, c) * textureSampleLevel(env, env_sampler, r, 0.0).rgb;
+    let radiance = curved_environment(offset, reflect_about(wo, n), 0.0);
+    return l.ks.rgb * fresnel_schlick(l.ks.a, c) * radiance;
 }
 
 // The specular radiance of every lobe at the point `offset` from the centre, with normal `n`,
@@ -372,6 +450,13 @@ fn fs_env(in: EnvOut) -> @location(0) vec4<f32> {
     // Alpha: the distance from the face camera (the map's centre), for `curved_lookup`.
     let distance = length(in.world - frame.eye.xyz);
     return vec4<f32>(surface_d(q, in.material, in.uv0, in.uv1) * frame.exposure, distance);
+}
+
+// A reflector's own shell normals (drawn with the farthest kept): the normal, and the distance
+// from the face camera as `fs_env` writes it.
+@fragment
+fn fs_own_normal(in: CurvedOut) -> @location(0) vec4<f32> {
+    return vec4<f32>(normalize(in.normal), length(in.world - frame.eye.xyz));
 }
 
 @fragment

@@ -81,6 +81,12 @@ pub struct ViewArgs {
     #[arg(long, value_name = "on|off", default_value = "on", value_parser = parse_on_off,
           action = clap::ArgAction::Set)]
     pub cube_parallax: bool,
+    /// Curved reflectors: reflected rays tested against the reflector's own outermost surface
+    /// (`on`), so a teapot's body shows its spout, handle and lid where its rays meet them;
+    /// `off`: every ray sees the room (Nielsen's maps are taken without the reflector).
+    #[arg(long, value_name = "on|off", default_value = "on", value_parser = parse_on_off,
+          action = clap::ArgAction::Set)]
+    pub cube_self_occlusion: bool,
     /// Geometry reflections: recursion depth 0–4 (Nielsen & Christensen 2002 §3.1): 0 draws
     /// no reflections (as `--reflections off`), 1 mirrors the scene once per reflector (the
     /// default), 2–4 also draw the reflectors seen in each reflection, one reflection map per
@@ -147,6 +153,7 @@ impl ViewArgs {
                 face_size: self.cube_size,
                 generations: self.cube_generations,
                 parallax: self.cube_parallax,
+                self_occlusion: self.cube_self_occlusion,
             },
             recursion: RecursionSettings {
                 depth: self.recursion_depth.unwrap_or(1),
@@ -218,6 +225,8 @@ mod tests {
             "3",
             "--cube-parallax",
             "off",
+            "--cube-self-occlusion",
+            "off",
             "--recursion-depth",
             "3",
             "--reflection-cutoff",
@@ -244,6 +253,7 @@ mod tests {
                     face_size: 64,
                     generations: 3,
                     parallax: false,
+                    self_occlusion: false,
                 },
                 recursion: RecursionSettings {
                     depth: 3,

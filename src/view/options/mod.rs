@@ -278,6 +278,10 @@ pub struct CurvedSettings {
     /// of the reflector looks up where its own reflected ray meets the room, not where a
     /// ray from the map's centre does (Nielsen's maps assume a distant environment).
     pub parallax: bool,
+    /// Reflected rays tested against the reflector's own shell ([`crate::view::curved::own_hit`]):
+    /// a concave reflector (a teapot) shows its own spout, handle or lid where its rays meet
+    /// them, not the room behind.
+    pub self_occlusion: bool,
 }
 
 /// Face size of live cube maps unless set.
@@ -293,6 +297,7 @@ impl Default for CurvedSettings {
             face_size: DEFAULT_FACE_SIZE,
             generations: DEFAULT_GENERATIONS,
             parallax: true,
+            self_occlusion: true,
         }
     }
 }

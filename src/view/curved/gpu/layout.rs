@@ -1,6 +1,6 @@
 //! The curved shader's inputs: the reflector vertex format, bind group 1 (parameters,
-//! patterns, environment cube, sampler, the live cube whose alpha holds distances) and its
-//! sampler.
+//! patterns, environment cube, sampler, the live cube whose alpha holds distances, the
+//! reflector's own shell) and its sampler.
 
 use super::super::CurvedParams;
 use crate::view::build::bind_group_layout;
@@ -30,8 +30,8 @@ impl CurvedVertex {
 }
 
 /// Bind group 1 of the curved shader: the reflector's parameters, its sampling patterns,
-/// its environment cube, the cube's sampler and the live cube map whose alpha holds the
-/// distances of distance-corrected lookups.
+/// its environment cube, the cube's sampler, the live cube map whose alpha holds the
+/// distances of distance-corrected lookups, and the reflector's own shell (`own_hit`).
 pub(super) fn curved_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let all =
         wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
@@ -42,6 +42,8 @@ pub(super) fn curved_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
         .texture(6, lookups, wgpu::TextureViewDimension::Cube, true)
         .sampler(7, lookups)
         .texture(9, lookups, wgpu::TextureViewDimension::Cube, true)
+        .texture(10, lookups, wgpu::TextureViewDimension::Cube, true)
+        .texture(11, lookups, wgpu::TextureViewDimension::Cube, true)
         .build(device, "glint curved layout")
 }
 
@@ -60,7 +62,9 @@ pub(super) fn trilinear_sampler(device: &wgpu::Device) -> wgpu::Sampler {
 }
 
 /// Bind group 1 of the curved shader ([`curved_layout`]): `distances` is the reflector's
-/// live cube map (or any cube when its parameters turn the correction off).
+/// live cube map (or any cube when its parameters turn the correction off), `own` its own
+/// shell's D and normals (any cubes when they turn `own_hit` off).
+#[allow(clippy::too_many_arguments)]
 pub(super) fn curved_group(
     device: &wgpu::Device,
     layout: &wgpu::BindGroupLayout,
@@ -69,6 +73,7 @@ pub(super) fn curved_group(
     env: &wgpu::TextureView,
     sampler: &wgpu::Sampler,
     distances: &wgpu::TextureView,
+    own: (&wgpu::TextureView, &wgpu::TextureView),
 ) -> wgpu::BindGroup {
     device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("glint curved group"),
@@ -93,6 +98,14 @@ pub(super) fn curved_group(
             wgpu::BindGroupEntry {
                 binding: 9,
                 resource: wgpu::BindingResource::TextureView(distances),
+            },
+            wgpu::BindGroupEntry {
+                binding: 10,
+                resource: wgpu::BindingResource::TextureView(own.0),
+            },
+            wgpu::BindGroupEntry {
+                binding: 11,
+                resource: wgpu::BindingResource::TextureView(own.1),
             },
         ],
     })

@@ -4,7 +4,8 @@
 //! - [`layout`]: the reflector vertex format and the curved shader's bind group 1;
 //! - [`cube`]: cube textures with every MIP level, and baked pyramids uploaded as cubes;
 //! - [`baked`]: the materials stage's baked MIP pyramids and ξ₀;
-//! - `generation`: the live cube maps, generated once, double-buffered across generations;
+//! - `generation`: the reflectors' own shells and the live cube maps, generated once,
+//!   double-buffered across generations;
 //! - `probe`: compute probes of the shader, for tests.
 
 mod baked;
@@ -26,8 +27,8 @@ use layout::{curved_group, curved_layout, trilinear_sampler};
 pub use probe::glossy_probe;
 
 use super::{
-    CurvedParams, CurvedReflector, CurvedSettings, curved_reflectors, face_camera, generation_plan,
-    pack_patterns, patterns_for, shader_source,
+    CurvedParams, CurvedReflector, CurvedSettings, bounding_radius, curved_reflectors, face_camera,
+    generation_plan, pack_patterns, patterns_for, shader_source,
 };
 use crate::camera::Camera;
 use crate::view::build::{buffer_init, render_pipeline, shader};
@@ -58,6 +59,13 @@ struct ReflectorGpu {
     /// The scene without this reflector (its cube map's draw).
     others: wgpu::Buffer,
     others_count: u32,
+    /// Its own triangles in the scene's vertex buffer (its shell's draw).
+    own_indices: wgpu::Buffer,
+    own_count: u32,
+    /// Its own shell seen from its centre (`own_hit`): D, alpha the distance.
+    own: CubeTexture,
+    /// The same shell's normals, alpha the distance.
+    own_normals: CubeTexture,
     /// Frame uniforms of its six face cameras.
     face_groups: Vec<wgpu::BindGroup>,
     _face_uniforms: Vec<wgpu::Buffer>,
@@ -238,6 +246,18 @@ impl CurvedReflections {
                         bytemuck::cast_slice(&others),
                         MIN_BUFFER,
                     );
+                    let own_indices =
+                        mesh.triangle_indices(reflector.triangles.iter().map(|&t| t as usize));
+                    let own_buffer = buffer_init(
+                        gpu,
+                        "glint own shell indices",
+                        wgpu::BufferUsages::INDEX,
+                        bytemuck::cast_slice(&own_indices),
+                        MIN_BUFFER,
+                    );
+                    let own = CubeTexture::new(gpu, face_size, 1, "glint own shell");
+                    let own_normals =
+                        CubeTexture::new(gpu, face_size, 1, "glint own shell normals");
                     let mut face_uniforms = Vec::new();
                     let mut face_groups = Vec::new();
                     for face in 0..6 {
@@ -283,6 +303,10 @@ impl CurvedReflections {
                         env_size,
                     );
                     base_params.info[3] = u32::from(settings.parallax);
+                    if settings.self_occlusion {
+                        // Slightly larger, so the march's last sample lies outside every part.
+                        base_params.centre[3] = 1.001 * bounding_radius(scene, &reflector);
+                    }
                     let params = buffer_init(
                         gpu,
                         "glint curved params",
@@ -298,12 +322,17 @@ impl CurvedReflections {
                         env_view,
                         &sampler,
                         &maps[final_set][i].cube,
+                        (&own.cube, &own_normals.cube),
                     );
                     ReflectorGpu {
                         vertex_count: verts.len() as u32,
                         vertices,
                         others_count: others.len() as u32,
                         others: others_buffer,
+                        own_count: own_indices.len() as u32,
+                        own_indices: own_buffer,
+                        own,
+                        own_normals,
                         face_groups,
                         _face_uniforms: face_uniforms,
                         params,
@@ -451,6 +480,7 @@ impl CurvedReflections {
                     self.env_view(i),
                     &self.sampler,
                     &self.maps[self.final_set][i].cube,
+                    (&r.own.cube, &r.own_normals.cube),
                 );
                 (params, group)
             })

@@ -105,6 +105,7 @@ fn curved_probe(
                 env,
                 &sampler,
                 env,
+                (env, env),
             );
             let group0 = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("glint empty group"),
