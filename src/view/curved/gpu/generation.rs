@@ -51,35 +51,7 @@ impl CurvedReflections {
             pair_params.push(row);
         }
         if self.settings.self_occlusion {
-            for ri in &self.reflectors {
-                for face in 0..6 {
-                    let mut pass = farthest_pass(
-                        encoder,
-                        "glint own shell pass",
-                        &[Some(&ri.own.faces[0][face])],
-                        // Alpha 0: no shell where nothing is drawn (`own_hit`).
-                        wgpu::Color::TRANSPARENT,
-                        &pipes.depth_view,
-                    );
-                    pass.set_pipeline(&pipes.own);
-                    pass.set_bind_group(0, &ri.face_groups[face], &[]);
-                    pass.set_vertex_buffer(0, scene_vertices.slice(..));
-                    pass.set_index_buffer(ri.own_indices.slice(..), wgpu::IndexFormat::Uint32);
-                    pass.draw_indexed(0..ri.own_count, 0, 0..1);
-                    drop(pass);
-                    let mut pass = farthest_pass(
-                        encoder,
-                        "glint own shell normal pass",
-                        &[Some(&ri.own_normals.faces[0][face])],
-                        wgpu::Color::TRANSPARENT,
-                        &pipes.depth_view,
-                    );
-                    pass.set_pipeline(&pipes.own_normal);
-                    pass.set_bind_group(0, &ri.face_groups[face], &[]);
-                    pass.set_vertex_buffer(0, ri.vertices.slice(..));
-                    pass.draw(0..ri.vertex_count, 0..1);
-                }
-            }
+            self.record_own_shells(pipes, scene_vertices, encoder);
         }
         for step in generation_plan(self.settings.generations) {
             assert_ne!(step.write, step.read, "a cube map never reads its own set");
@@ -129,6 +101,46 @@ impl CurvedReflections {
                     }
                 }
                 pipes.record_mips(device, target, encoder);
+            }
+        }
+    }
+
+    /// Records each reflector's own shell (`own_hit`): its own triangles from its centre into
+    /// each face, the farthest kept, D with distance into `own` (the scene's vertices, for
+    /// the lightmap) and normal with distance into `own_normals` (its own vertices).
+    fn record_own_shells(
+        &self,
+        pipes: &GenerationPipelines,
+        scene_vertices: &wgpu::Buffer,
+        encoder: &mut wgpu::CommandEncoder,
+    ) {
+        for ri in &self.reflectors {
+            for face in 0..6 {
+                let mut pass = farthest_pass(
+                    encoder,
+                    "glint own shell pass",
+                    &[Some(&ri.own.faces[0][face])],
+                    // Alpha 0: no shell where nothing is drawn (`own_hit`).
+                    wgpu::Color::TRANSPARENT,
+                    &pipes.depth_view,
+                );
+                pass.set_pipeline(&pipes.own);
+                pass.set_bind_group(0, &ri.face_groups[face], &[]);
+                pass.set_vertex_buffer(0, scene_vertices.slice(..));
+                pass.set_index_buffer(ri.own_indices.slice(..), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..ri.own_count, 0, 0..1);
+                drop(pass);
+                let mut pass = farthest_pass(
+                    encoder,
+                    "glint own shell normal pass",
+                    &[Some(&ri.own_normals.faces[0][face])],
+                    wgpu::Color::TRANSPARENT,
+                    &pipes.depth_view,
+                );
+                pass.set_pipeline(&pipes.own_normal);
+                pass.set_bind_group(0, &ri.face_groups[face], &[]);
+                pass.set_vertex_buffer(0, ri.vertices.slice(..));
+                pass.draw(0..ri.vertex_count, 0..1);
             }
         }
     }
