@@ -215,6 +215,12 @@ fn mip_level(area: f32, face: f32, n: f32, wi: vec3<f32>, h: vec3<f32>) -> f32 {
     return max(0.5 * log2(max(pixels, 1.0)), 0.0);
 }
 
+// Where the ray offset + t·dir (b = offset · dir, c = |offset|²) leaves the sphere of `radius`
+// about the centre, the far root; the closest approach where it misses (`curved::sphere_exit`).
+fn sphere_exit(b: f32, c: f32, radius: f32) -> f32 {
+    return -b + sqrt(max(b * b - c + radius * radius, 0.0));
+}
+
 // Where the ray from the point `offset` away from the centre along unit `dir` meets the room,
 // as a direction from the centre: fixed-point steps on the distances `env_distance` stores
 // (`curved::parallax_direction`, distance impostors, Szirmay-Kalos et al. 2005). `dir` itself
@@ -231,7 +237,7 @@ fn curved_lookup(offset: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
         if s <= 0.0 {
             break;
         }
-        let t = -b + sqrt(max(b * b - c + s * s, 0.0));
+        let t = sphere_exit(b, c, s);
         let q = offset + dir * t;
         if dot(q, q) <= 0.0 {
             break;
@@ -251,7 +257,7 @@ fn own_hit(offset: vec3<f32>, dir: vec3<f32>) -> vec4<f32> {
     }
     let b = dot(offset, dir);
     let c = dot(offset, offset);
-    let t_exit = -b + sqrt(max(b * b - c + radius * radius, 0.0));
+    let t_exit = sphere_exit(b, c, radius);
     var outside = false;
     for (var k = 1u; k <= OWN_STEPS; k++) {
         let f = f32(k) / f32(OWN_STEPS);

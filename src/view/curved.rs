@@ -200,9 +200,7 @@ pub fn parallax_direction(offset: Vec3, dir: Vec3, distance: impl Fn(Vec3) -> f3
         if s <= 0.0 || !s.is_finite() {
             break;
         }
-        // The far root of t² + 2bt + (c − s²) = 0; a surface nearer the centre than the
-        // ray's closest approach (a disc < 0) takes the closest approach.
-        let t = -b + (b * b - c + s * s).max(0.0).sqrt();
+        let t = sphere_exit(b, c, s);
         let q = offset + dir * t;
         if q.length_squared() <= 0.0 {
             break;
@@ -210,6 +208,14 @@ pub fn parallax_direction(offset: Vec3, dir: Vec3, distance: impl Fn(Vec3) -> f3
         u = q.normalize();
     }
     u
+}
+
+/// Where the ray offset + t·dir (unit dir; b = offset · dir, c = |offset|²) leaves the sphere
+/// of `radius` about the centre: the far root of t² + 2bt + (c − radius²) = 0. A sphere
+/// nearer the centre than the ray's closest approach (a discriminant < 0) gives the closest
+/// approach. `sphere_exit` in `shaders/curved.wgsl` is the GPU form.
+fn sphere_exit(b: f32, c: f32, radius: f32) -> f32 {
+    -b + (b * b - c + radius * radius).max(0.0).sqrt()
 }
 
 /// Samples along a reflected ray in [`own_hit`]: t = t_exit · (k / N)², k = 1 … N, denser
@@ -238,7 +244,7 @@ pub fn own_hit(offset: Vec3, dir: Vec3, radius: f32, shell: impl Fn(Vec3) -> f32
     }
     let b = offset.dot(dir);
     let c = offset.length_squared();
-    let t_exit = -b + (b * b - c + radius * radius).max(0.0).sqrt();
+    let t_exit = sphere_exit(b, c, radius);
     let mut outside = false;
     for k in 1..=OWN_STEPS {
         let f = k as f32 / OWN_STEPS as f32;

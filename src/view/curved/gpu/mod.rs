@@ -255,9 +255,14 @@ impl CurvedReflections {
                         bytemuck::cast_slice(&own_indices),
                         MIN_BUFFER,
                     );
-                    let own = CubeTexture::new(gpu, face_size, 1, "glint own shell");
-                    let own_normals =
-                        CubeTexture::new(gpu, face_size, 1, "glint own shell normals");
+                    // Never drawn with the test off: a 1² stand-in for the bind group.
+                    let own_size = if settings.self_occlusion {
+                        face_size
+                    } else {
+                        1
+                    };
+                    let own = CubeTexture::new(gpu, own_size, 1, "glint own shell");
+                    let own_normals = CubeTexture::new(gpu, own_size, 1, "glint own shell normals");
                     let mut face_uniforms = Vec::new();
                     let mut face_groups = Vec::new();
                     for face in 0..6 {
