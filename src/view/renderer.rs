@@ -10,7 +10,10 @@
 //!   texture's texel mean; the fragment shader multiplies the full-resolution texture back in
 //!   and adds textured emission (`surface_d`), and discards alpha-masked cut-outs, from the
 //!   scene's images and material records in the frame bind group
-//!   ([`super::surface_textures`]).
+//!   ([`super::surface_textures`]). Only triangles of alpha-masked materials are drawn with
+//!   that shader (`fs_main`); the rest with one that never discards (`fs_opaque`), which lets
+//!   the depth test run before shading. The draw is split into runs in scene order
+//!   ([`alpha_runs`]), so it draws what one draw would, in the same order.
 //! - The atlas pages in one `Rgba16Float` 2D texture array, every layer the size of the largest
 //!   page; smaller pages are padded by repeating their edge texels, so the clamp-to-edge
 //!   sampler behaves at a page's edge exactly as the CPU's clamped lookups do.
@@ -21,6 +24,8 @@
 //!   [`super::display::RADIANCE_FORMAT`]); the display pass exposes, tone-maps and encodes it
 //!   ([`super::display`]), so the shaders' `exposure` is 1 and `encode_srgb` 0 for frames.
 //! - No back-face culling: the CPU reference's ray casts see both faces too.
+
+use std::ops::Range;
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec4};
@@ -196,6 +201,34 @@ impl SceneMesh {
     }
 }
 
+/// A run of consecutive scene triangles whose materials all have alpha cut-outs or all have
+/// none, as a range of [`SceneMesh::indices`].
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct AlphaRun {
+    /// Indices of the run's triangles (three per triangle, scene order).
+    pub indices: Range<u32>,
+    /// Whether the run's materials have cut-outs (drawn with the discarding shader).
+    pub masked: bool,
+}
+
+/// Triangles, given whether each one's material has cut-outs (in scene order), split into
+/// maximal [`AlphaRun`]s: a scene without alpha-masked materials is one opaque run; an empty
+/// scene has none.
+pub fn alpha_runs(masked: impl IntoIterator<Item = bool>) -> Vec<AlphaRun> {
+    let mut runs: Vec<AlphaRun> = Vec::new();
+    for (t, masked) in masked.into_iter().enumerate() {
+        let end = 3 * (t as u32 + 1);
+        match runs.last_mut() {
+            Some(run) if run.masked == masked => run.indices.end = end,
+            _ => runs.push(AlphaRun {
+                indices: end - 3..end,
+                masked,
+            }),
+        }
+    }
+    runs
+}
+
 /// World-to-clip matrix of `camera` for an image of `aspect` = width / height: a reverse-Z
 /// perspective with the far plane at infinity. Consistent with [`Camera::ray_direction`]: the
 /// centre of pixel (x, y) projects to [`Camera::pixel_ndc`]`(x, y)`.
@@ -289,7 +322,11 @@ pub(crate) fn uniform_buffer(device: &wgpu::Device) -> wgpu::Buffer {
 
 /// The scene on the GPU and the pipeline that draws it.
 pub struct Renderer {
+    /// `fs_opaque`: triangles without cut-outs.
     pipeline: wgpu::RenderPipeline,
+    /// `fs_main`: triangles of alpha-masked materials.
+    masked_pipeline: wgpu::RenderPipeline,
+    runs: Vec<AlphaRun>,
     bind_group: wgpu::BindGroup,
     uniforms: wgpu::Buffer,
     vertices: wgpu::Buffer,
@@ -330,13 +367,17 @@ impl Renderer {
                 blend: None,
                 write_mask: wgpu::ColorWrites::ALL,
             });
-            let pipeline = render_pipeline("glint view pipeline", &shader, "vs_main", "fs_main")
-                .layouts(&[&bind_group_layout])
-                .vertex(scene_vertex_layout())
-                .depth(reverse_z_depth(true, wgpu::CompareFunction::Greater))
-                .color(formats.color, None)
-                .target(hdr_target)
-                .build(device);
+            let pipeline = |label, entry| {
+                render_pipeline(label, &shader, "vs_main", entry)
+                    .layouts(&[&bind_group_layout])
+                    .vertex(scene_vertex_layout())
+                    .depth(reverse_z_depth(true, wgpu::CompareFunction::Greater))
+                    .color(formats.color, None)
+                    .target(hdr_target.clone())
+                    .build(device)
+            };
+            let opaque = pipeline("glint view pipeline", "fs_opaque");
+            let masked = pipeline("glint view pipeline (cut-outs)", "fs_main");
             let vertex_buffer = buffer_init(
                 gpu,
                 "glint scene vertices",
@@ -351,11 +392,25 @@ impl Renderer {
                 bytemuck::cast_slice(&mesh.indices),
                 4,
             );
-            (pipeline, bind_group, uniforms, vertex_buffer, index_buffer)
+            (
+                (opaque, masked),
+                bind_group,
+                uniforms,
+                vertex_buffer,
+                index_buffer,
+            )
         })?;
-        let (pipeline, bind_group, uniforms, vertex_buffer, index_buffer) = renderer;
+        let ((pipeline, masked_pipeline), bind_group, uniforms, vertex_buffer, index_buffer) =
+            renderer;
         Ok(Renderer {
             pipeline,
+            masked_pipeline,
+            runs: alpha_runs(scene.triangles.iter().map(|t| {
+                scene
+                    .materials
+                    .get(t.material as usize)
+                    .is_some_and(|m| m.has_cutouts())
+            })),
             bind_group,
             uniforms,
             vertices: vertex_buffer,
@@ -418,7 +473,7 @@ impl Renderer {
     }
 
     /// Records the scene's render pass: clears colour to black and depth to 0 (reverse Z),
-    /// draws every triangle. `hdr` must be given exactly when the pipeline has an HDR target.
+    /// draws every triangle, each [`AlphaRun`] with its pipeline. `hdr` must be given exactly when the pipeline has an HDR target.
     pub fn draw(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -436,11 +491,17 @@ impl Renderer {
             Some((depth, true)),
             timestamps,
         );
-        pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.bind_group, &[]);
         pass.set_vertex_buffer(0, self.vertices.slice(..));
         pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
-        pass.draw_indexed(0..self.index_count, 0, 0..1);
+        for run in &self.runs {
+            pass.set_pipeline(if run.masked {
+                &self.masked_pipeline
+            } else {
+                &self.pipeline
+            });
+            pass.draw_indexed(run.indices.clone(), 0, 0..1);
+        }
     }
 }
 
@@ -480,6 +541,22 @@ mod tests {
             ],
             SHADER_SOURCE,
             "VertexIn",
+        );
+    }
+
+    #[test]
+    fn alpha_runs_cover_every_triangle_in_order() {
+        assert_eq!(alpha_runs([]), vec![]);
+        let run = |indices: Range<u32>, masked| AlphaRun { indices, masked };
+        assert_eq!(alpha_runs([false; 4]), vec![run(0..12, false)]);
+        assert_eq!(alpha_runs([true]), vec![run(0..3, true)]);
+        assert_eq!(
+            alpha_runs([false, false, true, true, true, false]),
+            vec![run(0..6, false), run(6..15, true), run(15..18, false)]
+        );
+        assert_eq!(
+            alpha_runs([true, false, true]),
+            vec![run(0..3, true), run(3..6, false), run(6..9, true)]
         );
     }
 
