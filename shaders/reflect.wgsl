@@ -214,6 +214,7 @@ fn lobe_shape(c: f32) -> vec3<f32> {
     return mix(reflect_params.shape[i].xyz, reflect_params.shape[j].xyz, f);
 }
 
+// Into a recursive map (Nielsen §3.1).
 @fragment
 fn fs_composite(in: MirrorOut) -> FragmentOut {
     // A child reflector straddling its parent mirror's plane: the part behind the parent was
@@ -222,6 +223,18 @@ fn fs_composite(in: MirrorOut) -> FragmentOut {
     if dot(reflect_params.parent.xyz, in.world) <= reflect_params.parent.w {
         discard;
     }
+    return composite(in);
+}
+
+// Into the frame, where nothing is clipped (`parent` is (0, 0, 0, −1)). A shader that never
+// discards lets the depth test run before the gather, so the parts of a reflector that the
+// scene hides cost nothing.
+@fragment
+fn fs_composite_frame(in: MirrorOut) -> FragmentOut {
+    return composite(in);
+}
+
+fn composite(in: MirrorOut) -> FragmentOut {
     var centre = textureLoad(reflection, vec2<i32>(floor(in.clip.xy)), 0);
     let hole = centre.a <= 0.0 && reflect_params.kernel.z > 0.5;
     if hole {

@@ -161,8 +161,8 @@ pub(super) fn composite_bind_group_layout(
         .build(device, label)
 }
 
-/// The composite of a planar reflector's map M into `renderer`'s frame (`fs_composite` of
-/// `shader`, over the reflector's scene triangles): group 0 `frame_layout`, group 1
+/// The composite of a planar reflector's map M into `renderer`'s frame (`fs_composite_frame`
+/// of `shader`, over the reflector's scene triangles): group 0 `frame_layout`, group 1
 /// `composite_layout` ([`composite_bind_group_layout`]).
 pub(super) fn planar_composite(
     device: &wgpu::Device,
@@ -176,7 +176,7 @@ pub(super) fn planar_composite(
         device,
         renderer,
         frame_layout,
-        render_pipeline(label, shader, "vs_mirror", "fs_composite")
+        render_pipeline(label, shader, "vs_mirror", "fs_composite_frame")
             .layouts(&[frame_layout, composite_layout])
             .vertex(scene_vertex_layout()),
     )
