@@ -1018,3 +1018,55 @@ const FRONT_REL_TOLERANCE: f64 = 0.3;
 /// Pixels of the reflected ceiling light (28 in the CPU equation at 192×128) that image mode
 /// may draw where the CPU equation has none, or miss: its ends, a map pixel's reach.
 const FRONT_OUTLINE_PIXELS: usize = 4;
+
+/// The gap-fill shader (`shaders/gap_fill.wgsl`) against its CPU form on an image with rows
+/// of splats and their gaps (one to four texels wide, horizontal and diagonal), a silhouette
+/// against the background, empty texels and a spread of depths: the same texels change, to
+/// the same values (within f16 rounding).
+#[test]
+fn gap_fill_on_the_gpu_matches_its_cpu_form() {
+    use glam::Vec4;
+    use glint::view::reflections::gap_fill::{fill, fill_on_gpu};
+    let gpu = gpu();
+    let (w, h) = (48u32, 32u32);
+    // Values exact in f16, so the CPU sees what the GPU stores.
+    let f16 = |v: f32| exr::prelude::f16::from_f32(v).to_f32();
+    let texels: Vec<Vec4> = (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as i32, (i / w) as i32);
+            let colour = Vec4::new((x % 7) as f32 / 7.0, (y % 5) as f32 / 5.0, 0.5, 0.0);
+            let gap = match x / 12 {
+                0 => y % 3 == 0,           // one-texel rows
+                1 => (x + y) % 4 == 0,     // diagonal gaps
+                2 => y % 6 < 2,            // two-texel rows
+                _ => (8..12).contains(&y), // a four-texel band
+            };
+            let near = if y > 28 {
+                0.0
+            } else {
+                0.1 + 0.01 * (x % 5) as f32
+            };
+            let a = match (x, y) {
+                (_, 30..) => 0.0,  // empty texels
+                (44.., _) => 0.95, // background beside a silhouette
+                _ if gap => 0.9,
+                _ => near,
+            };
+            (colour + Vec4::W * a).to_array().map(f16).into()
+        })
+        .collect();
+    let cpu = fill(w, h, &texels);
+    let got = fill_on_gpu(&gpu, w, h, &texels).expect("the gap-fill pass");
+    let mut changed = 0;
+    for (i, ((g, c), t)) in got.iter().zip(&cpu).zip(&texels).enumerate() {
+        assert!(
+            (*g - *c).abs().max_element() < 2e-3,
+            "texel ({}, {}): GPU {g} CPU {c} (source {t})",
+            i as u32 % w,
+            i as u32 / w
+        );
+        changed += usize::from(c != t);
+    }
+    assert!(changed > 100, "only {changed} texels filled");
+    println!("gap fill: {changed} of {} texels filled, GPU = CPU", w * h);
+}

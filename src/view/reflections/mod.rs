@@ -39,6 +39,7 @@ use crate::scene::{Plane, Scene};
 
 mod cpu;
 pub mod filter;
+pub mod gap_fill;
 pub mod lobe_shape;
 mod map_target;
 pub mod material;

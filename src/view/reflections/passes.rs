@@ -7,6 +7,7 @@
 use glam::{Mat4, Vec3};
 
 use super::filter::{FILTER_RINGS, FilterTap, detail_pixels, filter_taps};
+use super::gap_fill::GapFill;
 use super::map_target::{ReflectionMap, map_sampler};
 use super::material::{beyond_fraction, texel_pixels};
 use super::params::{
@@ -56,6 +57,9 @@ pub struct GeometryReflections {
     clip: f32,
     /// M, reused by every reflector in turn.
     map: ReflectionMap,
+    /// Image mode: M with the gaps between splats closed, which the pyramid and the composite
+    /// read instead of M.
+    gap_fill: Option<GapFill>,
     /// M's pyramid, rebuilt after each mirror pass.
     pyramid: Pyramid,
     pyramid_passes: PyramidPasses,
@@ -168,7 +172,10 @@ impl GeometryReflections {
             let map = ReflectionMap::new(gpu, "glint reflection texture", width, height);
             let sampler = map_sampler(device, "glint reflection sampler");
             let pyramid_passes = PyramidPasses::new(device);
-            let pyramid = pyramid_passes.pyramid(gpu, &map.view, width, height);
+            let gap_fill = matches!(source, Source::Image { .. })
+                .then(|| GapFill::new(device, &map.view, width, height));
+            let m_view = gap_fill.as_ref().map_or(&map.view, |g| &g.view);
+            let pyramid = pyramid_passes.pyramid(gpu, m_view, width, height);
             let reflectors = planar
                 .into_iter()
                 .zip(splats)
@@ -233,7 +240,7 @@ impl GeometryReflections {
                         "glint composite params",
                         &composite_layout,
                         &params,
-                        (&map.view, &pyramid.view),
+                        (m_view, &pyramid.view),
                         &sampler,
                         &sphere_view,
                     );
@@ -260,6 +267,7 @@ impl GeometryReflections {
                 reflectors,
                 clip,
                 map,
+                gap_fill,
                 pyramid,
                 pyramid_passes,
                 width,
@@ -451,6 +459,9 @@ impl GeometryReflections {
                         }
                     }
                 }
+            }
+            if let Some(g) = &self.gap_fill {
+                g.record(encoder);
             }
             self.pyramid_passes.record(
                 encoder,

@@ -1,0 +1,271 @@
+//! Gaps between image-mode splats closed in the reflected image M (`shaders/gap_fill.wgsl`),
+//! after the splat pass and before M's pyramid and the composite read it.
+//!
+//! Where rows of splats do not meet (a surface the radiance maps saw at a grazing angle, such
+//! as a bunny's underside in the mirror it sits on), M shows what lies farther behind the
+//! mirror through the gap: bunny-mirror's reflection came out striped. A texel is taken for a
+//! gap when, along at least [`MIN_AXES`] of the 4 axes (horizontal, vertical, both diagonals),
+//! a texel nearer the mirror ([`NEARER`]) lies within [`GAP_RADIUS`] on both sides; it then
+//! takes the mean of those nearer texels. A background texel beside a silhouette has nearer
+//! texels on one side only and is kept. This is image-space hole filling for point rendering
+//! in the manner of Rosenthal and Linsen (2008), with M's alpha (the fraction a of the
+//! reflected ray beyond the plane) as the depth: a / (1 − a) is the distance behind the plane
+//! over the eye's height above it, increasing along every ray.
+//!
+//! [`fill`] is the CPU form the shader follows; [`fill_on_gpu`] runs the shader on an image
+//! (for tests).
+
+use exr::prelude::f16;
+use glam::Vec4;
+
+use crate::view::build::{bind_group_layout, render_pipeline, shader};
+use crate::view::gpu::{Gpu, GpuError};
+use crate::view::readback::read_texture;
+use crate::view::target::{HDR_FORMAT, clear_pass, texture_2d};
+
+/// WGSL of the pass.
+pub const GAP_FILL_SHADER_SOURCE: &str = include_str!("../../../shaders/gap_fill.wgsl");
+
+/// Texels searched along each of the 8 directions: gaps up to 2·radius − 1 texels wide close.
+pub const GAP_RADIUS: i32 = 3;
+/// A texel is nearer when its distance behind the plane is below this fraction of the centre's.
+pub const NEARER: f32 = 0.8;
+/// Axes that must hold a nearer texel on both sides.
+pub const MIN_AXES: u32 = 3;
+
+const DIRECTIONS: [(i32, i32); 8] = [
+    (1, 0),
+    (1, 1),
+    (0, 1),
+    (-1, 1),
+    (-1, 0),
+    (-1, -1),
+    (0, -1),
+    (1, -1),
+];
+
+fn behind(a: f32) -> f32 {
+    a / (1.0 - a).max(1e-6)
+}
+
+/// M (`width` × `height`, row-major, alpha the beyond fraction, 0 where nothing was drawn)
+/// with its splat gaps closed.
+pub fn fill(width: u32, height: u32, texels: &[Vec4]) -> Vec<Vec4> {
+    let (w, h) = (width as i32, height as i32);
+    let at = |x: i32, y: i32| texels[(y * w + x) as usize];
+    let mut out = texels.to_vec();
+    for y in 0..h {
+        for x in 0..w {
+            let m = at(x, y);
+            if m.w <= 0.0 {
+                continue;
+            }
+            let limit = behind(m.w) * NEARER;
+            let found: Vec<Option<Vec4>> = DIRECTIONS
+                .iter()
+                .map(|&(dx, dy)| {
+                    (1..=GAP_RADIUS)
+                        .map(|r| (x + dx * r, y + dy * r))
+                        .take_while(|&(qx, qy)| qx >= 0 && qy >= 0 && qx < w && qy < h)
+                        .map(|(qx, qy)| at(qx, qy))
+                        .find(|t| t.w > 0.0 && behind(t.w) < limit)
+                })
+                .collect();
+            let pairs: Vec<Vec4> = (0..4)
+                .filter_map(|k| Some(found[k]? + found[k + 4]?))
+                .collect();
+            if pairs.len() as u32 >= MIN_AXES {
+                out[(y * w + x) as usize] = pairs.iter().sum::<Vec4>() / (2 * pairs.len()) as f32;
+            }
+        }
+    }
+    out
+}
+
+/// The pass and its target: M with the gaps closed, which the pyramid and the composite read
+/// in image mode instead of M.
+pub(super) struct GapFill {
+    pipeline: wgpu::RenderPipeline,
+    group: wgpu::BindGroup,
+    texture: wgpu::Texture,
+    /// The filled M.
+    pub(super) view: wgpu::TextureView,
+}
+
+impl GapFill {
+    /// The pass reading `source` (M, `width` × `height`).
+    pub(super) fn new(
+        device: &wgpu::Device,
+        source: &wgpu::TextureView,
+        width: u32,
+        height: u32,
+    ) -> GapFill {
+        let fragment = wgpu::ShaderStages::FRAGMENT;
+        let layout = bind_group_layout()
+            .texture(0, fragment, wgpu::TextureViewDimension::D2, false)
+            .build(device, "glint gap fill layout");
+        let module = shader(device, "glint gap fill shader", GAP_FILL_SHADER_SOURCE);
+        let pipeline = render_pipeline("glint gap fill", &module, "vs_full", "fs_gap_fill")
+            .layouts(&[&layout])
+            .color(HDR_FORMAT, None)
+            .build(device);
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("glint gap fill source"),
+            layout: &layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::TextureView(source),
+            }],
+        });
+        let texture = texture_2d(
+            device,
+            "glint gap-filled reflection",
+            width,
+            height,
+            HDR_FORMAT,
+            wgpu::TextureUsages::RENDER_ATTACHMENT
+                | wgpu::TextureUsages::TEXTURE_BINDING
+                | wgpu::TextureUsages::COPY_SRC,
+        );
+        GapFill {
+            pipeline,
+            group,
+            view: texture.create_view(&wgpu::TextureViewDescriptor::default()),
+            texture,
+        }
+    }
+
+    /// Records the pass (after M is complete).
+    pub(super) fn record(&self, encoder: &mut wgpu::CommandEncoder) {
+        let mut pass = clear_pass(
+            encoder,
+            "glint gap fill pass",
+            &[Some(&self.view)],
+            wgpu::Color::TRANSPARENT,
+            None,
+            None,
+        );
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &self.group, &[]);
+        pass.draw(0..3, 0..1);
+    }
+}
+
+/// [`fill`] by the shader: `texels` (`width` × `height`, row-major) uploaded as M
+/// ([`HDR_FORMAT`], so each value is first rounded to f16), filled, read back.
+pub fn fill_on_gpu(
+    gpu: &Gpu,
+    width: u32,
+    height: u32,
+    texels: &[Vec4],
+) -> Result<Vec<Vec4>, GpuError> {
+    assert_eq!(
+        texels.len(),
+        (width * height) as usize,
+        "one texel per pixel"
+    );
+    let source = texture_2d(
+        &gpu.device,
+        "glint gap fill probe source",
+        width,
+        height,
+        HDR_FORMAT,
+        wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+    );
+    let bits: Vec<u16> = texels
+        .iter()
+        .flat_map(|v| v.to_array().map(|c| f16::from_f32(c).to_bits()))
+        .collect();
+    gpu.queue.write_texture(
+        source.as_image_copy(),
+        bytemuck::cast_slice(&bits),
+        wgpu::TexelCopyBufferLayout {
+            offset: 0,
+            bytes_per_row: Some(width * 8),
+            rows_per_image: None,
+        },
+        source.size(),
+    );
+    let view = source.create_view(&wgpu::TextureViewDescriptor::default());
+    let pass = GapFill::new(&gpu.device, &view, width, height);
+    let mut encoder = gpu
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("glint gap fill probe"),
+        });
+    pass.record(&mut encoder);
+    gpu.queue.submit([encoder.finish()]);
+    let bytes = read_texture(gpu, &pass.texture)?;
+    let halves: &[u16] = bytemuck::cast_slice(&bytes);
+    Ok(halves
+        .chunks_exact(4)
+        .map(|c| Vec4::from_array([0, 1, 2, 3].map(|k| f16::from_bits(c[k]).to_f32())))
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 9 × 9 image: a far background (beyond fraction 0.9) and a near surface (0.2).
+    fn image(near: impl Fn(i32, i32) -> bool) -> Vec<Vec4> {
+        (0..81)
+            .map(|i| {
+                if near(i % 9, i / 9) {
+                    Vec4::new(1.0, 0.5, 0.25, 0.2)
+                } else {
+                    Vec4::new(0.0, 0.0, 1.0, 0.9)
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_one_texel_gap_between_rows_of_splats_closes() {
+        let gap = |_: i32, y: i32| y != 4;
+        let filled = fill(9, 9, &image(gap));
+        // At the image's side only one axis sees both sides.
+        for x in 1..8 {
+            let t = filled[4 * 9 + x];
+            assert!(
+                (t - Vec4::new(1.0, 0.5, 0.25, 0.2)).length() < 1e-6,
+                "{x}: {t}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_diagonal_gap_closes_too() {
+        let filled = fill(9, 9, &image(|x, y| x != y));
+        for k in 2..7 {
+            assert!(filled[k * 9 + k].w < 0.25, "{k}: {}", filled[k * 9 + k]);
+        }
+    }
+
+    #[test]
+    fn a_silhouette_keeps_its_background() {
+        // Near on the left half: the background beside it has nearer texels on one side.
+        let src = image(|x, _| x < 4);
+        assert_eq!(fill(9, 9, &src), src);
+        // A near square in a far background: its corners and edges are kept too.
+        let src = image(|x, y| (3..6).contains(&x) && (3..6).contains(&y));
+        assert_eq!(fill(9, 9, &src), src);
+    }
+
+    #[test]
+    fn a_gap_wider_than_the_radius_stays_and_empty_texels_stay_empty() {
+        let wide = image(|_, y| !(3..7).contains(&y));
+        assert_eq!(fill(9, 9, &wide), wide);
+        let mut holes = image(|_, y| y != 4);
+        holes[4 * 9 + 4] = Vec4::ZERO;
+        assert_eq!(fill(9, 9, &holes)[4 * 9 + 4], Vec4::ZERO);
+    }
+
+    #[test]
+    fn the_shader_constants_match() {
+        let src = GAP_FILL_SHADER_SOURCE;
+        assert!(src.contains(&format!("const GAP_RADIUS: i32 = {GAP_RADIUS};")));
+        assert!(src.contains(&format!("const NEARER: f32 = {NEARER};")));
+        assert!(src.contains(&format!("if axes >= {MIN_AXES} {{")));
+    }
+}
