@@ -254,7 +254,7 @@ mod tests {
 
     #[test]
     fn a_gap_wider_than_the_radius_stays_and_empty_texels_stay_empty() {
-        let wide = image(|_, y| !(3..7).contains(&y));
+        let wide = image(|_, y| !(2..8).contains(&y));
         assert_eq!(fill(9, 9, &wide), wide);
         let mut holes = image(|_, y| y != 4);
         holes[4 * 9 + 4] = Vec4::ZERO;
