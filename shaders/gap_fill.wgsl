@@ -13,9 +13,10 @@
 
 @group(0) @binding(0) var source: texture_2d<f32>;
 
-// Keep in sync with `gap_fill::GAP_RADIUS` and `gap_fill::NEARER`.
+// Keep in sync with `gap_fill::GAP_RADIUS`, `gap_fill::NEARER` and `gap_fill::MIN_AXES`.
 const GAP_RADIUS: i32 = 3;
 const NEARER: f32 = 0.8;
+const MIN_AXES: i32 = 3;
 
 @vertex
 fn vs_full(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
@@ -27,43 +28,52 @@ fn behind(a: f32) -> f32 {
     return a / max(1.0 - a, 1e-6);
 }
 
+// The first texel within GAP_RADIUS of `c` along `step` that lies nearer than `limit`
+// (alpha 0: none).
+fn nearer(c: vec2<i32>, step: vec2<i32>, limit: f32) -> vec4<f32> {
+    let size = vec2<i32>(textureDimensions(source));
+    for (var r = 1; r <= GAP_RADIUS; r = r + 1) {
+        let q = c + step * r;
+        if any(q < vec2<i32>(0)) || any(q >= size) {
+            break;
+        }
+        let t = textureLoad(source, q, 0);
+        if t.a > 0.0 && behind(t.a) < limit {
+            return t;
+        }
+    }
+    return vec4<f32>(0.0);
+}
+
 @fragment
 fn fs_gap_fill(@builtin(position) p: vec4<f32>) -> @location(0) vec4<f32> {
     let c = vec2<i32>(floor(p.xy));
-    let size = vec2<i32>(textureDimensions(source));
     let m = textureLoad(source, c, 0);
     if m.a <= 0.0 {
         return m;
     }
     let limit = behind(m.a) * NEARER;
-    let dirs = array<vec2<i32>, 8>(
-        vec2<i32>(1, 0), vec2<i32>(1, 1), vec2<i32>(0, 1), vec2<i32>(-1, 1),
-        vec2<i32>(-1, 0), vec2<i32>(-1, -1), vec2<i32>(0, -1), vec2<i32>(1, -1),
-    );
-    var found = array<vec4<f32>, 8>();
-    for (var k = 0; k < 8; k = k + 1) {
-        for (var r = 1; r <= GAP_RADIUS; r = r + 1) {
-            let q = c + dirs[k] * r;
-            if any(q < vec2<i32>(0)) || any(q >= size) {
-                break;
-            }
-            let t = textureLoad(source, q, 0);
-            if t.a > 0.0 && behind(t.a) < limit {
-                found[k] = t;
-                break;
-            }
-        }
-    }
-    var axes = 0;
+    let axes = array<vec2<i32>, 4>(vec2<i32>(1, 0), vec2<i32>(1, 1), vec2<i32>(0, 1), vec2<i32>(-1, 1));
+    var held = 0;
     var sum = vec4<f32>(0.0);
     for (var k = 0; k < 4; k = k + 1) {
-        if found[k].a > 0.0 && found[k + 4].a > 0.0 {
-            axes = axes + 1;
-            sum = sum + found[k] + found[k + 4];
+        // Stop once too few axes are left to reach MIN_AXES (most texels: at once).
+        if held + (4 - k) < MIN_AXES {
+            break;
         }
+        let a = nearer(c, axes[k], limit);
+        if a.a <= 0.0 {
+            continue;
+        }
+        let b = nearer(c, -axes[k], limit);
+        if b.a <= 0.0 {
+            continue;
+        }
+        held = held + 1;
+        sum = sum + a + b;
     }
-    if axes >= 3 {
-        return sum / f32(2 * axes);
+    if held >= MIN_AXES {
+        return sum / f32(2 * held);
     }
     return m;
 }

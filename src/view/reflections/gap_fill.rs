@@ -266,6 +266,6 @@ mod tests {
         let src = GAP_FILL_SHADER_SOURCE;
         assert!(src.contains(&format!("const GAP_RADIUS: i32 = {GAP_RADIUS};")));
         assert!(src.contains(&format!("const NEARER: f32 = {NEARER};")));
-        assert!(src.contains(&format!("if axes >= {MIN_AXES} {{")));
+        assert!(src.contains(&format!("const MIN_AXES: i32 = {MIN_AXES};")));
     }
 }
