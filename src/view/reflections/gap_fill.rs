@@ -21,6 +21,8 @@ use glam::Vec4;
 use crate::view::build::{bind_group_layout, render_pipeline, shader};
 use crate::view::gpu::{Gpu, GpuError};
 use crate::view::readback::read_texture;
+
+use super::splats::FILL_RING;
 use crate::view::target::{HDR_FORMAT, clear_pass, texture_2d};
 
 /// WGSL of the pass.
@@ -32,17 +34,6 @@ pub const GAP_RADIUS: i32 = 3;
 pub const NEARER: f32 = 0.8;
 /// Axes that must hold a nearer texel on both sides.
 pub const MIN_AXES: u32 = 3;
-
-const DIRECTIONS: [(i32, i32); 8] = [
-    (1, 0),
-    (1, 1),
-    (0, 1),
-    (-1, 1),
-    (-1, 0),
-    (-1, -1),
-    (0, -1),
-    (1, -1),
-];
 
 fn behind(a: f32) -> f32 {
     a / (1.0 - a).max(1e-6)
@@ -61,7 +52,8 @@ pub fn fill(width: u32, height: u32, texels: &[Vec4]) -> Vec<Vec4> {
                 continue;
             }
             let limit = behind(m.w) * NEARER;
-            let found: Vec<Option<Vec4>> = DIRECTIONS
+            // FILL_RING's k-th and (k + 4)-th directions are opposite: one axis.
+            let found: Vec<Option<Vec4>> = FILL_RING
                 .iter()
                 .map(|&(dx, dy)| {
                     (1..=GAP_RADIUS)
