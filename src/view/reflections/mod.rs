@@ -17,7 +17,9 @@
 //!      sized by Eq. 3 per quadtree node, culled per node, points skipped when
 //!      minified ([`splats`], on the GPU in [`splat_maps`]). Texels no splat covered (gaps,
 //!      and directions no selected map saw: at grazing views, beyond the maps' frusta) are
-//!      filled in the composite from the nearest covered ones ([`splats::fill_hole`]).
+//!      filled in the composite from the nearest covered ones ([`splats::fill_hole`]);
+//!      texels where a farther surface shows between rows of splats are closed from the
+//!      nearer texels around them before anything reads M ([`gap_fill`]).
 //! 2. The composite: the reflector drawn again over the frame, depth-tested against the scene
 //!    pass (the mask), adding ks·R × (M*K) at the same pixel: the convolution with K (scaled
 //!    per pixel, [`material`], and narrowed across the plane of incidence at grazing views,
