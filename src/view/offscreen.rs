@@ -3,7 +3,6 @@
 
 use std::time::Instant;
 
-use exr::prelude::f16;
 use glam::Vec3;
 
 use super::build::buffer;
@@ -13,7 +12,7 @@ use super::gpu::{Gpu, GpuError, error_scoped};
 use super::impostors::ImpostorReflections;
 use super::load::ViewData;
 use super::options::{CurvedMode, CurvedSettings, Exposure, ReflectionMode, Tonemap, ViewOptions};
-use super::readback::{map_read, read_texture, read_texture_rgba8};
+use super::readback::{map_read, read_texture_rgba8, read_texture_rgba16f};
 use super::reflections::{GeometryReflections, RecursiveReflections};
 use super::renderer::{COLOR_FORMAT, OffscreenTarget, RenderError, Renderer};
 use super::replay::GpuTimeSource;
@@ -317,18 +316,9 @@ impl Offscreen {
 
     /// The last frame's linear radiance (never exposed), top row first.
     pub fn read_hdr(&self, gpu: &Gpu) -> Result<Vec<Vec3>, GpuError> {
-        let bytes = read_texture(gpu, &self.target.radiance)?;
-        let halves: Vec<u16> = bytes
-            .chunks_exact(2)
-            .map(|b| u16::from_le_bytes([b[0], b[1]]))
-            .collect();
-        Ok(halves
-            .chunks_exact(4)
-            .map(|t| Vec3::new(h(t[0]), h(t[1]), h(t[2])))
+        Ok(read_texture_rgba16f(gpu, &self.target.radiance)?
+            .into_iter()
+            .map(|t| t.truncate())
             .collect())
     }
-}
-
-fn h(bits: u16) -> f32 {
-    f16::from_bits(bits).to_f32()
 }

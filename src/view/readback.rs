@@ -3,6 +3,9 @@
 
 use std::sync::mpsc;
 
+use exr::prelude::f16;
+use glam::Vec4;
+
 use super::build::buffer;
 use super::gpu::{Gpu, GpuError, error_scoped};
 
@@ -110,6 +113,30 @@ pub fn read_texture_rgba8(gpu: &Gpu, texture: &wgpu::Texture) -> Result<Vec<u8>,
         )));
     }
     read_texture_bytes(gpu, texture, RGBA8_BYTES_PER_PIXEL)
+}
+
+/// Copies an `Rgba16Float` texture back as in [`read_texture`], each texel widened to f32:
+/// `width * height` values, rows top to bottom.
+pub fn read_texture_rgba16f(gpu: &Gpu, texture: &wgpu::Texture) -> Result<Vec<Vec4>, GpuError> {
+    let format = texture.format();
+    if format != wgpu::TextureFormat::Rgba16Float {
+        return Err(GpuError::UnsupportedTexture(format!(
+            "format is {format:?}, expected Rgba16Float"
+        )));
+    }
+    let bytes = read_texture_bytes(gpu, texture, 8)?;
+    let half = |b: &[u8]| f16::from_bits(u16::from_le_bytes([b[0], b[1]])).to_f32();
+    Ok(bytes
+        .chunks_exact(8)
+        .map(|t| {
+            Vec4::new(
+                half(&t[0..2]),
+                half(&t[2..4]),
+                half(&t[4..6]),
+                half(&t[6..8]),
+            )
+        })
+        .collect())
 }
 
 /// Readback of a 2D colour texture whose texels are `bytes_per_pixel` bytes.

@@ -473,7 +473,8 @@ impl Renderer {
     }
 
     /// Records the scene's render pass: clears colour to black and depth to 0 (reverse Z),
-    /// draws every triangle, each [`AlphaRun`] with its pipeline. `hdr` must be given exactly when the pipeline has an HDR target.
+    /// draws every triangle, each [`AlphaRun`] with its pipeline. `hdr` must be given exactly
+    /// when the pipeline has an HDR target.
     pub fn draw(
         &self,
         encoder: &mut wgpu::CommandEncoder,

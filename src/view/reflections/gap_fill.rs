@@ -18,11 +18,10 @@
 use exr::prelude::f16;
 use glam::Vec4;
 
+use super::splats::FILL_RING;
 use crate::view::build::{bind_group_layout, render_pipeline, shader};
 use crate::view::gpu::{Gpu, GpuError};
-use crate::view::readback::read_texture;
-
-use super::splats::FILL_RING;
+use crate::view::readback::read_texture_rgba16f;
 use crate::view::target::{HDR_FORMAT, clear_pass, texture_2d};
 
 /// WGSL of the pass.
@@ -53,21 +52,18 @@ pub fn fill(width: u32, height: u32, texels: &[Vec4]) -> Vec<Vec4> {
             }
             let limit = behind(m.w) * NEARER;
             // FILL_RING's k-th and (k + 4)-th directions are opposite: one axis.
-            let found: Vec<Option<Vec4>> = FILL_RING
-                .iter()
-                .map(|&(dx, dy)| {
-                    (1..=GAP_RADIUS)
-                        .map(|r| (x + dx * r, y + dy * r))
-                        .take_while(|&(qx, qy)| qx >= 0 && qy >= 0 && qx < w && qy < h)
-                        .map(|(qx, qy)| at(qx, qy))
-                        .find(|t| t.w > 0.0 && behind(t.w) < limit)
-                })
-                .collect();
-            let pairs: Vec<Vec4> = (0..4)
+            let found = FILL_RING.map(|(dx, dy)| {
+                (1..=GAP_RADIUS)
+                    .map(|r| (x + dx * r, y + dy * r))
+                    .take_while(|&(qx, qy)| qx >= 0 && qy >= 0 && qx < w && qy < h)
+                    .map(|(qx, qy)| at(qx, qy))
+                    .find(|t| t.w > 0.0 && behind(t.w) < limit)
+            });
+            let (held, sum) = (0..4)
                 .filter_map(|k| Some(found[k]? + found[k + 4]?))
-                .collect();
-            if pairs.len() as u32 >= MIN_AXES {
-                out[(y * w + x) as usize] = pairs.iter().sum::<Vec4>() / (2 * pairs.len()) as f32;
+                .fold((0, Vec4::ZERO), |(n, s), pair| (n + 1, s + pair));
+            if held >= MIN_AXES {
+                out[(y * w + x) as usize] = sum / (2 * held) as f32;
             }
         }
     }
@@ -187,12 +183,7 @@ pub fn fill_on_gpu(
         });
     pass.record(&mut encoder);
     gpu.queue.submit([encoder.finish()]);
-    let bytes = read_texture(gpu, &pass.texture)?;
-    let halves: &[u16] = bytemuck::cast_slice(&bytes);
-    Ok(halves
-        .chunks_exact(4)
-        .map(|c| Vec4::from_array([0, 1, 2, 3].map(|k| f16::from_bits(c[k]).to_f32())))
-        .collect())
+    read_texture_rgba16f(gpu, &pass.texture)
 }
 
 #[cfg(test)]
