@@ -12,7 +12,7 @@ pub use scaffold::{gpu, repo};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use glint::bake::{Stage, materials, radiosity_stage, scene_stage, up_to_date};
+use glint::bake::{Stage, materials, radiance_stage, radiosity_stage, scene_stage, up_to_date};
 use glint::progress::Silent;
 use glint::scene::desc::RadiositySettings;
 use glint::scene::{Quality, Scene};
@@ -98,4 +98,23 @@ pub fn bake_at(
             .unwrap_or_else(|e| panic!("{e}"));
     }
     bundle
+}
+
+/// Bakes `bundle`'s radiance maps at `quality` unless those there were baked with the
+/// settings the stage would record now (plans and D's identity included): a bench must not
+/// measure maps planned by an older build.
+pub fn radiance_at(bundle: &Path, scene: &Scene, quality: Quality) {
+    let d = glint::radiosity::d_identity(bundle, &scene.content_hash);
+    let recorded = radiance_stage::settings_json(scene, quality, d.as_deref());
+    if !up_to_date(bundle, scene, Stage::Radiance, Some(&recorded)) {
+        let start = Instant::now();
+        radiance_stage::bake(scene, bundle, quality, true, &Silent)
+            .unwrap_or_else(|e| panic!("{e}"));
+        eprintln!(
+            "baked {}'s radiance maps ({}) in {:.1} s",
+            scene.desc.name.as_deref().unwrap_or("scene"),
+            quality.name(),
+            start.elapsed().as_secs_f64()
+        );
+    }
 }
