@@ -44,7 +44,6 @@
 use std::path::Path;
 use std::time::Instant;
 
-use glint::bake::{Stage, materials, up_to_date};
 use glint::bundle::stats::format_table;
 use glint::eval::Image;
 use glint::eval::compare::compare;
@@ -64,7 +63,7 @@ use glint::view::replay::GpuTimeSource;
 use glint::view::replay::schedule;
 
 mod common;
-use common::{bake_at, bake_if_needed, gpu, half_size, mean_diff, median, radiance_at, repo};
+use common::{bake_all_at, bake_if_needed, gpu, half_size, mean_diff, median, repo};
 
 const SCENES: [&str; 4] = [
     "cornell-box",
@@ -260,19 +259,7 @@ fn reflection_table(gpu: &Gpu, work: &Path, repeats: usize) {
         .collect();
     for name in picked(&["glossy-room", "breakfast-room"]) {
         let scene_json = repo(&format!("scenes/{name}/scene.json"));
-        let bundle = bake_if_needed(&scene_json, work, name, false);
-        let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
-        let settings = materials::MaterialsSettings::preset(Quality::Draft);
-        // The settings the stage records (D's identity included), so an older bake is redone.
-        let recorded = materials::recorded_settings(
-            &settings,
-            glint::radiosity::d_identity(&bundle, &scene.content_hash).as_deref(),
-        );
-        if !up_to_date(&bundle, &scene, Stage::Materials, Some(&recorded)) {
-            materials::bake(&scene, &bundle, &settings, true, &Silent)
-                .unwrap_or_else(|e| panic!("{e}"));
-        }
-        radiance_at(&bundle, &scene, Quality::Draft);
+        let bundle = bake_all_at(&scene_json, work, name, Quality::Draft);
         let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
         let path = data.scene.camera_path(None).expect("a camera path");
         let frames = schedule(path).unwrap_or_else(|e| panic!("{e}"));
@@ -602,9 +589,8 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
     let mut noise_rows = Vec::new();
     for name in picked(&["glossy-room", "breakfast-room", "bunny-mirror"]) {
         let scene_json = repo(&format!("scenes/{name}/scene.json"));
-        let bundle = bake_at(&scene_json, work, name, true, quality);
+        let bundle = bake_all_at(&scene_json, work, name, quality);
         let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
-        radiance_at(&bundle, &scene, quality);
         let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
         let reflectors = reflections::reflectors_with_reflectance(&data);
         if reflectors.is_empty() {

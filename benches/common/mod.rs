@@ -12,7 +12,9 @@ pub use scaffold::{gpu, repo};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use glint::bake::{Stage, materials, radiance_stage, radiosity_stage, scene_stage, up_to_date};
+use glint::bake::{
+    BakeSettings, Stage, StageStatus, bake_all, materials, radiosity_stage, scene_stage, up_to_date,
+};
 use glint::progress::Silent;
 use glint::scene::desc::RadiositySettings;
 use glint::scene::{Quality, Scene};
@@ -57,6 +59,15 @@ pub fn bake_if_needed(scene_json: &Path, work: &Path, name: &str, with_materials
     bake_at(scene_json, work, name, with_materials, Quality::Draft)
 }
 
+/// The bundle of `name` at `quality` under `work`: `NAME.glint` at draft, `NAME-QUALITY.glint`
+/// otherwise.
+fn bundle_path(work: &Path, name: &str, quality: Quality) -> PathBuf {
+    match quality {
+        Quality::Draft => work.join(format!("{name}.glint")),
+        q => work.join(format!("{name}-{}.glint", q.name())),
+    }
+}
+
 /// As [`bake_if_needed`] at the preset `quality`: the bundle is `NAME.glint` at draft and
 /// `NAME-QUALITY.glint` otherwise.
 pub fn bake_at(
@@ -66,10 +77,7 @@ pub fn bake_at(
     with_materials: bool,
     quality: Quality,
 ) -> PathBuf {
-    let bundle = match quality {
-        Quality::Draft => work.join(format!("{name}.glint")),
-        q => work.join(format!("{name}-{}.glint", q.name())),
-    };
+    let bundle = bundle_path(work, name, quality);
     let scene = Scene::load(scene_json).unwrap_or_else(|e| panic!("{e}"));
     let settings = RadiositySettings::resolve(quality, &scene.desc.bake.radiosity);
     let settings_json = radiosity_stage::settings_json(&settings);
@@ -100,21 +108,29 @@ pub fn bake_at(
     bundle
 }
 
-/// Bakes `bundle`'s radiance maps at `quality` unless those there were baked with the
-/// settings the stage would record now (plans and D's identity included): a bench must not
-/// measure maps planned by an older build.
-pub fn radiance_at(bundle: &Path, scene: &Scene, quality: Quality) {
-    let d = glint::radiosity::d_identity(bundle, &scene.content_hash);
-    let recorded = radiance_stage::settings_json(scene, quality, d.as_deref());
-    if !up_to_date(bundle, scene, Stage::Radiance, Some(&recorded)) {
-        let start = Instant::now();
-        radiance_stage::bake(scene, bundle, quality, true, &Silent)
-            .unwrap_or_else(|e| panic!("{e}"));
+/// Every stage `scene_json` requires, baked at `quality` into [`bake_at`]'s bundle by
+/// [`bake_all`], as `glint-bake` does: the scene's overrides apply, and a stage is re-baked
+/// when its recorded settings (plans and D's identity included) differ from what it would
+/// record now, so a bench never measures maps planned by an older build.
+pub fn bake_all_at(scene_json: &Path, work: &Path, name: &str, quality: Quality) -> PathBuf {
+    let bundle = bundle_path(work, name, quality);
+    let scene = Scene::load(scene_json).unwrap_or_else(|e| panic!("{e}"));
+    let settings = BakeSettings::resolve(&scene, quality).unwrap_or_else(|e| panic!("{e}"));
+    let start = Instant::now();
+    let report =
+        bake_all(&scene, &bundle, &settings, true, &Silent).unwrap_or_else(|e| panic!("{e}"));
+    let baked: Vec<&str> = report
+        .iter()
+        .filter(|r| matches!(r.status, StageStatus::Baked { .. }))
+        .map(|r| r.plan.stage.name())
+        .collect();
+    if !baked.is_empty() {
         eprintln!(
-            "baked {}'s radiance maps ({}) in {:.1} s",
-            scene.desc.name.as_deref().unwrap_or("scene"),
+            "baked {name} ({}: {}) in {:.1} s",
             quality.name(),
+            baked.join(", "),
             start.elapsed().as_secs_f64()
         );
     }
+    bundle
 }
