@@ -6,7 +6,8 @@
 //! copper teapot, m = 0.01, where one sample is as good as many) and with the teapot's
 //! material overridden to m = 0.2 (`glossy-room-rough`, baked alike): `--curved cubemap` with a mirror
 //! lookup (0) and with regular patterns closest to 1, 4, 8, 16 and 32 samples per pixel
-//! (the baked MIP environment map), plus `--curved off`. Per row: the pattern's actual sample
+//! (the baked MIP environment map), plus `--curved off`, and the mirror lookup and 16
+//! samples again without self-reflection (`--cube-self-occlusion off`), for its cost. Per row: the pattern's actual sample
 //! count, the frame time (median and p95 of [`FRAMES`] frames, start to GPU done: the GPU
 //! timestamps bracket the scene pass only), and the error on the teapot against the
 //! reference path tracer (64 paths per pixel, cached as `reference.exr`): relative mean
@@ -181,6 +182,7 @@ fn samples_table(gpu: &Gpu, data: &ViewData, scene_json: &Path, work: &Path, lab
             "--glossy-samples",
             "pattern samples",
             "env map",
+            "self-reflection",
             "frame median ms",
             "frame p95 ms",
             "block MAE",
@@ -188,18 +190,23 @@ fn samples_table(gpu: &Gpu, data: &ViewData, scene_json: &Path, work: &Path, lab
         ]
         .map(String::from),
     ];
+    // With self-reflection (rays cast at the teapot's own triangles) and, for its cost,
+    // without it at two sample counts.
     let runs = [
-        (CurvedMode::Off, 0u32),
-        (CurvedMode::Cubemap, 0),
-        (CurvedMode::Cubemap, 1),
-        (CurvedMode::Cubemap, 4),
-        (CurvedMode::Cubemap, 8),
-        (CurvedMode::Cubemap, 16),
-        (CurvedMode::Cubemap, 32),
+        (CurvedMode::Off, 0u32, true),
+        (CurvedMode::Cubemap, 0, true),
+        (CurvedMode::Cubemap, 0, false),
+        (CurvedMode::Cubemap, 1, true),
+        (CurvedMode::Cubemap, 4, true),
+        (CurvedMode::Cubemap, 8, true),
+        (CurvedMode::Cubemap, 16, true),
+        (CurvedMode::Cubemap, 16, false),
+        (CurvedMode::Cubemap, 32, true),
     ];
-    for (mode, samples) in runs {
+    for (mode, samples, self_occlusion) in runs {
         let settings = CurvedSettings {
             glossy_samples: samples,
+            self_occlusion,
             ..Default::default()
         };
         off.set_curved(gpu, data, mode, settings)
@@ -230,6 +237,13 @@ fn samples_table(gpu: &Gpu, data: &ViewData, scene_json: &Path, work: &Path, lab
             samples.to_string(),
             pattern,
             source,
+            if mode == CurvedMode::Off {
+                "–".into()
+            } else if self_occlusion {
+                "on".into()
+            } else {
+                "off".into()
+            },
             format!("{median:.2}"),
             format!("{p95:.2}"),
             format!("{:.3}", block_mae / reference_mean),
@@ -242,7 +256,10 @@ fn samples_table(gpu: &Gpu, data: &ViewData, scene_json: &Path, work: &Path, lab
     );
     print!(
         "{}",
-        format_table(&rows, &[false, true, true, false, true, true, true, true])
+        format_table(
+            &rows,
+            &[false, true, true, false, false, true, true, true, true]
+        )
     );
 }
 

@@ -9,8 +9,6 @@
 // Entry points:
 // - `vs_env`/`fs_env`: D into a cube face (linear Rgba16Float, the face camera in `frame`),
 //   alpha the distance from the face camera (0 where nothing is seen);
-// - `vs_env`/`fs_env` over a reflector's own triangles and `vs_curved`/`fs_own_normal`, the
-//   farthest kept: its own shell (D, normals), which `own_hit` marches;
 // - `vs_curved`/`fs_curved_env`: another curved reflector's mirror term in that face, looked
 //   up in the previous generation's cube map (McReynolds' scheme, as Nielsen adopts it);
 // - `vs_curved`/`fs_curved`: a curved reflector's pixels in the frame, ks·(Fresnel)·cube(r)
@@ -18,9 +16,11 @@
 // - `vs_curved`/`fs_curved_mirror`: the same inside a planar mirror's pass (mirrored view),
 //   clipped at the mirror's plane;
 // - `vs_fullscreen`/`fs_downsample`: the next MIP level of a live cube face (2×2 box);
-// - `cs_glossy_probe`, `cs_env_probe`: the same functions on given inputs, for tests.
+// - `cs_glossy_probe`, `cs_env_probe`, `cs_own_probe`: the same functions on given inputs,
+//   for tests.
 //
-// Keep `CurvedParams` in sync with `curved::CurvedParams` (a test compares them).
+// Keep `CurvedParams` in sync with `curved::CurvedParams`, `OwnNode` and `OwnTri` with
+// `curved::own_mesh` (tests compare them).
 
 struct CurvedLobe {
     // rgb: ks; a: r0 (Schlick's Fresnel at normal incidence).
@@ -37,8 +37,8 @@ struct CurvedLobe {
 struct CurvedParams {
     // xyz: the eye (the camera, or the centre of the cube map being rendered); w: LOD bias.
     eye: vec4<f32>,
-    // xyz: the reflector's centre (where its cube map was taken); w: the radius of its bounding
-    // sphere when rays are tested against its own shell (`own_hit`), 0 when not.
+    // xyz: the reflector's centre (where its cube map was taken); w > 0: reflected rays are
+    // cast against its own triangles (`own_closest`) from this distance on; 0: they are not.
     centre: vec4<f32>,
     // x: lobes; y: 1 = regular sampling (Eq. 9), 0 = one mirror lookup; z: face size of the
     // environment's level 0 (Eq. 16's N = z²); w: 1 = distance-corrected lookups
@@ -57,12 +57,28 @@ struct CurvedParams {
 // The reflector's live cube map: alpha holds each texel's distance from the centre (`fs_env`;
 // 0: nothing seen). The glossy term may read a baked pyramid from `env`, which has none.
 @group(1) @binding(9) var env_distance: texture_cube<f32>;
-// The reflector's own outer shell seen from its centre (`fs_env` over its own triangles, the
-// farthest surface kept): rgb its D, alpha its distance from the centre (0: none).
-@group(1) @binding(10) var own_shell: texture_cube<f32>;
-// The same shell's normals (`fs_own_normal`): xyz the interpolated vertex normal, alpha the
-// distance (0: none).
-@group(1) @binding(11) var own_normal: texture_cube<f32>;
+// The reflector's own triangles (`curved::own_mesh`): a BVH2, node 0 the root, and the
+// triangles in leaf order with what D needs at a hit.
+struct OwnNode {
+    min: vec3<f32>,
+    // 0: an inner node, children at `first` and `first + 1`; else a leaf's triangle count.
+    count: u32,
+    max: vec3<f32>,
+    first: u32,
+};
+struct OwnTri {
+    v0: vec4<f32>,
+    e1: vec4<f32>,
+    e2: vec4<f32>,
+    n: array<vec4<f32>, 3>,
+    // x: atlas page, y: material, z: scene triangle, w: unused.
+    ids: vec4<u32>,
+    lightmap: array<vec2<f32>, 4>,
+    uv0: array<vec2<f32>, 4>,
+    uv1: array<vec2<f32>, 4>,
+};
+@group(1) @binding(10) var<storage, read> own_nodes: array<OwnNode>;
+@group(1) @binding(11) var<storage, read> own_tris: array<OwnTri>;
 
 const CURVED_PI: f32 = 3.14159265358979;
 // `brdf::COS_FLOOR`.
@@ -71,9 +87,8 @@ const COS_FLOOR: f32 = 1e-6;
 const ALPHA_MAX: f32 = 1.5697963;
 // `curved::PARALLAX_STEPS`.
 const PARALLAX_STEPS: u32 = 2u;
-// `curved::OWN_STEPS`, `curved::OWN_MARGIN`.
-const OWN_STEPS: u32 = 16u;
-const OWN_MARGIN: f32 = 0.02;
+// `own_mesh::OWN_STACK`.
+const OWN_STACK: u32 = 48u;
 
 // The tangent frame of `sampling::basis` (Duff et al. 2017): columns tangent, bitangent, n.
 fn curved_basis(n: vec3<f32>) -> mat3x3<f32> {
@@ -247,45 +262,123 @@ fn curved_lookup(offset: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
     return u;
 }
 
-// Whether the ray from the point `offset` away from the centre along unit `dir` meets the
-// reflector itself (`curved::own_hit`): xyz the direction from the centre where it enters the
-// own shell, w 1; w 0 when it leaves the bounding sphere without (or the test is off).
-fn own_hit(offset: vec3<f32>, dir: vec3<f32>) -> vec4<f32> {
-    let radius = curved.centre.w;
-    if radius <= 0.0 {
-        return vec4<f32>(0.0);
-    }
-    let b = dot(offset, dir);
-    let c = dot(offset, offset);
-    let t_exit = sphere_exit(b, c, radius);
-    var outside = false;
-    for (var k = 1u; k <= OWN_STEPS; k++) {
-        let f = f32(k) / f32(OWN_STEPS);
-        let q = offset + dir * (t_exit * f * f);
-        let r = length(q);
-        if r <= 0.0 {
-            continue;
-        }
-        let s = textureSampleLevel(own_shell, env_sampler, q / r, 0.0).a;
-        if s > 0.0 && r < s * (1.0 - OWN_MARGIN) {
-            if outside {
-                return vec4<f32>(q / r, 1.0);
-            }
-        } else {
-            outside = true;
-        }
-    }
-    return vec4<f32>(0.0);
+// Where the ray enters node `i`'s box within (t_min, t_max), or -1 (slab test; the far
+// distance widened a little, as `own_mesh::box_entry`).
+fn own_box(i: u32, origin: vec3<f32>, inv: vec3<f32>, t_min: f32, t_max: f32) -> f32 {
+    let n = own_nodes[i];
+    let a = (n.min - origin) * inv;
+    let b = (n.max - origin) * inv;
+    let lo = min(a, b);
+    let hi = max(a, b);
+    let near = max(max(max(lo.x, lo.y), lo.z), t_min);
+    let far = min(min(min(hi.x, hi.y), hi.z), t_max) * (1.0 + 4.0 * 1.1920929e-7);
+    return select(-1.0, near, near <= far);
 }
 
-// What the ray along `dir` sees of the reflector's own shell at direction `u` from the centre
-// (`curved::own_radiance`): the shell's kd·D plus each lobe's mirror term there, ks·F(n·ω_o)
-// times one distance-corrected lookup (no further own test: one self-reflection).
-fn own_radiance(u: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
-    let shell = textureSampleLevel(own_shell, env_sampler, u, 0.0);
-    let m = textureSampleLevel(own_normal, env_sampler, u, 0.0).xyz;
+// Möller–Trumbore (1997), either face: (t, u, v) with t in (t_min, t_max), else t = -1.
+fn own_triangle(k: u32, origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32) -> vec3<f32> {
+    let r = own_tris[k];
+    let e1 = r.e1.xyz;
+    let e2 = r.e2.xyz;
+    let p = cross(dir, e2);
+    let det = dot(e1, p);
+    let none = vec3<f32>(-1.0, 0.0, 0.0);
+    if abs(det) < 1e-20 {
+        return none;
+    }
+    let inv = 1.0 / det;
+    let s = origin - r.v0.xyz;
+    let u = dot(s, p) * inv;
+    if u < 0.0 || u > 1.0 {
+        return none;
+    }
+    let q = cross(s, e1);
+    let v = dot(dir, q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return none;
+    }
+    let t = dot(e2, q) * inv;
+    if t <= t_min || t >= t_max {
+        return none;
+    }
+    return vec3<f32>(t, u, v);
+}
+
+// 1/d per axis, ±1e30 for a zero component (`own_mesh::safe_inverse`).
+fn own_inverse(d: vec3<f32>) -> vec3<f32> {
+    let big = select(vec3<f32>(1e30), vec3<f32>(-1e30), d < vec3<f32>(0.0));
+    return select(1.0 / d, big, abs(d) < vec3<f32>(1e-30));
+}
+
+// The nearest hit of the ray from `origin` (world) along unit `dir` with the reflector's own
+// triangles, t in (t_min, ∞) (`OwnMesh::closest_hit`, the same traversal): x = t, y = the
+// triangle's index in `own_tris` (bits), zw = barycentrics; x < 0 when there is none.
+fn own_closest(origin: vec3<f32>, dir: vec3<f32>, t_min: f32) -> vec4<f32> {
+    var best = vec4<f32>(-1.0, 0.0, 0.0, 0.0);
+    var t_max = 3.0e38;
+    let inv = own_inverse(dir);
+    var stack: array<u32, OWN_STACK>;
+    var sp = 0u;
+    var node = 0u;
+    var live = own_box(0u, origin, inv, t_min, t_max) >= 0.0;
+    while live {
+        let n = own_nodes[node];
+        live = false;
+        if n.count > 0u {
+            for (var k = n.first; k < n.first + n.count; k++) {
+                let h = own_triangle(k, origin, dir, t_min, t_max);
+                if h.x >= 0.0 {
+                    t_max = h.x;
+                    best = vec4<f32>(h.x, bitcast<f32>(k), h.y, h.z);
+                }
+            }
+        } else {
+            let a = n.first;
+            let b = n.first + 1u;
+            let ta = own_box(a, origin, inv, t_min, t_max);
+            let tb = own_box(b, origin, inv, t_min, t_max);
+            if ta >= 0.0 && tb >= 0.0 {
+                let a_first = ta <= tb;
+                stack[sp] = select(a, b, a_first);
+                sp += 1u;
+                node = select(b, a, a_first);
+                live = true;
+            } else if ta >= 0.0 {
+                node = a;
+                live = true;
+            } else if tb >= 0.0 {
+                node = b;
+                live = true;
+            }
+        }
+        // Pop until a node still in reach (a hit may have shortened the ray).
+        while !live && sp > 0u {
+            sp -= 1u;
+            let c = stack[sp];
+            if own_box(c, origin, inv, t_min, t_max) >= 0.0 {
+                node = c;
+                live = true;
+            }
+        }
+    }
+    return best;
+}
+
+// What the reflected ray from `offset` (from the centre) along `dir` sees where it meets the
+// reflector itself (`hit` from `own_closest`; `curved::own_radiance`): the hit's kd·D, as the
+// scene pass draws it, plus each lobe's mirror term there, ks·F(n·ω_o) times one
+// distance-corrected lookup (not cast again: one self-reflection).
+fn own_radiance(hit: vec4<f32>, offset: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
+    let r = own_tris[bitcast<u32>(hit.y)];
+    let w = vec3<f32>(1.0 - hit.z - hit.w, hit.z, hit.w);
+    let lm = r.lightmap[0] * w.x + r.lightmap[1] * w.y + r.lightmap[2] * w.z;
+    let uv0 = r.uv0[0] * w.x + r.uv0[1] * w.y + r.uv0[2] * w.z;
+    let uv1 = r.uv1[0] * w.x + r.uv1[1] * w.y + r.uv1[2] * w.z;
+    let q = max(sample_radiosity(lm, r.ids.x), vec3<f32>(0.0));
+    var sum = surface_d(q, r.ids.y, uv0, uv1);
+    let m = r.n[0].xyz * w.x + r.n[1].xyz * w.y + r.n[2].xyz * w.z;
     if dot(m, m) <= 1e-12 {
-        return shell.rgb;
+        return sum;
     }
     let wo = -dir;
     var n = normalize(m);
@@ -293,9 +386,9 @@ fn own_radiance(u: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
         n = -n;
     }
     let c = dot(n, wo);
-    let seen = curved_lookup(u * shell.a, reflect_about(wo, n));
+    let point = offset + dir * hit.x;
+    let seen = curved_lookup(point, reflect_about(wo, n));
     let l_env = textureSampleLevel(env, env_sampler, seen, 0.0).rgb;
-    var sum = shell.rgb;
     for (var i = 0u; i < min(curved.info.x, 2u); i++) {
         let l = curved.lobes[i];
         sum += l.ks.rgb * fresnel_schlick(l.ks.a, c) * l_env;
@@ -303,12 +396,23 @@ fn own_radiance(u: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
     return sum;
 }
 
-// The radiance the reflected ray from `offset` along `dir` brings: the reflector's own shell
+// Where a reflected ray from the surface point `origin` (world) starts looking for the
+// reflector itself: `curved.centre.w` (relative to its size, `curved::own_offset`), and never
+// within a few ulps of the coordinates (the interpolated point lies that far off its triangle).
+fn own_t_min(origin: vec3<f32>) -> f32 {
+    let a = abs(origin);
+    return max(curved.centre.w, 64.0 * 1.1920929e-7 * max(max(a.x, a.y), a.z));
+}
+
+// The radiance the reflected ray from `offset` along `dir` brings: the reflector itself
 // where it meets it, else the environment at level `lod`, distance-corrected.
 fn curved_environment(offset: vec3<f32>, dir: vec3<f32>, lod: f32) -> vec3<f32> {
-    let own = own_hit(offset, dir);
-    if own.w > 0.0 {
-        return own_radiance(own.xyz, dir);
+    if curved.centre.w > 0.0 {
+        let origin = curved.centre.xyz + offset;
+        let hit = own_closest(origin, dir, own_t_min(origin));
+        if hit.x >= 0.0 {
+            return own_radiance(hit, offset, dir);
+        }
     }
     return textureSampleLevel(env, env_sampler, curved_lookup(offset, dir), lod).rgb;
 }
@@ -458,13 +562,6 @@ fn fs_env(in: EnvOut) -> @location(0) vec4<f32> {
     return vec4<f32>(surface_d(q, in.material, in.uv0, in.uv1) * frame.exposure, distance);
 }
 
-// A reflector's own shell normals (drawn with the farthest kept): the normal, and the distance
-// from the face camera as `fs_env` writes it.
-@fragment
-fn fs_own_normal(in: CurvedOut) -> @location(0) vec4<f32> {
-    return vec4<f32>(normalize(in.normal), length(in.world - frame.eye.xyz));
-}
-
 @fragment
 fn fs_curved_env(in: CurvedOut) -> @location(0) vec4<f32> {
     let wo = normalize(curved.eye.xyz - in.world);
@@ -511,6 +608,22 @@ fn cs_glossy_probe(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let p = glossy_in[k];
     glossy_out[k] = vec4<f32>(curved_specular(vec3<f32>(0.0), normalize(p.normal.xyz), normalize(p.wo.xyz), curved.info.y != 0u), 1.0);
+}
+
+// Per input: the ray from `normal.xyz` along `wo.xyz` with t_min `normal.w`, cast against
+// the reflector's own triangles: (t, the scene triangle's index bits, u, v), t < 0 for none.
+@compute @workgroup_size(64)
+fn cs_own_probe(@builtin(global_invocation_id) id: vec3<u32>) {
+    let k = id.x;
+    if k >= arrayLength(&glossy_in) {
+        return;
+    }
+    let p = glossy_in[k];
+    var h = own_closest(p.normal.xyz, p.wo.xyz, p.normal.w);
+    if h.x >= 0.0 {
+        h.y = bitcast<f32>(own_tris[bitcast<u32>(h.y)].ids.z);
+    }
+    glossy_out[k] = h;
 }
 
 @compute @workgroup_size(64)

@@ -40,6 +40,7 @@
 //! `impostor` mode of `--curved` (Popescu et al. §3–4, in [`crate::view::impostors`]).
 
 pub mod gpu;
+pub mod own_mesh;
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
@@ -218,59 +219,12 @@ fn sphere_exit(b: f32, c: f32, radius: f32) -> f32 {
     -b + (b * b - c + radius * radius).max(0.0).sqrt()
 }
 
-/// Samples along a reflected ray in [`own_hit`]: t = t_exit · (k / N)², k = 1 … N, denser
-/// near the surface, where a concave reflector's own parts lie closest.
-pub const OWN_STEPS: u32 = 16;
-
-/// How far inside the own shell (relative to its distance) a sample must lie to count as
-/// inside: the shell map's filtering and resolution blur its distances by about this much.
-pub const OWN_MARGIN: f32 = 0.02;
-
-/// Whether the ray from the point `offset` away from the reflector's centre along unit `dir`
-/// meets the reflector itself, and where (the direction from the centre to look up its own
-/// shell in), or `None`.
-///
-/// The reflector's cube map is taken without it, so a ray that a concave reflector sends back
-/// into itself (a teapot's body towards its spout, handle or lid) would show the room. The
-/// shell is its outermost surface seen from the centre: `shell(u)` its distance along u
-/// (≤ 0: nothing there). The ray is marched until it leaves the bounding sphere of `radius`;
-/// it hits once a sample lies inside the shell after one lay outside. A point the shell
-/// itself hides (under a handle) starts inside and is never found occluded: one layer cannot
-/// say where its ray leaves the reflector. `own_hit` in `shaders/curved.wgsl` is the GPU
-/// form; a departure from Nielsen, whose reflectors are convex.
-pub fn own_hit(offset: Vec3, dir: Vec3, radius: f32, shell: impl Fn(Vec3) -> f32) -> Option<Vec3> {
-    if radius <= 0.0 {
-        return None;
-    }
-    let b = offset.dot(dir);
-    let c = offset.length_squared();
-    let t_exit = sphere_exit(b, c, radius);
-    let mut outside = false;
-    for k in 1..=OWN_STEPS {
-        let f = k as f32 / OWN_STEPS as f32;
-        let q = offset + dir * (t_exit * f * f);
-        let r = q.length();
-        if r <= 0.0 {
-            continue;
-        }
-        let u = q / r;
-        let s = shell(u);
-        if s > 0.0 && r < s * (1.0 - OWN_MARGIN) {
-            if outside {
-                return Some(u);
-            }
-        } else {
-            outside = true;
-        }
-    }
-    None
-}
-
-/// What a ray along unit `dir` sees of the reflector's own shell where [`own_hit`] found it:
-/// the shell's kd·D `d` plus each lobe's mirror term at `point` (offset from the centre) with
-/// the shell's `normal` (interpolated, any length; 0: none), `env(point, r)` the
-/// distance-corrected environment along r. One self-reflection: the lookup is not tested
-/// against the shell again. `own_radiance` in `shaders/curved.wgsl` is the GPU form.
+/// What a ray along unit `dir` sees where it meets the reflector itself
+/// ([`own_mesh::OwnMesh::closest_hit`]): the hit's kd·D `d` plus each lobe's mirror term at
+/// `point` (offset from the centre) with the hit's `normal` (interpolated, any length; 0:
+/// none), `env(point, r)` the distance-corrected environment along r. One self-reflection:
+/// the lookup is not cast against the reflector again. `own_radiance` in
+/// `shaders/curved.wgsl` is the GPU form.
 pub fn own_radiance(
     lobes: &[Lobe],
     d: Vec3,
@@ -286,6 +240,13 @@ pub fn own_radiance(
     let n = normal.normalize();
     let n = if n.dot(wo) < 0.0 { -n } else { n };
     d + mirror_specular(lobes, n, wo, |r| env(point, r))
+}
+
+/// How far along a reflected ray the search for the reflector itself starts
+/// ([`CurvedParams::centre`] w): 10⁻⁴ of its bounding radius, so the ray never finds the
+/// triangle it leaves from, whatever the reflector's size.
+pub fn own_offset(radius: f32) -> f32 {
+    (1e-4 * radius).max(f32::MIN_POSITIVE)
 }
 
 /// Radius of the sphere about the reflector's centre that holds all its triangles.
@@ -343,8 +304,9 @@ pub const NO_CLIP: [f32; 4] = [0.0, 0.0, 0.0, -1.0];
 pub struct CurvedParams {
     /// The eye xyz, w = LOD bias added to Eq. 16.
     pub eye: [f32; 4],
-    /// The reflector's centre xyz; w the radius of its bounding sphere when reflected rays
-    /// are tested against its own shell ([`own_hit`]), 0 when not (`new` leaves it 0).
+    /// The reflector's centre xyz; w > 0: reflected rays are cast against its own triangles
+    /// ([`own_mesh`]) from this distance on ([`own_offset`]); 0: they are not (`new` leaves
+    /// it 0).
     pub centre: [f32; 4],
     /// Lobes, 1 = regular sampling, face size of the environment's level 0, 1 =
     /// distance-corrected lookups ([`parallax_direction`]; `new` leaves it 0).
@@ -480,59 +442,6 @@ mod tests {
             got.angle_between(truth)
         );
         assert!(d.angle_between(truth) > 0.03, "{}", d.angle_between(truth));
-    }
-
-    /// The shell of a unit sphere at the origin with a bump: a cap out to radius 2 within
-    /// 0.4 rad of +x (a spout standing out of the body).
-    fn bumped_sphere(u: Vec3) -> f32 {
-        if u.angle_between(Vec3::X) < 0.4 {
-            2.0
-        } else {
-            1.0
-        }
-    }
-
-    #[test]
-    fn own_hit_finds_a_ray_sent_back_into_the_reflector() {
-        // From the sphere's surface at 60° from the bump, outwards (n · dir = 0.2) and past
-        // it: the ray enters the cap at t ≈ 0.91 (q ≈ (1.37, 0.58), radius 1.48 < 2).
-        let p = Vec3::new(0.5, 0.866_025_4, 0.0);
-        let towards = (Vec3::new(1.6, 0.5, 0.0) - p).normalize();
-        assert!(towards.dot(p) > 0.1);
-        let hit = own_hit(p, towards, 2.0, bumped_sphere).expect("the bump is in the way");
-        assert!(hit.angle_between(Vec3::X) < 0.4, "{hit}");
-        // The same point looking away from the bump, or straight out, sees the room.
-        let away = Vec3::new(-0.2, 1.0, 0.0).normalize();
-        assert_eq!(own_hit(p, away, 2.0, bumped_sphere), None);
-        assert_eq!(own_hit(p, p, 2.0, bumped_sphere), None);
-        // A convex reflector never hides its own rays, at any angle up to grazing.
-        for k in 0..=16 {
-            let a = (k as f32 / 16.0) * 1.55;
-            let dir = Vec3::new(a.sin(), a.cos(), 0.0);
-            assert_eq!(own_hit(Vec3::Y, dir, 1.0, |_| 1.0), None, "{a} rad");
-        }
-        // No radius: off.
-        assert_eq!(own_hit(p, towards, 0.0, bumped_sphere), None);
-    }
-
-    #[test]
-    fn own_hit_is_never_found_from_inside_the_shell() {
-        // A point the bump hides (under it, on the body): one layer cannot tell, so no hit.
-        let p = Vec3::X;
-        for dir in [Vec3::Y, Vec3::new(1.0, 1.0, 0.0).normalize(), Vec3::X] {
-            assert_eq!(own_hit(p, dir, 2.0, bumped_sphere), None, "{dir}");
-        }
-    }
-
-    #[test]
-    fn the_curved_shader_marches_its_own_shell_as_the_cpu_does() {
-        let src = shader_source();
-        for want in [
-            format!("const OWN_STEPS: u32 = {OWN_STEPS}u;"),
-            format!("const OWN_MARGIN: f32 = {OWN_MARGIN:?};"),
-        ] {
-            assert!(src.contains(&want), "{want}");
-        }
     }
 
     #[test]

@@ -115,26 +115,6 @@ pub fn clear_pass<'e>(
     )
 }
 
-/// [`clear_pass`] with `depth` cleared to 1 (reverse Z: the near plane) and not
-/// kept: with a `Less` test the pass keeps the farthest surface.
-pub fn farthest_pass<'e>(
-    encoder: &'e mut wgpu::CommandEncoder,
-    label: &str,
-    colors: &[Option<&wgpu::TextureView>],
-    clear: wgpu::Color,
-    depth: &wgpu::TextureView,
-) -> wgpu::RenderPass<'e> {
-    let depth = Some((depth, wgpu::LoadOp::Clear(1.0), wgpu::StoreOp::Discard));
-    begin_pass(
-        encoder,
-        label,
-        colors,
-        wgpu::LoadOp::Clear(clear),
-        depth,
-        None,
-    )
-}
-
 /// Begins a render pass: `colors` loaded by `load` and kept, `depth` with its load and store.
 fn begin_pass<'e>(
     encoder: &'e mut wgpu::CommandEncoder,

@@ -81,8 +81,8 @@ pub struct ViewArgs {
     #[arg(long, value_name = "on|off", default_value = "on", value_parser = parse_on_off,
           action = clap::ArgAction::Set)]
     pub cube_parallax: bool,
-    /// Curved reflectors: reflected rays tested against the reflector's own outermost surface
-    /// (`on`), so a teapot's body shows its spout, handle and lid where its rays meet them;
+    /// Curved reflectors: reflected rays cast at the reflector's own triangles first (`on`),
+    /// so a teapot's body shows its spout, handle, lid and knob where its rays meet them;
     /// `off`: every ray sees the room (Nielsen's maps are taken without the reflector).
     #[arg(long, value_name = "on|off", default_value = "on", value_parser = parse_on_off,
           action = clap::ArgAction::Set)]

@@ -278,9 +278,9 @@ pub struct CurvedSettings {
     /// of the reflector looks up where its own reflected ray meets the room, not where a
     /// ray from the map's centre does (Nielsen's maps assume a distant environment).
     pub parallax: bool,
-    /// Reflected rays tested against the reflector's own shell ([`crate::view::curved::own_hit`]):
-    /// a concave reflector (a teapot) shows its own spout, handle or lid where its rays meet
-    /// them, not the room behind.
+    /// Reflected rays cast at the reflector's own triangles first
+    /// ([`crate::view::curved::own_mesh`]): a concave reflector (a teapot) shows its own
+    /// spout, handle, lid or knob where its rays meet them, not the room behind.
     pub self_occlusion: bool,
 }
 

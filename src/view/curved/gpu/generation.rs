@@ -1,8 +1,7 @@
 //! Generating the live cube maps (Nielsen & Christensen 2002 §3.2, McReynolds'
 //! interreflection scheme): per generation and reflector, the scene without it and the other
 //! curved reflectors' mirror terms from the previous generation's maps into each face, then
-//! the faces' MIP levels (2×2 box). First, each reflector's own shell: its own triangles
-//! from its centre, the farthest kept, D and normals (`own_hit`).
+//! the faces' MIP levels (2×2 box).
 
 use super::super::generation_plan;
 use super::layout::{CurvedVertex, curved_group};
@@ -12,7 +11,7 @@ use crate::view::gpu::Gpu;
 use crate::view::renderer::{
     ADDITIVE_KEEP_ALPHA, HDR_FORMAT, reverse_z_depth, scene_vertex_layout,
 };
-use crate::view::target::{clear_pass, farthest_pass};
+use crate::view::target::clear_pass;
 
 impl CurvedReflections {
     /// Records every generation: per generation (written set `w`, read set `r`, never equal)
@@ -50,9 +49,6 @@ impl CurvedReflections {
                 .collect();
             pair_params.push(row);
         }
-        if self.settings.self_occlusion {
-            self.record_own_shells(pipes, scene_vertices, encoder);
-        }
         for step in generation_plan(self.settings.generations) {
             assert_ne!(step.write, step.read, "a cube map never reads its own set");
             for (i, ri) in self.reflectors.iter().enumerate() {
@@ -71,7 +67,7 @@ impl CurvedReflections {
                                 &self.maps[step.read][j].cube,
                                 &self.sampler,
                                 &self.maps[step.read][j].cube,
-                                (&rj.own.cube, &rj.own_normals.cube),
+                                (&rj.own_nodes, &rj.own_tris),
                             )
                         })
                     })
@@ -104,55 +100,11 @@ impl CurvedReflections {
             }
         }
     }
-
-    /// Records each reflector's own shell (`own_hit`): its own triangles from its centre into
-    /// each face, the farthest kept, D with distance into `own` (the scene's vertices, for
-    /// the lightmap) and normal with distance into `own_normals` (its own vertices).
-    fn record_own_shells(
-        &self,
-        pipes: &GenerationPipelines,
-        scene_vertices: &wgpu::Buffer,
-        encoder: &mut wgpu::CommandEncoder,
-    ) {
-        for ri in &self.reflectors {
-            for face in 0..6 {
-                let mut pass = farthest_pass(
-                    encoder,
-                    "glint own shell pass",
-                    &[Some(&ri.own.faces[0][face])],
-                    // Alpha 0: no shell where nothing is drawn (`own_hit`).
-                    wgpu::Color::TRANSPARENT,
-                    &pipes.depth_view,
-                );
-                pass.set_pipeline(&pipes.own);
-                pass.set_bind_group(0, &ri.face_groups[face], &[]);
-                pass.set_vertex_buffer(0, scene_vertices.slice(..));
-                pass.set_index_buffer(ri.own_indices.slice(..), wgpu::IndexFormat::Uint32);
-                pass.draw_indexed(0..ri.own_count, 0, 0..1);
-                drop(pass);
-                let mut pass = farthest_pass(
-                    encoder,
-                    "glint own shell normal pass",
-                    &[Some(&ri.own_normals.faces[0][face])],
-                    wgpu::Color::TRANSPARENT,
-                    &pipes.depth_view,
-                );
-                pass.set_pipeline(&pipes.own_normal);
-                pass.set_bind_group(0, &ri.face_groups[face], &[]);
-                pass.set_vertex_buffer(0, ri.vertices.slice(..));
-                pass.draw(0..ri.vertex_count, 0..1);
-            }
-        }
-    }
 }
 
 /// The pipelines and scratch targets that render the cube maps.
 pub(super) struct GenerationPipelines {
     env: wgpu::RenderPipeline,
-    /// `env` keeping the farthest surface: a reflector's own shell.
-    own: wgpu::RenderPipeline,
-    /// The same shell's normals, from the reflector's own vertices.
-    own_normal: wgpu::RenderPipeline,
     interreflect: wgpu::RenderPipeline,
     downsample: wgpu::RenderPipeline,
     mip_layout: wgpu::BindGroupLayout,
@@ -176,23 +128,6 @@ impl GenerationPipelines {
             .color(HDR_FORMAT, None)
             .depth(reverse_z_depth(true, wgpu::CompareFunction::Greater))
             .build(device);
-        let own = render_pipeline("glint own shell", shader, "vs_env", "fs_env")
-            .layouts(&[frame_layout])
-            .vertex(scene_vertex_layout())
-            .color(HDR_FORMAT, None)
-            .depth(reverse_z_depth(true, wgpu::CompareFunction::Less))
-            .build(device);
-        let own_normal = render_pipeline(
-            "glint own shell normals",
-            shader,
-            "vs_curved",
-            "fs_own_normal",
-        )
-        .layouts(&[frame_layout])
-        .vertex(CurvedVertex::layout())
-        .color(HDR_FORMAT, None)
-        .depth(reverse_z_depth(true, wgpu::CompareFunction::Less))
-        .build(device);
         let interreflect = render_pipeline(
             "glint cube interreflection",
             shader,
@@ -226,8 +161,6 @@ impl GenerationPipelines {
         let depth_view = depth.create_view(&wgpu::TextureViewDescriptor::default());
         GenerationPipelines {
             env: scene,
-            own,
-            own_normal,
             interreflect,
             downsample,
             mip_layout,

@@ -1,6 +1,6 @@
 //! The curved shader's inputs: the reflector vertex format, bind group 1 (parameters,
 //! patterns, environment cube, sampler, the live cube whose alpha holds distances, the
-//! reflector's own shell) and its sampler.
+//! reflector's own triangles) and its sampler.
 
 use super::super::CurvedParams;
 use crate::view::build::bind_group_layout;
@@ -31,7 +31,8 @@ impl CurvedVertex {
 
 /// Bind group 1 of the curved shader: the reflector's parameters, its sampling patterns,
 /// its environment cube, the cube's sampler, the live cube map whose alpha holds the
-/// distances of distance-corrected lookups, and the reflector's own shell (`own_hit`).
+/// distances of distance-corrected lookups, and the reflector's own triangles with their BVH
+/// ([`super::super::own_mesh`]).
 pub(super) fn curved_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let all =
         wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
@@ -42,8 +43,8 @@ pub(super) fn curved_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
         .texture(6, lookups, wgpu::TextureViewDimension::Cube, true)
         .sampler(7, lookups)
         .texture(9, lookups, wgpu::TextureViewDimension::Cube, true)
-        .texture(10, lookups, wgpu::TextureViewDimension::Cube, true)
-        .texture(11, lookups, wgpu::TextureViewDimension::Cube, true)
+        .storage(10, lookups)
+        .storage(11, lookups)
         .build(device, "glint curved layout")
 }
 
@@ -63,7 +64,7 @@ pub(super) fn trilinear_sampler(device: &wgpu::Device) -> wgpu::Sampler {
 
 /// Bind group 1 of the curved shader ([`curved_layout`]): `distances` is the reflector's
 /// live cube map (or any cube when its parameters turn the correction off), `own` its own
-/// shell's D and normals (any cubes when they turn `own_hit` off).
+/// BVH nodes and triangles (any buffers when they turn `own_closest` off).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn curved_group(
     device: &wgpu::Device,
@@ -73,7 +74,7 @@ pub(super) fn curved_group(
     env: &wgpu::TextureView,
     sampler: &wgpu::Sampler,
     distances: &wgpu::TextureView,
-    own: (&wgpu::TextureView, &wgpu::TextureView),
+    own: (&wgpu::Buffer, &wgpu::Buffer),
 ) -> wgpu::BindGroup {
     device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("glint curved group"),
@@ -101,11 +102,11 @@ pub(super) fn curved_group(
             },
             wgpu::BindGroupEntry {
                 binding: 10,
-                resource: wgpu::BindingResource::TextureView(own.0),
+                resource: own.0.as_entire_binding(),
             },
             wgpu::BindGroupEntry {
                 binding: 11,
-                resource: wgpu::BindingResource::TextureView(own.1),
+                resource: own.1.as_entire_binding(),
             },
         ],
     })

@@ -4,8 +4,9 @@
 //! - [`layout`]: the reflector vertex format and the curved shader's bind group 1;
 //! - [`cube`]: cube textures with every MIP level, and baked pyramids uploaded as cubes;
 //! - [`baked`]: the materials stage's baked MIP pyramids and ξ₀;
-//! - `generation`: the reflectors' own shells and the live cube maps, generated once,
-//!   double-buffered across generations;
+//! - each reflector's own triangles with their BVH ([`super::own_mesh`]), which reflected
+//!   rays are cast at first (self-reflection);
+//! - `generation`: the live cube maps, generated once, double-buffered across generations;
 //! - `probe`: compute probes of the shader, for tests.
 
 mod baked;
@@ -26,9 +27,10 @@ pub use layout::{CurvedVertex, reflector_vertices};
 use layout::{curved_group, curved_layout, trilinear_sampler};
 pub use probe::glossy_probe;
 
+use super::own_mesh::{self, OWN_STACK, OwnMesh};
 use super::{
     CurvedParams, CurvedReflector, CurvedSettings, bounding_radius, curved_reflectors, face_camera,
-    generation_plan, pack_patterns, patterns_for, shader_source,
+    generation_plan, own_offset, pack_patterns, patterns_for, shader_source,
 };
 use crate::camera::Camera;
 use crate::view::build::{buffer_init, render_pipeline, shader};
@@ -42,6 +44,10 @@ use crate::view::renderer::{
 
 /// Smallest buffer the curved passes make (a pattern buffer may be empty).
 const MIN_BUFFER: u64 = 16;
+
+/// Smallest own-mesh buffer: one record of the larger kind (a binding must hold one element
+/// of its array, and with self-reflection off they are stand-ins).
+const OWN_MIN_BUFFER: u64 = std::mem::size_of::<own_mesh::OwnTri>() as u64;
 
 /// Where a reflector's glossy term reads its environment.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -59,13 +65,9 @@ struct ReflectorGpu {
     /// The scene without this reflector (its cube map's draw).
     others: wgpu::Buffer,
     others_count: u32,
-    /// Its own triangles in the scene's vertex buffer (its shell's draw).
-    own_indices: wgpu::Buffer,
-    own_count: u32,
-    /// Its own shell seen from its centre (`own_hit`): D, alpha the distance.
-    own: CubeTexture,
-    /// The same shell's normals, alpha the distance.
-    own_normals: CubeTexture,
+    /// Its own triangles' BVH nodes and records (`own_closest`; stand-ins when off).
+    own_nodes: wgpu::Buffer,
+    own_tris: wgpu::Buffer,
     /// Frame uniforms of its six face cameras.
     face_groups: Vec<wgpu::BindGroup>,
     _face_uniforms: Vec<wgpu::Buffer>,
@@ -246,23 +248,34 @@ impl CurvedReflections {
                         bytemuck::cast_slice(&others),
                         MIN_BUFFER,
                     );
-                    let own_indices =
-                        mesh.triangle_indices(reflector.triangles.iter().map(|&t| t as usize));
-                    let own_buffer = buffer_init(
-                        gpu,
-                        "glint own shell indices",
-                        wgpu::BufferUsages::INDEX,
-                        bytemuck::cast_slice(&own_indices),
-                        MIN_BUFFER,
-                    );
-                    // Never drawn with the test off: a 1² stand-in for the bind group.
-                    let own_size = if settings.self_occlusion {
-                        face_size
+                    let own_mesh = if settings.self_occlusion {
+                        OwnMesh::build(scene, &data.map.atlas, &reflector.triangles)
                     } else {
-                        1
+                        OwnMesh::default()
                     };
-                    let own = CubeTexture::new(gpu, own_size, 1, "glint own shell");
-                    let own_normals = CubeTexture::new(gpu, own_size, 1, "glint own shell normals");
+                    let self_hits = settings.self_occlusion && own_mesh.traversable();
+                    if settings.self_occlusion && !self_hits {
+                        log::warn!(
+                            "curved reflector {}: its BVH is {} levels deep, over the shader's {}: no self-reflection",
+                            reflector.name,
+                            own_mesh.depth,
+                            OWN_STACK
+                        );
+                    }
+                    let own_nodes = buffer_init(
+                        gpu,
+                        "glint own BVH nodes",
+                        wgpu::BufferUsages::STORAGE,
+                        bytemuck::cast_slice(&own_mesh.nodes),
+                        OWN_MIN_BUFFER,
+                    );
+                    let own_tris = buffer_init(
+                        gpu,
+                        "glint own triangles",
+                        wgpu::BufferUsages::STORAGE,
+                        bytemuck::cast_slice(&own_mesh.tris),
+                        OWN_MIN_BUFFER,
+                    );
                     let mut face_uniforms = Vec::new();
                     let mut face_groups = Vec::new();
                     for face in 0..6 {
@@ -308,9 +321,8 @@ impl CurvedReflections {
                         env_size,
                     );
                     base_params.info[3] = u32::from(settings.parallax);
-                    if settings.self_occlusion {
-                        // Slightly larger, so the march's last sample lies outside every part.
-                        base_params.centre[3] = 1.001 * bounding_radius(scene, &reflector);
+                    if self_hits {
+                        base_params.centre[3] = own_offset(bounding_radius(scene, &reflector));
                     }
                     let params = buffer_init(
                         gpu,
@@ -327,17 +339,15 @@ impl CurvedReflections {
                         env_view,
                         &sampler,
                         &maps[final_set][i].cube,
-                        (&own.cube, &own_normals.cube),
+                        (&own_nodes, &own_tris),
                     );
                     ReflectorGpu {
                         vertex_count: verts.len() as u32,
                         vertices,
                         others_count: others.len() as u32,
                         others: others_buffer,
-                        own_count: own_indices.len() as u32,
-                        own_indices: own_buffer,
-                        own,
-                        own_normals,
+                        own_nodes,
+                        own_tris,
                         face_groups,
                         _face_uniforms: face_uniforms,
                         params,
@@ -485,7 +495,7 @@ impl CurvedReflections {
                     self.env_view(i),
                     &self.sampler,
                     &self.maps[self.final_set][i].cube,
-                    (&r.own.cube, &r.own_normals.cube),
+                    (&r.own_nodes, &r.own_tris),
                 );
                 (params, group)
             })
