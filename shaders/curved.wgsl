@@ -367,8 +367,8 @@ fn own_closest(origin: vec3<f32>, dir: vec3<f32>, t_min: f32) -> vec4<f32> {
 // What the reflected ray from `offset` (from the centre) along `dir` sees where it meets the
 // reflector itself (`hit` from `own_closest`; `curved::own_radiance`): the hit's kd·D, as the
 // scene pass draws it, plus each lobe's mirror term there, ks·F(n·ω_o) times one
-// distance-corrected lookup (not cast again: one self-reflection).
-fn own_radiance(hit: vec4<f32>, offset: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
+// distance-corrected lookup at level `lod` (not cast again: one self-reflection).
+fn own_radiance(hit: vec4<f32>, offset: vec3<f32>, dir: vec3<f32>, lod: f32) -> vec3<f32> {
     let r = own_tris[bitcast<u32>(hit.y)];
     let w = vec3<f32>(1.0 - hit.z - hit.w, hit.z, hit.w);
     let lm = r.lightmap[0] * w.x + r.lightmap[1] * w.y + r.lightmap[2] * w.z;
@@ -388,7 +388,7 @@ fn own_radiance(hit: vec4<f32>, offset: vec3<f32>, dir: vec3<f32>) -> vec3<f32> 
     let c = dot(n, wo);
     let point = offset + dir * hit.x;
     let seen = curved_lookup(point, reflect_about(wo, n));
-    let l_env = textureSampleLevel(env, env_sampler, seen, 0.0).rgb;
+    let l_env = textureSampleLevel(env, env_sampler, seen, lod).rgb;
     for (var i = 0u; i < min(curved.info.x, 2u); i++) {
         let l = curved.lobes[i];
         sum += l.ks.rgb * fresnel_schlick(l.ks.a, c) * l_env;
@@ -405,13 +405,14 @@ fn own_t_min(origin: vec3<f32>) -> f32 {
 }
 
 // The radiance the reflected ray from `offset` along `dir` brings: the reflector itself
-// where it meets it, else the environment at level `lod`, distance-corrected.
-fn curved_environment(offset: vec3<f32>, dir: vec3<f32>, lod: f32) -> vec3<f32> {
+// where it meets it, its reflection there looked up at level `own_lod`, else the environment
+// at level `lod`, distance-corrected.
+fn curved_environment(offset: vec3<f32>, dir: vec3<f32>, lod: f32, own_lod: f32) -> vec3<f32> {
     if curved.centre.w > 0.0 {
         let origin = curved.centre.xyz + offset;
         let hit = own_closest(origin, dir, own_t_min(origin));
         if hit.x >= 0.0 {
-            return own_radiance(hit, offset, dir);
+            return own_radiance(hit, offset, dir, own_lod);
         }
     }
     return textureSampleLevel(env, env_sampler, curved_lookup(offset, dir), lod).rgb;
@@ -427,6 +428,9 @@ fn specular_regular(l: CurvedLobe, frame_m: mat3x3<f32>, wo_l: vec3<f32>, offset
     let n = f32(count);
     let area = lobe_area(l.rough.x, l.rough.y, l.rough.z, wo_l, l.samples.z); // Eq. 14–15
     let face = f32(curved.info.z);
+    // A sample that meets the reflector itself shows the hit's reflection by one lookup, which
+    // stands for the whole lobe there: N samples' solid angle, ½·log2 N levels above Eq. 16's.
+    let own_spread = 0.5 * log2(n);
     var sum = vec3<f32>(0.0);
     for (var k = 0u; k < count; k++) {
         let h = pattern[l.samples.x + k].xyz;
@@ -439,7 +443,7 @@ fn specular_regular(l: CurvedLobe, frame_m: mat3x3<f32>, wo_l: vec3<f32>, offset
         let f = lobe_eval(l, wo_l, wi); // Eq. 2
         let pdf = l.pdf.x / (4.0 * max(dot(h, wi), COS_FLOOR)); // Eq. 17
         if pdf > 0.0 {
-            let radiance = curved_environment(offset, wi_world, lod);
+            let radiance = curved_environment(offset, wi_world, lod, lod + own_spread);
             sum += radiance * (f * wi.z / pdf);
         }
     }
@@ -452,7 +456,7 @@ fn specular_mirror(l: CurvedLobe, n: vec3<f32>, wo: vec3<f32>, offset: vec3<f32>
     if c <= 0.0 {
         return vec3<f32>(0.0);
     }
-    let radiance = curved_environment(offset, reflect_about(wo, n), 0.0);
+    let radiance = curved_environment(offset, reflect_about(wo, n), 0.0, 0.0);
     return l.ks.rgb * fresnel_schlick(l.ks.a, c) * radiance;
 }
 
