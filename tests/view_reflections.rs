@@ -444,6 +444,68 @@ fn image_mode_culls_nodes_and_skips_points_when_minified() {
     );
 }
 
+#[test]
+fn image_mode_draws_the_same_frame_with_its_splats_split_over_buffers() {
+    // A GPU may bind less than a reflector's splats in one storage buffer (a high bake of the
+    // mirror panel holds 216 MiB; lavapipe binds 128): its maps are then split, whole, over
+    // several buffers, one draw each. The frame must not change.
+    let data = load(glossy_bundle()).unwrap_or_else(|e| panic!("{e}"));
+    let gpu = gpu();
+    let camera = pose_at(data.scene.camera_path(Some("front")).unwrap(), 0.0);
+    let (w, h) = (192, 128);
+    let frame_with = |bytes: Option<u64>| {
+        let mut off = Offscreen::new(&gpu, &data, w, h).unwrap();
+        off.options.splat_buffer_bytes = bytes;
+        off.set_reflections(&gpu, &data, ReflectionMode::Image)
+            .unwrap();
+        off.render(&gpu, &camera).unwrap();
+        let stats = off.reflections().unwrap().frame_stats();
+        (off.read_hdr(&gpu).unwrap(), stats)
+    };
+    let (whole, whole_stats) = frame_with(None);
+    // A quarter of the mirror panel's splats per buffer (a map is 32 bytes a splat).
+    let panel = whole_stats
+        .iter()
+        .max_by_key(|s| s.selected_splats)
+        .expect("glossy reflectors");
+    let (split, split_stats) = frame_with(Some(panel.selected_splats * 32 / 4));
+    let draws = |v: &[reflections::FrameStats]| v.iter().map(|s| s.draws).sum::<usize>();
+    eprintln!(
+        "draw calls: {} in whole buffers, {} split",
+        draws(&whole_stats),
+        draws(&split_stats)
+    );
+    assert!(
+        draws(&split_stats) > draws(&whole_stats),
+        "the split draws more calls"
+    );
+    assert_eq!(
+        whole_stats
+            .iter()
+            .map(|s| s.drawn_splats)
+            .collect::<Vec<_>>(),
+        split_stats
+            .iter()
+            .map(|s| s.drawn_splats)
+            .collect::<Vec<_>>()
+    );
+    assert!(
+        whole == split,
+        "the frame changed when the splats were split"
+    );
+    // A buffer too small for one map is refused, naming the map.
+    let mut off = Offscreen::new(&gpu, &data, w, h).unwrap();
+    off.options.splat_buffer_bytes = Some(64);
+    let err = off
+        .set_reflections(&gpu, &data, ReflectionMode::Image)
+        .expect_err("no map fits in 64 bytes")
+        .to_string();
+    assert!(
+        err.contains("radiance/") && err.contains("radiance.resolution"),
+        "{err}"
+    );
+}
+
 /// Paths per pixel of the reference images.
 const PATH_TRACER_SPP: u32 = 128;
 

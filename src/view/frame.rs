@@ -241,6 +241,7 @@ impl FramePasses {
                     h,
                     source,
                     o.reflectance,
+                    o.splat_buffer_bytes,
                 )?;
                 self.planar = Some(r);
             }

@@ -159,6 +159,7 @@ impl ViewArgs {
                 depth: self.recursion_depth.unwrap_or(1),
                 cutoff: self.reflection_cutoff,
             },
+            splat_buffer_bytes: None,
         };
         options.check()?;
         Ok(options)
@@ -259,6 +260,7 @@ mod tests {
                     depth: 3,
                     cutoff: 0.5,
                 },
+                splat_buffer_bytes: None,
             }
         );
         assert!(o.recursive() && o.shows_reflections());

@@ -366,6 +366,11 @@ pub struct ViewOptions {
     /// Geometry mode's recursion: depth 1 is the single mirror pass, any other depth the
     /// recursive passes. Ignored in the other modes.
     pub recursion: RecursionSettings,
+    /// Image-based mode: the most bytes of splats one storage buffer holds (`None`: what the
+    /// GPU binds in one, its `max_storage_buffer_binding_size`); a reflector's maps are split
+    /// over as many buffers as that needs. Lower it to exercise the split.
+    #[serde(skip)]
+    pub splat_buffer_bytes: Option<u64>,
 }
 
 impl Default for ViewOptions {
@@ -382,6 +387,7 @@ impl Default for ViewOptions {
             curved: CurvedMode::Off,
             curved_settings: CurvedSettings::default(),
             recursion: RecursionSettings::default(),
+            splat_buffer_bytes: None,
         }
     }
 }

@@ -86,10 +86,13 @@ impl GeometryReflections {
             height,
             source,
             ReflectanceSettings::default(),
+            None,
         )
     }
 
-    /// [`GeometryReflections::new`] with R read as `reflectance` says.
+    /// [`GeometryReflections::new`] with R read as `reflectance` says; image mode's splats
+    /// in buffers of at most `splat_buffer_bytes` (`None`: what the GPU binds in one).
+    #[allow(clippy::too_many_arguments)]
     pub fn with_reflectance(
         gpu: &Gpu,
         renderer: &Renderer,
@@ -98,6 +101,7 @@ impl GeometryReflections {
         height: u32,
         source: Source,
         reflectance: ReflectanceSettings,
+        splat_buffer_bytes: Option<u64>,
     ) -> Result<GeometryReflections, RenderError> {
         let planar = reflectors_with_materials(data, reflectance);
         let mut splats = Vec::new();
@@ -112,7 +116,8 @@ impl GeometryReflections {
             }
             for r in &planar {
                 splats.push(Some(
-                    load_splat_maps(gpu, data, &r.name).map_err(RenderError::Reflections)?,
+                    load_splat_maps(gpu, data, &r.name, splat_buffer_bytes)
+                        .map_err(RenderError::Reflections)?,
                 ));
             }
         }
@@ -206,32 +211,35 @@ impl GeometryReflections {
                     let mirror_params_group =
                         params_group(device, "glint mirror params", &mirror_layout, &params);
                     if let Some(s) = &mut splats {
-                        s.group = Some(device.create_bind_group(&wgpu::BindGroupDescriptor {
-                            label: Some("glint splat params"),
-                            layout: &splat_layout,
-                            entries: &[
-                                wgpu::BindGroupEntry {
-                                    binding: 2,
-                                    resource: params.as_entire_binding(),
-                                },
-                                wgpu::BindGroupEntry {
-                                    binding: 6,
-                                    resource: s.nodes.as_entire_binding(),
-                                },
-                                wgpu::BindGroupEntry {
-                                    binding: 8,
-                                    resource: s.points.as_entire_binding(),
-                                },
-                                wgpu::BindGroupEntry {
-                                    binding: 9,
-                                    resource: s.kept.as_entire_binding(),
-                                },
-                                wgpu::BindGroupEntry {
-                                    binding: 10,
-                                    resource: s.views.as_entire_binding(),
-                                },
-                            ],
-                        }));
+                        for chunk in &mut s.chunks {
+                            chunk.group =
+                                Some(device.create_bind_group(&wgpu::BindGroupDescriptor {
+                                    label: Some("glint splat params"),
+                                    layout: &splat_layout,
+                                    entries: &[
+                                        wgpu::BindGroupEntry {
+                                            binding: 2,
+                                            resource: params.as_entire_binding(),
+                                        },
+                                        wgpu::BindGroupEntry {
+                                            binding: 6,
+                                            resource: s.nodes.as_entire_binding(),
+                                        },
+                                        wgpu::BindGroupEntry {
+                                            binding: 8,
+                                            resource: chunk.points.as_entire_binding(),
+                                        },
+                                        wgpu::BindGroupEntry {
+                                            binding: 9,
+                                            resource: chunk.kept.as_entire_binding(),
+                                        },
+                                        wgpu::BindGroupEntry {
+                                            binding: 10,
+                                            resource: s.views.as_entire_binding(),
+                                        },
+                                    ],
+                                }));
+                        }
                     }
                     let sphere = sphere_texture(gpu, &reflector.modulation);
                     let sphere_view = sphere.create_view(&wgpu::TextureViewDescriptor::default());
@@ -436,12 +444,15 @@ impl GeometryReflections {
                     (Source::Image { .. }, Some(maps)) => {
                         pass.set_pipeline(&self.splat_pipeline);
                         pass.set_bind_group(0, &r.mirror_frame_group, &[]);
-                        pass.set_bind_group(1, maps.group.as_ref(), &[]);
-                        // Every kept splat in one draw: 6 vertices (two triangles) each.
-                        if let Ok(plan) = maps.plan.lock()
-                            && plan.0 > 0
-                        {
-                            pass.draw(0..6 * plan.0, 0..1);
+                        // Every kept splat of a chunk in one draw: 6 vertices (two
+                        // triangles) each.
+                        if let Ok(plan) = maps.plan.lock() {
+                            for (chunk, &count) in maps.chunks.iter().zip(&plan.0) {
+                                if count > 0 {
+                                    pass.set_bind_group(1, chunk.group.as_ref(), &[]);
+                                    pass.draw(0..6 * count, 0..1);
+                                }
+                            }
                         }
                     }
                     _ => {

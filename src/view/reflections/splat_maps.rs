@@ -1,7 +1,13 @@
 //! The image-based source of M (Bastos §8.1.3) on the GPU: a reflector's baked radiance maps
-//! as splats in one instance buffer, and per frame the maps selected for the mirrored eye,
+//! as splats in storage buffers, and per frame the maps selected for the mirrored eye,
 //! each quadtree node sized by Eq. 3, culled or skipped when minified ([`super::splats`]).
+//!
+//! All of a reflector's splats go in one buffer when the GPU can bind it whole; otherwise the
+//! maps are split, whole, over as many buffers as that needs ([`chunk_maps`]), each drawn by
+//! one call: a high-quality bake of glossy-room's mirror panel (256² maps) holds 216 MiB of
+//! splats, and a storage binding may be limited to 128 MiB (wgpu's default, and lavapipe's).
 
+use std::ops::Range;
 use std::sync::Mutex;
 
 use glam::{Mat4, Vec3};
@@ -25,44 +31,75 @@ pub struct FrameStats {
     pub drawn_splats: u64,
     /// Quadtree nodes culled.
     pub culled_nodes: usize,
-    /// Draw calls (one for all drawn splats).
+    /// Draw calls (one for all drawn splats of each buffer of splats that has any).
     pub draws: usize,
     /// Ranges of contiguous splats drawn (what one draw call each would cost).
     pub ranges: usize,
 }
 
-/// A reflector's maps on the GPU: every map's splats in one storage buffer, in quadtree
-/// order; the quadtrees stay on the CPU for per-frame culling and sizing, and each frame's
-/// kept splats are listed by index, so they are one draw however many ranges they form.
+/// A reflector's maps on the GPU: every map's splats in storage buffers ([`SplatChunk`]), in
+/// quadtree order; the quadtrees stay on the CPU for per-frame culling and sizing, and each
+/// frame's kept splats are listed by index, so they are one draw per buffer however many
+/// ranges they form.
 pub(super) struct SplatMaps {
     maps: Vec<MapEntry>,
-    /// Per map: its quadtree and node ranges (splats dropped after upload), node base.
-    trees: Vec<(MapSplats, u32)>,
+    /// Per map: its quadtree and node ranges within its chunk (splats dropped after upload),
+    /// node base, chunk.
+    trees: Vec<(MapSplats, u32, usize)>,
     node_count: usize,
-    /// Every map's splats, in quadtree order (`splat_points`, binding 8 of the splat pass).
-    pub(super) points: wgpu::Buffer,
-    /// This frame's kept splats, indices into `points` (`splat_kept`, binding 9).
-    pub(super) kept: wgpu::Buffer,
+    /// The splats, in buffers a binding can hold whole, each with its kept list.
+    pub(super) chunks: Vec<SplatChunk>,
     /// Per quadtree node, this frame's [`NodeParams`] (binding 6 of the splat pass).
     pub(super) nodes: wgpu::Buffer,
     /// Per map, its camera's [`SplatView`] (binding 10 of the splat pass).
     pub(super) views: wgpu::Buffer,
-    /// The splat pass's group 1 (set by the pass that binds `nodes`).
-    pub(super) group: Option<wgpu::BindGroup>,
-    /// The last prepared frame's kept splat count (`vs_splat` draws 6 vertices each) and
-    /// statistics.
-    pub(super) plan: Mutex<(u32, FrameStats)>,
+    /// The last prepared frame's kept splat count per chunk (`vs_splat` draws 6 vertices
+    /// each) and statistics.
+    pub(super) plan: Mutex<(Vec<u32>, FrameStats)>,
 }
 
-/// Reads reflector `reflector`'s radiance maps from the bundle and uploads their splats.
+/// Some whole maps' splats and this frame's kept ones among them.
+pub(super) struct SplatChunk {
+    /// The maps' splats, in quadtree order (`splat_points`, binding 8 of the splat pass).
+    pub(super) points: wgpu::Buffer,
+    /// This frame's kept splats, indices into `points` (`splat_kept`, binding 9).
+    pub(super) kept: wgpu::Buffer,
+    /// The splat pass's group 1 for this chunk (set by the pass that binds `nodes`).
+    pub(super) group: Option<wgpu::BindGroup>,
+}
+
+/// Consecutive maps of `bytes` each, grouped so that no group exceeds `limit` bytes (greedy,
+/// in order): the ranges of map indices. `Err(i)`: map i alone is over the limit.
+pub fn chunk_maps(bytes: &[u64], limit: u64) -> Result<Vec<Range<usize>>, usize> {
+    let mut chunks = Vec::new();
+    let (mut start, mut sum) = (0, 0u64);
+    for (i, &b) in bytes.iter().enumerate() {
+        if b > limit {
+            return Err(i);
+        }
+        if sum + b > limit {
+            chunks.push(start..i);
+            start = i;
+            sum = 0;
+        }
+        sum += b;
+    }
+    if start < bytes.len() || chunks.is_empty() {
+        chunks.push(start..bytes.len());
+    }
+    Ok(chunks)
+}
+
+/// Reads reflector `reflector`'s radiance maps from the bundle and uploads their splats, in
+/// buffers of at most `buffer_bytes` (`None`: what the GPU binds in one storage buffer).
 pub(super) fn load_splat_maps(
     gpu: &Gpu,
     data: &ViewData,
     reflector: &str,
+    buffer_bytes: Option<u64>,
 ) -> Result<SplatMaps, String> {
     let cams = load_cameras(&data.bundle, reflector).map_err(|e| e.to_string())?;
-    let mut all = Vec::new();
-    let mut trees = Vec::new();
+    let mut per_map = Vec::new();
     let mut node_base = 0u32;
     for m in &cams.maps {
         let map_path = crate::radiance::index::map_path(reflector, &m.file, "exr");
@@ -70,8 +107,6 @@ pub(super) fn load_splat_maps(
         let stored = read_map(&data.bundle, reflector, m).map_err(|e| e.to_string())?;
         let (image, nodes) = (stored.image, stored.nodes);
         let ch = |n: &str| image.channel(n).map_err(|e| at(e.to_string()));
-        // Bundles baked before the facet normals were stored have none: their splats keep
-        // Eq. 3's size parallel to the reflector.
         let normal = match (image.channel("NX"), image.channel("NY")) {
             (Ok(x), Ok(y)) => Some([x, y]),
             _ => None,
@@ -83,22 +118,61 @@ pub(super) fn load_splat_maps(
             normal,
         };
         let count = nodes.len() as u32;
-        let mut tree = splats::map_splats(&m.view, &map_image, nodes, node_base).map_err(at)?;
-        let offset = all.len() as u32;
-        for r in &mut tree.ranges {
-            *r = r.start + offset..r.end + offset;
-        }
-        all.append(&mut tree.splats);
-        trees.push((tree, node_base));
+        let tree = splats::map_splats(&m.view, &map_image, nodes, node_base).map_err(at)?;
+        per_map.push((tree, node_base));
         node_base += count;
     }
-    let points = buffer_init(
-        gpu,
-        "glint radiance-map splats",
-        wgpu::BufferUsages::STORAGE,
-        bytemuck::cast_slice(&all),
-        32,
-    );
+    let splat_bytes = std::mem::size_of::<splats::Splat>() as u64;
+    let limits = gpu.device.limits();
+    let device_limit = limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size);
+    let limit = buffer_bytes.map_or(device_limit, |b| b.min(device_limit));
+    let bytes: Vec<u64> = per_map
+        .iter()
+        .map(|(t, _)| t.splats.len() as u64 * splat_bytes)
+        .collect();
+    let ranges = chunk_maps(&bytes, limit).map_err(|i| {
+        format!(
+            "radiance/{}: {} splats ({:.0} MiB), more than this GPU binds in one buffer ({:.0} MiB); bake reflector {reflector} at a lower `radiance.resolution`",
+            crate::radiance::index::map_path(reflector, &cams.maps[i].file, "exr"),
+            per_map[i].0.splats.len(),
+            bytes[i] as f64 / (1u64 << 20) as f64,
+            limit as f64 / (1u64 << 20) as f64,
+        )
+    })?;
+    let mut trees = Vec::with_capacity(per_map.len());
+    let mut chunks = Vec::with_capacity(ranges.len());
+    let mut maps = per_map.into_iter();
+    for (c, range) in ranges.iter().enumerate() {
+        let mut all = Vec::new();
+        for (mut tree, base) in maps.by_ref().take(range.len()) {
+            let offset = all.len() as u32;
+            for r in &mut tree.ranges {
+                *r = r.start + offset..r.end + offset;
+            }
+            all.append(&mut tree.splats);
+            trees.push((tree, base, c));
+        }
+        let points = buffer_init(
+            gpu,
+            "glint radiance-map splats",
+            wgpu::BufferUsages::STORAGE,
+            bytemuck::cast_slice(&all),
+            32,
+        );
+        let kept = buffer(
+            &gpu.device,
+            "glint kept splats",
+            (all.len() as u64 * 4).max(16),
+            wgpu::BufferUsages::STORAGE,
+        );
+        chunks.push(SplatChunk {
+            points,
+            kept,
+            group: None,
+        });
+    }
     let views: Vec<SplatView> = cams.maps.iter().map(|m| SplatView::new(&m.view)).collect();
     let views = buffer_init(
         gpu,
@@ -107,28 +181,21 @@ pub(super) fn load_splat_maps(
         bytemuck::cast_slice(&views),
         std::mem::size_of::<SplatView>() as u64,
     );
-    let kept = buffer(
-        &gpu.device,
-        "glint kept splats",
-        (all.len() as u64 * 4).max(16),
-        wgpu::BufferUsages::STORAGE,
-    );
     let nodes = buffer(
         &gpu.device,
         "glint quadtree node params",
         (node_base as u64).max(1) * std::mem::size_of::<NodeParams>() as u64,
         wgpu::BufferUsages::STORAGE,
     );
+    let chunk_count = chunks.len();
     Ok(SplatMaps {
         maps: cams.maps,
         trees,
         node_count: node_base as usize,
-        points,
-        kept,
+        chunks,
         nodes,
         views,
-        group: None,
-        plan: Mutex::new((0, FrameStats::default())),
+        plan: Mutex::new((vec![0; chunk_count], FrameStats::default())),
     })
 }
 
@@ -153,7 +220,7 @@ impl SplatMaps {
         let planes = splats::frustum_planes(view_proj);
         let chosen = select(&self.maps, eye, selection, count);
         let mut params = vec![NodeParams::default(); self.node_count];
-        let mut draws = Vec::new();
+        let mut draws = vec![Vec::new(); self.chunks.len()];
         let mut stats = FrameStats {
             maps: chosen.len(),
             ..FrameStats::default()
@@ -166,7 +233,7 @@ impl SplatMaps {
             } else {
                 0
             };
-            let (tree, base) = &self.trees[i];
+            let (tree, base, chunk) = &self.trees[i];
             stats.selected_splats += tree
                 .ranges
                 .first()
@@ -182,22 +249,57 @@ impl SplatMaps {
                 height,
                 detail,
                 &mut params,
-                &mut draws,
+                &mut draws[*chunk],
             );
         }
         let mut kept = Vec::new();
-        splats::kept_indices(&draws, &mut kept);
-        stats.ranges = draws.len();
-        stats.draws = usize::from(!kept.is_empty());
-        stats.drawn_splats = kept.len() as u64;
+        let mut counts = Vec::with_capacity(self.chunks.len());
+        for (chunk, draws) in self.chunks.iter().zip(&draws) {
+            splats::kept_indices(draws, &mut kept);
+            stats.ranges += draws.len();
+            stats.draws += usize::from(!kept.is_empty());
+            stats.drawn_splats += kept.len() as u64;
+            if !kept.is_empty() {
+                gpu.queue
+                    .write_buffer(&chunk.kept, 0, bytemuck::cast_slice(&kept));
+            }
+            counts.push(kept.len() as u32);
+        }
         gpu.queue
             .write_buffer(&self.nodes, 0, bytemuck::cast_slice(&params));
-        if !kept.is_empty() {
-            gpu.queue
-                .write_buffer(&self.kept, 0, bytemuck::cast_slice(&kept));
-        }
         if let Ok(mut plan) = self.plan.lock() {
-            *plan = (kept.len() as u32, stats);
+            *plan = (counts, stats);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn maps_are_split_whole_and_in_order_under_the_limit() {
+        assert_eq!(chunk_maps(&[40, 50, 10, 90, 5], 100), Ok(vec![0..3, 3..5]));
+        // Exactly the limit fits.
+        assert_eq!(chunk_maps(&[100, 100], 100), Ok(vec![0..1, 1..2]));
+        assert_eq!(
+            chunk_maps(&[30, 30, 30], 1000),
+            Ok(std::iter::once(0..3).collect())
+        );
+        // A map over the limit by itself cannot be bound.
+        assert_eq!(chunk_maps(&[10, 101, 10], 100), Err(1));
+        // No maps: one empty chunk (a reflector's buffers always exist).
+        assert_eq!(chunk_maps(&[], 100), Ok(std::iter::once(0..0).collect()));
+        // Every map lands in exactly one chunk, none over the limit.
+        let sizes: Vec<u64> = (0..50).map(|i| (i * 37 % 64) as u64 + 1).collect();
+        let chunks = chunk_maps(&sizes, 128).unwrap();
+        assert_eq!(chunks.first().unwrap().start, 0);
+        assert_eq!(chunks.last().unwrap().end, sizes.len());
+        for w in chunks.windows(2) {
+            assert_eq!(w[0].end, w[1].start);
+        }
+        for c in &chunks {
+            assert!(sizes[c.clone()].iter().sum::<u64>() <= 128);
         }
     }
 }
