@@ -57,6 +57,14 @@ fn radiosity_settings() -> RadiositySettings {
 }
 
 /// glossy-room's scene and radiosity stages ([`radiosity_settings`]).
+/// glossy-room's curved teapot as the viewer draws it.
+fn teapot_of(data: &glint::view::load::ViewData) -> CurvedReflector {
+    curved_reflectors(&data.scene)
+        .into_iter()
+        .find(|r| r.name == "Teapot")
+        .expect("glossy-room has a curved teapot")
+}
+
 fn glossy_recipe() -> Recipe {
     Recipe::new("glossy-room")
         .then(Step::Scene)
@@ -595,10 +603,7 @@ fn glossy_room_teapot_matches_the_reference_path_tracer() {
         materials::MaterialsSettings::preset(Quality::Draft),
     )));
     let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
-    let teapot = curved_reflectors(&data.scene)
-        .into_iter()
-        .find(|r| r.name == "Teapot")
-        .expect("glossy-room has a curved teapot");
+    let teapot = teapot_of(&data);
     let camera = Camera::look_at(
         teapot.centre + Vec3::new(0.32, 0.22, 0.42),
         teapot.centre,
@@ -943,10 +948,7 @@ impl<'a> TeapotEnvironment<'a> {
 fn glossy_room_teapot_matches_the_cpu_mirror_equation() {
     let bundle = shipped_bundle(&glossy_recipe());
     let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
-    let teapot = curved_reflectors(&data.scene)
-        .into_iter()
-        .find(|r| r.name == "Teapot")
-        .unwrap();
+    let teapot = teapot_of(&data);
     let camera = Camera::look_at(
         teapot.centre + Vec3::new(0.32, 0.22, 0.42),
         teapot.centre,
@@ -1048,10 +1050,7 @@ fn the_shader_casts_rays_at_the_teapot_as_the_scene_ray_caster_does() {
     // `cs_own_probe`) against the scene's ray caster over the same triangles.
     let bundle = shipped_bundle(&glossy_recipe());
     let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
-    let teapot = curved_reflectors(&data.scene)
-        .into_iter()
-        .find(|r| r.name == "Teapot")
-        .unwrap();
+    let teapot = teapot_of(&data);
     let own = OwnTriangles::new(&data, &teapot);
     let t_min = own_offset(bounding_radius(&data.scene, &teapot));
     let mut rays = Vec::new();
@@ -1143,10 +1142,7 @@ fn glossy_room_teapot_seen_in_the_mirror_gets_its_specular_term() {
     let bundle = shipped_bundle(&glossy_recipe());
     // No materials stage: the panel's K = I and R = 1, so its composite adds ks_panel × M.
     let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
-    let teapot = curved_reflectors(&data.scene)
-        .into_iter()
-        .find(|r| r.name == "Teapot")
-        .unwrap();
+    let teapot = teapot_of(&data);
     let panel = glossy_planar_reflectors(&data.scene)
         .into_iter()
         .find(|r| r.name == "MirrorPanel")

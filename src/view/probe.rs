@@ -94,6 +94,25 @@ pub(crate) fn run_probe(
     Ok(bytes)
 }
 
+/// A compute probe's group 0 ([`frame_bind_group_layout`]): `textures` as D, frame uniforms
+/// with an identity view and exposure 1 (probes read D, never project).
+pub(crate) fn probe_frame_group(
+    gpu: &Gpu,
+    layout: &wgpu::BindGroupLayout,
+    textures: &RadiosityTextures,
+) -> wgpu::BindGroup {
+    let uniforms = uniform_buffer(&gpu.device);
+    let u = FrameUniforms {
+        view_proj: Mat4::IDENTITY.to_cols_array_2d(),
+        atlas_size: textures.layer_size.map(|v| v as f32),
+        exposure: 1.0,
+        encode_srgb: 0,
+        eye: [0.0; 4],
+    };
+    gpu.queue.write_buffer(&uniforms, 0, bytemuck::bytes_of(&u));
+    frame_bind_group(&gpu.device, layout, &uniforms, textures)
+}
+
 /// Mirrors `ProbeInput` in `shaders/view.wgsl` (16 bytes): one lookup for [`bicubic_probe`].
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
@@ -140,16 +159,7 @@ pub fn bicubic_probe(
                 &[Some(&frame_layout), Some(&probe_layout)],
                 "cs_probe",
             );
-            let uniforms = uniform_buffer(device);
-            let u = FrameUniforms {
-                view_proj: Mat4::IDENTITY.to_cols_array_2d(),
-                atlas_size: textures.layer_size.map(|v| v as f32),
-                exposure: 1.0,
-                encode_srgb: 0,
-                eye: [0.0; 4],
-            };
-            gpu.queue.write_buffer(&uniforms, 0, bytemuck::bytes_of(&u));
-            let frame_group = frame_bind_group(device, &frame_layout, &uniforms, &textures);
+            let frame_group = probe_frame_group(gpu, &frame_layout, &textures);
             (pipeline, probe_layout, frame_group)
         })?;
     let bytes = run_probe(

@@ -11,11 +11,9 @@ use crate::radiosity::RadiosityMap;
 use crate::radiosity::atlas::{Atlas, PageSize};
 use crate::view::build::{buffer_init, compute_pipeline, shader};
 use crate::view::gpu::{Gpu, error_scoped};
-use crate::view::probe::{probe_io_layout, run_probe};
+use crate::view::probe::{probe_frame_group, probe_io_layout, run_probe};
 use crate::view::radiosity_textures::RadiosityTextures;
-use crate::view::renderer::{
-    FrameUniforms, RenderError, frame_bind_group, frame_bind_group_layout, uniform_buffer,
-};
+use crate::view::renderer::{RenderError, frame_bind_group_layout};
 
 /// A ray's hit with a reflector itself: (t, the scene triangle, barycentrics).
 pub type SceneHit = (f32, u32, Vec2);
@@ -188,16 +186,7 @@ fn curved_probe(
                 env,
                 own,
             );
-            let uniforms = uniform_buffer(device);
-            let u = FrameUniforms {
-                view_proj: glam::Mat4::IDENTITY.to_cols_array_2d(),
-                atlas_size: textures.layer_size.map(|v| v as f32),
-                exposure: 1.0,
-                encode_srgb: 0,
-                eye: [0.0; 4],
-            };
-            gpu.queue.write_buffer(&uniforms, 0, bytemuck::bytes_of(&u));
-            let group0 = frame_bind_group(device, &frame_layout, &uniforms, &textures);
+            let group0 = probe_frame_group(gpu, &frame_layout, &textures);
             (pipeline, probe_layout, group0, group1)
         })?;
     let bytes = run_probe(
