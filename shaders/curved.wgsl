@@ -276,10 +276,10 @@ fn own_box(i: u32, origin: vec3<f32>, inv: vec3<f32>, t_min: f32, t_max: f32) ->
 }
 
 // Möller–Trumbore (1997), either face: (t, u, v) with t in (t_min, t_max), else t = -1.
+// Reads only the record's first three fields: the hot loop never loads what shading needs.
 fn own_triangle(k: u32, origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f32) -> vec3<f32> {
-    let r = own_tris[k];
-    let e1 = r.e1.xyz;
-    let e2 = r.e2.xyz;
+    let e1 = own_tris[k].e1.xyz;
+    let e2 = own_tris[k].e2.xyz;
     let p = cross(dir, e2);
     let det = dot(e1, p);
     let none = vec3<f32>(-1.0, 0.0, 0.0);
@@ -287,7 +287,7 @@ fn own_triangle(k: u32, origin: vec3<f32>, dir: vec3<f32>, t_min: f32, t_max: f3
         return none;
     }
     let inv = 1.0 / det;
-    let s = origin - r.v0.xyz;
+    let s = origin - own_tris[k].v0.xyz;
     let u = dot(s, p) * inv;
     if u < 0.0 || u > 1.0 {
         return none;
