@@ -239,6 +239,35 @@ fn a_box_piercing_the_floor_neither_leaks_nor_darkens() {
     assert!(under.x > 0.5 * beside.x, "under {under} vs beside {beside}");
 }
 
+#[test]
+fn a_wall_behind_a_one_sided_panel_is_in_its_shadow_up_to_the_rim() {
+    // A closed 2 m room, a lamp under its ceiling, and a one-sided 1 × 1 m panel 3 cm in
+    // front of the wall x = −1, facing the room. The wall behind the panel sees the panel's
+    // back over most of its hemisphere; near the rim it also sees the room through the gap,
+    // so it is not inside anything: its own, dark, light must show, not the lit wall's beside
+    // the panel (which drew a lit strip along glossy-room's mirror panel).
+    let dir = tempfile::tempdir().unwrap();
+    let mut meshes = closed_box(1.0);
+    meshes.push(flip(quad("Lamp", 1, 1, 0.98, 0.3)));
+    meshes.push(quad("Panel", 0, 0, -0.97, 0.5));
+    let scene = load(
+        dir.path(),
+        &meshes,
+        &[
+            MaterialSpec::diffuse("white", 0.5),
+            emissive("lamp", 0.0, 4.0),
+        ],
+    );
+    let (atlas, sol) = run(&scene, 32.0, 64, 16, 1);
+    let open = at(&scene, &atlas, &sol, Vec3::new(-1.0, 0.0, 0.8));
+    // 3 cm behind the rim (the texel holding it lies 0–3 cm behind) and deep behind.
+    let rim = at(&scene, &atlas, &sol, Vec3::new(-1.0, 0.0, 0.47));
+    let deep = at(&scene, &atlas, &sol, Vec3::new(-1.0, 0.0, 0.0));
+    assert!(open.x > 0.02, "the open wall is lit: {open}");
+    assert!(rim.x < 0.35 * open.x, "behind the rim {rim} vs the open wall {open}");
+    assert!(deep.x < 0.35 * open.x, "deep behind {deep} vs the open wall {open}");
+}
+
 /// Runs `f` on a rayon pool of `threads` threads.
 fn with_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
     rayon::ThreadPoolBuilder::new()

@@ -11,13 +11,27 @@ use super::emitters::{Emitters, luminance, power, stratified_point, var_of_mean}
 use super::many_lights::{Choice, LIGHTS_SAMPLED_EACH, ManyLights};
 use super::mirror_lights::MirrorLights;
 use super::transport::{Glossy, Term};
-use crate::geometry::Bvh;
+use crate::geometry::{Bvh, Triangle};
 use crate::sampling::{Rng, basis, r2, sample_cosine_hemisphere, sample_triangle};
 use crate::scene::Scene;
 
 /// A sample is inside geometry when more than this fraction of its gathering rays hit back
-/// faces (a floor texel under a wall sees the wall's inner faces).
+/// faces (a floor texel under a wall sees the wall's inner faces) and fewer than
+/// [`OPEN_LIMIT`] reach open space.
 pub const BACKFACE_LIMIT: f32 = 0.25;
+
+/// A sample whose gathering rays reach open space (a front face) at least this fraction of
+/// the time, and whose nearest back face is at least half a texel away, is not inside
+/// anything, however many back faces it sees. A wall behind a one-sided panel sees the
+/// panel's back over most of its hemisphere, yet near the panel's rim it sees the room
+/// through the gap: its light is its own (the panel's shadow), and filling it from the lit
+/// wall beside the panel drew a lit strip along glossy-room's mirror panel. Where the gap is
+/// under half a texel, though, the texel cannot resolve the shadow: its darkness would spread
+/// a texel or two over the lit wall beside the panel (a dark frame around the panel at draft
+/// density), so it is filled as before. A sample inside a closed solid sees no front face.
+/// Misses do not count: below a floor, a box's face sees the floor's back and the void, and
+/// is as hidden as one inside.
+pub const OPEN_LIMIT: f32 = 0.25;
 
 /// What gathering needs, shared by every element.
 pub(super) struct Context<'a> {
@@ -87,6 +101,18 @@ impl Gathered {
     }
 }
 
+/// The world distance between texel centres on `triangle` (`tri`): the square root of its
+/// area over its area in texels.
+fn texel_spacing(atlas: &Atlas, triangle: u32, tri: &Triangle) -> f32 {
+    let c = atlas.tri_coords[triangle as usize];
+    let texels = 0.5 * (c[1] - c[0]).perp_dot(c[2] - c[0]).abs();
+    if texels > 0.0 {
+        (tri.area() / texels).sqrt()
+    } else {
+        f32::INFINITY
+    }
+}
+
 /// Where an element's gathering rays come from: points `first`.. of its shifted R2 sequence
 /// (the same shift in every batch, so the batches together are one prefix of it).
 #[derive(Clone, Copy, Debug)]
@@ -124,6 +150,10 @@ pub(super) fn gather(
     // Radiance the rays bring back through glossy reflection (besides `terms`).
     let mut via_glossy = Vec3::ZERO;
     let mut backfaces = 0u32;
+    // Rays that reach open space: a front face (a miss may be the void below a floor).
+    let mut open = 0u32;
+    // The nearest back face's distance.
+    let mut nearest_back = f32::INFINITY;
     let mut rays = 0u64;
     // With many emitters, one distribution over them all, and that many samples from it.
     let many = cx.many.map(|m| (m, m.choose(origin, ns)));
@@ -146,6 +176,7 @@ pub(super) fn gather(
                 let cos_l = -d.dot(hn);
                 if cos_l <= 0.0 {
                     backfaces += 1;
+                    nearest_back = nearest_back.min(h.t);
                     // A double-sided surface's back reflects with its (shared) texel.
                     hits.push(if scene.material_of(h.triangle).double_sided {
                         cx.atlas.texel_at(cx.offsets, h.triangle, h.bary)
@@ -154,6 +185,7 @@ pub(super) fn gather(
                     });
                     continue;
                 }
+                open += 1;
                 let mut constant = 0.0f64;
                 let e = scene.materials[ht.material as usize].emission;
                 if e.max_element() > 0.0 {
@@ -241,7 +273,9 @@ pub(super) fn gather(
         gathering_rays: n_rays,
         hits,
         terms,
-        inside: backfaces as f32 > BACKFACE_LIMIT * n_rays as f32,
+        inside: backfaces as f32 > BACKFACE_LIMIT * n_rays as f32
+            && ((open as f32) < OPEN_LIMIT * n_rays as f32
+                || nearest_back < 0.5 * texel_spacing(cx.atlas, s.triangle, tri)),
         rays,
         light_samples: n_light,
         moments,
