@@ -18,7 +18,7 @@
 //! evaluation of the same equation ([`reflection_table`]).
 //!
 //! A third table measures fidelity ([`fidelity_table`]): per shipped scene with glossy
-//! planar reflectors and per mode, the whole-frame relative RMSE and the relative RMSE over
+//! planar reflectors and per mode (geometry mode at recursion depths 1 and 2), the whole-frame relative RMSE and the relative RMSE over
 //! the reflectors' pixels against the reference path tracer at the same camera (each camera
 //! path's first keyframe, [`FIDELITY_SIZE`], [`FIDELITY_SPP`] paths per pixel: its noise is
 //! part of the figure), and over the reflectors' pixels against the CPU evaluation of the
@@ -56,7 +56,7 @@ use glint::view::gpu::Gpu;
 use glint::view::headless::Offscreen;
 use glint::view::headless::{ReplayOptions, replay_with};
 use glint::view::load::load;
-use glint::view::options::{CurvedMode, CurvedSettings};
+use glint::view::options::{CurvedMode, CurvedSettings, RecursionSettings, ViewOptions};
 use glint::view::radiance_maps::Selection;
 use glint::view::reflections::{self, ReflectionMode};
 use glint::view::replay::GpuTimeSource;
@@ -674,21 +674,34 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
                  {curved_seen} reflector px see a curved reflector, left out of the CPU equation's column",
                 path.name
             ));
-            for (label, mode) in [
-                ("geometry", ReflectionMode::Geometry),
-                ("image", ReflectionMode::Image),
-                ("off", ReflectionMode::Off),
+            // Geometry mode at recursion depth 2 too: a glossy floor's reflection of a mirror
+            // (and of the lamp in it) is there only from depth 2 on.
+            for (label, mode, depth) in [
+                ("geometry", ReflectionMode::Geometry, 1),
+                ("geometry d2", ReflectionMode::Geometry, 2),
+                ("image", ReflectionMode::Image, 1),
+                ("off", ReflectionMode::Off, 1),
             ] {
-                off.set_reflections(gpu, &data, mode)
-                    .unwrap_or_else(|e| panic!("{e}"));
+                let set = |o: &mut Offscreen| {
+                    let options = ViewOptions {
+                        reflections: mode,
+                        recursion: RecursionSettings {
+                            depth,
+                            ..o.options.recursion
+                        },
+                        ..o.options
+                    };
+                    o.set_options(gpu, &data, &options)
+                        .unwrap_or_else(|e| panic!("{e}"));
+                };
+                set(&mut off);
                 off.render(gpu, &camera).unwrap_or_else(|e| panic!("{e}"));
                 let frame = image(off.read_hdr(gpu).unwrap_or_else(|e| panic!("{e}")));
                 // Against the path tracer (a box filter over each pixel): the viewer's frame
                 // box-filtered from ss × ss samples per pixel.
                 let filtered = match &mut fine {
                     Some(fine) => {
-                        fine.set_reflections(gpu, &data, mode)
-                            .unwrap_or_else(|e| panic!("{e}"));
+                        set(fine);
                         fine.render(gpu, &camera).unwrap_or_else(|e| panic!("{e}"));
                         let hdr = fine.read_hdr(gpu).unwrap_or_else(|e| panic!("{e}"));
                         image(box_filter(&hdr, w as usize, h as usize, ss as usize))

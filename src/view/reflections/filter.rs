@@ -364,8 +364,9 @@ impl Pyramid {
     }
 
     /// M*K at continuous pixel `pixel` (centres at +½) with `scale` pixels per kernel texel,
-    /// the filter `taps` reading the pyramid (`fs_composite`'s gather): Σ W·rgb / Σ W·c, or
-    /// `None` when no tap finds a covered texel; the taps squeezed as `grazing` says.
+    /// the filter `taps` reading the pyramid (`fs_composite`'s gather): Σ W·rgb / Σ W·c over
+    /// the reads within the frame, or `None` when no tap finds a covered texel; the taps
+    /// squeezed as `grazing` says.
     pub fn filtered(
         &self,
         pixel: Vec2,
@@ -384,7 +385,12 @@ impl Pyramid {
                 (0..reads)
                     .map(|j| {
                         let q = p + grazing.axis * step * (j as f32 - 0.5 * (reads - 1) as f32);
-                        self.sample(q / size, l)
+                        // Beyond the frame M holds nothing: the read is left out.
+                        if q.cmpge(Vec2::ZERO).all() && q.cmple(size).all() {
+                            self.sample(q / size, l)
+                        } else {
+                            Vec4::ZERO
+                        }
                     })
                     .sum::<Vec4>()
                     * (t.weight / reads as f32)
@@ -558,6 +564,52 @@ mod tests {
             "{g:?}"
         );
         assert!((g.offset(Vec2::new(3.0, 2.0), 1.0) - Vec2::new(3.0, 2.0)).length() < 0.2);
+    }
+
+    #[test]
+    fn reads_beyond_the_frame_count_for_nothing() {
+        // M dim everywhere but its rightmost column, a lamp at the frame's edge. A wide
+        // lobe at a pixel on that edge reads half its taps beyond the frame: had they read the
+        // edge (clamped), the lamp would stand for everything beyond; left out, it weighs what
+        // its one column of the frame does.
+        let filter = filter_taps(&kernel_taps(0.3), FILTER_RINGS);
+        let (w, h) = (64u32, 32u32);
+        let lamp = 10.0;
+        let rgb: Vec<Vec3> = (0..w * h)
+            .map(|k| Vec3::splat(if k % w == w - 1 { lamp } else { 0.1 }))
+            .collect();
+        let pyramid = Pyramid::of_image(w, h, &rgb, &vec![true; rgb.len()]);
+        let scale = 4.0;
+        let spread: f32 = scale * filter.iter().map(|t| t.offset.x.abs() * t.weight).sum::<f32>();
+        assert!(spread > 8.0, "the lobe spans many pixels: {spread}");
+        let edge = Vec2::new(w as f32 - 0.5, h as f32 * 0.5);
+        let got = pyramid
+            .filtered(edge, scale, &filter, &Grazing::NONE)
+            .unwrap()
+            .x;
+        // The same frame with as much again beyond its edge, all uncovered (texels that count
+        // for nothing): nearly the same answer (coarse levels mix the boundary differently).
+        let (rgb2, covered2): (Vec<Vec3>, Vec<bool>) = (0..2 * w * h)
+            .map(|k| {
+                let (x, y) = (k % (2 * w), k / (2 * w));
+                if x < w {
+                    (rgb[(y * w + x) as usize], true)
+                } else {
+                    (Vec3::ZERO, false)
+                }
+            })
+            .unzip();
+        let beyond = Pyramid::of_image(2 * w, h, &rgb2, &covered2)
+            .filtered(edge, scale, &filter, &Grazing::NONE)
+            .unwrap()
+            .x;
+        // 0.633 against 0.549; clamped reads gave 0.772, the lamp's column standing for
+        // everything beyond.
+        assert!(
+            (got - beyond).abs() < 0.1,
+            "{got} vs {beyond} with nothing beyond"
+        );
+        assert!(got > 0.2, "the lamp still counts inside the frame: {got}");
     }
 
     #[test]
