@@ -264,8 +264,14 @@ fn a_wall_behind_a_one_sided_panel_is_in_its_shadow_up_to_the_rim() {
     let rim = at(&scene, &atlas, &sol, Vec3::new(-1.0, 0.0, 0.47));
     let deep = at(&scene, &atlas, &sol, Vec3::new(-1.0, 0.0, 0.0));
     assert!(open.x > 0.02, "the open wall is lit: {open}");
-    assert!(rim.x < 0.35 * open.x, "behind the rim {rim} vs the open wall {open}");
-    assert!(deep.x < 0.35 * open.x, "deep behind {deep} vs the open wall {open}");
+    assert!(
+        rim.x < 0.35 * open.x,
+        "behind the rim {rim} vs the open wall {open}"
+    );
+    assert!(
+        deep.x < 0.35 * open.x,
+        "deep behind {deep} vs the open wall {open}"
+    );
 }
 
 /// Runs `f` on a rayon pool of `threads` threads.

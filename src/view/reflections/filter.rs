@@ -580,7 +580,11 @@ mod tests {
             .collect();
         let pyramid = Pyramid::of_image(w, h, &rgb, &vec![true; rgb.len()]);
         let scale = 4.0;
-        let spread: f32 = scale * filter.iter().map(|t| t.offset.x.abs() * t.weight).sum::<f32>();
+        let spread: f32 = scale
+            * filter
+                .iter()
+                .map(|t| t.offset.x.abs() * t.weight)
+                .sum::<f32>();
         assert!(spread > 8.0, "the lobe spans many pixels: {spread}");
         let edge = Vec2::new(w as f32 - 0.5, h as f32 * 0.5);
         let got = pyramid
