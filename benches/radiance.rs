@@ -71,7 +71,10 @@ fn main() {
         let bundle = Bundle::open(&out).unwrap();
         let d = RadiosityMap::load(&bundle).unwrap().unwrap();
         let bvh = scene.build_bvh();
-        let shade = |h: &glint::geometry::Hit| d.radiance(h.triangle, h.bary);
+        let d_at = |h: &glint::geometry::Hit| d.radiance(h.triangle, h.bary);
+        let shade = |h: &glint::geometry::Hit, dir: glam::Vec3| {
+            glint::radiance::shading::exitant(&scene, &bvh, &d_at, h, dir)
+        };
         let limits = radiance_stage::quadtree_limits(&scene);
         for (ri, frame, plan) in radiance_stage::plans(&scene, Quality::Default) {
             let t = Instant::now();

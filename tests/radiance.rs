@@ -60,7 +60,7 @@ fn cameras(scene: &Scene, count: u32, res: u32) -> Vec<MapCamera> {
 /// Radiance of the hit triangle's emission: exact D for a black emitter.
 fn render_with_emission(scene: &Scene, cam: &MapCamera) -> RadianceMap {
     let bvh = scene.build_bvh();
-    let shade = |h: &glint::geometry::Hit| {
+    let shade = |h: &glint::geometry::Hit, _: Vec3| {
         scene.materials[scene.triangles[h.triangle as usize].material as usize].emission
     };
     render(cam, &bvh, &scene.triangles, 4.0 * bvh.epsilon(), &shade)
@@ -263,4 +263,85 @@ fn maps_follow_glossiness() {
     assert_eq!(mirror.elements, [4, 2], "elements follow the aspect ratio");
     assert_eq!(mirror.resolution, 128);
     assert_eq!(rough.resolution, 32);
+}
+
+#[test]
+fn a_glossy_surface_in_a_map_shows_what_it_reflects() {
+    // A metal floor (k_d = 0, a mirror-like Kurt lobe, F₀ = 1, α = 0) under a ceiling of D = 1:
+    // a map's ray that meets the floor sees the ceiling in it, by the lobe's mirror-limit
+    // albedo F cos θ = 0.8 at this 36.9° view, where the maps held the floor's D alone (0). A
+    // matte floor, and the floor's back, keep their D.
+    let dir = tempfile::tempdir().unwrap();
+    let meshes = [
+        quad("Floor", 0, 1, 0.0, 2.0),
+        flip(quad("Ceiling", 1, 1, 1.0, 50.0)),
+    ];
+    write_gltf(
+        dir.path(),
+        "s",
+        &meshes,
+        &[
+            MaterialSpec::diffuse("metal", 0.0),
+            MaterialSpec::diffuse("white", 0.5),
+        ],
+    );
+    let json = |lobes: &str| {
+        format!(
+            r#"{{ "version": 1, "geometry": "s.gltf", "materials": {{ "metal": {{ "albedo": [0, 0, 0], "lobes": [{lobes}] }} }} }}"#
+        )
+    };
+    let load = |lobes: &str| Scene::load(write_scene(dir.path(), &json(lobes))).unwrap();
+    let d = |scene: &Scene| {
+        let ceiling = scene
+            .objects
+            .iter()
+            .find(|o| o.is_named("Ceiling"))
+            .unwrap();
+        let ceiling = ceiling.triangles.clone();
+        move |h: &glint::geometry::Hit| {
+            Vec3::splat(if ceiling.contains(&h.triangle) {
+                1.0
+            } else {
+                0.0
+            })
+        }
+    };
+    let down = Vec3::new(0.6, -0.8, 0.0);
+    let floor_hit = |scene: &Scene, bvh: &glint::geometry::Bvh, dir: Vec3| {
+        bvh.closest_hit(Vec3::new(-0.3, 0.4, 0.1), dir, f32::INFINITY)
+            .filter(|h| scene.objects[0].triangles.contains(&h.triangle))
+            .expect("the ray meets the floor")
+    };
+    let metal = load(r#"{ "ks": [1, 1, 1], "r0": 1.0, "mx": 0.01, "my": 0.01, "alpha": 0.0 }"#);
+    let bvh = metal.build_bvh();
+    let h = floor_hit(&metal, &bvh, down);
+    let d_metal = d(&metal);
+    let l = glint::radiance::shading::exitant(&metal, &bvh, &d_metal, &h, down);
+    assert!(
+        (l.x - 0.8).abs() < 0.01,
+        "the mirror shows the ceiling: {l}"
+    );
+    // A wider lobe at this view still sees only the ceiling: k_s times its albedo, a little
+    // under the mirror's.
+    let glossy =
+        load(r#"{ "ks": [0.5, 0.5, 0.5], "r0": 1.0, "mx": 0.2, "my": 0.2, "alpha": 0.0 }"#);
+    let l = glint::radiance::shading::exitant(&glossy, &bvh, &d(&glossy), &h, down);
+    assert!(
+        l.x > 0.3 && l.x < 0.41,
+        "about half as much, from a lobe of k_s 0.5: {l}"
+    );
+    // From below (the floor's back face), only D.
+    let up_hit = bvh
+        .closest_hit(Vec3::new(0.0, -0.5, 0.0), Vec3::Y, f32::INFINITY)
+        .unwrap();
+    let l = glint::radiance::shading::exitant(&metal, &bvh, &d_metal, &up_hit, Vec3::Y);
+    assert_eq!(l, Vec3::ZERO, "a back face is D alone");
+    // A floor without lobes: D alone.
+    let matte = Scene::load(write_scene(
+        dir.path(),
+        r#"{ "version": 1, "geometry": "s.gltf" }"#,
+    ))
+    .unwrap();
+    let l = glint::radiance::shading::exitant(&matte, &bvh, &d(&matte), &h, down);
+    assert_eq!(l, Vec3::ZERO, "a matte floor is D alone");
 }

@@ -206,8 +206,11 @@ pub fn bake_part(
         w.read_from(Stage::Radiosity.name(), d_read);
     }
     let bvh = scene.build_bvh();
-    let shade =
+    let d_at =
         |h: &crate::geometry::Hit| scene.d_at(h.triangle, h.bary, d.radiance(h.triangle, h.bary));
+    let shade = |h: &crate::geometry::Hit, dir: Vec3| {
+        crate::radiance::shading::exitant(scene, &bvh, &d_at, h, dir)
+    };
     let limits = quadtree_limits(scene);
     let plans: Vec<_> = plans(scene, quality)
         .into_iter()
@@ -316,7 +319,9 @@ pub fn settings_json(scene: &Scene, quality: Quality, d_source: Option<&str>) ->
         .iter()
         .map(|(i, _, p)| serde_json::json!({ "reflector": scene.reflectors[*i].name, "plan": p }))
         .collect();
-    serde_json::json!({ "quality": quality.name(), "map_format": MAP_FORMAT, "quadtree": quadtree_limits(scene), "reflectors": plans, "d_source": d_source })
+    // `glossy_samples`: maps shaded before glossy surfaces' reflections were added hold D
+    // alone, and read as stale.
+    serde_json::json!({ "quality": quality.name(), "map_format": MAP_FORMAT, "quadtree": quadtree_limits(scene), "reflectors": plans, "d_source": d_source, "glossy_samples": crate::radiance::shading::GLOSSY_SAMPLES })
 }
 
 /// Mean radiance of a map's hit pixels (for reports and tests).

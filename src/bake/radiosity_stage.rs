@@ -192,6 +192,9 @@ fn check_share(
 pub fn settings_json(settings: &RadiositySettings) -> serde_json::Value {
     let mut v = serde_json::to_value(settings).expect("settings serialize");
     v["seed"] = SEED.into();
+    // The rule that decides which texels lie inside geometry: a D baked before texels that see
+    // the room through a gap kept their own light reads as stale.
+    v["inside_open_limit"] = crate::radiosity::solve::OPEN_LIMIT.into();
     v
 }
 

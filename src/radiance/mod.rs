@@ -5,6 +5,7 @@ pub mod index;
 pub mod normals;
 pub mod quadtree;
 pub mod sampling;
+pub mod shading;
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -36,14 +37,14 @@ pub struct RadianceMap {
 const PACKETS_FROM: u32 = 64;
 
 /// Ray casts one map: a ray per pixel from the element through the scene (`bvh` built over
-/// `triangles`); `shade` gives the radiance of a hit (D looked up at it). Deterministic;
-/// parallel over rows.
+/// `triangles`); `shade` gives the radiance leaving a hit against the ray's unit direction
+/// ([`shading::exitant`]). Deterministic; parallel over rows.
 pub fn render(
     cam: &MapCamera,
     bvh: &Bvh,
     triangles: &[Triangle],
     normal_offset: f32,
-    shade: &(dyn Fn(&Hit) -> Vec3 + Sync),
+    shade: &(dyn Fn(&Hit, Vec3) -> Vec3 + Sync),
 ) -> RadianceMap {
     let res = cam.resolution;
     type Pixel = (Vec3, f32, Vec3, Vec3, bool);
@@ -68,7 +69,7 @@ pub fn render(
                     Some(h) => {
                         let p = o + d * h.t;
                         let n = triangles[h.triangle as usize].face_normal();
-                        (shade(&h), cam.depth(p), p, n, true)
+                        (shade(&h, d), cam.depth(p), p, n, true)
                     }
                     None => (Vec3::ZERO, 0.0, Vec3::ZERO, Vec3::ZERO, false),
                 }

@@ -35,7 +35,7 @@ use crate::sampling::Rng;
 use crate::scene::Scene;
 use crate::scene::texturing::{TexelSurface, stored_radiance};
 
-pub use super::gather::BACKFACE_LIMIT;
+pub use super::gather::{BACKFACE_LIMIT, OPEN_LIMIT};
 
 /// Most refinement rounds of [`SolveSettings::target_error`].
 pub const MAX_ROUNDS: u32 = 4;

@@ -1,0 +1,85 @@
+//! What a radiance map's pixel holds: the radiance leaving the surface its ray meets, toward
+//! the map's centre of projection.
+//!
+//! Bastos et al. §8.1.3 shade the maps with the view-independent diffuse light D. A glossy
+//! surface seen in a reflector (glossy-room's copper teapot in the mirror panel, the panel in
+//! the glossy floor) then shows only its k_d·D, black for a metal, where the path tracer shows
+//! what it reflects. [`exitant`] adds that reflection, one bounce deep: each glossy lobe of the
+//! surface sampled in [`GLOSSY_SAMPLES`] fixed directions (an R2 pattern: no random numbers, so
+//! bakes stay byte-identical at any thread count), D read where each sampled ray lands:
+//!
+//! L(x → c) = D(x) + Σ_lobes k_s · (1/N) Σ_j w_j · D(x_j),
+//!
+//! with w_j = f·cos θ_i / pdf of the lobe's own sampler ([`Lobe::sample_weight`]; exact for a
+//! mirror-like lobe too). It is right toward the map's centre, and near it for the mirrored
+//! eyes that select the map (the nearest ones, by angle or distance). Departure from the
+//! paper, which keeps the maps view-independent; the viewer's geometry mode gets the same
+//! light from its cube maps (curved reflectors) and its recursion (planar ones).
+
+use glam::{Vec2, Vec3};
+
+use crate::brdf::{Frame, Lobe};
+use crate::geometry::{Bvh, Hit};
+use crate::sampling::r2;
+use crate::scene::Scene;
+
+/// Directions sampled per glossy lobe at a map pixel that meets a glossy surface.
+pub const GLOSSY_SAMPLES: u32 = 16;
+
+/// The radiance leaving `hit` against the unit ray direction `dir`: `d(hit)` (D there, as the
+/// maps held before) plus the one-bounce reflection of its glossy lobes (module comment).
+/// Back faces and surfaces without lobes get `d(hit)` alone.
+pub fn exitant(
+    scene: &Scene,
+    bvh: &Bvh,
+    d: &(dyn Fn(&Hit) -> Vec3 + Sync),
+    hit: &Hit,
+    dir: Vec3,
+) -> Vec3 {
+    let base = d(hit);
+    let tri = &scene.triangles[hit.triangle as usize];
+    let material = &scene.materials[tri.material as usize];
+    let ng = tri.face_normal();
+    if material.lobes.is_empty() || dir.dot(ng) >= 0.0 {
+        return base;
+    }
+    let mut ns = tri.normal(hit.bary);
+    if ns.dot(ng) <= 0.0 {
+        ns = ng;
+    }
+    let frame = Frame::from_normal(ns);
+    let wo = frame.to_local(-dir);
+    if wo.z <= 0.0 {
+        return base;
+    }
+    let origin = bvh.offset_origin(tri.point(hit.bary), ng);
+    let mut glossy = Vec3::ZERO;
+    for desc in &material.lobes {
+        let lobe = Lobe::from(desc);
+        let mut sum = Vec3::ZERO;
+        for k in 0..GLOSSY_SAMPLES {
+            let Some(wi) = lobe.sample(wo, r2(k, Vec2::ZERO)) else {
+                continue;
+            };
+            let w = frame.to_world(wi);
+            // Below the face (a shading normal leaning away): no light.
+            if w.dot(ng) <= 0.0 {
+                continue;
+            }
+            let Some(h) = bvh.closest_hit(origin, w, f32::INFINITY) else {
+                continue;
+            };
+            let seen = &scene.triangles[h.triangle as usize];
+            // A back face is black, as in the radiosity solver and the path tracer (a
+            // double-sided one shows its shared texels).
+            if w.dot(seen.face_normal()) >= 0.0
+                && !scene.materials[seen.material as usize].double_sided
+            {
+                continue;
+            }
+            sum += lobe.sample_weight(wo, wi) * d(&h);
+        }
+        glossy += lobe.ks * sum / GLOSSY_SAMPLES as f32;
+    }
+    base + glossy
+}
