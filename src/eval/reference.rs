@@ -357,11 +357,7 @@ impl<'a> Tracer<'a> {
         let tri = &self.scene.triangles[triangle as usize];
         let mat = &self.scene.materials[tri.material as usize];
         let ng = tri.face_normal();
-        let mut ns = tri.normal(bary);
-        if ns.dot(ng) <= 0.0 {
-            ns = ng;
-        }
-        let frame = Frame::from_normal(ns);
+        let frame = Frame::from_normal(tri.shading_normal(bary));
         let shader = Shader::new(Brdf {
             kd: self.scene.albedo_at(triangle, bary),
             lobes: Vec::new(),

@@ -51,6 +51,13 @@ impl Triangle {
         interpolate(&self.n, b).normalize_or(self.face_normal())
     }
 
+    /// The shading normal at barycentrics (u, v): [`Triangle::normal`], or the face normal
+    /// where that leans behind the face.
+    pub fn shading_normal(&self, b: Vec2) -> Vec3 {
+        let (ng, ns) = (self.face_normal(), self.normal(b));
+        if ns.dot(ng) <= 0.0 { ng } else { ns }
+    }
+
     /// Interpolated UV at barycentrics (u, v).
     pub fn uv_at(&self, b: Vec2) -> Vec2 {
         interpolate(&self.uv, b)

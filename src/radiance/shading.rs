@@ -43,11 +43,7 @@ pub fn exitant(
     if material.lobes.is_empty() || dir.dot(ng) >= 0.0 {
         return base;
     }
-    let mut ns = tri.normal(hit.bary);
-    if ns.dot(ng) <= 0.0 {
-        ns = ng;
-    }
-    let frame = Frame::from_normal(ns);
+    let frame = Frame::from_normal(tri.shading_normal(hit.bary));
     let wo = frame.to_local(-dir);
     if wo.z <= 0.0 {
         return base;

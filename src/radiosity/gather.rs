@@ -134,10 +134,7 @@ pub(super) fn gather(
     let (scene, bvh) = (cx.scene, cx.bvh);
     let tri = &scene.triangles[s.triangle as usize];
     let ng = tri.face_normal();
-    let mut ns = tri.normal(s.bary);
-    if ns.dot(ng) <= 0.0 {
-        ns = ng;
-    }
+    let ns = tri.shading_normal(s.bary);
     let p = tri.point(s.bary);
     let origin = bvh.offset_origin(p, ng);
     let (t, b) = basis(ns);

@@ -163,10 +163,7 @@ impl<'a> Glossy<'a> {
                 break;
             };
             let ng = tri.face_normal();
-            let mut ns = tri.normal(hit.bary);
-            if ns.dot(ng) <= 0.0 {
-                ns = ng;
-            }
+            let ns = tri.shading_normal(hit.bary);
             let frame = Frame::from_normal(ns);
             let wo = frame.to_local(-dir);
             if wo.z <= 0.0 {
