@@ -10,7 +10,8 @@
 //!
 //! L(x → c) = D(x) + Σ_lobes k_s · (1/N) Σ_j w_j · D(x_j),
 //!
-//! with w_j = f·cos θ_i / pdf of the lobe's own sampler ([`Lobe::sample_weight`]; exact for a
+//! the BRDF of Bastos Eq. 1 (f_r = k_d/π + Σ k_s f_lobe) with its k_d term already in D,
+//! and w_j = f·cos θ_i / pdf of the lobe's own sampler ([`Lobe::sample_weight`]; exact for a
 //! mirror-like lobe too). It is right toward the map's centre, and near it for the mirrored
 //! eyes that select the map (the nearest ones, by angle or distance). Departure from the
 //! paper, which keeps the maps view-independent; the viewer's geometry mode gets the same
