@@ -66,11 +66,10 @@ pub fn exitant(
             let Some(h) = bvh.closest_hit(origin, w, f32::INFINITY) else {
                 continue;
             };
-            let seen = &scene.triangles[h.triangle as usize];
             // A back face is black, as in the radiosity solver and the path tracer (a
             // double-sided one shows its shared texels).
-            if w.dot(seen.face_normal()) >= 0.0
-                && !scene.materials[seen.material as usize].double_sided
+            if w.dot(scene.triangles[h.triangle as usize].face_normal()) >= 0.0
+                && !scene.material_of(h.triangle).double_sided
             {
                 continue;
             }

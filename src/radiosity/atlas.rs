@@ -162,6 +162,18 @@ impl Atlas {
             .sum()
     }
 
+    /// The world distance between texel centres on `triangle` (`tri`, its geometry): the
+    /// square root of its area in metres² per texel²; infinite where it covers no texels.
+    pub fn texel_spacing(&self, triangle: u32, tri: &Triangle) -> f32 {
+        let c = self.tri_coords[triangle as usize];
+        let texels = 0.5 * (c[1] - c[0]).perp_dot(c[2] - c[0]).abs();
+        if texels > 0.0 {
+            (tri.area() / texels).sqrt()
+        } else {
+            f32::INFINITY
+        }
+    }
+
     /// Global index of the texel holding barycentric point `bary` of `triangle`.
     pub fn texel_at(&self, offsets: &[u32], triangle: u32, bary: Vec2) -> u32 {
         let page = self.tri_page[triangle as usize] as usize;

@@ -139,10 +139,7 @@ fn nearest(scene: &Scene, bvh: &Bvh, atlas: &Atlas, samples: &[TexelSample]) -> 
             if chart == u32::MAX || (m.albedo.max_element() <= 0.0 && m.base_texture.is_none()) {
                 return (0.0, 0.0);
             }
-            // The texel's spacing in metres: the triangle's area in metres² per texel².
-            let c = atlas.tri_coords[s.triangle as usize];
-            let texels2 = 0.5 * (c[1] - c[0]).perp_dot(c[2] - c[0]).abs();
-            let h = (tri.area() / texels2).sqrt();
+            let h = atlas.texel_spacing(s.triangle, tri);
             if !(h.is_finite() && h > 0.0) {
                 return (0.0, 0.0);
             }

@@ -11,7 +11,7 @@ use super::emitters::{Emitters, luminance, power, stratified_point, var_of_mean}
 use super::many_lights::{Choice, LIGHTS_SAMPLED_EACH, ManyLights};
 use super::mirror_lights::MirrorLights;
 use super::transport::{Glossy, Term};
-use crate::geometry::{Bvh, Triangle};
+use crate::geometry::Bvh;
 use crate::sampling::{Rng, basis, r2, sample_cosine_hemisphere, sample_triangle};
 use crate::scene::Scene;
 
@@ -98,18 +98,6 @@ impl Gathered {
         self.gathering_rays += other.gathering_rays;
         self.rays += other.rays;
         self.light_samples += other.light_samples;
-    }
-}
-
-/// The world distance between texel centres on `triangle` (`tri`): the square root of its
-/// area over its area in texels.
-fn texel_spacing(atlas: &Atlas, triangle: u32, tri: &Triangle) -> f32 {
-    let c = atlas.tri_coords[triangle as usize];
-    let texels = 0.5 * (c[1] - c[0]).perp_dot(c[2] - c[0]).abs();
-    if texels > 0.0 {
-        (tri.area() / texels).sqrt()
-    } else {
-        f32::INFINITY
     }
 }
 
@@ -272,7 +260,7 @@ pub(super) fn gather(
         terms,
         inside: backfaces as f32 > BACKFACE_LIMIT * n_rays as f32
             && ((open as f32) < OPEN_LIMIT * n_rays as f32
-                || nearest_back < 0.5 * texel_spacing(cx.atlas, s.triangle, tri)),
+                || nearest_back < 0.5 * cx.atlas.texel_spacing(s.triangle, tri)),
         rays,
         light_samples: n_light,
         moments,
