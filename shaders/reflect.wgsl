@@ -77,6 +77,7 @@ struct SplatView {
     normal: vec4<f32>,
     pixel_u: vec4<f32>,
     pixel_v: vec4<f32>,
+    corner: vec4<f32>,
 };
 @group(1) @binding(6) var<storage, read> splat_nodes: array<SplatNode>;
 @group(1) @binding(10) var<storage, read> splat_views: array<SplatView>;
@@ -405,6 +406,24 @@ fn footprint(view: SplatView, p: vec3<f32>, n: vec3<f32>, c: vec4<f32>) -> Patch
 // `splats::GAP_FILL_DEPTH`: the clip-z scale of the patch outside the squeezed footprint.
 const GAP_FILL_DEPTH: f32 = 0.95;
 
+// `splats::ELEMENT_MARGIN` and `splats::OFF_ELEMENT_DEPTH_SCALE`.
+const ELEMENT_MARGIN: f32 = 2.0;
+const OFF_ELEMENT_DEPTH_SCALE: f32 = 0.001;
+
+// `splats::off_element`: whether the mirrored eye (`frame.eye` in the mirrored view) sees p
+// through another element than the map's, by more than ELEMENT_MARGIN map pixels.
+fn off_element(view: SplatView, p: vec3<f32>) -> bool {
+    let eye = frame.eye.xyz;
+    let d = p - eye;
+    let t = dot(view.corner.xyz - eye, view.normal.xyz) / dot(d, view.normal.xyz);
+    let x = eye + d * t - view.corner.xyz;
+    let pu = view.pixel_u.xyz;
+    let pv = view.pixel_v.xyz;
+    let a = vec2<f32>(dot(x, pu) / dot(pu, pu), dot(x, pv) / dot(pv, pv));
+    let inside = all(a >= vec2<f32>(-ELEMENT_MARGIN)) && all(a <= vec2<f32>(view.corner.w + ELEMENT_MARGIN));
+    return !inside;
+}
+
 @vertex
 fn vs_splat(@builtin(vertex_index) vi: u32) -> SplatOut {
     let s = splat_points[splat_kept[vi / 6u]];
@@ -428,8 +447,10 @@ fn vs_splat(@builtin(vertex_index) vi: u32) -> SplatOut {
     let inv = mat2x2<f32>(vec2<f32>(f[1].y, -f[0].y), vec2<f32>(-f[1].x, f[0].x)) * (1.0 / det);
     let own = select(corner, inv * (whole * corner), abs(det) > 1e-30);
     var out: SplatOut;
-    // Lower-ranked maps' depth scaled back (reverse Z).
-    out.clip = vec4<f32>(c.xy + offset * c.w, c.z * node.depth_scale, c.w);
+    // Lower-ranked maps' depth scaled back (reverse Z), and so is a splat seen through
+    // another element than its map's.
+    let off = select(1.0, OFF_ELEMENT_DEPTH_SCALE, off_element(splat_views[node.view], s.position));
+    out.clip = vec4<f32>(c.xy + offset * c.w, c.z * node.depth_scale * off, c.w);
     out.color = s.color * frame.exposure;
     out.beyond = beyond(s.position);
     out.corner = corner;

@@ -257,7 +257,7 @@ fn run_qtree(_ctx: &TargetContext, input: &[u8]) -> Result<(), String> {
             z: &ones,
             normal: Some([&ones, &ones]),
         };
-        map_splats(&view, &image, nodes, 0)?;
+        map_splats(&view, &image, nodes, 0, &Default::default())?;
     }
     Ok(())
 }

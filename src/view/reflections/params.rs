@@ -272,4 +272,16 @@ mod tests {
             assert!(super::shader_source().contains(&want), "{want}");
         }
     }
+
+    /// `vs_splat` pushes back splats seen through another element by the Rust constants.
+    #[test]
+    fn the_splat_shader_uses_the_element_bounds() {
+        use super::super::splats::{ELEMENT_MARGIN, OFF_ELEMENT_DEPTH_SCALE};
+        for want in [
+            format!("const ELEMENT_MARGIN: f32 = {ELEMENT_MARGIN:?};"),
+            format!("const OFF_ELEMENT_DEPTH_SCALE: f32 = {OFF_ELEMENT_DEPTH_SCALE:?};"),
+        ] {
+            assert!(super::shader_source().contains(&want), "{want}");
+        }
+    }
 }

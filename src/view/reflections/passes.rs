@@ -62,6 +62,9 @@ pub struct GeometryReflections {
     gap_fill: Option<GapFill>,
     /// M's pyramid, rebuilt after each mirror pass.
     pyramid: Pyramid,
+    /// Image mode: the scene's emissive triangles (indices, count), drawn into M after the
+    /// splats, which leave them out ([`super::emitters`]).
+    emitters: Option<(wgpu::Buffer, u32)>,
     pyramid_passes: PyramidPasses,
     width: u32,
     height: u32,
@@ -181,6 +184,26 @@ impl GeometryReflections {
                 .then(|| GapFill::new(device, &map.view, width, height));
             let m_view = gap_fill.as_ref().map_or(&map.view, |g| &g.view);
             let pyramid = pyramid_passes.pyramid(gpu, m_view, width, height);
+            let emitters = matches!(source, Source::Image { .. })
+                .then(|| {
+                    let indices = mesh.triangle_indices(
+                        scene.triangles.iter().enumerate().filter_map(|(i, t)| {
+                            let m = scene.materials.get(t.material as usize)?;
+                            m.is_emissive().then_some(i)
+                        }),
+                    );
+                    (!indices.is_empty()).then(|| {
+                        let b = buffer_init(
+                            gpu,
+                            "glint emitter indices",
+                            wgpu::BufferUsages::INDEX,
+                            bytemuck::cast_slice(&indices),
+                            4,
+                        );
+                        (b, indices.len() as u32)
+                    })
+                })
+                .flatten();
             let reflectors = planar
                 .into_iter()
                 .zip(splats)
@@ -277,6 +300,7 @@ impl GeometryReflections {
                 map,
                 gap_fill,
                 pyramid,
+                emitters,
                 pyramid_passes,
                 width,
                 height,
@@ -453,6 +477,14 @@ impl GeometryReflections {
                                     pass.draw(0..6 * count, 0..1);
                                 }
                             }
+                        }
+                        // The emitters the splats left out, exact to the pixel.
+                        if let Some((indices, count)) = &self.emitters {
+                            pass.set_pipeline(&self.mirror_pipeline);
+                            pass.set_bind_group(1, &r.mirror_params_group, &[]);
+                            pass.set_vertex_buffer(0, renderer.vertex_buffer().slice(..));
+                            pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
+                            pass.draw_indexed(0..*count, 0, 0..1);
                         }
                     }
                     _ => {
