@@ -257,7 +257,13 @@ fn run_qtree(_ctx: &TargetContext, input: &[u8]) -> Result<(), String> {
             z: &ones,
             normal: Some([&ones, &ones]),
         };
-        map_splats(&view, &image, nodes, 0, &Default::default())?;
+        map_splats(
+            &view,
+            &image,
+            nodes,
+            0,
+            &crate::view::reflections::exact::ExactSurfaces::new(&[], Vec::new(), 1e-3, 1e-2),
+        )?;
     }
     Ok(())
 }

@@ -40,7 +40,7 @@ use crate::scene::desc::ReflectorKind;
 use crate::scene::{Plane, Scene};
 
 mod cpu;
-pub mod emitters;
+pub mod exact;
 pub mod filter;
 pub mod gap_fill;
 pub mod lobe_shape;

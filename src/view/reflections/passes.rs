@@ -62,9 +62,9 @@ pub struct GeometryReflections {
     gap_fill: Option<GapFill>,
     /// M's pyramid, rebuilt after each mirror pass.
     pyramid: Pyramid,
-    /// Image mode: the scene's emissive triangles (indices, count), drawn into M after the
-    /// splats, which leave them out ([`super::emitters`]).
-    emitters: Option<(wgpu::Buffer, u32)>,
+    /// Image mode: the scene's emitters and curved reflectors (indices, count), drawn into M
+    /// after the splats, which leave them out ([`super::exact`]).
+    exact: Option<(wgpu::Buffer, u32)>,
     pyramid_passes: PyramidPasses,
     width: u32,
     height: u32,
@@ -184,18 +184,17 @@ impl GeometryReflections {
                 .then(|| GapFill::new(device, &map.view, width, height));
             let m_view = gap_fill.as_ref().map_or(&map.view, |g| &g.view);
             let pyramid = pyramid_passes.pyramid(gpu, m_view, width, height);
-            let emitters = matches!(source, Source::Image { .. })
+            let exact = matches!(source, Source::Image { .. })
                 .then(|| {
                     let indices = mesh.triangle_indices(
-                        scene.triangles.iter().enumerate().filter_map(|(i, t)| {
-                            let m = scene.materials.get(t.material as usize)?;
-                            m.is_emissive().then_some(i)
-                        }),
+                        super::exact::exact_triangles(scene)
+                            .into_iter()
+                            .map(|t| t as usize),
                     );
                     (!indices.is_empty()).then(|| {
                         let b = buffer_init(
                             gpu,
-                            "glint emitter indices",
+                            "glint exact surface indices",
                             wgpu::BufferUsages::INDEX,
                             bytemuck::cast_slice(&indices),
                             4,
@@ -300,7 +299,7 @@ impl GeometryReflections {
                 map,
                 gap_fill,
                 pyramid,
-                emitters,
+                exact,
                 pyramid_passes,
                 width,
                 height,
@@ -353,8 +352,8 @@ impl GeometryReflections {
 
     /// Writes each reflector's mirrored-view uniforms for `camera` and, in image mode, plans
     /// its splats (map selection, Eq. 3 sizes, culling, skipping; the writes land before the
-    /// next submission). With `curved`, also the curved reflectors' mirrored views (geometry
-    /// mode: slot = the reflector's index), which [`GeometryReflections::draw_timed`] draws
+    /// next submission). With `curved`, also the curved reflectors' mirrored views (slot =
+    /// the reflector's index), which [`GeometryReflections::draw_timed`] draws
     /// into each mirror pass.
     pub fn prepare(
         &self,
@@ -366,7 +365,7 @@ impl GeometryReflections {
         let pitch = splats::pixel_tangent(camera.fov_y, self.height);
         for (slot, r) in self.reflectors.iter().enumerate() {
             let mirrored = mirror_camera(camera, &r.reflector.plane);
-            if let (Some(c), Source::Geometry) = (curved, self.source)
+            if let Some(c) = curved
                 && self.visible(r, camera)
             {
                 let plane = &r.reflector.plane;
@@ -439,10 +438,10 @@ impl GeometryReflections {
 
     /// [`GeometryReflections::draw`], the last pass writing its end timestamp into
     /// `end_timestamp` (query set, index) when given. With `curved` (prepared by
-    /// [`GeometryReflections::prepare`] with the same passes), geometry mode's mirror passes
-    /// also draw the curved reflectors' specular term in the mirrored view, so a curved
-    /// reflector seen in a planar mirror is not kd·D alone. Image mode has no scene pass in
-    /// the mirrored view (its M is splatted from radiance maps), so it draws none.
+    /// [`GeometryReflections::prepare`] with the same passes), the mirror passes also draw
+    /// the curved reflectors' specular term in the mirrored view, so a curved reflector seen
+    /// in a planar mirror is not kd·D alone: geometry mode over its scene pass, image mode
+    /// over the curved reflectors' kd·D it draws after the splats ([`super::exact`]).
     #[allow(clippy::too_many_arguments)]
     pub fn draw_timed(
         &self,
@@ -478,13 +477,17 @@ impl GeometryReflections {
                                 }
                             }
                         }
-                        // The emitters the splats left out, exact to the pixel.
-                        if let Some((indices, count)) = &self.emitters {
+                        // The surfaces the splats left out, exact to the pixel: kd·D and
+                        // emission, then the curved reflectors' specular term.
+                        if let Some((indices, count)) = &self.exact {
                             pass.set_pipeline(&self.mirror_pipeline);
                             pass.set_bind_group(1, &r.mirror_params_group, &[]);
                             pass.set_vertex_buffer(0, renderer.vertex_buffer().slice(..));
                             pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
                             pass.draw_indexed(0..*count, 0, 0..1);
+                            if let Some(c) = curved {
+                                c.draw_mirror(&mut pass, slot);
+                            }
                         }
                     }
                     _ => {

@@ -12,7 +12,7 @@ use std::sync::Mutex;
 
 use glam::{Mat4, Vec3};
 
-use super::emitters::Emitters;
+use super::exact::ExactSurfaces;
 use super::splats::{self, MapImage, MapSplats, NodeParams, SplatView};
 use crate::camera::Camera;
 use crate::radiance::index::{MapEntry, load_cameras, read_map};
@@ -102,7 +102,7 @@ pub(super) fn load_splat_maps(
     let cams = load_cameras(&data.bundle, reflector).map_err(|e| e.to_string())?;
     let mut per_map = Vec::new();
     let mut node_base = 0u32;
-    let emitters = Emitters::of_scene(&data.scene);
+    let exact = ExactSurfaces::of_scene(&data.scene);
     for m in &cams.maps {
         let map_path = crate::radiance::index::map_path(reflector, &m.file, "exr");
         let at = |e: String| format!("radiance/{map_path}: {e}");
@@ -120,8 +120,7 @@ pub(super) fn load_splat_maps(
             normal,
         };
         let count = nodes.len() as u32;
-        let tree =
-            splats::map_splats(&m.view, &map_image, nodes, node_base, &emitters).map_err(at)?;
+        let tree = splats::map_splats(&m.view, &map_image, nodes, node_base, &exact).map_err(at)?;
         per_map.push((tree, node_base));
         node_base += count;
     }

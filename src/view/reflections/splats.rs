@@ -38,7 +38,7 @@ use std::ops::Range;
 
 use glam::{Mat4, Vec2, Vec3, Vec4};
 
-use super::emitters::Emitters;
+use super::exact::ExactSurfaces;
 use crate::camera::Camera;
 use crate::radiance::normals;
 use crate::radiance::quadtree::Node;
@@ -326,14 +326,15 @@ pub fn progressive_key(dx: u32, dy: u32) -> u32 {
 
 /// The splats of one map in quadtree order (see the module docs). `node_base` offsets the
 /// node indices written into the splats. Pixels that are not hit, or have no valid depth, are
-/// left out, and so are points on `emitters` (drawn as geometry instead, [`super::emitters`]);
+/// left out, and so are points on `exact` surfaces (drawn as geometry instead,
+/// [`super::exact`]);
 /// a map whose quadtree is empty has no splats.
 pub fn map_splats(
     view: &MapCamera,
     image: &MapImage,
     nodes: Vec<Node>,
     node_base: u32,
-    emitters: &Emitters,
+    exact: &ExactSurfaces,
 ) -> Result<MapSplats, String> {
     let res = view.resolution as usize;
     let n = res * res;
@@ -353,7 +354,7 @@ pub fn map_splats(
             image,
             &nodes,
             node_base,
-            emitters,
+            exact,
             &mut ranges,
             &mut splats,
         )?;
@@ -373,7 +374,7 @@ fn fill(
     image: &MapImage,
     nodes: &[Node],
     node_base: u32,
-    emitters: &Emitters,
+    exact: &ExactSurfaces,
     ranges: &mut [Range<u32>],
     out: &mut Vec<Splat>,
 ) -> Result<(), String> {
@@ -396,7 +397,7 @@ fn fill(
                 continue;
             }
             let p = view.unproject(x as f32 + 0.5, y as f32 + 0.5, z);
-            if emitters.contains(p) {
+            if exact.contains(view.centre, p) {
                 continue;
             }
             let oct = match image.normal {
@@ -417,7 +418,7 @@ fn fill(
             return Err(format!("quadtree node {i} has children out of order"));
         }
         for c in first..end {
-            fill(c, view, image, nodes, node_base, emitters, ranges, out)?;
+            fill(c, view, image, nodes, node_base, exact, ranges, out)?;
         }
     }
     ranges[i] = start..out.len() as u32;
@@ -965,7 +966,14 @@ mod tests {
             z: &z,
             normal: None,
         };
-        let m = map_splats(&map, &image, nodes, 10, &Emitters::default()).unwrap();
+        let m = map_splats(
+            &map,
+            &image,
+            nodes,
+            10,
+            &ExactSurfaces::new(&[], Vec::new(), 1e-3, 1e-2),
+        )
+        .unwrap();
         assert_eq!(m.splats.len(), n);
         assert_eq!(m.ranges[1], 0..128);
         assert_eq!(m.ranges[2], 128..256);
