@@ -407,7 +407,7 @@ fn footprint(view: SplatView, p: vec3<f32>, n: vec3<f32>, c: vec4<f32>) -> Patch
 const GAP_FILL_DEPTH: f32 = 0.95;
 
 // `splats::ELEMENT_MARGIN` and `splats::OFF_ELEMENT_DEPTH_SCALE`.
-const ELEMENT_MARGIN: f32 = 2.0;
+const ELEMENT_MARGIN: f32 = 8.0;
 const OFF_ELEMENT_DEPTH_SCALE: f32 = 0.001;
 
 // `splats::off_element`: whether the mirrored eye (`frame.eye` in the mirrored view) sees p
