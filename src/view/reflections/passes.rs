@@ -117,9 +117,11 @@ impl GeometryReflections {
                     data.bundle.dir().display()
                 )));
             }
+            // What the splats leave out, the same for every reflector.
+            let exact = super::exact::ExactSurfaces::of_scene(&data.scene);
             for r in &planar {
                 splats.push(Some(
-                    load_splat_maps(gpu, data, &r.name, splat_buffer_bytes)
+                    load_splat_maps(gpu, data, &r.name, &exact, splat_buffer_bytes)
                         .map_err(RenderError::Reflections)?,
                 ));
             }

@@ -91,18 +91,19 @@ pub fn chunk_maps(bytes: &[u64], limit: u64) -> Result<Vec<Range<usize>>, usize>
     Ok(chunks)
 }
 
-/// Reads reflector `reflector`'s radiance maps from the bundle and uploads their splats, in
-/// buffers of at most `buffer_bytes` (`None`: what the GPU binds in one storage buffer).
+/// Reads reflector `reflector`'s radiance maps from the bundle and uploads their splats, less
+/// the points on `exact` surfaces, in buffers of at most `buffer_bytes` (`None`: what the GPU
+/// binds in one storage buffer).
 pub(super) fn load_splat_maps(
     gpu: &Gpu,
     data: &ViewData,
     reflector: &str,
+    exact: &ExactSurfaces,
     buffer_bytes: Option<u64>,
 ) -> Result<SplatMaps, String> {
     let cams = load_cameras(&data.bundle, reflector).map_err(|e| e.to_string())?;
     let mut per_map = Vec::new();
     let mut node_base = 0u32;
-    let exact = ExactSurfaces::of_scene(&data.scene);
     for m in &cams.maps {
         let map_path = crate::radiance::index::map_path(reflector, &m.file, "exr");
         let at = |e: String| format!("radiance/{map_path}: {e}");
@@ -120,7 +121,7 @@ pub(super) fn load_splat_maps(
             normal,
         };
         let count = nodes.len() as u32;
-        let tree = splats::map_splats(&m.view, &map_image, nodes, node_base, &exact).map_err(at)?;
+        let tree = splats::map_splats(&m.view, &map_image, nodes, node_base, exact).map_err(at)?;
         per_map.push((tree, node_base));
         node_base += count;
     }
