@@ -435,7 +435,8 @@ fn vs_splat(@builtin(vertex_index) vi: u32) -> SplatOut {
     // spacing (`splats::splat_half_edges`), grown to a pixel along its squeezed box's major
     // axis. The whole patch is drawn; `own` locates each corner in the squeezed footprint.
     let n = octahedral_decode(unpack2x16snorm(s.normal));
-    let shape = footprint(splat_views[node.view], s.position, n, c);
+    let view = splat_views[node.view];
+    let shape = footprint(view, s.position, n, c);
     let f = mat2x2<f32>(shape.u * shape.squeeze, shape.v * shape.squeeze);
     let whole = mat2x2<f32>(shape.u, shape.v);
     var k = 0.5 * node.spacing;
@@ -449,7 +450,7 @@ fn vs_splat(@builtin(vertex_index) vi: u32) -> SplatOut {
     var out: SplatOut;
     // Lower-ranked maps' depth scaled back (reverse Z), and so is a splat seen through
     // another element than its map's.
-    let off = select(1.0, OFF_ELEMENT_DEPTH_SCALE, off_element(splat_views[node.view], s.position));
+    let off = select(1.0, OFF_ELEMENT_DEPTH_SCALE, off_element(view, s.position));
     out.clip = vec4<f32>(c.xy + offset * c.w, c.z * node.depth_scale * off, c.w);
     out.color = s.color * frame.exposure;
     out.beyond = beyond(s.position);

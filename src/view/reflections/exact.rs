@@ -24,15 +24,8 @@ use crate::scene::{ReflectorKind, Scene};
 /// The emissive triangles of `scene` (by material emission; an emissive texture counts
 /// wherever its factor is non-zero) and those of its curved reflectors, in scene order.
 pub fn exact_triangles(scene: &Scene) -> Vec<u32> {
-    let mut exact: Vec<bool> = scene
-        .triangles
-        .iter()
-        .map(|t| {
-            scene
-                .materials
-                .get(t.material as usize)
-                .is_some_and(|m| m.is_emissive())
-        })
+    let mut exact: Vec<bool> = (0..scene.triangles.len() as u32)
+        .map(|t| scene.material_of(t).is_emissive())
         .collect();
     for r in scene
         .reflectors

@@ -108,26 +108,29 @@ impl GeometryReflections {
     ) -> Result<GeometryReflections, RenderError> {
         let planar = reflectors_with_materials(data, reflectance);
         let mut splats = Vec::new();
-        if let Source::Image { .. } = source
-            && !planar.is_empty()
-        {
+        // Image mode: what the splats leave out and the mirror pass draws as geometry, the
+        // same for every reflector.
+        let exact = (matches!(source, Source::Image { .. }) && !planar.is_empty())
+            .then(|| super::exact::ExactSurfaces::of_scene(&data.scene));
+        if let Some(exact) = &exact {
             if data.bundle.stage("radiance").is_none() {
                 return Err(RenderError::Reflections(format!(
                     "bundle {}: image-based reflections need the `radiance` stage; bake it with glint-bake",
                     data.bundle.dir().display()
                 )));
             }
-            // What the splats leave out, the same for every reflector.
-            let exact = super::exact::ExactSurfaces::of_scene(&data.scene);
             for r in &planar {
                 splats.push(Some(
-                    load_splat_maps(gpu, data, &r.name, &exact, splat_buffer_bytes)
+                    load_splat_maps(gpu, data, &r.name, exact, splat_buffer_bytes)
                         .map_err(RenderError::Reflections)?,
                 ));
             }
         }
         splats.resize_with(planar.len(), || None);
-        let built = Self::build(gpu, renderer, data, width, height, source, planar, splats)?;
+        let exact = exact.map(|e| e.triangles().to_vec()).unwrap_or_default();
+        let built = Self::build(
+            gpu, renderer, data, width, height, source, planar, splats, &exact,
+        )?;
         Ok(built)
     }
 
@@ -141,6 +144,7 @@ impl GeometryReflections {
         source: Source,
         planar: Vec<PlanarReflector>,
         splats: Vec<Option<SplatMaps>>,
+        exact_triangles: &[u32],
     ) -> Result<GeometryReflections, GpuError> {
         let (scene, map) = (&data.scene, &data.map);
         let device = &gpu.device;
@@ -186,25 +190,17 @@ impl GeometryReflections {
                 .then(|| GapFill::new(device, &map.view, width, height));
             let m_view = gap_fill.as_ref().map_or(&map.view, |g| &g.view);
             let pyramid = pyramid_passes.pyramid(gpu, m_view, width, height);
-            let exact = matches!(source, Source::Image { .. })
-                .then(|| {
-                    let indices = mesh.triangle_indices(
-                        super::exact::exact_triangles(scene)
-                            .into_iter()
-                            .map(|t| t as usize),
-                    );
-                    (!indices.is_empty()).then(|| {
-                        let b = buffer_init(
-                            gpu,
-                            "glint exact surface indices",
-                            wgpu::BufferUsages::INDEX,
-                            bytemuck::cast_slice(&indices),
-                            4,
-                        );
-                        (b, indices.len() as u32)
-                    })
-                })
-                .flatten();
+            let exact = (!exact_triangles.is_empty()).then(|| {
+                let indices = mesh.triangle_indices(exact_triangles.iter().map(|&t| t as usize));
+                let b = buffer_init(
+                    gpu,
+                    "glint exact surface indices",
+                    wgpu::BufferUsages::INDEX,
+                    bytemuck::cast_slice(&indices),
+                    4,
+                );
+                (b, indices.len() as u32)
+            });
             let reflectors = planar
                 .into_iter()
                 .zip(splats)

@@ -330,8 +330,7 @@ pub fn progressive_key(dx: u32, dy: u32) -> u32 {
 /// The splats of one map in quadtree order (see the module docs). `node_base` offsets the
 /// node indices written into the splats. Pixels that are not hit, or have no valid depth, are
 /// left out, and so are points on `exact` surfaces (drawn as geometry instead,
-/// [`super::exact`]);
-/// a map whose quadtree is empty has no splats.
+/// [`super::exact`]); a map whose quadtree is empty has no splats.
 pub fn map_splats(
     view: &MapCamera,
     image: &MapImage,
