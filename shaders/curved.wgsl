@@ -86,7 +86,7 @@ const COS_FLOOR: f32 = 1e-6;
 // `pattern::ALPHA_MAX`.
 const ALPHA_MAX: f32 = 1.5697963;
 // `curved::PARALLAX_STEPS`.
-const PARALLAX_STEPS: u32 = 2u;
+const PARALLAX_STEPS: u32 = 3u;
 // `own_mesh::OWN_STACK`.
 const OWN_STACK: u32 = 48u;
 
@@ -237,29 +237,53 @@ fn sphere_exit(b: f32, c: f32, radius: f32) -> f32 {
 }
 
 // Where the ray from the point `offset` away from the centre along unit `dir` meets the room,
-// as a direction from the centre: fixed-point steps on the distances `env_distance` stores
-// (`curved::parallax_direction`, distance impostors, Szirmay-Kalos et al. 2005). `dir` itself
-// when the correction is off or nothing was seen.
+// as a direction from the centre: a first guess on a sphere, then steps that bracket the
+// surface the distances `env_distance` stores and take the secant of g = |x|/s − 1
+// (`curved::parallax_direction`, distance impostors, Szirmay-Kalos et al. 2005). `dir`
+// itself when the correction is off or nothing was seen.
 fn curved_lookup(offset: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
     if curved.info.w == 0u {
         return dir;
     }
     let b = dot(offset, dir);
     let c = dot(offset, offset);
-    var u = dir;
-    for (var k = 0u; k < PARALLAX_STEPS; k++) {
-        let s = textureSampleLevel(env_distance, env_sampler, u, 0.0).a;
-        if s <= 0.0 {
-            break;
-        }
-        let t = sphere_exit(b, c, s);
-        let q = offset + dir * t;
-        if dot(q, q) <= 0.0 {
-            break;
-        }
-        u = normalize(q);
+    let s0 = textureSampleLevel(env_distance, env_sampler, dir, 0.0).a;
+    if !(s0 > 0.0) {
+        return dir;
     }
-    return u;
+    var t = max(sphere_exit(b, c, s0), 0.0);
+    // (t, g) of the farthest point found in front (g ≤ 0) and the nearest found behind
+    // (g > 0); the other sign of g marks none found yet.
+    var front = vec2<f32>(0.0, 1.0);
+    var behind = vec2<f32>(0.0, -1.0);
+    for (var k = 0u; k < PARALLAX_STEPS; k++) {
+        let x = offset + dir * t;
+        if dot(x, x) <= 0.0 {
+            break;
+        }
+        let s = textureSampleLevel(env_distance, env_sampler, normalize(x), 0.0).a;
+        if !(s > 0.0) {
+            break;
+        }
+        let g = length(x) / s - 1.0;
+        if g <= 0.0 {
+            if front.y > 0.0 || t > front.x {
+                front = vec2<f32>(t, g);
+            }
+        } else if behind.y <= 0.0 || t < behind.x {
+            behind = vec2<f32>(t, g);
+        }
+        if front.y <= 0.0 && behind.y > 0.0 {
+            t = front.x + (behind.x - front.x) * front.y / (front.y - behind.y);
+        } else {
+            t = max(sphere_exit(b, c, s), 0.0);
+        }
+    }
+    let x = offset + dir * t;
+    if dot(x, x) <= 0.0 {
+        return dir;
+    }
+    return normalize(x);
 }
 
 // Where the ray enters node `i`'s box within (t_min, t_max), or -1 (slab test; the far
