@@ -118,7 +118,11 @@ fn main() {
         for depth in 0..=recursive::MAX_RECURSION_DEPTH {
             let mut off =
                 Offscreen::new(&gpu, &data, SIZE.0, SIZE.1).unwrap_or_else(|e| panic!("{e}"));
-            off.options.recursion = RecursionSettings { depth, cutoff };
+            off.options.recursion = RecursionSettings {
+                depth,
+                cutoff,
+                ..RecursionSettings::default()
+            };
             off.set_reflections(&gpu, &data, ReflectionMode::Geometry)
                 .unwrap_or_else(|e| panic!("{e}"));
             // Maps, reflectors culled from the frustum, branches cut by the weight.

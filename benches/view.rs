@@ -25,8 +25,8 @@
 //! viewer's own equation (the viewer's share of the error). `GLINT_BENCH_TABLES` (a comma list
 //! of `frames`, `reflections`, `fidelity`; all by default) picks the tables and
 //! `GLINT_BENCH_SCENES` (a comma list) the scenes, `GLINT_BENCH_MODES` (a comma list of
-//! `geometry`, `off`, `image1`, `image2`, `image4`, `image2d`; all by default) the reflection
-//! table's modes (geometry always runs: the ratios are to it). `GLINT_BENCH_FIDELITY_QUALITY`
+//! `geometry`, `geometry2` (depth 2), `off`, `image1`, `image2`, `image4`, `image2d`; all by
+//! default) the reflection table's modes (geometry always runs: the ratios are to it). `GLINT_BENCH_FIDELITY_QUALITY`
 //! (`draft`, `default`, `high`), `GLINT_BENCH_FIDELITY_SIZE` (`WxH`) and
 //! `GLINT_BENCH_FIDELITY_SPP` set the fidelity table's bakes, frame and references (cached in
 //! `target/tmp/view-bench/references/`); `GLINT_BENCH_FIDELITY_SUPERSAMPLE=s` (1 to 8, 1 by
@@ -215,14 +215,23 @@ fn reflection_table(gpu: &Gpu, work: &Path, repeats: usize) {
         ]
         .map(String::from),
     ];
-    // Geometry first: the other rows' ratios are to it.
-    let modes: [(&str, ReflectionMode, Selection, usize); 6] = [
-        ("geometry", ReflectionMode::Geometry, Selection::Angle, 0),
-        ("off", ReflectionMode::Off, Selection::Angle, 0),
+    // Geometry first: the other rows' ratios are to it. (label, mode, map selection, maps,
+    // recursion depth)
+    let modes: [(&str, ReflectionMode, Selection, usize, u8); 7] = [
+        ("geometry", ReflectionMode::Geometry, Selection::Angle, 0, 1),
+        (
+            "geometry, depth 2",
+            ReflectionMode::Geometry,
+            Selection::Angle,
+            0,
+            2,
+        ),
+        ("off", ReflectionMode::Off, Selection::Angle, 0, 1),
         (
             "image, 1 map (angle)",
             ReflectionMode::Image,
             Selection::Angle,
+            1,
             1,
         ),
         (
@@ -230,22 +239,33 @@ fn reflection_table(gpu: &Gpu, work: &Path, repeats: usize) {
             ReflectionMode::Image,
             Selection::Angle,
             2,
+            1,
         ),
         (
             "image, 4 maps (angle)",
             ReflectionMode::Image,
             Selection::Angle,
             4,
+            1,
         ),
         (
             "image, 2 maps (distance)",
             ReflectionMode::Image,
             Selection::Distance,
             2,
+            1,
         ),
     ];
     let only = std::env::var("GLINT_BENCH_MODES").ok();
-    let keys = ["geometry", "off", "image1", "image2", "image4", "image2d"];
+    let keys = [
+        "geometry",
+        "geometry2",
+        "off",
+        "image1",
+        "image2",
+        "image4",
+        "image2d",
+    ];
     let modes: Vec<_> = modes
         .into_iter()
         .zip(keys)
@@ -310,11 +330,12 @@ fn reflection_table(gpu: &Gpu, work: &Path, repeats: usize) {
                 .collect()
         };
         let mut geometry_ms = f64::NAN;
-        for &(label, mode, selection, count) in &modes {
+        for &(label, mode, selection, count, depth) in &modes {
             let mut off =
                 Offscreen::new(gpu, &data, SIZE.0, SIZE.1).unwrap_or_else(|e| panic!("{e}"));
             off.options.selection = selection;
             off.options.maps = count;
+            off.options.recursion.depth = depth;
             off.set_reflections(gpu, &data, mode)
                 .unwrap_or_else(|e| panic!("{e}"));
             off.render(gpu, &timed[0]).unwrap_or_else(|e| panic!("{e}")); // warm-up
@@ -343,7 +364,7 @@ fn reflection_table(gpu: &Gpu, work: &Path, repeats: usize) {
                 }
             }
             let (frame_ms, gpu_ms, splats, draws) = best.expect("at least one run");
-            if mode == ReflectionMode::Geometry {
+            if mode == ReflectionMode::Geometry && depth == 1 {
                 geometry_ms = frame_ms;
             }
             off.render(gpu, &view).unwrap_or_else(|e| panic!("{e}"));
@@ -603,10 +624,17 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
         // Curved reflectors by cube maps (Nielsen §3.2), glossy ones by regular sampling of
         // the baked MIP environment map at the preset's sample budget (Luksch §6–7).
         let curved_settings = CurvedSettings {
-            glossy_samples: glint::materials::MaterialsSettings::preset(quality).sample_budget,
+            glossy_samples: std::env::var("GLINT_BENCH_GLOSSY_SAMPLES").map_or(
+                glint::materials::MaterialsSettings::preset(quality).sample_budget,
+                |v| v.parse().unwrap(),
+            ),
             parallax: std::env::var("GLINT_BENCH_CUBE_PARALLAX").map_or(true, |v| v != "off"),
             self_occlusion: std::env::var("GLINT_BENCH_CUBE_SELF_OCCLUSION")
                 .map_or(true, |v| v != "off"),
+            face_size: std::env::var("GLINT_BENCH_FACE_SIZE")
+                .map_or(glint::view::curved::DEFAULT_FACE_SIZE, |v| {
+                    v.parse().unwrap()
+                }),
             ..CurvedSettings::default()
         };
         let curved = data
@@ -651,10 +679,11 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
                 1.0,
             ));
             let mask = reflections::reflector_pixels(&bvh, &reflectors, &camera, w, h);
-            // The CPU equation has no curved reflectors: its column leaves out the pixels
-            // whose mirrored ray meets one (the teapot seen in glossy-room's mirror).
+            // The CPU equation has no cube-mapped reflectors: its column leaves out the
+            // pixels whose mirrored ray meets one (the teapot seen in glossy-room's mirror, or
+            // the mirror seen in its floor, geometry mode's terminal cube maps).
             let (equation_mask, curved_seen) =
-                without_curved(&mask, &data.scene, &bvh, &reflectors, &camera, w, h);
+                without_cube_mapped(&mask, &data.scene, &bvh, &reflectors, &camera, w, h);
             let dump = dump_dir().map(|dir| dir.join(format!("{name}-{}", path.name)));
             if let Some(stem) = &dump {
                 dump_f32(stem, "ref-a", &a.rgb);
@@ -671,7 +700,7 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
                 (noise(None), masked.map_or(f64::NAN, |m| noise(Some(m))));
             noise_rows.push(format!(
                 "{name} {}: reference noise {noise_frame:.3} (frame), {noise_reflector:.3} (reflector px); \
-                 {curved_seen} reflector px see a curved reflector, left out of the CPU equation's column",
+                 {curved_seen} reflector px see a cube-mapped reflector, left out of the CPU equation's column",
                 path.name
             ));
             // Geometry mode at recursion depth 2 too: a glossy floor's reflection of a mirror
@@ -733,7 +762,7 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
         }
     }
     println!(
-        "\nfidelity at {w}x{h}, {} bakes, each camera path's first keyframe: relative RMSE (linear, per pixel) vs the path tracer (the mean of 2 × {spp} spp; \"noise out\": its noise taken out; the viewer's frame box-filtered from {ss}×{ss} samples a pixel) and vs the CPU equation (M*K exact, at pixel centres; it has no curved reflectors, so reflector pixels that see one are left out of that column)\n",
+        "\nfidelity at {w}x{h}, {} bakes, each camera path's first keyframe: relative RMSE (linear, per pixel) vs the path tracer (the mean of 2 × {spp} spp; \"noise out\": its noise taken out; the viewer's frame box-filtered from {ss}×{ss} samples a pixel) and vs the CPU equation (M*K exact, at pixel centres; it has no cube-mapped reflectors, curved or a near-mirror seen in another reflector, so reflector pixels that see one are left out of that column)\n",
         quality.name()
     );
     print!(
@@ -749,8 +778,9 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
 }
 
 /// `mask` without the pixels whose ray, mirrored at the planar reflector it meets, meets a
-/// curved reflector next; and how many those are.
-fn without_curved(
+/// cube-mapped reflector next (a curved one, or a near-mirror planar one: geometry mode's
+/// terminal cube maps); and how many those are.
+fn without_cube_mapped(
     mask: &[bool],
     scene: &Scene,
     bvh: &Bvh,
@@ -759,14 +789,13 @@ fn without_curved(
     w: u32,
     h: u32,
 ) -> (Vec<bool>, usize) {
-    let mut curved = vec![false; scene.triangles.len()];
-    for r in scene
-        .reflectors
-        .iter()
-        .filter(|r| r.kind == glint::scene::ReflectorKind::Curved)
-    {
+    let mut cube_mapped = vec![false; scene.triangles.len()];
+    for r in scene.reflectors.iter().filter(|r| {
+        r.kind == glint::scene::ReflectorKind::Curved
+            || glint::radiosity::is_mirror(&scene.materials[r.material as usize])
+    }) {
         for &t in &r.triangles {
-            curved[t as usize] = true;
+            cube_mapped[t as usize] = true;
         }
     }
     let mut plane_of = std::collections::HashMap::new();
@@ -793,10 +822,10 @@ fn without_curved(
         let n = plane.normal;
         let p = camera.position + d * hit.t;
         let r = reflections::mirror_direction(n, d);
-        let meets_curved = bvh
+        let meets = bvh
             .closest_hit(p + n * 1e-3, r, f32::INFINITY)
-            .is_some_and(|h| curved[h.triangle as usize]);
-        if meets_curved {
+            .is_some_and(|h| cube_mapped[h.triangle as usize]);
+        if meets {
             *m = false;
             seen += 1;
         }

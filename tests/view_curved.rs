@@ -1273,6 +1273,7 @@ fn glossy_room_teapot_seen_in_the_mirror_gets_its_specular_term() {
     off.options.recursion = glint::view::reflections::RecursionSettings {
         depth: 2,
         cutoff: 0.0,
+        ..Default::default()
     };
     off.set_reflections(&gpu, &data, ReflectionMode::Geometry)
         .unwrap();

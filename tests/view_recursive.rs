@@ -117,9 +117,11 @@ fn frame(
 ) -> (Vec<u8>, Option<recursive::RecursionStats>) {
     let data = corridor();
     let mut off = Offscreen::new(gpu, data, SIZE.0, SIZE.1).unwrap();
+    // Nielsen's recursion as written: reflectors past the last level show kd·D alone.
     off.options.recursion = RecursionSettings {
         depth: depth.unwrap_or(1),
         cutoff,
+        terminal: false,
     };
     let mode = depth.map_or(ReflectionMode::Off, |_| ReflectionMode::Geometry);
     off.set_reflections(gpu, data, mode)
@@ -382,7 +384,11 @@ fn nested_composite_is_clipped_at_the_parent_mirror() {
     let (w, h) = SIZE;
     let render = |depth: u8| {
         let mut off = Offscreen::new(&gpu, data, w, h).unwrap();
-        off.options.recursion = RecursionSettings { depth, cutoff: 0.0 };
+        off.options.recursion = RecursionSettings {
+            depth,
+            cutoff: 0.0,
+            terminal: false,
+        };
         off.set_reflections(&gpu, data, ReflectionMode::Geometry)
             .unwrap_or_else(|e| panic!("{e}"));
         off.render(&gpu, &cam).unwrap();

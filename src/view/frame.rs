@@ -70,6 +70,9 @@ impl Rebuild {
                 o.reflectance,
                 o.recursion_depth(),
                 o.recursive().then_some(o.recursion.cutoff.to_bits()),
+                // Geometry mode's terminal cube maps read the curved settings.
+                (o.reflections == ReflectionMode::Geometry && o.recursion.terminal)
+                    .then_some(o.curved_settings),
             )
         };
         let impostors = |o: &ViewOptions| (o.impostors, o.impostors.then_some(o.impostor_kind));
@@ -222,7 +225,7 @@ impl FramePasses {
                 }),
             };
             if o.recursive() {
-                let r = RecursiveReflections::new(
+                let mut r = RecursiveReflections::new(
                     gpu,
                     &self.renderer,
                     data,
@@ -231,9 +234,12 @@ impl FramePasses {
                     o.reflectance,
                     o.recursion,
                 )?;
+                if o.recursion.terminal {
+                    r.add_terminal(gpu, &self.renderer, data, o.curved_settings)?;
+                }
                 self.recursive = Some(r);
             } else if let Some(source) = source {
-                let r = GeometryReflections::with_reflectance(
+                let mut r = GeometryReflections::with_reflectance(
                     gpu,
                     &self.renderer,
                     data,
@@ -243,6 +249,9 @@ impl FramePasses {
                     o.reflectance,
                     o.splat_buffer_bytes,
                 )?;
+                if o.recursion.terminal {
+                    r.add_terminal(gpu, &self.renderer, data, o.curved_settings)?;
+                }
                 self.planar = Some(r);
             }
         }

@@ -97,6 +97,14 @@ pub struct ViewArgs {
     /// of max ks·R along the path) falls below this.
     #[arg(long, value_name = "W", default_value_t = DEFAULT_WEIGHT_CUTOFF, value_parser = parse_cutoff)]
     pub reflection_cutoff: f32,
+    /// Geometry reflections: a reflector seen in another one's reflection map of the last
+    /// level shows what it reflects from a cube map taken at its centre (distance-corrected,
+    /// as `--cube-parallax`, with `--glossy-samples`, `--cube-size`, `--cube-generations`);
+    /// `off`: its kd·D alone (Nielsen's recursion). A mirror seen in a glossy floor then
+    /// shows the room at depth 1 too.
+    #[arg(long, value_name = "on|off", default_value = "on", value_parser = parse_on_off,
+          action = clap::ArgAction::Set)]
+    pub terminal_cubemaps: bool,
 }
 
 /// `glint-view`'s view arguments alone, for [`ViewOptions::from_args`].
@@ -158,6 +166,7 @@ impl ViewArgs {
             recursion: RecursionSettings {
                 depth: self.recursion_depth.unwrap_or(1),
                 cutoff: self.reflection_cutoff,
+                terminal: self.terminal_cubemaps,
             },
             splat_buffer_bytes: None,
         };
@@ -232,6 +241,8 @@ mod tests {
             "3",
             "--reflection-cutoff",
             "0.5",
+            "--terminal-cubemaps",
+            "off",
         ])
         .unwrap();
         assert_eq!(
@@ -259,6 +270,7 @@ mod tests {
                 recursion: RecursionSettings {
                     depth: 3,
                     cutoff: 0.5,
+                    terminal: false,
                 },
                 splat_buffer_bytes: None,
             }

@@ -317,6 +317,9 @@ pub struct RecursionSettings {
     pub depth: u8,
     /// A branch stops when its accumulated specular weight falls below this.
     pub cutoff: f32,
+    /// Reflectors seen in a map of the last level (no map of their own) get a cube map's
+    /// specular term ([`crate::view::reflections::terminal`]); off: their kd·D alone.
+    pub terminal: bool,
 }
 
 impl Default for RecursionSettings {
@@ -324,6 +327,7 @@ impl Default for RecursionSettings {
         RecursionSettings {
             depth: 1,
             cutoff: DEFAULT_WEIGHT_CUTOFF,
+            terminal: true,
         }
     }
 }

@@ -52,6 +52,7 @@ mod pyramid;
 pub mod recursive;
 mod splat_maps;
 pub mod splats;
+pub mod terminal;
 
 pub use cpu::{MkFilter, cpu_reference, cpu_reference_filtered, reflector_pixels};
 pub use material::{

@@ -24,6 +24,7 @@ use super::{
 use crate::camera::Camera;
 use crate::view::build::{buffer_init, render_pipeline, shader};
 use crate::view::composite::Composite;
+use crate::view::curved::CurvedSettings;
 use crate::view::curved::gpu::CurvedReflections;
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
@@ -66,6 +67,9 @@ pub struct GeometryReflections {
     /// after the splats, which leave them out ([`super::exact`]).
     exact: Option<(wgpu::Buffer, u32)>,
     pyramid_passes: PyramidPasses,
+    /// Geometry mode: the reflectors as cube-mapped ones, for where they are seen in another
+    /// one's map (the recursion's end, [`super::terminal`]); index for index.
+    terminal: Option<CurvedReflections>,
     width: u32,
     height: u32,
 }
@@ -299,6 +303,7 @@ impl GeometryReflections {
                 pyramid,
                 exact,
                 pyramid_passes,
+                terminal: None,
                 width,
                 height,
             }
@@ -328,8 +333,45 @@ impl GeometryReflections {
             .collect()
     }
 
+    /// The clip plane of `r`'s mirrored view (normal xyz, w = normal · point + clip
+    /// distance): what lies at or behind it is discarded.
+    fn clip_plane(&self, r: &ReflectorGpu) -> glam::Vec4 {
+        let plane = &r.reflector.plane;
+        plane
+            .normal
+            .extend(plane.normal.dot(plane.point) + self.clip)
+    }
+
     fn visible(&self, r: &ReflectorGpu, camera: &Camera) -> bool {
         r.index_count > 0 && signed_distance(&r.reflector.plane, camera.position) > 0.0
+    }
+
+    /// Geometry mode: cube-maps the reflectors (with `settings`) for where one is seen in
+    /// another's map ([`super::terminal`]), in place of their kd·D alone. Image mode's maps
+    /// already hold that light: nothing is built there.
+    pub fn add_terminal(
+        &mut self,
+        gpu: &Gpu,
+        renderer: &Renderer,
+        data: &ViewData,
+        settings: CurvedSettings,
+    ) -> Result<(), RenderError> {
+        self.terminal = None;
+        if self.source != Source::Geometry || self.reflectors.len() < 2 {
+            return Ok(());
+        }
+        let planar: Vec<PlanarReflector> = self
+            .reflectors
+            .iter()
+            .map(|r| r.reflector.clone())
+            .collect();
+        self.terminal = super::terminal::terminal_passes(gpu, renderer, data, settings, &planar)?;
+        Ok(())
+    }
+
+    /// The terminal reflectors' cube maps, if built ([`GeometryReflections::add_terminal`]).
+    pub fn terminal(&self) -> Option<&CurvedReflections> {
+        self.terminal.as_ref()
     }
 
     /// How many reflection maps [`GeometryReflections::draw`] draws for `camera` (one per
@@ -366,10 +408,6 @@ impl GeometryReflections {
             if let Some(c) = curved
                 && self.visible(r, camera)
             {
-                let plane = &r.reflector.plane;
-                let clip = plane
-                    .normal
-                    .extend(plane.normal.dot(plane.point) + self.clip);
                 c.prepare_mirror(
                     gpu,
                     renderer,
@@ -377,7 +415,20 @@ impl GeometryReflections {
                     &mirrored,
                     self.width,
                     self.height,
-                    clip,
+                    self.clip_plane(r),
+                );
+            }
+            if let Some(t) = &self.terminal
+                && self.visible(r, camera)
+            {
+                t.prepare_mirror(
+                    gpu,
+                    renderer,
+                    slot,
+                    &mirrored,
+                    self.width,
+                    self.height,
+                    self.clip_plane(r),
                 );
             }
             let u = renderer.uniforms(&mirrored, self.width, self.height);
@@ -500,6 +551,16 @@ impl GeometryReflections {
                         pass.draw_indexed(0..renderer.index_count(), 0, 0..1);
                         if let (Some(c), Source::Geometry) = (curved, self.source) {
                             c.draw_mirror(&mut pass, slot);
+                        }
+                        // The other reflectors seen in this one: their cube-mapped specular
+                        // term.
+                        if let Some(t) = &self.terminal {
+                            let eye = mirror_point(&r.reflector.plane, camera.position);
+                            t.draw_mirror_where(&mut pass, slot, |i| {
+                                i != slot
+                                    && signed_distance(&self.reflectors[i].reflector.plane, eye)
+                                        > 0.0
+                            });
                         }
                     }
                 }

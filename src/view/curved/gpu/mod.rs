@@ -119,7 +119,25 @@ impl CurvedReflections {
         data: &ViewData,
         settings: CurvedSettings,
     ) -> Result<CurvedReflections, RenderError> {
-        let reflectors = curved_reflectors(&data.scene);
+        Self::with_reflectors(
+            gpu,
+            renderer,
+            data,
+            settings,
+            curved_reflectors(&data.scene),
+        )
+    }
+
+    /// [`CurvedReflections::new`] for the given reflectors (any triangles with a centre and
+    /// lobes: geometry mode also cube-maps planar reflectors at the recursion's end,
+    /// [`crate::view::reflections::terminal`]).
+    pub fn with_reflectors(
+        gpu: &Gpu,
+        renderer: &Renderer,
+        data: &ViewData,
+        settings: CurvedSettings,
+        reflectors: Vec<CurvedReflector>,
+    ) -> Result<CurvedReflections, RenderError> {
         let mut baked = Vec::new();
         for r in &reflectors {
             let pyramid = if settings.glossy_samples > 0 {
@@ -550,6 +568,16 @@ impl CurvedReflections {
     /// the mirrored scene's depth), the curved reflectors' specular term of mirrored view
     /// `slot` ([`CurvedReflections::prepare_mirror`]), added to their kd·D there.
     pub fn draw_mirror(&self, pass: &mut wgpu::RenderPass<'_>, slot: usize) {
+        self.draw_mirror_where(pass, slot, |_| true);
+    }
+
+    /// [`CurvedReflections::draw_mirror`] for the reflectors whose index `keep` accepts.
+    pub fn draw_mirror_where(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        slot: usize,
+        keep: impl Fn(usize) -> bool,
+    ) {
         let Ok(views) = self.mirror_views.lock() else {
             return;
         };
@@ -558,7 +586,11 @@ impl CurvedReflections {
         };
         pass.set_pipeline(&self.mirror_pipeline);
         pass.set_bind_group(0, &view.frame_group, &[]);
-        for (r, (_, group)) in self.reflectors.iter().zip(&view.reflectors) {
+        for (i, (r, (_, group))) in self.reflectors.iter().zip(&view.reflectors).enumerate() {
+            // Without lobes nothing is added.
+            if !keep(i) || r.reflector.lobes.is_empty() {
+                continue;
+            }
             pass.set_bind_group(1, group, &[]);
             pass.set_vertex_buffer(0, r.vertices.slice(..));
             pass.draw(0..r.vertex_count, 0..1);

@@ -68,6 +68,9 @@ pub struct RecursiveReflections {
     pyramid_passes: PyramidPasses,
     slots: Mutex<Vec<Slot>>,
     plan: Mutex<Plan>,
+    /// The reflectors as cube-mapped ones, for where one is seen in a map without a map of
+    /// its own ([`crate::view::reflections::terminal`]); index for index.
+    terminal: Option<CurvedReflections>,
     clip: f32,
     near: f32,
     width: u32,
@@ -224,12 +227,37 @@ impl RecursiveReflections {
                 pyramid_passes,
                 slots: Mutex::new(Vec::new()),
                 plan: Mutex::new(Plan::default()),
+                terminal: None,
                 clip,
                 near: crate::view::renderer::near_plane(&data.scene),
                 width,
                 height,
             }
         })
+    }
+
+    /// Cube-maps the reflectors (with `settings`) for where one is seen in a map without a
+    /// map of its own: past the last level, or cut by the weight cutoff
+    /// ([`crate::view::reflections::terminal`]).
+    pub fn add_terminal(
+        &mut self,
+        gpu: &Gpu,
+        renderer: &Renderer,
+        data: &ViewData,
+        settings: crate::view::curved::CurvedSettings,
+    ) -> Result<(), RenderError> {
+        self.terminal = None;
+        if self.reflectors.len() < 2 {
+            return Ok(());
+        }
+        self.terminal = crate::view::reflections::terminal::terminal_passes(
+            gpu,
+            renderer,
+            data,
+            settings,
+            &self.reflectors,
+        )?;
+        Ok(())
     }
 
     /// The settings it was built with.
@@ -330,7 +358,7 @@ impl RecursiveReflections {
             slots.push(slot);
         }
         for (id, (node, slot)) in plan.nodes.iter().zip(slots.iter_mut()).enumerate() {
-            if let Some(c) = curved {
+            for c in curved.iter().chain(&self.terminal.as_ref()) {
                 c.prepare_mirror(
                     gpu,
                     renderer,
@@ -459,6 +487,16 @@ impl RecursiveReflections {
             // Curved reflectors seen in this mirror: their specular term in the mirrored view.
             if let Some(c) = curved {
                 c.draw_mirror(&mut pass, id);
+            }
+            // Planar ones seen from their reflecting side without a map of their own (this
+            // view's children get theirs below): their cube-mapped specular term.
+            if let Some(t) = &self.terminal {
+                let eye = node.camera.position;
+                t.draw_mirror_where(&mut pass, id, |i| {
+                    i != node.reflector
+                        && !node.children.iter().any(|&c| plan.nodes[c].reflector == i)
+                        && super::super::signed_distance(&self.reflectors[i].plane, eye) > 0.0
+                });
             }
         }
         for &child in &node.children {

@@ -272,6 +272,7 @@ mod tests {
                 RecursionSettings {
                     depth,
                     cutoff: DEFAULT_WEIGHT_CUTOFF,
+                    ..RecursionSettings::default()
                 },
             );
             // B is behind the camera: only A at level 0, then B, A, B… one map per level.
@@ -300,6 +301,7 @@ mod tests {
             RecursionSettings {
                 depth: 4,
                 cutoff: 0.05,
+                ..RecursionSettings::default()
             },
         );
         assert_eq!(p.stats.maps, 2);
@@ -313,6 +315,7 @@ mod tests {
             RecursionSettings {
                 depth: 4,
                 cutoff: 0.0,
+                ..RecursionSettings::default()
             },
         );
         assert_eq!(all.stats.maps, 4);
@@ -332,6 +335,7 @@ mod tests {
         let settings = RecursionSettings {
             depth: 2,
             cutoff: DEFAULT_WEIGHT_CUTOFF,
+            ..RecursionSettings::default()
         };
         let p = plan(&cam, VIEW, &r, &v, settings);
         assert_eq!(p.stats.maps, 2);
@@ -361,6 +365,7 @@ mod tests {
             RecursionSettings {
                 depth: 2,
                 cutoff: 0.0,
+                ..RecursionSettings::default()
             },
         );
         assert!(
