@@ -239,7 +239,7 @@ impl FramePasses {
                 }
                 self.recursive = Some(r);
             } else if let Some(source) = source {
-                let mut r = GeometryReflections::with_reflectance(
+                let r = GeometryReflections::with_reflectance(
                     gpu,
                     &self.renderer,
                     data,
@@ -248,10 +248,8 @@ impl FramePasses {
                     source,
                     o.reflectance,
                     o.splat_buffer_bytes,
+                    o.recursion.terminal.then_some(o.curved_settings),
                 )?;
-                if o.recursion.terminal {
-                    r.add_terminal(gpu, &self.renderer, data, o.curved_settings)?;
-                }
                 self.planar = Some(r);
             }
         }

@@ -64,19 +64,17 @@ pub fn terminal_reflectors(scene: &Scene, planar: &[PlanarReflector]) -> Vec<Cur
         .collect()
 }
 
-/// The cube-map passes of `planar`'s reflectors at the recursion's end
-/// ([`terminal_reflectors`], index for index), with `settings`' face size, generations,
-/// samples and parallax (no self-reflection: a plane does not see itself); `None` when none
-/// of them is glossy.
+/// The cube-map passes of `reflectors` ([`terminal_reflectors`]) with `settings`' face size,
+/// generations, samples and parallax (no self-reflection: a plane does not see itself);
+/// `None` when none of them has a lobe.
 pub fn terminal_passes(
     gpu: &Gpu,
     renderer: &Renderer,
     data: &ViewData,
     settings: CurvedSettings,
-    planar: &[PlanarReflector],
+    reflectors: Vec<CurvedReflector>,
 ) -> Result<Option<CurvedReflections>, RenderError> {
-    let reflectors = terminal_reflectors(&data.scene, planar);
-    if !reflectors.iter().any(|r| !r.lobes.is_empty()) {
+    if reflectors.iter().all(|r| r.lobes.is_empty()) {
         return Ok(None);
     }
     let settings = CurvedSettings {

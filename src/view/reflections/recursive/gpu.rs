@@ -250,13 +250,9 @@ impl RecursiveReflections {
         if self.reflectors.len() < 2 {
             return Ok(());
         }
-        self.terminal = crate::view::reflections::terminal::terminal_passes(
-            gpu,
-            renderer,
-            data,
-            settings,
-            &self.reflectors,
-        )?;
+        use crate::view::reflections::terminal::{terminal_passes, terminal_reflectors};
+        let reflectors = terminal_reflectors(&data.scene, &self.reflectors);
+        self.terminal = terminal_passes(gpu, renderer, data, settings, reflectors)?;
         Ok(())
     }
 
