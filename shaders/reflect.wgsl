@@ -358,7 +358,7 @@ const SPLAT_OVERLAP: f32 = 1.5;
 const SPLAT_CORNER = array<u32, 6>(0u, 1u, 2u, 2u, 1u, 3u);
 
 // `splats::MIN_SLANT_COSINE` and `splats::MIN_SQUEEZE`.
-const MIN_SLANT_COSINE: f32 = 0.1;
+const MIN_SLANT_COSINE: f32 = 0.3;
 const MIN_SQUEEZE: f32 = 0.25;
 
 fn octahedral_decode(e: vec2<f32>) -> vec3<f32> {
