@@ -415,31 +415,19 @@ impl GeometryReflections {
         let pitch = splats::pixel_tangent(camera.fov_y, self.height);
         for (slot, r) in self.reflectors.iter().enumerate() {
             let mirrored = mirror_camera(camera, &r.reflector.plane);
-            if let Some(c) = curved
-                && self.visible(r, camera)
-            {
-                c.prepare_mirror(
-                    gpu,
-                    renderer,
-                    slot,
-                    &mirrored,
-                    self.width,
-                    self.height,
-                    self.clip_plane(r),
-                );
-            }
-            if let Some(t) = &self.terminal
-                && self.visible(r, camera)
-            {
-                t.prepare_mirror(
-                    gpu,
-                    renderer,
-                    slot,
-                    &mirrored,
-                    self.width,
-                    self.height,
-                    self.clip_plane(r),
-                );
+            if self.visible(r, camera) {
+                // The curved reflectors and the terminal ones seen in this mirror.
+                for c in curved.into_iter().chain(self.terminal.as_ref()) {
+                    c.prepare_mirror(
+                        gpu,
+                        renderer,
+                        slot,
+                        &mirrored,
+                        self.width,
+                        self.height,
+                        self.clip_plane(r),
+                    );
+                }
             }
             let u = renderer.uniforms(&mirrored, self.width, self.height);
             gpu.queue

@@ -1,15 +1,17 @@
-//! Planar reflectors at the end of geometry mode's recursion.
+//! Near-mirrors at the end of geometry mode's recursion.
 //!
 //! Nielsen & Christensen's recursion (§3.1) stops at depth d: a reflector seen in a map of the
 //! last level has no map of its own, so it shows its kd·D alone. For a mirror seen in a
 //! glossy floor that is nearly black where the path tracer shows the room and the lamp the
-//! mirror reflects (glossy-room's floor glow below the table). Here such a reflector gets the
-//! treatment Nielsen gives curved reflectors (§3.2): a cube map taken once from its centre,
-//! read with distance-corrected lookups ([`crate::view::curved::parallax_direction`]), its
-//! specular term added to kd·D inside the map that sees it. A planar reflector seen through
-//! another one is small and blurred by that one's kernel, which is where a cube map from
-//! one point is good enough; the recursion's own maps stay exact where they are drawn.
-//! Departure from Nielsen, whose maps end in kd·D.
+//! mirror reflects (glossy-room's floor glow below the table). Here such a near-mirror gets
+//! the treatment Nielsen gives curved reflectors (§3.2): a cube map taken once near its
+//! centre, read with distance-corrected lookups ([`crate::view::curved::parallax_direction`]),
+//! its specular term added to kd·D inside the map that sees it (the curved reflectors'
+//! passes, [`CurvedReflections`], drawn with a keep-list per view). A reflector seen through
+//! another one is small and blurred by that one's kernel, which is where a cube map from one
+//! point is good enough; the recursion's own maps stay exact where they are drawn. A
+//! departure from Nielsen, whose maps end in kd·D. Image mode does not use it: its radiance
+//! maps hold one glossy bounce already ([`crate::radiance::shading`]).
 
 use super::PlanarReflector;
 use crate::brdf::Lobe;
@@ -39,20 +41,15 @@ pub fn terminal_reflectors(scene: &Scene, planar: &[PlanarReflector]) -> Vec<Cur
     planar
         .iter()
         .map(|r| {
-            let mut lobes: Vec<Lobe> = scene
+            let material = scene
                 .materials
                 .get(r.material as usize)
+                .filter(|m| crate::radiosity::is_mirror(m));
+            let mut lobes: Vec<Lobe> = material
                 .map(|m| m.lobes.iter().map(Lobe::from).collect())
                 .unwrap_or_default();
             lobes.retain(|l| l.ks.max_element() > 0.0);
             lobes.truncate(MAX_LOBES);
-            let mirror = scene
-                .materials
-                .get(r.material as usize)
-                .is_some_and(crate::radiosity::is_mirror);
-            if !mirror {
-                lobes.clear();
-            }
             let centroid = crate::materials::envmap::capture_centre(scene, &r.triangles);
             CurvedReflector {
                 name: r.name.clone(),

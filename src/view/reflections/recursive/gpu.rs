@@ -354,7 +354,7 @@ impl RecursiveReflections {
             slots.push(slot);
         }
         for (id, (node, slot)) in plan.nodes.iter().zip(slots.iter_mut()).enumerate() {
-            for c in curved.iter().chain(&self.terminal.as_ref()) {
+            for c in curved.into_iter().chain(self.terminal.as_ref()) {
                 c.prepare_mirror(
                     gpu,
                     renderer,
