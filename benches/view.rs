@@ -35,7 +35,8 @@
 //! error at every silhouette is the viewer's aliasing, not its light);
 //! `GLINT_BENCH_CUBE_PARALLAX=off` turns the curved reflectors' distance-corrected lookups off
 //! (as `glint-view --cube-parallax off`); `GLINT_BENCH_CUBE_SELF_OCCLUSION=off` likewise
-//! (`--cube-self-occlusion off`).
+//! (`--cube-self-occlusion off`); `GLINT_BENCH_GLOSSY_SAMPLES=N` and `GLINT_BENCH_FACE_SIZE=N`
+//! set `--glossy-samples` (the preset's sample budget by default) and `--cube-size`.
 //!
 //! `cargo bench --bench view` (the `view` feature, on by default). The adapter is the one
 //! `Gpu::headless` picks: a hardware GPU when there is one, else Mesa's lavapipe; `WGPU_BACKEND`
@@ -626,15 +627,21 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
         let curved_settings = CurvedSettings {
             glossy_samples: std::env::var("GLINT_BENCH_GLOSSY_SAMPLES").map_or(
                 glint::materials::MaterialsSettings::preset(quality).sample_budget,
-                |v| v.parse().unwrap(),
+                |v| {
+                    v.parse()
+                        .unwrap_or_else(|e| panic!("GLINT_BENCH_GLOSSY_SAMPLES={v}: {e}"))
+                },
             ),
             parallax: std::env::var("GLINT_BENCH_CUBE_PARALLAX").map_or(true, |v| v != "off"),
             self_occlusion: std::env::var("GLINT_BENCH_CUBE_SELF_OCCLUSION")
                 .map_or(true, |v| v != "off"),
-            face_size: std::env::var("GLINT_BENCH_FACE_SIZE")
-                .map_or(glint::view::curved::DEFAULT_FACE_SIZE, |v| {
-                    v.parse().unwrap()
-                }),
+            face_size: std::env::var("GLINT_BENCH_FACE_SIZE").map_or(
+                glint::view::curved::DEFAULT_FACE_SIZE,
+                |v| {
+                    v.parse()
+                        .unwrap_or_else(|e| panic!("GLINT_BENCH_FACE_SIZE={v}: {e}"))
+                },
+            ),
             ..CurvedSettings::default()
         };
         let curved = data
