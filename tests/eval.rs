@@ -525,6 +525,7 @@ fn unknown_knobs_and_bad_values_are_refused() {
         "view.curved",
         "view.glossy_samples",
         "view.impostors",
+        "view.terminal_cubemaps",
     ] {
         assert!(sweep::valid_knobs().iter().any(|v| v == k), "{k} is a knob");
     }
@@ -566,6 +567,7 @@ fn unknown_knobs_and_bad_values_are_refused() {
             ("view.recursion_depth=1.5", "0 ..= 4"),
             ("view.curved=sphere", "off, cubemap"),
             ("view.impostors=yes", "off, on"),
+            ("view.terminal_cubemaps=maybe", "off, on"),
             ("view.glossy_samples=-1", "0 ..= 256"),
         ] {
             let e = sweep::parse_knob(bad).unwrap_err().to_string();

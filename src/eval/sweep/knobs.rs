@@ -13,7 +13,7 @@ pub const VIEWER_BUILT: bool = cfg!(feature = "view");
 
 /// Knobs that are not fields of a stage's settings struct: `radiance.resolution_scale`
 /// (scene.json's `bake.radiance`) and the viewer's settings.
-const OTHER_KNOBS: [&str; 8] = [
+const OTHER_KNOBS: [&str; 9] = [
     "radiance.resolution_scale",
     "view.reflections",
     "view.maps",
@@ -22,6 +22,7 @@ const OTHER_KNOBS: [&str; 8] = [
     "view.curved",
     "view.glossy_samples",
     "view.impostors",
+    "view.terminal_cubemaps",
 ];
 
 /// Every knob name a sweep accepts, `STAGE.FIELD`, in stage order.
@@ -227,6 +228,9 @@ impl Point {
                         p.view.curved = parse_word::<CurvedMode>(word(&["off", "cubemap"])?)
                     }
                     "impostors" => p.view.impostors = word(&["off", "on"])? == "on",
+                    "terminal_cubemaps" => {
+                        p.view.recursion.terminal = word(&["off", "on"])? == "on"
+                    }
                     "glossy_samples" => p.view.curved_settings.glossy_samples = integer(number()?),
                     _ => p.view.maps = integer(number()?) as usize,
                 }
