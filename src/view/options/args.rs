@@ -97,7 +97,7 @@ pub struct ViewArgs {
     /// of max ks·R along the path) falls below this.
     #[arg(long, value_name = "W", default_value_t = DEFAULT_WEIGHT_CUTOFF, value_parser = parse_cutoff)]
     pub reflection_cutoff: f32,
-    /// Geometry reflections: a reflector seen in another one's reflection map of the last
+    /// Geometry reflections: a near-mirror seen in another reflector's map of the last
     /// level shows what it reflects from a cube map taken at its centre (distance-corrected,
     /// as `--cube-parallax`, with `--glossy-samples`, `--cube-size`, `--cube-generations`);
     /// `off`: its kd·D alone (Nielsen's recursion). A mirror seen in a glossy floor then
