@@ -62,8 +62,10 @@ pub fn terminal_reflectors(scene: &Scene, planar: &[PlanarReflector]) -> Vec<Cur
 }
 
 /// The cube-map passes of `reflectors` ([`terminal_reflectors`]) with `settings`' face size,
-/// generations, samples and parallax (no self-reflection: a plane does not see itself);
-/// `None` when none of them has a lobe.
+/// samples and parallax; one generation (no interreflection between the cube-mapped mirrors:
+/// light already two reflections deep, and each generation costs six renders of the scene
+/// per mirror when the passes are built) and no self-reflection (a plane does not see
+/// itself). `None` when none of them has a lobe.
 pub fn terminal_passes(
     gpu: &Gpu,
     renderer: &Renderer,
@@ -76,6 +78,7 @@ pub fn terminal_passes(
     }
     let settings = CurvedSettings {
         self_occlusion: false,
+        generations: 1,
         ..settings
     };
     CurvedReflections::with_reflectors(gpu, renderer, data, settings, reflectors).map(Some)
