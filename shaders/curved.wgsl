@@ -557,8 +557,21 @@ fn fs_curved_mirror(in: CurvedOut) -> @location(0) vec4<f32> {
     }
     let wo = normalize(curved.eye.xyz - in.world);
     let offset = in.world - curved.centre.xyz;
-    let c = curved_specular(offset, facing_normal(in), wo, curved.info.y != 0u) * frame.exposure;
-    return vec4<f32>(c, 0.0);
+    let n = facing_normal(in);
+    let c = curved_specular(offset, n, wo, curved.info.y != 0u) * frame.exposure;
+    // M's alpha (K's scale in the composite) for what this reflector shows: the beyond
+    // fraction of the unfolded path, mirrored eye → this point → what its mirror direction
+    // meets, not of this point (the blend replaces M's alpha). The mirror's reflection of a
+    // lamp seen in a glossy floor is blurred as far as the lamp lies, not the mirror.
+    let u = curved_lookup(offset, reflect_about(wo, n));
+    let s = textureSampleLevel(env_distance, env_sampler, u, 0.0).a;
+    let d_hit = select(0.0, length(curved.centre.xyz + u * s - in.world), s > 0.0);
+    let to_q = length(in.world - curved.eye.xyz);
+    let s_q = max(dot(curved.clip.xyz, in.world) - curved.clip.w, 0.0);
+    let e_s = max(curved.clip.w - dot(curved.clip.xyz, curved.eye.xyz), 0.0);
+    let f_q = s_q / max(s_q + e_s, 1e-20);
+    let f = (to_q * f_q + d_hit) / max(to_q + d_hit, 1e-20);
+    return vec4<f32>(c, f);
 }
 
 // `VertexOut` and the world position, which only the cube faces need (the frame's scene pass

@@ -210,9 +210,11 @@ fn geometry_reflections_match_the_cpu_equation_on_glossy_room() {
 /// kd·D alone. Pixels that see no near-mirror through their reflector are unchanged.
 ///
 /// Measured (draft bake, 320×216, `--nocapture`): depth 2 moves 5943 (walkthrough) and 7017
-/// (front) pixels by 0.027 and 0.019 in mean luminance; the cube maps leave 0.0016 and 0.0020
-/// of that; pixels depth 2 leaves alone change by 1.2e-4 at most (the floor's kernel reaching
-/// past the mirror's reflection).
+/// (front) pixels by 0.027 and 0.019 in mean luminance; the cube maps leave 0.0069 and 0.0072
+/// of that (0.0016 and 0.0020 while they, like depth 2's map composite still does, blurred
+/// the mirror's content as if it lay on the mirror: their M texels now carry the unfolded
+/// path's beyond fraction); pixels depth 2 leaves alone change by 1.2e-4 at most (the floor's
+/// kernel reaching past the mirror's reflection).
 #[test]
 fn terminal_cube_maps_stand_in_for_the_next_level() {
     let data = load(glossy_bundle()).unwrap_or_else(|e| panic!("{e}"));
@@ -257,7 +259,7 @@ fn terminal_cube_maps_stand_in_for_the_next_level() {
         );
         assert!(moved > 1000, "{}: depth 2 moved {moved} px", path.name);
         assert!(
-            missed_cubed < 0.2 * missed_plain,
+            missed_cubed < 0.45 * missed_plain,
             "{}: the cube maps leave {missed_cubed:.2} of depth 2's {missed_plain:.2}",
             path.name
         );

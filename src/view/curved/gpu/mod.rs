@@ -213,8 +213,9 @@ impl CurvedReflections {
                     .layouts(&[&frame_layout, &curved_layout])
                     .vertex(CurvedVertex::layout()),
             );
-            let additive = Some(ADDITIVE_KEEP_ALPHA);
-            // Inside a mirror pass: one linear HDR target (M), depth tested, not written.
+            // Inside a mirror pass: one linear HDR target (M), depth tested, not written; the
+            // specular term added, M's alpha (the beyond fraction K's scale reads) replaced by
+            // the unfolded path's (`fs_curved_mirror`).
             let mirror_pipeline = render_pipeline(
                 "glint curved composite in a mirror",
                 &shader,
@@ -223,7 +224,13 @@ impl CurvedReflections {
             )
             .layouts(&[&frame_layout, &curved_layout])
             .vertex(CurvedVertex::layout())
-            .color(HDR_FORMAT, additive)
+            .color(
+                HDR_FORMAT,
+                Some(wgpu::BlendState {
+                    color: ADDITIVE_KEEP_ALPHA.color,
+                    alpha: wgpu::BlendComponent::REPLACE,
+                }),
+            )
             .depth(reverse_z_depth(false, wgpu::CompareFunction::GreaterEqual))
             .build(device);
             let generation = GenerationPipelines::new(
