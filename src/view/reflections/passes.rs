@@ -379,11 +379,6 @@ impl GeometryReflections {
         r.index_count > 0 && signed_distance(&r.reflector.plane, camera.position) > 0.0
     }
 
-    /// The terminal reflectors' cube maps, if built ([`GeometryReflections::with_reflectance`]).
-    pub fn terminal(&self) -> Option<&CurvedReflections> {
-        self.terminal.as_ref()
-    }
-
     /// How many reflection maps [`GeometryReflections::draw`] draws for `camera` (one per
     /// reflector seen from its reflecting side).
     pub fn map_count(&self, camera: &Camera) -> usize {

@@ -52,6 +52,11 @@ impl CurvedReflections {
         for step in generation_plan(self.settings.generations) {
             assert_ne!(step.write, step.read, "a cube map never reads its own set");
             for (i, ri) in self.reflectors.iter().enumerate() {
+                // A reflector without lobes adds nothing where it is drawn, so nothing reads
+                // its map: none is rendered (the terminal set's rough planar reflectors).
+                if ri.reflector.lobes.is_empty() {
+                    continue;
+                }
                 let target = &self.maps[step.write][i];
                 let groups: Vec<Option<wgpu::BindGroup>> = self
                     .reflectors
@@ -89,6 +94,9 @@ impl CurvedReflections {
                     pass.draw_indexed(0..ri.others_count, 0, 0..1);
                     pass.set_pipeline(&pipes.interreflect);
                     for (j, rj) in self.reflectors.iter().enumerate() {
+                        if rj.reflector.lobes.is_empty() {
+                            continue;
+                        }
                         if let Some(group) = &groups[j] {
                             pass.set_bind_group(1, group, &[]);
                             pass.set_vertex_buffer(0, rj.vertices.slice(..));
