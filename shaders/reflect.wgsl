@@ -322,8 +322,13 @@ fn composite(in: MirrorOut) -> FragmentOut {
     if frame.encode_srgb != 0u {
         color = linear_to_srgb(c);
     }
-    out.color = vec4<f32>(color, 0.0);
-    out.hdr = vec4<f32>(c, 0.0);
+    // Alpha: the beyond fraction f_c of what the map shows here. Only a recursive map
+    // composite's blend reads it (`UNFOLDED_ALPHA`): the parent map's alpha f_q becomes the
+    // unfolded path's f_q + f_c (1 − f_q), so K blurs what a mirror shows at the distance
+    // where it lies (as `fs_curved_mirror`); every other composite keeps the target's alpha.
+    let f_c = clamp(centre.a, 0.0, 1.0);
+    out.color = vec4<f32>(color, f_c);
+    out.hdr = vec4<f32>(c, f_c);
     return out;
 }
 

@@ -31,6 +31,22 @@ use crate::view::renderer::{
     frame_bind_group_layout, reverse_z_depth, scene_vertex_layout, uniform_buffer,
 };
 
+/// A child's map composited into its parent's: colour added, and the parent's alpha f_q (the
+/// beyond fraction of the child reflector's surface) becomes f_q + f_c·(1 − f_q), with f_c the
+/// child map's own beyond fraction (`composite` writes it). That is the beyond fraction of
+/// the unfolded path, parent eye → reflector → what it shows: with L the parent eye's distance
+/// to the point and d the reflected leg, f_c = d / (L + d) and f = (f_q·L + d) / (L + d).
+/// K then blurs a mirror's reflection, seen in a glossy reflector, as far away as its content
+/// lies (as `fs_curved_mirror` does for curved and terminal reflectors).
+const UNFOLDED_ALPHA: wgpu::BlendState = wgpu::BlendState {
+    color: ADDITIVE_KEEP_ALPHA.color,
+    alpha: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::OneMinusDstAlpha,
+        dst_factor: wgpu::BlendFactor::One,
+        operation: wgpu::BlendOperation::Add,
+    },
+};
+
 /// Per-node GPU state, reused across frames (grown as needed).
 struct Slot {
     /// The node's mirrored view (its scene pass, and its children's composites).
@@ -123,7 +139,6 @@ impl RecursiveReflections {
             let params_layout = params_layout().build(device, "glint recursive params layout");
             let composite_layout =
                 composite_bind_group_layout(device, "glint recursive composite layout");
-            let additive = Some(ADDITIVE_KEEP_ALPHA);
             fn scene_pipeline<'a>(
                 shader: &'a wgpu::ShaderModule,
                 layouts: &[&'a wgpu::BindGroupLayout],
@@ -156,7 +171,7 @@ impl RecursiveReflections {
                 "fs_composite",
                 reverse_z_depth(false, wgpu::CompareFunction::GreaterEqual),
             )
-            .color(HDR_FORMAT, additive)
+            .color(HDR_FORMAT, Some(UNFOLDED_ALPHA))
             .build(device);
             // A level-0 map onto its reflector in the frame (as the single mirror pass's
             // composite).
