@@ -36,7 +36,9 @@
 //! `GLINT_BENCH_CUBE_PARALLAX=off` turns the curved reflectors' distance-corrected lookups off
 //! (as `glint-view --cube-parallax off`); `GLINT_BENCH_CUBE_SELF_OCCLUSION=off` likewise
 //! (`--cube-self-occlusion off`); `GLINT_BENCH_GLOSSY_SAMPLES=N` and `GLINT_BENCH_FACE_SIZE=N`
-//! set `--glossy-samples` (the preset's sample budget by default) and `--cube-size`.
+//! set `--glossy-samples` (the preset's sample budget by default) and `--cube-size`;
+//! `GLINT_BENCH_TERMINAL=off` turns the near-mirrors' terminal cube maps off in the
+//! reflections table (as `--terminal-cubemaps off`).
 //!
 //! `cargo bench --bench view` (the `view` feature, on by default). The adapter is the one
 //! `Gpu::headless` picks: a hardware GPU when there is one, else Mesa's lavapipe; `WGPU_BACKEND`
@@ -337,6 +339,8 @@ fn reflection_table(gpu: &Gpu, work: &Path, repeats: usize) {
             off.options.selection = selection;
             off.options.maps = count;
             off.options.recursion.depth = depth;
+            off.options.recursion.terminal =
+                std::env::var("GLINT_BENCH_TERMINAL").as_deref() != Ok("off");
             off.set_reflections(gpu, &data, mode)
                 .unwrap_or_else(|e| panic!("{e}"));
             off.render(gpu, &timed[0]).unwrap_or_else(|e| panic!("{e}")); // warm-up

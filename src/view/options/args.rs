@@ -97,11 +97,12 @@ pub struct ViewArgs {
     /// of max ks·R along the path) falls below this.
     #[arg(long, value_name = "W", default_value_t = DEFAULT_WEIGHT_CUTOFF, value_parser = parse_cutoff)]
     pub reflection_cutoff: f32,
-    /// Geometry reflections: a near-mirror seen in another reflector's map of the last
-    /// level shows what it reflects from a cube map taken at its centre (distance-corrected,
-    /// as `--cube-parallax`, with `--glossy-samples` and `--cube-size`; made once, six renders
-    /// of the scene per near-mirror); `off`: its kd·D alone (Nielsen's recursion). A mirror
-    /// seen in a glossy floor then shows the room at depth 1 too.
+    /// Reflections: a near-mirror seen in another reflector's map (geometry mode: of the
+    /// last level) shows what it reflects from a cube map taken at its centre
+    /// (distance-corrected, as `--cube-parallax`, with `--glossy-samples` and `--cube-size`;
+    /// made once, six renders of the scene per near-mirror); `off`: geometry mode draws its
+    /// kd·D alone (Nielsen's recursion), image mode splats it as the radiance maps saw it. A
+    /// mirror seen in a glossy floor then shows the room at depth 1 too.
     #[arg(long, value_name = "on|off", default_value = "on", value_parser = parse_on_off,
           action = clap::ArgAction::Set)]
     pub terminal_cubemaps: bool,

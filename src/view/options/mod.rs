@@ -317,8 +317,9 @@ pub struct RecursionSettings {
     pub depth: u8,
     /// A branch stops when its accumulated specular weight falls below this.
     pub cutoff: f32,
-    /// Reflectors seen in a map of the last level (no map of their own) get a cube map's
-    /// specular term ([`crate::view::reflections::terminal`]); off: their kd·D alone.
+    /// Near-mirrors seen in a map of the last level (no map of their own; in image mode, in
+    /// any map) get a cube map's specular term ([`crate::view::reflections::terminal`]);
+    /// off: their kd·D alone (image mode: their map points splatted).
     pub terminal: bool,
 }
 

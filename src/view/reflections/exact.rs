@@ -1,5 +1,5 @@
-//! Surfaces image mode draws into M as geometry, not as splats: emitters and curved
-//! reflectors.
+//! Surfaces image mode draws into M as geometry, not as splats: emitters, curved
+//! reflectors, and near-mirrors when they have terminal cube maps ([`super::terminal`]).
 //!
 //! A radiance map quantises every edge to its pixels: the splat of a map pixel whose centre
 //! ray met a lamp covers that pixel's whole patch, so the lamp's image in a mirror spilled up
@@ -67,10 +67,20 @@ pub const REACH_FRACTION: f32 = 1e-3;
 impl ExactSurfaces {
     /// The [`exact_triangles`] of `scene`.
     pub fn of_scene(scene: &Scene) -> ExactSurfaces {
+        Self::of_scene_with(scene, &[])
+    }
+
+    /// The [`exact_triangles`] of `scene` and `extra` ones (near-mirrors drawn with their
+    /// terminal cube maps).
+    pub fn of_scene_with(scene: &Scene, extra: &[u32]) -> ExactSurfaces {
         let diagonal = scene.bounds.diagonal();
+        let mut all = exact_triangles(scene);
+        all.extend_from_slice(extra);
+        all.sort_unstable();
+        all.dedup();
         ExactSurfaces::new(
             &scene.triangles,
-            exact_triangles(scene),
+            all,
             (diagonal * TOLERANCE_FRACTION).max(1e-6),
             (diagonal * REACH_FRACTION).max(1e-4),
         )

@@ -100,12 +100,11 @@ impl GeometryReflections {
 
     /// [`GeometryReflections::new`] with R read as `reflectance` says; image mode's splats
     /// in buffers of at most `splat_buffer_bytes` (`None`: what the GPU binds in one). With
-    /// `terminal`, geometry mode gives a near-mirror seen in another reflector's map its
-    /// specular term from a cube map made with these settings ([`super::terminal`]). Image
-    /// mode's maps hold that light already (one glossy bounce, [`crate::radiance::shading`]):
-    /// drawing the mirror there as geometry with its cube map, its map points left out, took
-    /// glossy-room's table from 0.028 to 0.007 but its floor from 0.018 to 0.035 (relative
-    /// RMSE alone, `front`), 5.6% → 5.7% over the frame, so it is not done.
+    /// `terminal`, a near-mirror seen in another reflector's map gets its specular term from
+    /// a cube map made with these settings ([`super::terminal`]): in geometry mode on top of
+    /// its kd·D, in image mode drawn exactly in place of its map points
+    /// ([`super::exact`]), whose one glossy bounce ([`crate::radiance::shading`]) shows the
+    /// room as the map's camera, 20 cm behind glossy-room's table, saw it in the mirror.
     #[allow(clippy::too_many_arguments)]
     pub fn with_reflectance(
         gpu: &Gpu,
@@ -121,7 +120,7 @@ impl GeometryReflections {
         let planar = reflectors_with_materials(data, reflectance);
         // A reflector alone sees no other one.
         let terminal = terminal
-            .filter(|_| source == Source::Geometry && planar.len() >= 2)
+            .filter(|_| planar.len() >= 2)
             .map(|s| {
                 (
                     s,
@@ -132,7 +131,15 @@ impl GeometryReflections {
         // Image mode: what the splats leave out and the mirror pass draws as geometry, the
         // same for every reflector.
         let exact = (matches!(source, Source::Image { .. }) && !planar.is_empty())
-            .then(|| super::exact::ExactSurfaces::of_scene(&data.scene));
+            .then(|| {
+                // With terminal cube maps, the near-mirrors too: drawn exactly, with the
+                // specular term their cube map gives the mirrored eye.
+                let mirrors = terminal
+                    .as_ref()
+                    .map(|(_, t)| super::terminal::mirror_triangles(t))
+                    .unwrap_or_default();
+                super::exact::ExactSurfaces::of_scene_with(&data.scene, &mirrors)
+            });
         if let Some(exact) = &exact {
             if data.bundle.stage("radiance").is_none() {
                 return Err(RenderError::Reflections(format!(
@@ -520,7 +527,8 @@ impl GeometryReflections {
                             }
                         }
                         // The surfaces the splats left out, exact to the pixel: kd·D and
-                        // emission, then the curved reflectors' specular term.
+                        // emission, then the curved reflectors' specular term and the
+                        // near-mirrors' (terminal cube maps).
                         if let Some((indices, count)) = &self.exact {
                             pass.set_pipeline(&self.mirror_pipeline);
                             pass.set_bind_group(1, &r.mirror_params_group, &[]);
@@ -530,6 +538,7 @@ impl GeometryReflections {
                             if let Some(c) = curved {
                                 c.draw_mirror(&mut pass, slot);
                             }
+                            self.draw_terminal(&mut pass, slot, camera);
                         }
                     }
                     _ => {

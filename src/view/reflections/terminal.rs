@@ -10,8 +10,16 @@
 //! passes, [`CurvedReflections`], drawn with a keep-list per view). A reflector seen through
 //! another one is small and blurred by that one's kernel, which is where a cube map from one
 //! point is good enough; the recursion's own maps stay exact where they are drawn. A
-//! departure from Nielsen, whose maps end in kd·D. Image mode does not use it: its radiance
-//! maps hold one glossy bounce already ([`crate::radiance::shading`]).
+//! departure from Nielsen, whose maps end in kd·D.
+//!
+//! Image mode uses the same cube maps. Its radiance maps hold one glossy bounce already
+//! ([`crate::radiance::shading`]), but towards the map's camera: glossy-room's table, whose
+//! cameras sit 20 cm behind it, showed the mirror panel's reflection as they saw it. So a
+//! near-mirror's map points are left out of the splats and the mirror is drawn exactly
+//! ([`super::exact`]), kd·D and this specular term: the table's error alone 0.028 → 0.0066,
+//! the floor's 0.020 → 0.017, the `front` view 5.4% → 4.6% from the path tracer. (Tried
+//! before M's alpha carried the unfolded path's beyond fraction, the floor got worse, 0.018
+//! → 0.035: its kernel blurred what the mirror shows as if it lay on the mirror.)
 
 use super::PlanarReflector;
 use crate::brdf::Lobe;
@@ -58,6 +66,16 @@ pub fn terminal_reflectors(scene: &Scene, planar: &[PlanarReflector]) -> Vec<Cur
                 lobes,
             }
         })
+        .collect()
+}
+
+/// The triangles of the near-mirrors among `reflectors` ([`terminal_reflectors`]: those
+/// with lobes), in order.
+pub fn mirror_triangles(reflectors: &[CurvedReflector]) -> Vec<u32> {
+    reflectors
+        .iter()
+        .filter(|r| !r.lobes.is_empty())
+        .flat_map(|r| r.triangles.iter().copied())
         .collect()
 }
 
