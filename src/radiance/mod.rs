@@ -119,8 +119,11 @@ impl MapPlan {
         // eye of bunny-mirror's `orbit` lay 25° from its element's nearest camera, whose
         // pixels 3.7 cm below the floor span 1.2 cm on the bunny's flank, and the
         // reflection's silhouettes came out ragged (image mode 5.3/4.4% from the path tracer,
-        // orbit/front; 4.3/4.0% with 25). The viewer splats 2 maps per element whatever the
-        // count, so more cameras cost bake time and bytes, not frame time.
+        // orbit/front; 4.3/4.0% with 25). Over the orbit's 12 keyframes, image mode against
+        // geometry mode (relative RMSE, 4×4 samples a pixel): 9 cameras 5.0% mean (6.8% worst),
+        // 17 4.3% (5.0%), 25 3.7% (4.1%). The viewer splats 2 maps per element whatever the
+        // count, so more cameras cost bake time, bytes and GPU memory (all maps' points are
+        // uploaded), not frame time.
         let (res, long, cams) = if m <= 0.02 {
             (128.0, 4.0, 25.0)
         } else if m <= 0.1 {
