@@ -115,13 +115,23 @@ fn frame(
     depth: Option<u8>,
     cutoff: f32,
 ) -> (Vec<u8>, Option<recursive::RecursionStats>) {
+    // Nielsen's recursion as written: reflectors past the last level show kd·D alone.
+    frame_with(gpu, depth, cutoff, false)
+}
+
+/// [`frame`], with the terminal cube maps on or off.
+fn frame_with(
+    gpu: &Gpu,
+    depth: Option<u8>,
+    cutoff: f32,
+    terminal: bool,
+) -> (Vec<u8>, Option<recursive::RecursionStats>) {
     let data = corridor();
     let mut off = Offscreen::new(gpu, data, SIZE.0, SIZE.1).unwrap();
-    // Nielsen's recursion as written: reflectors past the last level show kd·D alone.
     off.options.recursion = RecursionSettings {
         depth: depth.unwrap_or(1),
         cutoff,
-        terminal: false,
+        terminal,
     };
     let mode = depth.map_or(ReflectionMode::Off, |_| ReflectionMode::Geometry);
     off.set_reflections(gpu, data, mode)
@@ -220,6 +230,55 @@ fn depth_two_shows_the_second_image_where_geometry_puts_it() {
     );
     // The second image is smaller (farther) than the first.
     assert!(n < red_blob(&two, first).unwrap().1);
+}
+
+/// Terminal cube maps ([`glint::view::reflections::terminal`]) where a mirror seen in a map
+/// has no map of its own: B seen in A's map shows the emitter's second image from B's cube
+/// map, where geometry puts it, both past the last level of the single mirror pass (depth 1)
+/// and where the recursion (depth 2) cuts B's branch by its weight. With them off it is not
+/// there.
+///
+/// Measured (`--nocapture`): 121 pixels turn red in both, centroid 2.2 px from the predicted
+/// centre (the cube map is taken from B's centre; its distance-corrected lookups place the
+/// image).
+#[test]
+fn terminal_cube_maps_show_the_next_image_past_the_last_map() {
+    let gpu = gpu();
+    let data = corridor();
+    let cam = camera(data);
+    let a = Plane {
+        normal: Vec3::X,
+        point: Vec3::new(-1.0, 0.0, 0.0),
+    };
+    let b = Plane {
+        normal: -Vec3::X,
+        point: Vec3::new(1.0, 0.0, 0.0),
+    };
+    let at = project(&cam, mirror_point(&a, mirror_point(&b, EMITTER)));
+    // B's branch weighs 0.9 · 0.9 = 0.81: a cutoff of 0.85 stops it.
+    for (depth, cutoff) in [(1u8, recursive::DEFAULT_WEIGHT_CUTOFF), (2, 0.85)] {
+        let (plain, stats) = frame_with(&gpu, Some(depth), cutoff, false);
+        let (cubed, _) = frame_with(&gpu, Some(depth), cutoff, true);
+        if depth == 2 {
+            let stats = stats.expect("depth 2 is recursive");
+            assert_eq!((stats.maps, stats.culled_weight), (1, 1), "{stats:?}");
+        }
+        assert!(
+            red_blob(&plain, at).is_none(),
+            "depth {depth}: the second image without cube maps"
+        );
+        let (c, n) = red_blob(&cubed, at)
+            .unwrap_or_else(|| panic!("depth {depth}: no image from the cube maps at {at:?}"));
+        let off = ((c.0 - at.0).powi(2) + (c.1 - at.1).powi(2)).sqrt();
+        eprintln!(
+            "depth {depth}: cube-mapped image centroid {c:?} ({n} px), predicted {at:?}, {off:.2} px off"
+        );
+        assert!(n > 50, "depth {depth}: the image has only {n} px");
+        assert!(
+            off <= 2.0 * POSITION_TOLERANCE,
+            "depth {depth}: image at {c:?}, predicted {at:?}"
+        );
+    }
 }
 
 #[test]

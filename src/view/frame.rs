@@ -225,7 +225,7 @@ impl FramePasses {
                 }),
             };
             if o.recursive() {
-                let mut r = RecursiveReflections::new(
+                let r = RecursiveReflections::new(
                     gpu,
                     &self.renderer,
                     data,
@@ -233,10 +233,8 @@ impl FramePasses {
                     h,
                     o.reflectance,
                     o.recursion,
+                    o.recursion.terminal.then_some(o.curved_settings),
                 )?;
-                if o.recursion.terminal {
-                    r.add_terminal(gpu, &self.renderer, data, o.curved_settings)?;
-                }
                 self.recursive = Some(r);
             } else if let Some(source) = source {
                 let r = GeometryReflections::with_reflectance(

@@ -95,7 +95,11 @@ pub struct RecursiveReflections {
 
 impl RecursiveReflections {
     /// The passes for `renderer` drawing `data` on `width` × `height` targets, K and R read as
-    /// `reflectance` says.
+    /// `reflectance` says. With `terminal`, the reflectors are cube-mapped with these
+    /// settings for where one is seen in a map without a map of its own: past the last level,
+    /// or cut by the weight cutoff ([`crate::view::reflections::terminal`]), as
+    /// [`super::super::GeometryReflections::with_reflectance`] does at depth 1.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         gpu: &Gpu,
         renderer: &Renderer,
@@ -104,6 +108,7 @@ impl RecursiveReflections {
         height: u32,
         reflectance: ReflectanceSettings,
         settings: RecursionSettings,
+        terminal: Option<crate::view::curved::CurvedSettings>,
     ) -> Result<RecursiveReflections, RenderError> {
         if settings.depth > MAX_RECURSION_DEPTH {
             return Err(RenderError::Reflections(format!(
@@ -112,9 +117,14 @@ impl RecursiveReflections {
             )));
         }
         let reflectors = reflectors_with_materials(data, reflectance);
-        Ok(Self::build(
-            gpu, renderer, data, width, height, reflectors, settings,
-        )?)
+        let mut built = Self::build(gpu, renderer, data, width, height, reflectors, settings)?;
+        // A reflector alone sees no other one.
+        if let Some(curved) = terminal.filter(|_| built.reflectors.len() >= 2) {
+            use crate::view::reflections::terminal::{terminal_passes, terminal_reflectors};
+            let reflectors = terminal_reflectors(&data.scene, &built.reflectors);
+            built.terminal = terminal_passes(gpu, renderer, data, curved, reflectors)?;
+        }
+        Ok(built)
     }
 
     fn build(
@@ -249,26 +259,6 @@ impl RecursiveReflections {
                 height,
             }
         })
-    }
-
-    /// Cube-maps the reflectors (with `settings`) for where one is seen in a map without a
-    /// map of its own: past the last level, or cut by the weight cutoff
-    /// ([`crate::view::reflections::terminal`]).
-    pub fn add_terminal(
-        &mut self,
-        gpu: &Gpu,
-        renderer: &Renderer,
-        data: &ViewData,
-        settings: crate::view::curved::CurvedSettings,
-    ) -> Result<(), RenderError> {
-        self.terminal = None;
-        if self.reflectors.len() < 2 {
-            return Ok(());
-        }
-        use crate::view::reflections::terminal::{terminal_passes, terminal_reflectors};
-        let reflectors = terminal_reflectors(&data.scene, &self.reflectors);
-        self.terminal = terminal_passes(gpu, renderer, data, settings, reflectors)?;
-        Ok(())
     }
 
     /// The settings it was built with.
