@@ -177,19 +177,26 @@ fn red_blob(rgba: &[u8], at: (f32, f32)) -> Option<((f32, f32), usize)> {
     (n > 0).then(|| ((sx / n as f32, sy / n as f32), n))
 }
 
+/// The corridor's mirrors: A at x = −1 facing +x, B at x = +1 facing −x.
+fn mirror_planes() -> (Plane, Plane) {
+    (
+        Plane {
+            normal: Vec3::X,
+            point: Vec3::new(-1.0, 0.0, 0.0),
+        },
+        Plane {
+            normal: -Vec3::X,
+            point: Vec3::new(1.0, 0.0, 0.0),
+        },
+    )
+}
+
 #[test]
 fn depth_two_shows_the_second_image_where_geometry_puts_it() {
     let gpu = gpu();
     let data = corridor();
     let cam = camera(data);
-    let a = Plane {
-        normal: Vec3::X,
-        point: Vec3::new(-1.0, 0.0, 0.0),
-    };
-    let b = Plane {
-        normal: -Vec3::X,
-        point: Vec3::new(1.0, 0.0, 0.0),
-    };
+    let (a, b) = mirror_planes();
     // The emitter's images: about A (first), about B then A (second).
     let first = project(&cam, mirror_point(&a, EMITTER));
     let second = project(&cam, mirror_point(&a, mirror_point(&b, EMITTER)));
@@ -246,14 +253,7 @@ fn terminal_cube_maps_show_the_next_image_past_the_last_map() {
     let gpu = gpu();
     let data = corridor();
     let cam = camera(data);
-    let a = Plane {
-        normal: Vec3::X,
-        point: Vec3::new(-1.0, 0.0, 0.0),
-    };
-    let b = Plane {
-        normal: -Vec3::X,
-        point: Vec3::new(1.0, 0.0, 0.0),
-    };
+    let (a, b) = mirror_planes();
     let at = project(&cam, mirror_point(&a, mirror_point(&b, EMITTER)));
     // B's branch weighs 0.9 · 0.9 = 0.81: a cutoff of 0.85 stops it.
     for (depth, cutoff) in [(1u8, recursive::DEFAULT_WEIGHT_CUTOFF), (2, 0.85)] {
@@ -597,14 +597,7 @@ fn depth_two_approaches_the_path_tracer_where_the_second_image_is() {
         }
         out
     };
-    let a = Plane {
-        normal: Vec3::X,
-        point: Vec3::new(-1.0, 0.0, 0.0),
-    };
-    let b = Plane {
-        normal: -Vec3::X,
-        point: Vec3::new(1.0, 0.0, 0.0),
-    };
+    let (a, b) = mirror_planes();
     let second = project(&cam, mirror_point(&a, mirror_point(&b, EMITTER)));
     let (cx, cy) = ((second.0 / 2.0) as i64, (second.1 / 2.0) as i64);
     let r = i64::from(WINDOW / 2);
