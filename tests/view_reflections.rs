@@ -317,7 +317,11 @@ fn image_mode_draws_near_mirrors_with_their_cube_maps() {
             err_splatted / n,
             err_exact / n
         );
-        assert!(moved > 500, "{}: the cube maps changed {moved} px", path.name);
+        assert!(
+            moved > 500,
+            "{}: the cube maps changed {moved} px",
+            path.name
+        );
         assert!(
             err_exact < 0.2 * err_splatted,
             "{}: {:.4} with the cube maps vs {:.4} without",

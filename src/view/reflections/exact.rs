@@ -65,14 +65,9 @@ pub const TOLERANCE_FRACTION: f32 = 1e-5;
 pub const REACH_FRACTION: f32 = 1e-3;
 
 impl ExactSurfaces {
-    /// The [`exact_triangles`] of `scene`.
-    pub fn of_scene(scene: &Scene) -> ExactSurfaces {
-        Self::of_scene_with(scene, &[])
-    }
-
     /// The [`exact_triangles`] of `scene` and `extra` ones (near-mirrors drawn with their
     /// terminal cube maps).
-    pub fn of_scene_with(scene: &Scene, extra: &[u32]) -> ExactSurfaces {
+    pub fn of_scene(scene: &Scene, extra: &[u32]) -> ExactSurfaces {
         let diagonal = scene.bounds.diagonal();
         let mut all = exact_triangles(scene);
         all.extend_from_slice(extra);

@@ -118,28 +118,18 @@ impl GeometryReflections {
         terminal: Option<CurvedSettings>,
     ) -> Result<GeometryReflections, RenderError> {
         let planar = reflectors_with_materials(data, reflectance);
-        // A reflector alone sees no other one.
-        let terminal = terminal
-            .filter(|_| planar.len() >= 2)
-            .map(|s| {
-                (
-                    s,
-                    super::terminal::terminal_reflectors(&data.scene, &planar),
-                )
-            });
+        let terminal = super::terminal::terminal_passes(gpu, renderer, data, terminal, &planar)?;
         let mut splats = Vec::new();
         // Image mode: what the splats leave out and the mirror pass draws as geometry, the
-        // same for every reflector.
-        let exact = (matches!(source, Source::Image { .. }) && !planar.is_empty())
-            .then(|| {
-                // With terminal cube maps, the near-mirrors too: drawn exactly, with the
-                // specular term their cube map gives the mirrored eye.
-                let mirrors = terminal
-                    .as_ref()
-                    .map(|(_, t)| super::terminal::mirror_triangles(t))
-                    .unwrap_or_default();
-                super::exact::ExactSurfaces::of_scene_with(&data.scene, &mirrors)
-            });
+        // same for every reflector; with terminal cube maps, the near-mirrors too, drawn with
+        // the specular term their cube map gives the mirrored eye.
+        let exact = (matches!(source, Source::Image { .. }) && !planar.is_empty()).then(|| {
+            let mirrors = terminal
+                .as_ref()
+                .map(super::terminal::mirror_triangles)
+                .unwrap_or_default();
+            super::exact::ExactSurfaces::of_scene(&data.scene, &mirrors)
+        });
         if let Some(exact) = &exact {
             if data.bundle.stage("radiance").is_none() {
                 return Err(RenderError::Reflections(format!(
@@ -159,10 +149,7 @@ impl GeometryReflections {
         let mut built = Self::build(
             gpu, renderer, data, width, height, source, planar, splats, &exact,
         )?;
-        if let Some((settings, reflectors)) = terminal {
-            built.terminal =
-                super::terminal::terminal_passes(gpu, renderer, data, settings, reflectors)?;
-        }
+        built.terminal = terminal;
         Ok(built)
     }
 

@@ -69,28 +69,34 @@ pub fn terminal_reflectors(scene: &Scene, planar: &[PlanarReflector]) -> Vec<Cur
         .collect()
 }
 
-/// The triangles of the near-mirrors among `reflectors` ([`terminal_reflectors`]: those
-/// with lobes), in order.
-pub fn mirror_triangles(reflectors: &[CurvedReflector]) -> Vec<u32> {
-    reflectors
-        .iter()
+/// The triangles of the near-mirrors `passes` ([`terminal_passes`]) draws (those with
+/// lobes), in order: image mode draws them exactly instead of splatting their map points.
+pub fn mirror_triangles(passes: &CurvedReflections) -> Vec<u32> {
+    passes
+        .reflectors()
         .filter(|r| !r.lobes.is_empty())
         .flat_map(|r| r.triangles.iter().copied())
         .collect()
 }
 
-/// The cube-map passes of `reflectors` ([`terminal_reflectors`]) with `settings`' face size,
-/// samples and parallax; one generation (no interreflection between the cube-mapped mirrors:
-/// light already two reflections deep, and each generation costs six renders of the scene
-/// per mirror when the passes are built) and no self-reflection (a plane does not see
-/// itself). `None` when none of them has a lobe.
+/// The cube-map passes of `planar`'s near-mirrors ([`terminal_reflectors`], index for index)
+/// with `settings`' face size, samples and parallax; one generation (no interreflection
+/// between the cube-mapped mirrors: light already two reflections deep, and each generation
+/// costs six renders of the scene per mirror when the passes are built) and no
+/// self-reflection (a plane does not see itself). `None` without `settings`, when a reflector
+/// is alone (it sees no other one) or when none of them is a near-mirror. Geometry mode (one
+/// level or the recursion) and image mode build theirs here.
 pub fn terminal_passes(
     gpu: &Gpu,
     renderer: &Renderer,
     data: &ViewData,
-    settings: CurvedSettings,
-    reflectors: Vec<CurvedReflector>,
+    settings: Option<CurvedSettings>,
+    planar: &[PlanarReflector],
 ) -> Result<Option<CurvedReflections>, RenderError> {
+    let Some(settings) = settings.filter(|_| planar.len() >= 2) else {
+        return Ok(None);
+    };
+    let reflectors = terminal_reflectors(&data.scene, planar);
     if reflectors.iter().all(|r| r.lobes.is_empty()) {
         return Ok(None);
     }

@@ -404,6 +404,11 @@ impl CurvedReflections {
         })
     }
 
+    /// The reflectors it draws, in order.
+    pub fn reflectors(&self) -> impl Iterator<Item = &CurvedReflector> {
+        self.reflectors.iter().map(|r| &r.reflector)
+    }
+
     /// How many reflectors it draws.
     pub fn reflector_count(&self) -> usize {
         self.reflectors.len()

@@ -118,12 +118,13 @@ impl RecursiveReflections {
         }
         let reflectors = reflectors_with_materials(data, reflectance);
         let mut built = Self::build(gpu, renderer, data, width, height, reflectors, settings)?;
-        // A reflector alone sees no other one.
-        if let Some(curved) = terminal.filter(|_| built.reflectors.len() >= 2) {
-            use crate::view::reflections::terminal::{terminal_passes, terminal_reflectors};
-            let reflectors = terminal_reflectors(&data.scene, &built.reflectors);
-            built.terminal = terminal_passes(gpu, renderer, data, curved, reflectors)?;
-        }
+        built.terminal = crate::view::reflections::terminal::terminal_passes(
+            gpu,
+            renderer,
+            data,
+            terminal,
+            &built.reflectors,
+        )?;
         Ok(built)
     }
 
