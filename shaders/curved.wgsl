@@ -442,6 +442,19 @@ fn curved_environment(offset: vec3<f32>, dir: vec3<f32>, lod: f32, own_lod: f32)
     return textureSampleLevel(env, env_sampler, curved_lookup(offset, dir), lod).rgb;
 }
 
+// `curved_environment` at level 0 for a caller that has made the lookup `u` of `dir` already
+// (`fs_curved_mirror` reads the hit distance there too).
+fn curved_environment_at(offset: vec3<f32>, dir: vec3<f32>, u: vec3<f32>) -> vec3<f32> {
+    if curved.centre.w > 0.0 {
+        let origin = curved.centre.xyz + offset;
+        let hit = own_closest(origin, dir, own_t_min(origin));
+        if hit.x >= 0.0 {
+            return own_radiance(hit, offset, dir, 0.0);
+        }
+    }
+    return textureSampleLevel(env, env_sampler, u, 0.0).rgb;
+}
+
 // Eq. 9 with a regular pattern: (1/N) Σ L(ω_i) f(ω_i, ω_o) cos θ_i / p(ω_i), p from Eq. 17–18,
 // each L at its Eq. 16 level (`envmap::specular_regular`, ks included here).
 fn specular_regular(l: CurvedLobe, frame_m: mat3x3<f32>, wo_l: vec3<f32>, offset: vec3<f32>) -> vec3<f32> {
@@ -475,28 +488,32 @@ fn specular_regular(l: CurvedLobe, frame_m: mat3x3<f32>, wo_l: vec3<f32>, offset
 }
 
 // One lookup in the mirror direction, weighted by ks and Schlick's Fresnel at n·ω_o.
-fn specular_mirror(l: CurvedLobe, n: vec3<f32>, wo: vec3<f32>, offset: vec3<f32>) -> vec3<f32> {
+// Every lobe's mirror term, ks·F(n·wo), times the `radiance` the mirror direction sees (one
+// lookup shared by the lobes).
+fn specular_mirror(n: vec3<f32>, wo: vec3<f32>, radiance: vec3<f32>) -> vec3<f32> {
     let c = dot(n, wo);
     if c <= 0.0 {
         return vec3<f32>(0.0);
     }
-    let radiance = curved_environment(offset, reflect_about(wo, n), 0.0, 0.0);
-    return l.ks.rgb * fresnel_schlick(l.ks.a, c) * radiance;
+    var sum = vec3<f32>(0.0);
+    for (var i = 0u; i < min(curved.info.x, 2u); i++) {
+        let l = curved.lobes[i];
+        sum += l.ks.rgb * fresnel_schlick(l.ks.a, c);
+    }
+    return sum * radiance;
 }
 
 // The specular radiance of every lobe at the point `offset` from the centre, with normal `n`,
 // seen from direction `wo` (unit, world).
 fn curved_specular(offset: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, regular: bool) -> vec3<f32> {
+    if !regular {
+        return specular_mirror(n, wo, curved_environment(offset, reflect_about(wo, n), 0.0, 0.0));
+    }
     var sum = vec3<f32>(0.0);
     let frame_m = curved_basis(n);
     let wo_l = wo * frame_m; // to the tangent frame: dot with each column
     for (var i = 0u; i < min(curved.info.x, 2u); i++) {
-        let l = curved.lobes[i];
-        if regular {
-            sum += specular_regular(l, frame_m, wo_l, offset);
-        } else {
-            sum += specular_mirror(l, n, wo, offset);
-        }
+        sum += specular_regular(curved.lobes[i], frame_m, wo_l, offset);
     }
     return sum;
 }
@@ -558,12 +575,20 @@ fn fs_curved_mirror(in: CurvedOut) -> @location(0) vec4<f32> {
     let wo = normalize(curved.eye.xyz - in.world);
     let offset = in.world - curved.centre.xyz;
     let n = facing_normal(in);
-    let c = curved_specular(offset, n, wo, curved.info.y != 0u) * frame.exposure;
+    let r = reflect_about(wo, n);
+    let u = curved_lookup(offset, r);
+    var c: vec3<f32>;
+    if curved.info.y != 0u {
+        c = curved_specular(offset, n, wo, true);
+    } else {
+        // One lookup for the mirror term and the hit distance below.
+        c = specular_mirror(n, wo, curved_environment_at(offset, r, u));
+    }
+    c = c * frame.exposure;
     // M's alpha (K's scale in the composite) for what this reflector shows: the beyond
     // fraction of the unfolded path, mirrored eye → this point → what its mirror direction
     // meets, not of this point (the blend replaces M's alpha). The mirror's reflection of a
     // lamp seen in a glossy floor is blurred as far as the lamp lies, not the mirror.
-    let u = curved_lookup(offset, reflect_about(wo, n));
     let s = textureSampleLevel(env_distance, env_sampler, u, 0.0).a;
     let d_hit = select(0.0, length(curved.centre.xyz + u * s - in.world), s > 0.0);
     let to_q = length(in.world - curved.eye.xyz);
