@@ -50,6 +50,7 @@ pub struct RenderPipelineBuilder<'a> {
     targets: Vec<Option<wgpu::ColorTargetState>>,
     depth: Option<wgpu::DepthStencilState>,
     topology: wgpu::PrimitiveTopology,
+    constants: Vec<(&'a str, f64)>,
 }
 
 /// A pipeline `label` drawing with `shader`'s `vs` and `fs` entry points; by default a
@@ -70,6 +71,7 @@ pub fn render_pipeline<'a>(
         targets: Vec::new(),
         depth: None,
         topology: wgpu::PrimitiveTopology::TriangleList,
+        constants: Vec::new(),
     }
 }
 
@@ -119,8 +121,18 @@ impl<'a> RenderPipelineBuilder<'a> {
         self
     }
 
+    /// Sets the shader's pipeline-overridable bool `name` (a WGSL `override`) in both stages.
+    pub fn override_bool(mut self, name: &'a str, value: bool) -> Self {
+        self.constants.push((name, f64::from(u8::from(value))));
+        self
+    }
+
     /// Creates the pipeline layout and the pipeline.
     pub fn build(self, device: &wgpu::Device) -> wgpu::RenderPipeline {
+        let options = || wgpu::PipelineCompilationOptions {
+            constants: &self.constants,
+            ..Default::default()
+        };
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some(self.label),
             bind_group_layouts: &self.layouts,
@@ -132,7 +144,7 @@ impl<'a> RenderPipelineBuilder<'a> {
             vertex: wgpu::VertexState {
                 module: self.shader,
                 entry_point: Some(self.vs),
-                compilation_options: wgpu::PipelineCompilationOptions::default(),
+                compilation_options: options(),
                 buffers: &self.buffers,
             },
             primitive: wgpu::PrimitiveState {
@@ -145,7 +157,7 @@ impl<'a> RenderPipelineBuilder<'a> {
             fragment: Some(wgpu::FragmentState {
                 module: self.shader,
                 entry_point: Some(self.fs),
-                compilation_options: wgpu::PipelineCompilationOptions::default(),
+                compilation_options: options(),
                 targets: &self.targets,
             }),
             multiview_mask: None,

@@ -12,8 +12,10 @@
 //!   scene's images and material records in the frame bind group
 //!   ([`super::surface_textures`]). Only triangles of alpha-masked materials are drawn with
 //!   that shader (`fs_main`); the rest with one that never discards (`fs_opaque`), which lets
-//!   the depth test run before shading. The draw is split into runs in scene order
-//!   ([`alpha_runs`]), so it draws what one draw would, in the same order.
+//!   the depth test run before shading, and triangles of materials with neither textures nor
+//!   cut-outs with `fs_opaque` specialised to leave the textures out (`SURFACE_TEXTURES`
+//!   false, [`SurfaceShading`]). The draw is split into runs in scene order
+//!   ([`shading_runs`]), so it draws what one draw would, in the same order.
 //! - The atlas pages in one `Rgba16Float` 2D texture array, every layer the size of the largest
 //!   page; smaller pages are padded by repeating their edge texels, so the clamp-to-edge
 //!   sampler behaves at a page's edge exactly as the CPU's clamped lookups do.
@@ -41,7 +43,7 @@ pub use super::target::{
 use crate::camera::Camera;
 use crate::radiosity::RadiosityMap;
 use crate::radiosity::atlas::Atlas;
-use crate::scene::Scene;
+use crate::scene::{Material, Scene};
 
 /// WGSL source of the viewer's shaders.
 pub const SHADER_SOURCE: &str = include_str!("../../shaders/view.wgsl");
@@ -201,33 +203,74 @@ impl SceneMesh {
     }
 }
 
-/// A run of consecutive scene triangles whose materials all have alpha cut-outs or all have
-/// none, as a range of [`SceneMesh::indices`].
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct AlphaRun {
-    /// Indices of the run's triangles (three per triangle, scene order).
-    pub indices: Range<u32>,
-    /// Whether the run's materials have cut-outs (drawn with the discarding shader).
-    pub masked: bool,
+/// Which of the scene pass's fragment shaders a material's triangles need.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SurfaceShading {
+    /// D as stored: no base colour texture, no cut-outs (`fs_opaque` with `SURFACE_TEXTURES`
+    /// false).
+    Plain,
+    /// D times the base colour texture plus textured emission (`fs_opaque`).
+    Textured,
+    /// Textured, and alpha-masked cut-outs discarded (`fs_main`).
+    Masked,
 }
 
-/// Triangles, given whether each one's material has cut-outs (in scene order), split into
-/// maximal [`AlphaRun`]s: a scene without alpha-masked materials is one opaque run; an empty
-/// scene has none.
-pub fn alpha_runs(masked: impl IntoIterator<Item = bool>) -> Vec<AlphaRun> {
-    let mut runs: Vec<AlphaRun> = Vec::new();
-    for (t, masked) in masked.into_iter().enumerate() {
+impl SurfaceShading {
+    /// The shading `material` needs (as [`super::surface_textures::material_records`] reads
+    /// it: a material without a base colour texture stores D itself).
+    pub fn of(material: &Material) -> SurfaceShading {
+        if material.has_cutouts() {
+            SurfaceShading::Masked
+        } else if material.base_texture.is_some() {
+            SurfaceShading::Textured
+        } else {
+            SurfaceShading::Plain
+        }
+    }
+
+    /// The shading of each of `scene`'s triangles, in scene order (a triangle whose material
+    /// index is out of range is drawn as the GPU's material table pads it: plain).
+    pub fn of_triangles(scene: &Scene) -> impl Iterator<Item = SurfaceShading> + '_ {
+        scene.triangles.iter().map(|t| {
+            scene
+                .materials
+                .get(t.material as usize)
+                .map_or(SurfaceShading::Plain, SurfaceShading::of)
+        })
+    }
+}
+
+/// A run of consecutive scene triangles of one [`SurfaceShading`], as a range of
+/// [`SceneMesh::indices`].
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ShadingRun {
+    /// Indices of the run's triangles (three per triangle, scene order).
+    pub indices: Range<u32>,
+    /// The fragment shader that draws them.
+    pub shading: SurfaceShading,
+}
+
+/// Triangles, given each one's [`SurfaceShading`] (in scene order), split into maximal
+/// [`ShadingRun`]s: a scene of untextured opaque materials is one run; an empty scene has
+/// none.
+pub fn shading_runs(shadings: impl IntoIterator<Item = SurfaceShading>) -> Vec<ShadingRun> {
+    let mut runs: Vec<ShadingRun> = Vec::new();
+    for (t, shading) in shadings.into_iter().enumerate() {
         let end = 3 * (t as u32 + 1);
         match runs.last_mut() {
-            Some(run) if run.masked == masked => run.indices.end = end,
-            _ => runs.push(AlphaRun {
+            Some(run) if run.shading == shading => run.indices.end = end,
+            _ => runs.push(ShadingRun {
                 indices: end - 3..end,
-                masked,
+                shading,
             }),
         }
     }
     runs
 }
+
+/// The `override` in view.wgsl that specialises a pipeline to scenes (or runs) without
+/// surface textures or cut-outs ([`SurfaceShading::Plain`]).
+pub(crate) const SURFACE_TEXTURES: &str = "SURFACE_TEXTURES";
 
 /// World-to-clip matrix of `camera` for an image of `aspect` = width / height: a reverse-Z
 /// perspective with the far plane at infinity. Consistent with [`Camera::ray_direction`]: the
@@ -322,11 +365,13 @@ pub(crate) fn uniform_buffer(device: &wgpu::Device) -> wgpu::Buffer {
 
 /// The scene on the GPU and the pipeline that draws it.
 pub struct Renderer {
-    /// `fs_opaque`: triangles without cut-outs.
+    /// `fs_opaque` without the surface textures: [`SurfaceShading::Plain`] triangles.
+    plain_pipeline: wgpu::RenderPipeline,
+    /// `fs_opaque`: [`SurfaceShading::Textured`] triangles.
     pipeline: wgpu::RenderPipeline,
     /// `fs_main`: triangles of alpha-masked materials.
     masked_pipeline: wgpu::RenderPipeline,
-    runs: Vec<AlphaRun>,
+    runs: Vec<ShadingRun>,
     bind_group: wgpu::BindGroup,
     uniforms: wgpu::Buffer,
     vertices: wgpu::Buffer,
@@ -367,17 +412,19 @@ impl Renderer {
                 blend: None,
                 write_mask: wgpu::ColorWrites::ALL,
             });
-            let pipeline = |label, entry| {
+            let pipeline = |label, entry, textures| {
                 render_pipeline(label, &shader, "vs_main", entry)
                     .layouts(&[&bind_group_layout])
                     .vertex(scene_vertex_layout())
                     .depth(reverse_z_depth(true, wgpu::CompareFunction::Greater))
                     .color(formats.color, None)
                     .target(hdr_target.clone())
+                    .override_bool(SURFACE_TEXTURES, textures)
                     .build(device)
             };
-            let opaque = pipeline("glint view pipeline", "fs_opaque");
-            let masked = pipeline("glint view pipeline (cut-outs)", "fs_main");
+            let plain = pipeline("glint view pipeline (untextured)", "fs_opaque", false);
+            let opaque = pipeline("glint view pipeline", "fs_opaque", true);
+            let masked = pipeline("glint view pipeline (cut-outs)", "fs_main", true);
             let vertex_buffer = buffer_init(
                 gpu,
                 "glint scene vertices",
@@ -393,24 +440,25 @@ impl Renderer {
                 4,
             );
             (
-                (opaque, masked),
+                (plain, opaque, masked),
                 bind_group,
                 uniforms,
                 vertex_buffer,
                 index_buffer,
             )
         })?;
-        let ((pipeline, masked_pipeline), bind_group, uniforms, vertex_buffer, index_buffer) =
-            renderer;
+        let (
+            (plain_pipeline, pipeline, masked_pipeline),
+            bind_group,
+            uniforms,
+            vertex_buffer,
+            index_buffer,
+        ) = renderer;
         Ok(Renderer {
+            plain_pipeline,
             pipeline,
             masked_pipeline,
-            runs: alpha_runs(scene.triangles.iter().map(|t| {
-                scene
-                    .materials
-                    .get(t.material as usize)
-                    .is_some_and(|m| m.has_cutouts())
-            })),
+            runs: shading_runs(SurfaceShading::of_triangles(scene)),
             bind_group,
             uniforms,
             vertices: vertex_buffer,
@@ -452,6 +500,13 @@ impl Renderer {
         self.index_count
     }
 
+    /// Whether any triangle needs the surface textures (a textured or alpha-masked
+    /// material): the [`SURFACE_TEXTURES`] value of the other passes' pipelines that draw the
+    /// scene's triangles with view.wgsl's `surface_d` and `cut_out`.
+    pub(crate) fn surface_textures(&self) -> bool {
+        self.runs.iter().any(|r| r.shading != SurfaceShading::Plain)
+    }
+
     /// The uniforms for `camera` on a `width` × `height` target.
     pub fn uniforms(&self, camera: &Camera, width: u32, height: u32) -> FrameUniforms {
         let aspect = width.max(1) as f32 / height.max(1) as f32;
@@ -473,7 +528,7 @@ impl Renderer {
     }
 
     /// Records the scene's render pass: clears colour to black and depth to 0 (reverse Z),
-    /// draws every triangle, each [`AlphaRun`] with its pipeline. `hdr` must be given exactly
+    /// draws every triangle, each [`ShadingRun`] with its pipeline. `hdr` must be given exactly
     /// when the pipeline has an HDR target.
     pub fn draw(
         &self,
@@ -496,10 +551,10 @@ impl Renderer {
         pass.set_vertex_buffer(0, self.vertices.slice(..));
         pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
         for run in &self.runs {
-            pass.set_pipeline(if run.masked {
-                &self.masked_pipeline
-            } else {
-                &self.pipeline
+            pass.set_pipeline(match run.shading {
+                SurfaceShading::Plain => &self.plain_pipeline,
+                SurfaceShading::Textured => &self.pipeline,
+                SurfaceShading::Masked => &self.masked_pipeline,
             });
             pass.draw_indexed(run.indices.clone(), 0, 0..1);
         }
@@ -546,19 +601,69 @@ mod tests {
     }
 
     #[test]
-    fn alpha_runs_cover_every_triangle_in_order() {
-        assert_eq!(alpha_runs([]), vec![]);
-        let run = |indices: Range<u32>, masked| AlphaRun { indices, masked };
-        assert_eq!(alpha_runs([false; 4]), vec![run(0..12, false)]);
-        assert_eq!(alpha_runs([true]), vec![run(0..3, true)]);
+    fn shading_runs_cover_every_triangle_in_order() {
+        use SurfaceShading::{Masked, Plain, Textured};
+        assert_eq!(shading_runs([]), vec![]);
+        let run = |indices: Range<u32>, shading| ShadingRun { indices, shading };
+        assert_eq!(shading_runs([Plain; 4]), vec![run(0..12, Plain)]);
+        assert_eq!(shading_runs([Masked]), vec![run(0..3, Masked)]);
         assert_eq!(
-            alpha_runs([false, false, true, true, true, false]),
-            vec![run(0..6, false), run(6..15, true), run(15..18, false)]
+            shading_runs([Plain, Plain, Masked, Masked, Masked, Textured]),
+            vec![run(0..6, Plain), run(6..15, Masked), run(15..18, Textured)]
         );
         assert_eq!(
-            alpha_runs([true, false, true]),
-            vec![run(0..3, true), run(3..6, false), run(6..9, true)]
+            shading_runs([Textured, Plain, Textured]),
+            vec![run(0..3, Textured), run(3..6, Plain), run(6..9, Textured)]
         );
+    }
+
+    #[test]
+    fn a_material_is_plain_without_base_texture_or_cut_outs() {
+        use crate::scene::material::{AlphaMode, TextureRef};
+        let plain = Material {
+            name: "plain".into(),
+            albedo: Vec3::splat(0.5),
+            emission: Vec3::ZERO,
+            lobes: Vec::new(),
+            base_texture: None,
+            emissive_texture: None,
+            alpha_factor: 1.0,
+            alpha_mode: AlphaMode::Opaque,
+            double_sided: false,
+        };
+        let texture = TextureRef {
+            image: 0,
+            sampler: Default::default(),
+            tex_coord: 0,
+            transform: Default::default(),
+        };
+        let textured = Material {
+            base_texture: Some(texture),
+            ..plain.clone()
+        };
+        // An emissive texture alone is not read: without a base colour texture the texels
+        // hold D itself, emission included (`surface_textures::material_records`).
+        let emissive_only = Material {
+            emissive_texture: Some(texture),
+            emission: Vec3::ONE,
+            ..plain.clone()
+        };
+        // A cut-out needs the textures even without a base colour texture (the alpha factor
+        // alone can cut).
+        let masked = Material {
+            alpha_mode: AlphaMode::Mask { cutoff: 0.5 },
+            alpha_factor: 0.25,
+            ..plain.clone()
+        };
+        assert_eq!(SurfaceShading::of(&plain), SurfaceShading::Plain);
+        assert_eq!(SurfaceShading::of(&emissive_only), SurfaceShading::Plain);
+        assert_eq!(SurfaceShading::of(&textured), SurfaceShading::Textured);
+        assert_eq!(SurfaceShading::of(&masked), SurfaceShading::Masked);
+        let masked_textured = Material {
+            alpha_mode: AlphaMode::Mask { cutoff: 0.5 },
+            ..textured
+        };
+        assert_eq!(SurfaceShading::of(&masked_textured), SurfaceShading::Masked);
     }
 
     #[test]

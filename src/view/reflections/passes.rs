@@ -29,8 +29,8 @@ use crate::view::curved::gpu::CurvedReflections;
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
 use crate::view::renderer::{
-    HDR_FORMAT, RenderError, Renderer, frame_bind_group, frame_bind_group_layout, reverse_z_depth,
-    scene_vertex_layout, uniform_buffer,
+    HDR_FORMAT, RenderError, Renderer, SURFACE_TEXTURES, frame_bind_group, frame_bind_group_layout,
+    reverse_z_depth, scene_vertex_layout, uniform_buffer,
 };
 
 struct ReflectorGpu {
@@ -187,6 +187,7 @@ impl GeometryReflections {
                     .vertex(scene_vertex_layout())
                     .color(HDR_FORMAT, None)
                     .depth(reverse_z_depth(true, wgpu::CompareFunction::Greater))
+                    .override_bool(SURFACE_TEXTURES, renderer.surface_textures())
                     .build(device);
             let splat_pipeline =
                 render_pipeline("glint splat pipeline", &shader, "vs_splat", "fs_splat")

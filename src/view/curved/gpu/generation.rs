@@ -9,7 +9,7 @@ use super::{CubeTexture, CurvedReflections, MIN_BUFFER};
 use crate::view::build::{bind_group_layout, buffer_init, render_pipeline};
 use crate::view::gpu::Gpu;
 use crate::view::renderer::{
-    ADDITIVE_KEEP_ALPHA, HDR_FORMAT, reverse_z_depth, scene_vertex_layout,
+    ADDITIVE_KEEP_ALPHA, HDR_FORMAT, SURFACE_TEXTURES, reverse_z_depth, scene_vertex_layout,
 };
 use crate::view::target::clear_pass;
 
@@ -127,6 +127,7 @@ impl GenerationPipelines {
         frame_layout: &wgpu::BindGroupLayout,
         curved_layout: &wgpu::BindGroupLayout,
         face_size: u32,
+        surface_textures: bool,
         gpu: &Gpu,
     ) -> GenerationPipelines {
         let additive = Some(ADDITIVE_KEEP_ALPHA);
@@ -135,6 +136,7 @@ impl GenerationPipelines {
             .vertex(scene_vertex_layout())
             .color(HDR_FORMAT, None)
             .depth(reverse_z_depth(true, wgpu::CompareFunction::Greater))
+            .override_bool(SURFACE_TEXTURES, surface_textures)
             .build(device);
         let interreflect = render_pipeline(
             "glint cube interreflection",
@@ -145,6 +147,7 @@ impl GenerationPipelines {
         .layouts(&[frame_layout, curved_layout])
         .vertex(CurvedVertex::layout())
         .color(HDR_FORMAT, additive)
+        .override_bool(SURFACE_TEXTURES, surface_textures)
         .depth(reverse_z_depth(false, wgpu::CompareFunction::GreaterEqual))
         .build(device);
         let mip_layout = bind_group_layout()

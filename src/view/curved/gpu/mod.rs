@@ -38,8 +38,8 @@ use crate::view::composite::Composite;
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
 use crate::view::renderer::{
-    ADDITIVE_KEEP_ALPHA, HDR_FORMAT, RenderError, Renderer, SceneMesh, frame_bind_group,
-    frame_bind_group_layout, reverse_z_depth, uniform_buffer,
+    ADDITIVE_KEEP_ALPHA, HDR_FORMAT, RenderError, Renderer, SURFACE_TEXTURES, SceneMesh,
+    frame_bind_group, frame_bind_group_layout, reverse_z_depth, uniform_buffer,
 };
 
 /// Smallest buffer the curved passes make (a pattern buffer may be empty).
@@ -191,6 +191,7 @@ impl CurvedReflections {
         let scene = &data.scene;
         let mesh = SceneMesh::new(scene, &data.map.atlas);
         let xi0 = baked_xi0(data);
+        let textures = renderer.surface_textures();
         error_scoped(device, "creating the curved-reflector passes", || {
             let shader = shader(device, "glint curved shader", &shader_source());
             let frame_layout = frame_bind_group_layout(device);
@@ -211,7 +212,8 @@ impl CurvedReflections {
                 &frame_layout,
                 render_pipeline("glint curved composite", &shader, "vs_curved", "fs_curved")
                     .layouts(&[&frame_layout, &curved_layout])
-                    .vertex(CurvedVertex::layout()),
+                    .vertex(CurvedVertex::layout())
+                    .override_bool(SURFACE_TEXTURES, textures),
             );
             // Inside a mirror pass: one linear HDR target (M), depth tested, not written; the
             // specular term added, M's alpha (the beyond fraction K's scale reads) replaced by
@@ -232,6 +234,7 @@ impl CurvedReflections {
                 }),
             )
             .depth(reverse_z_depth(false, wgpu::CompareFunction::GreaterEqual))
+            .override_bool(SURFACE_TEXTURES, textures)
             .build(device);
             let generation = GenerationPipelines::new(
                 device,
@@ -239,6 +242,7 @@ impl CurvedReflections {
                 &frame_layout,
                 &curved_layout,
                 face_size,
+                textures,
                 gpu,
             );
             let in_reflector = {

@@ -27,7 +27,7 @@ use crate::view::curved::gpu::CurvedReflections;
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
 use crate::view::renderer::{
-    ADDITIVE_KEEP_ALPHA, HDR_FORMAT, RenderError, Renderer, frame_bind_group,
+    ADDITIVE_KEEP_ALPHA, HDR_FORMAT, RenderError, Renderer, SURFACE_TEXTURES, frame_bind_group,
     frame_bind_group_layout, reverse_z_depth, scene_vertex_layout, uniform_buffer,
 };
 
@@ -173,6 +173,7 @@ impl RecursiveReflections {
                 reverse_z_depth(true, wgpu::CompareFunction::Greater),
             )
             .color(HDR_FORMAT, None)
+            .override_bool(SURFACE_TEXTURES, renderer.surface_textures())
             .build(device);
             // A level-(k+1) map onto its reflector in map k (linear, `encode_srgb` = 0; the shader's
             // HDR output has no target here).
