@@ -879,6 +879,48 @@ fn gpu_time_spans_the_reflection_passes() {
     );
 }
 
+/// A reflector the camera does not see gets no passes, though it faces the camera: looking
+/// straight up from the first pose of glossy-room's path, the floor, the table top and the
+/// mirror panel all lie on their reflecting side of the eye but out of view. The frame is
+/// then the frame without reflections, byte for byte, in both modes.
+#[test]
+fn reflectors_out_of_view_get_no_passes() {
+    use glint::camera::Camera;
+    let data = load(glossy_bundle()).unwrap_or_else(|e| panic!("{e}"));
+    let gpu = gpu();
+    let ahead = pose_at(data.scene.camera_path(None).unwrap(), 0.0);
+    let up = Camera::look_at(
+        ahead.position,
+        ahead.position + Vec3::Y,
+        Vec3::Z,
+        ahead.fov_y,
+    );
+    let planar = reflections::reflectors_with_reflectance(&data);
+    assert_eq!(planar.len(), 3, "glossy-room's planar reflectors");
+    for r in &planar {
+        assert!(
+            reflections::signed_distance(&r.plane, up.position) > 0.0,
+            "{} is seen from behind",
+            r.name
+        );
+    }
+    let mut off = Offscreen::new(&gpu, &data, 240, 160).unwrap_or_else(|e| panic!("{e}"));
+    off.render(&gpu, &up).unwrap();
+    let plain = off.read_rgba8(&gpu).unwrap();
+    for mode in [ReflectionMode::Geometry, ReflectionMode::Image] {
+        off.set_reflections(&gpu, &data, mode)
+            .unwrap_or_else(|e| panic!("{e}"));
+        let passes = off.reflections().expect("reflection passes");
+        assert!(passes.map_count(&ahead) > 0, "{mode}: nothing seen ahead");
+        assert_eq!(passes.map_count(&up), 0, "{mode}: maps drawn looking up");
+        off.render(&gpu, &up).unwrap();
+        assert!(
+            off.read_rgba8(&gpu).unwrap() == plain,
+            "{mode}: the frame looking up differs from the one without reflections"
+        );
+    }
+}
+
 /// How much wider (or narrower) than the reference a near-mirror's reflected edge may be.
 const EDGE_RATIO: f64 = 1.5;
 

@@ -29,8 +29,9 @@ use crate::view::curved::gpu::CurvedReflections;
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
 use crate::view::renderer::{
-    HDR_FORMAT, RenderError, Renderer, SURFACE_TEXTURES, frame_bind_group, frame_bind_group_layout,
-    reverse_z_depth, scene_vertex_layout, uniform_buffer,
+    HDR_FORMAT, RenderError, Renderer, SURFACE_TEXTURES, box_outside_view, frame_bind_group,
+    frame_bind_group_layout, near_plane, reverse_z_depth, scene_vertex_layout, uniform_buffer,
+    view_projection,
 };
 
 struct ReflectorGpu {
@@ -46,6 +47,8 @@ struct ReflectorGpu {
     _sphere: wgpu::Texture,
     indices: wgpu::Buffer,
     index_count: u32,
+    /// The box around its triangles (min, max), to skip it where the camera cannot see it.
+    bounds: (Vec3, Vec3),
 }
 
 /// The reflection passes (either source) of one [`Renderer`] at one frame size.
@@ -72,6 +75,8 @@ pub struct GeometryReflections {
     terminal: Option<CurvedReflections>,
     width: u32,
     height: u32,
+    /// The scene pass's near plane (the view [`GeometryReflections::visible`] tests against).
+    near: f32,
 }
 
 impl GeometryReflections {
@@ -292,8 +297,19 @@ impl GeometryReflections {
                         &sampler,
                         &sphere_view,
                     );
+                    let bounds = reflector.triangles.iter().fold(
+                        (Vec3::INFINITY, Vec3::NEG_INFINITY),
+                        |(lo, hi), &t| {
+                            let p = &scene.triangles[t as usize].p;
+                            (
+                                lo.min(p[0].min(p[1]).min(p[2])),
+                                hi.max(p[0].max(p[1]).max(p[2])),
+                            )
+                        },
+                    );
                     ReflectorGpu {
                         splats,
+                        bounds,
                         filter: filter_taps(&reflector.kernel.taps, FILTER_RINGS),
                         index_count: indices.len() as u32,
                         reflector,
@@ -322,6 +338,7 @@ impl GeometryReflections {
                 terminal: None,
                 width,
                 height,
+                near: near_plane(scene),
             }
         })
     }
@@ -370,8 +387,18 @@ impl GeometryReflections {
             .extend(plane.normal.dot(plane.point) + self.clip)
     }
 
+    /// Whether `camera` sees reflector `r`: from its reflecting side, and not wholly outside
+    /// the view (its box, [`box_outside_view`]). A reflector it does not see gets no mirror
+    /// pass, pyramid or composite: the composite would draw none of its pixels.
     fn visible(&self, r: &ReflectorGpu, camera: &Camera) -> bool {
-        r.index_count > 0 && signed_distance(&r.reflector.plane, camera.position) > 0.0
+        let aspect = self.width.max(1) as f32 / self.height.max(1) as f32;
+        r.index_count > 0
+            && signed_distance(&r.reflector.plane, camera.position) > 0.0
+            && !box_outside_view(
+                &view_projection(camera, aspect, self.near),
+                r.bounds.0,
+                r.bounds.1,
+            )
     }
 
     /// How many reflection maps [`GeometryReflections::draw`] draws for `camera` (one per
@@ -455,6 +482,12 @@ impl GeometryReflections {
                     self.height,
                     &detail,
                 );
+            } else if let Some(maps) = &r.splats
+                && let Ok(mut plan) = maps.plan.lock()
+            {
+                // Not seen: no splats drawn this frame (the stats say so).
+                plan.0.iter_mut().for_each(|c| *c = 0);
+                plan.1 = FrameStats::default();
             }
         }
     }
