@@ -30,7 +30,7 @@
 use std::ops::Range;
 
 use bytemuck::{Pod, Zeroable};
-use glam::{Mat4, Vec3, Vec4};
+use glam::{Mat4, Vec4};
 
 use super::build::{bind_group_layout, buffer, buffer_init, render_pipeline, shader};
 use super::gpu::{Gpu, GpuError, error_scoped};
@@ -295,32 +295,6 @@ pub fn view_projection(camera: &Camera, aspect: f32, near: f32) -> Mat4 {
         Vec4::new(0.0, 0.0, near, 0.0),
     );
     proj * view
-}
-
-/// Whether the axis-aligned box `min`–`max` lies wholly outside the view of `view_proj`
-/// ([`view_projection`]): all 8 corners beyond one side of the frustum (left, right, bottom,
-/// top, or behind the eye). Each side is a half-space in homogeneous clip space, so a box
-/// with every corner beyond one side lies beyond it whole; a box beyond no single side is
-/// kept even if it misses the frustum (conservative: such a box is drawn and clipped).
-pub fn box_outside_view(view_proj: &Mat4, min: Vec3, max: Vec3) -> bool {
-    let corners = (0..8).map(|i| {
-        let pick = |bit: u32, lo: f32, hi: f32| if i & bit == 0 { lo } else { hi };
-        *view_proj
-            * Vec4::new(
-                pick(1, min.x, max.x),
-                pick(2, min.y, max.y),
-                pick(4, min.z, max.z),
-                1.0,
-            )
-    });
-    let mut beyond = [true; 5];
-    for c in corners {
-        let sides = [c.x > c.w, c.x < -c.w, c.y > c.w, c.y < -c.w, c.w <= 0.0];
-        for (b, s) in beyond.iter_mut().zip(sides) {
-            *b &= s;
-        }
-    }
-    beyond.contains(&true)
 }
 
 /// The near plane for a scene: [`NEAR_FRACTION`] of its diagonal.
@@ -690,36 +664,6 @@ mod tests {
             ..textured
         };
         assert_eq!(SurfaceShading::of(&masked_textured), SurfaceShading::Masked);
-    }
-
-    #[test]
-    fn a_box_is_outside_the_view_only_beyond_one_side() {
-        let cam = Camera::look_at(Vec3::ZERO, -Vec3::Z, Vec3::Y, 60f32.to_radians());
-        let vp = view_projection(&cam, 1.5, 0.01);
-        let unit = |c: Vec3| (c - Vec3::splat(0.5), c + Vec3::splat(0.5));
-        let outside = |c: Vec3| {
-            let (a, b) = unit(c);
-            box_outside_view(&vp, a, b)
-        };
-        // In front, and straddling the eye: seen.
-        assert!(!outside(Vec3::new(0.0, 0.0, -5.0)));
-        assert!(!outside(Vec3::ZERO));
-        // Behind the eye, far left, right, above, below: not seen.
-        assert!(outside(Vec3::new(0.0, 0.0, 5.0)));
-        assert!(outside(Vec3::new(-20.0, 0.0, -5.0)));
-        assert!(outside(Vec3::new(20.0, 0.0, -5.0)));
-        assert!(outside(Vec3::new(0.0, 20.0, -5.0)));
-        assert!(outside(Vec3::new(0.0, -20.0, -5.0)));
-        // The right edge's half-width at depth d is 1.5 · d · tan 30° (4.76 at the box's far
-        // face, 5.5): a box reaching 4.2 is seen, one from 4.9 on is not.
-        assert!(!outside(Vec3::new(4.7, 0.0, -5.0)));
-        assert!(outside(Vec3::new(5.4, 0.0, -5.0)));
-        // Beside the eye, straddling its plane: the corners behind the eye lie beyond the
-        // right side too (x > w holds where w < 0), so the box is out, as it is.
-        assert!(outside(Vec3::new(3.0, 0.0, 0.0)));
-        // A thin box (a reflector's quad) seen edge-on from above it: kept.
-        let (a, b) = (Vec3::new(-1.0, -1.0, -6.0), Vec3::new(1.0, -1.0, -4.0));
-        assert!(!box_outside_view(&vp, a, b));
     }
 
     #[test]

@@ -29,9 +29,8 @@ use crate::view::curved::gpu::CurvedReflections;
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
 use crate::view::renderer::{
-    HDR_FORMAT, RenderError, Renderer, SURFACE_TEXTURES, box_outside_view, frame_bind_group,
-    frame_bind_group_layout, near_plane, reverse_z_depth, scene_vertex_layout, uniform_buffer,
-    view_projection,
+    HDR_FORMAT, RenderError, Renderer, SURFACE_TEXTURES, frame_bind_group, frame_bind_group_layout,
+    near_plane, reverse_z_depth, scene_vertex_layout, uniform_buffer, view_projection,
 };
 
 struct ReflectorGpu {
@@ -388,21 +387,22 @@ impl GeometryReflections {
     }
 
     /// Whether `camera` sees reflector `r`: from its reflecting side, and not wholly outside
-    /// the view (its box, [`box_outside_view`]). A reflector it does not see gets no mirror
-    /// pass, pyramid or composite: the composite would draw none of its pixels.
+    /// the view (its box beyond one side of the frustum, as the recursion culls). A reflector
+    /// it does not see gets no mirror pass, pyramid or composite: the composite would draw
+    /// none of its pixels.
     fn visible(&self, r: &ReflectorGpu, camera: &Camera) -> bool {
         let aspect = self.width.max(1) as f32 / self.height.max(1) as f32;
         r.index_count > 0
             && signed_distance(&r.reflector.plane, camera.position) > 0.0
-            && !box_outside_view(
-                &view_projection(camera, aspect, self.near),
+            && !splats::box_outside(
+                &splats::frustum_planes(&view_projection(camera, aspect, self.near)),
                 r.bounds.0,
                 r.bounds.1,
             )
     }
 
     /// How many reflection maps [`GeometryReflections::draw`] draws for `camera` (one per
-    /// reflector seen from its reflecting side).
+    /// reflector in view, seen from its reflecting side).
     pub fn map_count(&self, camera: &Camera) -> usize {
         self.reflectors
             .iter()
