@@ -51,6 +51,21 @@ pub struct ReflectParams {
 }
 
 impl ReflectParams {
+    /// How far from a reflector pixel, in screen pixels, the composite's filter reads M at
+    /// most (at beyond fraction 1, the widest): each tap's offset plus three of its standard
+    /// deviations, scaled by the lobe's widest shape, plus its largest lean. 0 for a mirror.
+    pub fn reach_pixels(&self) -> f32 {
+        let taps = (self.kernel[1] as usize).min(MAX_FILTER_TAPS);
+        let extent = self.taps[..taps]
+            .iter()
+            .map(|t| (t[0] * t[0] + t[1] * t[1]).sqrt() + 3.0 * t[3].max(0.0).sqrt())
+            .fold(0.0f32, f32::max);
+        let (widest, lean) = self.shape.iter().fold((0.0f32, 0.0f32), |(w, l), s| {
+            (w.max(s[1]).max(s[2]), l.max(s[0].abs()))
+        });
+        self.kernel[0] * (extent * widest + lean)
+    }
+
     /// The parameters of `reflector` with clip distance `clip`, seen from `eye` (kernel
     /// scale 0 until [`super::GeometryReflections::prepare`] sets it).
     pub fn new(reflector: &PlanarReflector, clip: f32, eye: Vec3) -> ReflectParams {
@@ -241,6 +256,28 @@ pub(super) fn params_group(
 
 #[cfg(test)]
 mod tests {
+    /// The composite's reach: none for a mirror's single centred tap; else the farthest tap's
+    /// offset plus three standard deviations, times the widest shape, plus the lean, in
+    /// kernel texels, times the pixels a texel spans.
+    #[test]
+    fn the_reach_is_the_farthest_tap_scaled_by_the_lobes_shape() {
+        let mut p: super::ReflectParams = bytemuck::Zeroable::zeroed();
+        p.kernel = [12.0, 1.0, 0.0, 0.0];
+        p.taps[0] = [0.0, 0.0, 1.0, 0.0];
+        p.shape = [[0.0, 1.0, 1.0, 0.0]; super::SHAPE_SIZE];
+        assert_eq!(p.reach_pixels(), 0.0);
+        p.kernel[1] = 3.0;
+        p.taps[1] = [3.0, 4.0, 0.5, 0.25];
+        p.taps[2] = [-1.0, 0.0, 0.5, 4.0];
+        // Tap 1: 5 + 3·0.5 = 6.5; tap 2: 1 + 3·2 = 7.
+        assert!((p.reach_pixels() - 12.0 * 7.0).abs() < 1e-4);
+        p.shape[3] = [-0.5, 1.5, 0.75, 0.0];
+        assert!((p.reach_pixels() - 12.0 * (7.0 * 1.5 + 0.5)).abs() < 1e-4);
+        // Taps past the count are not read.
+        p.taps[5] = [100.0, 0.0, 1.0, 0.0];
+        assert!((p.reach_pixels() - 12.0 * (7.0 * 1.5 + 0.5)).abs() < 1e-4);
+    }
+
     /// `fs_splat` tells a splat's own extent from its overlap by the Rust constant.
     #[test]
     fn the_splat_shader_uses_the_splat_overlap() {

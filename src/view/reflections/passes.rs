@@ -4,7 +4,7 @@
 //! texels no splat covered first, [`super::splats::fill_hole`]). The math they use lives in
 //! [`super::splats`] and [`super::material`], the shader's inputs in [`super::params`].
 
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Vec2, Vec3};
 
 use super::filter::{FILTER_RINGS, FilterTap, detail_pixels, filter_taps};
 use super::gap_fill::GapFill;
@@ -32,6 +32,11 @@ use crate::view::renderer::{
     HDR_FORMAT, RenderError, Renderer, SURFACE_TEXTURES, frame_bind_group, frame_bind_group_layout,
     near_plane, reverse_z_depth, scene_vertex_layout, uniform_buffer, view_projection,
 };
+
+/// Screen pixels beyond the filter's reach that image mode's splats still cover around an
+/// element's window: the gap fill's radius ([`super::gap_fill::GAP_RADIUS`]) and the first rings of
+/// the composite's hole fill, with room to spare.
+const WINDOW_MARGIN: f32 = 16.0;
 
 struct ReflectorGpu {
     splats: Option<SplatMaps>,
@@ -471,10 +476,23 @@ impl GeometryReflections {
                     let f = beyond_fraction(signed_distance(&r.reflector.plane, q), eye_side);
                     detail_pixels(&r.filter, texel * f)
                 };
+                // Each map's nodes are culled to its element's window on screen, grown by
+                // the filter's reach and the gap fill's.
+                let margin = p.reach_pixels() + WINDOW_MARGIN;
+                let cull = splats::Cull {
+                    mirrored: Mat4::from_cols_array_2d(&u.view_proj),
+                    frame: Mat4::from_cols_array_2d(
+                        &renderer.uniforms(camera, self.width, self.height).view_proj,
+                    ),
+                    margin: Vec2::new(
+                        2.0 * margin / self.width.max(1) as f32,
+                        2.0 * margin / self.height.max(1) as f32,
+                    ),
+                };
                 maps.plan(
                     gpu,
                     &mirrored,
-                    &Mat4::from_cols_array_2d(&u.view_proj),
+                    &cull,
                     mirror_point(&r.reflector.plane, camera.position),
                     selection,
                     count,

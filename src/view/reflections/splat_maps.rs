@@ -10,7 +10,7 @@
 use std::ops::Range;
 use std::sync::Mutex;
 
-use glam::{Mat4, Vec3};
+use glam::Vec3;
 
 use super::exact::ExactSurfaces;
 use super::splats::{self, MapImage, MapSplats, NodeParams, SplatView};
@@ -204,15 +204,15 @@ pub(super) fn load_splat_maps(
 
 impl SplatMaps {
     /// Plans the splats of the `count` maps per element best for the mirrored `eye` by
-    /// `selection`, drawn from `mirrored` (view-projection `view_proj`) into a `width` ×
-    /// `height` map: writes every node's [`NodeParams`] (the write lands before the next
+    /// `selection`, drawn from `mirrored` into a `width` × `height` map, each map's nodes
+    /// culled by `cull` (to the screen window of its element): writes every node's [`NodeParams`] (the write lands before the next
     /// submission) and keeps the draws and statistics for the pass.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn plan(
         &self,
         gpu: &Gpu,
         mirrored: &Camera,
-        view_proj: &Mat4,
+        cull: &splats::Cull,
         eye: Vec3,
         selection: Selection,
         count: usize,
@@ -220,7 +220,6 @@ impl SplatMaps {
         height: u32,
         detail: &dyn Fn(Vec3) -> f32,
     ) {
-        let planes = splats::frustum_planes(view_proj);
         let chosen = select(&self.maps, eye, selection, count);
         let mut params = vec![NodeParams::default(); self.node_count];
         let mut draws = vec![Vec::new(); self.chunks.len()];
@@ -237,6 +236,7 @@ impl SplatMaps {
                 0
             };
             let (tree, base, chunk) = &self.trees[i];
+            let planes = cull.planes(&tree.view);
             stats.selected_splats += tree
                 .ranges
                 .first()

@@ -496,6 +496,77 @@ pub fn frustum_planes(view_proj: &Mat4) -> [Vec4; 5] {
     ]
 }
 
+/// The part of the screen (NDC, lower and upper corners, within [−1, 1]²) that `points`
+/// cover under `view_proj`, grown by `margin` (NDC units per axis); `None` when a point lies
+/// on or behind the eye's plane (its projection is unbounded) or there are no points.
+pub fn screen_window(points: &[Vec3], view_proj: &Mat4, margin: Vec2) -> Option<(Vec2, Vec2)> {
+    let mut lo = Vec2::INFINITY;
+    let mut hi = Vec2::NEG_INFINITY;
+    for &p in points {
+        let c = *view_proj * p.extend(1.0);
+        if c.w <= 1e-6 {
+            return None;
+        }
+        let ndc = c.truncate().truncate() / c.w;
+        lo = lo.min(ndc);
+        hi = hi.max(ndc);
+    }
+    if points.is_empty() {
+        return None;
+    }
+    let lo = (lo - margin).max(Vec2::NEG_ONE);
+    let hi = (hi + margin).min(Vec2::ONE);
+    Some((lo, hi.max(lo)))
+}
+
+/// The corners of the element `view`'s map was taken through, grown by [`ELEMENT_MARGIN`]
+/// map pixels (the part of the reflector through which its splats are not [`off_element`]).
+pub fn element_corners(view: &MapCamera) -> [Vec3; 4] {
+    let m = ELEMENT_MARGIN / view.resolution.max(1) as f32;
+    [(-m, -m), (1.0 + m, -m), (1.0 + m, 1.0 + m), (-m, 1.0 + m)]
+        .map(|(a, b)| view.corner + view.edge_u * a + view.edge_v * b)
+}
+
+/// Where a frame's splats can show: the mirrored view (M's pixels are the frame's), and per
+/// map the part of the screen through which the real eye sees the map's element, grown by
+/// `margin` (NDC per axis: the composite's reach and the gap fill's). A map's nodes outside
+/// that window are culled: there its splats would be [`off_element`], drawn only behind the
+/// right element's, and beyond the margin not read at all.
+#[derive(Clone, Copy, Debug)]
+pub struct Cull {
+    /// The mirrored view's view-projection.
+    pub mirrored: Mat4,
+    /// The real eye's view-projection.
+    pub frame: Mat4,
+    /// NDC grown around each element's window.
+    pub margin: Vec2,
+}
+
+impl Cull {
+    /// The frustum planes that cull the nodes of the map taken from `view`.
+    pub fn planes(&self, view: &MapCamera) -> [Vec4; 5] {
+        match screen_window(&element_corners(view), &self.frame, self.margin) {
+            Some((lo, hi)) => frustum_planes(&crop_to_window(&self.mirrored, lo, hi)),
+            None => frustum_planes(&self.mirrored),
+        }
+    }
+}
+
+/// `view_proj` cropped to the NDC window `lo`–`hi`: the window maps to [−1, 1]², so
+/// [`frustum_planes`] of the result bound the part of the view inside the window.
+pub fn crop_to_window(view_proj: &Mat4, lo: Vec2, hi: Vec2) -> Mat4 {
+    let size = (hi - lo).max(Vec2::splat(1e-6));
+    let scale = Vec2::splat(2.0) / size;
+    let shift = -(lo + hi) / size;
+    let crop = Mat4::from_cols(
+        Vec4::new(scale.x, 0.0, 0.0, 0.0),
+        Vec4::new(0.0, scale.y, 0.0, 0.0),
+        Vec4::new(0.0, 0.0, 1.0, 0.0),
+        Vec4::new(shift.x, shift.y, 0.0, 1.0),
+    );
+    crop * *view_proj
+}
+
 /// Whether the box [min, max] lies wholly outside one of `planes`.
 pub fn box_outside(planes: &[Vec4], min: Vec3, max: Vec3) -> bool {
     planes.iter().any(|p| {
@@ -698,6 +769,58 @@ mod tests {
             normal: Vec3::Y,
             resolution: res,
         }
+    }
+
+    #[test]
+    fn a_map_is_culled_to_its_elements_window() {
+        use crate::scene::Plane;
+        use crate::view::reflections::mirror_camera;
+        use crate::view::renderer::view_projection;
+        // The floor element x, z in [−0.5, 0.5]; the eye 2 m above the floor, 3 m back.
+        let map = floor_map(64);
+        let eye = Camera::look_at(
+            Vec3::new(0.0, 2.0, 3.0),
+            Vec3::ZERO,
+            Vec3::Y,
+            60f32.to_radians(),
+        );
+        let plane = Plane {
+            normal: Vec3::Y,
+            point: Vec3::ZERO,
+        };
+        let mirrored = mirror_camera(&eye, &plane);
+        let cull = Cull {
+            mirrored: view_projection(&mirrored, 1.5, 0.01),
+            frame: view_projection(&eye, 1.5, 0.01),
+            margin: Vec2::ZERO,
+        };
+        let planes = cull.planes(&map);
+        // A point 0.5 m above the floor, seen in the mirror where the floor point q is.
+        let above = |q: Vec3| {
+            let from = mirrored.position;
+            from + (q - from) * ((0.5 - from.y) / (q.y - from.y))
+        };
+        let kept = |q: Vec3| {
+            let p = above(q);
+            !box_outside(&planes, p - 0.01, p + 0.01)
+        };
+        assert!(kept(Vec3::ZERO));
+        assert!(kept(Vec3::new(0.4, 0.0, -0.4)));
+        // Seen through the floor beyond the element (and its 8-pixel margin): culled, though
+        // the whole mirrored view sees it.
+        let beside = above(Vec3::new(1.5, 0.0, 0.0));
+        assert!(!box_outside(
+            &frustum_planes(&cull.mirrored),
+            beside - 0.01,
+            beside + 0.01
+        ));
+        assert!(!kept(Vec3::new(1.5, 0.0, 0.0)));
+        assert!(!kept(Vec3::new(0.0, 0.0, 1.2)));
+        // The element's corners grow by ELEMENT_MARGIN map pixels.
+        let c = element_corners(&map);
+        let m = ELEMENT_MARGIN / 64.0;
+        assert!((c[0] - Vec3::new(-0.5 - m, 0.0, 0.5 + m)).length() < 1e-6);
+        assert!((c[2] - Vec3::new(0.5 + m, 0.0, -0.5 - m)).length() < 1e-6);
     }
 
     #[test]
@@ -935,6 +1058,43 @@ mod tests {
             &planes,
             Vec3::new(-100.0, -0.1, -5.0),
             Vec3::new(0.0, 0.1, -4.0)
+        ));
+    }
+
+    #[test]
+    fn a_window_crops_the_frustum_to_the_screen_it_covers() {
+        let cam = Camera::look_at(Vec3::ZERO, -Vec3::Z, Vec3::Y, 60f32.to_radians());
+        let vp = crate::view::renderer::view_projection(&cam, 1.0, 0.01);
+        // A square 1 m wide at 5 m: its window, half-width 0.5 · cot 30° / 5 = 0.173.
+        let quad = [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)]
+            .map(|(x, y)| Vec3::new(x, y, -5.0));
+        let (lo, hi) = screen_window(&quad, &vp, Vec2::ZERO).expect("in front");
+        let h = 0.5 / 30f32.to_radians().tan() / 5.0;
+        assert!((hi - Vec2::splat(h)).abs().max_element() < 1e-5, "{hi}");
+        assert!((lo + Vec2::splat(h)).abs().max_element() < 1e-5, "{lo}");
+        // The margin grows it, the screen's edge bounds it.
+        let (lo2, hi2) = screen_window(&quad, &vp, Vec2::splat(2.0)).unwrap();
+        assert_eq!((lo2, hi2), (Vec2::NEG_ONE, Vec2::ONE));
+        // A point behind the eye: no window.
+        assert_eq!(
+            screen_window(&[Vec3::new(0.0, 0.0, 1.0)], &vp, Vec2::ZERO),
+            None
+        );
+        assert_eq!(screen_window(&[], &vp, Vec2::ZERO), None);
+        // The cropped frustum keeps what projects inside the window and culls what does not.
+        let planes = frustum_planes(&crop_to_window(&vp, lo, hi));
+        let seen = |c: Vec3| !box_outside(&planes, c - 0.01, c + 0.01);
+        assert!(seen(Vec3::new(0.0, 0.0, -5.0)));
+        assert!(seen(Vec3::new(0.45, -0.45, -5.0)));
+        // Far behind the quad, along the same rays: still inside.
+        assert!(seen(Vec3::new(0.9, 0.9, -10.0)));
+        // Beside it, in view of the whole frame but not of the window.
+        assert!(!seen(Vec3::new(1.0, 0.0, -5.0)));
+        assert!(!seen(Vec3::new(0.0, -1.0, -5.0)));
+        assert!(!box_outside(
+            &frustum_planes(&vp),
+            Vec3::new(0.99, 0.0, -5.0),
+            Vec3::new(1.01, 0.0, -5.0)
         ));
     }
 
