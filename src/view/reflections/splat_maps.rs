@@ -28,6 +28,8 @@ pub struct FrameStats {
     pub maps: usize,
     /// Splats of the selected maps.
     pub selected_splats: u64,
+    /// Splats of the leaves left after culling, before Eq. 3's step skips some.
+    pub visible_splats: u64,
     /// Splats drawn (after culling and minification skipping).
     pub drawn_splats: u64,
     /// Quadtree nodes culled.
@@ -241,7 +243,7 @@ impl SplatMaps {
                 .ranges
                 .first()
                 .map_or(0, |r| u64::from(r.end - r.start));
-            stats.culled_nodes += splats::plan_map(
+            let (culled, visible) = splats::plan_map(
                 tree,
                 *base,
                 i as u32,
@@ -254,6 +256,8 @@ impl SplatMaps {
                 &mut params,
                 &mut draws[*chunk],
             );
+            stats.culled_nodes += culled;
+            stats.visible_splats += visible;
         }
         let mut kept = Vec::new();
         let mut counts = Vec::with_capacity(self.chunks.len());

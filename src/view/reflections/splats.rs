@@ -634,7 +634,7 @@ pub fn kept_indices(draws: &[Draw], out: &mut Vec<u32>) {
 /// `detail` gives, at a scene point, the finest detail of M in screen pixels that the
 /// composite keeps (≥ 1; 1 everywhere for a mirror): Eq. 3's step thins a leaf's points to
 /// it. `view` is the map's index among the reflector's [`SplatView`]s. Returns the number of
-/// nodes culled.
+/// nodes culled and the splats of the leaves left (before Eq. 3's step thins them).
 #[allow(clippy::too_many_arguments)]
 pub fn plan_map(
     map: &MapSplats,
@@ -648,10 +648,11 @@ pub fn plan_map(
     detail: &dyn Fn(Vec3) -> f32,
     params: &mut [NodeParams],
     draws: &mut Vec<Draw>,
-) -> usize {
+) -> (usize, u64) {
     let mut culled = 0;
+    let mut visible = 0u64;
     if map.nodes.is_empty() {
-        return 0;
+        return (0, 0);
     }
     let depth_scale = RANK_DEPTH_SCALE.powi(rank.min(8) as i32);
     let mut stack = vec![0usize];
@@ -689,6 +690,7 @@ pub fn plan_map(
             pixel_ndc: [1.0 / width.max(1) as f32, 1.0 / height.max(1) as f32],
             _pad2: [0.0; 2],
         };
+        visible += u64::from(range.end - range.start);
         let n = kept(range.end - range.start, k);
         let draw = range.start..range.start + n;
         match draws.last_mut() {
@@ -696,7 +698,7 @@ pub fn plan_map(
             _ => draws.push(draw),
         }
     }
-    culled
+    (culled, visible)
 }
 
 #[cfg(test)]
@@ -1152,7 +1154,7 @@ mod tests {
         let plan_with = |cam: &Camera, detail: f32, rank: usize, params: &mut [NodeParams]| {
             let vp = super::super::super::renderer::view_projection(cam, 1.0, 0.01);
             let mut draws = Vec::new();
-            let culled = plan_map(
+            let (culled, _) = plan_map(
                 &m,
                 10,
                 0,
