@@ -35,7 +35,7 @@ struct FrameUniforms {
 // `surface_d` is D as stored and `cut_out` never holds (`renderer::SurfaceShading`). A
 // constant per pipeline rather than a branch per fragment: Mesa's lavapipe runs both sides
 // of a branch that varies between fragments, and the untaken texture reads took 55% of
-// breakfast-room's scene pass (122 → 54 ms at 720×486).
+// breakfast-room's frame without reflections (122 → 54 ms at 720×486).
 override SURFACE_TEXTURES: bool = true;
 
 struct TexRef {

@@ -22,6 +22,7 @@ use super::{
     reflectors_with_materials, signed_distance,
 };
 use crate::camera::Camera;
+use crate::geometry::Aabb;
 use crate::view::build::{buffer_init, render_pipeline, shader};
 use crate::view::composite::Composite;
 use crate::view::curved::CurvedSettings;
@@ -51,8 +52,8 @@ struct ReflectorGpu {
     _sphere: wgpu::Texture,
     indices: wgpu::Buffer,
     index_count: u32,
-    /// The box around its triangles (min, max), to skip it where the camera cannot see it.
-    bounds: (Vec3, Vec3),
+    /// The box around its triangles, to skip it where the camera cannot see it.
+    bounds: Aabb,
 }
 
 /// The reflection passes (either source) of one [`Renderer`] at one frame size.
@@ -301,15 +302,11 @@ impl GeometryReflections {
                         &sampler,
                         &sphere_view,
                     );
-                    let bounds = reflector.triangles.iter().fold(
-                        (Vec3::INFINITY, Vec3::NEG_INFINITY),
-                        |(lo, hi), &t| {
-                            let p = &scene.triangles[t as usize].p;
-                            (
-                                lo.min(p[0].min(p[1]).min(p[2])),
-                                hi.max(p[0].max(p[1]).max(p[2])),
-                            )
-                        },
+                    let bounds = Aabb::from_points(
+                        reflector
+                            .triangles
+                            .iter()
+                            .flat_map(|&t| scene.triangles[t as usize].p.iter()),
                     );
                     ReflectorGpu {
                         splats,
@@ -396,14 +393,20 @@ impl GeometryReflections {
     /// it does not see gets no mirror pass, pyramid or composite: the composite would draw
     /// none of its pixels.
     fn visible(&self, r: &ReflectorGpu, camera: &Camera) -> bool {
-        let aspect = self.width.max(1) as f32 / self.height.max(1) as f32;
         r.index_count > 0
             && signed_distance(&r.reflector.plane, camera.position) > 0.0
             && !splats::box_outside(
-                &splats::frustum_planes(&view_projection(camera, aspect, self.near)),
-                r.bounds.0,
-                r.bounds.1,
+                &splats::frustum_planes(&self.frame_view_proj(camera)),
+                r.bounds.min,
+                r.bounds.max,
             )
+    }
+
+    /// The scene pass's view-projection for `camera` on these targets (as
+    /// [`Renderer::uniforms`] writes it).
+    fn frame_view_proj(&self, camera: &Camera) -> Mat4 {
+        let aspect = self.width.max(1) as f32 / self.height.max(1) as f32;
+        view_projection(camera, aspect, self.near)
     }
 
     /// How many reflection maps [`GeometryReflections::draw`] draws for `camera` (one per
@@ -435,9 +438,11 @@ impl GeometryReflections {
         curved: Option<&CurvedReflections>,
     ) {
         let pitch = splats::pixel_tangent(camera.fov_y, self.height);
+        let frame_vp = self.frame_view_proj(camera);
         for (slot, r) in self.reflectors.iter().enumerate() {
             let mirrored = mirror_camera(camera, &r.reflector.plane);
-            if self.visible(r, camera) {
+            let seen = self.visible(r, camera);
+            if seen {
                 // The curved reflectors and the terminal ones seen in this mirror.
                 for c in curved.into_iter().chain(self.terminal.as_ref()) {
                     c.prepare_mirror(
@@ -467,7 +472,7 @@ impl GeometryReflections {
             };
             gpu.queue.write_buffer(&r.params, 0, bytemuck::bytes_of(&p));
             if let (Source::Image { selection, count }, Some(maps)) = (self.source, &r.splats)
-                && self.visible(r, camera)
+                && seen
             {
                 // The detail of M the composite keeps at a reflected point: its filter's
                 // sharpest footprint at the point's beyond fraction.
@@ -481,9 +486,7 @@ impl GeometryReflections {
                 let margin = p.reach_pixels() + WINDOW_MARGIN;
                 let cull = splats::Cull {
                     mirrored: Mat4::from_cols_array_2d(&u.view_proj),
-                    frame: Mat4::from_cols_array_2d(
-                        &renderer.uniforms(camera, self.width, self.height).view_proj,
-                    ),
+                    frame: frame_vp,
                     margin: Vec2::new(
                         2.0 * margin / self.width.max(1) as f32,
                         2.0 * margin / self.height.max(1) as f32,

@@ -500,6 +500,9 @@ pub fn frustum_planes(view_proj: &Mat4) -> [Vec4; 5] {
 /// cover under `view_proj`, grown by `margin` (NDC units per axis); `None` when a point lies
 /// on or behind the eye's plane (its projection is unbounded) or there are no points.
 pub fn screen_window(points: &[Vec3], view_proj: &Mat4, margin: Vec2) -> Option<(Vec2, Vec2)> {
+    if points.is_empty() {
+        return None;
+    }
     let mut lo = Vec2::INFINITY;
     let mut hi = Vec2::NEG_INFINITY;
     for &p in points {
@@ -510,9 +513,6 @@ pub fn screen_window(points: &[Vec3], view_proj: &Mat4, margin: Vec2) -> Option<
         let ndc = c.truncate().truncate() / c.w;
         lo = lo.min(ndc);
         hi = hi.max(ndc);
-    }
-    if points.is_empty() {
-        return None;
     }
     let lo = (lo - margin).max(Vec2::NEG_ONE);
     let hi = (hi + margin).min(Vec2::ONE);
