@@ -14,12 +14,12 @@
 //!   ended early by Russian roulette.
 //!
 //! At every glossy vertex the area lights and emissive triangles are sampled through the lobes
-//! (next-event estimation) and combined with the lobe-sampled rays that reach them by the power
-//! heuristic: area lights, which are not geometry, are intersected by those rays here, so a
-//! lamp's image in a mirror is found by lobe sampling and on rough lobes mostly by light
-//! sampling. Every vertex the path reaches adds its texel's L_d with the path's throughput as
-//! weight, so the estimate stays linear in the unknowns: a constant (joins the element's direct
-//! term) plus Σ w·L_d(texel) (joins its hit list).
+//! (next-event estimation, [`super::next_event`]) and combined with the lobe-sampled rays that
+//! reach them by the power heuristic: area lights, which are not geometry, are intersected by
+//! those rays here, so a lamp's image in a mirror is found by lobe sampling and on rough lobes
+//! mostly by light sampling. Every vertex the path reaches adds its texel's L_d with the path's
+//! throughput as weight, so the estimate stays linear in the unknowns: a constant (joins the
+//! element's direct term) plus Σ w·L_d(texel) (joins its hit list).
 
 use glam::Vec3;
 
