@@ -7,12 +7,13 @@ use std::f32::consts::PI;
 use glam::{Vec2, Vec3};
 
 use super::atlas::{Atlas, TexelSample};
-use super::emitters::{Emitters, luminance, power, stratified_point, var_of_mean};
+use super::emitters::{Emitters, luminance, power, var_of_mean};
 use super::many_lights::{Choice, LIGHTS_SAMPLED_EACH, ManyLights};
 use super::mirror_lights::MirrorLights;
+use super::next_event::{Arrival, At, NextEvent, Receiver, Source};
 use super::transport::{Glossy, Term};
 use crate::geometry::Bvh;
-use crate::sampling::{Rng, basis, r2, sample_cosine_hemisphere, sample_triangle};
+use crate::sampling::{Rng, basis, r2, sample_cosine_hemisphere};
 use crate::scene::Scene;
 
 /// A sample is inside geometry when more than this fraction of its gathering rays hit back
@@ -45,6 +46,16 @@ pub(super) struct Context<'a> {
     pub mirrors: Option<&'a MirrorLights>,
     /// The emitters as one per-point distribution, when there are too many to sample each.
     pub many: Option<&'a ManyLights>,
+}
+
+impl Context<'_> {
+    fn next_event(&self) -> NextEvent<'_> {
+        NextEvent {
+            scene: self.scene,
+            bvh: self.bvh,
+            emitters: self.emitters,
+        }
+    }
 }
 
 /// Sums of one element's samples, for the variance of its estimate (luminance).
@@ -218,19 +229,17 @@ pub(super) fn gather(
             direct += light;
             moments.light_var += var;
         }
-        // Added to `direct` and the variance light by light, in this order.
-        None => sample_each(
-            cx,
-            origin,
-            ns,
-            ng,
-            rng,
-            n_light,
-            n_rays,
-            &mut rays,
-            &mut direct,
-            &mut moments.light_var,
-        ),
+        None => {
+            let at = At {
+                from: origin,
+                origin,
+                ng,
+            };
+            let mut irradiance =
+                Irradiance::new(ns, n_light, n_rays, &mut direct, &mut moments.light_var);
+            cx.next_event()
+                .estimate(&at, n_light, rng, &mut rays, &mut irradiance);
+        }
     }
 
     // The emitters' images in mirrors.
@@ -267,95 +276,71 @@ pub(super) fn gather(
     }
 }
 
-/// Irradiance/π at a point from `n_light` stratified samples of each area light and `n_light`
-/// samples of the emissive triangles (by area × luminance, MIS-weighted against `n_rays`
-/// cosine-distributed gathering rays), added to `direct` with its variance (luminance)
-/// added to `var`; counts the rays cast.
-#[allow(clippy::too_many_arguments)]
-fn sample_each(
-    cx: &Context,
-    origin: Vec3,
+/// Irradiance/π at a point with shading normal `ns`, from [`NextEvent::estimate`]'s `n_light`
+/// points per emitter, added to `direct` emitter by emitter with its variance (luminance)
+/// added to `var`. Emissive triangles are MIS-weighted against `n_rays` cosine-distributed
+/// gathering rays; area lights, which are not geometry, are found by light samples only.
+struct Irradiance<'a> {
     ns: Vec3,
-    ng: Vec3,
-    rng: &mut Rng,
     n_light: u32,
     n_rays: u32,
-    rays: &mut u64,
-    direct: &mut Vec3,
-    var: &mut f64,
-) {
-    let (scene, bvh) = (cx.scene, cx.bvh);
-    // Area lights: stratified points on each quad.
-    let grid = (n_light as f32).sqrt().ceil() as u32;
-    for light in &scene.lights {
-        let mut sum = Vec3::ZERO;
-        let (mut y, mut y2) = (0.0f64, 0.0f64);
-        for k in 0..n_light {
-            let q = stratified_point(light, k, grid, rng.uniform2());
-            let w = q - origin;
-            let dist2 = w.length_squared();
-            let dist = dist2.sqrt();
-            let d = w / dist;
-            let cos_s = d.dot(ns);
-            let mut cos_l = -d.dot(light.normal);
-            if light.two_sided {
-                cos_l = cos_l.abs();
-            }
-            if cos_s <= 0.0 || cos_l <= 0.0 || d.dot(ng) <= 0.0 {
-                continue;
-            }
-            *rays += 1;
-            if bvh.occluded(origin, d, dist * (1.0 - 1e-5)) {
-                continue;
-            }
-            let c = light.radiance * (cos_s * cos_l / dist2);
-            sum += c;
-            let v = luminance(c) as f64 * (light.area / PI) as f64;
-            y += v;
-            y2 += v * v;
+    direct: &'a mut Vec3,
+    var: &'a mut f64,
+    /// The current emitter's Σ of samples, and Σ, Σ² of their luminance.
+    sum: Vec3,
+    y: f64,
+    y2: f64,
+}
+
+impl<'a> Irradiance<'a> {
+    fn new(ns: Vec3, n_light: u32, n_rays: u32, direct: &'a mut Vec3, var: &'a mut f64) -> Self {
+        Irradiance {
+            ns,
+            n_light,
+            n_rays,
+            direct,
+            var,
+            sum: Vec3::ZERO,
+            y: 0.0,
+            y2: 0.0,
         }
-        *direct += sum * (light.area / n_light as f32) / PI;
-        *var += var_of_mean(y, y2, n_light);
+    }
+}
+
+impl Receiver for Irradiance<'_> {
+    /// cos θ at the receiver.
+    type Toward = f32;
+
+    fn toward(&self, d: Vec3) -> Option<f32> {
+        let cos_s = d.dot(self.ns);
+        (cos_s > 0.0).then_some(cos_s)
     }
 
-    // Emissive triangles: points in proportion to area × luminance.
-    if !cx.emitters.tris.is_empty() {
-        let mut sum = Vec3::ZERO;
-        let (mut y, mut y2) = (0.0f64, 0.0f64);
-        for _ in 0..n_light {
-            let picked = cx.emitters.pick(rng.uniform());
-            let et = &scene.triangles[picked as usize];
-            let e = scene.materials[et.material as usize].emission;
-            let at = sample_triangle(rng.uniform2());
-            let q = et.point(at);
-            let w = q - origin;
-            let dist2 = w.length_squared();
-            let dist = dist2.sqrt();
-            if dist <= 0.0 {
-                continue;
+    fn add(&mut self, source: Source, a: &Arrival, cos_s: f32) {
+        let (c, v) = match source {
+            Source::Quad(light) => {
+                let c = a.radiance * (cos_s * a.cos_l / a.dist2);
+                (c, luminance(c) as f64 * (light.area / PI) as f64)
             }
-            let d = w / dist;
-            let cos_s = d.dot(ns);
-            let cos_l = -d.dot(et.face_normal());
-            if cos_s <= 0.0 || cos_l <= 0.0 || d.dot(ng) <= 0.0 {
-                continue;
+            Source::Triangles => {
+                let p_bsdf = cos_s / PI;
+                let wgt = power(self.n_light as f32, a.p_light, self.n_rays as f32, p_bsdf);
+                let c = a.radiance * (wgt * cos_s / a.p_light);
+                (c, luminance(c) as f64 / PI as f64)
             }
-            *rays += 1;
-            // Stop short of the emitter: it must not occlude itself.
-            if bvh.occluded(origin, d, dist - 2.0 * bvh.epsilon().max(dist * 1e-5)) {
-                continue;
-            }
-            let p_light = cx.emitters.area_pdf(e) * dist2 / cos_l;
-            let p_bsdf = cos_s / PI;
-            let wgt = power(n_light as f32, p_light, n_rays as f32, p_bsdf);
-            let c = scene.emission_at(picked, at) * (wgt * cos_s / p_light);
-            sum += c;
-            let v = luminance(c) as f64 / PI as f64;
-            y += v;
-            y2 += v * v;
-        }
-        *direct += sum / (n_light as f32 * PI);
-        *var += var_of_mean(y, y2, n_light);
+        };
+        self.sum += c;
+        self.y += v;
+        self.y2 += v * v;
+    }
+
+    fn end(&mut self, source: Source, n: u32) {
+        *self.direct += match source {
+            Source::Quad(light) => self.sum * (light.area / n as f32) / PI,
+            Source::Triangles => self.sum / (n as f32 * PI),
+        };
+        *self.var += var_of_mean(self.y, self.y2, n);
+        (self.sum, self.y, self.y2) = (Vec3::ZERO, 0.0, 0.0);
     }
 }
 

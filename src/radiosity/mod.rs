@@ -11,6 +11,7 @@ mod gather;
 mod many_lights;
 pub mod map;
 mod mirror_lights;
+mod next_event;
 pub use mirror_lights::{MIRROR_ROUGHNESS, is_mirror};
 pub mod seams;
 pub mod solve;

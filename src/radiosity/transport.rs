@@ -14,12 +14,12 @@
 //!   ended early by Russian roulette.
 //!
 //! At every glossy vertex the area lights and emissive triangles are sampled through the lobes
-//! (next-event estimation) and combined with the lobe-sampled rays that reach them by the power
-//! heuristic: area lights, which are not geometry, are intersected by those rays here, so a
-//! lamp's image in a mirror is found by lobe sampling and on rough lobes mostly by light
-//! sampling. Every vertex the path reaches adds its texel's L_d with the path's throughput as
-//! weight, so the estimate stays linear in the unknowns: a constant (joins the element's direct
-//! term) plus Σ w·L_d(texel) (joins its hit list).
+//! (next-event estimation, [`super::next_event`]) and combined with the lobe-sampled rays that
+//! reach them by the power heuristic: area lights, which are not geometry, are intersected by
+//! those rays here, so a lamp's image in a mirror is found by lobe sampling and on rough lobes
+//! mostly by light sampling. Every vertex the path reaches adds its texel's L_d with the path's
+//! throughput as weight, so the estimate stays linear in the unknowns: a constant (joins the
+//! element's direct term) plus Σ w·L_d(texel) (joins its hit list).
 
 use glam::Vec3;
 
@@ -27,10 +27,11 @@ use super::atlas::Atlas;
 use super::emitters::{Emitters, luminance, power};
 use super::many_lights::{Choice, ManyLights};
 use super::mirror_lights::MirrorLights;
+use super::next_event::{Arrival, At, NextEvent, Receiver, Source};
 use crate::brdf::Frame;
 use crate::brdf::Lobe;
 use crate::geometry::{Bvh, Hit, ray_quad};
-use crate::sampling::{Rng, sample_triangle};
+use crate::sampling::Rng;
 use crate::scene::Scene;
 use crate::scene::material::Material;
 
@@ -337,66 +338,49 @@ impl<'a> Glossy<'a> {
         rng: &mut Rng,
         rays: &mut u64,
     ) -> Vec3 {
-        let mut l = Vec3::ZERO;
-        for light in &self.scene.lights {
-            let u = rng.uniform2();
-            let q = light.corner + light.edge_u * u.x + light.edge_v * u.y;
-            let to = q - p;
-            let dist2 = to.length_squared();
-            let dist = dist2.sqrt();
-            if dist.is_nan() || dist <= 0.0 {
-                continue;
-            }
-            let d = to / dist;
-            let mut cos_l = -d.dot(light.normal);
-            if light.two_sided {
-                cos_l = cos_l.abs();
-            }
-            if cos_l <= 0.0 || d.dot(ng) <= 0.0 {
-                continue;
-            }
-            let wi = frame.to_local(d);
-            let f = lobes.eval(wo, wi);
-            if f == Vec3::ZERO {
-                continue;
-            }
-            *rays += 1;
-            if self.bvh.occluded(origin, d, dist * (1.0 - 1e-5)) {
-                continue;
-            }
-            let p_light = dist2 / (cos_l * light.area);
-            let w = power(1.0, p_light, 1.0, lobes.pdf(wo, wi));
-            l += f * light.radiance * (wi.z * w / p_light);
+        let at = At {
+            from: p,
+            origin,
+            ng,
+        };
+        let mut vertex = Vertex {
+            lobes,
+            frame,
+            wo,
+            l: Vec3::ZERO,
+        };
+        NextEvent {
+            scene: self.scene,
+            bvh: self.bvh,
+            emitters: self.emitters,
         }
-        if !self.emitters.tris.is_empty() {
-            let picked = self.emitters.pick(rng.uniform());
-            let et = &self.scene.triangles[picked as usize];
-            let at = sample_triangle(rng.uniform2());
-            let q = et.point(at);
-            let to = q - p;
-            let dist2 = to.length_squared();
-            let dist = dist2.sqrt();
-            if dist > 0.0 {
-                let d = to / dist;
-                let cos_l = -d.dot(et.face_normal());
-                let wi = frame.to_local(d);
-                let f = if cos_l > 0.0 && d.dot(ng) > 0.0 {
-                    lobes.eval(wo, wi)
-                } else {
-                    Vec3::ZERO
-                };
-                if f != Vec3::ZERO {
-                    *rays += 1;
-                    let reach = dist - 2.0 * self.bvh.epsilon().max(dist * 1e-5);
-                    if !self.bvh.occluded(origin, d, reach) {
-                        let e = self.scene.materials[et.material as usize].emission;
-                        let p_light = self.emitters.area_pdf(e) * dist2 / cos_l;
-                        let w = power(1.0, p_light, 1.0, lobes.pdf(wo, wi));
-                        l += f * self.scene.emission_at(picked, at) * (wi.z * w / p_light);
-                    }
-                }
-            }
-        }
-        l
+        .estimate(&at, 1, rng, rays, &mut vertex);
+        vertex.l
+    }
+}
+
+/// Light reflected towards `wo` by a glossy path vertex's lobes, summed in `l`, each point
+/// MIS-weighted against lobe sampling (which also reaches area lights, in
+/// [`Glossy::lights_along`]).
+struct Vertex<'a> {
+    lobes: &'a Lobes,
+    frame: &'a Frame,
+    wo: Vec3,
+    l: Vec3,
+}
+
+impl Receiver for Vertex<'_> {
+    /// The local incident direction and Σ k_s f there.
+    type Toward = (Vec3, Vec3);
+
+    fn toward(&self, d: Vec3) -> Option<(Vec3, Vec3)> {
+        let wi = self.frame.to_local(d);
+        let f = self.lobes.eval(self.wo, wi);
+        (f != Vec3::ZERO).then_some((wi, f))
+    }
+
+    fn add(&mut self, _: Source, a: &Arrival, (wi, f): (Vec3, Vec3)) {
+        let w = power(1.0, a.p_light, 1.0, self.lobes.pdf(self.wo, wi));
+        self.l += f * a.radiance * (wi.z * w / a.p_light);
     }
 }
