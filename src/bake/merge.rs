@@ -15,9 +15,9 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use super::Stage;
-use super::shard::{Marker, ShardError, read_shard};
+use super::shard::{Marker, read_shard};
 use super::units::{UnitPlan, kind};
-use crate::bundle::{Bundle, StageInfo, StageWriter};
+use crate::bundle::{Bundle, FaultHook, SceneCommit, StageInfo, StageWriter};
 use crate::materials::index::MaterialsIndex;
 use crate::srdm::index::SrdmIndex;
 
@@ -52,9 +52,33 @@ pub struct MergeReport {
     pub assets: usize,
 }
 
+/// How [`merge`] treats the bundle it writes.
+#[derive(Default)]
+pub struct MergeOptions {
+    /// Replace a bundle of another scene (by name) instead of refusing.
+    pub force: bool,
+    /// Called before each file-system step of the commit (fault-injection tests).
+    pub fault_hook: Option<FaultHook>,
+}
+
+impl std::fmt::Debug for MergeOptions {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("MergeOptions")
+            .field("force", &self.force)
+            .finish_non_exhaustive()
+    }
+}
+
 /// Checks `shards` and assembles them into the bundle at `out` (new, empty, or a bundle:
-/// its stages are replaced).
-pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<MergeReport, MergeError> {
+/// its stages are replaced). Every stage is committed at once (one manifest rename,
+/// [`SceneCommit`]): a reader, a crash or a concurrent merge sees the old bundle or the new
+/// one, never a mix. A bundle of the same scene (an earlier version of it, whatever its
+/// hash) is replaced; one of another scene (by name) only with `options.force`.
+pub fn merge(
+    out: &Path,
+    shards: &[PathBuf],
+    options: MergeOptions,
+) -> Result<MergeReport, MergeError> {
     if shards.is_empty() {
         return Err(MergeError::one("no shards given"));
     }
@@ -63,9 +87,7 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<MergeReport, MergeError> 
     for s in shards {
         match read_shard(s) {
             Ok((m, b)) => read.push((s.clone(), m, b)),
-            Err(e @ (ShardError::Incomplete { .. } | ShardError::Invalid { .. })) => {
-                problems.push(e.to_string())
-            }
+            Err(e) => problems.push(e.to_string()),
         }
     }
     let Some((first_path, first, _)) = read.first() else {
@@ -138,8 +160,12 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<MergeReport, MergeError> 
         return Err(MergeError { problems });
     }
 
-    let fail = |e: &dyn std::fmt::Display| MergeError::one(format!("{}: {e}", out.display()));
-    crate::bundle::check_folder(out).map_err(|e| fail(&e))?;
+    SceneCommit::check(out, &plan.scene_name, &plan.scene_hash, options.force)
+        .map_err(|e| MergeError::one(e.to_string()))?;
+    let mut commit = SceneCommit::new(out, options.force);
+    if let Some(hook) = options.fault_hook {
+        commit = commit.with_fault_hook(hook);
+    }
     let mut report = MergeReport {
         bundle: out.to_owned(),
         scene: plan.scene_name.clone(),
@@ -164,20 +190,26 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<MergeReport, MergeError> 
         {
             obj.insert("d_source".into(), d.clone().into());
         }
-        report.assets += assemble(out, &plan, stage, &units, settings)?;
+        let (w, info) = assemble(out, &plan, stage, &units, settings)?;
+        report.assets += w.assets().len();
         report.stages.push(name.into());
+        commit.push(w, info);
     }
+    commit
+        .commit()
+        .map_err(|e| MergeError::one(e.to_string()))?;
     Ok(report)
 }
 
-/// Writes stage `stage` of `out` from its units' shards; returns the assets written.
+/// Writes stage `stage` of `out` from its units' shards into a [`StageWriter`]; returns it
+/// with the stage's record, for the merge's one commit.
 fn assemble(
     out: &Path,
     plan: &UnitPlan,
     stage: Stage,
     units: &[(&str, &Bundle)],
     settings: serde_json::Value,
-) -> Result<usize, MergeError> {
+) -> Result<(StageWriter, StageInfo), MergeError> {
     let name = stage.name();
     let err = |e: &dyn std::fmt::Display| MergeError::one(format!("stage `{name}`: {e}"));
     let index_path = format!("{name}/index.json");
@@ -208,17 +240,16 @@ fn assemble(
         w.write("index.json", kind_of_index(stage), &bytes)
             .map_err(|e| err(&e))?;
     }
-    let n = w.assets().len();
-    w.commit(StageInfo {
+    let info = StageInfo {
         scene_name: plan.scene_name.clone(),
         scene_hash: plan.scene_hash.clone(),
         settings,
         stats: merge_stats(stage, &stats),
         bake_seconds: seconds,
+        // The scene guard is the merge's whole commit's (SceneCommit), not this stage's.
         force: true,
-    })
-    .map_err(|e| err(&e))?;
-    Ok(n)
+    };
+    Ok((w, info))
 }
 
 fn kind_of_index(stage: Stage) -> &'static str {

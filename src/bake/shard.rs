@@ -63,6 +63,23 @@ pub enum ShardError {
         /// The unit, guessed from the shard's file name.
         hint: Option<String>,
     },
+    /// Nothing at the shard's path.
+    #[error("{}: no shard there: the path does not exist", shard.display())]
+    Missing {
+        /// The path given.
+        shard: PathBuf,
+    },
+    /// A bundle of several stages without a marker: a whole bake (or a merge), not a shard.
+    #[error(
+        "{}: a whole bundle (stages {}), not a unit shard (it has no {MARKER}): merge takes the shards `glint-bake SCENE --unit ID --bundle SHARD.glint` writes",
+        shard.display(), stages.join(", ")
+    )]
+    WholeBake {
+        /// The bundle.
+        shard: PathBuf,
+        /// Its stages.
+        stages: Vec<String>,
+    },
     /// Anything else wrong with a shard.
     #[error("{}: {why}", shard.display())]
     Invalid {
@@ -86,6 +103,33 @@ fn unit_of_name(shard: &Path) -> Option<String> {
     Some(name.strip_suffix(".glint").unwrap_or(&name).to_string())
 }
 
+/// Why the folder at `shard` has no marker: nothing there, a file, a whole bundle (several
+/// stages), or a shard whose unit never finished (a unit commits one stage).
+fn no_marker(shard: &Path) -> ShardError {
+    match std::fs::metadata(shard) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            return ShardError::Missing {
+                shard: shard.to_owned(),
+            };
+        }
+        Err(e) => return invalid(shard, e.to_string()),
+        Ok(m) if !m.is_dir() => return invalid(shard, "a file, not a shard folder"),
+        Ok(_) => {}
+    }
+    if let Ok(b) = Bundle::open(shard)
+        && b.manifest().stages.len() > 1
+    {
+        return ShardError::WholeBake {
+            shard: shard.to_owned(),
+            stages: b.manifest().stages.keys().cloned().collect(),
+        };
+    }
+    ShardError::Incomplete {
+        shard: shard.to_owned(),
+        hint: unit_of_name(shard),
+    }
+}
+
 /// Reads a shard's marker and checks the shard against it: the stage it names exists with
 /// the recorded identity and every asset matches its hash. Returns the marker and the opened
 /// shard.
@@ -93,12 +137,7 @@ pub fn read_shard(shard: &Path) -> Result<(Marker, Bundle), ShardError> {
     let path = shard.join(MARKER);
     let text = match std::fs::read_to_string(&path) {
         Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-            return Err(ShardError::Incomplete {
-                shard: shard.to_owned(),
-                hint: unit_of_name(shard),
-            });
-        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Err(no_marker(shard)),
         Err(e) => return Err(invalid(shard, format!("{MARKER}: {e}"))),
     };
     let marker: Marker = serde_json::from_str(&text)
@@ -266,8 +305,15 @@ fn dep_shard(
             .unwrap_or(Path::new("."))
             .join(format!("{dep}.glint")),
     };
-    let (marker, _) = read_shard(&path)
-        .map_err(|e| anyhow::anyhow!("unit `{}` reads unit `{dep}`'s shard: {e}", unit.id))?;
+    let (marker, _) = read_shard(&path).map_err(|e| match e {
+        ShardError::Missing { .. } => anyhow::anyhow!(
+            "unit `{}` reads unit `{dep}`'s shard, which is missing at {}: bake `{dep}` first (`glint-bake SCENE --unit {dep} --bundle {}`)",
+            unit.id,
+            path.display(),
+            path.display()
+        ),
+        e => anyhow::anyhow!("unit `{}` reads unit `{dep}`'s shard: {e}", unit.id),
+    })?;
     let want = plan.unit(dep).map(|u| u.key.as_str());
     if marker.unit != *dep || Some(marker.key.as_str()) != want {
         anyhow::bail!(

@@ -57,6 +57,10 @@ enum Command {
         /// Print a JSON report.
         #[arg(long)]
         json: bool,
+        /// Replace a bundle of another scene (by name); a bundle of an earlier version of
+        /// the same scene is replaced without it.
+        #[arg(long)]
+        force: bool,
     },
     /// List every asset: stage, kind, size, path.
     Ls {
@@ -137,8 +141,13 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             out: bundle,
             shards,
             json,
+            force,
         } => {
-            let report = crate::bake::merge::merge(&bundle, &shards)?;
+            let options = crate::bake::merge::MergeOptions {
+                force,
+                ..Default::default()
+            };
+            let report = crate::bake::merge::merge(&bundle, &shards, options)?;
             if json {
                 writeln!(out, "{}", serde_json::to_string_pretty(&report)?)?;
             } else {
