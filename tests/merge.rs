@@ -4,8 +4,8 @@
 //! refuses a bundle of another scene without `--force`, and says what is wrong with a path
 //! that is no shard.
 //!
-//! The shards are of a tiny plan made here (units `scene`, `radiosity` and `radiance.Floor`,
-//! which reads D), with a few small files per stage whose bytes name the scene version, so
+//! The shards are of a tiny plan made here (units `scene`, `radiosity`, and `radiance.Floor`
+//! and `radiance.Wall`, which read D), with a few small files per stage whose bytes name the scene version, so
 //! every test runs in well under a second per merge.
 
 mod common;
@@ -52,25 +52,33 @@ impl Version {
         hash(&format!("{}/{}", self.name, self.tag))
     }
 
-    /// The files of stage `stage` (path in the stage folder, kind, bytes).
-    fn files(self, stage: &str) -> Vec<(String, &'static str, Vec<u8>)> {
-        let body = |f: &str| format!("{} {} {stage}/{f}\n", self.name, self.tag).repeat(200);
-        let names: &[(&str, &str)] = match stage {
-            "scene" => &[("scene.json", "scene-json"), ("scene.glb", "gltf")],
-            "radiosity" => &[
-                ("atlas.bin", "atlas"),
-                ("page0.exr", "radiosity-exr"),
-                ("page1.exr", "radiosity-exr"),
+    /// The files unit `unit` bakes (path in its stage's folder, kind, bytes).
+    fn files(self, unit: &str) -> Vec<(String, &'static str, Vec<u8>)> {
+        let body = |f: &str| format!("{} {} {unit}/{f}\n", self.name, self.tag).repeat(200);
+        let names: Vec<(String, &str)> = match unit {
+            "scene" => vec![
+                ("scene.json".into(), "scene-json"),
+                ("scene.glb".into(), "gltf"),
             ],
-            _ => &[
-                ("Floor/cameras.json", "cameras"),
-                ("Floor/map0.exr", "radiance-exr"),
-                ("Floor/map0.qtree", "qtree"),
+            "radiosity" => vec![
+                ("atlas.bin".into(), "atlas"),
+                ("page0.exr".into(), "radiosity-exr"),
+                ("page1.exr".into(), "radiosity-exr"),
             ],
+            _ => {
+                let item = unit.strip_prefix("radiance.").unwrap();
+                vec![
+                    (format!("{item}/cameras.json"), "cameras"),
+                    (format!("{item}/map0.exr"), "radiance-exr"),
+                ]
+            }
         };
         names
-            .iter()
-            .map(|(f, k)| (f.to_string(), *k, body(f).into_bytes()))
+            .into_iter()
+            .map(|(f, k)| {
+                let bytes = body(&f).into_bytes();
+                (f, k, bytes)
+            })
             .collect()
     }
 
@@ -96,6 +104,7 @@ impl Version {
                 &["radiosity"],
                 1,
             ),
+            unit("radiance.Wall", "radiance", Some("Wall"), &["radiosity"], 1),
         ];
         let ids: String = units
             .iter()
@@ -129,15 +138,20 @@ impl Version {
         for u in &plan.units {
             let shard = dir.join(format!("{}.glint", u.id));
             let mut w = StageWriter::begin(&shard, &u.stage).unwrap();
-            for (rel, kind, bytes) in self.files(&u.stage) {
+            for (rel, kind, bytes) in self.files(&u.id) {
                 w.write(&rel, kind, &bytes).unwrap();
             }
+            // Figures the merge sums (radiance) or keeps (the others' single unit).
+            let stats = BTreeMap::from([
+                ("maps".to_string(), serde_json::json!(2)),
+                ("rays_cast".to_string(), serde_json::json!(1000)),
+            ]);
             let record = w
                 .commit(StageInfo {
                     scene_name: self.name.into(),
                     scene_hash: self.scene_hash(),
                     settings: plan.stages[&u.stage].clone(),
-                    stats: BTreeMap::new(),
+                    stats,
                     bake_seconds: 0.1,
                     force: true,
                 })
@@ -186,14 +200,21 @@ fn whole(dir: &Path, label: &str) -> Version {
             m.stages[stage].scene_hash, m.scene_hash,
             "{label}: stage {stage} of another version"
         );
-        for (rel, _, bytes) in v.files(stage) {
+    }
+    let mut assets = 0;
+    for u in &v.plan().units {
+        for (rel, _, bytes) in v.files(&u.id) {
             assert_eq!(
-                b.read_stage_file(stage, &rel).unwrap(),
+                b.read_stage_file(&u.stage, &rel).unwrap(),
                 bytes,
-                "{label}: {stage}/{rel}"
+                "{label}: {}/{rel}",
+                u.stage
             );
+            assets += 1;
         }
     }
+    assert_eq!(m.assets().count(), assets, "{label}: assets");
+    assert_eq!(m.stages["radiance"].stats["rays_cast"], 2000, "{label}");
     v
 }
 
@@ -472,7 +493,7 @@ fn glint_bundle_merge_killed_at_every_rename_unlink_and_fsync_leaves_the_old_or_
         family(&["unlink", "unlinkat", "rmdir"]),
         family(&["fsync", "fdatasync"]),
     );
-    // Three stage folders and the manifest renamed; the old version's nine files removed;
+    // Three stage folders and the manifest renamed; the old version's files removed;
     // every new file and folder flushed.
     eprintln!("kills: {kills:?}, outcomes: {outcomes:?}");
     assert!(renames >= 4, "{kills:?}");

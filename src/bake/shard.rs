@@ -18,7 +18,7 @@ use super::radiosity_stage::Gathering;
 use super::srdm_stage::{self, SrdmOutcome};
 use super::units::{GATHER, Unit, UnitPlan, kind};
 use super::{BakeSettings, Stage, StageStatus, radiance_stage, radiosity_stage, scene_stage};
-use crate::bundle::{Bundle, write_atomic};
+use crate::bundle::{Bundle, Manifest, write_atomic};
 use crate::progress::Progress;
 use crate::scene::Scene;
 
@@ -135,12 +135,31 @@ fn no_marker(shard: &Path) -> ShardError {
 /// shard.
 pub fn read_shard(shard: &Path) -> Result<(Marker, Bundle), ShardError> {
     let path = shard.join(MARKER);
-    let text = match std::fs::read_to_string(&path) {
+    let text = match std::fs::read(&path) {
         Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Err(no_marker(shard)),
         Err(e) => return Err(invalid(shard, format!("{MARKER}: {e}"))),
     };
-    let marker: Marker = serde_json::from_str(&text)
+    let marker = parse_marker(shard, &text)?;
+    let bundle = Bundle::open(shard).map_err(|e| invalid(shard, e.to_string()))?;
+    check_marker(shard, &marker, bundle.manifest())?;
+    let problems = bundle.verify();
+    if let Some(p) = problems.first() {
+        return Err(invalid(
+            shard,
+            format!(
+                "{} damaged asset(s), e.g. {p}: rerun unit `{}`",
+                problems.len(),
+                marker.unit
+            ),
+        ));
+    }
+    Ok((marker, bundle))
+}
+
+/// Parses the marker `text` of the shard at `shard` and checks its format and version.
+pub(crate) fn parse_marker(shard: &Path, text: &[u8]) -> Result<Marker, ShardError> {
+    let marker: Marker = serde_json::from_slice(text)
         .map_err(|e| invalid(shard, format!("{MARKER}: not a unit marker: {e}")))?;
     if marker.format != MARKER_FORMAT || marker.version != 1 {
         return Err(invalid(
@@ -151,8 +170,17 @@ pub fn read_shard(shard: &Path) -> Result<(Marker, Bundle), ShardError> {
             ),
         ));
     }
-    let bundle = Bundle::open(shard).map_err(|e| invalid(shard, e.to_string()))?;
-    let record = bundle.stage(&marker.stage).ok_or_else(|| {
+    Ok(marker)
+}
+
+/// Checks that the shard's `manifest` holds the stage `marker` names, as the unit committed
+/// it (the same identity).
+pub(crate) fn check_marker(
+    shard: &Path,
+    marker: &Marker,
+    manifest: &Manifest,
+) -> Result<(), ShardError> {
+    let record = manifest.stages.get(&marker.stage).ok_or_else(|| {
         invalid(
             shard,
             format!(
@@ -173,18 +201,7 @@ pub fn read_shard(shard: &Path) -> Result<(Marker, Bundle), ShardError> {
             ),
         ));
     }
-    let problems = bundle.verify();
-    if let Some(p) = problems.first() {
-        return Err(invalid(
-            shard,
-            format!(
-                "{} damaged asset(s), e.g. {p}: rerun unit `{}`",
-                problems.len(),
-                marker.unit
-            ),
-        ));
-    }
-    Ok((marker, bundle))
+    Ok(())
 }
 
 /// What [`bake_unit`] did.
