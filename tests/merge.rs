@@ -444,6 +444,13 @@ fn glint_bundle_merge_killed_at_every_rename_unlink_and_fsync_leaves_the_old_or_
         );
         return skip("no strace");
     };
+    let traced = Command::new(&strace)
+        .args(["-f", "-qq", "-o", "/dev/null", "true"])
+        .status()
+        .unwrap();
+    if !traced.success() {
+        return skip("strace cannot trace here (ptrace is not permitted)");
+    }
     let f = Fixture::new();
     let mut kills: BTreeMap<&str, usize> = BTreeMap::new();
     let mut outcomes: BTreeMap<&str, usize> = BTreeMap::new();
@@ -628,6 +635,49 @@ fn a_missing_path_or_a_whole_bundle_is_named_for_what_it_is() {
     assert!(
         err.contains(&format!("{}: incomplete shard", shard.display()))
             && err.contains("--unit radiosity"),
+        "{err}"
+    );
+    assert!(!out.exists(), "nothing is written");
+}
+
+#[test]
+fn a_shard_holding_another_stage_than_its_unit_is_refused() {
+    let f = Fixture::new();
+    // The radiosity unit's shard replaced by a copy of the scene shard whose marker names the
+    // radiosity unit (its key), and the units that read D marked as reading none.
+    let root = f.root.join("forged");
+    copy_dir(&f.root.join(A.tag), &root);
+    let shard = root.join("radiosity.glint");
+    std::fs::remove_dir_all(&shard).unwrap();
+    copy_dir(&root.join("scene.glint"), &shard);
+    let plan = A.plan();
+    let edit = |path: &Path, f: &dyn Fn(&mut Marker)| {
+        let mut m: Marker = serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap();
+        f(&mut m);
+        std::fs::write(path, serde_json::to_string_pretty(&m).unwrap()).unwrap();
+    };
+    edit(&shard.join(MARKER), &|m| {
+        m.unit = "radiosity".into();
+        m.key = plan.unit("radiosity").unwrap().key.clone();
+    });
+    for u in ["radiance.Floor", "radiance.Wall"] {
+        edit(&root.join(format!("{u}.glint")).join(MARKER), &|m| {
+            m.read_d = None
+        });
+    }
+    let shards: Vec<PathBuf> = plan
+        .units
+        .iter()
+        .map(|u| root.join(format!("{}.glint", u.id)))
+        .collect();
+    let out = f.root.join("forged.glint");
+    let (code, _, err) = merge_cli(&out, &shards, &[]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains(&format!(
+            "{}: unit `radiosity` holds stage `scene`, but the plan gives it stage `radiosity`",
+            shard.display()
+        )),
         "{err}"
     );
     assert!(!out.exists(), "nothing is written");

@@ -48,6 +48,8 @@ enum Command {
     /// SHARD.glint`) into one bundle, after checking that every unit of the plan is there
     /// once, complete (its `unit.json` written), intact and baked for the same plan, and that
     /// every unit that read D read the D assembled. Refuses, naming each bad shard, otherwise.
+    /// Every stage is committed at once: the bundle is the old one or the new one, whole,
+    /// whatever happens meanwhile.
     Merge {
         /// The bundle to write (new, empty, or a bundle whose stages are replaced).
         out: PathBuf,

@@ -9,6 +9,10 @@
 //! at the end of a commit, still under the lock, unless a reader holds them (a shared lock,
 //! [`super::Bundle::open`]) or, for a temporary folder, a live writer does (an exclusive
 //! lock held from [`StageWriter::begin`] to the commit).
+//!
+//! A [`SceneCommit`] commits several stages the same way, under one lock: every folder is
+//! renamed into place first, then one manifest naming them all, so that one rename switches
+//! from the old bundle to the new one (a merge's stages, all or none).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fs::{self, File, OpenOptions};
