@@ -507,7 +507,7 @@ fn glint_bundle_merge_killed_at_every_rename_unlink_and_fsync_leaves_the_old_or_
     assert!(unlinks >= 9, "{kills:?}");
     assert!(fsyncs >= 9, "{kills:?}");
     assert!(
-        outcomes.get("old").is_some() && outcomes.get("new").is_some(),
+        outcomes.contains_key("old") && outcomes.contains_key("new"),
         "{outcomes:?}"
     );
 }

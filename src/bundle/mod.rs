@@ -97,14 +97,14 @@ pub enum BundleError {
     OtherScene {
         /// The bundle folder.
         dir: PathBuf,
-        /// The scene the bundle holds.
-        found_name: String,
+        /// The scene the bundle holds (`str`s keep the error small).
+        found_name: Box<str>,
         /// The hash of that scene's stages.
-        found_hash: String,
+        found_hash: Box<str>,
         /// The scene being merged.
-        name: String,
+        name: Box<str>,
         /// Its hash.
-        hash: String,
+        hash: Box<str>,
     },
     /// A stage name or asset path that would leave its folder.
     #[error("invalid asset path {path:?}: {why}")]

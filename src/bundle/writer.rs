@@ -349,8 +349,8 @@ impl SceneCommit {
         match other_scene(&old, scene_name, scene_hash) {
             Some((found_name, found_hash)) if !force => Err(BundleError::OtherScene {
                 dir: dir.to_owned(),
-                found_name,
-                found_hash,
+                found_name: found_name.into(),
+                found_hash: found_hash.into(),
                 name: scene_name.into(),
                 hash: scene_hash.into(),
             }),
@@ -476,10 +476,10 @@ fn commit_stages(
             Some((found_name, found_hash)) if !force => {
                 return Err(BundleError::OtherScene {
                     dir: dir.to_owned(),
-                    found_name,
-                    found_hash,
-                    name: scene_name,
-                    hash: scene_hash,
+                    found_name: found_name.into(),
+                    found_hash: found_hash.into(),
+                    name: scene_name.into(),
+                    hash: scene_hash.into(),
                 });
             }
             Some((found_name, _)) => {
