@@ -64,7 +64,7 @@ macro_rules! targets {
 }
 
 targets!(
-    scene_json, gltf, manifest, atlas, qtree, srdm, pattern, exr, srdm_index,
+    scene_json, gltf, manifest, merge, atlas, qtree, srdm, pattern, exr, srdm_index,
 );
 
 #[cfg(feature = "view")]

@@ -488,3 +488,50 @@ fn the_radiosity_unit_needs_every_gathering_shard_and_then_solves_the_same_d() {
     let d = |b: &Path| stages(b).remove("radiosity").unwrap();
     assert_eq!(d(&radiosity), d(&shards.join("radiosity.glint")));
 }
+
+#[test]
+fn a_missing_dependency_shard_is_called_missing_and_a_partial_one_incomplete() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = repo("scenes/cornell-box/scene.json");
+    let radiosity = tmp.path().join("radiosity.glint");
+    let gather = tmp.path().join("gather.0.glint");
+    let unit = || {
+        bake(&[
+            s(&scene),
+            "--quality",
+            "draft",
+            "--unit",
+            "radiosity",
+            "--bundle",
+            s(&radiosity),
+        ])
+    };
+    // No gather.0 shard at all: it is missing there, and nothing says its unit failed.
+    let (code, _, err) = unit();
+    assert_ne!(code, 0);
+    assert!(
+        err.contains(&format!(
+            "unit `radiosity` reads unit `gather.0`'s shard, which is missing at {}",
+            gather.display()
+        )) && err.contains("--unit gather.0"),
+        "{err}"
+    );
+    assert!(!err.contains("failed or was killed"), "{err}");
+
+    // A shard its unit began but never finished (a bundle without unit.json): incomplete.
+    std::fs::create_dir_all(&gather).unwrap();
+    std::fs::write(
+        gather.join("manifest.json"),
+        r#"{"format":"glint-bundle","format_version":"2.1.0","generator":"glint","scene_name":"","scene_hash":"","stages":{}}"#,
+    )
+    .unwrap();
+    let (code, _, err) = unit();
+    assert_ne!(code, 0);
+    assert!(
+        err.contains(&format!("{}: incomplete shard", gather.display()))
+            && err.contains("failed or was killed")
+            && err.contains("--unit gather.0"),
+        "{err}"
+    );
+    assert!(!radiosity.join("unit.json").exists());
+}

@@ -15,9 +15,11 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use super::Stage;
-use super::shard::{Marker, ShardError, read_shard};
-use super::units::{UnitPlan, kind};
-use crate::bundle::{Bundle, StageInfo, StageWriter};
+use super::shard::{Marker, read_shard};
+use super::units::{GATHER, UnitPlan, kind};
+use crate::bundle::{
+    Bundle, FaultHook, Manifest, SceneCommit, StageInfo, StageRecord, StageWriter,
+};
 use crate::materials::index::MaterialsIndex;
 use crate::srdm::index::SrdmIndex;
 
@@ -52,9 +54,33 @@ pub struct MergeReport {
     pub assets: usize,
 }
 
+/// How [`merge`] treats the bundle it writes.
+#[derive(Default)]
+pub struct MergeOptions {
+    /// Replace a bundle of another scene (by name) instead of refusing.
+    pub force: bool,
+    /// Called before each file-system step of the commit (fault-injection tests).
+    pub fault_hook: Option<FaultHook>,
+}
+
+impl std::fmt::Debug for MergeOptions {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("MergeOptions")
+            .field("force", &self.force)
+            .finish_non_exhaustive()
+    }
+}
+
 /// Checks `shards` and assembles them into the bundle at `out` (new, empty, or a bundle:
-/// its stages are replaced).
-pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<MergeReport, MergeError> {
+/// its stages are replaced). Every stage is committed at once (one manifest rename,
+/// [`SceneCommit`]): a reader, a crash or a concurrent merge sees the old bundle or the new
+/// one, never a mix. A bundle of the same scene (an earlier version of it, whatever its
+/// hash) is replaced; one of another scene (by name) only with `options.force`.
+pub fn merge(
+    out: &Path,
+    shards: &[PathBuf],
+    options: MergeOptions,
+) -> Result<MergeReport, MergeError> {
     if shards.is_empty() {
         return Err(MergeError::one("no shards given"));
     }
@@ -63,21 +89,113 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<MergeReport, MergeError> 
     for s in shards {
         match read_shard(s) {
             Ok((m, b)) => read.push((s.clone(), m, b)),
-            Err(e @ (ShardError::Incomplete { .. } | ShardError::Invalid { .. })) => {
-                problems.push(e.to_string())
-            }
+            Err(e) => problems.push(e.to_string()),
         }
     }
-    let Some((first_path, first, _)) = read.first() else {
+    let views: Vec<ShardView> = read
+        .iter()
+        .map(|(path, marker, b)| ShardView {
+            path,
+            marker,
+            manifest: b.manifest(),
+        })
+        .collect();
+    let assembly = check_shards(&views, problems)?;
+    let plan = &assembly.plan;
+
+    SceneCommit::check(out, &plan.scene_name, &plan.scene_hash, options.force)
+        .map_err(|e| MergeError::one(e.to_string()))?;
+    let mut commit = SceneCommit::new(out, options.force);
+    if let Some(hook) = options.fault_hook {
+        commit = commit.with_fault_hook(hook);
+    }
+    let mut report = MergeReport {
+        bundle: out.to_owned(),
+        scene: plan.scene_name.clone(),
+        units: plan.units.len(),
+        stages: Vec::new(),
+        assets: 0,
+    };
+    for part in assembly.stages {
+        let units: Vec<(&str, &Bundle)> = part
+            .units
+            .iter()
+            .map(|(id, i)| (id.as_str(), &read[*i].2))
+            .collect();
+        let name = part.stage.name();
+        let (w, info) = assemble(out, plan, part.stage, &units)?;
+        report.assets += w.assets().len();
+        report.stages.push(name.into());
+        commit.push(
+            w,
+            StageInfo {
+                settings: part.settings,
+                stats: part.stats,
+                bake_seconds: part.bake_seconds,
+                ..info
+            },
+        );
+    }
+    commit
+        .commit()
+        .map_err(|e| MergeError::one(e.to_string()))?;
+    Ok(report)
+}
+
+/// One shard as read: its path, marker and manifest.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ShardView<'a> {
+    /// The shard.
+    pub path: &'a Path,
+    /// Its `unit.json`, checked against its manifest ([`super::shard::check_marker`]).
+    pub marker: &'a Marker,
+    /// Its manifest.
+    pub manifest: &'a Manifest,
+}
+
+/// What a checked merge assembles: the plan, and per stage (in stage order) its units.
+#[derive(Clone, Debug)]
+pub(crate) struct Assembly {
+    /// The plan every shard belongs to.
+    pub plan: UnitPlan,
+    /// The stages to write.
+    pub stages: Vec<StagePart>,
+}
+
+/// One stage of an [`Assembly`].
+#[derive(Clone, Debug)]
+pub(crate) struct StagePart {
+    /// The stage.
+    pub stage: Stage,
+    /// Its units in plan order: ID and index of its shard, which holds the stage.
+    pub units: Vec<(String, usize)>,
+    /// The settings the stage records (the plan's, with the D assembled).
+    pub settings: serde_json::Value,
+    /// The stage's figures, from its units' ([`merge_stats`]).
+    pub stats: BTreeMap<String, serde_json::Value>,
+    /// The units' bake times summed.
+    pub bake_seconds: f64,
+}
+
+/// Checks that `shards` (read without the `problems` found so far) hold every unit of one
+/// plan exactly once, each baked from the plan's inputs into the stage the plan gives it,
+/// and that every unit that read D read the D assembled; returns what to assemble, or every
+/// problem found. Pure: no file is read.
+pub(crate) fn check_shards(
+    shards: &[ShardView],
+    mut problems: Vec<String>,
+) -> Result<Assembly, MergeError> {
+    let Some(first) = shards.first() else {
         return Err(MergeError { problems });
     };
-    let plan: UnitPlan = first.plan.clone();
+    let plan: UnitPlan = first.marker.plan.clone();
     let mut by_unit: BTreeMap<&str, usize> = BTreeMap::new();
-    for (i, (path, m, _)) in read.iter().enumerate() {
+    for (i, v) in shards.iter().enumerate() {
+        let (path, m) = (v.path, v.marker);
         if m.plan.plan_hash != plan.plan_hash {
             problems.push(format!(
                 "{}: unit `{}` belongs to another plan ({:.12}…) than {} ({:.12}…): the scene or settings changed; rerun the unit",
-                path.display(), m.unit, m.plan.plan_hash, first_path.display(), plan.plan_hash
+                path.display(), m.unit, m.plan.plan_hash, first.path.display(), plan.plan_hash
             ));
             continue;
         }
@@ -91,16 +209,33 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<MergeReport, MergeError> 
                 "{}: unit `{}` was baked from other inputs (key {:.12}…, the plan's {:.12}…): rerun it",
                 path.display(), m.unit, m.key, u.key
             )),
+            Some(u) if u.stage != m.stage => problems.push(format!(
+                "{}: unit `{}` holds stage `{}`, but the plan gives it stage `{}`: rerun it",
+                path.display(),
+                m.unit,
+                m.stage,
+                u.stage
+            )),
             Some(_) => {
                 if let Some(j) = by_unit.insert(&m.unit, i) {
                     problems.push(format!(
                         "unit `{}` is in two shards: {} and {}",
                         m.unit,
-                        read[j].0.display(),
+                        shards[j].path.display(),
                         path.display()
                     ));
                 }
             }
+        }
+    }
+    for u in &plan.units {
+        if u.stage != GATHER && !Stage::ALL.iter().any(|s| s.name() == u.stage) {
+            problems.push(format!(
+                "{}: the plan's unit `{}` is of unknown stage `{}`",
+                first.path.display(),
+                u.id,
+                u.stage
+            ));
         }
     }
     let missing: Vec<&str> = plan
@@ -119,16 +254,16 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<MergeReport, MergeError> 
     // D as assembled: what every unit that read D must have read.
     let d = by_unit
         .get("radiosity")
-        .and_then(|&i| read[i].2.stage(Stage::Radiosity.name()))
+        .and_then(|&i| shards[i].manifest.stages.get(Stage::Radiosity.name()))
         .map(|r| r.identity());
-    for (path, m, _) in &read {
-        if let Some(r) = &m.read_d
+    for v in shards {
+        if let Some(r) = &v.marker.read_d
             && d.as_deref() != Some(r.as_str())
         {
             problems.push(format!(
                 "{}: unit `{}` read D {:.12}…, but the radiosity shard holds {}: rerun the unit",
-                path.display(),
-                m.unit,
+                v.path.display(),
+                v.marker.unit,
                 r,
                 d.as_deref().map_or("none".into(), |d| format!("{d:.12}…"))
             ));
@@ -138,22 +273,14 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<MergeReport, MergeError> 
         return Err(MergeError { problems });
     }
 
-    let fail = |e: &dyn std::fmt::Display| MergeError::one(format!("{}: {e}", out.display()));
-    crate::bundle::check_folder(out).map_err(|e| fail(&e))?;
-    let mut report = MergeReport {
-        bundle: out.to_owned(),
-        scene: plan.scene_name.clone(),
-        units: plan.units.len(),
-        stages: Vec::new(),
-        assets: 0,
-    };
+    let mut stages = Vec::new();
     for stage in Stage::ALL {
         let name = stage.name();
-        let units: Vec<(&str, &Bundle)> = plan
+        let units: Vec<(String, usize)> = plan
             .units
             .iter()
             .filter(|u| u.stage == name)
-            .map(|u| (u.id.as_str(), &read[by_unit[u.id.as_str()]].2))
+            .map(|u| (u.id.clone(), by_unit[u.id.as_str()]))
             .collect();
         if units.is_empty() {
             continue;
@@ -164,30 +291,47 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<MergeReport, MergeError> 
         {
             obj.insert("d_source".into(), d.clone().into());
         }
-        report.assets += assemble(out, &plan, stage, &units, settings)?;
-        report.stages.push(name.into());
+        let records: Vec<(&str, &StageRecord)> = units
+            .iter()
+            .map(|(id, i)| {
+                let record = shards[*i].manifest.stages.get(name);
+                (
+                    id.as_str(),
+                    record.expect("the unit's stage, checked above"),
+                )
+            })
+            .collect();
+        let stats: Vec<(&str, BTreeMap<String, serde_json::Value>)> = records
+            .iter()
+            .map(|(id, r)| (*id, r.stats.clone()))
+            .collect();
+        stages.push(StagePart {
+            stage,
+            settings,
+            stats: merge_stats(stage, &stats),
+            bake_seconds: records.iter().map(|(_, r)| r.bake_seconds).sum(),
+            units,
+        });
     }
-    Ok(report)
+    Ok(Assembly { plan, stages })
 }
 
-/// Writes stage `stage` of `out` from its units' shards; returns the assets written.
+/// Writes stage `stage` of `out` from its units' shards into a [`StageWriter`]; returns it
+/// with the stage's record (its figures left for the caller), for the merge's one commit.
 fn assemble(
     out: &Path,
     plan: &UnitPlan,
     stage: Stage,
     units: &[(&str, &Bundle)],
-    settings: serde_json::Value,
-) -> Result<usize, MergeError> {
+) -> Result<(StageWriter, StageInfo), MergeError> {
     let name = stage.name();
     let err = |e: &dyn std::fmt::Display| MergeError::one(format!("stage `{name}`: {e}"));
     let index_path = format!("{name}/index.json");
     let joins_index = matches!(stage, Stage::Materials | Stage::Srdm);
     let mut w = StageWriter::begin(out, name).map_err(|e| err(&e))?;
     let mut indexes = Vec::new();
-    let mut stats = Vec::new();
-    let mut seconds = 0.0;
     for (id, shard) in units {
-        let record = shard.stage(name).expect("checked by read_shard");
+        let record = shard.stage(name).expect("checked by check_shards");
         for a in &record.assets {
             let bytes = shard.read_asset(a).map_err(|e| err(&e))?;
             if joins_index && a.path == index_path {
@@ -197,8 +341,6 @@ fn assemble(
             let rel = a.path.strip_prefix(&format!("{name}/")).unwrap_or(&a.path);
             w.write(rel, &a.kind, &bytes).map_err(|e| err(&e))?;
         }
-        stats.push((*id, record.stats.clone()));
-        seconds += record.bake_seconds;
     }
     if joins_index {
         let bytes = match stage {
@@ -208,17 +350,16 @@ fn assemble(
         w.write("index.json", kind_of_index(stage), &bytes)
             .map_err(|e| err(&e))?;
     }
-    let n = w.assets().len();
-    w.commit(StageInfo {
+    let info = StageInfo {
         scene_name: plan.scene_name.clone(),
         scene_hash: plan.scene_hash.clone(),
-        settings,
-        stats: merge_stats(stage, &stats),
-        bake_seconds: seconds,
+        settings: serde_json::Value::Null,
+        stats: BTreeMap::new(),
+        bake_seconds: 0.0,
+        // The scene guard is the merge's whole commit's (SceneCommit), not this stage's.
         force: true,
-    })
-    .map_err(|e| err(&e))?;
-    Ok(n)
+    };
+    Ok((w, info))
 }
 
 fn kind_of_index(stage: Stage) -> &'static str {
@@ -305,8 +446,12 @@ fn merge_stats(
             }
             let all: Vec<&serde_json::Value> = units.iter().filter_map(|(_, s)| s.get(k)).collect();
             let merged = if sum_keys.contains(&k.as_str()) {
-                if all.iter().all(|v| v.is_u64()) {
-                    all.iter().filter_map(|v| v.as_u64()).sum::<u64>().into()
+                // Counts past u64 (only forged figures reach that) are summed as floats.
+                let exact = all
+                    .iter()
+                    .try_fold(0u64, |sum, v| sum.checked_add(v.as_u64()?));
+                if let Some(sum) = exact {
+                    sum.into()
                 } else {
                     all.iter().filter_map(|v| v.as_f64()).sum::<f64>().into()
                 }

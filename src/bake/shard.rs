@@ -18,7 +18,7 @@ use super::radiosity_stage::Gathering;
 use super::srdm_stage::{self, SrdmOutcome};
 use super::units::{GATHER, Unit, UnitPlan, kind};
 use super::{BakeSettings, Stage, StageStatus, radiance_stage, radiosity_stage, scene_stage};
-use crate::bundle::{Bundle, write_atomic};
+use crate::bundle::{Bundle, Manifest, write_atomic};
 use crate::progress::Progress;
 use crate::scene::Scene;
 
@@ -63,6 +63,23 @@ pub enum ShardError {
         /// The unit, guessed from the shard's file name.
         hint: Option<String>,
     },
+    /// Nothing at the shard's path.
+    #[error("{}: no shard there: the path does not exist", shard.display())]
+    Missing {
+        /// The path given.
+        shard: PathBuf,
+    },
+    /// A bundle of several stages without a marker: a whole bake (or a merge), not a shard.
+    #[error(
+        "{}: a whole bundle (stages {}), not a unit shard (it has no {MARKER}): merge takes the shards `glint-bake SCENE --unit ID --bundle SHARD.glint` writes",
+        shard.display(), stages.join(", ")
+    )]
+    WholeBake {
+        /// The bundle.
+        shard: PathBuf,
+        /// Its stages.
+        stages: Vec<String>,
+    },
     /// Anything else wrong with a shard.
     #[error("{}: {why}", shard.display())]
     Invalid {
@@ -86,22 +103,63 @@ fn unit_of_name(shard: &Path) -> Option<String> {
     Some(name.strip_suffix(".glint").unwrap_or(&name).to_string())
 }
 
+/// Why the folder at `shard` has no marker: nothing there, a file, a whole bundle (several
+/// stages), or a shard whose unit never finished (a unit commits one stage).
+fn no_marker(shard: &Path) -> ShardError {
+    match std::fs::metadata(shard) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            return ShardError::Missing {
+                shard: shard.to_owned(),
+            };
+        }
+        Err(e) => return invalid(shard, e.to_string()),
+        Ok(m) if !m.is_dir() => return invalid(shard, "a file, not a shard folder"),
+        Ok(_) => {}
+    }
+    if let Ok(b) = Bundle::open(shard)
+        && b.manifest().stages.len() > 1
+    {
+        return ShardError::WholeBake {
+            shard: shard.to_owned(),
+            stages: b.manifest().stages.keys().cloned().collect(),
+        };
+    }
+    ShardError::Incomplete {
+        shard: shard.to_owned(),
+        hint: unit_of_name(shard),
+    }
+}
+
 /// Reads a shard's marker and checks the shard against it: the stage it names exists with
 /// the recorded identity and every asset matches its hash. Returns the marker and the opened
 /// shard.
 pub fn read_shard(shard: &Path) -> Result<(Marker, Bundle), ShardError> {
     let path = shard.join(MARKER);
-    let text = match std::fs::read_to_string(&path) {
+    let text = match std::fs::read(&path) {
         Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-            return Err(ShardError::Incomplete {
-                shard: shard.to_owned(),
-                hint: unit_of_name(shard),
-            });
-        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Err(no_marker(shard)),
         Err(e) => return Err(invalid(shard, format!("{MARKER}: {e}"))),
     };
-    let marker: Marker = serde_json::from_str(&text)
+    let marker = parse_marker(shard, &text)?;
+    let bundle = Bundle::open(shard).map_err(|e| invalid(shard, e.to_string()))?;
+    check_marker(shard, &marker, bundle.manifest())?;
+    let problems = bundle.verify();
+    if let Some(p) = problems.first() {
+        return Err(invalid(
+            shard,
+            format!(
+                "{} damaged asset(s), e.g. {p}: rerun unit `{}`",
+                problems.len(),
+                marker.unit
+            ),
+        ));
+    }
+    Ok((marker, bundle))
+}
+
+/// Parses the marker `text` of the shard at `shard` and checks its format and version.
+pub(crate) fn parse_marker(shard: &Path, text: &[u8]) -> Result<Marker, ShardError> {
+    let marker: Marker = serde_json::from_slice(text)
         .map_err(|e| invalid(shard, format!("{MARKER}: not a unit marker: {e}")))?;
     if marker.format != MARKER_FORMAT || marker.version != 1 {
         return Err(invalid(
@@ -112,8 +170,17 @@ pub fn read_shard(shard: &Path) -> Result<(Marker, Bundle), ShardError> {
             ),
         ));
     }
-    let bundle = Bundle::open(shard).map_err(|e| invalid(shard, e.to_string()))?;
-    let record = bundle.stage(&marker.stage).ok_or_else(|| {
+    Ok(marker)
+}
+
+/// Checks that the shard's `manifest` holds the stage `marker` names, as the unit committed
+/// it (the same identity).
+pub(crate) fn check_marker(
+    shard: &Path,
+    marker: &Marker,
+    manifest: &Manifest,
+) -> Result<(), ShardError> {
+    let record = manifest.stages.get(&marker.stage).ok_or_else(|| {
         invalid(
             shard,
             format!(
@@ -134,18 +201,7 @@ pub fn read_shard(shard: &Path) -> Result<(Marker, Bundle), ShardError> {
             ),
         ));
     }
-    let problems = bundle.verify();
-    if let Some(p) = problems.first() {
-        return Err(invalid(
-            shard,
-            format!(
-                "{} damaged asset(s), e.g. {p}: rerun unit `{}`",
-                problems.len(),
-                marker.unit
-            ),
-        ));
-    }
-    Ok((marker, bundle))
+    Ok(())
 }
 
 /// What [`bake_unit`] did.
@@ -266,8 +322,15 @@ fn dep_shard(
             .unwrap_or(Path::new("."))
             .join(format!("{dep}.glint")),
     };
-    let (marker, _) = read_shard(&path)
-        .map_err(|e| anyhow::anyhow!("unit `{}` reads unit `{dep}`'s shard: {e}", unit.id))?;
+    let (marker, _) = read_shard(&path).map_err(|e| match e {
+        ShardError::Missing { .. } => anyhow::anyhow!(
+            "unit `{}` reads unit `{dep}`'s shard, which is missing at {}: bake `{dep}` first (`glint-bake SCENE --unit {dep} --bundle {}`)",
+            unit.id,
+            path.display(),
+            path.display()
+        ),
+        e => anyhow::anyhow!("unit `{}` reads unit `{dep}`'s shard: {e}", unit.id),
+    })?;
     let want = plan.unit(dep).map(|u| u.key.as_str());
     if marker.unit != *dep || Some(marker.key.as_str()) != want {
         anyhow::bail!(

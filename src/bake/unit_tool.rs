@@ -52,7 +52,11 @@ pub fn run(args: &GlintBakeArgs, out: &mut dyn Write) -> anyhow::Result<ExitCode
     let merged = match (&args.units, &args.bundle) {
         (Some(dir), Some(bundle)) => {
             let shards: Vec<PathBuf> = plan.units.iter().map(|u| shard_path(dir, &u.id)).collect();
-            Some(super::merge::merge(bundle, &shards)?)
+            let options = super::merge::MergeOptions {
+                force: args.options.force,
+                ..Default::default()
+            };
+            Some(super::merge::merge(bundle, &shards, options)?)
         }
         _ => None,
     };

@@ -48,6 +48,8 @@ enum Command {
     /// SHARD.glint`) into one bundle, after checking that every unit of the plan is there
     /// once, complete (its `unit.json` written), intact and baked for the same plan, and that
     /// every unit that read D read the D assembled. Refuses, naming each bad shard, otherwise.
+    /// Every stage is committed at once: the bundle is the old one or the new one, whole,
+    /// whatever happens meanwhile.
     Merge {
         /// The bundle to write (new, empty, or a bundle whose stages are replaced).
         out: PathBuf,
@@ -57,6 +59,10 @@ enum Command {
         /// Print a JSON report.
         #[arg(long)]
         json: bool,
+        /// Replace a bundle of another scene (by name); a bundle of an earlier version of
+        /// the same scene is replaced without it.
+        #[arg(long)]
+        force: bool,
     },
     /// List every asset: stage, kind, size, path.
     Ls {
@@ -137,8 +143,13 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             out: bundle,
             shards,
             json,
+            force,
         } => {
-            let report = crate::bake::merge::merge(&bundle, &shards)?;
+            let options = crate::bake::merge::MergeOptions {
+                force,
+                ..Default::default()
+            };
+            let report = crate::bake::merge::merge(&bundle, &shards, options)?;
             if json {
                 writeln!(out, "{}", serde_json::to_string_pretty(&report)?)?;
             } else {

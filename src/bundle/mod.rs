@@ -33,7 +33,7 @@ pub use manifest::{
     StageRecord,
 };
 pub use names::{folder_name, unique_folders};
-pub use writer::{CommitStep, FaultHook, StageInfo, StageWriter, write_atomic};
+pub use writer::{CommitStep, FaultHook, SceneCommit, StageInfo, StageWriter, write_atomic};
 
 /// File name of the manifest inside a bundle.
 pub const MANIFEST: &str = "manifest.json";
@@ -88,6 +88,23 @@ pub enum BundleError {
         found: String,
         /// The scene being baked.
         expected: String,
+    },
+    /// A merge would replace a bundle of another scene (by name).
+    #[error(
+        "{}: holds scene `{found_name}` (hash {found_hash:.12}…), not `{name}` (hash {hash:.12}…) being merged; pass --force to replace it",
+        dir.display()
+    )]
+    OtherScene {
+        /// The bundle folder.
+        dir: PathBuf,
+        /// The scene the bundle holds (`str`s keep the error small).
+        found_name: Box<str>,
+        /// The hash of that scene's stages.
+        found_hash: Box<str>,
+        /// The scene being merged.
+        name: Box<str>,
+        /// Its hash.
+        hash: Box<str>,
     },
     /// A stage name or asset path that would leave its folder.
     #[error("invalid asset path {path:?}: {why}")]

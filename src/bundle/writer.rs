@@ -9,6 +9,10 @@
 //! at the end of a commit, still under the lock, unless a reader holds them (a shared lock,
 //! [`super::Bundle::open`]) or, for a temporary folder, a live writer does (an exclusive
 //! lock held from [`StageWriter::begin`] to the commit).
+//!
+//! A [`SceneCommit`] commits several stages the same way, under one lock: every folder is
+//! renamed into place first, then one manifest naming them all, so that one rename switches
+//! from the old bundle to the new one (a merge's stages, all or none).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fs::{self, File, OpenOptions};
@@ -282,181 +286,371 @@ impl StageWriter {
         self.sources.push((stage.into(), identity.into()));
     }
 
-    /// Calls the fault hook, if any, before `step` on `path`.
-    fn fault(&mut self, step: CommitStep, path: &Path) -> Result<(), BundleError> {
-        match self.hook.as_mut() {
-            Some(hook) => hook(step).map_err(io(path)),
-            None => Ok(()),
-        }
-    }
-
     /// Moves the stage's folder into place and records it in the manifest, under the
     /// bundle's lock; then collects folders no manifest names. Returns the record written.
     pub fn commit(mut self, info: StageInfo) -> Result<StageRecord, BundleError> {
-        let lock = lock_bundle(&self.dir.clone(), &mut self.hook)?;
+        let mut hook = self.hook.take();
+        let dir = self.dir.clone();
+        let force = info.force;
+        let mut records = commit_stages(
+            &dir,
+            &mut [(self, info)],
+            &mut hook,
+            SceneGuard::Hash { force },
+        )?;
+        Ok(records.remove(0))
+    }
+}
 
-        let manifest_path = self.dir.join(MANIFEST);
-        self.fault(CommitStep::ReadManifest, &manifest_path)?;
-        let old = read_manifest(&self.dir)?
-            .unwrap_or_else(|| Manifest::new(&info.scene_name, &info.scene_hash));
-        for (stage, read) in &self.sources {
+/// Several stages of one scene committed together ([`SceneCommit::commit`]).
+pub struct SceneCommit {
+    dir: PathBuf,
+    stages: Vec<(StageWriter, StageInfo)>,
+    force: bool,
+    hook: Option<FaultHook>,
+}
+
+impl std::fmt::Debug for SceneCommit {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SceneCommit")
+            .field("dir", &self.dir)
+            .field("stages", &self.stages.len())
+            .field("force", &self.force)
+            .finish_non_exhaustive()
+    }
+}
+
+impl SceneCommit {
+    /// A commit into the bundle at `dir` that replaces whatever the bundle holds of the same
+    /// scene (by name: an earlier version of it). A bundle holding another scene is refused
+    /// ([`BundleError::OtherScene`]) unless `force`.
+    pub fn new(dir: impl AsRef<Path>, force: bool) -> SceneCommit {
+        SceneCommit {
+            dir: dir.as_ref().to_owned(),
+            stages: Vec::new(),
+            force,
+            hook: None,
+        }
+    }
+
+    /// Refuses early, before any file is written, what [`SceneCommit::commit`] would refuse
+    /// for scene `scene_name` (`scene_hash`) at `dir`: a folder glint may not write into
+    /// ([`check_folder`]), or a bundle of another scene without `force`.
+    pub fn check(
+        dir: &Path,
+        scene_name: &str,
+        scene_hash: &str,
+        force: bool,
+    ) -> Result<(), BundleError> {
+        check_folder(dir)?;
+        let Some(old) = read_manifest(dir)? else {
+            return Ok(());
+        };
+        match other_scene(&old, scene_name, scene_hash) {
+            Some((found_name, found_hash)) if !force => Err(BundleError::OtherScene {
+                dir: dir.to_owned(),
+                found_name: found_name.into(),
+                found_hash: found_hash.into(),
+                name: scene_name.into(),
+                hash: scene_hash.into(),
+            }),
+            _ => Ok(()),
+        }
+    }
+
+    /// Adds a stage written by `writer` (begun on the same bundle) with `info`.
+    pub fn push(&mut self, writer: StageWriter, info: StageInfo) {
+        self.stages.push((writer, info));
+    }
+
+    /// Installs a hook called before each file-system step of the commit (tests inject
+    /// faults with it).
+    pub fn with_fault_hook(mut self, hook: FaultHook) -> SceneCommit {
+        self.hook = Some(hook);
+        self
+    }
+
+    /// Moves every stage's folder into place and writes one manifest naming them all, under
+    /// the bundle's lock: its rename switches readers (and a crash) from the old bundle to
+    /// the new one at once. Stages of the scene's earlier versions that this commit does not
+    /// write are dropped, so the bundle then holds this scene's stages only. Returns the
+    /// records written, in the order pushed.
+    pub fn commit(mut self) -> Result<Vec<StageRecord>, BundleError> {
+        if self.stages.is_empty() {
+            return Ok(Vec::new());
+        }
+        let guard = SceneGuard::Name { force: self.force };
+        commit_stages(&self.dir, &mut self.stages, &mut self.hook, guard)
+    }
+}
+
+/// What a commit refuses among the stages of other scenes that the bundle holds.
+#[derive(Clone, Copy, Debug)]
+enum SceneGuard {
+    /// A stage commit: any stage of another scene hash, unless `force` (then they are dropped).
+    Hash { force: bool },
+    /// A whole scene's commit (a merge): a bundle of another scene name, unless `force`; stages
+    /// of another hash under the same name are an earlier version of the scene, dropped.
+    Name { force: bool },
+}
+
+/// Calls the fault hook, if any, before `step` on `path`.
+fn fault(hook: &mut Option<FaultHook>, step: CommitStep, path: &Path) -> Result<(), BundleError> {
+    match hook.as_mut() {
+        Some(hook) => hook(step).map_err(io(path)),
+        None => Ok(()),
+    }
+}
+
+/// The name and hash of the scene whose stages a commit of `name`/`hash` would drop from a
+/// bundle with manifest `old`, when that is another scene (by name).
+fn other_scene(old: &Manifest, name: &str, hash: &str) -> Option<(String, String)> {
+    let stale = old.stages.values().find(|r| r.scene_hash != hash)?;
+    (old.scene_name != name).then(|| (old.scene_name.clone(), stale.scene_hash.clone()))
+}
+
+/// Moves each writer's folder into place and records them all in one new manifest, under the
+/// bundle's lock; then collects folders no manifest names. Every writer has begun on `dir`
+/// and all are of one scene (the first's `info` names it). Returns the records written.
+fn commit_stages(
+    dir: &Path,
+    stages: &mut [(StageWriter, StageInfo)],
+    hook: &mut Option<FaultHook>,
+    guard: SceneGuard,
+) -> Result<Vec<StageRecord>, BundleError> {
+    let lock = lock_bundle(dir, hook)?;
+    let (scene_name, scene_hash) = (
+        stages[0].1.scene_name.clone(),
+        stages[0].1.scene_hash.clone(),
+    );
+
+    let manifest_path = dir.join(MANIFEST);
+    fault(hook, CommitStep::ReadManifest, &manifest_path)?;
+    let old = read_manifest(dir)?.unwrap_or_else(|| Manifest::new(&scene_name, &scene_hash));
+    for (w, _) in stages.iter() {
+        for (stage, read) in &w.sources {
             let now = old.stages.get(stage).map(StageRecord::identity);
             if now.as_deref() != Some(read.as_str()) {
                 return Err(BundleError::SourceChanged {
-                    dir: self.dir.clone(),
+                    dir: dir.to_owned(),
                     stage: stage.clone(),
                     read: read.clone(),
                     now: now.unwrap_or_else(|| "none".into()),
                 });
             }
         }
-        let mut manifest = old.clone();
-        let foreign: Vec<String> = manifest
-            .stages
-            .iter()
-            .filter(|(name, r)| **name != self.stage && r.scene_hash != info.scene_hash)
-            .map(|(name, _)| name.clone())
-            .collect();
-        let replaced_scene = manifest.scene_hash != info.scene_hash
-            && manifest
-                .stages
-                .get(&self.stage)
-                .is_some_and(|r| r.scene_hash != info.scene_hash);
-        if (!foreign.is_empty() || replaced_scene) && !info.force {
-            return Err(BundleError::SceneMismatch {
-                dir: self.dir.clone(),
-                found: manifest.scene_hash.clone(),
-                expected: info.scene_hash.clone(),
-            });
-        }
-        for name in &foreign {
-            // --force: stages of another scene are stale; their folders are collected below.
-            log::warn!(
-                "{}: removing stage {name:?} baked from another scene",
-                self.dir.display()
-            );
-            manifest.stages.remove(name);
-        }
-
-        // The next free version: above every `stage.K` on disk or in the manifest.
-        self.fault(CommitStep::ListBundle, &self.dir.clone())?;
-        let mut next = 1u64;
-        for entry in fs::read_dir(&self.dir).map_err(io(&self.dir))? {
-            let entry = entry.map_err(io(&self.dir))?;
-            if let Some(k) = version_of(&self.stage, &entry.file_name().to_string_lossy()) {
-                next = next.max(k + 1);
+    }
+    let mut manifest = old.clone();
+    let written: BTreeSet<String> = stages.iter().map(|(w, _)| w.stage.clone()).collect();
+    let foreign: Vec<String> = manifest
+        .stages
+        .iter()
+        .filter(|(name, r)| !written.contains(*name) && r.scene_hash != scene_hash)
+        .map(|(name, _)| name.clone())
+        .collect();
+    match guard {
+        SceneGuard::Hash { force } => {
+            let replaced_scene = manifest.scene_hash != scene_hash
+                && written.iter().any(|s| {
+                    manifest
+                        .stages
+                        .get(s)
+                        .is_some_and(|r| r.scene_hash != scene_hash)
+                });
+            if (!foreign.is_empty() || replaced_scene) && !force {
+                return Err(BundleError::SceneMismatch {
+                    dir: dir.to_owned(),
+                    found: manifest.scene_hash.clone(),
+                    expected: scene_hash,
+                });
+            }
+            for name in &foreign {
+                // --force: stages of another scene are stale; their folders are collected below.
+                log::warn!(
+                    "{}: removing stage {name:?} baked from another scene",
+                    dir.display()
+                );
             }
         }
+        SceneGuard::Name { force } => match other_scene(&old, &scene_name, &scene_hash) {
+            Some((found_name, found_hash)) if !force => {
+                return Err(BundleError::OtherScene {
+                    dir: dir.to_owned(),
+                    found_name: found_name.into(),
+                    found_hash: found_hash.into(),
+                    name: scene_name.into(),
+                    hash: scene_hash.into(),
+                });
+            }
+            Some((found_name, _)) => {
+                for name in &foreign {
+                    log::warn!(
+                        "{}: removing stage {name:?} of scene {found_name:?} (--force)",
+                        dir.display()
+                    );
+                }
+            }
+            None => {
+                for name in &foreign {
+                    log::info!(
+                        "{}: removing stage {name:?} of an earlier version of the scene",
+                        dir.display()
+                    );
+                }
+            }
+        },
+    }
+    for name in &foreign {
+        manifest.stages.remove(name);
+    }
+
+    // The next free version of each stage: above every `stage.K` on disk or in the manifest.
+    fault(hook, CommitStep::ListBundle, dir)?;
+    let mut next: BTreeMap<&str, u64> = written.iter().map(|s| (s.as_str(), 1)).collect();
+    for entry in fs::read_dir(dir).map_err(io(dir))? {
+        let name = entry
+            .map_err(io(dir))?
+            .file_name()
+            .to_string_lossy()
+            .into_owned();
+        for (stage, n) in next.iter_mut() {
+            if let Some(k) = version_of(stage, &name) {
+                *n = (*n).max(k + 1);
+            }
+        }
+    }
+    for (stage, n) in next.iter_mut() {
         if let Some(k) = old
             .stages
-            .get(&self.stage)
-            .and_then(|r| version_of(&self.stage, r.folder(&self.stage)))
+            .get(*stage)
+            .and_then(|r| version_of(stage, r.folder(stage)))
         {
-            next = next.max(k + 1);
+            *n = (*n).max(k + 1);
         }
-        let folder = format!("{}.{next}", self.stage);
-        let target = self.dir.join(&folder);
+    }
+    let folders: Vec<String> = stages
+        .iter()
+        .map(|(w, _)| format!("{}.{}", w.stage, next[w.stage.as_str()]))
+        .collect();
 
-        for f in self.folders.clone().iter().rev() {
-            self.fault(CommitStep::SyncStage, f)?;
+    for ((w, _), folder) in stages.iter_mut().zip(&folders) {
+        let target = dir.join(folder);
+        for f in w.folders.iter().rev() {
+            fault(hook, CommitStep::SyncStage, f)?;
             sync_dir(f).map_err(io(f))?;
         }
-        self.fault(CommitStep::RenameStage, &target)?;
-        fs::rename(&self.tmp, &target).map_err(io(&target))?;
+        fault(hook, CommitStep::RenameStage, &target)?;
+        fs::rename(&w.tmp, &target).map_err(io(&target))?;
         // From here until the manifest names it, a failure removes the new folder (Drop).
-        self.tmp = target;
-        self.fault(CommitStep::SyncBundle, &self.dir.clone())?;
-        sync_dir(&self.dir).map_err(io(&self.dir))?;
+        w.tmp = target;
+    }
+    fault(hook, CommitStep::SyncBundle, dir)?;
+    sync_dir(dir).map_err(io(dir))?;
 
+    let mut records = Vec::with_capacity(stages.len());
+    for ((w, info), folder) in stages.iter_mut().zip(folders) {
         let record = StageRecord {
             generator: generator(),
-            scene_hash: info.scene_hash.clone(),
-            settings: info.settings,
+            scene_hash: scene_hash.clone(),
+            settings: info.settings.clone(),
             bake_seconds: info.bake_seconds,
-            stats: info.stats,
-            assets: std::mem::take(&mut self.assets),
+            stats: std::mem::take(&mut info.stats),
+            assets: std::mem::take(&mut w.assets),
             dir: Some(folder),
         };
-        manifest.stages.insert(self.stage.clone(), record.clone());
-        manifest.format_version = super::FORMAT_VERSION.to_string();
-        manifest.scene_hash = info.scene_hash;
-        manifest.scene_name = info.scene_name;
-        manifest.generator = generator();
-        let text = serde_json::to_string_pretty(&manifest).expect("manifest serializes");
-        self.write_manifest(&manifest_path, text.as_bytes())?;
-        self.committed = true;
+        manifest.stages.insert(w.stage.clone(), record.clone());
+        records.push(record);
+    }
+    manifest.format_version = super::FORMAT_VERSION.to_string();
+    manifest.scene_hash = scene_hash;
+    manifest.scene_name = scene_name;
+    manifest.generator = generator();
+    let text = serde_json::to_string_pretty(&manifest).expect("manifest serializes");
+    write_manifest(hook, &manifest_path, text.as_bytes())?;
+    for (w, _) in stages.iter_mut() {
+        w.committed = true;
         // The folder is the manifest's now: readers may lock it.
-        self.tmp_lock = None;
-        self.fault(CommitStep::SyncCommit, &self.dir.clone())?;
-        sync_dir(&self.dir).map_err(io(&self.dir))?;
-
-        self.collect(&old, &manifest);
-        drop(lock);
-        Ok(record)
+        w.tmp_lock = None;
     }
+    fault(hook, CommitStep::SyncCommit, dir)?;
+    sync_dir(dir).map_err(io(dir))?;
 
-    /// Writes the manifest to a temporary file beside it, flushed, and renames it over
-    /// `manifest.json` (the commit); on failure the temporary file is removed.
-    fn write_manifest(&mut self, path: &Path, bytes: &[u8]) -> Result<(), BundleError> {
-        let tmp = path.with_file_name(format!(".{MANIFEST}.tmp-{}", unique_suffix()));
-        let result = (|| {
-            self.fault(CommitStep::CreateManifest, &tmp)?;
-            let mut f = File::create(&tmp).map_err(io(&tmp))?;
-            self.fault(CommitStep::WriteManifest, &tmp)?;
-            f.write_all(bytes)
-                .and_then(|_| f.sync_all())
-                .map_err(io(&tmp))?;
-            self.fault(CommitStep::RenameManifest, path)?;
-            fs::rename(&tmp, path).map_err(io(path))
-        })();
-        if result.is_err() {
-            let _ = fs::remove_file(&tmp);
+    collect(dir, &written, hook, &old, &manifest);
+    drop(lock);
+    Ok(records)
+}
+
+/// Writes the manifest to a temporary file beside it, flushed, and renames it over
+/// `manifest.json` (the commit); on failure the temporary file is removed.
+fn write_manifest(
+    hook: &mut Option<FaultHook>,
+    path: &Path,
+    bytes: &[u8],
+) -> Result<(), BundleError> {
+    let tmp = path.with_file_name(format!(".{MANIFEST}.tmp-{}", unique_suffix()));
+    let result = (|| {
+        fault(hook, CommitStep::CreateManifest, &tmp)?;
+        let mut f = File::create(&tmp).map_err(io(&tmp))?;
+        fault(hook, CommitStep::WriteManifest, &tmp)?;
+        f.write_all(bytes)
+            .and_then(|_| f.sync_all())
+            .map_err(io(&tmp))?;
+        fault(hook, CommitStep::RenameManifest, path)?;
+        fs::rename(&tmp, path).map_err(io(path))
+    })();
+    if result.is_err() {
+        let _ = fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// Removes, under the lock, what no manifest names: folders the previous manifest named
+/// and this one does not, versioned folders of known stages that no manifest names
+/// (replaced versions a reader held, leftovers of killed commits), temporary folders of
+/// writers that are gone, and temporary manifests. A folder someone holds is left for a
+/// later commit. Failures are logged: the commit has happened.
+fn collect(
+    dir: &Path,
+    written: &BTreeSet<String>,
+    hook: &mut Option<FaultHook>,
+    old: &Manifest,
+    new: &Manifest,
+) {
+    let named: BTreeSet<&str> = new.stages.iter().map(|(n, r)| r.folder(n)).collect();
+    let replaced: BTreeSet<&str> = old
+        .stages
+        .iter()
+        .map(|(n, r)| r.folder(n))
+        .filter(|f| !named.contains(f))
+        .collect();
+    let stages: BTreeSet<&str> = old
+        .stages
+        .keys()
+        .chain(new.stages.keys())
+        .chain(written)
+        .map(String::as_str)
+        .collect();
+    let Ok(entries) = fs::read_dir(dir) else {
+        return;
+    };
+    let mut garbage: Vec<String> = entries
+        .filter_map(|e| Some(e.ok()?.file_name().to_string_lossy().into_owned()))
+        .filter(|name| {
+            !named.contains(name.as_str())
+                && name != LOCK
+                && (replaced.contains(name.as_str())
+                    || is_own_scratch(name)
+                    || stages.iter().any(|s| version_of(s, name).is_some()))
+        })
+        .collect();
+    garbage.sort();
+    for name in garbage {
+        let path = dir.join(&name);
+        if fault(hook, CommitStep::Collect, &path).is_err() {
+            continue;
         }
-        result
-    }
-
-    /// Removes, under the lock, what no manifest names: folders the previous manifest named
-    /// and this one does not, versioned folders of known stages that no manifest names
-    /// (replaced versions a reader held, leftovers of killed commits), temporary folders of
-    /// writers that are gone, and temporary manifests. A folder someone holds is left for a
-    /// later commit. Failures are logged: the commit has happened.
-    fn collect(&mut self, old: &Manifest, new: &Manifest) {
-        let named: BTreeSet<&str> = new.stages.iter().map(|(n, r)| r.folder(n)).collect();
-        let replaced: BTreeSet<&str> = old
-            .stages
-            .iter()
-            .map(|(n, r)| r.folder(n))
-            .filter(|f| !named.contains(f))
-            .collect();
-        let stages: BTreeSet<&str> = old
-            .stages
-            .keys()
-            .chain(new.stages.keys())
-            .map(String::as_str)
-            .chain([self.stage.as_str()])
-            .collect();
-        let Ok(entries) = fs::read_dir(&self.dir) else {
-            return;
-        };
-        let mut garbage: Vec<String> = entries
-            .filter_map(|e| Some(e.ok()?.file_name().to_string_lossy().into_owned()))
-            .filter(|name| {
-                !named.contains(name.as_str())
-                    && name != LOCK
-                    && (replaced.contains(name.as_str())
-                        || is_own_scratch(name)
-                        || stages.iter().any(|s| version_of(s, name).is_some()))
-            })
-            .collect();
-        garbage.sort();
-        for name in garbage {
-            let path = self.dir.join(&name);
-            if self.fault(CommitStep::Collect, &path).is_err() {
-                continue;
-            }
-            if let Err(e) = remove_unheld(&path) {
-                log::warn!("{}: cannot remove: {e}", path.display());
-            }
+        if let Err(e) = remove_unheld(&path) {
+            log::warn!("{}: cannot remove: {e}", path.display());
         }
     }
 }

@@ -37,6 +37,12 @@ pub static TARGETS: &[Target] = &[
         run: run_manifest,
     },
     Target {
+        name: "merge",
+        about: "shards' unit.json and manifest.json as `glint-bundle merge` checks them (parse_marker, check_marker, check_shards; in memory)",
+        prepare: prepare_none,
+        run: run_merge,
+    },
+    Target {
         name: "atlas",
         about: "radiosity/atlas.bin (radiosity::format::decode, RadiosityMap lookups)",
         prepare: prepare_none,
@@ -182,6 +188,73 @@ fn run_manifest(ctx: &TargetContext, input: &[u8]) -> Result<(), String> {
             .unwrap_or(&asset.path);
         let _ = bundle.stage_asset(stage, rel);
         let _ = bundle.verify_asset(asset);
+    }
+    Ok(())
+}
+
+/// Separates the files of a `merge` input: a shard's `unit.json`, its `manifest.json`, the
+/// next shard's `unit.json`, …
+const MERGE_SEPARATOR: &[u8] = b"\n%%\n";
+
+/// Most shards one `merge` input is read as.
+const MERGE_SHARDS: usize = 64;
+
+/// The shards' files: what a merge reads from disk, checked as it checks them; when the
+/// merge accepts, each stage's units must lie in shards holding that stage (the merge reads
+/// their records next).
+fn run_merge(_ctx: &TargetContext, input: &[u8]) -> Result<(), String> {
+    use crate::bake::merge::{ShardView, check_shards};
+    use crate::bake::shard::{check_marker, parse_marker};
+    use crate::bundle::Manifest;
+    let mut files = Vec::new();
+    let mut rest = input;
+    while let Some(at) = rest
+        .windows(MERGE_SEPARATOR.len())
+        .position(|w| w == MERGE_SEPARATOR)
+    {
+        files.push(&rest[..at]);
+        rest = &rest[at + MERGE_SEPARATOR.len()..];
+    }
+    files.push(rest);
+    let mut read = Vec::new();
+    let mut problems = Vec::new();
+    for (i, pair) in files.chunks(2).take(MERGE_SHARDS).enumerate() {
+        let path = std::path::PathBuf::from(format!("shard{i}.glint"));
+        let shard = (|| {
+            let marker = parse_marker(&path, pair[0]).map_err(|e| e.to_string())?;
+            let manifest: Manifest =
+                serde_json::from_slice(pair.get(1).copied().unwrap_or_default())
+                    .map_err(|e| format!("{}: manifest.json: {e}", path.display()))?;
+            check_marker(&path, &marker, &manifest).map_err(|e| e.to_string())?;
+            Ok::<_, String>((marker, manifest))
+        })();
+        match shard {
+            Ok((marker, manifest)) => read.push((path, marker, manifest)),
+            Err(e) => problems.push(e),
+        }
+    }
+    let views: Vec<ShardView> = read
+        .iter()
+        .map(|(path, marker, manifest)| ShardView {
+            path,
+            marker,
+            manifest,
+        })
+        .collect();
+    let assembly = check_shards(&views, problems).map_err(|e| e.to_string())?;
+    for part in &assembly.stages {
+        for (id, i) in &part.units {
+            let v = views.get(*i).ok_or("a unit's shard index out of range")?;
+            assert!(
+                v.marker.unit == *id,
+                "unit {id} assembled from another unit's shard"
+            );
+            assert!(
+                v.manifest.stages.contains_key(part.stage.name()),
+                "unit {id}'s shard lacks its stage {}",
+                part.stage.name()
+            );
+        }
     }
     Ok(())
 }
