@@ -27,7 +27,8 @@ pub struct Args {
 #[derive(Subcommand)]
 enum Command {
     /// Bytes and file counts per stage and per asset kind, and each stage's figures; checks
-    /// that every asset exists with its recorded size and exits 1 with a warning per asset
+    /// that every asset is a file inside the bundle with its recorded size, and that the
+    /// scene's files name only files of their stage, and exits 1 with a warning per problem
     /// if not (hashes are checked by `verify`).
     Stats {
         /// The bundle folder.
@@ -36,7 +37,8 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Check the manifest and every asset's size and BLAKE3 hash; exit 0 only if all match.
+    /// Check the manifest, every asset's size and BLAKE3 hash, and that the scene's files name
+    /// only files of their stage; exit 0 only if all match.
     Verify {
         /// The bundle folder.
         bundle: PathBuf,
@@ -92,7 +94,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 }
                 writeln!(
                     err,
-                    "warning: {} of {} assets are missing or have the wrong size; the figures above are the manifest's (run `glint-bundle verify`, then re-bake)",
+                    "warning: {} of {} assets are missing, of the wrong size, not a file inside the bundle, or name a file outside their stage; the figures above are the manifest's (run `glint-bundle verify`, then re-bake)",
                     stats.damaged.len(),
                     stats.total.files
                 )?;
@@ -123,11 +125,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 for p in &problems {
                     writeln!(out, "FAILED: {p}")?;
                 }
-                writeln!(
-                    out,
-                    "{} of {assets} assets failed verification",
-                    problems.len()
-                )?;
+                writeln!(out, "{} problems found in {assets} assets", problems.len())?;
             }
             if !problems.is_empty() {
                 return Ok(ExitCode::FAILURE);
