@@ -144,28 +144,30 @@ impl Case {
         self.set_manifest(&m);
     }
 
-    /// Runs `glint-bundle ARGS… BUNDLE`: its exit code and output, or a panic when it hangs
+    /// Runs `glint-bundle SUB BUNDLE`: its exit code and output, or a panic when it hangs
     /// (it opened a FIFO outside the bundle).
     fn glint_bundle(&self, what: &str, sub: &str) -> (i32, String) {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_glint-bundle"))
-            .args([sub, self.bundle.to_str().unwrap()])
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        let start = Instant::now();
-        while child.try_wait().unwrap().is_none() {
-            if start.elapsed() > HANG {
-                child.kill().unwrap();
-                child.wait().unwrap();
-                panic!("{what}: `glint-bundle {sub}` hung: it opened a file outside the bundle");
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        let out = child.wait_with_output().unwrap();
-        let text = String::from_utf8_lossy(&out.stdout).into_owned()
-            + &String::from_utf8_lossy(&out.stderr);
-        (out.status.code().unwrap_or(-1), text)
+        run(
+            what,
+            env!("CARGO_BIN_EXE_glint-bundle"),
+            &[sub, self.bundle.to_str().unwrap()],
+        )
+    }
+
+    /// Runs `glint-eval probe BUNDLE --points P` (it loads the bundle's scene and D).
+    fn glint_eval_probe(&self, what: &str) -> (i32, String) {
+        let points = self.outside.parent().unwrap().join("points.json");
+        std::fs::write(&points, r#"[{"position":[0,0.01,0],"normal":[0,1,0]}]"#).unwrap();
+        run(
+            what,
+            env!("CARGO_BIN_EXE_glint-eval"),
+            &[
+                "probe",
+                self.bundle.to_str().unwrap(),
+                "--points",
+                points.to_str().unwrap(),
+            ],
+        )
     }
 
     /// The viewer's loader on the bundle: its error, or a panic when it accepts the bundle or
@@ -185,17 +187,17 @@ impl Case {
         }
     }
 
-    /// `verify`, `stats` and the viewer's loader each refuse the bundle, and each message
-    /// holds every one of `expect`.
+    /// `verify`, `stats`, `glint-eval probe` and the viewer's loader each refuse the bundle,
+    /// and each message holds every one of `expect`.
     fn refused(&self, what: &str, expect: &[&str]) {
-        for sub in ["verify", "stats"] {
-            let (code, text) = self.glint_bundle(what, sub);
-            assert_ne!(code, 0, "{what}: `glint-bundle {sub}` accepted it:\n{text}");
+        for sub in ["verify", "stats", "probe"] {
+            let (code, text) = match sub {
+                "probe" => self.glint_eval_probe(what),
+                _ => self.glint_bundle(what, sub),
+            };
+            assert_ne!(code, 0, "{what}: `{sub}` accepted it:\n{text}");
             for e in expect {
-                assert!(
-                    text.contains(e),
-                    "{what}: `glint-bundle {sub}` says:\n{text}"
-                );
+                assert!(text.contains(e), "{what}: `{sub}` says:\n{text}");
             }
         }
         let e = self.view_load(what);
@@ -205,6 +207,30 @@ impl Case {
     }
 }
 
+/// Runs `exe ARGS…`: its exit code and output, or a panic when it hangs (it opened a FIFO
+/// outside the bundle).
+fn run(what: &str, exe: &str, args: &[&str]) -> (i32, String) {
+    let mut child = Command::new(exe)
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > HANG {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            panic!("{what}: `{exe} {args:?}` hung: it opened a file outside the bundle");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let out = child.wait_with_output().unwrap();
+    let text =
+        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
+    (out.status.code().unwrap_or(-1), text)
+}
+
 #[test]
 fn the_unchanged_copy_is_accepted_by_every_tool() {
     let case = Case::new();
@@ -212,6 +238,8 @@ fn the_unchanged_copy_is_accepted_by_every_tool() {
         let (code, text) = case.glint_bundle("unchanged", sub);
         assert_eq!(code, 0, "{text}");
     }
+    let (code, text) = case.glint_eval_probe("unchanged");
+    assert_eq!(code, 0, "{text}");
     glint::view::load::load(&case.bundle).unwrap_or_else(|e| panic!("{e}"));
 }
 
@@ -363,4 +391,25 @@ fn paths_index_files_pass_to_the_bundle_stay_in_their_stage() {
         assert!(e.contains("not listed"), "{rel}: {e}");
     }
     assert!(b.read_stage_file("radiosity", "atlas.bin").is_ok());
+}
+
+#[test]
+fn a_shard_whose_unit_marker_links_outside_is_refused_unfollowed() {
+    let case = Case::new();
+    std::os::unix::fs::symlink(case.outside.join("fifo"), case.bundle.join("unit.json")).unwrap();
+    let out = case.outside.parent().unwrap().join("merged.glint");
+    let (code, text) = run(
+        "unit.json linked outside",
+        env!("CARGO_BIN_EXE_glint-bundle"),
+        &[
+            "merge",
+            out.to_str().unwrap(),
+            case.bundle.to_str().unwrap(),
+        ],
+    );
+    assert_ne!(code, 0, "{text}");
+    assert!(
+        text.contains("unit.json") && text.contains("symbolic link"),
+        "{text}"
+    );
 }

@@ -90,16 +90,15 @@ fn unit_of_name(shard: &Path) -> Option<String> {
 /// the recorded identity and every asset matches its hash. Returns the marker and the opened
 /// shard.
 pub fn read_shard(shard: &Path) -> Result<(Marker, Bundle), ShardError> {
-    let path = shard.join(MARKER);
-    let text = match std::fs::read_to_string(&path) {
-        Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+    let text = match crate::bundle::read_top_file(shard, MARKER) {
+        Ok(Some(t)) => t,
+        Ok(None) => {
             return Err(ShardError::Incomplete {
                 shard: shard.to_owned(),
                 hint: unit_of_name(shard),
             });
         }
-        Err(e) => return Err(invalid(shard, format!("{MARKER}: {e}"))),
+        Err(e) => return Err(invalid(shard, e.to_string())),
     };
     let marker: Marker = serde_json::from_str(&text)
         .map_err(|e| invalid(shard, format!("{MARKER}: not a unit marker: {e}")))?;

@@ -544,10 +544,22 @@ pub(crate) fn read_manifest(dir: &Path) -> Result<Option<Manifest>, BundleError>
     }
 }
 
-/// The text of `dir/manifest.json`; `Ok(None)` when there is none. A manifest that is a
-/// symbolic link or not a regular file is refused unread.
+/// The text of `dir/manifest.json`; `Ok(None)` when there is none.
 fn read_manifest_text(dir: &Path) -> Result<Option<String>, BundleError> {
-    let path = dir.join(MANIFEST);
+    read_top_file(dir, MANIFEST).map_err(|e| match e {
+        BundleError::Asset { path, problem } => BundleError::Corrupt {
+            path,
+            message: problem,
+        },
+        e => e,
+    })
+}
+
+/// The text of the file `name` directly in the bundle folder `dir` (the manifest, a shard's
+/// unit marker); `Ok(None)` when there is none. One that is a symbolic link or not a regular
+/// file is refused unread: glint reads nothing outside a bundle, and nothing that could block.
+pub fn read_top_file(dir: &Path, name: &str) -> Result<Option<String>, BundleError> {
+    let path = dir.join(name);
     if let Ok(meta) = std::fs::symlink_metadata(&path) {
         let why = if meta.file_type().is_symlink() {
             "it is a symbolic link; glint reads only files inside the bundle folder"
@@ -557,9 +569,9 @@ fn read_manifest_text(dir: &Path) -> Result<Option<String>, BundleError> {
             ""
         };
         if !why.is_empty() {
-            return Err(BundleError::Corrupt {
+            return Err(BundleError::Asset {
                 path,
-                message: why.into(),
+                problem: why.into(),
             });
         }
     }
