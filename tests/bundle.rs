@@ -962,7 +962,8 @@ fn verify_refuses_every_manifest_the_viewer_refuses() {
     .unwrap();
     let good: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.join(MANIFEST)).unwrap()).unwrap();
-    let edits: [(&str, fn(&mut serde_json::Value), &str); 7] = [
+    type Edit = fn(&mut serde_json::Value);
+    let edits: [(&str, Edit, &str); 7] = [
         (
             "stages renamed",
             |m| {

@@ -286,7 +286,8 @@ fn a_scene_json_geometry_outside_the_stage_is_refused() {
 
 #[test]
 fn manifest_paths_and_stage_folders_leaving_the_bundle_are_refused() {
-    let cases: [(&str, fn(&Case, &mut Value)); 5] = [
+    type Edit = fn(&Case, &mut Value);
+    let cases: [(&str, Edit); 5] = [
         ("asset path with ..", |_, m| {
             m["stages"]["radiosity"]["assets"][0]["path"] = "radiosity/../../outside/fifo".into();
         }),

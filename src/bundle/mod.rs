@@ -110,8 +110,9 @@ pub enum BundleError {
     /// bundle, or not listed in the manifest and so never hash-checked.
     #[error("{}: field `{field}` is {reference:?}: {why}", file.display())]
     BadReference {
-        /// The bundle file holding the reference.
-        file: PathBuf,
+        /// The bundle file holding the reference (boxed: keeps the error no larger than its
+        /// largest other variant).
+        file: Box<Path>,
         /// The field, e.g. `images[0].uri`.
         field: String,
         /// The reference as written.

@@ -133,7 +133,7 @@ impl Bundle {
 /// The error for a reference `field` = `reference` of bundle file `file`.
 fn bad_reference(file: PathBuf, field: &str, reference: &str, why: String) -> BundleError {
     BundleError::BadReference {
-        file,
+        file: file.into_boxed_path(),
         field: field.into(),
         reference: reference.into(),
         why,
