@@ -993,7 +993,7 @@ fn verify_refuses_every_manifest_the_viewer_refuses() {
             "duplicate asset path",
             |m| {
                 let assets = m["stages"]["radiosity"]["assets"].as_array_mut().unwrap();
-                assets[1]["path"] = assets[0]["path"].clone();
+                assets[1] = assets[0].clone();
             },
             "listed twice",
         ),
