@@ -414,3 +414,60 @@ fn a_shard_whose_unit_marker_links_outside_is_refused_unfollowed() {
         "{text}"
     );
 }
+
+#[test]
+fn index_file_references_outside_their_stage_are_refused_by_verify_and_the_reader() {
+    let corpus = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus/srdm_index/index.json");
+    let index: Value = serde_json::from_slice(&std::fs::read(corpus).unwrap()).unwrap();
+    for reference in [
+        "../../outside/fifo".to_string(),
+        "ABS:fifo".into(),
+        "../scene/scene.json".into(),
+        "TableTop/unlisted.srdm".into(),
+    ] {
+        let case = Case::new();
+        let reference = match reference.strip_prefix("ABS:") {
+            Some(name) => case.out(name),
+            None => reference,
+        };
+        // An SRDM stage whose index names `reference` for view 0's .srdm file.
+        let mut ix = index.clone();
+        ix["views"][0]["srdm"] = reference.clone().into();
+        let files: [(&str, &str, Vec<u8>); 2] = [
+            ("index.json", "srdm-index", serde_json::to_vec(&ix).unwrap()),
+            ("TableTop/view0.exr", "impostor-exr", b"capture".to_vec()),
+        ];
+        let folder = case.bundle.join("srdm.1");
+        std::fs::create_dir_all(folder.join("TableTop")).unwrap();
+        std::fs::write(folder.join("TableTop/unlisted.srdm"), b"unlisted").unwrap();
+        let mut m = case.manifest();
+        let mut stage = m["stages"]["radiosity"].clone();
+        stage["dir"] = "srdm.1".into();
+        stage["assets"] = files
+            .iter()
+            .map(|(rel, kind, bytes)| {
+                std::fs::write(folder.join(rel), bytes).unwrap();
+                serde_json::json!({ "path": format!("srdm/{rel}"), "kind": kind,
+                    "bytes": bytes.len(), "blake3": blake3::hash(bytes).to_hex().to_string() })
+            })
+            .collect();
+        m["stages"]["srdm"] = stage;
+        case.set_manifest(&m);
+
+        let what = format!("views[0].srdm = {reference}");
+        let (code, text) = case.glint_bundle(&what, "verify");
+        assert_ne!(code, 0, "{what}: verify accepted it:\n{text}");
+        assert!(
+            text.contains("srdm/index.json")
+                && text.contains("views[0].srdm")
+                && text.contains(&reference),
+            "{what}: verify says:\n{text}"
+        );
+        let b = Bundle::open(&case.bundle).unwrap();
+        let e = match glint::srdm::index::load(&b) {
+            Ok(_) => panic!("{what}: the SRDM reader accepted it"),
+            Err(e) => e.to_string(),
+        };
+        assert!(e.contains("not listed"), "{what}: the SRDM reader says {e}");
+    }
+}

@@ -103,14 +103,17 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
         Command::Verify { bundle, json } => {
             let b = open(&bundle)?;
-            let problems = b.verify();
+            let mut problems: Vec<String> = b.verify().iter().map(|p| p.to_string()).collect();
+            if problems.is_empty() {
+                problems = index_references(&b);
+            }
             let assets = b.manifest().assets().count();
             if json {
                 let report = serde_json::json!({
                     "bundle": bundle.display().to_string(),
                     "assets": assets,
                     "ok": problems.is_empty(),
-                    "problems": problems.iter().map(|p| p.to_string()).collect::<Vec<_>>(),
+                    "problems": problems,
                 });
                 writeln!(out, "{}", serde_json::to_string_pretty(&report)?)?;
             } else if problems.is_empty() {
@@ -177,4 +180,111 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The files the stages' index files name (`materials/index.json`, `srdm/index.json`, each
+/// radiance reflector's `cameras.json`), each of which must be a listed asset of its stage, as
+/// the viewer's readers require: one message per file an index names that is not, naming
+/// the index, the field and the path.
+fn index_references(b: &Bundle) -> Vec<String> {
+    use crate::materials::index as materials;
+    use crate::radiance::index as radiance;
+    use crate::srdm::index as srdm;
+    let mut problems = Vec::new();
+    let mut need = |stage: &str, index: &str, field: String, rel: &str| {
+        if let Err(e) = b.stage_asset(stage, rel) {
+            problems.push(format!("{stage}/{index}: field `{field}` is {rel:?}: {e}"));
+        }
+    };
+    let mut unreadable = Vec::new();
+    match crate::materials::MaterialsIndex::load(b) {
+        Ok(Some(ix)) => {
+            let at = materials::INDEX_FILE;
+            for (i, m) in ix.materials.iter().enumerate() {
+                for (j, l) in m.lobes.iter().enumerate() {
+                    let f = |name: &str| format!("materials[{i}].lobes[{j}].{name}.path");
+                    need(materials::STAGE, at, f("kernel"), &l.kernel.path);
+                    need(
+                        materials::STAGE,
+                        at,
+                        f("reflectance_sphere"),
+                        &l.reflectance_sphere.path,
+                    );
+                    if let Some(r) = &l.reflectance_1d {
+                        need(materials::STAGE, at, f("reflectance_1d"), &r.path);
+                    }
+                    need(materials::STAGE, at, f("pattern"), &l.pattern.path);
+                }
+            }
+            for (i, e) in ix.env_maps.iter().enumerate() {
+                for (k, level) in e.levels.iter().enumerate() {
+                    need(
+                        materials::STAGE,
+                        at,
+                        format!("env_maps[{i}].levels[{k}]"),
+                        level,
+                    );
+                }
+            }
+        }
+        Ok(None) => {}
+        Err(e) => unreadable.push(e.to_string()),
+    }
+    if b.stage(srdm::STAGE).is_some() {
+        let index = b
+            .read_stage_file(srdm::STAGE, srdm::INDEX_FILE)
+            .map_err(|e| e.to_string())
+            .and_then(|bytes| {
+                serde_json::from_slice::<srdm::SrdmIndex>(&bytes)
+                    .map_err(|e| format!("{}/{}: {e}", srdm::STAGE, srdm::INDEX_FILE))
+            });
+        match index {
+            Ok(ix) => {
+                for (i, v) in ix.views.iter().enumerate() {
+                    need(
+                        srdm::STAGE,
+                        srdm::INDEX_FILE,
+                        format!("views[{i}].srdm"),
+                        &v.srdm,
+                    );
+                    need(
+                        srdm::STAGE,
+                        srdm::INDEX_FILE,
+                        format!("views[{i}].capture"),
+                        &v.capture,
+                    );
+                }
+            }
+            Err(e) => unreadable.push(e),
+        }
+    }
+    let cameras = b
+        .stage(radiance::STAGE)
+        .into_iter()
+        .flat_map(|s| s.assets.iter())
+        .filter(|a| a.kind == "radiance-cameras");
+    for a in cameras {
+        let rel = a.path.strip_prefix("radiance/").unwrap_or(&a.path);
+        let folder = rel.rsplit_once('/').map_or("", |(f, _)| f);
+        let file = b
+            .read_asset(a)
+            .map_err(|e| e.to_string())
+            .and_then(|bytes| {
+                serde_json::from_slice::<radiance::CamerasFile>(&bytes)
+                    .map_err(|e| format!("{}: {e}", a.path))
+            });
+        match file {
+            Ok(c) => {
+                for (i, m) in c.maps.iter().enumerate() {
+                    for ext in ["exr", "qtree"] {
+                        let path = format!("{folder}/{}.{ext}", m.file);
+                        need(radiance::STAGE, rel, format!("maps[{i}].file"), &path);
+                    }
+                }
+            }
+            Err(e) => unreadable.push(e),
+        }
+    }
+    problems.extend(unreadable);
+    problems
 }
