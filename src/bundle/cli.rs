@@ -37,8 +37,8 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Check the manifest, every asset's size and BLAKE3 hash, and that the scene's files name
-    /// only files of their stage; exit 0 only if all match.
+    /// Check the manifest, every asset's size and BLAKE3 hash, and that the scene's files and
+    /// the stages' index files name only listed files of their stage; exit 0 only if all match.
     Verify {
         /// The bundle folder.
         bundle: PathBuf,
