@@ -177,7 +177,13 @@ fn concurrent_stage_writers_keep_each_others_entries() {
                 let dir = &dir;
                 s.spawn(move || {
                     let body = format!("{stage} {round}");
-                    bake(dir, stage, "same", &[("data.bin", "blob", body.as_bytes())]).unwrap();
+                    bake(
+                        dir,
+                        stage,
+                        "same",
+                        &[("data.bin", "atlas", body.as_bytes())],
+                    )
+                    .unwrap();
                 });
             }
         });
@@ -197,7 +203,7 @@ fn concurrent_processes_keep_each_others_entries() {
                 Path::new(&dir),
                 &stage,
                 "same",
-                &[("f.bin", "blob", format!("{i}").as_bytes())],
+                &[("f.bin", "atlas", format!("{i}").as_bytes())],
             )
             .unwrap();
         }
@@ -470,11 +476,11 @@ fn a_folder_that_is_not_a_bundle_is_refused_and_left_alone() {
         for s in scratch {
             std::fs::write(d.join(s), b"").unwrap();
         }
-        bake(&d, "scene", "h", &[("scene.json", "scene-json", b"{}")]).unwrap();
+        bake(&d, "radiosity", "h", &[("atlas.bin", "atlas", b"{}")]).unwrap();
         assert!(Bundle::open(&d).unwrap().verify().is_empty(), "{name}");
         assert_eq!(
             entries(&d),
-            [".lock", "manifest.json", "scene.1"],
+            [".lock", "manifest.json", "radiosity.1"],
             "{name}: scratch collected"
         );
     }
@@ -855,7 +861,7 @@ fn version_1_bundles_are_read_and_upgraded_by_the_next_commit() {
     std::fs::write(dir.join("radiosity/x.bin"), b"v1 x").unwrap();
     std::fs::write(dir.join("srdm/y.bin"), b"v1 y").unwrap();
     let asset = |path: &str, bytes: &[u8]| {
-        serde_json::json!({ "path": path, "kind": "blob", "bytes": bytes.len(),
+        serde_json::json!({ "path": path, "kind": "atlas", "bytes": bytes.len(),
             "blake3": blake3::hash(bytes).to_hex().to_string() })
     };
     let stage = |a: serde_json::Value| {
@@ -941,4 +947,95 @@ fn glint_bundle_stats_warns_about_missing_or_resized_assets() {
         damaged.iter().any(|p| p["path"] == "radiosity/a.bin"
             && p["problem"].as_str().unwrap().contains("missing"))
     );
+}
+
+#[test]
+fn verify_refuses_every_manifest_the_viewer_refuses() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("m.glint");
+    bake(
+        &dir,
+        "radiosity",
+        "h",
+        &[("a.bin", "atlas", b"a"), ("p.exr", "radiosity-exr", b"p")],
+    )
+    .unwrap();
+    let good: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join(MANIFEST)).unwrap()).unwrap();
+    type Edit = fn(&mut serde_json::Value);
+    let edits: [(&str, Edit, &str); 7] = [
+        (
+            "stages renamed",
+            |m| {
+                let s = m.as_object_mut().unwrap().remove("stages").unwrap();
+                m["stagus"] = s;
+            },
+            "unknown field `stagus`",
+        ),
+        (
+            "stages missing",
+            |m| {
+                m.as_object_mut().unwrap().remove("stages");
+            },
+            "missing field `stages`",
+        ),
+        (
+            "unknown asset key",
+            |m| m["stages"]["radiosity"]["assets"][0]["blake"] = true.into(),
+            "unknown field `blake`",
+        ),
+        (
+            "unknown stage key",
+            |m| m["stages"]["radiosity"]["folder"] = "radiosity.1".into(),
+            "unknown field `folder`",
+        ),
+        (
+            "duplicate asset path",
+            |m| {
+                let assets = m["stages"]["radiosity"]["assets"].as_array_mut().unwrap();
+                assets[1] = assets[0].clone();
+            },
+            "listed twice",
+        ),
+        (
+            "unknown asset kind",
+            |m| m["stages"]["radiosity"]["assets"][0]["kind"] = "atlass".into(),
+            "field `kind` is \"atlass\"",
+        ),
+        (
+            "non-hex BLAKE3",
+            |m| {
+                m["stages"]["radiosity"]["assets"][0]["blake3"] = "zz".repeat(32).into();
+            },
+            "not a valid BLAKE3 hex digest",
+        ),
+    ];
+    for (what, edit, expect) in edits {
+        let mut m = good.clone();
+        edit(&mut m);
+        std::fs::write(dir.join(MANIFEST), serde_json::to_vec_pretty(&m).unwrap()).unwrap();
+        let (code, out, err) = glint_bundle(&["verify", dir.to_str().unwrap()]);
+        assert_eq!(code, 1, "{what}: verify accepted it:\n{out}{err}");
+        assert!(
+            err.contains("manifest.json") && err.contains(expect),
+            "{what}: verify says:\n{out}{err}"
+        );
+        let e = Bundle::open(&dir).unwrap_err().to_string();
+        assert!(e.contains(expect), "{what}: {e}");
+        #[cfg(feature = "view")]
+        {
+            let e = glint::view::load::load(&dir).unwrap_err().to_string();
+            assert!(e.contains(expect), "{what}: the viewer says {e}");
+        }
+    }
+    // A newer minor version may add keys and kinds: they are passed over.
+    let mut m = good.clone();
+    m["format_version"] = "2.9.0".into();
+    m["added_later"] = true.into();
+    m["stages"]["radiosity"]["added_later"] = true.into();
+    m["stages"]["radiosity"]["assets"][0]["added_later"] = true.into();
+    m["stages"]["radiosity"]["assets"][0]["kind"] = "added-later".into();
+    std::fs::write(dir.join(MANIFEST), serde_json::to_vec_pretty(&m).unwrap()).unwrap();
+    let (code, out, err) = glint_bundle(&["verify", dir.to_str().unwrap()]);
+    assert_eq!(code, 0, "{out}{err}");
 }

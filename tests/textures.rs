@@ -590,7 +590,7 @@ fn a_bundle_without_its_texture_images_says_to_re_bake() {
         Err(e) => e.to_string(),
     };
     assert!(
-        e.contains("image 0") && e.contains("format 2.1") && e.contains("glint-bake --force"),
+        e.contains("images[0].uri") && e.contains("format 2.1") && e.contains("glint-bake --force"),
         "{e}"
     );
 }

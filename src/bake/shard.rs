@@ -134,13 +134,12 @@ fn no_marker(shard: &Path) -> ShardError {
 /// the recorded identity and every asset matches its hash. Returns the marker and the opened
 /// shard.
 pub fn read_shard(shard: &Path) -> Result<(Marker, Bundle), ShardError> {
-    let path = shard.join(MARKER);
-    let text = match std::fs::read(&path) {
-        Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Err(no_marker(shard)),
-        Err(e) => return Err(invalid(shard, format!("{MARKER}: {e}"))),
+    let text = match crate::bundle::read_top_file(shard, MARKER) {
+        Ok(Some(t)) => t,
+        Ok(None) => return Err(no_marker(shard)),
+        Err(e) => return Err(invalid(shard, e.to_string())),
     };
-    let marker = parse_marker(shard, &text)?;
+    let marker = parse_marker(shard, text.as_bytes())?;
     let bundle = Bundle::open(shard).map_err(|e| invalid(shard, e.to_string()))?;
     check_marker(shard, &marker, bundle.manifest())?;
     let problems = bundle.verify();

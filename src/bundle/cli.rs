@@ -27,7 +27,8 @@ pub struct Args {
 #[derive(Subcommand)]
 enum Command {
     /// Bytes and file counts per stage and per asset kind, and each stage's figures; checks
-    /// that every asset exists with its recorded size and exits 1 with a warning per asset
+    /// that every asset is a file inside the bundle with its recorded size, and that the
+    /// scene's files name only files of their stage, and exits 1 with a warning per problem
     /// if not (hashes are checked by `verify`).
     Stats {
         /// The bundle folder.
@@ -36,7 +37,8 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Check the manifest and every asset's size and BLAKE3 hash; exit 0 only if all match.
+    /// Check the manifest, every asset's size and BLAKE3 hash, and that the scene's files and
+    /// the stages' index files name only listed files of their stage; exit 0 only if all match.
     Verify {
         /// The bundle folder.
         bundle: PathBuf,
@@ -98,7 +100,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 }
                 writeln!(
                     err,
-                    "warning: {} of {} assets are missing or have the wrong size; the figures above are the manifest's (run `glint-bundle verify`, then re-bake)",
+                    "warning: {} of {} assets are missing, of the wrong size, not a file inside the bundle, or name a file outside their stage; the figures above are the manifest's (run `glint-bundle verify`, then re-bake)",
                     stats.damaged.len(),
                     stats.total.files
                 )?;
@@ -107,14 +109,17 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
         Command::Verify { bundle, json } => {
             let b = open(&bundle)?;
-            let problems = b.verify();
+            let mut problems: Vec<String> = b.verify().iter().map(|p| p.to_string()).collect();
+            if problems.is_empty() {
+                problems = index_references(&b);
+            }
             let assets = b.manifest().assets().count();
             if json {
                 let report = serde_json::json!({
                     "bundle": bundle.display().to_string(),
                     "assets": assets,
                     "ok": problems.is_empty(),
-                    "problems": problems.iter().map(|p| p.to_string()).collect::<Vec<_>>(),
+                    "problems": problems,
                 });
                 writeln!(out, "{}", serde_json::to_string_pretty(&report)?)?;
             } else if problems.is_empty() {
@@ -129,11 +134,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 for p in &problems {
                     writeln!(out, "FAILED: {p}")?;
                 }
-                writeln!(
-                    out,
-                    "{} of {assets} assets failed verification",
-                    problems.len()
-                )?;
+                writeln!(out, "{} problems found in {assets} assets", problems.len())?;
             }
             if !problems.is_empty() {
                 return Ok(ExitCode::FAILURE);
@@ -190,4 +191,111 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The files the stages' index files name (`materials/index.json`, `srdm/index.json`, each
+/// radiance reflector's `cameras.json`), each of which must be a listed asset of its stage, as
+/// the viewer's readers require: one message per file an index names that is not, naming
+/// the index, the field and the path.
+fn index_references(b: &Bundle) -> Vec<String> {
+    use crate::materials::index as materials;
+    use crate::radiance::index as radiance;
+    use crate::srdm::index as srdm;
+    let mut problems = Vec::new();
+    let mut need = |stage: &str, index: &str, field: String, rel: &str| {
+        if let Err(e) = b.stage_asset(stage, rel) {
+            problems.push(format!("{stage}/{index}: field `{field}` is {rel:?}: {e}"));
+        }
+    };
+    let mut unreadable = Vec::new();
+    match crate::materials::MaterialsIndex::load(b) {
+        Ok(Some(ix)) => {
+            let at = materials::INDEX_FILE;
+            for (i, m) in ix.materials.iter().enumerate() {
+                for (j, l) in m.lobes.iter().enumerate() {
+                    let f = |name: &str| format!("materials[{i}].lobes[{j}].{name}.path");
+                    need(materials::STAGE, at, f("kernel"), &l.kernel.path);
+                    need(
+                        materials::STAGE,
+                        at,
+                        f("reflectance_sphere"),
+                        &l.reflectance_sphere.path,
+                    );
+                    if let Some(r) = &l.reflectance_1d {
+                        need(materials::STAGE, at, f("reflectance_1d"), &r.path);
+                    }
+                    need(materials::STAGE, at, f("pattern"), &l.pattern.path);
+                }
+            }
+            for (i, e) in ix.env_maps.iter().enumerate() {
+                for (k, level) in e.levels.iter().enumerate() {
+                    need(
+                        materials::STAGE,
+                        at,
+                        format!("env_maps[{i}].levels[{k}]"),
+                        level,
+                    );
+                }
+            }
+        }
+        Ok(None) => {}
+        Err(e) => unreadable.push(e.to_string()),
+    }
+    if b.stage(srdm::STAGE).is_some() {
+        let index = b
+            .read_stage_file(srdm::STAGE, srdm::INDEX_FILE)
+            .map_err(|e| e.to_string())
+            .and_then(|bytes| {
+                serde_json::from_slice::<srdm::SrdmIndex>(&bytes)
+                    .map_err(|e| format!("{}/{}: {e}", srdm::STAGE, srdm::INDEX_FILE))
+            });
+        match index {
+            Ok(ix) => {
+                for (i, v) in ix.views.iter().enumerate() {
+                    need(
+                        srdm::STAGE,
+                        srdm::INDEX_FILE,
+                        format!("views[{i}].srdm"),
+                        &v.srdm,
+                    );
+                    need(
+                        srdm::STAGE,
+                        srdm::INDEX_FILE,
+                        format!("views[{i}].capture"),
+                        &v.capture,
+                    );
+                }
+            }
+            Err(e) => unreadable.push(e),
+        }
+    }
+    let cameras = b
+        .stage(radiance::STAGE)
+        .into_iter()
+        .flat_map(|s| s.assets.iter())
+        .filter(|a| a.kind == "radiance-cameras");
+    for a in cameras {
+        let rel = a.path.strip_prefix("radiance/").unwrap_or(&a.path);
+        let folder = rel.rsplit_once('/').map_or("", |(f, _)| f);
+        let file = b
+            .read_asset(a)
+            .map_err(|e| e.to_string())
+            .and_then(|bytes| {
+                serde_json::from_slice::<radiance::CamerasFile>(&bytes)
+                    .map_err(|e| format!("{}: {e}", a.path))
+            });
+        match file {
+            Ok(c) => {
+                for (i, m) in c.maps.iter().enumerate() {
+                    for ext in ["exr", "qtree"] {
+                        let path = format!("{folder}/{}.{ext}", m.file);
+                        need(radiance::STAGE, rel, format!("maps[{i}].file"), &path);
+                    }
+                }
+            }
+            Err(e) => unreadable.push(e),
+        }
+    }
+    problems.extend(unreadable);
+    problems
 }

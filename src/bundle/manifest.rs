@@ -1,7 +1,10 @@
 //! `manifest.json`: what a bundle holds, made by which glint from which scene.
 //!
-//! The types here generate `schemas/manifest.schema.json`. Within a major format version
-//! fields are only ever added, so readers accept unknown keys; a newer major is refused.
+//! The types here generate `schemas/manifest.schema.json`. Unknown keys are errors, as is a
+//! missing required field or an asset kind not in [`ASSET_KINDS`]: a typo must not read as an
+//! empty bundle. Within a major format version fields and kinds are only ever added, so a
+//! manifest of a newer minor version is read without the keys and kinds this glint does not
+//! know; a newer major is refused.
 //!
 //! Version 2 names each stage's folder in the manifest (`dir`, e.g. `radiance.3`): a commit
 //! writes a new folder and then renames the manifest, so the rename alone switches readers
@@ -74,8 +77,38 @@ impl std::str::FromStr for FormatVersion {
     }
 }
 
+/// Every asset kind a stage writes (`AssetRecord::kind`).
+pub const ASSET_KINDS: &[&str] = &[
+    // scene
+    "scene-json",
+    "gltf",
+    "gltf-buffer",
+    "gltf-image",
+    // radiosity (and a unit shard's gathered elements)
+    "atlas",
+    "radiosity-exr",
+    "radiosity-gather",
+    "preview-png",
+    // materials
+    "materials-index",
+    "kernel",
+    "reflectance-sphere",
+    "reflectance-1d",
+    "sample-pattern",
+    "env-mip",
+    // radiance
+    "radiance-cameras",
+    "radiance-exr",
+    "quadtree",
+    // srdm
+    "srdm-index",
+    "srdm",
+    "impostor-exr",
+];
+
 /// Root of `manifest.json`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
 pub struct Manifest {
     /// Always `glint-bundle`.
     pub format: String,
@@ -88,12 +121,12 @@ pub struct Manifest {
     /// BLAKE3 (hex) of the scene's files (scene.json, glTF, buffers).
     pub scene_hash: String,
     /// Stages by name (`radiosity`, `materials`, `radiance`, `srdm`).
-    #[serde(default)]
     pub stages: BTreeMap<String, StageRecord>,
 }
 
 /// What one stage wrote.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
 pub struct StageRecord {
     /// glint version that baked the stage.
     pub generator: String,
@@ -134,16 +167,17 @@ impl StageRecord {
 
 /// One file of a stage.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
 pub struct AssetRecord {
     /// Logical path, `/`-separated: the stage's name, then the file's path inside the stage's
     /// folder (`radiance/Floor/cameras.json`). On disk the file lies in the folder the stage
     /// record names ([`StageRecord::dir`]).
     pub path: String,
-    /// What the file is (e.g. `radiosity-exr`, `atlas`, `preview-png`).
+    /// What the file is, one of [`ASSET_KINDS`] (e.g. `radiosity-exr`, `atlas`, `preview-png`).
     pub kind: String,
     /// Size in bytes.
     pub bytes: u64,
-    /// BLAKE3 of the contents (hex).
+    /// BLAKE3 of the contents: 64 lowercase hex digits.
     pub blake3: String,
 }
 

@@ -19,6 +19,7 @@
 pub mod cli;
 pub mod manifest;
 mod names;
+mod scene_refs;
 pub mod stats;
 mod writer;
 
@@ -29,8 +30,8 @@ use std::time::Duration;
 use rayon::prelude::*;
 
 pub use manifest::{
-    AssetRecord, FORMAT_NAME, FORMAT_VERSION, FormatVersion, Manifest, OLDEST_READ_MAJOR,
-    StageRecord,
+    ASSET_KINDS, AssetRecord, FORMAT_NAME, FORMAT_VERSION, FormatVersion, Manifest,
+    OLDEST_READ_MAJOR, StageRecord,
 };
 pub use names::{folder_name, unique_folders};
 pub use writer::{CommitStep, FaultHook, SceneCommit, StageInfo, StageWriter, write_atomic};
@@ -121,6 +122,20 @@ pub enum BundleError {
         path: PathBuf,
         /// Missing, or which of size and hash differ.
         problem: String,
+    },
+    /// A file of the bundle names a file that is not an asset of its stage: outside the
+    /// bundle, or not listed in the manifest and so never hash-checked.
+    #[error("{}: field `{field}` is {reference:?}: {why}", file.display())]
+    BadReference {
+        /// The bundle file holding the reference (boxed: keeps the error no larger than its
+        /// largest other variant).
+        file: Box<Path>,
+        /// The field, e.g. `images[0].uri`.
+        field: String,
+        /// The reference as written.
+        reference: String,
+        /// What is wrong with it.
+        why: String,
     },
     /// The folder exists but is neither empty nor a bundle: glint never writes into it.
     #[error(
@@ -236,25 +251,41 @@ impl Bundle {
         }
     }
 
-    /// Checks that every asset exists with its recorded size and BLAKE3 hash.
+    /// Checks that every asset exists with its recorded size and BLAKE3 hash, and that the
+    /// scene stage's files name only assets of their stage ([`Bundle::check_scene_references`]).
     /// Returns every problem found (empty: the bundle is intact).
     pub fn verify(&self) -> Vec<BundleError> {
-        let assets: Vec<&AssetRecord> = self.manifest.assets().map(|(_, a)| a).collect();
-        assets
+        let stages: Vec<&str> = self.manifest.stages.keys().map(String::as_str).collect();
+        self.verify_stages(&stages)
+    }
+
+    /// [`Bundle::verify`] of the stages named `stages` (those the bundle lacks are passed over):
+    /// what a reader of only those stages needs intact.
+    pub fn verify_stages(&self, stages: &[&str]) -> Vec<BundleError> {
+        let assets: Vec<&AssetRecord> = self
+            .manifest
+            .assets()
+            .filter(|(s, _)| stages.contains(s))
+            .map(|(_, a)| a)
+            .collect();
+        let mut problems: Vec<BundleError> = assets
             .par_iter()
             .filter_map(|a| self.verify_asset(a).err())
-            .collect()
+            .collect();
+        if problems.is_empty() && stages.contains(&"scene") {
+            problems.extend(self.check_scene_references());
+        }
+        problems
     }
 
     /// Checks one asset against its record.
     pub fn verify_asset(&self, asset: &AssetRecord) -> Result<(), BundleError> {
-        let path = self.asset_path(asset);
+        check_relative(&asset.path)?;
+        let (path, file) = self.open_asset(asset)?;
         let problem = |problem: String| BundleError::Asset {
             path: path.clone(),
             problem,
         };
-        check_relative(&asset.path)?;
-        let file = File::open(&path).map_err(|e| problem(format!("cannot be read: {e}")))?;
         let bytes = file.metadata().map(|m| m.len()).unwrap_or(0);
         if bytes != asset.bytes {
             return Err(problem(format!(
@@ -274,6 +305,108 @@ impl Bundle {
             )));
         }
         Ok(())
+    }
+
+    /// The metadata of an asset's file, found as [`Bundle::open_asset`] finds it (no symbolic
+    /// link on the way, a regular file at the end), without opening it; `None` when it is
+    /// missing.
+    pub fn asset_metadata(
+        &self,
+        asset: &AssetRecord,
+    ) -> Result<Option<std::fs::Metadata>, BundleError> {
+        match self.inside(asset) {
+            Ok((_, meta)) => Ok(Some(meta)),
+            Err(BundleError::Io { source, .. })
+                if source.kind() == std::io::ErrorKind::NotFound =>
+            {
+                Ok(None)
+            }
+            Err(BundleError::Io { path, source }) => Err(BundleError::Asset {
+                path,
+                problem: format!("cannot be read: {source}"),
+            }),
+            Err(e) => Err(e),
+        }
+    }
+
+    /// Opens an asset's file for reading. Every step below the bundle folder must be a folder
+    /// and the last a regular file, none of them a symbolic link: whatever a bundle holds, a
+    /// reader opens no file outside it (nor a FIFO or device, which could block or never end).
+    pub fn open_asset(&self, asset: &AssetRecord) -> Result<(PathBuf, File), BundleError> {
+        let (path, meta) = self.inside(asset).map_err(|e| match e {
+            BundleError::Io { path, source } => BundleError::Asset {
+                path,
+                problem: format!("cannot be read: {source}"),
+            },
+            e => e,
+        })?;
+        let file = File::open(&path).map_err(|e| BundleError::Asset {
+            path: path.clone(),
+            problem: format!("cannot be read: {e}"),
+        })?;
+        // The entry checked must be the file opened (not swapped for a link meanwhile).
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::MetadataExt;
+            let opened = file.metadata().map_err(|source| BundleError::Io {
+                path: path.clone(),
+                source,
+            })?;
+            if (opened.dev(), opened.ino()) != (meta.dev(), meta.ino()) {
+                return Err(BundleError::Asset {
+                    path,
+                    problem: "changed while it was being opened".into(),
+                });
+            }
+        }
+        #[cfg(not(unix))]
+        let _ = meta;
+        Ok((path, file))
+    }
+
+    /// The path of `asset` and its metadata, after checking each step from the bundle folder
+    /// down without following symbolic links (`Io` when a step cannot be looked at).
+    fn inside(&self, asset: &AssetRecord) -> Result<(PathBuf, std::fs::Metadata), BundleError> {
+        check_relative(&asset.path)?;
+        let path = self.asset_path(asset);
+        let rel = path.strip_prefix(&self.dir).unwrap_or(&path).to_owned();
+        let mut at = self.dir.clone();
+        let steps: Vec<_> = rel.components().collect();
+        for (i, step) in steps.iter().enumerate() {
+            at.push(step);
+            let last = i + 1 == steps.len();
+            let meta = std::fs::symlink_metadata(&at).map_err(|source| BundleError::Io {
+                path: path.clone(),
+                source,
+            })?;
+            let t = meta.file_type();
+            let why = if t.is_symlink() {
+                Some("is a symbolic link; glint reads only files inside the bundle folder")
+            } else if last && !t.is_file() {
+                Some("is not a regular file")
+            } else if !last && !t.is_dir() {
+                Some("is not a folder")
+            } else {
+                None
+            };
+            if let Some(why) = why {
+                return Err(BundleError::Asset {
+                    path: path.clone(),
+                    problem: if last {
+                        why.to_string()
+                    } else {
+                        format!("{} {why}", at.display())
+                    },
+                });
+            }
+            if last {
+                return Ok((path, meta));
+            }
+        }
+        Err(BundleError::Asset {
+            path,
+            problem: "names no file".into(),
+        })
     }
 
     /// The record of stage `stage`'s asset `rel` (a path inside the stage's folder, e.g.
@@ -303,10 +436,11 @@ impl Bundle {
         self.read_asset(asset)
     }
 
-    /// Reads an asset, checking its hash.
+    /// Reads an asset ([`Bundle::open_asset`]), checking its hash.
     pub fn read_asset(&self, asset: &AssetRecord) -> Result<Vec<u8>, BundleError> {
-        let path = self.asset_path(asset);
-        let bytes = std::fs::read(&path).map_err(|source| BundleError::Io {
+        let (path, mut file) = self.open_asset(asset)?;
+        let mut bytes = Vec::new();
+        std::io::Read::read_to_end(&mut file, &mut bytes).map_err(|source| BundleError::Io {
             path: path.clone(),
             source,
         })?;
@@ -321,14 +455,18 @@ impl Bundle {
     }
 }
 
-/// Takes a shared lock on each stage folder the manifest names (what is missing or cannot
-/// be opened is left: [`Bundle::verify`] reports missing files).
+/// Takes a shared lock on each stage folder the manifest names (what is missing, cannot be
+/// opened or is a symbolic link is left: [`Bundle::verify`] reports its files).
 fn pin_folders(dir: &Path, manifest: &Manifest) -> Vec<File> {
     manifest
         .stages
         .iter()
         .filter_map(|(name, rec)| {
-            let folder = File::open(dir.join(rec.folder(name))).ok()?;
+            let path = dir.join(rec.folder(name));
+            if !std::fs::symlink_metadata(&path).ok()?.is_dir() {
+                return None;
+            }
+            let folder = File::open(path).ok()?;
             folder.lock_shared().ok()?;
             Some(folder)
         })
@@ -426,7 +564,35 @@ pub(crate) fn read_manifest(dir: &Path) -> Result<Option<Manifest>, BundleError>
 
 /// The text of `dir/manifest.json`; `Ok(None)` when there is none.
 fn read_manifest_text(dir: &Path) -> Result<Option<String>, BundleError> {
-    let path = dir.join(MANIFEST);
+    read_top_file(dir, MANIFEST).map_err(|e| match e {
+        BundleError::Asset { path, problem } => BundleError::Corrupt {
+            path,
+            message: problem,
+        },
+        e => e,
+    })
+}
+
+/// The text of the file `name` directly in the bundle folder `dir` (the manifest, a shard's
+/// unit marker); `Ok(None)` when there is none. One that is a symbolic link or not a regular
+/// file is refused unread: glint reads nothing outside a bundle, and nothing that could block.
+pub fn read_top_file(dir: &Path, name: &str) -> Result<Option<String>, BundleError> {
+    let path = dir.join(name);
+    if let Ok(meta) = std::fs::symlink_metadata(&path) {
+        let why = if meta.file_type().is_symlink() {
+            "it is a symbolic link; glint reads only files inside the bundle folder"
+        } else if !meta.is_file() {
+            "it is not a regular file"
+        } else {
+            ""
+        };
+        if !why.is_empty() {
+            return Err(BundleError::Asset {
+                path,
+                problem: why.into(),
+            });
+        }
+    }
     match std::fs::read_to_string(&path) {
         Ok(t) => Ok(Some(t)),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
@@ -470,26 +636,110 @@ fn parse_manifest(dir: &Path, text: &str) -> Result<Manifest, BundleError> {
             "format version {version} predates {OLDEST_READ_MAJOR}.0.0; re-bake the bundle"
         )));
     }
+    // A newer minor version may add fields: those this glint does not know are passed over.
+    let newer = version > FORMAT_VERSION;
+    let mut value = value;
+    if newer {
+        drop_unknown_keys(&mut value);
+    }
     let manifest: Manifest = serde_json::from_value(value).map_err(|e| corrupt(e.to_string()))?;
+    check_manifest(&manifest, newer).map_err(corrupt)?;
+    Ok(manifest)
+}
+
+/// Removes from a manifest's JSON the keys [`Manifest`], [`StageRecord`] and [`AssetRecord`]
+/// do not have (their schema lists the keys), so that the types' refusal of unknown keys
+/// applies only to manifests of this glint's version or older.
+fn drop_unknown_keys(value: &mut serde_json::Value) {
+    let schema = serde_json::to_value(schemars::schema_for!(Manifest)).unwrap_or_default();
+    let keys = |s: &serde_json::Value| -> Vec<String> {
+        s.get("properties")
+            .and_then(|p| p.as_object())
+            .map(|p| p.keys().cloned().collect())
+            .unwrap_or_default()
+    };
+    let root = keys(&schema);
+    let stage = keys(&schema["$defs"]["StageRecord"]);
+    let asset = keys(&schema["$defs"]["AssetRecord"]);
+    let keep = |v: &mut serde_json::Value, known: &[String]| {
+        if let Some(o) = v.as_object_mut() {
+            o.retain(|k, _| known.contains(k));
+        }
+    };
+    keep(value, &root);
+    let stages = value.get_mut("stages").and_then(|s| s.as_object_mut());
+    for record in stages.into_iter().flat_map(|s| s.values_mut()) {
+        keep(record, &stage);
+        let assets = record.get_mut("assets").and_then(|a| a.as_array_mut());
+        for a in assets.into_iter().flatten() {
+            keep(a, &asset);
+        }
+    }
+}
+
+/// What [`Bundle::open`] requires of a parsed manifest, beyond its types: stage names and
+/// folders that stay inside the bundle, asset paths inside their stage and each listed once,
+/// known asset kinds (unless `newer`: the manifest's version is newer than this glint's, so a
+/// kind may be one added since) and BLAKE3 hex digests. Every reader of a bundle
+/// goes through this one check: `verify` refuses what the viewer refuses.
+pub fn check_manifest(manifest: &Manifest, newer: bool) -> Result<(), String> {
+    let mut paths = std::collections::HashSet::new();
     for (name, stage) in &manifest.stages {
+        if !is_plain_name(name) {
+            return Err(format!(
+                "stage name {name:?} is not a plain folder name (no `/`, `\\`, `:`, `.` or `..`)"
+            ));
+        }
         if let Some(folder) = &stage.dir
             && !writer::is_stage_folder(name, folder)
         {
-            return Err(corrupt(format!(
+            return Err(format!(
                 "stage `{name}`: field `dir` is {folder:?}, expected `{name}` or `{name}.N`"
-            )));
+            ));
         }
-        for a in &stage.assets {
-            check_relative(&a.path).map_err(|e| corrupt(e.to_string()))?;
+        for (i, a) in stage.assets.iter().enumerate() {
+            let at = format!("stage `{name}`: assets[{i}]");
+            check_relative(&a.path).map_err(|e| format!("{at}: {e}"))?;
             if a.path.split_once('/').map(|(s, _)| s) != Some(name.as_str()) {
-                return Err(corrupt(format!(
-                    "stage `{name}`: asset path {:?} does not start with `{name}/`",
+                return Err(format!(
+                    "{at}: path {:?} does not start with `{name}/`",
                     a.path
-                )));
+                ));
+            }
+            if !paths.insert(a.path.as_str()) {
+                return Err(format!(
+                    "{at}: path {:?} is listed twice (each file is one asset)",
+                    a.path
+                ));
+            }
+            // A newer minor version may add kinds; readers find assets by the kinds they know.
+            if !newer && !ASSET_KINDS.contains(&a.kind.as_str()) {
+                return Err(format!(
+                    "{at}: field `kind` is {:?}, not an asset kind glint knows; known kinds: {}",
+                    a.kind,
+                    ASSET_KINDS.join(", ")
+                ));
+            }
+            if !is_blake3_hex(&a.blake3) {
+                return Err(format!(
+                    "{at}: field `blake3` is {:?}, not a valid BLAKE3 hex digest (64 lowercase hex digits)",
+                    a.blake3
+                ));
             }
         }
     }
-    Ok(manifest)
+    Ok(())
+}
+
+/// A BLAKE3 digest as glint writes it: 64 lowercase hex digits.
+fn is_blake3_hex(s: &str) -> bool {
+    s.len() == 64 && s.bytes().all(|b| matches!(b, b'0'..=b'9' | b'a'..=b'f'))
+}
+
+/// One path component that names an entry of its folder: not empty, `.` or `..`, and
+/// without separators or drive letters.
+fn is_plain_name(name: &str) -> bool {
+    !name.is_empty() && name != "." && name != ".." && !name.contains(['/', '\\', ':', '\0'])
 }
 
 /// An asset path must be relative, `/`-separated and stay inside the bundle.

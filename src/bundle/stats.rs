@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
-use super::Bundle;
+use super::{Bundle, BundleError};
 
 /// Bytes and file count of a group of assets.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
@@ -55,8 +55,9 @@ pub struct BundleStats {
     pub stages: Vec<StageStats>,
     /// Every file of every stage.
     pub total: Tally,
-    /// Assets that are missing or whose size differs from the manifest's (hashes are
-    /// checked by `verify`); empty when every file is there with its size.
+    /// Assets that are missing, not a regular file inside the bundle or whose size differs
+    /// from the manifest's (hashes are checked by `verify`), and scene files naming files
+    /// outside their stage; empty when every file is there with its size.
     pub damaged: Vec<Damage>,
 }
 
@@ -67,8 +68,48 @@ pub struct Damage {
     pub path: String,
     /// Where it should be on disk.
     pub file: String,
-    /// `missing`, `not a file`, or the size found against the size recorded.
+    /// `missing`, not a regular file, a symbolic link, or the size found against the size
+    /// recorded.
     pub problem: String,
+}
+
+/// The scene stage's references that leave it ([`Bundle::check_scene_references`]), as
+/// damage of the file holding each, once its assets are all present.
+fn scene_reference_damage(bundle: &Bundle) -> Vec<Damage> {
+    let present = bundle.stage("scene").is_some_and(|s| {
+        s.assets
+            .iter()
+            .all(|a| bundle.asset_metadata(a).is_ok_and(|m| m.is_some()))
+    });
+    if !present {
+        return Vec::new();
+    }
+    bundle
+        .check_scene_references()
+        .into_iter()
+        .map(|e| match e {
+            BundleError::BadReference {
+                file,
+                field,
+                reference,
+                why,
+            } => Damage {
+                path: field.clone(),
+                file: file.display().to_string(),
+                problem: format!("field `{field}` is {reference:?}: {why}"),
+            },
+            BundleError::Asset { path, problem } => Damage {
+                path: path.display().to_string(),
+                file: path.display().to_string(),
+                problem,
+            },
+            e => Damage {
+                path: String::new(),
+                file: bundle.dir().display().to_string(),
+                problem: e.to_string(),
+            },
+        })
+        .collect()
 }
 
 impl BundleStats {
@@ -80,18 +121,16 @@ impl BundleStats {
             .assets()
             .filter_map(|(_, a)| {
                 let file = bundle.asset_path(a);
-                let problem = match std::fs::metadata(&file) {
-                    Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-                        format!("missing (the manifest records {} bytes)", a.bytes)
-                    }
-                    Err(e) => format!("cannot be read: {e}"),
-                    Ok(meta) if !meta.is_file() => "not a file".to_string(),
-                    Ok(meta) if meta.len() != a.bytes => format!(
+                let problem = match bundle.asset_metadata(a) {
+                    Ok(None) => format!("missing (the manifest records {} bytes)", a.bytes),
+                    Err(BundleError::Asset { problem, .. }) => problem,
+                    Err(e) => e.to_string(),
+                    Ok(Some(meta)) if meta.len() != a.bytes => format!(
                         "size is {} bytes, the manifest records {}",
                         meta.len(),
                         a.bytes
                     ),
-                    Ok(_) => return None,
+                    Ok(Some(_)) => return None,
                 };
                 Some(Damage {
                     path: a.path.clone(),
@@ -99,6 +138,7 @@ impl BundleStats {
                     problem,
                 })
             })
+            .chain(scene_reference_damage(bundle))
             .collect();
         let mut total = Tally::default();
         let stages = m

@@ -510,6 +510,10 @@ impl ProbeArgs {
                 bundle.display()
             )
         })?;
+        // The scene stage's files name only its own checked assets (as the viewer requires).
+        if let Some(p) = b.verify_stages(&["scene"]).into_iter().next() {
+            anyhow::bail!("{}: {p}", bundle.display());
+        }
         let scene = Scene::load(b.asset_path(scene_json))?;
         let map = RadiosityMap::load(&b)?.with_context(|| {
             format!(

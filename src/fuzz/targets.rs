@@ -32,8 +32,8 @@ pub static TARGETS: &[Target] = &[
     },
     Target {
         name: "manifest",
-        about: "bundle manifest.json (Bundle::open, stage_asset, verify_asset)",
-        prepare: prepare_scratch,
+        about: "bundle manifest.json (Bundle::open, stage_asset, asset_metadata, verify_asset, scene references)",
+        prepare: prepare_manifest,
         run: run_manifest,
     },
     Target {
@@ -99,11 +99,6 @@ fn prepare_none(_repo: &Path, scratch: &Path) -> Result<TargetContext, String> {
         scratch: scratch.to_owned(),
         ..Default::default()
     })
-}
-
-fn prepare_scratch(repo: &Path, scratch: &Path) -> Result<TargetContext, String> {
-    std::fs::create_dir_all(scratch).map_err(|e| format!("{}: {e}", scratch.display()))?;
-    prepare_none(repo, scratch)
 }
 
 /// Copies `files` (paths under `repo`) into `scratch`, by file name.
@@ -178,6 +173,39 @@ fn run_gltf(ctx: &TargetContext, input: &[u8]) -> Result<(), String> {
     Ok(())
 }
 
+/// The scene stage the `scene-stage` and `scene-link` seeds list, in `scene.1/`: scene.json,
+/// a glTF naming a buffer, an image and a data: URI, and `link.bin`, a symbolic link to
+/// `/dev/zero` (a reader that follows it never ends, which the driver reports as a hang).
+const MANIFEST_FIXTURE: [(&str, &str); 4] = [
+    (
+        "scene.json",
+        "{ \"version\": 1, \"geometry\": \"s.gltf\" }\n",
+    ),
+    (
+        "s.gltf",
+        "{\"asset\":{\"version\":\"2.0\"},\"buffers\":[{\"uri\":\"s.bin\",\"byteLength\":4}],\"images\":[{\"uri\":\"img.png\"},{\"uri\":\"data:image/png;base64,AAAA\"},{\"bufferView\":0,\"mimeType\":\"image/png\"}]}\n",
+    ),
+    ("s.bin", "bin\n"),
+    ("img.png", "png\n"),
+];
+
+fn prepare_manifest(repo: &Path, scratch: &Path) -> Result<TargetContext, String> {
+    let folder = scratch.join("scene.1");
+    std::fs::create_dir_all(&folder).map_err(|e| format!("{}: {e}", folder.display()))?;
+    for (name, text) in MANIFEST_FIXTURE {
+        let path = folder.join(name);
+        std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+    }
+    #[cfg(unix)]
+    {
+        let link = folder.join("link.bin");
+        let _ = std::fs::remove_file(&link);
+        std::os::unix::fs::symlink("/dev/zero", &link)
+            .map_err(|e| format!("{}: {e}", link.display()))?;
+    }
+    prepare_none(repo, scratch)
+}
+
 fn run_manifest(ctx: &TargetContext, input: &[u8]) -> Result<(), String> {
     std::fs::write(ctx.scratch.join(crate::bundle::MANIFEST), input).map_err(|e| e.to_string())?;
     let bundle = Bundle::open(&ctx.scratch).map_err(|e| e.to_string())?;
@@ -187,8 +215,11 @@ fn run_manifest(ctx: &TargetContext, input: &[u8]) -> Result<(), String> {
             .strip_prefix(&format!("{stage}/"))
             .unwrap_or(&asset.path);
         let _ = bundle.stage_asset(stage, rel);
+        let _ = bundle.asset_metadata(asset);
         let _ = bundle.verify_asset(asset);
     }
+    // What verify and the viewer check next: the scene stage's references.
+    let _ = bundle.check_scene_references();
     Ok(())
 }
 

@@ -125,6 +125,7 @@ pub fn import_bytes(path: &Path, bytes: Vec<u8>, scale: f32) -> Result<Imported,
     let unchecked =
         gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| err(e.to_string()))?;
     check_attribute_references(unchecked.document.as_json()).map_err(err)?;
+    check_sources(unchecked.document.as_json()).map_err(err)?;
     let gltf = gltf::Gltf {
         document: gltf::Document::from_json(unchecked.document.into_json())
             .map_err(|e| err(e.to_string()))?,
@@ -521,6 +522,43 @@ fn check_attribute_references(root: &gltf::json::Root) -> Result<(), String> {
     Ok(())
 }
 
+/// What the reader's accessors unwrap without its validation checking it: an image has a
+/// `uri` or a `bufferView`, and a `mimeType` with a `bufferView` (`Image::source`); a camera
+/// has the projection object its `type` names (`Camera::projection`). Checked for every image
+/// and camera, used or not: the scene stage lists every image.
+fn check_sources(root: &gltf::json::Root) -> Result<(), String> {
+    for (i, image) in root.images.iter().enumerate() {
+        match (&image.uri, &image.buffer_view, &image.mime_type) {
+            (None, None, _) => {
+                return Err(format!(
+                    "images[{i}] has neither `uri` nor `bufferView`: one of them says where its data is"
+                ));
+            }
+            (_, Some(_), None) => {
+                return Err(format!(
+                    "images[{i}] has a `bufferView` but no `mimeType` (glTF 2.0 §5.18: required with a bufferView)"
+                ));
+            }
+            _ => {}
+        }
+    }
+    for (i, camera) in root.cameras.iter().enumerate() {
+        use gltf::json::camera::Type;
+        use gltf::json::validation::Checked;
+        let (missing, name) = match camera.type_ {
+            Checked::Valid(Type::Perspective) => (camera.perspective.is_none(), "perspective"),
+            Checked::Valid(Type::Orthographic) => (camera.orthographic.is_none(), "orthographic"),
+            Checked::Invalid => (false, ""),
+        };
+        if missing {
+            return Err(format!(
+                "cameras[{i}] has type \"{name}\" but no `{name}` object"
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// The accessors glint reads, checked before the reader's iterators assume them: types as
 /// glTF 2.0 §3.7.2.1 allows (float VEC3 positions and normals, VEC2 texture coordinates of
 /// float or normalized unsigned bytes or shorts, unsigned integer SCALAR indices), each
@@ -716,5 +754,57 @@ mod tests {
             .unwrap()
             .to_string();
         assert!(e.contains("not a file"), "{e}");
+    }
+
+    #[test]
+    fn an_image_without_a_source_or_mime_type_is_an_error_naming_it_used_or_not() {
+        let no_source = |d: &mut serde_json::Value| d["images"] = serde_json::json!([{}]);
+        let no_mime = |d: &mut serde_json::Value| {
+            d["images"] = serde_json::json!([{ "bufferView": 0 }]);
+        };
+        let textured = |d: &mut serde_json::Value| {
+            d["textures"] = serde_json::json!([{ "source": 0 }]);
+            d["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] =
+                serde_json::json!({ "index": 0 });
+        };
+        for (edit, missing) in [
+            (
+                &no_source as &dyn Fn(&mut serde_json::Value),
+                "neither `uri` nor `bufferView`",
+            ),
+            (&no_mime, "no `mimeType`"),
+        ] {
+            for used in [false, true] {
+                let e = import_edited(|d| {
+                    edit(d);
+                    if used {
+                        textured(d);
+                    }
+                })
+                .err()
+                .unwrap_or_else(|| panic!("accepted ({missing}, used: {used})"))
+                .to_string();
+                assert!(
+                    e.contains("box.gltf") && e.contains("images[0]") && e.contains(missing),
+                    "{e}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn a_camera_without_the_projection_its_type_names_is_an_error() {
+        let e = import_edited(|d| {
+            d["cameras"] = serde_json::json!([{ "type": "perspective",
+                "orthographic": { "xmag": 1.0, "ymag": 1.0, "znear": 0.1, "zfar": 10.0 } }]);
+            d["nodes"][0]["camera"] = serde_json::json!(0);
+        })
+        .err()
+        .unwrap()
+        .to_string();
+        assert!(
+            e.contains("box.gltf") && e.contains("cameras[0]") && e.contains("`perspective`"),
+            "{e}"
+        );
     }
 }

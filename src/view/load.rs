@@ -6,7 +6,8 @@
 //! (a newer major is refused naming both versions); the `scene` and `radiosity` stages are
 //! present and were baked from the same scene; every asset of those stages and of the
 //! `materials`, `radiance` and `srdm` stages (when present) has its recorded size and BLAKE3
-//! hash; the scene loads; the atlas covers exactly the scene's triangles with
+//! hash, and the scene's files name only assets of the scene stage
+//! ([`Bundle::check_scene_references`]); the scene loads; the atlas covers exactly the scene's triangles with
 //! finite coordinates; the radiosity pages match the atlas and hold finite values.
 
 use std::path::{Path, PathBuf};
@@ -186,12 +187,11 @@ pub fn load(dir: &Path) -> Result<ViewData, LoadError> {
         });
     }
 
-    // Every asset the viewer reads, against its size and hash.
-    let problems: Vec<String> = READ_STAGES
+    // Every asset the viewer reads, against its size and hash, and the scene's references to
+    // its files: the check `verify` makes, before the scene is read.
+    let problems: Vec<String> = bundle
+        .verify_stages(&READ_STAGES)
         .iter()
-        .filter_map(|s| bundle.stage(s))
-        .flat_map(|s| s.assets.iter())
-        .filter_map(|a| bundle.verify_asset(a).err())
         .map(|e| e.to_string())
         .collect();
     if !problems.is_empty() {
