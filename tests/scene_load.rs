@@ -456,6 +456,82 @@ fn camera_paths_beyond_sane_bounds_are_refused_naming_the_field() {
     assert!(glint::camera::frame_count(p) <= glint::camera::MAX_FRAMES);
 }
 
+/// A path whose interpolated poses lose their orientation between sound keyframes is refused
+/// when the scene loads, naming the path, the time and the frame: passing through its target
+/// (the ray caster got NaN rays and panicked), or looking along up.
+#[test]
+fn camera_paths_that_lose_their_orientation_between_keyframes_are_refused() {
+    let key = |t: &str, pos: &str, target: &str| {
+        format!(
+            r#"{{ "time": {t}, "position": {pos}, "target": {target}, "up": [0,1,0], "fov_y_deg": 60 }}"#
+        )
+    };
+    let e = path_err(
+        "30",
+        &format!(
+            "{}, {}",
+            key("0", "[0,1,3]", "[0,1,0]"),
+            key("2", "[0,1,-3]", "[0,1,0]")
+        ),
+    );
+    for want in [
+        "scene.json",
+        "camera_paths[0].keyframes",
+        r#"camera path "p" between keyframes 0 and 1"#,
+        "t = 1 s (frame 30 at 30 fps)",
+        "passes through its target",
+    ] {
+        assert!(e.contains(want), "{want:?} missing from: {e}");
+    }
+    // Looking straight up at frame 30, with up [0, 1, 0] at both keyframes.
+    let e = path_err(
+        "30",
+        &format!(
+            "{}, {}",
+            key("0", "[0,0,0]", "[1,1,0]"),
+            key("2", "[0,0,0]", "[-1,1,0]")
+        ),
+    );
+    for want in ["t = 1 s (frame 30 at 30 fps)", "parallel to up"] {
+        assert!(e.contains(want), "{want:?} missing from: {e}");
+    }
+    // Between frames: at 2.5 fps, t = 1 s is no frame.
+    let e = path_err(
+        "2.5",
+        &format!(
+            "{}, {}",
+            key("0", "[0,1,3]", "[0,1,0]"),
+            key("2", "[0,1,-3]", "[0,1,0]")
+        ),
+    );
+    assert!(
+        e.contains("t = 1 s (between frames 2 and 3 at 2.5 fps)"),
+        "{e}"
+    );
+    // Passing beside the target, or turning through a view that is not along up, loads.
+    for keys in [
+        [
+            key("0", "[0.1,1,3]", "[0,1,0]"),
+            key("2", "[0.1,1,-3]", "[0,1,0]"),
+        ],
+        [
+            key("0", "[0,0,0]", "[1,1,0.1]"),
+            key("2", "[0,0,0]", "[-1,1,0.1]"),
+        ],
+    ] {
+        let (_dir, path) = room_scene(&format!(
+            r#", "camera_paths": [ {{ "name": "p", "fps": 30, "keyframes": [ {}, {} ] }} ]"#,
+            keys[0], keys[1]
+        ));
+        let scene = Scene::load(&path).unwrap();
+        let p = scene.camera_path(None).unwrap();
+        for f in 0..glint::camera::frame_count(p) {
+            let c = glint::camera::frame_camera(p, f).unwrap();
+            assert!(c.forward.is_finite() && c.right.is_finite(), "frame {f}");
+        }
+    }
+}
+
 /// The room's glTF with `edit` applied to its JSON.
 fn room_with_gltf_edit(edit: impl Fn(&mut serde_json::Value)) -> (tempfile::TempDir, String) {
     let (dir, path) = room_scene("");
