@@ -18,6 +18,7 @@ pub mod eval;
 pub mod fuzz;
 pub mod geometry;
 pub mod image_io;
+pub mod lossy_path;
 pub mod materials;
 pub mod progress;
 pub mod radiance;

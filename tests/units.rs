@@ -488,3 +488,63 @@ fn the_radiosity_unit_needs_every_gathering_shard_and_then_solves_the_same_d() {
     let d = |b: &Path| stages(b).remove("radiosity").unwrap();
     assert_eq!(d(&radiosity), d(&shards.join("radiosity.glint")));
 }
+
+/// Paths that are not UTF-8 are written lossily in the JSON reports of `glint-bake --units
+/// --json` (it panicked) and `glint-bundle merge --json` (it said "invalid UTF-8" after
+/// merging), and both succeed.
+#[test]
+fn json_reports_write_paths_that_are_not_utf8_lossily() {
+    use std::ffi::OsStr;
+    use std::os::unix::ffi::OsStrExt;
+    let dir = tempfile::tempdir().unwrap();
+    write_gltf(
+        dir.path(),
+        "box",
+        &[quad("Floor", 0, 1, 0.0, 1.0), quad("Light", 1, 1, 1.0, 0.2)],
+        &[
+            MaterialSpec::diffuse("white", 0.7),
+            MaterialSpec {
+                emissive: [1.0; 3],
+                strength: 5.0,
+                ..MaterialSpec::diffuse("lamp", 0.0)
+            },
+        ],
+    );
+    let scene = write_scene(dir.path(), r#"{ "version": 1, "geometry": "box.gltf" }"#);
+    let shards = dir.path().join(OsStr::from_bytes(b"shards-\xff"));
+    let bundle = dir.path().join(OsStr::from_bytes(b"units-\xff.glint"));
+    let json = |cmd: &mut Command| {
+        let out = cmd.output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert_eq!(out.status.code(), Some(0), "{err}");
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+    };
+    let v = json(
+        Command::new(env!("CARGO_BIN_EXE_glint-bake"))
+            .arg(&scene)
+            .arg("--units")
+            .arg(&shards)
+            .arg("--bundle")
+            .arg(&bundle)
+            .arg("--json"),
+    );
+    let units = v["units"].as_array().unwrap();
+    assert!(!units.is_empty(), "{v}");
+    for u in units {
+        let shard = u["shard"].as_str().unwrap();
+        assert!(shard.contains("shards-\u{fffd}/"), "{shard}");
+    }
+    let merged = v["merged"]["bundle"].as_str().unwrap();
+    assert!(merged.ends_with("units-\u{fffd}.glint"), "{merged}");
+
+    let again = dir.path().join(OsStr::from_bytes(b"merged-\xff.glint"));
+    let mut merge = Command::new(env!("CARGO_BIN_EXE_glint-bundle"));
+    merge.arg("merge").arg(&again);
+    for e in std::fs::read_dir(&shards).unwrap() {
+        merge.arg(e.unwrap().path());
+    }
+    let v = json(merge.arg("--json"));
+    let merged = v["bundle"].as_str().unwrap();
+    assert!(merged.ends_with("merged-\u{fffd}.glint"), "{merged}");
+    assert_eq!(v["units"], units.len(), "{v}");
+}

@@ -462,6 +462,41 @@ fn replay_of_a_ten_frame_path_writes_ten_frames_and_timings() {
     assert_eq!(written, [0, 4, 8]);
 }
 
+/// A bundle path that is not UTF-8 is written lossily in timings.json (the replay panicked
+/// after writing its frames, leaving no timings).
+#[test]
+fn replay_of_a_bundle_whose_path_is_not_utf8_writes_its_timings() {
+    use std::ffi::OsStr;
+    use std::os::unix::ffi::OsStrExt;
+    let dir = tempfile::tempdir().unwrap();
+    let bundle = dir.path().join(OsStr::from_bytes(b"cornell-\xff.glint"));
+    copy_dir(cornell_bundle(), &bundle);
+    let out = dir.path().join("frames");
+    let run = Command::new(env!("CARGO_BIN_EXE_glint-view"))
+        .arg(&bundle)
+        .args([
+            "--replay",
+            "ten",
+            "--headless",
+            "--size",
+            "16x16",
+            "--every",
+            "100",
+        ])
+        .arg("--out")
+        .arg(&out)
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(0), "{stderr}");
+    let timings: Timings =
+        serde_json::from_str(&std::fs::read_to_string(out.join("timings.json")).unwrap()).unwrap();
+    assert_eq!(timings.frames.len(), 10);
+    let written = timings.bundle.to_str().unwrap();
+    assert!(written.ends_with("cornell-\u{fffd}.glint"), "{written}");
+}
+
 /// A headless run outside a desktop session (no `XDG_RUNTIME_DIR`, no Wayland) succeeds
 /// without libwayland's "error: XDG_RUNTIME_DIR is invalid or not set" line, which Mesa's
 /// Vulkan device-select layer caused.

@@ -102,7 +102,7 @@ pub fn run(args: &BakeArgs, tool: Tool, out: &mut dyn Write) -> anyhow::Result<E
                 Outcome::Skipped(reason) => skipped(args, &scene, Stage::Materials, &reason, out),
                 Outcome::Baked(report) if args.options.json => {
                     let v = serde_json::json!({
-                        "bundle": args.bundle, "stage": "materials", "status": "baked",
+                        "bundle": crate::lossy_path::json(&args.bundle), "stage": "materials", "status": "baked",
                         "quality": quality.name(), "bake_seconds": report.record.bake_seconds,
                         "report": &*report,
                     });
@@ -268,7 +268,7 @@ fn skipped(
 ) -> anyhow::Result<ExitCode> {
     if args.options.json {
         let v = serde_json::json!({
-            "bundle": args.bundle, "stage": stage.name(), "status": "skipped", "reason": reason,
+            "bundle": crate::lossy_path::json(&args.bundle), "stage": stage.name(), "status": "skipped", "reason": reason,
         });
         writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
     } else {
