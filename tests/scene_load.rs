@@ -150,6 +150,41 @@ fn reflector_name_matching_nothing_lists_what_exists() {
     );
 }
 
+/// A reflector whose mesh is there but lost every triangle at load (its node scaled by 0)
+/// is told so, not that its name matches nothing.
+#[test]
+fn reflector_whose_triangles_were_all_dropped_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    write_room(dir.path());
+    let gltf = dir.path().join("room.gltf");
+    let mut doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&gltf).unwrap()).unwrap();
+    let panel = doc["meshes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .position(|m| m["name"] == "Panel")
+        .unwrap();
+    for node in doc["nodes"].as_array_mut().unwrap() {
+        if node["mesh"] == panel {
+            node["scale"] = serde_json::json!([0.0, 0.0, 0.0]);
+        }
+    }
+    std::fs::write(&gltf, serde_json::to_string(&doc).unwrap()).unwrap();
+    let path = write_scene(
+        dir.path(),
+        r#"{ "version": 1, "geometry": "room.gltf", "reflectors": [ { "mesh": "Panel", "kind": "planar" } ] }"#,
+    );
+    let e = Scene::load(&path).err().expect("loaded").to_string();
+    assert!(
+        e.contains("reflectors[0].mesh")
+            && e.contains("\"Panel\" matches a glTF mesh or node")
+            && e.contains("all its triangles were dropped"),
+        "{e}"
+    );
+    assert!(!e.contains("matches no glTF mesh"), "{e}");
+}
+
 #[test]
 fn non_planar_planar_reflector_is_refused_at_any_scale() {
     for scale in [1e-3_f32, 1.0, 1e3] {
