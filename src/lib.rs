@@ -20,6 +20,7 @@ pub mod geometry;
 pub mod image_io;
 pub mod lossy_path;
 pub mod materials;
+pub mod out_dir;
 pub mod progress;
 pub mod radiance;
 pub mod radiosity;

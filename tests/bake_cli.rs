@@ -527,3 +527,37 @@ fn json_reports_write_a_bundle_path_that_is_not_utf8_lossily() {
     }
     assert!(Bundle::open(&bundle).unwrap().verify().is_empty());
 }
+
+/// A `--bundle` that is a symbolic link to nothing, or below a file, is refused saying so,
+/// not with a bare "File exists (os error 17)"; `--units` the same.
+#[test]
+fn a_bundle_path_blocked_by_a_dangling_link_or_a_file_says_what_is_wrong() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = lit_floor(dir.path());
+    let link = dir.path().join("link.glint");
+    std::os::unix::fs::symlink(dir.path().join("gone/x.glint"), &link).unwrap();
+    let file = dir.path().join("file");
+    std::fs::write(&file, b"not a folder").unwrap();
+    let s = scene.to_str().unwrap();
+    for (args, says) in [
+        (
+            ["--bundle", link.to_str().unwrap()],
+            "link.glint: not a glint bundle: it is a symbolic link to ",
+        ),
+        (
+            ["--bundle", file.join("b.glint").to_str().unwrap()],
+            "file (above it) is a file, not a folder",
+        ),
+        (
+            ["--units", link.to_str().unwrap()],
+            "link.glint: it is a symbolic link to ",
+        ),
+    ] {
+        let (code, _, err) = glint_bake(&[s, args[0], args[1]]);
+        assert_eq!(code, 1, "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+        assert!(!err.contains("os error"), "{args:?}: {err}");
+    }
+    assert!(!dir.path().join("gone").exists());
+    assert_eq!(std::fs::read(&file).unwrap(), b"not a folder");
+}

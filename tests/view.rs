@@ -497,6 +497,31 @@ fn replay_of_a_bundle_whose_path_is_not_utf8_writes_its_timings() {
     assert!(written.ends_with("cornell-\u{fffd}.glint"), "{written}");
 }
 
+/// `--out` naming a file is refused saying so, not "File exists (os error 17)", and the
+/// file is left as it was.
+#[test]
+fn replay_into_an_out_that_is_a_file_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("frames");
+    std::fs::write(&file, b"not a folder").unwrap();
+    let (code, _, stderr) = glint_view(&[
+        cornell_bundle().to_str().unwrap(),
+        "--replay",
+        "ten",
+        "--headless",
+        "--size",
+        "16x16",
+        "--out",
+        file.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(
+        stderr.contains("frames: it is a file, not a folder") && !stderr.contains("os error"),
+        "{stderr}"
+    );
+    assert_eq!(std::fs::read(&file).unwrap(), b"not a folder");
+}
+
 /// A headless run outside a desktop session (no `XDG_RUNTIME_DIR`, no Wayland) succeeds
 /// without libwayland's "error: XDG_RUNTIME_DIR is invalid or not set" line, which Mesa's
 /// Vulkan device-select layer caused.

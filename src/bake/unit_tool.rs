@@ -98,7 +98,7 @@ pub fn bake_every_unit(
     dir: &Path,
     progress: &TerminalProgress,
 ) -> anyhow::Result<Vec<UnitReport>> {
-    std::fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("{}: {e}", dir.display()))?;
+    crate::out_dir::create_dir_all(dir).map_err(|e| anyhow::anyhow!("{}: {e}", dir.display()))?;
     let mut reports = Vec::new();
     let last = plan.units.iter().map(|u| u.wave).max().unwrap_or(0);
     for wave in 0..=last {

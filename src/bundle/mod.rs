@@ -342,9 +342,18 @@ pub fn check_scene(dir: &Path, scene_hash: &str, force: bool) -> Result<(), Bund
 /// replaces files that are not its own. A folder holding only glint's own lock and
 /// temporary entries (left by a bake killed before its first commit) counts as empty.
 pub fn check_folder(dir: &Path) -> Result<(), BundleError> {
+    use std::io::ErrorKind;
     let meta = match std::fs::metadata(dir) {
         Ok(m) => m,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(e) if matches!(e.kind(), ErrorKind::NotFound | ErrorKind::NotADirectory) => {
+            return match crate::out_dir::in_the_way(dir) {
+                Some(why) => Err(BundleError::NotABundle {
+                    dir: dir.to_owned(),
+                    why,
+                }),
+                None => Ok(()),
+            };
+        }
         Err(source) => {
             return Err(BundleError::Io {
                 path: dir.to_owned(),

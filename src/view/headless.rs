@@ -166,7 +166,7 @@ pub fn replay_with(
             }
         })?;
     if let Some(out) = &options.out {
-        std::fs::create_dir_all(out).map_err(|source| ViewError::Io {
+        crate::out_dir::create_dir_all(out).map_err(|source| ViewError::Io {
             path: out.clone(),
             source,
         })?;
