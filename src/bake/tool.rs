@@ -251,7 +251,12 @@ fn bake_every_stage(
 /// A single-stage tool writes the scene stage first when the bundle lacks it (or holds
 /// another scene's, with `--force`).
 fn scene_stage_first(args: &BakeArgs, scene: &Scene) -> anyhow::Result<()> {
-    crate::bundle::check_scene(&args.bundle, &scene.content_hash, args.options.force)?;
+    crate::bundle::check_scene(
+        &args.bundle,
+        &scene.name,
+        &scene.content_hash,
+        args.options.force,
+    )?;
     if !up_to_date(&args.bundle, scene, Stage::Scene, None) {
         scene_stage::bake(scene, &args.bundle, args.options.force).context("stage scene")?;
     }

@@ -76,17 +76,22 @@ pub enum BundleError {
         /// Version this build writes.
         supported: String,
     },
-    /// A baker would mix stages of two different scenes.
+    /// A baker would mix stages of two different scenes (or two versions of one).
     #[error(
-        "{}: holds stages baked from another scene (hash {found:.12}…, this scene {expected:.12}…); pass --force to replace them",
-        dir.display()
+        "{}: stage `{stage}` was baked from other scene files (hash {}…; the bundle's scene is {bundle_scene:?}) than this scene {scene:?} (hash {}…); pass --force to replace the bundle's stages",
+        dir.display(), distinct_prefix(found, expected), distinct_prefix(expected, found)
     )]
     SceneMismatch {
         /// The bundle folder.
         dir: PathBuf,
-        /// The bundle's scene hash.
+        /// A stage baked from the other scene.
+        stage: String,
+        /// Its scene hash.
         found: String,
-        /// The scene being baked.
+        /// The scene name in the bundle's manifest.
+        bundle_scene: String,
+        /// The scene being baked: its name and hash.
+        scene: String,
         expected: String,
     },
     /// A stage name or asset path that would leave its folder.
@@ -321,19 +326,34 @@ fn pin_folders(dir: &Path, manifest: &Manifest) -> Vec<File> {
 /// Refuses early (before a long bake) when `dir` is not a folder glint may write into
 /// ([`check_folder`]), or when the bundle there holds stages of another scene and `force` is
 /// not set. A missing bundle is fine.
-pub fn check_scene(dir: &Path, scene_hash: &str, force: bool) -> Result<(), BundleError> {
+pub fn check_scene(
+    dir: &Path,
+    scene_name: &str,
+    scene_hash: &str,
+    force: bool,
+) -> Result<(), BundleError> {
     check_folder(dir)?;
     let Some(m) = read_manifest(dir)? else {
         return Ok(());
     };
-    if !force && m.stages.values().any(|s| s.scene_hash != scene_hash) {
+    let other = m.stages.iter().find(|(_, s)| s.scene_hash != scene_hash);
+    if let (false, Some((stage, s))) = (force, other) {
         return Err(BundleError::SceneMismatch {
             dir: dir.to_owned(),
-            found: m.scene_hash,
+            stage: stage.clone(),
+            found: s.scene_hash.clone(),
+            bundle_scene: m.scene_name.clone(),
+            scene: scene_name.to_owned(),
             expected: scene_hash.to_owned(),
         });
     }
     Ok(())
+}
+
+/// The start of hash `a`, 12 characters or as many more as it takes to differ from `b`.
+fn distinct_prefix<'a>(a: &'a str, b: &str) -> &'a str {
+    let same = a.bytes().zip(b.bytes()).take_while(|(x, y)| x == y).count();
+    a.get(..(same + 1).max(12)).unwrap_or(a)
 }
 
 /// Whether glint may write a bundle at `dir`: it does not exist, it is an empty folder, or it

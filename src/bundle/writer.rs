@@ -323,9 +323,13 @@ impl StageWriter {
                 .get(&self.stage)
                 .is_some_and(|r| r.scene_hash != info.scene_hash);
         if (!foreign.is_empty() || replaced_scene) && !info.force {
+            let stage = foreign.first().unwrap_or(&self.stage).clone();
             return Err(BundleError::SceneMismatch {
                 dir: self.dir.clone(),
-                found: manifest.scene_hash.clone(),
+                found: manifest.stages[&stage].scene_hash.clone(),
+                stage,
+                bundle_scene: manifest.scene_name.clone(),
+                scene: info.scene_name.clone(),
                 expected: info.scene_hash.clone(),
             });
         }
