@@ -206,6 +206,36 @@ fn the_plan_lists_every_unit_with_its_inputs_cost_and_wave() {
     }
 }
 
+/// `--plan --wave N` past the plan's last wave is an error naming the wave count (it printed
+/// nothing and exited 0, which a wave-by-wave script reads as an empty wave).
+#[test]
+fn a_wave_past_the_plan_is_an_error_naming_the_wave_count() {
+    let scene = repo("scenes/glossy-room/scene.json");
+    let (code, out, err) = bake(&[s(&scene), "--plan", "--json", "--quality", "draft"]);
+    assert_eq!(code, 0, "{err}");
+    let plan: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let waves = plan["units"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|u| u["wave"].as_u64().unwrap() + 1)
+        .max()
+        .unwrap();
+    let (code, out, err) = bake(&[s(&scene), "--plan", "--wave", "7", "--quality", "draft"]);
+    assert_eq!((code, out.as_str()), (1, ""), "{err}");
+    assert!(
+        err.contains(&format!(
+            "--wave 7: the plan has {waves} waves, numbered 0 to {}",
+            waves - 1
+        )),
+        "{err}"
+    );
+    let last = (waves - 1).to_string();
+    let (code, out, err) = bake(&[s(&scene), "--plan", "--wave", &last, "--quality", "draft"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(!out.is_empty());
+}
+
 #[test]
 fn a_sharded_bake_merges_into_the_same_bytes_as_a_whole_bake() {
     let tmp = tempfile::tempdir().unwrap();

@@ -120,6 +120,13 @@ fn print_plan(
     out: &mut dyn Write,
 ) -> anyhow::Result<()> {
     if let Some(w) = wave {
+        let waves = plan.units.iter().map(|u| u.wave + 1).max().unwrap_or(0);
+        if w >= waves {
+            anyhow::bail!(
+                "--wave {w}: the plan has {waves} waves, numbered 0 to {}",
+                waves.saturating_sub(1)
+            );
+        }
         for id in plan.wave(w) {
             writeln!(out, "{id}")?;
         }
