@@ -522,6 +522,65 @@ fn replay_into_an_out_that_is_a_file_says_so() {
     assert_eq!(std::fs::read(&file).unwrap(), b"not a folder");
 }
 
+/// Ctrl-C during a replay exits 130 and says how many frames were written and where (it said
+/// "nothing was written" after writing frames); those frames are on disk.
+#[test]
+fn an_interrupted_replay_says_how_many_frames_it_wrote() {
+    let out = tempfile::tempdir().unwrap();
+    let pngs = || {
+        std::fs::read_dir(out.path())
+            .unwrap()
+            .filter(|e| {
+                e.as_ref()
+                    .unwrap()
+                    .path()
+                    .extension()
+                    .is_some_and(|x| x == "png")
+            })
+            .count()
+    };
+    let child = Command::new(env!("CARGO_BIN_EXE_glint-view"))
+        .arg(cornell_bundle())
+        .args([
+            "--replay",
+            "orbit",
+            "--headless",
+            "--size",
+            "320x216",
+            "--out",
+        ])
+        .arg(out.path())
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    while pngs() < 2 {
+        assert!(start.elapsed().as_secs() < 300, "no frames written");
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    // SAFETY: kill(2) on the child's own pid.
+    assert_eq!(unsafe { libc::kill(child.id() as i32, libc::SIGINT) }, 0);
+    let run = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(130), "{stderr}");
+    let written = pngs();
+    assert!(
+        (2..61).contains(&written),
+        "{written} frames written: {stderr}"
+    );
+    let says = format!(
+        "of 61 frames: {written} frame(s) were written to {}, no timings.json",
+        out.path().display()
+    );
+    assert!(
+        stderr.contains("error: interrupted after ") && stderr.contains(&says),
+        "{says:?} missing from: {stderr}"
+    );
+    assert!(!out.path().join("timings.json").exists());
+}
+
 /// A headless run outside a desktop session (no `XDG_RUNTIME_DIR`, no Wayland) succeeds
 /// without libwayland's "error: XDG_RUNTIME_DIR is invalid or not set" line, which Mesa's
 /// Vulkan device-select layer caused.
