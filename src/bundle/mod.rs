@@ -77,23 +77,8 @@ pub enum BundleError {
         supported: String,
     },
     /// A baker would mix stages of two different scenes (or two versions of one).
-    #[error(
-        "{}: stage `{stage}` was baked from other scene files (hash {}…; the bundle's scene is {bundle_scene:?}) than this scene {scene:?} (hash {}…); pass --force to replace the bundle's stages",
-        dir.display(), distinct_prefix(found, expected), distinct_prefix(expected, found)
-    )]
-    SceneMismatch {
-        /// The bundle folder.
-        dir: PathBuf,
-        /// A stage baked from the other scene.
-        stage: String,
-        /// Its scene hash.
-        found: String,
-        /// The scene name in the bundle's manifest.
-        bundle_scene: String,
-        /// The scene being baked: its name and hash.
-        scene: String,
-        expected: String,
-    },
+    #[error(transparent)]
+    SceneMismatch(Box<SceneMismatch>),
     /// A stage name or asset path that would leave its folder.
     #[error("invalid asset path {path:?}: {why}")]
     BadAssetPath {
@@ -147,6 +132,26 @@ pub enum BundleError {
         /// Attempts made.
         attempts: usize,
     },
+}
+
+/// [`BundleError::SceneMismatch`]: a stage of the bundle baked from other scene files.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "{}: stage `{stage}` was baked from other scene files (hash {}…; the bundle's scene is {bundle_scene:?}) than this scene {scene:?} (hash {}…); pass --force to replace the bundle's stages",
+    dir.display(), distinct_prefix(found, expected), distinct_prefix(expected, found)
+)]
+pub struct SceneMismatch {
+    /// The bundle folder.
+    pub dir: PathBuf,
+    /// A stage baked from the other scene.
+    pub stage: String,
+    /// Its scene hash.
+    pub found: String,
+    /// The scene name in the bundle's manifest.
+    pub bundle_scene: String,
+    /// The scene being baked: its name and hash.
+    pub scene: String,
+    pub expected: String,
 }
 
 /// An opened bundle whose manifest was read and checked: one consistent view of the bundle
@@ -338,14 +343,14 @@ pub fn check_scene(
     };
     let other = m.stages.iter().find(|(_, s)| s.scene_hash != scene_hash);
     if let (false, Some((stage, s))) = (force, other) {
-        return Err(BundleError::SceneMismatch {
+        return Err(BundleError::SceneMismatch(Box::new(SceneMismatch {
             dir: dir.to_owned(),
             stage: stage.clone(),
             found: s.scene_hash.clone(),
             bundle_scene: m.scene_name.clone(),
             scene: scene_name.to_owned(),
             expected: scene_hash.to_owned(),
-        });
+        })));
     }
     Ok(())
 }

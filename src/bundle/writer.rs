@@ -324,14 +324,14 @@ impl StageWriter {
                 .is_some_and(|r| r.scene_hash != info.scene_hash);
         if (!foreign.is_empty() || replaced_scene) && !info.force {
             let stage = foreign.first().unwrap_or(&self.stage).clone();
-            return Err(BundleError::SceneMismatch {
+            return Err(BundleError::SceneMismatch(Box::new(super::SceneMismatch {
                 dir: self.dir.clone(),
                 found: manifest.stages[&stage].scene_hash.clone(),
                 stage,
                 bundle_scene: manifest.scene_name.clone(),
                 scene: info.scene_name.clone(),
                 expected: info.scene_hash.clone(),
-            });
+            })));
         }
         for name in &foreign {
             // --force: stages of another scene are stale; their folders are collected below.
