@@ -103,13 +103,55 @@ fn time_range(path: &CameraPath) -> (f32, f32) {
 /// The pose at time `t`: positions, targets, up vectors and field of view interpolated
 /// linearly between the surrounding keyframes, clamped to the first and last.
 pub fn pose_at(path: &CameraPath, t: f32) -> Camera {
+    let p = interpolate(path, t);
+    Camera::look_at(p.eye, p.target, p.up, p.fov_y_deg.to_radians())
+}
+
+/// Why the pose at time `t` has no orientation ([`pose_at`] would give NaN): the eye on its
+/// target, or the view along the up vector (the same test as the scene loader's for a
+/// keyframe). `None` for a sound pose.
+pub fn degenerate_pose(path: &CameraPath, t: f32) -> Option<String> {
+    let p = interpolate(path, t);
+    let dir = p.target - p.eye;
+    if dir.length_squared() == 0.0 || !dir.normalize().is_finite() {
+        return Some(format!(
+            "the camera is at its target {}: no view direction",
+            p.target
+        ));
+    }
+    if dir.normalize().cross(p.up.normalize_or_zero()).length() < 1e-4 {
+        return Some(format!(
+            "the view direction {} is parallel to up {}",
+            dir.normalize(),
+            p.up
+        ));
+    }
+    None
+}
+
+/// A pose before [`Camera::look_at`].
+struct Interpolated {
+    eye: Vec3,
+    target: Vec3,
+    up: Vec3,
+    fov_y_deg: f32,
+}
+
+/// [`pose_at`]'s eye, target, up and field of view at time `t`.
+fn interpolate(path: &CameraPath, t: f32) -> Interpolated {
     let k = &path.keyframes;
     let i = k.partition_point(|f| f.time <= t);
+    let key = |f: &Keyframe| Interpolated {
+        eye: f.position.into(),
+        target: f.target.into(),
+        up: f.up.into(),
+        fov_y_deg: f.fov_y_deg,
+    };
     if i == 0 {
-        return Camera::from_keyframe(&k[0]);
+        return key(&k[0]);
     }
     if i == k.len() {
-        return Camera::from_keyframe(&k[k.len() - 1]);
+        return key(&k[k.len() - 1]);
     }
     let (a, b) = (&k[i - 1], &k[i]);
     let s = (t - a.time) / (b.time - a.time);
@@ -119,12 +161,12 @@ pub fn pose_at(path: &CameraPath, t: f32) -> Camera {
     if (target - eye).normalize_or_zero().cross(up).length() < 1e-4 {
         up = a.up.into(); // interpolated up parallel to the view: keep the keyframe's
     }
-    Camera::look_at(
+    Interpolated {
         eye,
         target,
         up,
-        (a.fov_y_deg + (b.fov_y_deg - a.fov_y_deg) * s).to_radians(),
-    )
+        fov_y_deg: a.fov_y_deg + (b.fov_y_deg - a.fov_y_deg) * s,
+    }
 }
 
 #[cfg(test)]

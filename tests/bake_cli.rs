@@ -479,3 +479,85 @@ fn glint_radiosity_refuses_a_density_that_gives_no_element() {
     );
     assert!(!bundle.exists());
 }
+
+/// A lit floor: a scene with no glossy material, quick to bake whole.
+fn lit_floor(dir: &Path) -> PathBuf {
+    write_gltf(
+        dir,
+        "box",
+        &[quad("Floor", 0, 1, 0.0, 1.0), quad("Light", 1, 1, 1.0, 0.2)],
+        &[
+            MaterialSpec::diffuse("white", 0.7),
+            MaterialSpec {
+                emissive: [1.0; 3],
+                strength: 5.0,
+                ..MaterialSpec::diffuse("lamp", 0.0)
+            },
+        ],
+    );
+    write_scene(dir, r#"{ "version": 1, "geometry": "box.gltf" }"#)
+}
+
+/// A bundle path that is not UTF-8 is written lossily in the JSON reports: `glint-bake
+/// --json` panicked after committing, `glint-materials --json` on its skip.
+#[test]
+fn json_reports_write_a_bundle_path_that_is_not_utf8_lossily() {
+    use std::ffi::OsStr;
+    use std::os::unix::ffi::OsStrExt;
+    let dir = tempfile::tempdir().unwrap();
+    let scene = lit_floor(dir.path());
+    let bundle = dir.path().join(OsStr::from_bytes(b"out-\xff.glint"));
+    let exe = Path::new(env!("CARGO_BIN_EXE_glint-bake"));
+    for bin in ["glint-bake", "glint-materials"] {
+        let out = Command::new(exe.with_file_name(bin))
+            .arg(&scene)
+            .arg("--bundle")
+            .arg(&bundle)
+            .arg("--json")
+            .output()
+            .unwrap();
+        let (stdout, stderr) = (
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr),
+        );
+        assert_eq!(out.status.code(), Some(0), "{bin}: {stderr}");
+        let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+        let written = v["bundle"].as_str().unwrap();
+        assert!(written.ends_with("out-\u{fffd}.glint"), "{bin}: {written}");
+    }
+    assert!(Bundle::open(&bundle).unwrap().verify().is_empty());
+}
+
+/// A `--bundle` that is a symbolic link to nothing, or below a file, is refused saying so,
+/// not with a bare "File exists (os error 17)"; `--units` the same.
+#[test]
+fn a_bundle_path_blocked_by_a_dangling_link_or_a_file_says_what_is_wrong() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = lit_floor(dir.path());
+    let link = dir.path().join("link.glint");
+    std::os::unix::fs::symlink(dir.path().join("gone/x.glint"), &link).unwrap();
+    let file = dir.path().join("file");
+    std::fs::write(&file, b"not a folder").unwrap();
+    let s = scene.to_str().unwrap();
+    for (args, says) in [
+        (
+            ["--bundle", link.to_str().unwrap()],
+            "link.glint: not a glint bundle: it is a symbolic link to ",
+        ),
+        (
+            ["--bundle", file.join("b.glint").to_str().unwrap()],
+            "file (above it) is a file, not a folder",
+        ),
+        (
+            ["--units", link.to_str().unwrap()],
+            "link.glint: it is a symbolic link to ",
+        ),
+    ] {
+        let (code, _, err) = glint_bake(&[s, args[0], args[1]]);
+        assert_eq!(code, 1, "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+        assert!(!err.contains("os error"), "{args:?}: {err}");
+    }
+    assert!(!dir.path().join("gone").exists());
+    assert_eq!(std::fs::read(&file).unwrap(), b"not a folder");
+}

@@ -276,6 +276,38 @@ fn another_scenes_bundle_is_replaced_only_with_force() {
     );
 }
 
+/// The refusal to mix two scenes' stages names the stage and prints enough of both hashes
+/// to tell them apart (it printed two equal 12-character prefixes), and the scene names.
+#[test]
+fn a_scene_mismatch_prints_hashes_that_differ_and_the_scene_names() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("m.glint");
+    let (a, b) = ("0123456789abcdef0123a", "0123456789abcdef0123b");
+    bake(&dir, "radiosity", a, &[("x.bin", "atlas", b"a")]).unwrap();
+    let mut w = StageWriter::begin(&dir, "radiosity").unwrap();
+    w.write("x.bin", "atlas", b"b").unwrap();
+    let e = w
+        .commit(StageInfo {
+            scene_name: "edited".into(),
+            ..info(b)
+        })
+        .unwrap_err()
+        .to_string();
+    for want in [
+        "stage `radiosity`",
+        "hash 0123456789abcdef0123a…",
+        "\"test\"",
+        "this scene \"edited\" (hash 0123456789abcdef0123b…)",
+    ] {
+        assert!(e.contains(want), "{want:?} missing from: {e}");
+    }
+    // The bakers' early check says the same.
+    let early = glint::bundle::check_scene(&dir, "edited", b, false)
+        .unwrap_err()
+        .to_string();
+    assert_eq!(early, e);
+}
+
 #[test]
 fn bad_bundles_are_refused_with_a_message_naming_the_file() {
     let tmp = tempfile::tempdir().unwrap();
@@ -448,7 +480,7 @@ fn a_folder_that_is_not_a_bundle_is_refused_and_left_alone() {
             && msg.contains("`scene`"),
         "{msg}"
     );
-    let e = glint::bundle::check_scene(&dir, "h", true).unwrap_err();
+    let e = glint::bundle::check_scene(&dir, "s", "h", true).unwrap_err();
     assert!(matches!(e, BundleError::NotABundle { .. }), "{e}");
     assert_eq!(std::fs::read(dir.join("scene/notes.txt")).unwrap(), b"x");
     assert_eq!(entries(&dir), ["scene"], "nothing added either");

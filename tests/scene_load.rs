@@ -150,6 +150,44 @@ fn reflector_name_matching_nothing_lists_what_exists() {
     );
 }
 
+/// A reflector whose mesh is there but lost every triangle at load (its node scaled by 0)
+/// is told so, not that its name matches nothing.
+#[test]
+fn reflector_whose_triangles_were_all_dropped_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    write_room(dir.path());
+    let gltf = dir.path().join("room.gltf");
+    let mut doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&gltf).unwrap()).unwrap();
+    let panel = doc["meshes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .position(|m| m["name"] == "Panel")
+        .unwrap();
+    for node in doc["nodes"].as_array_mut().unwrap() {
+        if node["mesh"] == panel {
+            node["scale"] = serde_json::json!([0.0, 0.0, 0.0]);
+        }
+    }
+    std::fs::write(&gltf, serde_json::to_string(&doc).unwrap()).unwrap();
+    let path = write_scene(
+        dir.path(),
+        r#"{ "version": 1, "geometry": "room.gltf", "reflectors": [ { "mesh": "Panel", "kind": "planar" } ] }"#,
+    );
+    let Err(e) = Scene::load(&path).map(|_| ()) else {
+        panic!("loaded with all of Panel's triangles dropped");
+    };
+    let e = e.to_string();
+    assert!(
+        e.contains("reflectors[0].mesh")
+            && e.contains("\"Panel\" matches a glTF mesh or node")
+            && e.contains("all its triangles were dropped"),
+        "{e}"
+    );
+    assert!(!e.contains("matches no glTF mesh"), "{e}");
+}
+
 #[test]
 fn non_planar_planar_reflector_is_refused_at_any_scale() {
     for scale in [1e-3_f32, 1.0, 1e3] {
@@ -454,6 +492,82 @@ fn camera_paths_beyond_sane_bounds_are_refused_naming_the_field() {
     let p = scene.camera_path(None).unwrap();
     assert_eq!(glint::camera::frame_count(p), 864_001);
     assert!(glint::camera::frame_count(p) <= glint::camera::MAX_FRAMES);
+}
+
+/// A path whose interpolated poses lose their orientation between sound keyframes is refused
+/// when the scene loads, naming the path, the time and the frame: passing through its target
+/// (the ray caster got NaN rays and panicked), or looking along up.
+#[test]
+fn camera_paths_that_lose_their_orientation_between_keyframes_are_refused() {
+    let key = |t: &str, pos: &str, target: &str| {
+        format!(
+            r#"{{ "time": {t}, "position": {pos}, "target": {target}, "up": [0,1,0], "fov_y_deg": 60 }}"#
+        )
+    };
+    let e = path_err(
+        "30",
+        &format!(
+            "{}, {}",
+            key("0", "[0,1,3]", "[0,1,0]"),
+            key("2", "[0,1,-3]", "[0,1,0]")
+        ),
+    );
+    for want in [
+        "scene.json",
+        "camera_paths[0].keyframes",
+        r#"camera path "p" between keyframes 0 and 1"#,
+        "t = 1 s (frame 30 at 30 fps)",
+        "passes through its target",
+    ] {
+        assert!(e.contains(want), "{want:?} missing from: {e}");
+    }
+    // Looking straight up at frame 30, with up [0, 1, 0] at both keyframes.
+    let e = path_err(
+        "30",
+        &format!(
+            "{}, {}",
+            key("0", "[0,0,0]", "[1,1,0]"),
+            key("2", "[0,0,0]", "[-1,1,0]")
+        ),
+    );
+    for want in ["t = 1 s (frame 30 at 30 fps)", "parallel to up"] {
+        assert!(e.contains(want), "{want:?} missing from: {e}");
+    }
+    // Between frames: at 2.5 fps, t = 1 s is no frame.
+    let e = path_err(
+        "2.5",
+        &format!(
+            "{}, {}",
+            key("0", "[0,1,3]", "[0,1,0]"),
+            key("2", "[0,1,-3]", "[0,1,0]")
+        ),
+    );
+    assert!(
+        e.contains("t = 1 s (between frames 2 and 3 at 2.5 fps)"),
+        "{e}"
+    );
+    // Passing beside the target, or turning through a view that is not along up, loads.
+    for keys in [
+        [
+            key("0", "[0.1,1,3]", "[0,1,0]"),
+            key("2", "[0.1,1,-3]", "[0,1,0]"),
+        ],
+        [
+            key("0", "[0,0,0]", "[1,1,0.1]"),
+            key("2", "[0,0,0]", "[-1,1,0.1]"),
+        ],
+    ] {
+        let (_dir, path) = room_scene(&format!(
+            r#", "camera_paths": [ {{ "name": "p", "fps": 30, "keyframes": [ {}, {} ] }} ]"#,
+            keys[0], keys[1]
+        ));
+        let scene = Scene::load(&path).unwrap();
+        let p = scene.camera_path(None).unwrap();
+        for f in 0..glint::camera::frame_count(p) {
+            let c = glint::camera::frame_camera(p, f).unwrap();
+            assert!(c.forward.is_finite() && c.right.is_finite(), "frame {f}");
+        }
+    }
 }
 
 /// The room's glTF with `edit` applied to its JSON.

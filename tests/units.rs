@@ -206,6 +206,36 @@ fn the_plan_lists_every_unit_with_its_inputs_cost_and_wave() {
     }
 }
 
+/// `--plan --wave N` past the plan's last wave is an error naming the wave count (it printed
+/// nothing and exited 0, which a wave-by-wave script reads as an empty wave).
+#[test]
+fn a_wave_past_the_plan_is_an_error_naming_the_wave_count() {
+    let scene = repo("scenes/glossy-room/scene.json");
+    let (code, out, err) = bake(&[s(&scene), "--plan", "--json", "--quality", "draft"]);
+    assert_eq!(code, 0, "{err}");
+    let plan: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let waves = plan["units"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|u| u["wave"].as_u64().unwrap() + 1)
+        .max()
+        .unwrap();
+    let (code, out, err) = bake(&[s(&scene), "--plan", "--wave", "7", "--quality", "draft"]);
+    assert_eq!((code, out.as_str()), (1, ""), "{err}");
+    assert!(
+        err.contains(&format!(
+            "--wave 7: the plan has {waves} waves, numbered 0 to {}",
+            waves - 1
+        )),
+        "{err}"
+    );
+    let last = (waves - 1).to_string();
+    let (code, out, err) = bake(&[s(&scene), "--plan", "--wave", &last, "--quality", "draft"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(!out.is_empty());
+}
+
 #[test]
 fn a_sharded_bake_merges_into_the_same_bytes_as_a_whole_bake() {
     let tmp = tempfile::tempdir().unwrap();
@@ -534,4 +564,64 @@ fn a_missing_dependency_shard_is_called_missing_and_a_partial_one_incomplete() {
         "{err}"
     );
     assert!(!radiosity.join("unit.json").exists());
+}
+
+/// Paths that are not UTF-8 are written lossily in the JSON reports of `glint-bake --units
+/// --json` (it panicked) and `glint-bundle merge --json` (it said "invalid UTF-8" after
+/// merging), and both succeed.
+#[test]
+fn json_reports_write_paths_that_are_not_utf8_lossily() {
+    use std::ffi::OsStr;
+    use std::os::unix::ffi::OsStrExt;
+    let dir = tempfile::tempdir().unwrap();
+    write_gltf(
+        dir.path(),
+        "box",
+        &[quad("Floor", 0, 1, 0.0, 1.0), quad("Light", 1, 1, 1.0, 0.2)],
+        &[
+            MaterialSpec::diffuse("white", 0.7),
+            MaterialSpec {
+                emissive: [1.0; 3],
+                strength: 5.0,
+                ..MaterialSpec::diffuse("lamp", 0.0)
+            },
+        ],
+    );
+    let scene = write_scene(dir.path(), r#"{ "version": 1, "geometry": "box.gltf" }"#);
+    let shards = dir.path().join(OsStr::from_bytes(b"shards-\xff"));
+    let bundle = dir.path().join(OsStr::from_bytes(b"units-\xff.glint"));
+    let json = |cmd: &mut Command| {
+        let out = cmd.output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert_eq!(out.status.code(), Some(0), "{err}");
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+    };
+    let v = json(
+        Command::new(env!("CARGO_BIN_EXE_glint-bake"))
+            .arg(&scene)
+            .arg("--units")
+            .arg(&shards)
+            .arg("--bundle")
+            .arg(&bundle)
+            .arg("--json"),
+    );
+    let units = v["units"].as_array().unwrap();
+    assert!(!units.is_empty(), "{v}");
+    for u in units {
+        let shard = u["shard"].as_str().unwrap();
+        assert!(shard.contains("shards-\u{fffd}/"), "{shard}");
+    }
+    let merged = v["merged"]["bundle"].as_str().unwrap();
+    assert!(merged.ends_with("units-\u{fffd}.glint"), "{merged}");
+
+    let again = dir.path().join(OsStr::from_bytes(b"merged-\xff.glint"));
+    let mut merge = Command::new(env!("CARGO_BIN_EXE_glint-bundle"));
+    merge.arg("merge").arg(&again);
+    for e in std::fs::read_dir(&shards).unwrap() {
+        merge.arg(e.unwrap().path());
+    }
+    let v = json(merge.arg("--json"));
+    let merged = v["bundle"].as_str().unwrap();
+    assert!(merged.ends_with("merged-\u{fffd}.glint"), "{merged}");
+    assert_eq!(v["units"], units.len(), "{v}");
 }

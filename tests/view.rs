@@ -462,6 +462,125 @@ fn replay_of_a_ten_frame_path_writes_ten_frames_and_timings() {
     assert_eq!(written, [0, 4, 8]);
 }
 
+/// A bundle path that is not UTF-8 is written lossily in timings.json (the replay panicked
+/// after writing its frames, leaving no timings).
+#[test]
+fn replay_of_a_bundle_whose_path_is_not_utf8_writes_its_timings() {
+    use std::ffi::OsStr;
+    use std::os::unix::ffi::OsStrExt;
+    let dir = tempfile::tempdir().unwrap();
+    let bundle = dir.path().join(OsStr::from_bytes(b"cornell-\xff.glint"));
+    copy_dir(cornell_bundle(), &bundle);
+    let out = dir.path().join("frames");
+    let run = Command::new(env!("CARGO_BIN_EXE_glint-view"))
+        .arg(&bundle)
+        .args([
+            "--replay",
+            "ten",
+            "--headless",
+            "--size",
+            "16x16",
+            "--every",
+            "100",
+        ])
+        .arg("--out")
+        .arg(&out)
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(0), "{stderr}");
+    let timings: Timings =
+        serde_json::from_str(&std::fs::read_to_string(out.join("timings.json")).unwrap()).unwrap();
+    assert_eq!(timings.frames.len(), 10);
+    let written = timings.bundle.to_str().unwrap();
+    assert!(written.ends_with("cornell-\u{fffd}.glint"), "{written}");
+}
+
+/// `--out` naming a file is refused saying so, not "File exists (os error 17)", and the
+/// file is left as it was.
+#[test]
+fn replay_into_an_out_that_is_a_file_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("frames");
+    std::fs::write(&file, b"not a folder").unwrap();
+    let (code, _, stderr) = glint_view(&[
+        cornell_bundle().to_str().unwrap(),
+        "--replay",
+        "ten",
+        "--headless",
+        "--size",
+        "16x16",
+        "--out",
+        file.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(
+        stderr.contains("frames: it is a file, not a folder") && !stderr.contains("os error"),
+        "{stderr}"
+    );
+    assert_eq!(std::fs::read(&file).unwrap(), b"not a folder");
+}
+
+/// Ctrl-C during a replay exits 130 and says how many frames were written and where (it said
+/// "nothing was written" after writing frames); those frames are on disk.
+#[test]
+fn an_interrupted_replay_says_how_many_frames_it_wrote() {
+    let out = tempfile::tempdir().unwrap();
+    let pngs = || {
+        std::fs::read_dir(out.path())
+            .unwrap()
+            .filter(|e| {
+                e.as_ref()
+                    .unwrap()
+                    .path()
+                    .extension()
+                    .is_some_and(|x| x == "png")
+            })
+            .count()
+    };
+    let child = Command::new(env!("CARGO_BIN_EXE_glint-view"))
+        .arg(cornell_bundle())
+        .args([
+            "--replay",
+            "orbit",
+            "--headless",
+            "--size",
+            "320x216",
+            "--out",
+        ])
+        .arg(out.path())
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    while pngs() < 2 {
+        assert!(start.elapsed().as_secs() < 300, "no frames written");
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    // SAFETY: kill(2) on the child's own pid.
+    assert_eq!(unsafe { libc::kill(child.id() as i32, libc::SIGINT) }, 0);
+    let run = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(130), "{stderr}");
+    let written = pngs();
+    assert!(
+        (2..61).contains(&written),
+        "{written} frames written: {stderr}"
+    );
+    let says = format!(
+        "of 61 frames: {written} frame(s) were written to {}, no timings.json",
+        out.path().display()
+    );
+    assert!(
+        stderr.contains("error: interrupted after ") && stderr.contains(&says),
+        "{says:?} missing from: {stderr}"
+    );
+    assert!(!out.path().join("timings.json").exists());
+}
+
 /// A headless run outside a desktop session (no `XDG_RUNTIME_DIR`, no Wayland) succeeds
 /// without libwayland's "error: XDG_RUNTIME_DIR is invalid or not set" line, which Mesa's
 /// Vulkan device-select layer caused.

@@ -43,6 +43,7 @@ impl MergeError {
 #[derive(Clone, Debug, Serialize)]
 pub struct MergeReport {
     /// The bundle written.
+    #[serde(serialize_with = "crate::lossy_path::serialize")]
     pub bundle: PathBuf,
     /// The scene.
     pub scene: String,

@@ -174,7 +174,7 @@ pub fn bake_part(
     progress: &dyn Progress,
 ) -> Result<StageRecord, RadianceError> {
     let start = Instant::now();
-    crate::bundle::check_scene(dir, &scene.content_hash, force)?;
+    crate::bundle::check_scene(dir, &scene.name, &scene.content_hash, force)?;
     let no_radiosity = || RadianceError::NoRadiosity {
         dir: dir.to_owned(),
     };

@@ -409,7 +409,7 @@ pub fn bake_from(
 ) -> Result<StageRecord, RadiosityError> {
     let start = Instant::now();
     let density = check(scene, settings)?;
-    crate::bundle::check_scene(bundle, &scene.content_hash, force)?;
+    crate::bundle::check_scene(bundle, &scene.name, &scene.content_hash, force)?;
     // Before the compute: a bundle that cannot be written fails now.
     let mut w = StageWriter::begin(bundle, Stage::Radiosity.name())?;
     let p = prepare(scene, settings, density)?;

@@ -47,7 +47,7 @@ impl BakeReport {
                 })
             })
             .collect();
-        serde_json::json!({ "bundle": self.bundle, "stages": stages })
+        serde_json::json!({ "bundle": crate::lossy_path::json(&self.bundle), "stages": stages })
     }
 }
 

@@ -155,9 +155,11 @@ pub fn bake_all(
     force: bool,
     progress: &dyn Progress,
 ) -> Result<Vec<StageReport>, BakeError> {
-    crate::bundle::check_scene(bundle, &scene.content_hash, force).map_err(|e| BakeError {
-        stage: Stage::Scene,
-        source: e.into(),
+    crate::bundle::check_scene(bundle, &scene.name, &scene.content_hash, force).map_err(|e| {
+        BakeError {
+            stage: Stage::Scene,
+            source: e.into(),
+        }
     })?;
     let mut report = Vec::new();
     for p in plan(scene) {

@@ -209,6 +209,7 @@ pub struct UnitReport {
     /// The unit.
     pub unit: String,
     /// The shard.
+    #[serde(serialize_with = "crate::lossy_path::serialize")]
     pub shard: PathBuf,
     /// Baked, or up to date.
     #[serde(flatten)]

@@ -174,7 +174,7 @@ pub fn bake_part(
         return Ok(SrdmOutcome::Skipped { reason: p.reason });
     }
     settings.check()?;
-    crate::bundle::check_scene(bundle, &scene.content_hash, force)?;
+    crate::bundle::check_scene(bundle, &scene.name, &scene.content_hash, force)?;
     let (colour, d_read, check_d) = match part.d_from {
         Some(from) => {
             let (map, identity) = super::part::require_d(from).map_err(SrdmAssetError::from)?;

@@ -102,7 +102,7 @@ pub fn run(args: &BakeArgs, tool: Tool, out: &mut dyn Write) -> anyhow::Result<E
                 Outcome::Skipped(reason) => skipped(args, &scene, Stage::Materials, &reason, out),
                 Outcome::Baked(report) if args.options.json => {
                     let v = serde_json::json!({
-                        "bundle": args.bundle, "stage": "materials", "status": "baked",
+                        "bundle": crate::lossy_path::json(&args.bundle), "stage": "materials", "status": "baked",
                         "quality": quality.name(), "bake_seconds": report.record.bake_seconds,
                         "report": &*report,
                     });
@@ -251,7 +251,12 @@ fn bake_every_stage(
 /// A single-stage tool writes the scene stage first when the bundle lacks it (or holds
 /// another scene's, with `--force`).
 fn scene_stage_first(args: &BakeArgs, scene: &Scene) -> anyhow::Result<()> {
-    crate::bundle::check_scene(&args.bundle, &scene.content_hash, args.options.force)?;
+    crate::bundle::check_scene(
+        &args.bundle,
+        &scene.name,
+        &scene.content_hash,
+        args.options.force,
+    )?;
     if !up_to_date(&args.bundle, scene, Stage::Scene, None) {
         scene_stage::bake(scene, &args.bundle, args.options.force).context("stage scene")?;
     }
@@ -268,7 +273,7 @@ fn skipped(
 ) -> anyhow::Result<ExitCode> {
     if args.options.json {
         let v = serde_json::json!({
-            "bundle": args.bundle, "stage": stage.name(), "status": "skipped", "reason": reason,
+            "bundle": crate::lossy_path::json(&args.bundle), "stage": stage.name(), "status": "skipped", "reason": reason,
         });
         writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
     } else {

@@ -102,7 +102,7 @@ pub fn bake_every_unit(
     dir: &Path,
     progress: &TerminalProgress,
 ) -> anyhow::Result<Vec<UnitReport>> {
-    std::fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("{}: {e}", dir.display()))?;
+    crate::out_dir::create_dir_all(dir).map_err(|e| anyhow::anyhow!("{}: {e}", dir.display()))?;
     let mut reports = Vec::new();
     let last = plan.units.iter().map(|u| u.wave).max().unwrap_or(0);
     for wave in 0..=last {
@@ -124,6 +124,13 @@ fn print_plan(
     out: &mut dyn Write,
 ) -> anyhow::Result<()> {
     if let Some(w) = wave {
+        let waves = plan.units.iter().map(|u| u.wave + 1).max().unwrap_or(0);
+        if w >= waves {
+            anyhow::bail!(
+                "--wave {w}: the plan has {waves} waves, numbered 0 to {}",
+                waves.saturating_sub(1)
+            );
+        }
         for id in plan.wave(w) {
             writeln!(out, "{id}")?;
         }

@@ -77,19 +77,9 @@ pub enum BundleError {
         /// Version this build writes.
         supported: String,
     },
-    /// A baker would mix stages of two different scenes.
-    #[error(
-        "{}: holds stages baked from another scene (hash {found:.12}…, this scene {expected:.12}…); pass --force to replace them",
-        dir.display()
-    )]
-    SceneMismatch {
-        /// The bundle folder.
-        dir: PathBuf,
-        /// The bundle's scene hash.
-        found: String,
-        /// The scene being baked.
-        expected: String,
-    },
+    /// A baker would mix stages of two different scenes (or two versions of one).
+    #[error(transparent)]
+    SceneMismatch(Box<SceneMismatch>),
     /// A merge would replace a bundle of another scene (by name).
     #[error(
         "{}: holds scene `{found_name}` (hash {found_hash:.12}…), not `{name}` (hash {hash:.12}…) being merged; pass --force to replace it",
@@ -174,6 +164,26 @@ pub enum BundleError {
         /// Attempts made.
         attempts: usize,
     },
+}
+
+/// [`BundleError::SceneMismatch`]: a stage of the bundle baked from other scene files.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "{}: stage `{stage}` was baked from other scene files (hash {}…; the bundle's scene is {bundle_scene:?}) than this scene {scene:?} (hash {}…); pass --force to replace the bundle's stages",
+    dir.display(), distinct_prefix(found, expected), distinct_prefix(expected, found)
+)]
+pub struct SceneMismatch {
+    /// The bundle folder.
+    pub dir: PathBuf,
+    /// A stage baked from the other scene.
+    pub stage: String,
+    /// Its scene hash.
+    pub found: String,
+    /// The scene name in the bundle's manifest.
+    pub bundle_scene: String,
+    /// The scene being baked: its name and hash.
+    pub scene: String,
+    pub expected: String,
 }
 
 /// An opened bundle whose manifest was read and checked: one consistent view of the bundle
@@ -476,19 +486,34 @@ fn pin_folders(dir: &Path, manifest: &Manifest) -> Vec<File> {
 /// Refuses early (before a long bake) when `dir` is not a folder glint may write into
 /// ([`check_folder`]), or when the bundle there holds stages of another scene and `force` is
 /// not set. A missing bundle is fine.
-pub fn check_scene(dir: &Path, scene_hash: &str, force: bool) -> Result<(), BundleError> {
+pub fn check_scene(
+    dir: &Path,
+    scene_name: &str,
+    scene_hash: &str,
+    force: bool,
+) -> Result<(), BundleError> {
     check_folder(dir)?;
     let Some(m) = read_manifest(dir)? else {
         return Ok(());
     };
-    if !force && m.stages.values().any(|s| s.scene_hash != scene_hash) {
-        return Err(BundleError::SceneMismatch {
+    let other = m.stages.iter().find(|(_, s)| s.scene_hash != scene_hash);
+    if let (false, Some((stage, s))) = (force, other) {
+        return Err(BundleError::SceneMismatch(Box::new(SceneMismatch {
             dir: dir.to_owned(),
-            found: m.scene_hash,
+            stage: stage.clone(),
+            found: s.scene_hash.clone(),
+            bundle_scene: m.scene_name.clone(),
+            scene: scene_name.to_owned(),
             expected: scene_hash.to_owned(),
-        });
+        })));
     }
     Ok(())
+}
+
+/// The start of hash `a`, 12 characters or as many more as it takes to differ from `b`.
+fn distinct_prefix<'a>(a: &'a str, b: &str) -> &'a str {
+    let same = a.bytes().zip(b.bytes()).take_while(|(x, y)| x == y).count();
+    a.get(..(same + 1).max(12)).unwrap_or(a)
 }
 
 /// Whether glint may write a bundle at `dir`: it does not exist, it is an empty folder, or it
@@ -497,9 +522,18 @@ pub fn check_scene(dir: &Path, scene_hash: &str, force: bool) -> Result<(), Bund
 /// replaces files that are not its own. A folder holding only glint's own lock and
 /// temporary entries (left by a bake killed before its first commit) counts as empty.
 pub fn check_folder(dir: &Path) -> Result<(), BundleError> {
+    use std::io::ErrorKind;
     let meta = match std::fs::metadata(dir) {
         Ok(m) => m,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(e) if matches!(e.kind(), ErrorKind::NotFound | ErrorKind::NotADirectory) => {
+            return match crate::out_dir::in_the_way(dir) {
+                Some(why) => Err(BundleError::NotABundle {
+                    dir: dir.to_owned(),
+                    why,
+                }),
+                None => Ok(()),
+            };
+        }
         Err(source) => {
             return Err(BundleError::Io {
                 path: dir.to_owned(),

@@ -458,11 +458,22 @@ fn commit_stages(
                         .is_some_and(|r| r.scene_hash != scene_hash)
                 });
             if (!foreign.is_empty() || replaced_scene) && !force {
-                return Err(BundleError::SceneMismatch {
+                let stage = foreign
+                    .first()
+                    .or_else(|| written.iter().next())
+                    .cloned()
+                    .unwrap_or_default();
+                return Err(BundleError::SceneMismatch(Box::new(super::SceneMismatch {
                     dir: dir.to_owned(),
-                    found: manifest.scene_hash.clone(),
+                    found: manifest
+                        .stages
+                        .get(&stage)
+                        .map_or_else(|| manifest.scene_hash.clone(), |r| r.scene_hash.clone()),
+                    stage,
+                    bundle_scene: manifest.scene_name.clone(),
+                    scene: scene_name,
                     expected: scene_hash,
-                });
+                })));
             }
             for name in &foreign {
                 // --force: stages of another scene are stale; their folders are collected below.

@@ -324,7 +324,8 @@ fn camera(scene: &Scene, v: &ViewArgs) -> anyhow::Result<Camera> {
 
 fn write(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        crate::out_dir::create_dir_all(dir)
+            .with_context(|| format!("creating {}", dir.display()))?;
     }
     std::fs::write(path, bytes).with_context(|| format!("writing {}", path.display()))
 }
@@ -618,7 +619,8 @@ impl SweepArgs {
         let mut opts = render.options();
         // Without reflections the view is diffuse: compare with the diffuse scene.
         opts.diffuse_only |= !sweep::shows_reflections(&base_view, &knobs);
-        std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+        crate::out_dir::create_dir_all(&out)
+            .with_context(|| format!("creating {}", out.display()))?;
         let reference = render_reference(&scene, &cam, &opts)?;
         write(&out.join("reference.exr"), &reference.to_exr()?)?;
         let quality = match quality {

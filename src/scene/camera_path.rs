@@ -104,6 +104,83 @@ fn check_path(p: &CameraPath) -> Result<(), (String, String)> {
             ),
         ));
     }
+    check_between_keyframes(p)
+}
+
+/// Evenly spaced samples per pair of keyframes, besides its frames and closest approaches.
+const SEGMENT_SAMPLES: usize = 256;
+
+/// Largest distance from eye to target, relative to the keyframes', that counts as passing
+/// through the target (the view turns around there).
+const THROUGH_TARGET: f32 = 1e-4;
+
+/// Checks the poses between keyframes, which are interpolated: the eye must not pass through
+/// its target nor the view turn parallel to up, or the camera has no orientation there.
+/// Samples every frame, [`SEGMENT_SAMPLES`] more per pair of keyframes, and the times where
+/// the eye comes closest to its target and the view (eye to target) to each keyframe's up.
+fn check_between_keyframes(p: &CameraPath) -> Result<(), (String, String)> {
+    use crate::camera::{degenerate_pose, frame_time};
+    let t0 = p.keyframes[0].time;
+    let when = |k: usize, t: f32| {
+        let x = (t - t0) as f64 * p.fps as f64;
+        let frame = match x.round() as usize {
+            f if frame_time(p, f) == t => format!("frame {f}"),
+            _ => format!("between frames {0} and {1}", x as usize, x as usize + 1),
+        };
+        format!(
+            "camera path {:?} between keyframes {k} and {} at t = {t} s ({frame} at {} fps)",
+            p.name,
+            k + 1,
+            p.fps
+        )
+    };
+    // The parameter in [0, 1] where the linear v0 → v1 comes nearest the origin.
+    let nearest = |v0: Vec3, v1: Vec3| {
+        let dv = v1 - v0;
+        let len2 = dv.length_squared();
+        if len2 > 0.0 {
+            (-v0.dot(dv) / len2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    };
+    for (k, w) in p.keyframes.windows(2).enumerate() {
+        let (a, b) = (&w[0], &w[1]);
+        let view = |f: &super::Keyframe| Vec3::from(f.target) - Vec3::from(f.position);
+        let (d0, d1) = (view(a), view(b));
+        let through = nearest(d0, d1);
+        let closest = d0.lerp(d1, through);
+        let at = |s: f32| a.time + (b.time - a.time) * s;
+        let inside = through > 0.0 && through < 1.0;
+        if inside && closest.length() <= THROUGH_TARGET * d0.length().max(d1.length()) {
+            return Err((
+                ".keyframes".into(),
+                format!(
+                    "{}: the camera passes through its target: no view direction there; move the target off the camera's way",
+                    when(k, at(through))
+                ),
+            ));
+        }
+        let mut times: Vec<f32> = (1..SEGMENT_SAMPLES)
+            .map(|i| at(i as f32 / SEGMENT_SAMPLES as f32))
+            .collect();
+        for up in [a.up, b.up].map(Vec3::from) {
+            times.push(at(nearest(d0.cross(up), d1.cross(up))));
+        }
+        let first = ((a.time - t0) as f64 * p.fps as f64).floor() as usize;
+        times.extend(
+            (first..)
+                .map(|f| frame_time(p, f))
+                .take_while(|&t| t < b.time)
+                .filter(|&t| t > a.time),
+        );
+        times.sort_by(f32::total_cmp);
+        for t in times {
+            if let Some(why) = degenerate_pose(p, t) {
+                return Err((".keyframes".into(), format!("{}: {why}", when(k, t))));
+            }
+        }
+    }
     Ok(())
 }
 

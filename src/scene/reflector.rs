@@ -50,6 +50,14 @@ pub(super) fn resolve(
                     .filter(|o| o.is_named(mesh))
                     .flat_map(|o| o.triangles.clone())
                     .collect();
+                if tris.is_empty() && objects.iter().any(|o| o.is_named(mesh)) {
+                    return Err((
+                        at(".mesh"),
+                        format!(
+                            "{mesh:?} matches a glTF mesh or node, but all its triangles were dropped as degenerate or non-finite (zero area: is a node scaled by 0?)"
+                        ),
+                    ));
+                }
                 if tris.is_empty() {
                     return Err((
                         at(".mesh"),

@@ -8,7 +8,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Parser;
 
-use super::headless::{ReplayOptions, replay};
+use super::headless::{ReplayOptions, ViewError, replay};
 use super::load::load;
 use super::options::ViewArgs;
 
@@ -79,7 +79,14 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             &progress,
         );
         progress.finish();
-        let timings = timings?;
+        let timings = match timings {
+            Err(e @ ViewError::Interrupted { .. }) => {
+                writeln!(std::io::stderr(), "error: {e}")?;
+                // 128 + SIGINT: what a shell reports for a program stopped by Ctrl-C.
+                return Ok(ExitCode::from(130));
+            }
+            t => t?,
+        };
         let written = timings
             .frames
             .iter()

@@ -10,11 +10,11 @@ pub use super::offscreen::{FrameTimes, Offscreen};
 use super::options::ViewOptions;
 use super::renderer::RenderError;
 use super::replay::{
-    FrameTiming, Summary, TIMINGS_FORMAT, TIMINGS_VERSION, Timings, frame_file_name, is_written,
-    schedule,
+    FrameTiming, Summary, TIMINGS_FILE, TIMINGS_FORMAT, TIMINGS_VERSION, Timings, frame_file_name,
+    is_written, schedule,
 };
 use crate::image_io::{self, ImageError};
-use crate::progress::{Cancelled, Progress};
+use crate::progress::Progress;
 
 /// Why a headless replay failed.
 #[derive(Debug, thiserror::Error)]
@@ -61,9 +61,19 @@ pub enum ViewError {
     /// Writing timings.json.
     #[error(transparent)]
     Timings(#[from] crate::bundle::BundleError),
-    /// Ctrl-C.
-    #[error(transparent)]
-    Cancelled(#[from] Cancelled),
+    /// Ctrl-C during a replay: the frames written so far stay, timings.json is not written.
+    #[error(
+        "interrupted after {rendered} of {frames} frames: {written} frame(s) were written{}, no {TIMINGS_FILE}",
+        out.as_ref().map_or(String::new(), |o| format!(" to {}", o.display()))
+    )]
+    Interrupted {
+        /// Frames rendered and timed, and in the path.
+        rendered: usize,
+        frames: usize,
+        /// Frames written, and where.
+        written: usize,
+        out: Option<PathBuf>,
+    },
 }
 
 impl From<LoadError> for ViewError {
@@ -166,7 +176,7 @@ pub fn replay_with(
             }
         })?;
     if let Some(out) = &options.out {
-        std::fs::create_dir_all(out).map_err(|source| ViewError::Io {
+        crate::out_dir::create_dir_all(out).map_err(|source| ViewError::Io {
             path: out.clone(),
             source,
         })?;
@@ -187,10 +197,15 @@ pub fn replay_with(
 
     let warmup = offscreen.render(gpu, &frames[0].camera)?;
     progress.phase("rendering frames", frames.len() as u64);
-    let mut timings = Vec::with_capacity(frames.len());
+    let mut timings: Vec<FrameTiming> = Vec::with_capacity(frames.len());
     for f in &frames {
         if progress.cancelled() {
-            return Err(Cancelled.into());
+            return Err(ViewError::Interrupted {
+                rendered: timings.len(),
+                frames: frames.len(),
+                written: timings.iter().filter(|t| !t.files.is_empty()).count(),
+                out: options.out.clone(),
+            });
         }
         let t = offscreen.render(gpu, &f.camera)?;
         let mut files = Vec::new();

@@ -163,6 +163,7 @@ pub struct Timings {
     /// [`TIMINGS_VERSION`].
     pub version: u32,
     /// The bundle replayed.
+    #[serde(serialize_with = "crate::lossy_path::serialize")]
     pub bundle: PathBuf,
     /// Its scene's name.
     pub scene: String,

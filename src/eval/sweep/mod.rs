@@ -127,7 +127,7 @@ pub fn sweep(
         move |e| SweepError::Io(p, e)
     };
     let views = cfg.out.join("views");
-    std::fs::create_dir_all(&views).map_err(io(&views))?;
+    crate::out_dir::create_dir_all(&views).map_err(io(&views))?;
     let bundles = cfg.out.join("bundles");
     let (w, h) = (reference.width as u32, reference.height as u32);
     let mut viewer = if cfg.use_viewer {
@@ -284,7 +284,7 @@ fn copy_dir(from: &Path, to: &Path) -> Result<(), SweepError> {
         let p = p.to_path_buf();
         move |e| SweepError::Io(p, e)
     };
-    std::fs::create_dir_all(to).map_err(io(to))?;
+    crate::out_dir::create_dir_all(to).map_err(io(to))?;
     for entry in std::fs::read_dir(from).map_err(io(from))? {
         let entry = entry.map_err(io(from))?;
         let (src, dst) = (entry.path(), to.join(entry.file_name()));

@@ -77,6 +77,9 @@ pub(super) struct WideRay {
     /// Per axis, the node box row entered first (lo for d ≥ 0) and left last.
     near: [usize; 3],
     far: [usize; 3],
+    /// Origin and direction are finite. A NaN or infinite component would turn the slab
+    /// tests' distances into NaN, which lets the ray into empty lanes: such a ray hits nothing.
+    finite: bool,
 }
 
 impl WideRay {
@@ -97,6 +100,7 @@ impl WideRay {
             inv4: inv.map(Vec4::splat),
             near: [neg[0], 2 + neg[1], 4 + neg[2]],
             far: [1 - neg[0], 3 - neg[1], 5 - neg[2]],
+            finite: o.is_finite() && d.is_finite(),
         }
     }
 }
@@ -232,6 +236,9 @@ impl WideBvh {
         t_max: f32,
         keep: impl Fn(usize, f32, f32) -> bool,
     ) -> Option<LeafHit> {
+        if !r.finite {
+            return None;
+        }
         #[cfg(target_arch = "x86_64")]
         if self.avx {
             // SAFETY: `avx` is set only where the CPU has AVX.
@@ -249,6 +256,9 @@ impl WideBvh {
     /// Whether the ray hits a slot in (0, t_max) that `keep(slot, u, v)` accepts.
     #[inline(always)]
     pub fn any(&self, r: &WideRay, t_max: f32, keep: impl Fn(usize, f32, f32) -> bool) -> bool {
+        if !r.finite {
+            return false;
+        }
         #[cfg(target_arch = "x86_64")]
         if self.avx {
             // SAFETY: as in `closest`.
@@ -811,6 +821,76 @@ mod tests {
                 hits > 100,
                 "only {hits} of 500 rays hit: the test scene is too sparse"
             );
+        }
+    }
+
+    /// A ray with a NaN or infinite origin or direction (a camera looking from its target)
+    /// hits nothing, alone or in a packet, and indexes no empty lane.
+    #[test]
+    fn a_ray_that_is_not_finite_hits_nothing() {
+        let tris = soup(1500);
+        let (nan, inf) = (f32::NAN, f32::INFINITY);
+        let good = (Vec3A::new(0.5, 0.5, -1.0), Vec3A::Z);
+        let bad = [
+            (Vec3A::new(0.5, 0.5, -1.0), Vec3A::splat(nan)),
+            (Vec3A::new(0.5, 0.5, -1.0), Vec3A::new(0.0, nan, 1.0)),
+            (Vec3A::splat(nan), Vec3A::Z),
+            (Vec3A::new(0.5, inf, -1.0), Vec3A::Z),
+            (Vec3A::new(0.5, 0.5, -1.0), Vec3A::new(0.0, 0.0, inf)),
+            (Vec3A::new(0.5, 0.5, -1.0), Vec3A::new(-inf, 0.0, 1.0)),
+        ];
+        for avx in [false, avx_detected()] {
+            let mut bvh = WideBvh::build(&tris, BUILD);
+            bvh.avx = avx;
+            let all = |_: usize, _: f32, _: f32| true;
+            let g = WideRay::new(good.0, good.1);
+            assert!(bvh.closest(&g, f32::INFINITY, all).is_some());
+            for (k, &(o, d)) in bad.iter().enumerate() {
+                let r = WideRay::new(o, d);
+                assert_eq!(
+                    bvh.closest(&r, f32::INFINITY, all),
+                    None,
+                    "ray {k}: {o} → {d}"
+                );
+                assert!(!bvh.any(&r, f32::INFINITY, all), "ray {k}: {o} → {d}");
+                // In a packet of otherwise good rays going the same way.
+                let rays: [WideRay; PACKET] = std::array::from_fn(|i| {
+                    let (o, d) = if i == 3 { (o, d) } else { good };
+                    WideRay::new(o, d)
+                });
+                let hits = bvh.closest_packet(&rays, f32::INFINITY);
+                assert_eq!(hits[3], None, "ray {k} in a packet");
+                assert!(hits[0].is_some(), "ray {k}: the good rays still hit");
+            }
+        }
+    }
+
+    /// A triangle with a NaN or infinite vertex (a NaN box) is never hit, and rays that
+    /// reach it still find the other triangles.
+    #[test]
+    fn a_triangle_that_is_not_finite_is_never_hit() {
+        let mut tris = soup(200);
+        let n = tris.len() as u32;
+        for v in [f32::NAN, f32::INFINITY] {
+            tris.push(BvhTriangle {
+                v0: Vec3A::new(0.0, 0.0, 0.5),
+                v1: Vec3A::new(1.0, v, 0.5),
+                v2: Vec3A::new(0.0, 1.0, 0.5),
+            });
+        }
+        for avx in [false, avx_detected()] {
+            let mut bvh = WideBvh::build(&tris, BUILD);
+            bvh.avx = avx;
+            for k in 0..100 {
+                let o = Vec3A::new(0.01 * k as f32, 0.3, -1.0);
+                let r = WideRay::new(o, Vec3A::Z);
+                let got = bvh.closest(&r, f32::INFINITY, |_, _, _| true);
+                assert!(got.is_none_or(|h| h.original < n), "ray {k}: {got:?}");
+                assert_eq!(
+                    got.map(|h| h.original),
+                    brute(&tris[..n as usize], &r).map(|b| b.0)
+                );
+            }
         }
     }
 

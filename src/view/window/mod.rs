@@ -588,7 +588,8 @@ impl App {
                 };
                 let json =
                     serde_json::to_string_pretty(&path).map_err(|e| write_err(e.to_string()))?;
-                std::fs::create_dir_all(&self.options.out).map_err(|e| write_err(e.to_string()))?;
+                crate::out_dir::create_dir_all(&self.options.out)
+                    .map_err(|e| write_err(e.to_string()))?;
                 std::fs::write(&path_file, json + "\n").map_err(|e| write_err(e.to_string()))?;
                 log::info!(
                     "recorded path {:?} ({} keyframes) → {}: add it to scene.json's camera_paths",

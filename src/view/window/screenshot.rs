@@ -39,7 +39,7 @@ pub(super) fn save_screenshot(
         message,
     };
     let png = image_io::encode_png(w, h, &rgb, false).map_err(|e| write_err(e.to_string()))?;
-    std::fs::create_dir_all(out).map_err(|e| write_err(e.to_string()))?;
+    crate::out_dir::create_dir_all(out).map_err(|e| write_err(e.to_string()))?;
     std::fs::write(&path, png).map_err(|e| write_err(e.to_string()))?;
     log::info!("screenshot: {}", path.display());
     Ok(path)

@@ -42,7 +42,7 @@ pub(super) struct Frustum {
 
 impl Frustum {
     /// The packet's intervals, or `None` where its rays do not all go the same way along
-    /// every axis (or an inverse direction is NaN): those are traced one at a time.
+    /// every axis (or one is not finite): those are traced one at a time.
     pub fn new(rays: &[WideRay; PACKET]) -> Option<Frustum> {
         let first = &rays[0];
         let mut f = Frustum {
@@ -56,14 +56,11 @@ impl Frustum {
         let mut o_lo = [f32::INFINITY; 3];
         let mut o_hi = [f32::NEG_INFINITY; 3];
         for r in rays {
-            if r.near != first.near {
+            if r.near != first.near || !r.finite {
                 return None;
             }
             for a in 0..3 {
                 let (o, inv) = (r.o4[a].x, r.inv4[a].x);
-                if inv.is_nan() || o.is_nan() {
-                    return None;
-                }
                 o_lo[a] = o_lo[a].min(o);
                 o_hi[a] = o_hi[a].max(o);
                 f.inv_lo[a] = f.inv_lo[a].min(inv);
