@@ -18,7 +18,7 @@ pub mod units;
 use std::path::Path;
 
 pub use plan::{Stage, StagePlan, plan};
-pub use run::{BakeError, BakeSettings, StageReport, StageStatus, bake_all, check_scene_settings};
+pub use run::{BakeError, BakeSettings, StageReport, StageStatus, bake_all};
 
 use crate::bundle::Bundle;
 use crate::scene::Scene;
