@@ -8,6 +8,8 @@ edge, one file and line that makes it.
 
     .ci/import-loops.py [SRC_DIR]          (default: src beside .ci/)
     .ci/import-loops.py --within scene     (loops between the files of src/scene/ instead)
+    .ci/import-loops.py --with-tests       (count `#[cfg(test)] mod` blocks too; by default
+                                            a unit test may use any layer)
 """
 
 import re
@@ -28,6 +30,27 @@ def module_path(src: Path, file: Path) -> list[str]:
 def strip_comments(text: str) -> str:
     """Drops line comments (doc comments name modules in links without importing them)."""
     return COMMENT.sub("", text)
+
+
+TEST_MOD = re.compile(r"#\[cfg\(test\)\]\s*(?:pub(?:\([a-z]+\))?\s+)?mod\s+\w+\s*\{")
+
+
+def strip_tests(text: str) -> str:
+    """Blanks `#[cfg(test)] mod x { ... }` (lines kept): a unit test may use any layer, as an
+    integration test would."""
+    out, at = [], 0
+    for m in TEST_MOD.finditer(text):
+        if m.start() < at:
+            continue
+        depth, i = 1, m.end()
+        while i < len(text) and depth:
+            depth += {"{": 1, "}": -1}.get(text[i], 0)
+            i += 1
+        out.append(text[at : m.start()])
+        out.append(re.sub(r"[^\n]", "", text[m.start() : i]))
+        at = i
+    out.append(text[at:])
+    return "".join(out)
 
 
 USE = re.compile(r"\buse\s+([^;]+);", re.S)
@@ -101,7 +124,9 @@ def targets(src: Path, file: Path, text: str) -> list[tuple[list[str], int]]:
     return out
 
 
-def graph(src: Path, within: str | None) -> dict[str, dict[str, tuple[str, int]]]:
+def graph(
+    src: Path, within: str | None, with_tests: bool
+) -> dict[str, dict[str, tuple[str, int]]]:
     """node -> {node it imports: (file, line)}; nodes are top-level modules, or with
     `within` the files (submodules) of that folder."""
     tops = {p.stem for p in src.glob("*.rs")} | {p.name for p in src.iterdir() if p.is_dir()}
@@ -118,6 +143,8 @@ def graph(src: Path, within: str | None) -> dict[str, dict[str, tuple[str, int]]
         else:
             node = here[0]
         text = strip_comments(file.read_text(encoding="utf-8"))
+        if not with_tests:
+            text = strip_tests(text)
         for path, line in targets(src, file, text):
             if within:
                 if len(path) < 2 or path[0] != within:
@@ -195,8 +222,11 @@ def main() -> int:
         i = args.index("--within")
         within = args[i + 1]
         del args[i : i + 2]
+    with_tests = "--with-tests" in args
+    if with_tests:
+        args.remove("--with-tests")
     src = Path(args[0]) if args else Path(__file__).resolve().parent.parent / "src"
-    edges = graph(src, within)
+    edges = graph(src, within, with_tests)
     loops = cycles(edges)
     what = f"files of {src}/{within}" if within else f"top-level modules of {src}"
     if not loops:

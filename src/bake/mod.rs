@@ -1,5 +1,6 @@
 //! Bake stages: what a scene requires, and the stages that write into a bundle.
 
+pub mod bundle_tool;
 pub mod materials;
 pub mod merge;
 pub mod part;

@@ -1,13 +1,17 @@
-//! The `scene.json` file as written by users: serde types, defaults and presets.
+//! The `scene.json` file as written by users: serde types and defaults.
 //!
 //! These types are the single source of `schemas/scene.schema.json` (generated with schemars;
-//! `tests/schemas.rs` keeps the file current). Unknown keys are errors everywhere.
+//! `tests/schemas.rs` keeps the file current). Unknown keys are errors everywhere. The `bake`
+//! section's per-stage overrides, camera paths and lobe models are defined in the lower
+//! modules that use them ([`crate::settings`], [`crate::camera`], [`crate::brdf`]) and
+//! re-exported here.
 
 use std::collections::BTreeMap;
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+pub use crate::brdf::LobeModel;
 pub use crate::camera::{CameraPath, Keyframe};
 pub use crate::settings::materials::MaterialsOverride;
 pub use crate::settings::radiance::{RadianceOverride, RadianceStageOverride};
@@ -70,55 +74,6 @@ pub struct MaterialOverride {
     /// material purely diffuse.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lobes: Option<Vec<LobeDesc>>,
-}
-
-/// The reflection model of a glossy lobe.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, JsonSchema)]
-#[serde(rename_all = "lowercase")]
-pub enum LobeModel {
-    /// Kurt et al. 2010 as the regular-sampling paper writes it (Luksch et al. Eq. 2):
-    /// Beckmann D, shadowing exponent `alpha`, Schlick F. The default.
-    #[default]
-    Kurt,
-    /// The glTF 2.0 specular lobe (specification Appendix B): GGX D with α = `mx`, `my`,
-    /// height-correlated Smith G, Schlick F. glTF materials map to it.
-    Ggx,
-    /// Cook–Torrance with Beckmann D (m = `mx`, `my`), Smith G and Schlick F.
-    Beckmann,
-}
-
-/// Read by hand so that a wrong name is an error naming the field and every choice.
-impl<'de> Deserialize<'de> for LobeModel {
-    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<LobeModel, D::Error> {
-        let name = String::deserialize(d)?;
-        LobeModel::ALL
-            .into_iter()
-            .find(|m| m.name() == name)
-            .ok_or_else(|| {
-                serde::de::Error::custom(format!(
-                    "lobe `model` {name:?} is unknown: expected one of `kurt`, `ggx`, `beckmann`"
-                ))
-            })
-    }
-}
-
-impl LobeModel {
-    /// Every model.
-    pub const ALL: [LobeModel; 3] = [LobeModel::Kurt, LobeModel::Ggx, LobeModel::Beckmann];
-
-    /// Whether this is the default model (`kurt`): scene.json and the bundle leave it out.
-    pub fn is_kurt(&self) -> bool {
-        *self == LobeModel::Kurt
-    }
-
-    /// The name scene.json uses.
-    pub fn name(self) -> &'static str {
-        match self {
-            LobeModel::Kurt => "kurt",
-            LobeModel::Ggx => "ggx",
-            LobeModel::Beckmann => "beckmann",
-        }
-    }
 }
 
 /// One glossy lobe: k_s times a reflection model (Luksch et al. Eq. 1). The parameters mean

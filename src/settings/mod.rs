@@ -4,14 +4,17 @@
 //! records in the manifest, made by that stage's one `resolve(quality, overrides)`, which
 //! checks every value in one place.
 //!
-//! Layering, lowest first (top-level modules; `.ci/import-loops.py` checks that no module
-//! imports one that imports it back): `settings` imports no other glint module; `camera`
-//! (poses and camera paths) imports nothing above `geometry`; `scene` reads scene.json and
-//! imports `settings` and `camera` but no stage; the stages (`radiosity`, `materials`,
-//! `radiance`, `srdm`) import `scene` and `settings`; `bake` runs the stages; `eval`, `view`
-//! and the binaries sit on top. The settings live here, not in their stages' modules,
-//! because scene.json holds the overrides and the scene layer imports no stage; each stage
-//! re-exports its own.
+//! Layering of the top-level modules, lowest first; each imports only modules listed before
+//! it (`.ci/import-loops.py` checks that no two import each other, directly or round a loop):
+//! 1. `settings`, `camera`, `colour`, `sampling`, `geometry`, `progress`, `bundle`, then `brdf`,
+//!    `image_io` and `cli`: no scene and no stage;
+//! 2. `scene`: scene.json and glTF; it holds the stages' overrides but imports no stage;
+//! 3. the stages `radiosity`, `radiance`, then `materials` and `srdm` (which read D);
+//! 4. `bake`: runs the stages, and the tools' command lines;
+//! 5. `eval`, `view` and `fuzz`; the binaries in `bin/` over everything.
+//!
+//! The settings live here, not in their stages' modules, because scene.json holds the
+//! overrides and the scene layer imports no stage; each stage re-exports its own.
 
 pub mod materials;
 pub mod radiance;
