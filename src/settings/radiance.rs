@@ -5,7 +5,16 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::SettingError;
+use super::{Quality, SettingError};
+
+/// The radiance stage's preset: the multiplier of map resolution and camera count.
+pub fn quality_scale(q: Quality) -> f32 {
+    match q {
+        Quality::Draft => 0.5,
+        Quality::Default => 1.0,
+        Quality::High => 2.0,
+    }
+}
 
 /// Radiance-map stage settings that override the preset: scene.json's `bake.radiance`.
 #[derive(
@@ -38,6 +47,12 @@ pub struct RadianceOverride {
 pub const MAX_RESOLUTION_SCALE: f32 = 16.0;
 
 impl RadianceStageOverride {
+    /// The multiplier of every planar reflector's map resolution and camera count: the
+    /// preset's ([`quality_scale`]) times `resolution_scale`.
+    pub fn scale(&self, quality: Quality) -> f32 {
+        quality_scale(quality) * self.resolution_scale.unwrap_or(1.0)
+    }
+
     /// Checks `resolution_scale`: finite, in (0, [`MAX_RESOLUTION_SCALE`]].
     pub fn check(&self) -> Result<(), SettingError> {
         match self.resolution_scale {

@@ -100,7 +100,7 @@ pub const MAX_CACHE_BUDGET_MIB: u32 = 1 << 20;
 
 /// Largest `max_elements` (0: no limit): 10⁹ elements need far more memory than a machine
 /// has before one ray is cast.
-pub const MAX_MAX_ELEMENTS: u64 = 1_000_000_000;
+pub const MAX_ELEMENT_LIMIT: u64 = 1_000_000_000;
 
 /// Largest [`RadiositySettings::texels_per_radian`]: 256 texels across a hemisphere's
 /// quarter turn is far past any shading a texel shows.
@@ -341,7 +341,7 @@ impl RadiositySettings {
                 "max_elements",
                 self.max_elements,
                 0,
-                MAX_MAX_ELEMENTS,
+                MAX_ELEMENT_LIMIT,
                 "that many elements need more memory than a machine has; 0: no limit",
             ),
         ];
@@ -528,7 +528,7 @@ mod tests {
                 "4000000000",
                 MAX_CACHE_BUDGET_MIB as u64,
             ),
-            ("max_elements", "18000000000000000000", MAX_MAX_ELEMENTS),
+            ("max_elements", "18000000000000000000", MAX_ELEMENT_LIMIT),
         ];
         for (field, huge, max) in cases {
             let over: RadiosityOverride =
