@@ -81,7 +81,8 @@ pub struct SolveSettings {
     pub seed: u64,
     /// [`RadiositySettings::cache_budget`], bytes. An element refined beyond it has its new
     /// rays read once, against the reflected radiance of that moment, and kept as sums
-    /// ([`Links::freeze`]); under the budget the solve is exact.
+    /// ([`Links::freeze`]); under the budget every cached ray follows every bounce
+    /// (docs/tuning.md#cache-budget).
     pub cache_budget: u64,
 }
 
