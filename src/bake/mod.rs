@@ -1,4 +1,5 @@
-//! Bake stages: what a scene requires, and the stages that write into a bundle.
+//! Bake stages: what a scene requires, the stages that write into a bundle, and the tools' command
+//! lines over them (`tool`, `unit_tool`, and `bundle_tool` for `glint-bundle`).
 
 pub mod bundle_tool;
 pub mod materials;
