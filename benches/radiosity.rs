@@ -146,7 +146,7 @@ fn main() {
         };
         let truth_open = keep(&truth);
         for q in Quality::ALL {
-            let s = RadiositySettings::resolve(q, &scene.desc.bake.radiosity);
+            let s = RadiositySettings::resolve(q, &[&scene.desc.bake.radiosity], None).unwrap();
             let set = SolveSettings {
                 rays: s.rays,
                 light_samples: s.light_samples,

@@ -3,7 +3,7 @@
 use std::process::ExitCode;
 
 use clap::Parser;
-use glint::bundle::cli::{Args, run};
+use glint::bake::bundle_tool::{Args, run};
 
 fn main() -> ExitCode {
     glint::cli::init_logging();

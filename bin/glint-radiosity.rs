@@ -4,7 +4,8 @@ use std::process::ExitCode;
 
 use clap::Parser;
 use glint::bake::tool::{Tool, run};
-use glint::cli::{BakeArgs, RadiosityFlags};
+use glint::cli::BakeArgs;
+use glint::settings::radiosity::RadiosityOverride;
 
 #[derive(Parser)]
 #[command(
@@ -17,12 +18,12 @@ struct Args {
     #[command(flatten)]
     bake: BakeArgs,
     #[command(flatten)]
-    radiosity: RadiosityFlags,
+    radiosity: RadiosityOverride,
 }
 
 fn main() -> ExitCode {
     glint::cli::init_logging();
     let args = Args::parse();
-    let tool = Tool::Radiosity(args.radiosity.to_override());
+    let tool = Tool::Radiosity(args.radiosity);
     glint::cli::exit_code(run(&args.bake, tool, &mut std::io::stdout().lock()))
 }

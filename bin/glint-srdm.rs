@@ -5,6 +5,7 @@ use std::process::ExitCode;
 use clap::Parser;
 use glint::bake::tool::{Tool, run};
 use glint::cli::BakeArgs;
+use glint::settings::srdm::SrdmOverride;
 
 #[derive(Parser)]
 #[command(
@@ -16,24 +17,13 @@ use glint::cli::BakeArgs;
 struct Args {
     #[command(flatten)]
     bake: BakeArgs,
-    /// Rotated domains n (angular step 180°/n).
-    #[arg(short = 'n', long = "domains", value_name = "DOMAINS")]
-    domains: Option<u32>,
-    /// Points per simplified row m.
-    #[arg(short = 'm', long = "points", value_name = "POINTS")]
-    points: Option<u32>,
-    /// Depth-map resolution W (W × W texels).
-    #[arg(long, value_name = "W")]
-    resolution: Option<u32>,
+    #[command(flatten)]
+    srdm: SrdmOverride,
 }
 
 fn main() -> ExitCode {
     glint::cli::init_logging();
     let args = Args::parse();
-    let tool = Tool::Srdm {
-        domains: args.domains,
-        points: args.points,
-        resolution: args.resolution,
-    };
+    let tool = Tool::Srdm(args.srdm);
     glint::cli::exit_code(run(&args.bake, tool, &mut std::io::stdout().lock()))
 }

@@ -1,9 +1,50 @@
 //! Pinhole cameras and camera paths: poses interpolated between keyframes.
-//! Right-handed, +Y up; a camera looks down its local −Z.
+//! Right-handed, +Y up; a camera looks down its local −Z. The path types are scene.json's
+//! `camera_paths` (the scene layer re-exports and checks them), defined here so that this
+//! module imports nothing above it.
 
 use glam::{Vec2, Vec3};
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
 
-use crate::scene::{CameraPath, Keyframe};
+/// A named camera path: keyframes interpolated in time.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CameraPath {
+    /// Name to pick the path with `--replay NAME`.
+    pub name: String,
+    /// Frames per second at which the path is replayed, in (0, 1000]; a path has at most
+    /// 1,000,000 frames.
+    #[serde(default = "default_fps")]
+    pub fps: f32,
+    /// At least one keyframe, times strictly increasing.
+    pub keyframes: Vec<Keyframe>,
+}
+
+fn default_fps() -> f32 {
+    30.0
+}
+
+/// One camera pose.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Keyframe {
+    /// Seconds from the start of the path, within ±86400.
+    pub time: f32,
+    /// Eye position, world metres (each coordinate within ±1e6, as are `target` and `up`).
+    pub position: [f32; 3],
+    /// Point looked at.
+    pub target: [f32; 3],
+    /// Up vector (need not be orthogonal to the view direction).
+    #[serde(default = "default_up")]
+    pub up: [f32; 3],
+    /// Vertical field of view in degrees, in [0.1, 179].
+    pub fov_y_deg: f32,
+}
+
+fn default_up() -> [f32; 3] {
+    [0.0, 1.0, 0.0]
+}
 
 /// A pinhole camera pose.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -76,7 +76,7 @@ pub struct BakeOptions {
     pub scene: std::path::PathBuf,
     /// Quality preset; default: the scene's `bake.quality`, else `default`.
     #[arg(long, value_parser = parse_quality)]
-    pub quality: Option<crate::scene::Quality>,
+    pub quality: Option<crate::settings::Quality>,
     /// Replace stages the bundle holds from another scene.
     #[arg(long)]
     pub force: bool,
@@ -127,87 +127,6 @@ pub struct GlintBakeArgs {
     pub units: Option<std::path::PathBuf>,
 }
 
-/// The radiosity stage's flags, one per setting of `bake.radiosity` in scene.json; each
-/// overrides the preset and the scene.
-#[derive(clap::Args, Debug, Clone, Default)]
-pub struct RadiosityFlags {
-    /// Lightmap texels per metre.
-    #[arg(long, value_name = "T")]
-    pub texel_density: Option<f32>,
-    /// Texels across each chart's longer side, at least: small charts get a higher density
-    /// (by at most 16×); 0 uses --texel-density everywhere.
-    #[arg(long, value_name = "N")]
-    pub min_chart_texels: Option<u32>,
-    /// Texels across the scene's longest side, at least: a small scene gets a higher density
-    /// than --texel-density everywhere; 0 turns this off.
-    #[arg(long, value_name = "N")]
-    pub min_scene_texels: Option<u32>,
-    /// Largest factor by which a chart's density is raised where other geometry comes within
-    /// two texels of it (contacts, near occluders; the atlas grows by at most 2×); 0 or 1: off.
-    #[arg(long, value_name = "F")]
-    pub contact_boost: Option<f32>,
-    /// Texels across a curved chart per radian its surface turns (a chart whose normals
-    /// spread by 1 rad, 57°, gets at least this many texels across; by at most 16× the
-    /// density); 0: off.
-    #[arg(long, value_name = "N")]
-    pub texels_per_radian: Option<f32>,
-    /// Gathering rays per texel.
-    #[arg(long, value_name = "N")]
-    pub rays: Option<u32>,
-    /// Emitter samples per texel, per area light and for the emissive triangles (with more than 8 emitters: 8 × this many, drawn from all of them by their weight).
-    #[arg(long, value_name = "N")]
-    pub light_samples: Option<u32>,
-    /// Largest number of indirect bounces.
-    #[arg(long, value_name = "B")]
-    pub bounces: Option<u32>,
-    /// Largest number of glossy reflections a gathering ray follows (0: diffuse light only).
-    #[arg(long, value_name = "K")]
-    pub glossy_depth: Option<u32>,
-    /// Stop when a bounce changes the total reflected radiance by less than this fraction.
-    #[arg(long, value_name = "F")]
-    pub tolerance: Option<f32>,
-    /// Relative standard error each texel's D should reach (e.g. 0.02): texels above it get
-    /// more rays and emitter samples, in up to 4 rounds; 0 turns refinement off.
-    #[arg(long, value_name = "REL")]
-    pub target_error: Option<f32>,
-    /// Make D agree across the chart seams of smooth surfaces (least-squares stitching of the
-    /// solved texels): true or false (default: on, except at draft).
-    #[arg(long, value_name = "BOOL")]
-    pub stitch_seams: Option<bool>,
-    /// MiB of refinement rays the gather cache holds at most (default 2048): rays beyond it
-    /// are read once and kept as sums, so memory stops growing with rays × texels; 0 caches
-    /// none.
-    #[arg(long, value_name = "MIB")]
-    pub cache_budget_mib: Option<u32>,
-    /// Most elements (lightmap texels with a sample) the atlas may hold, as estimated before
-    /// baking (default: 1M at draft, 2M at default, 8M at high): a larger scene gets every
-    /// density scaled down by one factor until it fits; 0: no limit.
-    #[arg(long, value_name = "N")]
-    pub max_elements: Option<u64>,
-}
-
-impl RadiosityFlags {
-    /// The flags as overrides of the resolved settings.
-    pub fn to_override(&self) -> crate::scene::desc::RadiosityOverride {
-        crate::scene::desc::RadiosityOverride {
-            texel_density: self.texel_density,
-            min_chart_texels: self.min_chart_texels,
-            min_scene_texels: self.min_scene_texels,
-            contact_boost: self.contact_boost,
-            texels_per_radian: self.texels_per_radian,
-            rays: self.rays,
-            light_samples: self.light_samples,
-            bounces: self.bounces,
-            glossy_depth: self.glossy_depth,
-            tolerance: self.tolerance,
-            target_error: self.target_error,
-            stitch_seams: self.stitch_seams,
-            cache_budget_mib: self.cache_budget_mib,
-            max_elements: self.max_elements,
-        }
-    }
-}
-
 /// Parses an image size `WIDTHxHEIGHT` (e.g. `720x486`), each side 1..=16384: the one
 /// `--size` parser of every tool.
 pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -222,8 +141,8 @@ pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
 }
 
 /// Parses a preset name (`draft`, `default`, `high`): the one `--quality` parser.
-pub fn parse_quality(s: &str) -> Result<crate::scene::Quality, String> {
-    crate::scene::Quality::ALL
+pub fn parse_quality(s: &str) -> Result<crate::settings::Quality, String> {
+    crate::settings::Quality::ALL
         .into_iter()
         .find(|q| q.name() == s)
         .ok_or_else(|| format!("{s:?} is not a preset: use draft, default or high"))

@@ -3,6 +3,7 @@
 //!
 //! The library holds everything; each binary in `bin/` is a thin command line over it.
 //! - [`scene`]: scene.json + glTF, validated; materials; camera paths.
+//! - [`settings`]: each bake stage's settings, defined once (the layering is in its docs).
 //! - [`geometry`]: world-space triangles and BVH ray casting (obvhs).
 //! - [`bundle`]: the versioned asset bundle (`NAME.glint/`) and its manifest.
 //! - [`fuzz`]: fuzz targets for every loader and the loop that drives them.
@@ -26,6 +27,7 @@ pub mod radiance;
 pub mod radiosity;
 pub mod sampling;
 pub mod scene;
+pub mod settings;
 pub mod srdm;
 
 pub mod view;

@@ -194,7 +194,7 @@ fn no_boost_builds_the_rules_atlas_and_boosts_ignore_the_thread_count() {
 fn contact_boost_is_a_setting_like_the_others() {
     use glint::scene::desc::{Quality, RadiosityOverride, RadiositySettings};
     let over: RadiosityOverride = serde_json::from_str(r#"{ "contact_boost": 3 }"#).unwrap();
-    let s = RadiositySettings::resolve(Quality::Default, &over);
+    let s = RadiositySettings::resolve(Quality::Default, &[&over], None).unwrap();
     assert_eq!(s.contact_boost, 3.0);
     s.check(None).unwrap();
     assert_eq!(RadiositySettings::preset(Quality::Draft).contact_boost, 0.0);

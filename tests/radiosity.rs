@@ -570,7 +570,7 @@ fn texels_per_radian_resolves_the_shading_of_a_curved_surface() {
 fn texels_per_radian_is_a_setting_like_the_others() {
     use glint::scene::desc::{Quality, RadiosityOverride};
     let over: RadiosityOverride = serde_json::from_str(r#"{ "texels_per_radian": 12 }"#).unwrap();
-    let s = RadiositySettings::resolve(Quality::Default, &over);
+    let s = RadiositySettings::resolve(Quality::Default, &[&over], None).unwrap();
     assert_eq!(s.texels_per_radian, 12.0);
     s.check(None).unwrap();
     let preset = |q| RadiositySettings::preset(q).texels_per_radian;

@@ -407,7 +407,7 @@ fn the_cache_budget_is_a_setting_that_reaches_the_stage() {
     use glint::bundle::Bundle;
     use glint::scene::desc::{Quality, RadiosityOverride, RadiositySettings};
     let over: RadiosityOverride = serde_json::from_str(r#"{ "cache_budget_mib": 0 }"#).unwrap();
-    let zero = RadiositySettings::resolve(Quality::Draft, &over);
+    let zero = RadiositySettings::resolve(Quality::Draft, &[&over], None).unwrap();
     assert_eq!((zero.cache_budget_mib, zero.cache_budget()), (0, 0));
     let draft = RadiositySettings::preset(Quality::Draft);
     assert_eq!(draft.cache_budget(), glint::radiosity::solve::CACHE_BUDGET);

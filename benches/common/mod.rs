@@ -79,7 +79,8 @@ pub fn bake_at(
 ) -> PathBuf {
     let bundle = bundle_path(work, name, quality);
     let scene = Scene::load(scene_json).unwrap_or_else(|e| panic!("{e}"));
-    let settings = RadiositySettings::resolve(quality, &scene.desc.bake.radiosity);
+    let settings =
+        RadiositySettings::resolve(quality, &[&scene.desc.bake.radiosity], None).unwrap();
     let settings_json = radiosity_stage::settings_json(&settings);
     if !up_to_date(&bundle, &scene, Stage::Scene, None) {
         scene_stage::bake(&scene, &bundle, true).unwrap_or_else(|e| panic!("{e}"));

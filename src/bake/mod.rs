@@ -1,5 +1,7 @@
-//! Bake stages: what a scene requires, and the stages that write into a bundle.
+//! Bake stages: what a scene requires, the stages that write into a bundle, and the tools' command
+//! lines over them (`tool`, `unit_tool`, and `bundle_tool` for `glint-bundle`).
 
+pub mod bundle_tool;
 pub mod materials;
 pub mod merge;
 pub mod part;
@@ -18,7 +20,7 @@ pub mod units;
 use std::path::Path;
 
 pub use plan::{Stage, StagePlan, plan};
-pub use run::{BakeError, BakeSettings, StageReport, StageStatus, bake_all, check_scene_settings};
+pub use run::{BakeError, BakeSettings, StageReport, StageStatus, bake_all};
 
 use crate::bundle::Bundle;
 use crate::scene::Scene;

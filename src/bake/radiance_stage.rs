@@ -30,6 +30,7 @@ use crate::radiance::{MapPlan, RadianceMap, render};
 use crate::radiosity::RadiosityMap;
 use crate::radiosity::map::MapError;
 use crate::scene::{Quality, ReflectorKind, Scene};
+use crate::settings::radiance::MAX_RADIANCE_RESOLUTION;
 
 use super::Stage;
 use super::part::{Item, Part};
@@ -57,14 +58,7 @@ pub enum RadianceError {
     Cancelled(#[from] Cancelled),
 }
 
-/// Preset multiplier of map resolution and camera count.
-pub fn quality_scale(q: Quality) -> f32 {
-    match q {
-        Quality::Draft => 0.5,
-        Quality::Default => 1.0,
-        Quality::High => 2.0,
-    }
-}
+pub use crate::settings::radiance::quality_scale;
 
 /// Quadtree limits: a leaf's depths lie within 10% of its nearest depth (its points' Eq. 3
 /// sizes within 10%), or it holds fewer than 64 points. Relative, so scale does not matter.
@@ -77,7 +71,7 @@ pub fn quadtree_limits(_scene: &Scene) -> QuadtreeLimits {
 
 /// The plan of each reflector that needs maps: (reflector index, frame, plan).
 pub fn plans(scene: &Scene, quality: Quality) -> Vec<(usize, ReflectorFrame, MapPlan)> {
-    let scale = quality_scale(quality) * scene.desc.bake.radiance.resolution_scale.unwrap_or(1.0);
+    let scale = scene.desc.bake.radiance.scale(quality);
     scene
         .reflectors
         .iter()
@@ -95,7 +89,7 @@ pub fn plans(scene: &Scene, quality: Quality) -> Vec<(usize, ReflectorFrame, Map
                     plan.cameras = c.max(1);
                 }
                 if let Some(res) = o.resolution {
-                    plan.resolution = res.clamp(1, 4096);
+                    plan.resolution = res.clamp(1, MAX_RADIANCE_RESOLUTION);
                 }
             }
             Some((i, frame, plan))

@@ -18,7 +18,7 @@ use crate::radiosity::solve::{
     GatherBatch, REFINE_BUDGET, SolveSettings, gather_batch, solve, solve_batches,
 };
 use crate::scene::Scene;
-use crate::scene::desc::RadiositySettings;
+use crate::settings::radiosity::RadiositySettings;
 
 use super::Stage;
 
@@ -88,7 +88,7 @@ pub fn memory_estimate(texels: f64, rays: u32, refine: bool, cache_budget: u64) 
 /// The densities a radiosity bake of a scene uses, with what its estimates read.
 #[derive(Debug)]
 pub struct Density {
-    /// The rule `settings` give the scene ([`RadiositySettings::density_rule`]), every
+    /// The rule `settings` give the scene ([`base_rule`]), every
     /// density scaled down by [`Self::scale`].
     pub rule: atlas::DensityRule,
     /// The one factor on every density asked (1: as asked; less where the scene would have
@@ -106,12 +106,31 @@ impl Density {
     }
 }
 
+/// How the atlas sizes the charts of a scene whose longest side is `scene_side` metres under
+/// `s`, before any scaling down to [`RadiositySettings::max_elements`].
+pub fn base_rule(s: &RadiositySettings, scene_side: f32) -> atlas::DensityRule {
+    atlas::DensityRule {
+        per_metre: s.scene_density(scene_side),
+        min_across: s.min_chart_texels as f32,
+        per_radian: s.texels_per_radian,
+    }
+}
+
+/// The most by which contact boosts may multiply the atlas's texels under `s`.
+pub fn contact_texel_factor(s: &RadiositySettings) -> f64 {
+    if s.contact_boost > 1.0 {
+        crate::radiosity::contacts::TEXEL_BUDGET
+    } else {
+        1.0
+    }
+}
+
 /// The [`Density`] `settings` give `scene`.
 pub fn density_rule(
     scene: &Scene,
     settings: &RadiositySettings,
 ) -> Result<Density, RadiosityError> {
-    let rule = settings.density_rule(scene.bounds.longest_side());
+    let rule = base_rule(settings, scene.bounds.longest_side());
     if settings.max_elements == 0 {
         return Ok(Density {
             rule,
@@ -120,7 +139,7 @@ pub fn density_rule(
         });
     }
     let shapes = atlas::ChartShapes::with_charts(&scene.triangles);
-    let factor = settings.contact_texel_factor();
+    let factor = contact_texel_factor(settings);
     let (rule, scale) = match atlas::fit_elements(
         &shapes,
         rule,
@@ -171,7 +190,7 @@ fn check_share(
     s.check(Some(scene.bounds.diagonal()))
         .map_err(|e| RadiosityError::Setting(e.to_string()))?;
     let density = density_rule(scene, s)?;
-    let texels = density.texels() * s.contact_texel_factor();
+    let texels = density.texels() * contact_texel_factor(s);
     let need = memory_estimate(texels, s.rays, s.target_error.is_some(), s.cache_budget()) * share;
     if let Some(avail) = available_memory()
         && need > avail
@@ -297,16 +316,7 @@ fn prepare(
         atlas.pages.len(),
         samples.len()
     );
-    let solve = SolveSettings {
-        rays: settings.rays,
-        light_samples: settings.light_samples,
-        bounces: settings.bounces,
-        glossy_depth: settings.glossy_depth,
-        tolerance: settings.tolerance,
-        target_error: settings.target_error,
-        seed: SEED,
-        cache_budget: settings.cache_budget(),
-    };
+    let solve = SolveSettings::new(settings, SEED);
     Ok(Prepared {
         bvh,
         atlas,

@@ -15,7 +15,8 @@ use super::srdm_stage::{self, SrdmSettings};
 use super::{Stage, StagePlan, plan, radiance_stage, radiosity_stage, scene_stage, up_to_date};
 use crate::progress::Progress;
 use crate::scene::Scene;
-use crate::scene::desc::{BakeDesc, Quality, RadiositySettings, SettingError};
+use crate::settings::radiosity::RadiositySettings;
+use crate::settings::{Quality, SettingError};
 
 /// The resolved settings of every stage: a preset, the scene's overrides, then (for sweeps)
 /// single fields changed by hand. The radiance stage reads its settings from the preset and
@@ -33,35 +34,29 @@ pub struct BakeSettings {
 }
 
 impl BakeSettings {
-    /// The preset `quality` with `scene`'s overrides; an invalid override names scene.json
-    /// and the field.
+    /// The preset `quality` with `scene`'s overrides, each stage's through its own `resolve`;
+    /// an invalid override names scene.json and the field.
     pub fn resolve(scene: &Scene, quality: Quality) -> Result<BakeSettings, BakeError> {
         let over = &scene.desc.bake;
-        let materials =
-            MaterialsSettings::resolve(quality, &over.materials).map_err(|(field, why)| {
-                BakeError {
-                    stage: Stage::Materials,
-                    source: format!("{}: field `{field}`: {why}", scene.path.display()).into(),
-                }
-            })?;
-        let srdm =
-            SrdmSettings::resolve(&scene.path, quality, &over.srdm).map_err(|e| BakeError {
-                stage: Stage::Srdm,
-                source: e.into(),
-            })?;
-        let radiosity = RadiositySettings::resolve(quality, &over.radiosity);
-        radiosity
-            .check(Some(scene.bounds.diagonal()))
-            .map_err(|e| BakeError {
-                stage: Stage::Radiosity,
+        let at = |stage: Stage| {
+            move |e: SettingError| BakeError {
+                stage,
                 source: format!(
-                    "{}: field `bake.radiosity.{}`: {}",
+                    "{}: field `bake.{}.{}`: {}",
                     scene.path.display(),
+                    stage.name(),
                     e.field,
                     e.message
                 )
                 .into(),
-            })?;
+            }
+        };
+        let materials = MaterialsSettings::resolve(quality, &[&over.materials])
+            .map_err(at(Stage::Materials))?;
+        let srdm = SrdmSettings::resolve(quality, &[&over.srdm]).map_err(at(Stage::Srdm))?;
+        let radiosity =
+            RadiositySettings::resolve(quality, &[&over.radiosity], Some(scene.bounds.diagonal()))
+                .map_err(at(Stage::Radiosity))?;
         Ok(BakeSettings {
             quality,
             radiosity,
@@ -69,31 +64,6 @@ impl BakeSettings {
             srdm,
         })
     }
-}
-
-/// Checks scene.json's `bake` settings, each stage's with its own `check`, for a scene
-/// `scene_size` metres across (its bounding-box diagonal): what the scene loader runs, so a
-/// bad setting is refused before any stage is written. `Err((field, why))` with the field as
-/// written in scene.json (`bake.radiosity.texel_density`).
-pub fn check_scene_settings(bake: &BakeDesc, scene_size: f32) -> Result<(), (String, String)> {
-    fn at(stage: &'static str) -> impl Fn(SettingError) -> (String, String) {
-        move |e| (format!("bake.{stage}.{}", e.field), e.message)
-    }
-    // Each check is per field, and every preset passes it: checking the scene's own preset
-    // with its overrides checks the overrides under any preset.
-    let q = bake.quality;
-    RadiositySettings::resolve(q, &bake.radiosity)
-        .check(Some(scene_size))
-        .map_err(at("radiosity"))?;
-    MaterialsSettings::resolve(q, &bake.materials)?;
-    let mut srdm = SrdmSettings::preset(q);
-    let o = &bake.srdm;
-    srdm.domains = o.domains.unwrap_or(srdm.domains);
-    srdm.points = o.points.unwrap_or(srdm.points);
-    srdm.resolution = o.resolution.unwrap_or(srdm.resolution);
-    srdm.check().map_err(at("srdm"))?;
-    bake.radiance.check().map_err(at("radiance"))?;
-    Ok(())
 }
 
 /// A stage that failed, and why.

@@ -20,11 +20,11 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+pub use crate::settings::srdm::SrdmSettings;
 pub use crate::srdm::capture::{
     Capture, ColourSource, SrdmAssetError, capture, colour_source, colour_source_read,
     encode_capture, impostor_triangles, view_camera,
 };
-pub use crate::srdm::settings::SrdmSettings;
 
 use crate::bundle::{BundleError, StageInfo, StageRecord, StageWriter};
 use crate::image_io;
@@ -53,8 +53,8 @@ pub enum SrdmStageError {
     Cancelled(#[from] Cancelled),
 }
 
-impl From<crate::scene::desc::SettingError> for SrdmStageError {
-    fn from(e: crate::scene::desc::SettingError) -> Self {
+impl From<crate::settings::SettingError> for SrdmStageError {
+    fn from(e: crate::settings::SettingError) -> Self {
         SrdmStageError::Setting(e.to_string())
     }
 }

@@ -18,7 +18,9 @@ use super::{scene_stage, up_to_date};
 use crate::cli::BakeArgs;
 use crate::progress::TerminalProgress;
 use crate::scene::Scene;
-use crate::scene::desc::{RadiosityOverride, RadiositySettings, SettingError};
+use crate::settings::radiosity::{RadiosityOverride, RadiositySettings};
+use crate::settings::srdm::SrdmOverride;
+use crate::settings::{SettingError, sets};
 
 /// Which tool runs, with its own flags (each overrides the preset and scene.json).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -32,20 +34,29 @@ pub enum Tool {
     Materials,
     /// The radiance stage (`glint-radiance`).
     Radiance,
-    /// The SRDM stage (`glint-srdm`).
-    Srdm {
-        /// `--domains`.
-        domains: Option<u32>,
-        /// `--points`.
-        points: Option<u32>,
-        /// `--resolution`.
-        resolution: Option<u32>,
-    },
+    /// The SRDM stage (`glint-srdm`), with its flags.
+    Srdm(SrdmOverride),
 }
 
-/// A flag's value refused by its settings type's check: `--texel-density: 1e-30 …`.
-fn flag_error(e: SettingError) -> anyhow::Error {
-    anyhow::anyhow!("{}: {}", e.flag(), e.message)
+/// A value refused by its settings type's check, named as given: a flag (`--texel-density:
+/// 1e-30 …`) when `flags` set it, else scene.json's field (the scene loader checked those
+/// already, under the scene's own preset).
+fn setting_error<T: serde::Serialize>(
+    scene: &Scene,
+    stage: &str,
+    flags: &T,
+    e: SettingError,
+) -> anyhow::Error {
+    if sets(flags, e.field) {
+        anyhow::anyhow!("{}: {}", e.flag(), e.message)
+    } else {
+        anyhow::anyhow!(
+            "{}: field `bake.{stage}.{}`: {}",
+            scene.path.display(),
+            e.field,
+            e.message
+        )
+    }
 }
 
 /// Runs `tool` with `args`, writing its report to `out`.
@@ -55,9 +66,9 @@ pub fn run(args: &BakeArgs, tool: Tool, out: &mut dyn Write) -> anyhow::Result<E
     match tool {
         Tool::All => bake_every_stage(args, &scene, quality, out),
         Tool::Radiosity(flags) => {
-            let mut s = RadiositySettings::resolve(quality, &scene.desc.bake.radiosity);
-            flags.apply(&mut s);
-            s.check(Some(scene.bounds.diagonal())).map_err(flag_error)?;
+            let over = [&scene.desc.bake.radiosity, &flags];
+            let s = RadiositySettings::resolve(quality, &over, Some(scene.bounds.diagonal()))
+                .map_err(|e| setting_error(&scene, "radiosity", &flags, e))?;
             radiosity_stage::check(&scene, &s)?;
             scene_stage_first(args, &scene)?;
             let progress = TerminalProgress::new();
@@ -83,11 +94,11 @@ pub fn run(args: &BakeArgs, tool: Tool, out: &mut dyn Write) -> anyhow::Result<E
             Ok(ExitCode::SUCCESS)
         }
         Tool::Materials => {
-            let settings = MaterialsSettings::resolve(quality, &scene.desc.bake.materials)
-                .map_err(|(field, message)| MaterialsError::Setting {
+            let settings = MaterialsSettings::resolve(quality, &[&scene.desc.bake.materials])
+                .map_err(|e| MaterialsError::Setting {
                     path: scene.path.clone(),
-                    field,
-                    message,
+                    field: format!("bake.materials.{}", e.field),
+                    message: e.message,
                 })?;
             let progress = TerminalProgress::new();
             let outcome = materials::bake(
@@ -157,17 +168,9 @@ pub fn run(args: &BakeArgs, tool: Tool, out: &mut dyn Write) -> anyhow::Result<E
             }
             Ok(ExitCode::SUCCESS)
         }
-        Tool::Srdm {
-            domains,
-            points,
-            resolution,
-        } => {
-            let mut s = SrdmSettings::resolve(&scene.path, quality, &scene.desc.bake.srdm)
-                .map_err(anyhow::Error::msg)?;
-            s.domains = domains.unwrap_or(s.domains);
-            s.points = points.unwrap_or(s.points);
-            s.resolution = resolution.unwrap_or(s.resolution);
-            s.check().map_err(flag_error)?;
+        Tool::Srdm(flags) => {
+            let s = SrdmSettings::resolve(quality, &[&scene.desc.bake.srdm, &flags])
+                .map_err(|e| setting_error(&scene, "srdm", &flags, e))?;
             if scene.impostors.is_empty() {
                 let reason = "no impostor objects declared (scene.json `impostors`)";
                 return skipped(args, &scene, Stage::Srdm, reason, out);

@@ -215,9 +215,9 @@ pub fn plan_units(scene: &Scene, settings: &BakeSettings) -> Result<UnitPlan, St
             Ok(density) => density.texels(),
             Err(_) => crate::radiosity::atlas::estimate_texels(
                 &scene.triangles,
-                s.density_rule(scene.bounds.longest_side()),
+                radiosity_stage::base_rule(s, scene.bounds.longest_side()),
             ),
-        } * s.contact_texel_factor();
+        } * radiosity_stage::contact_texel_factor(s);
         let recorded = radiosity_stage::settings_json(s);
         let inputs = vec![
             ("geometry", geometry.clone()),

@@ -19,9 +19,7 @@ use glam::{Vec2, Vec3};
 use super::cook_torrance::CookTorrance;
 use super::kurt::{beckmann_half_pdf, fresnel_schlick, invert_beckmann_half, sample_beckmann_half};
 use super::ndf::Ndf;
-use super::{COS_FLOOR, above, beckmann, clamp_roughness, ggx};
-use crate::scene::desc::{LobeDesc, LobeModel};
-use crate::scene::material::Material;
+use super::{COS_FLOOR, LobeModel, above, beckmann, clamp_roughness, ggx};
 
 /// One glossy lobe.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -38,19 +36,6 @@ pub struct Lobe {
     pub alpha: f32,
     /// Which model.
     pub model: LobeModel,
-}
-
-impl From<&LobeDesc> for Lobe {
-    fn from(l: &LobeDesc) -> Lobe {
-        Lobe {
-            ks: Vec3::from_array(l.ks),
-            r0: l.r0,
-            mx: l.mx,
-            my: l.my,
-            alpha: l.alpha.unwrap_or(0.0),
-            model: l.model,
-        }
-    }
 }
 
 impl Lobe {
@@ -279,15 +264,6 @@ pub struct Brdf {
     pub kd: Vec3,
     /// Glossy lobes.
     pub lobes: Vec<Lobe>,
-}
-
-impl From<&Material> for Brdf {
-    fn from(m: &Material) -> Brdf {
-        Brdf {
-            kd: m.albedo,
-            lobes: m.lobes.iter().map(Lobe::from).collect(),
-        }
-    }
 }
 
 impl Brdf {

@@ -24,13 +24,14 @@ pub mod cook_torrance;
 pub mod ggx;
 pub mod kurt;
 pub mod lobe;
+mod model;
 pub mod ndf;
 pub mod pattern;
 
 use glam::Vec3;
 
-pub use crate::scene::desc::LobeModel;
 pub use lobe::{Brdf, Lobe};
+pub use model::LobeModel;
 pub use ndf::Ndf;
 
 /// The BRDF of Luksch et al. Eq. 1 under its former name; its lobes may be of any model.

@@ -16,7 +16,6 @@
 //! reader still holds ([`Bundle::open`] takes a shared lock on each folder it resolves
 //! into). Version 1 bundles (folder = stage name) are read as they are.
 
-pub mod cli;
 pub mod manifest;
 mod names;
 mod scene_refs;

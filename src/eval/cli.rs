@@ -66,7 +66,7 @@ enum Command {
     /// Bake with each setting, render the same view (timed in the headless viewer when it is
     /// built) and compare with a reference; writes DIR/sweep.csv and DIR/sweep.svg.
     #[command(
-        after_help = "Knobs (STAGE.FIELD):\n  radiosity.texel_density|min_chart_texels|min_scene_texels|contact_boost|texels_per_radian|rays|light_samples|bounces|glossy_depth|tolerance|target_error|stitch_seams|cache_budget_mib|max_elements\n  materials.sample_budget|xi0|max_circles|kernel_texel_deg|kernel_max_radius|sphere_map_size|map_1d_size|albedo_steps|env_map_size|env_filter|env_supersample\n  radiance.resolution_scale\n  srdm.domains|points|resolution\n  view.reflections=off,geometry,image  view.maps=1,2,4  view.selection=angle,distance\n  view.recursion_depth=0,1,2  view.curved=off,cubemap  view.glossy_samples=0,4,16  view.impostors=off,on\n  view.terminal_cubemaps=off,on\n\nExamples:\n  glint-eval sweep scenes/cornell-box/scene.json --set radiosity.rays=64,256,1024 --set radiosity.texel_density=8,16,32 --camera front --out out/sweep\n  glint-eval sweep scenes/glossy-room/scene.json --reflections image --set radiance.resolution_scale=0.5,1,2 --set view.maps=1,2,4 --out out/sweep-glossy"
+        after_help = sweep::knobs_help() + "\nExamples:\n  glint-eval sweep scenes/cornell-box/scene.json --set radiosity.rays=64,256,1024 --set radiosity.texel_density=8,16,32 --camera front --out out/sweep\n  glint-eval sweep scenes/glossy-room/scene.json --reflections image --set radiance.resolution_scale=0.5,1,2 --set view.maps=1,2,4 --out out/sweep-glossy"
     )]
     Sweep(SweepArgs),
 }

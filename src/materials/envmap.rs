@@ -201,49 +201,7 @@ pub fn texel_solid_angle(size: usize, x: usize, y: usize) -> f32 {
     (corner(s1, t1) - corner(s0, t1) - corner(s1, t0) + corner(s0, t0)) as f32
 }
 
-/// A MIP filter of Luksch et al. Table 1.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum MipFilter {
-    /// 2×2 box: the standard MIP map.
-    Box2,
-    /// 4×4 Gaussian (binomial 1 3 3 1), a pyramid of Gaussians.
-    Gauss4,
-    /// 6×6 Gaussian (binomial 1 5 10 10 5 1).
-    Gauss6,
-}
-
-impl MipFilter {
-    /// Every filter, narrowest first.
-    pub const ALL: [MipFilter; 3] = [MipFilter::Box2, MipFilter::Gauss4, MipFilter::Gauss6];
-
-    /// `box2`, `gauss4` or `gauss6`.
-    pub fn name(self) -> &'static str {
-        match self {
-            MipFilter::Box2 => "box2",
-            MipFilter::Gauss4 => "gauss4",
-            MipFilter::Gauss6 => "gauss6",
-        }
-    }
-
-    /// The separable 1D weights (sum 1), applied at fine texels 2i − p … 2i + 1 + p around
-    /// coarse texel i: binomial coefficients, the even-length analogue of Adelson's
-    /// Gaussian pyramid kernel, centred between the two fine texels a coarse one covers.
-    pub fn weights(self) -> &'static [f32] {
-        match self {
-            MipFilter::Box2 => &[0.5, 0.5],
-            MipFilter::Gauss4 => &[0.125, 0.375, 0.375, 0.125],
-            MipFilter::Gauss6 => &[
-                1.0 / 32.0,
-                5.0 / 32.0,
-                10.0 / 32.0,
-                10.0 / 32.0,
-                5.0 / 32.0,
-                1.0 / 32.0,
-            ],
-        }
-    }
-}
+pub use crate::settings::materials::MipFilter;
 
 /// A cube map with its MIP levels, level 0 the captured one, halving down to 1×1.
 #[derive(Clone, Debug, PartialEq)]

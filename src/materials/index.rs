@@ -8,10 +8,10 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 use super::envmap::{CubeMap, MipFilter, MipPyramid};
-use super::settings::MaterialsSettings;
 use crate::bundle::{Bundle, BundleError};
 use crate::image_io::{ExrImage, ImageError, decode_exr};
 use crate::scene::LobeModel;
+use crate::settings::materials::MaterialsSettings;
 
 /// The stage's name in the bundle.
 pub const STAGE: &str = "materials";

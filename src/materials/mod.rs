@@ -14,7 +14,6 @@ pub mod index;
 pub mod kernel;
 pub mod pattern_format;
 pub mod reflectance;
-pub mod settings;
 
+pub use crate::settings::materials::{MaterialsOverride, MaterialsSettings};
 pub use index::{MaterialsIndex, MaterialsReadError};
-pub use settings::MaterialsSettings;

@@ -13,6 +13,8 @@ use rayon::prelude::*;
 use crate::geometry::{Bvh, Hit, Triangle};
 use sampling::MapCamera;
 
+pub use crate::settings::radiance::{RadianceOverride, RadianceStageOverride};
+
 /// One rendered map: per pixel (row-major), radiance, depth, scene point, the hit surface's
 /// facet normal and whether the pixel's ray hit anything.
 #[derive(Clone, Debug, PartialEq)]

@@ -19,5 +19,6 @@ mod terms;
 mod transport;
 mod varint;
 
+pub use crate::settings::radiosity::{RadiosityOverride, RadiositySettings};
 pub use current::{CurrentD, current_d, d_identity};
 pub use map::RadiosityMap;

@@ -34,6 +34,7 @@ use crate::progress::{Cancelled, Progress};
 use crate::sampling::Rng;
 use crate::scene::Scene;
 use crate::scene::texturing::{TexelSurface, stored_radiance};
+use crate::settings::radiosity::RadiositySettings;
 
 pub use super::gather::{BACKFACE_LIMIT, OPEN_LIMIT};
 
@@ -49,10 +50,7 @@ pub const MAX_SAMPLE_FACTOR: u32 = 64;
 /// [`SolveSettings::cache_budget`] (see `bake::radiosity_stage::memory_estimate`).
 pub const REFINE_BUDGET: u64 = 8;
 
-/// Bytes of cached rays ([`SolveSettings::cache_budget`]) a bake holds at most by default:
-/// enough for every shipped scene at every preset (the largest, cornell-box at high, holds
-/// under 400 MB), a bound for a building.
-pub const CACHE_BUDGET: u64 = 2 << 30;
+pub use crate::settings::radiosity::CACHE_BUDGET;
 
 /// Samples per work item (progress and cancellation granularity).
 const CHUNK: usize = 256;
@@ -60,35 +58,48 @@ const CHUNK: usize = 256;
 /// Elements a refinement round gathers before packing their rays into the links.
 const REFINE_SLICE: usize = 16384;
 
-/// Solver settings.
+/// What the solver reads of [`RadiositySettings`] (the atlas's settings are used before it),
+/// with the seed and the cache budget in bytes; each field means what the setting of its name
+/// does there.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SolveSettings {
-    /// Gathering rays per texel.
+    /// [`RadiositySettings::rays`].
     pub rays: u32,
-    /// Emitter samples per texel and per area light (and for all emissive triangles); with
-    /// more than [`LIGHTS_SAMPLED_EACH`] emitters, that many times this drawn from all of them
-    /// ([`super::many_lights`]).
+    /// [`RadiositySettings::light_samples`]; with more than [`LIGHTS_SAMPLED_EACH`] emitters,
+    /// drawn from all of them ([`super::many_lights`]).
     pub light_samples: u32,
-    /// Largest number of indirect bounces.
+    /// [`RadiositySettings::bounces`].
     pub bounces: u32,
-    /// Largest number of glossy reflections a gathering ray follows ([`super::transport`]);
-    /// 0 gathers diffuse interreflection only.
+    /// [`RadiositySettings::glossy_depth`] ([`super::transport`]).
     pub glossy_depth: u32,
-    /// Stop when a bounce changes the total reflected radiance by less than this fraction.
+    /// [`RadiositySettings::tolerance`].
     pub tolerance: f32,
-    /// Relative standard error each element should reach: elements whose estimate is above it
-    /// get more rays and emitter samples, in up to [`MAX_ROUNDS`] rounds and up to
-    /// [`MAX_SAMPLE_FACTOR`] × their first batch. `None`: one batch of `rays`/`light_samples`.
+    /// [`RadiositySettings::target_error`]: refinement runs up to [`MAX_ROUNDS`] rounds and
+    /// up to [`MAX_SAMPLE_FACTOR`] × an element's first batch.
     pub target_error: Option<f32>,
     /// Random seed (every texel draws from its own stream of it).
     pub seed: u64,
-    /// Bytes of cached rays (links and glossy terms, packed) the refinement may grow the cache
-    /// to. An element refined beyond it has its new rays read once, against the reflected
-    /// radiance of that moment, and kept as sums ([`Links::freeze`]): memory no longer grows
-    /// with rays × elements, at the price of those rays not following later bounces' changes
-    /// (they are gathered after the first batch has converged, so what they miss is the
-    /// refinement's own small corrections). Under the budget the solve is exact as before.
+    /// [`RadiositySettings::cache_budget`], bytes. An element refined beyond it has its new
+    /// rays read once, against the reflected radiance of that moment, and kept as sums
+    /// ([`Links::freeze`]); under the budget every cached ray follows every bounce
+    /// (docs/tuning.md#cache-budget).
     pub cache_budget: u64,
+}
+
+impl SolveSettings {
+    /// The solver's part of `s`, with `seed`.
+    pub fn new(s: &RadiositySettings, seed: u64) -> SolveSettings {
+        SolveSettings {
+            rays: s.rays,
+            light_samples: s.light_samples,
+            bounces: s.bounces,
+            glossy_depth: s.glossy_depth,
+            tolerance: s.tolerance,
+            target_error: s.target_error,
+            seed,
+            cache_budget: s.cache_budget(),
+        }
+    }
 }
 
 /// Figures of a solve.
@@ -347,7 +358,7 @@ fn solve_gathered(
     // Albedo and emission over each element's texel (textures averaged over its footprint).
     let surfaces: Vec<TexelSurface> = samples
         .par_iter()
-        .map(|s| scene.texel_surface(atlas, s))
+        .map(|s| scene.texel_surface(s.triangle, &atlas.tri_coords[s.triangle as usize], s.bary))
         .collect();
     let albedo: Vec<Vec3> = surfaces.iter().map(|s| s.albedo).collect();
     let emission: Vec<Vec3> = surfaces.iter().map(|s| s.emission).collect();

@@ -5,6 +5,7 @@ use serde::Serialize;
 
 use super::desc::{LobeDesc, LobeModel, MaterialOverride};
 use super::texture::{Sampler, UvTransform};
+use crate::brdf::{Brdf, Lobe};
 
 /// Roughness below which a dielectric glTF material gets a glossy lobe. Rougher ones are
 /// treated as diffuse: their GGX lobe (α = roughness² ≥ 0.36) is too wide for reflections to
@@ -265,6 +266,30 @@ impl Material {
             }
         }
         Ok(())
+    }
+}
+
+/// The lobe a scene.json lobe describes.
+impl From<&LobeDesc> for Lobe {
+    fn from(l: &LobeDesc) -> Lobe {
+        Lobe {
+            ks: Vec3::from_array(l.ks),
+            r0: l.r0,
+            mx: l.mx,
+            my: l.my,
+            alpha: l.alpha.unwrap_or(0.0),
+            model: l.model,
+        }
+    }
+}
+
+/// The BRDF of a material (Eq. 1).
+impl From<&Material> for Brdf {
+    fn from(m: &Material) -> Brdf {
+        Brdf {
+            kd: m.albedo,
+            lobes: m.lobes.iter().map(Lobe::from).collect(),
+        }
     }
 }
 

@@ -274,7 +274,8 @@ impl Scene {
         let textures = imported.textures;
         let bounds = Aabb::from_points(triangles.iter().flat_map(|t| t.p.iter()));
 
-        crate::bake::check_scene_settings(&desc.bake, bounds.diagonal())
+        desc.bake
+            .check(bounds.diagonal())
             .map_err(|(f, m)| field(f, m))?;
 
         let reflectors = reflector::resolve(&desc.reflectors, &objects, &materials, &triangles)

@@ -28,7 +28,6 @@ use super::Scene;
 use super::material::{AlphaMode, Material, TextureRef};
 use super::texture::Image;
 use crate::geometry::Triangle;
-use crate::radiosity::atlas::{Atlas, TexelSample};
 
 /// A texture's coordinate at barycentrics `b` of `tri` (its UV set, then its transform).
 pub fn texture_uv(t: &TextureRef, tri: &Triangle, b: Vec2) -> Vec2 {
@@ -145,9 +144,10 @@ impl Scene {
         )
     }
 
-    /// The albedo, emission and modulation of the lightmap element `s` of `atlas`.
-    pub fn texel_surface(&self, atlas: &Atlas, s: &TexelSample) -> TexelSurface {
-        let tri = &self.triangles[s.triangle as usize];
+    /// The albedo, emission and modulation of the lightmap element at barycentrics `bary` of
+    /// `triangle`, whose vertices lie at `lm` in lightmap texel units.
+    pub fn texel_surface(&self, triangle: u32, lm: &[Vec2; 3], bary: Vec2) -> TexelSurface {
+        let tri = &self.triangles[triangle as usize];
         let m = &self.materials[tri.material as usize];
         if !m.is_textured() {
             return TexelSurface {
@@ -156,8 +156,7 @@ impl Scene {
                 modulation: None,
             };
         }
-        let lm = &atlas.tri_coords[s.triangle as usize];
-        let mean = |t: &TextureRef| footprint_mean(&self.textures, t, tri, lm, s.bary).truncate();
+        let mean = |t: &TextureRef| footprint_mean(&self.textures, t, tri, lm, bary).truncate();
         let t_mean = m.base_texture.as_ref().map(mean);
         let e_mean = m.emissive_texture.as_ref().map_or(Vec3::ONE, mean);
         TexelSurface {

@@ -10,11 +10,7 @@ use super::depth_map::{BACKGROUND, FIX, MIN_DEPTH};
 use super::{DepthMap, Domain, ImpostorCamera, SrdmError};
 use crate::progress::{Cancelled, Progress};
 
-/// Largest number of rotated domains (0.1° apart).
-pub const MAX_DOMAINS: u32 = 1800;
-
-/// Largest number of points per row (counts are stored as u16).
-pub const MAX_POINTS: u32 = 4096;
+pub use crate::settings::srdm::{MAX_DOMAINS, MAX_POINTS};
 
 /// Segments whose worst sample is at most this far (in normalized 1/z, a millionth of the
 /// depth range, ~16 f32 ulps at 1) are not split: a point there would buy nothing but

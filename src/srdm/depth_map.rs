@@ -13,8 +13,7 @@ pub const BACKGROUND: f32 = -1.0;
 /// [`MIN_DEPTH`, 1] so a stored depth is always > 0 (the SRDM marks span starts by sign).
 pub const MIN_DEPTH: f32 = 1e-6;
 
-/// Largest resolution accepted (a 4096² map with n = 180, m = 64 is already 754 MB of SRDM).
-pub const MAX_RESOLUTION: u32 = 4096;
+pub use crate::settings::srdm::MAX_RESOLUTION;
 
 /// A `w × w` depth map, row-major, row 0 at the top (see the module docs for coordinates).
 #[derive(Clone, Debug, PartialEq)]

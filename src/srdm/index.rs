@@ -6,8 +6,8 @@ use serde::{Deserialize, Serialize};
 
 use super::Srdm;
 use super::capture::{Capture, SrdmAssetError, decode_capture};
-use super::settings::SrdmSettings;
 use crate::bundle::Bundle;
+use crate::settings::srdm::SrdmSettings;
 
 /// The stage's name in the bundle.
 pub const STAGE: &str = "srdm";

@@ -32,8 +32,8 @@ mod depth_map;
 mod format;
 pub mod index;
 mod intersect;
-pub mod settings;
 
+pub use crate::settings::srdm::{SrdmOverride, SrdmSettings};
 pub use build::{
     ErrorStats, MAX_DOMAINS, MAX_POINTS, SPLIT_TOLERANCE, SimplifiedRow, Srdm, SrdmParams,
     error_stats, row_samples, simplify_row,
@@ -42,7 +42,6 @@ pub use camera::ImpostorCamera;
 pub use depth_map::{BACKGROUND, DepthMap, MAX_RESOLUTION, MIN_DEPTH};
 pub use format::{SRDM_MAGIC, SRDM_VERSION};
 pub use intersect::{MarchHit, SrdmHit, march};
-pub use settings::SrdmSettings;
 
 use glam::Vec2;
 

@@ -5,47 +5,63 @@ use serde::Serialize;
 
 use super::SweepError;
 use crate::bake::{BakeSettings, Stage};
-use crate::scene::desc::Quality;
+use crate::settings::materials::MaterialsSettings;
+use crate::settings::radiance::RadianceStageOverride;
+use crate::settings::radiosity::RadiositySettings;
+use crate::settings::srdm::SrdmSettings;
+use crate::settings::{Quality, field_names};
 use crate::view::options::{CurvedMode, ReflectionMode, Selection, ViewOptions};
 
 /// Whether this build has the headless viewer (frame times, `view.*` knobs).
 pub const VIEWER_BUILT: bool = cfg!(feature = "view");
 
-/// Knobs that are not fields of a stage's settings struct: `radiance.resolution_scale`
-/// (scene.json's `bake.radiance`) and the viewer's settings.
-const OTHER_KNOBS: [&str; 9] = [
-    "radiance.resolution_scale",
-    "view.reflections",
-    "view.maps",
-    "view.selection",
-    "view.recursion_depth",
-    "view.curved",
-    "view.glossy_samples",
-    "view.impostors",
-    "view.terminal_cubemaps",
+/// The viewer's knobs (not a stage's settings), each with example values.
+const VIEW_KNOBS: [(&str, &str); 8] = [
+    ("reflections", "off,geometry,image"),
+    ("maps", "1,2,4"),
+    ("selection", "angle,distance"),
+    ("recursion_depth", "0,1,2"),
+    ("curved", "off,cubemap"),
+    ("glossy_samples", "0,4,16"),
+    ("impostors", "off,on"),
+    ("terminal_cubemaps", "off,on"),
 ];
+
+/// Each stage's knobs: the fields of the settings struct a sweep changes (the resolved
+/// settings; for the radiance stage, scene.json's `bake.radiance`), in stage order.
+fn stage_knobs() -> [(&'static str, Vec<String>); 4] {
+    [
+        ("radiosity", field_names::<RadiositySettings>()),
+        ("materials", field_names::<MaterialsSettings>()),
+        ("radiance", field_names::<RadianceStageOverride>()),
+        ("srdm", field_names::<SrdmSettings>()),
+    ]
+}
 
 /// Every knob name a sweep accepts, `STAGE.FIELD`, in stage order.
 pub fn valid_knobs() -> Vec<String> {
-    let base = BakeSettings {
-        quality: Quality::Draft,
-        radiosity: crate::scene::desc::RadiositySettings::preset(Quality::Draft),
-        materials: crate::bake::materials::MaterialsSettings::preset(Quality::Draft),
-        srdm: crate::bake::srdm_stage::SrdmSettings::preset(Quality::Draft),
-    };
-    let fields = |stage: &str, v: serde_json::Value| -> Vec<String> {
-        v.as_object()
-            .expect("settings are objects")
-            .keys()
-            .map(|k| format!("{stage}.{k}"))
-            .collect()
-    };
-    let mut all = fields("radiosity", json(&base.radiosity));
-    all.extend(fields("materials", json(&base.materials)));
-    all.push(OTHER_KNOBS[0].into());
-    all.extend(fields("srdm", json(&base.srdm)));
-    all.extend(OTHER_KNOBS[1..].iter().map(|s| s.to_string()));
-    all
+    let stages = stage_knobs()
+        .into_iter()
+        .flat_map(|(stage, fields)| fields.into_iter().map(move |f| format!("{stage}.{f}")));
+    let view = VIEW_KNOBS.iter().map(|(f, _)| format!("view.{f}"));
+    stages.chain(view).collect()
+}
+
+/// The knobs as `glint-eval sweep --help` lists them: one line per stage, then the viewer's
+/// with example values.
+pub fn knobs_help() -> String {
+    let mut out = String::from("Knobs (STAGE.FIELD):\n");
+    for (stage, fields) in stage_knobs() {
+        out += &format!("  {stage}.{}\n", fields.join("|"));
+    }
+    let view: Vec<String> = VIEW_KNOBS
+        .iter()
+        .map(|(f, v)| format!("view.{f}={v}"))
+        .collect();
+    for line in view.chunks(4) {
+        out += &format!("  {}\n", line.join("  "));
+    }
+    out
 }
 
 fn json<T: Serialize>(v: &T) -> serde_json::Value {
@@ -117,9 +133,9 @@ pub fn parse_knob(text: &str) -> Result<Knob, SweepError> {
     let base = Point {
         bake: BakeSettings {
             quality: Quality::Draft,
-            radiosity: crate::scene::desc::RadiositySettings::preset(Quality::Draft),
-            materials: crate::bake::materials::MaterialsSettings::preset(Quality::Draft),
-            srdm: crate::bake::srdm_stage::SrdmSettings::preset(Quality::Draft),
+            radiosity: RadiositySettings::preset(Quality::Draft),
+            materials: MaterialsSettings::preset(Quality::Draft),
+            srdm: SrdmSettings::preset(Quality::Draft),
         },
         radiance_scale: None,
         view: ViewOptions::default(),
@@ -199,7 +215,7 @@ impl Point {
             }
             "radiance" => {
                 let v = number()? as f32;
-                let over = crate::scene::desc::RadianceStageOverride {
+                let over = RadianceStageOverride {
                     resolution_scale: Some(v),
                 };
                 over.check().map_err(|e| err(e.message))?;

@@ -38,7 +38,7 @@ use crate::scene::desc::Quality;
 pub use crate::view::options::ViewOptions;
 
 use knobs::Point;
-pub use knobs::{Knob, VIEWER_BUILT, parse_knob, shows_reflections, valid_knobs};
+pub use knobs::{Knob, VIEWER_BUILT, knobs_help, parse_knob, shows_reflections, valid_knobs};
 pub use report::{plot_svg, to_csv};
 use viewer::Viewer;
 

@@ -8,8 +8,8 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::{Parser, Subcommand};
 
-use super::Bundle;
-use super::stats::{BundleStats, format_table, human_bytes};
+use crate::bundle::Bundle;
+use crate::bundle::stats::{BundleStats, format_table, human_bytes};
 
 #[derive(Parser)]
 #[command(

@@ -1,14 +1,74 @@
-//! The materials stage's settings: a quality preset, then the scene's `bake.materials`
-//! overrides. Recorded in the stage's index and manifest record.
+//! The materials stage's settings: [`MaterialsOverride`] (scene.json's `bake.materials`) and
+//! [`MaterialsSettings`], what the stage runs with and records in its index and manifest
+//! record, from [`MaterialsSettings::resolve`].
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::envmap::MipFilter;
-use crate::scene::Quality;
-use crate::scene::desc::{MaterialsOverride, SettingError};
+use super::{Quality, SettingError};
+
+/// Material-stage settings that override the preset: scene.json's `bake.materials`.
+#[derive(
+    clap::Args, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema,
+)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialsOverride {
+    /// Samples per lobe the regular pattern should come closest to, 1 ..= 100000.
+    #[arg(long, value_name = "N")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sample_budget: Option<u32>,
+    /// Cube-map face size of prefiltered environment maps, texels: a power of two in 4 ..= 4096.
+    #[arg(long, value_name = "N")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub env_map_size: Option<u32>,
+}
+
+/// A MIP filter of Luksch et al. Table 1.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum MipFilter {
+    /// 2×2 box: the standard MIP map.
+    Box2,
+    /// 4×4 Gaussian (binomial 1 3 3 1), a pyramid of Gaussians.
+    Gauss4,
+    /// 6×6 Gaussian (binomial 1 5 10 10 5 1).
+    Gauss6,
+}
+
+impl MipFilter {
+    /// Every filter, narrowest first.
+    pub const ALL: [MipFilter; 3] = [MipFilter::Box2, MipFilter::Gauss4, MipFilter::Gauss6];
+
+    /// `box2`, `gauss4` or `gauss6`.
+    pub fn name(self) -> &'static str {
+        match self {
+            MipFilter::Box2 => "box2",
+            MipFilter::Gauss4 => "gauss4",
+            MipFilter::Gauss6 => "gauss6",
+        }
+    }
+
+    /// The separable 1D weights (sum 1), applied at fine texels 2i − p … 2i + 1 + p around
+    /// coarse texel i: binomial coefficients, the even-length analogue of Adelson's
+    /// Gaussian pyramid kernel, centred between the two fine texels a coarse one covers.
+    pub fn weights(self) -> &'static [f32] {
+        match self {
+            MipFilter::Box2 => &[0.5, 0.5],
+            MipFilter::Gauss4 => &[0.125, 0.375, 0.375, 0.125],
+            MipFilter::Gauss6 => &[
+                1.0 / 32.0,
+                5.0 / 32.0,
+                10.0 / 32.0,
+                10.0 / 32.0,
+                5.0 / 32.0,
+                1.0 / 32.0,
+            ],
+        }
+    }
+}
 
 /// Settings of the materials stage (a preset, then the scene's `bake.materials` overrides).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct MaterialsSettings {
     /// Samples per lobe the regular pattern should come closest to.
     pub sample_budget: u32,
@@ -82,21 +142,21 @@ impl MaterialsSettings {
         }
     }
 
-    /// The preset with the scene's overrides; an invalid override is `Err((field, why))`
-    /// with the field as written in scene.json ([`MaterialsSettings::check`]).
+    /// The preset `quality`, then each of `overrides` in turn, checked ([`Self::check`]).
     pub fn resolve(
         quality: Quality,
-        over: &MaterialsOverride,
-    ) -> Result<MaterialsSettings, (String, String)> {
+        overrides: &[&MaterialsOverride],
+    ) -> Result<MaterialsSettings, SettingError> {
         let mut s = Self::preset(quality);
-        if let Some(b) = over.sample_budget {
-            s.sample_budget = b;
+        for over in overrides {
+            let MaterialsOverride {
+                sample_budget,
+                env_map_size,
+            } = **over;
+            s.sample_budget = sample_budget.unwrap_or(s.sample_budget);
+            s.env_map_size = env_map_size.unwrap_or(s.env_map_size);
         }
-        if let Some(e) = over.env_map_size {
-            s.env_map_size = e;
-        }
-        s.check()
-            .map_err(|e| (format!("bake.materials.{}", e.field), e.message))?;
+        s.check()?;
         Ok(s)
     }
 
@@ -151,26 +211,26 @@ mod tests {
             env_map_size: None,
         };
         assert_eq!(
-            MaterialsSettings::resolve(Quality::Default, &over)
+            MaterialsSettings::resolve(Quality::Default, &[&over])
                 .unwrap_err()
-                .0,
-            "bake.materials.sample_budget"
+                .field,
+            "sample_budget"
         );
         let over = MaterialsOverride {
             sample_budget: Some(30),
             env_map_size: Some(100),
         };
         assert!(
-            MaterialsSettings::resolve(Quality::Default, &over)
+            MaterialsSettings::resolve(Quality::Default, &[&over])
                 .unwrap_err()
-                .1
+                .message
                 .contains("power of two")
         );
         let over = MaterialsOverride {
             sample_budget: Some(30),
             env_map_size: Some(512),
         };
-        let s = MaterialsSettings::resolve(Quality::Draft, &over).unwrap();
+        let s = MaterialsSettings::resolve(Quality::Draft, &[&over]).unwrap();
         assert_eq!((s.sample_budget, s.env_map_size), (30, 512));
     }
 }
