@@ -8,7 +8,7 @@ use std::path::Path;
 
 use glam::Vec2;
 
-use super::gltf_import::uri_path;
+use super::gltf_uri::uri_path;
 use super::material::{AlphaMode, Material, TextureRef};
 use super::texture::{Filter, Image, Sampler, UvTransform, Wrap};
 

@@ -12,6 +12,7 @@ pub mod faces;
 mod gltf_cameras;
 pub(crate) mod gltf_import;
 pub mod gltf_textures;
+mod gltf_uri;
 mod impostor;
 mod light;
 pub mod material;
@@ -30,7 +31,7 @@ pub use desc::{
     AreaLightDesc, CameraPath, Keyframe, KurtLobe, LobeDesc, LobeModel, Quality, ReflectorKind,
     SCENE_VERSION, SceneDesc,
 };
-pub use gltf_import::uri_path;
+pub use gltf_uri::uri_path;
 pub use impostor::{Impostor, ImpostorBillboard, SURFACE_PLANARITY};
 pub use light::AreaLight;
 pub use material::Material;
