@@ -13,6 +13,9 @@
 //! factors, solved by Jacobi iteration). Texels whose sample point lies inside or behind
 //! geometry (many rays hit back faces) are excluded and their texels filled from valid
 //! neighbours of the same chart, so they neither leak light nor darkness.
+//!
+//! Kept in one file: gathering, the link cache and the Jacobi iteration share the links' layout
+//! and the per-round random streams that keep a bake deterministic.
 
 use std::collections::VecDeque;
 use std::ops::Range;
@@ -87,7 +90,8 @@ pub struct SolveSettings {
     /// radiance of that moment, and kept as sums ([`Links::freeze`]): memory no longer grows
     /// with rays × elements, at the price of those rays not following later bounces' changes
     /// (they are gathered after the first batch has converged, so what they miss is the
-    /// refinement's own small corrections). Under the budget the solve is exact as before.
+    /// refinement's own small corrections). Under the budget every cached ray follows every
+    /// bounce (docs/tuning.md#cache-budget).
     pub cache_budget: u64,
 }
 

@@ -2,6 +2,8 @@
 //!
 //! These types are the single source of `schemas/scene.schema.json` (generated with schemars;
 //! `tests/schemas.rs` keeps the file current). Unknown keys are errors everywhere.
+//!
+//! Kept in one file: the whole scene.json format in one place, the single source of its schema.
 
 use std::collections::BTreeMap;
 
@@ -681,7 +683,7 @@ impl RadiositySettings {
         // bunny-mirror at 16 texels/m the bunny's charts are 1–2 texels wide). Draft leaves
         // seams unstitched: it is the quick look. And a small scene gets `min_scene` texels
         // across its longest side: a 2 m Cornell box is 36 texels per metre at default (shadow
-        // and contact edges are where D's error is; 16 per metre gives it 1.5% RMSE, 36 0.9%).
+        // and contact edges are where D's error is; docs/tuning.md#min-scene-texels).
         #[rustfmt::skip]
         let (texel_density, min_chart, min_scene, rays, light_samples, bounces, glossy_depth, tolerance, target, stitch) =
             match quality {
@@ -699,10 +701,8 @@ impl RadiositySettings {
                 Quality::Draft => 0.0,
                 Quality::Default | Quality::High => 8.0,
             },
-            // A curved mesh's shading changes with its normal: on bunny-mirror at default,
-            // the bunny's D against path-traced probes (600, noise taken out) is 18.4% off
-            // with this off, 13.8% at 12 texels a radian, 6.6% at 24 (bunny-mirror 68k → 96k
-            // elements, breakfast-room 254k → 507k). Off at draft, the quick look.
+            // A curved mesh's shading changes with its normal, so its charts get texels per
+            // radian of curvature (docs/tuning.md#texels-per-radian). Off at draft, the quick look.
             texels_per_radian: match quality {
                 Quality::Draft => 0.0,
                 Quality::Default => 24.0,
