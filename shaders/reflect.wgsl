@@ -288,9 +288,8 @@ fn composite(in: MirrorOut) -> FragmentOut {
                 let q = p + axis * step * (f32(j) - 0.5 * f32(reads - 1u));
                 // A read beyond the frame has nothing to read: M holds only the frame's
                 // view. It is left out (the sum is normalized by Σ w·c), not clamped: the
-                // edge texels repeated stood for everything beyond, e.g. a lamp seen in a
-                // mirror at the frame's edge, reflected in a glossy floor, spread as a glow
-                // along the edge (glossy-room `front`, depth 2: 6.0% -> 5.2%).
+                // edge texels repeated would stand for everything beyond, spreading a lamp
+                // at the frame's edge as a glow along it (docs/tuning.md#frame-edge-reads).
                 if all(q >= vec2<f32>(0.0)) && all(q <= size) {
                     taken = taken + textureSampleLevel(pyramid, reflection_sampler, q / size, level);
                 }

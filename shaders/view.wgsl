@@ -34,8 +34,8 @@ struct FrameUniforms {
 // false: no triangle this pipeline draws has a base colour texture or alpha cut-outs, so
 // `surface_d` is D as stored and `cut_out` never holds (`renderer::SurfaceShading`). A
 // constant per pipeline rather than a branch per fragment: Mesa's lavapipe runs both sides
-// of a branch that varies between fragments, and the untaken texture reads took 55% of
-// breakfast-room's frame without reflections (122 → 54 ms at 720×486).
+// of a branch that varies between fragments, and untaken texture reads cost every fragment
+// (docs/tuning.md#surface-textures-override).
 override SURFACE_TEXTURES: bool = true;
 
 struct TexRef {
@@ -221,7 +221,7 @@ fn fs_main(in: VertexOut) -> FragmentOut {
 }
 
 // Every other triangle. A shader that never discards lets the depth test run before shading
-// (on Mesa's lavapipe the scene pass of breakfast-room takes 26% less time), so opaque runs of
+// (docs/tuning.md#opaque-entry-point), so opaque runs of
 // triangles are drawn with this entry point (`renderer::alpha_runs`).
 @fragment
 fn fs_opaque(in: VertexOut) -> FragmentOut {

@@ -33,9 +33,8 @@ pub struct RadianceMap {
 }
 
 /// The map resolution from which a row's rays are traced in packets ([`Bvh::closest_hits`]).
-/// On rays like the maps' (hemisphere cameras over a floor's elements, benches/embree/README.md),
-/// packets against single rays: 0.55–0.84× at 32 pixels (eight pixels span some 25°), 1.05–1.35×
-/// at 64, 1.0–1.27× at 128.
+/// Below it eight neighbouring pixels' rays diverge too much for packets to pay
+/// (docs/tuning.md#packets-from).
 const PACKETS_FROM: u32 = 64;
 
 /// Ray casts one map: a ray per pixel from the element through the scene (`bvh` built over
@@ -117,15 +116,10 @@ impl MapPlan {
     pub fn for_roughness(m: f32, size: glam::Vec2, scale: f32) -> MapPlan {
         // m ≤ 0.02: mirror; ≤ 0.1: glossy; rougher: blurry, coarse maps suffice.
         // A mirror shows whatever its best map saw, so its cameras are dense (25 a hemisphere:
-        // the pole and rings at 27°, 53° and 80°): with 9 (rings at 40° and 80°) the mirrored
-        // eye of bunny-mirror's `orbit` lay 25° from its element's nearest camera, whose
-        // pixels 3.7 cm below the floor span 1.2 cm on the bunny's flank, and the
-        // reflection's silhouettes came out ragged (image mode 5.3/4.4% from the path tracer,
-        // orbit/front; 4.3/4.0% with 25). Over the orbit's 12 keyframes, image mode against
-        // geometry mode (relative RMSE, 4×4 samples a pixel): 9 cameras 5.0% mean (6.8% worst),
-        // 17 4.3% (5.0%), 25 3.7% (4.1%). The viewer splats 2 maps per element whatever the
-        // count, so more cameras cost bake time, bytes and GPU memory (all maps' points are
-        // uploaded), not frame time.
+        // the pole and rings at 27°, 53° and 80°), else the mirrored eye lies far from its
+        // element's nearest camera and silhouettes come out ragged
+        // (docs/tuning.md#mirror-map-cameras). The viewer splats 2 maps per element whatever
+        // the count, so more cameras cost bake time, bytes and GPU memory, not frame time.
         let (res, long, cams) = if m <= 0.02 {
             (128.0, 4.0, 25.0)
         } else if m <= 0.1 {

@@ -25,11 +25,11 @@ pub const BACKFACE_LIMIT: f32 = 0.25;
 /// the time, and whose nearest back face is at least half a texel away, is not inside
 /// anything, however many back faces it sees. A wall behind a one-sided panel sees the
 /// panel's back over most of its hemisphere, yet near the panel's rim it sees the room
-/// through the gap: its light is its own (the panel's shadow), and filling it from the lit
-/// wall beside the panel drew a lit strip along glossy-room's mirror panel. Where the gap is
-/// under half a texel, though, the texel cannot resolve the shadow: its darkness would spread
-/// a texel or two over the lit wall beside the panel (a dark frame around the panel at draft
-/// density), so it is filled as before. A sample inside a closed solid sees no front face.
+/// through the gap: its light is its own (the panel's shadow), not the lit wall's beside
+/// the panel. Where the gap is under half a texel, though, the texel cannot resolve the
+/// shadow: its darkness would spread a texel or two over the lit wall beside the panel, so it
+/// is filled from its neighbours (docs/tuning.md#open-limit). A sample inside a closed solid
+/// sees no front face.
 /// Misses do not count: below a floor, a box's face sees the floor's back and the void, and
 /// is as hidden as one inside.
 pub const OPEN_LIMIT: f32 = 0.25;

@@ -13,6 +13,9 @@
 //! factors, solved by Jacobi iteration). Texels whose sample point lies inside or behind
 //! geometry (many rays hit back faces) are excluded and their texels filled from valid
 //! neighbours of the same chart, so they neither leak light nor darkness.
+//!
+//! Kept in one file: gathering, the link cache and the Jacobi iteration share the links' layout
+//! and the per-round random streams that keep a bake deterministic.
 
 use std::collections::VecDeque;
 use std::ops::Range;

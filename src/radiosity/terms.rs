@@ -1,6 +1,6 @@
 //! An element's glossy terms held packed, in their gathering order and with their exact
-//! values: the solve reads them every bounce, and at building scale they were most of its
-//! memory (82% of the link cache of the 1/16 building at default, 16 bytes a term).
+//! values: the solve reads them every bounce, and at building scale, unpacked, they would be
+//! most of its memory (docs/tuning.md#cache-budget).
 //!
 //! Each term is one LEB128 varint ([`super::varint`]), the zigzagged difference from the previous term's texel
 //! shifted left by one, its low bit set when the weight is grey (three equal components, as

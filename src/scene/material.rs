@@ -150,7 +150,7 @@ impl Material {
     ///   Appendix B moves up to 96 % of the diffuse energy into the lobe, which glint keeps in
     ///   the diffuse term.
     /// - Rough dielectrics (roughness ≥ [`GLOSSY_ROUGHNESS_MAX`] and metallic < 0.5) keep
-    ///   only the diffuse term, k_d = c (1 − metallic), as before.
+    ///   only the diffuse term, k_d = c (1 − metallic).
     /// - emission = emissive factor × `KHR_materials_emissive_strength`.
     pub fn from_gltf(
         name: &str,

@@ -295,7 +295,7 @@ mod tests {
         // Where t(x) = t̄ and E(x) = Ē, D(x) = Q t(x) + E(x) is the texel's D.
         let d = q * s.modulation.unwrap() + s.emission;
         assert!((d - (reflected + s.emission)).abs().max_element() < 1e-7);
-        // Untextured: D itself, computed exactly as before.
+        // Untextured: D itself, as the solve computes it.
         let plain = TexelSurface {
             modulation: None,
             ..s

@@ -3,10 +3,9 @@
 //! tested together in one SIMD slab test (AVX where the CPU has it, else two 4-lane halves
 //! with glam's `Vec4`: SSE2 on x86-64, NEON on aarch64). Closest-hit queries visit the nearest
 //! hit child first; occlusion queries take them in lane order, unsorted (any hit will do, as
-//! in Embree's any-hit traversal: diffuse occlusion rays measured 0.72× Embree sorted, 1.00×
-//! unsorted). A leaf's triangles are tested together ([`pack`]): four with `Vec4`, five to eight
-//! in one AVX test. Coherent rays can also be traced eight at a time ([`packet`]), with the
-//! same hits.
+//! in Embree's any-hit traversal; docs/tuning.md#occlusion-order). A leaf's triangles are
+//! tested together ([`pack`]): four with `Vec4`, five to eight in one AVX test. Coherent rays
+//! can also be traced eight at a time ([`packet`]), with the same hits.
 //!
 //! Built by collapsing obvhs' BVH2 (PLOC build with reinsertion, leaves collapsed by SAH):
 //! each node takes up to eight descendants, opening the inner child of largest surface area
@@ -16,6 +15,9 @@
 //! Box tests are conservative in floating point: each far distance is widened by 2γ(3)
 //! (Ize 2013, "Robust BVH Ray Traversal", §3), so a triangle is never skipped because its
 //! box was grazed.
+//!
+//! Kept in one file: the build and the single-ray traversals share the node layout and the
+//! traversal stack; the SIMD parts are apart already (`avx`, `node`, `pack`, `packet`).
 
 #[cfg(target_arch = "x86_64")]
 mod avx;
@@ -36,7 +38,7 @@ use smallvec::SmallVec;
 use std::time::Duration;
 
 /// Cache lines prefetched per child: a node's four (256 bytes), a leaf's first 256 bytes (a
-/// pack is 144, a pair 288). Three and five measured no better (benches/embree/README.md).
+/// pack is 144, a pair 288); docs/tuning.md#prefetch-lines.
 const PREFETCH_LINES: usize = 4;
 
 /// Directions below this magnitude per axis count as this (keeps 1/d finite: no NaN from
@@ -139,10 +141,7 @@ pub(super) struct WideBvh {
 
 /// The BVH2 build: obvhs' slow build (PLOC with a wide search, reinsertion, large triangles
 /// pre-split into several boxes; leaves collapsed by SAH with at most eight triangles each: two
-/// packs; with eight-wide nodes this measured a few percent faster than four). Against the
-/// medium build it traced 10–35% more rays per second on the Breakfast
-/// Room (270k triangles) for about five times the build time: 2.3 s against 0.46 s on two
-/// busy cores (benches/bvh.rs).
+/// packs): faster rays for a longer build, docs/tuning.md#bvh-build.
 pub(super) const BUILD: BvhBuildParams = BvhBuildParams {
     max_prims_per_leaf: 8,
     ..BvhBuildParams::slow_build()
@@ -637,12 +636,11 @@ impl WideBvh {
 
     /// Starts loading the children in `mask` (software prefetch), so that the cache misses of
     /// those the ray visits later overlap with the work on the nearest instead of following it
-    /// (as Embree's traversal prefetches child nodes). Diffuse rays, whose nodes and leaves are
-    /// rarely in cache, gained about 10% for closest hits (benches/bvh.rs).
+    /// (as Embree's traversal prefetches child nodes); it pays on diffuse rays, whose nodes and
+    /// leaves are rarely in cache (docs/tuning.md#prefetch).
     ///
     /// The same [`PREFETCH_LINES`] lines for a leaf as for a node, the address picked without
-    /// a branch: against a node's four lines and a leaf's first pack's three, with a branch and
-    /// a loop on the size, this measured 5–10% faster for camera and diffuse closest hits.
+    /// a branch, which is faster than a branch and a loop on the size.
     #[inline(always)]
     fn prefetch(&self, node: &Node, mask: u32) {
         #[cfg(target_arch = "x86_64")]

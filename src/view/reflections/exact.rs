@@ -4,11 +4,10 @@
 //! A radiance map quantises every edge to its pixels: the splat of a map pixel whose centre
 //! ray met a lamp covers that pixel's whole patch, so the lamp's image in a mirror spilled up
 //! to half a map pixel onto the ceiling beside it. Elsewhere that is a soft edge; on an
-//! emitter, tens of times brighter than what surrounds it, it was most of glossy-room's
-//! image-mode error (the `front` view's 10 worst pixels held 70% of it, all on the mirrored
-//! lamp's edge). A curved reflector's map points hold what it reflects towards the map's
-//! centre of projection (`radiance::shading`), so the mirrored teapot showed its highlights
-//! where the map's camera saw them, not where the mirrored eye does.
+//! emitter, tens of times brighter than what surrounds it, it is most of the error
+//! (docs/tuning.md#exact-surfaces). A curved reflector's map points hold what it reflects
+//! towards the map's centre of projection (`radiance::shading`), so a splatted teapot shows
+//! its highlights where the map's camera saw them, not where the mirrored eye does.
 //!
 //! So map points that lie on these triangles are left out of the splats, and the triangles
 //! themselves are drawn into M after the splats, exact to the pixel: kd·D (and emission) by

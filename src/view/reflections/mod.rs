@@ -69,10 +69,8 @@ pub use splats::{SPLAT_OVERLAP, Splat};
 pub const REFLECT_SHADER_SOURCE: &str = include_str!("../../../shaders/reflect.wgsl");
 
 /// Clip distance of the mirrored view as a fraction of the scene's bounding-box diagonal:
-/// geometry closer to the plane than this (the reflector itself) is not reflected. It was
-/// 1e-3: that cut the bottom 8 mm off bunny-mirror's walls in the mirrored view, a dark line
-/// along the mirror floor's far edge (half a pixel at 384×256); at 1e-5 the bench's geometry
-/// mode went from 4.3% to 3.0% (orbit) and 4.7% to 3.2% (front) against the path tracer.
+/// geometry closer to the plane than this (the reflector itself) is not reflected; small, so
+/// the walls' bottom millimetres stay in the mirrored view (docs/tuning.md#clip-fraction).
 pub const CLIP_FRACTION: f32 = 1e-5;
 
 pub use crate::view::options::{ReflectanceSettings, ReflectionMode};

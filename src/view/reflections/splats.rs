@@ -19,12 +19,10 @@
 //! Holes are filled rather than only avoided by bigger splats because, at grazing views, most
 //! are not gaps between splats: they are directions no selected map saw. The maps' cameras
 //! stop at 80° from the normal, a few per ring, so a mirror seen at 80° reflects directions
-//! 50–60° from the nearest map's axis, past the edge of its frustum (a closed test room at
-//! draft: 47% of such a mirror's pixels black); no splat size reaches them. The fill runs in
-//! the composite, only at the reflector's uncovered pixels, so it adds no pass: a pull-push
-//! pyramid (Gortler et al. 1996 §3.3) filled as well but needs a pass per level per
-//! reflector (27 more per frame on glossy-room), and measured 10–15% slower in image mode on
-//! lavapipe; this fill's cost is below that machine's noise.
+//! 50–60° from the nearest map's axis, past the edge of its frustum; no splat size reaches
+//! them. The fill runs in the composite, only at the reflector's uncovered pixels, so it adds
+//! no pass (a pull-push pyramid needs a pass per level per reflector;
+//! docs/tuning.md#hole-fill).
 //!
 //! Several maps per element, by priority: a lower-ranked map is thinned by Eq. 3's step to
 //! every 2^rank-th point (it fills holes, which coarser splats fill as well) and its splats
@@ -32,8 +30,11 @@
 //! 1/0.7 of their distance), so they fill what the better maps leave empty (holes between
 //! splats, disocclusions) and do not paint their coarser or more oblique samples over the
 //! best map's samples of the same surface, yet a surface the better map saw past wins
-//! where it lies well in front. Without a rank order, more maps gave a higher error
-//! (1: 0.99, 2: 1.04, 4: 1.89): every map's splats competed by depth alone.
+//! where it lies well in front. Without a rank order every map's splats would compete by
+//! depth alone, and more maps would give a higher error (docs/tuning.md#rank-depth-scale).
+//!
+//! Kept in one file: each function is the CPU twin of a step of `vs_splat` or the composite in
+//! `shaders/reflect.wgsl`, side by side so they stay in step; about 520 of its lines are tests.
 
 use std::ops::Range;
 
@@ -52,17 +53,13 @@ pub const SPLAT_OVERLAP: f32 = 1.5;
 /// Clip-z scale of the part of a splat's patch outside its squeezed [`footprint`] (the gap
 /// fill, reverse Z: pushed about 5% of its distance back): it loses to any splat's own extent
 /// within that distance (a panel's spill onto the wall it hangs on) but wins over what lies
-/// far behind (a wall seen between the rows of a model's splats). Measured, image mode: 0.9,
-/// 0.95 and 0.99 give the glTF gold floor at 80° 0.109, 0.107 and 0.107 against the path
-/// tracer; 0.95 brings bunny-mirror's orbit from 13.0% to 9.7%.
+/// far behind (a wall seen between the rows of a model's splats);
+/// docs/tuning.md#gap-fill-depth.
 pub const GAP_FILL_DEPTH: f32 = 0.95;
 
 /// Clip-z scale per rank of a lower-ranked map (depth × this^rank, reverse Z): rank r + 1
-/// loses to rank r unless it is nearer than 0.7 of its distance. It was 10⁻³ (never wins):
-/// the best map of the element under bunny-mirror's bunny, from a camera 10° above the
-/// floor's plane, sees under the bunny's base to the wall, where the eye (15° up) and the
-/// second map see the base; the wall was drawn along the whole contact line, 63% of the
-/// `front` view's error in image mode (7.1% → 4.4% from the path tracer; 0.5 gives the same).
+/// loses to rank r unless it is nearer than 0.7 of its distance, so a second map that sees a
+/// nearer surface than the best one wins there (docs/tuning.md#rank-depth-scale).
 pub const RANK_DEPTH_SCALE: f32 = 0.7;
 
 /// One splat (32 bytes): a point of a radiance map, an element of `splat_points` (WGSL
@@ -137,9 +134,7 @@ impl SplatView {
 
 /// How far beyond its element's edges, in map pixels, a map's splats keep their depth
 /// ([`off_element`]): a splat straddles the edge, and near it the neighbour's map sees
-/// much the same. Fidelity table (image mode, noise out; bunny-mirror orbit/front,
-/// glossy-room walkthrough/front): 0.5 px 6.5/7.0/4.4/6.8%, 2 px 6.3/7.3/4.4/6.8%, 8 px
-/// 5.9/7.2/4.3/6.3%, 16 px 6.4/7.9/4.1/6.1%, 32 px 7.1/8.5/4.1/5.9%.
+/// much the same (docs/tuning.md#element-margin).
 pub const ELEMENT_MARGIN: f32 = 8.0;
 
 /// The clip-z scale of a splat whose point the mirrored eye sees through another element
@@ -151,9 +146,7 @@ pub const OFF_ELEMENT_DEPTH_SCALE: f32 = 1e-3;
 /// element sees (Bastos §8.1.1: the frusta pass through the element's corners); its points
 /// seen through a neighbouring element are seen from far off its centre of projection, with
 /// patches stretched and parallax wrong. Such splats are drawn pushed back, so they only fill
-/// what the right element's map leaves empty: bunny-mirror's `orbit` and `front` in image
-/// mode fell from 7.8% and 8.8% to 5.9% and 7.2% relative RMSE against the path tracer
-/// (noise out), its reflection no longer shredded by its neighbours' oblique samples.
+/// what the right element's map leaves empty (docs/tuning.md#off-element-depth-scale).
 pub fn off_element(view: &SplatView, eye: Vec3, p: Vec3) -> bool {
     let v3 = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
     let (corner, n) = (v3(view.corner), v3(view.normal));
@@ -172,9 +165,8 @@ pub fn off_element(view: &SplatView, eye: Vec3, p: Vec3) -> bool {
 
 /// The least |cos| between a map's ray and the surface it hit that [`footprint`] uses: a
 /// surface the map sees edge-on would stretch a pixel's patch without limit (here, to at most
-/// 3.3× its size facing the map). 0.1 before: silhouettes the maps see at grazing angles (the
-/// bunny's flanks in its floor mirror's maps) threw streaks across the reflection; 0.3 took
-/// bunny-mirror's image mode from 5.9/7.2% to 5.5/7.1% (orbit/front) from the path tracer.
+/// 3.3× its size facing the map), so grazing silhouettes throw no streaks across the
+/// reflection (docs/tuning.md#min-slant-cosine).
 pub const MIN_SLANT_COSINE: f32 = 0.3;
 
 /// The least fraction of a map pixel's patch, per screen axis, that [`footprint`] keeps when
@@ -215,9 +207,9 @@ impl Footprint {
 /// see nearly edge-on, a flatter one, so its splats no longer spill over what lies behind it.
 /// The patch is then squeezed, per screen axis, to fit in Eq. 3's box: where it is larger
 /// (a surface the map sees obliquely and the eye face-on), its half-pixel reach past the
-/// surface's edge drew over what lies beside it (panels on a black wall reflected in a
-/// floor at 80°: 0.130 → 0.175 relative RMSE against the path tracer), while Eq. 3's
-/// smaller splats leave those gaps to the overlap ring, which a neighbour's own splat wins.
+/// surface's edge would draw over what lies beside it (docs/tuning.md#footprint-squeeze),
+/// while Eq. 3's smaller splats leave those gaps to the overlap ring, which a neighbour's own
+/// splat wins.
 /// It keeps at least [`MIN_SQUEEZE`] of its extent, so a splat does not vanish where the eye
 /// sees the element's plane edge-on and Eq. 3's box has no height.
 /// `None` when `p` is behind the eye. `vs_splat` computes the same and draws the patch itself

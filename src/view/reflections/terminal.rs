@@ -16,10 +16,7 @@
 //! ([`crate::radiance::shading`]), but towards the map's camera: glossy-room's table, whose
 //! cameras sit 20 cm behind it, showed the mirror panel's reflection as they saw it. So a
 //! near-mirror's map points are left out of the splats and the mirror is drawn exactly
-//! ([`super::exact`]), kd·D and this specular term: the table's error alone 0.028 → 0.0066,
-//! the floor's 0.020 → 0.017, the `front` view 5.4% → 4.6% from the path tracer. (Tried
-//! before M's alpha carried the unfolded path's beyond fraction, the floor got worse, 0.018
-//! → 0.035: its kernel blurred what the mirror shows as if it lay on the mirror.)
+//! ([`super::exact`]), kd·D and this specular term (docs/tuning.md#terminal-cube-maps).
 
 use super::PlanarReflector;
 use crate::brdf::Lobe;
@@ -41,9 +38,8 @@ pub const CENTRE_OFFSET_FRACTION: f32 = 1e-3;
 /// centroid moved [`CENTRE_OFFSET_FRACTION`] of the scene's diagonal along its normal.
 ///
 /// Near-mirrors only: a rougher reflector seen through another one is blurred by both and
-/// adds little there, while its fragments cost as much. On glossy-room (720×486, lavapipe)
-/// the floor and the table as well took the geometry frame from 344 to 512 ms for a front
-/// view 4.47% → 4.43% from the path tracer.
+/// adds little there, while its fragments cost as much
+/// (docs/tuning.md#terminal-near-mirrors-only).
 pub fn terminal_reflectors(scene: &Scene, planar: &[PlanarReflector]) -> Vec<CurvedReflector> {
     let offset = scene.bounds.diagonal() * CENTRE_OFFSET_FRACTION;
     planar

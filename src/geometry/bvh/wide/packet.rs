@@ -14,7 +14,7 @@
 //! the first it visits. A ray that meets another triangle within a small relative distance of
 //! its nearest hit (boxes are entered that far beyond it, so rounding that puts a triangle's
 //! hit just before its box's entry is covered) is traced again alone, so the hits are those of
-//! single-ray traversal. Measured: 0.4% of the bench's camera rays (benches/embree/README.md).
+//! single-ray traversal (how often: docs/tuning.md#packet-retrace).
 
 use glam::Vec4;
 
