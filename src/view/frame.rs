@@ -13,19 +13,19 @@
 //! 5. curved reflectors by cube maps (Nielsen §3.2, Luksch §6–7);
 //! 6. the recursive planar reflections (geometry depth ≠ 1, Nielsen §3.1), which draw the
 //!    curved reflectors seen in their maps with the cube maps of step 5;
-//! 7. the display pass ([`super::display`]): steps 1–6 add linear radiance into the radiance
-//!    target (the HDR output, never exposed); this maps it to the 8-bit target with the
+//! 7. the display pass ([`super::passes::display`]): steps 1–6 add linear radiance into the
+//!    radiance target (the HDR output, never exposed); this maps it to the 8-bit target with the
 //!    options' exposure and tone curve.
 
 use super::curved::gpu::CurvedReflections;
-use super::display::{DisplayMapping, DisplayPass, RADIANCE_FORMAT};
 use super::exposure::auto_ev;
 use super::gpu::Gpu;
 use super::impostors::{ImpostorReflections, ReflectorSet, impostor_pass};
 use super::load::ViewData;
 use super::options::{CurvedMode, Exposure, ReflectionMode, Tonemap, ViewOptions};
+use super::passes::display::{DisplayMapping, DisplayPass, RADIANCE_FORMAT};
+use super::passes::renderer::{RenderError, Renderer, TargetFormats};
 use super::reflections::{GeometryReflections, RecursiveReflections, Source};
-use super::renderer::{RenderError, Renderer, TargetFormats};
 use crate::camera::Camera;
 
 /// The views a frame is drawn into, all of one size: linear radiance, the 8-bit display

@@ -8,16 +8,16 @@ use super::{
     ImpostorSettings, ReflectorSet, SRDM_SHADER_SOURCE, build_billboards, load_tables,
 };
 use crate::camera::Camera;
-use crate::view::billboard_tables::BillboardTables;
-use crate::view::build::{bind_group_layout, buffer, buffer_init, render_pipeline, shader};
-use crate::view::composite::Composite;
+use crate::view::gpu::build::{bind_group_layout, buffer, buffer_init, render_pipeline, shader};
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
-use crate::view::impostor_tables::{
+use crate::view::impostors::billboard_tables::BillboardTables;
+use crate::view::impostors::srdm_tables::{
     ImpostorParams, ImpostorReflector, SrdmTables, impostor_reflectors,
 };
 use crate::view::load::ViewData;
+use crate::view::passes::composite::Composite;
+use crate::view::passes::renderer::{Renderer, SHADER_SOURCE, frame_bind_group_layout};
 use crate::view::reflections::reflectors_with_reflectance;
-use crate::view::renderer::{Renderer, SHADER_SOURCE, frame_bind_group_layout};
 
 struct ReflectorGpu {
     reflector: ImpostorReflector,
@@ -49,8 +49,8 @@ impl ImpostorReflections {
         renderer: &Renderer,
         data: &ViewData,
         settings: ImpostorSettings,
-    ) -> Result<ImpostorReflections, crate::view::renderer::RenderError> {
-        use crate::view::renderer::RenderError;
+    ) -> Result<ImpostorReflections, crate::view::passes::renderer::RenderError> {
+        use crate::view::passes::renderer::RenderError;
         let reflectors: Vec<ImpostorReflector> =
             impostor_reflectors(&data.scene, &reflectors_with_reflectance(data))
                 .into_iter()

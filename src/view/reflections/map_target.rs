@@ -4,7 +4,9 @@
 //! recursion level in the recursive ones (Nielsen Figure 3).
 
 use crate::view::gpu::Gpu;
-use crate::view::target::{HDR_FORMAT, clear_pass, depth_texture, overlay_pass_on, texture_2d};
+use crate::view::gpu::target::{
+    HDR_FORMAT, clear_pass, depth_texture, overlay_pass_on, texture_2d,
+};
 
 /// A reflection map's textures and views.
 pub(super) struct ReflectionMap {

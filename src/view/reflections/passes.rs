@@ -23,13 +23,13 @@ use super::{
 };
 use crate::camera::Camera;
 use crate::geometry::Aabb;
-use crate::view::build::{buffer_init, render_pipeline, shader};
-use crate::view::composite::Composite;
 use crate::view::curved::CurvedSettings;
 use crate::view::curved::gpu::CurvedReflections;
+use crate::view::gpu::build::{buffer_init, render_pipeline, shader};
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
-use crate::view::renderer::{
+use crate::view::passes::composite::Composite;
+use crate::view::passes::renderer::{
     HDR_FORMAT, RenderError, Renderer, SURFACE_TEXTURES, frame_bind_group, frame_bind_group_layout,
     near_plane, reverse_z_depth, scene_vertex_layout, uniform_buffer, view_projection,
 };
@@ -177,7 +177,7 @@ impl GeometryReflections {
     ) -> Result<GeometryReflections, GpuError> {
         let (scene, map) = (&data.scene, &data.map);
         let device = &gpu.device;
-        let mesh = crate::view::renderer::SceneMesh::new(scene, &map.atlas);
+        let mesh = crate::view::passes::renderer::SceneMesh::new(scene, &map.atlas);
         let clip = (scene.bounds.diagonal() * CLIP_FRACTION).max(1e-5);
         error_scoped(device, "creating the reflection passes", || {
             let shader = shader(device, "glint reflection shader", &shader_source());

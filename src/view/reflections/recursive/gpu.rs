@@ -21,12 +21,14 @@ use super::{
     texture_bytes,
 };
 use crate::camera::Camera;
-use crate::view::build::{RenderPipelineBuilder, buffer, buffer_init, render_pipeline, shader};
-use crate::view::composite::Composite;
 use crate::view::curved::gpu::CurvedReflections;
+use crate::view::gpu::build::{
+    RenderPipelineBuilder, buffer, buffer_init, render_pipeline, shader,
+};
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
-use crate::view::renderer::{
+use crate::view::passes::composite::Composite;
+use crate::view::passes::renderer::{
     ADDITIVE_KEEP_ALPHA, HDR_FORMAT, RenderError, Renderer, SURFACE_TEXTURES, frame_bind_group,
     frame_bind_group_layout, reverse_z_depth, scene_vertex_layout, uniform_buffer,
 };
@@ -138,7 +140,7 @@ impl RecursiveReflections {
         settings: RecursionSettings,
     ) -> Result<RecursiveReflections, GpuError> {
         let device = &gpu.device;
-        let mesh = crate::view::renderer::SceneMesh::new(&data.scene, &data.map.atlas);
+        let mesh = crate::view::passes::renderer::SceneMesh::new(&data.scene, &data.map.atlas);
         let clip = (data.scene.bounds.diagonal() * CLIP_FRACTION).max(1e-5);
         error_scoped(device, "creating the recursive reflection passes", || {
             let shader = shader(
@@ -256,7 +258,7 @@ impl RecursiveReflections {
                 plan: Mutex::new(Plan::default()),
                 terminal: None,
                 clip,
-                near: crate::view::renderer::near_plane(&data.scene),
+                near: crate::view::passes::renderer::near_plane(&data.scene),
                 width,
                 height,
             }

@@ -2,8 +2,8 @@
 //! target, the reverse-Z depth state, the additive blend of passes drawn over the scene, and
 //! how a pass begins: clearing its targets, or loading a finished frame (the overlay).
 
-use super::frame::FrameViews;
-use super::gpu::{Gpu, GpuError, error_scoped};
+use crate::view::frame::FrameViews;
+use crate::view::gpu::{Gpu, GpuError, error_scoped};
 
 /// Offscreen colour target format: the hardware encodes linear output to sRGB.
 pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;

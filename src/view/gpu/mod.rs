@@ -1,6 +1,6 @@
 //! Headless GPU access: adapter and device selection, the errors GPU work reports, and the
 //! smoke-test triangle that proves an adapter can run the viewer. Readback is in
-//! [`super::readback`] (re-exported here).
+//! [`readback`] (re-exported here).
 //!
 //! Nothing here needs a window or a surface, so it runs on CI machines whose only GPU is a
 //! software Vulkan driver (Mesa lavapipe, from the Debian/Ubuntu package `mesa-vulkan-drivers`).
@@ -17,9 +17,17 @@
 
 use thiserror::Error;
 
-use super::build::{render_pipeline, shader};
-pub use super::readback::{read_buffer, read_texture, read_texture_rgba8};
-use super::target::{check_target_size, clear_pass, texture_2d};
+pub mod build;
+pub mod probe;
+pub mod radiosity_textures;
+pub mod readback;
+pub mod surface_textures;
+pub mod target;
+pub mod wgsl_layout;
+
+use build::{render_pipeline, shader};
+pub use readback::{read_buffer, read_texture, read_texture_rgba8};
+use target::{check_target_size, clear_pass, texture_2d};
 
 /// The backends the viewer renders with: Vulkan (and Metal / DX12 on the platforms that have
 /// them). GL is not among them (see the module documentation).
@@ -275,7 +283,7 @@ pub fn render_test_triangle(gpu: &Gpu, width: u32, height: u32) -> Result<Vec<u8
         let shader = shader(
             &gpu.device,
             "glint test triangle shader",
-            include_str!("../../shaders/test_triangle.wgsl"),
+            include_str!("../../../shaders/test_triangle.wgsl"),
         );
         let pipeline = render_pipeline("glint test triangle", &shader, "vs_main", "fs_main")
             .color(TEST_TRIANGLE_FORMAT, None)

@@ -6,12 +6,12 @@
 use exr::prelude::f16;
 use glam::Vec3;
 
-use super::gpu::{Gpu, error_scoped};
-use super::renderer::RenderError;
 use super::surface_textures::SurfaceTextures;
 use super::target::HDR_FORMAT;
 use crate::radiosity::RadiosityMap;
 use crate::scene::Scene;
+use crate::view::gpu::{Gpu, error_scoped};
+use crate::view::passes::renderer::RenderError;
 
 /// The radiosity pages on the GPU: a texture array with its sampler.
 pub struct RadiosityTextures {

@@ -8,11 +8,11 @@
 use bytemuck::{Pod, Zeroable};
 
 use super::build::buffer_init;
-use super::gpu::{Gpu, error_scoped};
-use super::renderer::RenderError;
 use crate::scene::Scene;
 use crate::scene::material::{AlphaMode, TextureRef};
 use crate::scene::texture::{Filter, Wrap};
+use crate::view::gpu::{Gpu, error_scoped};
+use crate::view::passes::renderer::RenderError;
 
 /// One texture slot of a material (48 bytes; `TexRef` in `shaders/view.wgsl`).
 #[repr(C)]
@@ -224,7 +224,7 @@ impl SurfaceTextures {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::view::renderer::SHADER_SOURCE;
+    use crate::view::passes::renderer::SHADER_SOURCE;
 
     #[test]
     fn records_match_the_wgsl_structs() {

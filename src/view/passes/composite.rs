@@ -5,9 +5,9 @@
 //! [`ADDITIVE_KEEP_ALPHA`], depth tested against the scene (reverse Z, `GreaterEqual`) and not
 //! written; bind group 0 is the renderer's frame uniforms.
 
-use super::build::RenderPipelineBuilder;
 use super::renderer::{Renderer, frame_bind_group};
-use super::target::{
+use crate::view::gpu::build::RenderPipelineBuilder;
+use crate::view::gpu::target::{
     ADDITIVE_KEEP_ALPHA, HDR_FORMAT, TargetFormats, overlay_pass, reverse_z_depth,
 };
 
