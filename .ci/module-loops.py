@@ -1,14 +1,20 @@
 #!/usr/bin/env python3
-"""Import loops between the files of a Rust source tree: `.ci/module-loops.py [DIR]` (default
-src/view). Each file is a module; file A depends on file B when A's non-test code names a path
-(in a `use` or inline: `crate::…`, `super::…`, `self::…`, a child module) that resolves into B.
-Prints every strongly connected group of files and exits 1 if there is one."""
+"""Import loops between the files of a Rust source tree: `.ci/module-loops.py [--strict] [DIR]`
+(default src/view). Each file is a module; file A depends on file B when A's non-test code names
+a path (in a `use` or inline: `crate::…`, `super::…`, `self::…`, a child module) that resolves
+into B. A folder's `mod.rs` and the files under it are one unit (a submodule may use what its
+parent declares, and the parent re-exports its submodules), so edges between a module and its
+own ancestors are left out unless `--strict`. Prints every strongly connected group of files
+and exits 1 if there is one."""
 
 import re
 import sys
 from pathlib import Path
 
-root = Path(sys.argv[1] if len(sys.argv) > 1 else "src/view")
+args = sys.argv[1:]
+strict = "--strict" in args
+args = [a for a in args if a != "--strict"]
+root = Path(args[0] if args else "src/view")
 crate_root = Path("src")
 
 
@@ -89,7 +95,10 @@ for m in ours:
     paths += re.findall(r"\b((?:crate|super|self)(?:::\w+)+)", code)
     for p in paths:
         target = resolve(m, p, children)
-        if target and target != m and target in ours:
+        if not target or target == m or target not in ours:
+            continue
+        related = target == m[: len(target)] or m == target[: len(m)]
+        if strict or not related:
             edges[m].add(target)
 
 # Tarjan's strongly connected components.

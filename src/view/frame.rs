@@ -20,25 +20,16 @@
 use super::curved::gpu::CurvedReflections;
 use super::exposure::auto_ev;
 use super::gpu::Gpu;
+use super::gpu::target::FrameViews;
 use super::impostors::{ImpostorReflections, ReflectorSet, impostor_pass};
 use super::load::ViewData;
 use super::options::{CurvedMode, Exposure, ReflectionMode, Tonemap, ViewOptions};
 use super::passes::display::{DisplayMapping, DisplayPass, RADIANCE_FORMAT};
-use super::passes::renderer::{RenderError, Renderer, TargetFormats};
+use super::passes::renderer::Renderer;
 use super::reflections::{GeometryReflections, RecursiveReflections, Source};
 use crate::camera::Camera;
-
-/// The views a frame is drawn into, all of one size: linear radiance, the 8-bit display
-/// target and depth.
-#[derive(Clone, Copy)]
-pub struct FrameViews<'a> {
-    /// The linear radiance target ([`RADIANCE_FORMAT`]; also sampled by the display pass).
-    pub radiance: &'a wgpu::TextureView,
-    /// The display target (the format the passes were built for).
-    pub display: &'a wgpu::TextureView,
-    /// The depth buffer (reverse Z).
-    pub depth: &'a wgpu::TextureView,
-}
+use crate::view::gpu::RenderError;
+use crate::view::gpu::target::TargetFormats;
 
 /// Groups of passes that are built together: a change of options rebuilds the groups whose
 /// inputs changed.

@@ -9,10 +9,10 @@ use super::build::{bind_group_layout, buffer, buffer_init, compute_pipeline, sha
 use super::radiosity_textures::RadiosityTextures;
 use super::readback::read_buffer;
 use crate::radiosity::RadiosityMap;
+use crate::view::gpu::RenderError;
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::passes::renderer::{
-    FrameUniforms, RenderError, SHADER_SOURCE, frame_bind_group, frame_bind_group_layout,
-    uniform_buffer,
+    FrameUniforms, SHADER_SOURCE, frame_bind_group, frame_bind_group_layout, uniform_buffer,
 };
 
 /// The bind-group layout of a compute probe's own buffers: binding 0 the input items

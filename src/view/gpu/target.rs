@@ -2,7 +2,6 @@
 //! target, the reverse-Z depth state, the additive blend of passes drawn over the scene, and
 //! how a pass begins: clearing its targets, or loading a finished frame (the overlay).
 
-use crate::view::frame::FrameViews;
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 
 /// Offscreen colour target format: the hardware encodes linear output to sRGB.
@@ -198,6 +197,18 @@ pub fn depth_texture(gpu: &Gpu, width: u32, height: u32) -> wgpu::Texture {
         DEPTH_FORMAT,
         wgpu::TextureUsages::RENDER_ATTACHMENT,
     )
+}
+
+/// The views a frame is drawn into, all of one size: linear radiance, the 8-bit display
+/// target and depth.
+#[derive(Clone, Copy)]
+pub struct FrameViews<'a> {
+    /// The linear radiance target ([`HDR_FORMAT`]; also sampled by the display pass).
+    pub radiance: &'a wgpu::TextureView,
+    /// The display target (the format the passes were built for).
+    pub display: &'a wgpu::TextureView,
+    /// The depth buffer (reverse Z).
+    pub depth: &'a wgpu::TextureView,
 }
 
 /// An offscreen target: linear radiance (readable: the HDR output), the 8-bit colour the

@@ -9,10 +9,10 @@ use std::path::{Path, PathBuf};
 
 use crate::image_io::{self, ImageError};
 use crate::progress::{Cancelled, Progress};
+use crate::view::gpu::RenderError;
 use crate::view::gpu::{Gpu, GpuError};
 use crate::view::load::{LoadError, ViewData, load};
 use crate::view::options::ViewOptions;
-use crate::view::passes::renderer::RenderError;
 pub use offscreen::{FrameTimes, Offscreen};
 use replay::{
     FrameTiming, Summary, TIMINGS_FORMAT, TIMINGS_VERSION, Timings, frame_file_name, is_written,

@@ -116,7 +116,7 @@ pub fn impostor_pass(
     data: &ViewData,
     kind: ImpostorKind,
     set: ReflectorSet,
-) -> Result<ImpostorReflections, crate::view::passes::renderer::RenderError> {
+) -> Result<ImpostorReflections, crate::view::gpu::RenderError> {
     ImpostorReflections::new(
         gpu,
         renderer,

@@ -49,8 +49,8 @@ impl ImpostorReflections {
         renderer: &Renderer,
         data: &ViewData,
         settings: ImpostorSettings,
-    ) -> Result<ImpostorReflections, crate::view::passes::renderer::RenderError> {
-        use crate::view::passes::renderer::RenderError;
+    ) -> Result<ImpostorReflections, crate::view::gpu::RenderError> {
+        use crate::view::gpu::RenderError;
         let reflectors: Vec<ImpostorReflector> =
             impostor_reflectors(&data.scene, &reflectors_with_reflectance(data))
                 .into_iter()

@@ -37,13 +37,9 @@ use crate::radiosity::RadiosityMap;
 use crate::radiosity::atlas::Atlas;
 use crate::scene::{Material, Scene};
 use crate::view::gpu::build::{bind_group_layout, buffer, buffer_init, render_pipeline, shader};
-pub use crate::view::gpu::radiosity_textures::RadiosityTextures;
-use crate::view::gpu::target::clear_pass;
-pub use crate::view::gpu::target::{
-    ADDITIVE_KEEP_ALPHA, COLOR_FORMAT, DEPTH_FORMAT, HDR_FORMAT, OffscreenTarget, TargetFormats,
-    depth_texture, overlay_pass, reverse_z_depth,
-};
-use crate::view::gpu::{Gpu, GpuError, error_scoped};
+use crate::view::gpu::radiosity_textures::RadiosityTextures;
+use crate::view::gpu::target::{HDR_FORMAT, TargetFormats, clear_pass, reverse_z_depth};
+use crate::view::gpu::{Gpu, RenderError, error_scoped};
 
 /// WGSL source of the viewer's shaders.
 pub const SHADER_SOURCE: &str = include_str!("../../../shaders/view.wgsl");
@@ -98,58 +94,6 @@ pub(crate) fn scene_vertex_layout() -> wgpu::VertexBufferLayout<'static> {
         step_mode: wgpu::VertexStepMode::Vertex,
         attributes: &VERTEX_ATTRIBUTES,
     }
-}
-
-/// Why the scene cannot be drawn on this device.
-#[derive(Debug, thiserror::Error)]
-pub enum RenderError {
-    /// wgpu reported an error.
-    #[error(transparent)]
-    Gpu(#[from] GpuError),
-    /// The atlas does not fit the device's texture limits.
-    #[error(
-        "the radiosity atlas ({width}×{height} texels × {layers} pages) exceeds this GPU's limits ({max_side} texels per side, {max_layers} layers)"
-    )]
-    AtlasTooLarge {
-        /// Layer width.
-        width: u32,
-        /// Layer height.
-        height: u32,
-        /// Pages.
-        layers: u32,
-        /// `max_texture_dimension_2d`.
-        max_side: u32,
-        /// `max_texture_array_layers`.
-        max_layers: u32,
-    },
-    /// The scene's textures do not fit the device's texture limits (one layer per image, as
-    /// large as the largest image).
-    #[error(
-        "the scene's textures ({width}×{height} texels × {layers} images) exceed this GPU's limits ({max_side} texels per side, {max_layers} layers)"
-    )]
-    TexturesTooLarge {
-        /// Layer width.
-        width: u32,
-        /// Layer height.
-        height: u32,
-        /// Images.
-        layers: u32,
-        /// `max_texture_dimension_2d`.
-        max_side: u32,
-        /// `max_texture_array_layers`.
-        max_layers: u32,
-    },
-    /// The reflection passes cannot be set up (a missing stage, an unreadable radiance map).
-    #[error("reflections: {0}")]
-    Reflections(String),
-    /// The scene's vertex buffer exceeds the device's buffer limit.
-    #[error("the scene's {bytes} bytes of vertices exceed this GPU's buffer limit of {max} bytes")]
-    TooManyVertices {
-        /// Bytes needed.
-        bytes: u64,
-        /// `max_buffer_size`.
-        max: u64,
-    },
 }
 
 /// The scene as one indexed triangle list.

@@ -25,13 +25,15 @@ use crate::camera::Camera;
 use crate::geometry::Aabb;
 use crate::view::curved::CurvedSettings;
 use crate::view::curved::gpu::CurvedReflections;
+use crate::view::gpu::RenderError;
 use crate::view::gpu::build::{buffer_init, render_pipeline, shader};
+use crate::view::gpu::target::{HDR_FORMAT, reverse_z_depth};
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
 use crate::view::passes::composite::Composite;
 use crate::view::passes::renderer::{
-    HDR_FORMAT, RenderError, Renderer, SURFACE_TEXTURES, frame_bind_group, frame_bind_group_layout,
-    near_plane, reverse_z_depth, scene_vertex_layout, uniform_buffer, view_projection,
+    Renderer, SURFACE_TEXTURES, frame_bind_group, frame_bind_group_layout, near_plane,
+    scene_vertex_layout, uniform_buffer, view_projection,
 };
 
 /// Screen pixels beyond the filter's reach that image mode's splats still cover around an

@@ -33,13 +33,15 @@ use super::{
     generation_plan, own_offset, pack_patterns, patterns_for, shader_source,
 };
 use crate::camera::Camera;
+use crate::view::gpu::RenderError;
 use crate::view::gpu::build::{buffer_init, render_pipeline, shader};
+use crate::view::gpu::target::{ADDITIVE_KEEP_ALPHA, HDR_FORMAT, reverse_z_depth};
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
 use crate::view::passes::composite::Composite;
 use crate::view::passes::renderer::{
-    ADDITIVE_KEEP_ALPHA, HDR_FORMAT, RenderError, Renderer, SURFACE_TEXTURES, SceneMesh,
-    frame_bind_group, frame_bind_group_layout, reverse_z_depth, uniform_buffer,
+    Renderer, SURFACE_TEXTURES, SceneMesh, frame_bind_group, frame_bind_group_layout,
+    uniform_buffer,
 };
 
 /// Smallest buffer the curved passes make (a pattern buffer may be empty).

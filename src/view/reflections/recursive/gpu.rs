@@ -22,15 +22,17 @@ use super::{
 };
 use crate::camera::Camera;
 use crate::view::curved::gpu::CurvedReflections;
+use crate::view::gpu::RenderError;
 use crate::view::gpu::build::{
     RenderPipelineBuilder, buffer, buffer_init, render_pipeline, shader,
 };
+use crate::view::gpu::target::{ADDITIVE_KEEP_ALPHA, HDR_FORMAT, reverse_z_depth};
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
 use crate::view::passes::composite::Composite;
 use crate::view::passes::renderer::{
-    ADDITIVE_KEEP_ALPHA, HDR_FORMAT, RenderError, Renderer, SURFACE_TEXTURES, frame_bind_group,
-    frame_bind_group_layout, reverse_z_depth, scene_vertex_layout, uniform_buffer,
+    Renderer, SURFACE_TEXTURES, frame_bind_group, frame_bind_group_layout, scene_vertex_layout,
+    uniform_buffer,
 };
 
 /// A child's map composited into its parent's: colour added, and the parent's alpha f_q (the
