@@ -251,14 +251,13 @@ impl ImpostorReflections {
         }
     }
 
-    /// Records, after the scene pass into `color`/`hdr`/`depth` (depth stored), one pass that
+    /// Records, after the scene pass into `color`/`depth` (depth stored), one pass that
     /// draws every reflector's visible pixels with their impostor reflections added. The frame
     /// uniforms are those of the renderer the pass was built for.
     pub fn draw(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         color: &wgpu::TextureView,
-        hdr: Option<&wgpu::TextureView>,
         depth: &wgpu::TextureView,
     ) {
         let nothing = match &self.billboards {
@@ -269,14 +268,9 @@ impl ImpostorReflections {
         if nothing || self.reflectors.iter().all(|r| r.vertex_count == 0) {
             return;
         }
-        let mut pass = self.composite.begin(
-            encoder,
-            "glint impostor reflections pass",
-            color,
-            hdr,
-            depth,
-            None,
-        );
+        let mut pass =
+            self.composite
+                .begin(encoder, "glint impostor reflections pass", color, depth);
         match &self.billboards {
             Some(b) => pass.set_bind_group(3, &b.group, &[]),
             None => pass.set_bind_group(1, &self.buffers.group, &[]),

@@ -38,7 +38,7 @@ use crate::radiosity::atlas::Atlas;
 use crate::scene::{Material, Scene};
 use crate::view::gpu::build::{bind_group_layout, buffer, buffer_init, render_pipeline, shader};
 use crate::view::gpu::radiosity_textures::RadiosityTextures;
-use crate::view::gpu::target::{HDR_FORMAT, TargetFormats, clear_pass, reverse_z_depth};
+use crate::view::gpu::target::{TargetFormats, clear_pass, reverse_z_depth};
 use crate::view::gpu::{Gpu, RenderError, error_scoped};
 
 /// WGSL source of the viewer's shaders.
@@ -352,18 +352,12 @@ impl Renderer {
             let bind_group_layout = frame_bind_group_layout(device);
             let uniforms = uniform_buffer(device);
             let bind_group = frame_bind_group(device, &bind_group_layout, &uniforms, &textures);
-            let hdr_target = formats.hdr.then_some(wgpu::ColorTargetState {
-                format: HDR_FORMAT,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            });
             let pipeline = |label, entry, textures| {
                 render_pipeline(label, &shader, "vs_main", entry)
                     .layouts(&[&bind_group_layout])
                     .vertex(scene_vertex_layout())
                     .depth(reverse_z_depth(true, wgpu::CompareFunction::Greater))
                     .color(formats.color, None)
-                    .target(hdr_target.clone())
                     .override_bool(SURFACE_TEXTURES, textures)
                     .build(device)
             };
@@ -473,20 +467,18 @@ impl Renderer {
     }
 
     /// Records the scene's render pass: clears colour to black and depth to 0 (reverse Z),
-    /// draws every triangle, each [`ShadingRun`] with its pipeline. `hdr` must be given exactly
-    /// when the pipeline has an HDR target.
+    /// draws every triangle, each [`ShadingRun`] with its pipeline.
     pub fn draw(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         color: &wgpu::TextureView,
-        hdr: Option<&wgpu::TextureView>,
         depth: &wgpu::TextureView,
         timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
         let mut pass = clear_pass(
             encoder,
             "glint scene pass",
-            &[Some(color), hdr],
+            &[Some(color)],
             wgpu::Color::BLACK,
             // Depth kept: the reflection composite (`view::reflections`) depth-tests against it.
             Some((depth, true)),

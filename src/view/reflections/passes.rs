@@ -430,7 +430,7 @@ impl GeometryReflections {
     /// Writes each reflector's mirrored-view uniforms for `camera` and, in image mode, plans
     /// its splats (map selection, Eq. 3 sizes, culling, skipping; the writes land before the
     /// next submission). With `curved`, also the curved reflectors' mirrored views (slot =
-    /// the reflector's index), which [`GeometryReflections::draw_timed`] draws
+    /// the reflector's index), which [`GeometryReflections::draw`] draws
     /// into each mirror pass.
     pub fn prepare(
         &self,
@@ -515,36 +515,20 @@ impl GeometryReflections {
         }
     }
 
-    /// Records, after the scene pass into `color`/`hdr`/`depth` (depth stored), each visible
-    /// reflector's mirror pass and composite. Reflectors seen from behind are skipped.
+    /// Records, after the scene pass into `color`/`depth` (depth stored), each visible
+    /// reflector's mirror pass and composite. Reflectors seen from behind are skipped. With
+    /// `curved` (prepared by [`GeometryReflections::prepare`] with the same passes), the mirror
+    /// passes also draw the curved reflectors' specular term in the mirrored view, so a curved
+    /// reflector seen in a planar mirror is not kd·D alone: geometry mode over its scene pass,
+    /// image mode over the curved reflectors' kd·D it draws after the splats
+    /// ([`super::exact`]).
     pub fn draw(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         renderer: &Renderer,
         camera: &Camera,
         color: &wgpu::TextureView,
-        hdr: Option<&wgpu::TextureView>,
         depth: &wgpu::TextureView,
-    ) {
-        self.draw_timed(encoder, renderer, camera, color, hdr, depth, None, None);
-    }
-
-    /// [`GeometryReflections::draw`], the last pass writing its end timestamp into
-    /// `end_timestamp` (query set, index) when given. With `curved` (prepared by
-    /// [`GeometryReflections::prepare`] with the same passes), the mirror passes also draw
-    /// the curved reflectors' specular term in the mirrored view, so a curved reflector seen
-    /// in a planar mirror is not kd·D alone: geometry mode over its scene pass, image mode
-    /// over the curved reflectors' kd·D it draws after the splats ([`super::exact`]).
-    #[allow(clippy::too_many_arguments)]
-    pub fn draw_timed(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        renderer: &Renderer,
-        camera: &Camera,
-        color: &wgpu::TextureView,
-        hdr: Option<&wgpu::TextureView>,
-        depth: &wgpu::TextureView,
-        end_timestamp: Option<(&wgpu::QuerySet, u32)>,
         curved: Option<&CurvedReflections>,
     ) {
         let visible: Vec<(usize, &ReflectorGpu)> = self
@@ -553,7 +537,7 @@ impl GeometryReflections {
             .enumerate()
             .filter(|(_, r)| self.visible(r, camera))
             .collect();
-        for (k, &(slot, r)) in visible.iter().enumerate() {
+        for &(slot, r) in &visible {
             {
                 let mut pass = self.map.begin_mirror(encoder, "glint mirror pass", false);
                 match (self.source, &r.splats) {
@@ -610,15 +594,9 @@ impl GeometryReflections {
                 &self.pyramid,
                 matches!(self.source, Source::Image { .. }),
             );
-            let end = end_timestamp.filter(|_| k + 1 == visible.len());
-            let mut pass = self.composite.begin(
-                encoder,
-                "glint reflection composite pass",
-                color,
-                hdr,
-                depth,
-                end,
-            );
+            let mut pass =
+                self.composite
+                    .begin(encoder, "glint reflection composite pass", color, depth);
             pass.set_bind_group(1, &r.composite_params_group, &[]);
             pass.set_vertex_buffer(0, renderer.vertex_buffer().slice(..));
             pass.set_index_buffer(r.indices.slice(..), wgpu::IndexFormat::Uint32);

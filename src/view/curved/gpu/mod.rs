@@ -470,27 +470,21 @@ impl CurvedReflections {
         }
     }
 
-    /// Records, after the scene pass into `color`/`hdr`/`depth` (depth stored), the
+    /// Records, after the scene pass into `color`/`depth` (depth stored), the
     /// reflectors' specular term, depth-tested against the scene so only their visible pixels
     /// get it, added to kd·D.
     pub fn draw(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         color: &wgpu::TextureView,
-        hdr: Option<&wgpu::TextureView>,
         depth: &wgpu::TextureView,
     ) {
         if self.reflectors.is_empty() {
             return;
         }
-        let mut pass = self.composite.begin(
-            encoder,
-            "glint curved composite pass",
-            color,
-            hdr,
-            depth,
-            None,
-        );
+        let mut pass = self
+            .composite
+            .begin(encoder, "glint curved composite pass", color, depth);
         for r in &self.reflectors {
             pass.set_bind_group(1, &r.composite_group, &[]);
             pass.set_vertex_buffer(0, r.vertices.slice(..));

@@ -292,7 +292,7 @@ impl RecursiveReflections {
         self.plan.lock().map(|p| p.stats).unwrap_or_default()
     }
 
-    /// Render passes [`RecursiveReflections::draw_timed`] records for the last prepared frame
+    /// Render passes [`RecursiveReflections::draw`] records for the last prepared frame
     /// (a scene pass, one per level of its pyramid and a composite per map).
     pub fn pass_count(&self) -> usize {
         (2 + crate::view::reflections::filter::level_count(self.width, self.height) as usize)
@@ -336,7 +336,7 @@ impl RecursiveReflections {
     /// Plans the reflection tree for `camera` and writes every node's uniforms (the writes
     /// land before the next submission). With `curved`, also the curved reflectors' view of
     /// every node (slot = the node's index), drawn into its map by
-    /// [`RecursiveReflections::draw_timed`].
+    /// [`RecursiveReflections::draw`].
     pub fn prepare(
         &self,
         gpu: &Gpu,
@@ -414,35 +414,28 @@ impl RecursiveReflections {
         }
     }
 
-    /// Records, after the scene pass into `color`/`hdr`/`depth` (depth stored), the last
-    /// prepared frame's reflection tree depth first (Figure 4), the last pass writing its end
-    /// timestamp into `end_timestamp` when given; with `curved` (prepared with the same
+    /// Records, after the scene pass into `color`/`depth` (depth stored), the last prepared
+    /// frame's reflection tree depth first (Figure 4); with `curved` (prepared with the same
     /// passes), each map also gets the curved reflectors' specular term in its view.
-    #[allow(clippy::too_many_arguments)]
-    pub fn draw_timed(
+    pub fn draw(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         renderer: &Renderer,
         color: &wgpu::TextureView,
-        hdr: Option<&wgpu::TextureView>,
         depth: &wgpu::TextureView,
-        end_timestamp: Option<(&wgpu::QuerySet, u32)>,
         curved: Option<&CurvedReflections>,
     ) {
         let (Ok(plan), Ok(slots)) = (self.plan.lock(), self.slots.lock()) else {
             return;
         };
-        for (k, &root) in plan.roots.iter().enumerate() {
+        for &root in &plan.roots {
             self.draw_node(encoder, renderer, &plan, &slots, root, curved);
             self.filter_node(encoder, &plan.nodes[root]);
-            let end = end_timestamp.filter(|_| k + 1 == plan.roots.len());
             let mut pass = self.frame_composite.begin(
                 encoder,
                 "glint recursive frame composite",
                 color,
-                hdr,
                 depth,
-                end,
             );
             self.composite(&mut pass, renderer, &plan.nodes[root], &slots[root]);
         }
