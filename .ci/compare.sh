@@ -9,7 +9,7 @@ set -euo pipefail
 before=$(cd "$1" && pwd); after=$(cd "$2" && pwd)
 cd "$(dirname "$0")/.."
 work=${3:-$(mktemp -d)}
-mkdir -p "$work"
+mkdir -p "$work/before" "$work/after"
 scenes=${SCENES:-$(for s in scenes/*/scene.json; do basename "$(dirname "$s")"; done)}
 qualities=${QUALITIES:-draft}
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
@@ -26,7 +26,7 @@ for scene in $scenes; do
 import json, sys
 def stages(p):
     m = json.load(open(p))
-    return m["scene"], {s: (r["settings"], [(a["path"], a["kind"], a["bytes"], a["blake3"]) for a in r["assets"]])
+    return (m["scene_name"], m["scene_hash"]), {s: (r["settings"], [(a["path"], a["kind"], a["bytes"], a["blake3"]) for a in r["assets"]])
                         for s, r in m["stages"].items()}
 (sa, a), (sb, b) = stages(sys.argv[1]), stages(sys.argv[2])
 bad = [s for s in sorted(set(a) | set(b)) if a.get(s) != b.get(s)]
@@ -46,7 +46,7 @@ if [ "${VIEW:-1}" != 0 ] && [ -x "$before/glint-view" ] && [ -x "$after/glint-vi
       tag=$(echo "$mode" | tr ' ' '_' | tr -d '-')
       for side in before after; do
         bin=$([ $side = before ] && echo "$before" || echo "$after")
-        rm -rf "$work/$side/frames/$scene/$tag"
+        rm -rf "$work/$side/frames/$scene/$tag"; mkdir -p "$work/$side/frames/$scene"
         "$bin/glint-view" "$work/before/$scene-$q.glint" --replay --headless --size 360x243 --every 40 \
           --reflections $mode --out "$work/$side/frames/$scene/$tag" >/dev/null 2>"$work/$side/view-$scene-$tag.log" \
           || echo "view   $scene $tag: $side exited non-zero (see $work/$side/view-$scene-$tag.log)"

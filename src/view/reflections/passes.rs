@@ -24,7 +24,7 @@ use super::{
 use crate::camera::Camera;
 use crate::geometry::Aabb;
 use crate::view::curved::CurvedSettings;
-use crate::view::curved::gpu::CurvedReflections;
+use crate::view::curved::gpu::{CurvedReflections, MirroredView};
 use crate::view::gpu::RenderError;
 use crate::view::gpu::build::{buffer_init, render_pipeline, shader};
 use crate::view::gpu::target::{HDR_FORMAT, reverse_z_depth};
@@ -447,15 +447,13 @@ impl GeometryReflections {
             if seen {
                 // The curved reflectors and the terminal ones seen in this mirror.
                 for c in curved.into_iter().chain(self.terminal.as_ref()) {
-                    c.prepare_mirror(
-                        gpu,
-                        renderer,
-                        slot,
-                        &mirrored,
-                        self.width,
-                        self.height,
-                        self.clip_plane(r),
-                    );
+                    let view = MirroredView {
+                        camera: &mirrored,
+                        width: self.width,
+                        height: self.height,
+                        clip: self.clip_plane(r),
+                    };
+                    c.prepare_mirror(gpu, renderer, slot, &view);
                 }
             }
             let u = renderer.uniforms(&mirrored, self.width, self.height);

@@ -90,6 +90,21 @@ struct MirrorView {
     reflectors: Vec<(wgpu::Buffer, wgpu::BindGroup)>,
 }
 
+/// A view mirrored about a planar reflector, as its map sees the scene.
+#[derive(Clone, Copy)]
+pub struct MirroredView<'a> {
+    /// The camera mirrored about the reflector: the map's frame uniforms and the eye of every
+    /// curved reflector's term.
+    pub camera: &'a Camera,
+    /// The map's width in pixels.
+    pub width: u32,
+    /// The map's height in pixels.
+    pub height: u32,
+    /// The reflector's plane (normal xyz, w = normal · point + clip distance): fragments
+    /// behind it are discarded.
+    pub clip: Vec4,
+}
+
 /// The curved-reflector passes of one [`Renderer`]: cube maps made at construction, the
 /// composite recorded per frame ([`CurvedReflections::prepare`], [`CurvedReflections::draw`])
 /// and inside planar mirrors' passes ([`CurvedReflections::prepare_mirror`],
@@ -537,22 +552,9 @@ impl CurvedReflections {
         }
     }
 
-    /// Writes mirrored view `slot` (the planar passes number their mirror passes): `mirrored`
-    /// is the camera mirrored about a planar reflector (its frame uniforms at `width` ×
-    /// `height`, and the eye of every curved reflector's term), `clip` that reflector's plane
-    /// (normal xyz, w = normal · point + clip distance): fragments behind it are discarded.
+    /// Writes mirrored view `slot` (the planar passes number their mirror passes), `view`.
     /// The writes land before the next submission.
-    #[allow(clippy::too_many_arguments)]
-    pub fn prepare_mirror(
-        &self,
-        gpu: &Gpu,
-        renderer: &Renderer,
-        slot: usize,
-        mirrored: &Camera,
-        width: u32,
-        height: u32,
-        clip: Vec4,
-    ) {
+    pub fn prepare_mirror(&self, gpu: &Gpu, renderer: &Renderer, slot: usize, view: &MirroredView) {
         if self.reflectors.is_empty() {
             return;
         }
@@ -563,14 +565,20 @@ impl CurvedReflections {
             let view = self.new_mirror_view(gpu, renderer);
             views.push(view);
         }
+        let MirroredView {
+            camera,
+            width,
+            height,
+            clip,
+        } = *view;
         let view = &views[slot];
-        let mut u = renderer.uniforms(mirrored, width, height);
+        let mut u = renderer.uniforms(camera, width, height);
         u.encode_srgb = 0; // M holds linear radiance
         gpu.queue
             .write_buffer(&view.uniforms, 0, bytemuck::bytes_of(&u));
         for (r, (params, _)) in self.reflectors.iter().zip(&view.reflectors) {
             let mut p = r.base_params;
-            p.eye = mirrored.position.extend(0.0).to_array();
+            p.eye = camera.position.extend(0.0).to_array();
             p.clip = clip.to_array();
             gpu.queue.write_buffer(params, 0, bytemuck::bytes_of(&p));
         }

@@ -21,7 +21,7 @@ use super::{
     texture_bytes,
 };
 use crate::camera::Camera;
-use crate::view::curved::gpu::CurvedReflections;
+use crate::view::curved::gpu::{CurvedReflections, MirroredView};
 use crate::view::gpu::RenderError;
 use crate::view::gpu::build::{
     RenderPipelineBuilder, buffer, buffer_init, render_pipeline, shader,
@@ -366,15 +366,13 @@ impl RecursiveReflections {
         }
         for (id, (node, slot)) in plan.nodes.iter().zip(slots.iter_mut()).enumerate() {
             for c in curved.into_iter().chain(self.terminal.as_ref()) {
-                c.prepare_mirror(
-                    gpu,
-                    renderer,
-                    id,
-                    &node.camera,
-                    self.width,
-                    self.height,
-                    self.clip_plane(node.reflector),
-                );
+                let view = MirroredView {
+                    camera: &node.camera,
+                    width: self.width,
+                    height: self.height,
+                    clip: self.clip_plane(node.reflector),
+                };
+                c.prepare_mirror(gpu, renderer, id, &view);
             }
             let r = &self.reflectors[node.reflector];
             let mut u = renderer.uniforms(&node.camera, self.width, self.height);
