@@ -16,11 +16,13 @@
 //! 7. the display pass ([`super::passes::display`]): steps 1–6 add linear radiance into the
 //!    radiance target (the HDR output, never exposed); this maps it to the 8-bit target with the
 //!    options' exposure and tone curve.
+//!
+//! Steps 2–6 are each a [`FramePass`], prepared and recorded from one list in this order.
 
 use super::curved::gpu::CurvedReflections;
 use super::exposure::auto_ev;
-use super::gpu::Gpu;
-use super::gpu::target::FrameViews;
+use super::gpu::target::{FrameViews, TargetFormats};
+use super::gpu::{Gpu, RenderError};
 use super::impostors::{ImpostorReflections, ReflectorSet, impostor_pass};
 use super::load::ViewData;
 use super::options::{CurvedMode, Exposure, ReflectionMode, Tonemap, ViewOptions};
@@ -29,8 +31,6 @@ use super::passes::renderer::Renderer;
 use super::passes::{FrameContext, FramePass};
 use super::reflections::{GeometryReflections, RecursiveReflections, Source};
 use crate::camera::Camera;
-use crate::view::gpu::RenderError;
-use crate::view::gpu::target::TargetFormats;
 
 /// Groups of passes that are built together: a change of options rebuilds the groups whose
 /// inputs changed.
