@@ -33,7 +33,7 @@ use glint::scene::desc::{Quality, RadiositySettings};
 use glint::srdm::{Srdm, SrdmParams};
 use glint::view::gpu::Gpu;
 use glint::view::headless::Offscreen;
-use glint::view::impostor_tables::{
+use glint::view::impostors::srdm_tables::{
     ImpostorReflector, SrdmTables, ViewSource, impostor_reflectors,
 };
 use glint::view::impostors::{ImpostorReflections, ImpostorSettings, build_billboards};

@@ -27,11 +27,11 @@ use glint::eval::compare::compare;
 use glint::eval::reference::{self, RenderOptions};
 use glint::geometry::Bvh;
 use glint::progress::Silent;
-use glint::view::cpu_render;
+use glint::view::cpu;
 use glint::view::headless::Offscreen;
+use glint::view::headless::replay::schedule;
 use glint::view::load::load;
 use glint::view::reflections::{self, RecursionSettings, ReflectionMode, recursive};
-use glint::view::replay::schedule;
 
 mod common;
 use common::{bake_if_needed, gpu, half_size, mean_diff, median, repo};
@@ -113,7 +113,7 @@ fn main() {
             "{name}: path-traced reference ({spp} spp) in {:.1} s",
             start.elapsed().as_secs_f64()
         );
-        let traced_srgb = half_size(&cpu_render::to_srgb8(&traced.rgb), SIZE.0, SIZE.1);
+        let traced_srgb = half_size(&cpu::to_srgb8(&traced.rgb), SIZE.0, SIZE.1);
         let planar = reflections::reflectors_with_reflectance(&data).len();
         for depth in 0..=recursive::MAX_RECURSION_DEPTH {
             let mut off =

@@ -54,16 +54,16 @@ use glint::eval::reference::{self, RenderOptions};
 use glint::geometry::Bvh;
 use glint::progress::Silent;
 use glint::scene::{Quality, Scene};
-use glint::view::cpu_render;
+use glint::view::cpu;
 use glint::view::gpu::Gpu;
 use glint::view::headless::Offscreen;
+use glint::view::headless::replay::GpuTimeSource;
+use glint::view::headless::replay::schedule;
 use glint::view::headless::{ReplayOptions, replay_with};
 use glint::view::load::load;
 use glint::view::options::{CurvedMode, CurvedSettings, RecursionSettings, ViewOptions};
-use glint::view::radiance_maps::Selection;
+use glint::view::reflections::radiance_maps::Selection;
 use glint::view::reflections::{self, ReflectionMode};
-use glint::view::replay::GpuTimeSource;
-use glint::view::replay::schedule;
 
 mod common;
 use common::{bake_all_at, bake_if_needed, gpu, half_size, mean_diff, median, repo};
@@ -313,8 +313,8 @@ fn reflection_table(gpu: &Gpu, work: &Path, repeats: usize) {
             "{name}: path-traced reference in {:.1} s",
             start.elapsed().as_secs_f64()
         );
-        let traced = half_size(&cpu_render::to_srgb8(&traced.image.rgb), SIZE.0, SIZE.1);
-        let equation = cpu_render::to_srgb8(&reflections::cpu_reference(
+        let traced = half_size(&cpu::to_srgb8(&traced.image.rgb), SIZE.0, SIZE.1);
+        let equation = cpu::to_srgb8(&reflections::cpu_reference(
             &data.scene,
             &reflectors,
             &bvh,

@@ -1,6 +1,6 @@
 // glint-view: a batch of rays through `bb_trace` (`billboards.wgsl`), for the tests that hold
 // the shader to `BillboardTables::trace`. Keep `BbProbeRay`/`BbProbeHit` in sync with
-// `src/view/impostors.rs`.
+// `src/view/impostors/probes.rs`.
 
 struct BbProbeRay {
     // xyz: origin; w: t_max.

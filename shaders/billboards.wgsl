@@ -1,7 +1,8 @@
 // glint-view: reflected billboards (Popescu et al. 2006 §3, §3.1, §3.2).
 //
-// The tables of `src/view/billboard_tables.rs` (group 3) and the per-ray algorithm of §3.1,
-// mirrored step by step by `BillboardTables::trace` (the CPU reference the tests hold this to):
+// The tables of `src/view/impostors/billboard_tables.rs` (group 3) and the per-ray algorithm of
+// §3.1, mirrored step by step by `BillboardTables::trace` (the CPU reference the tests hold this
+// to):
 // 1. the reflected ray is intersected with every billboard of the reflector's group, alpha
 //    tested; the nearest opaque texel wins (`bb_nearest`);
 // 2. a diffuse billboard gives its texel; a reflective one (per-texel normals) gives its texel

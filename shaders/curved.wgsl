@@ -1,7 +1,7 @@
 // glint-view: curved reflectors by cube maps (Nielsen & Christensen 2002 §3.2) and glossy
 // curved objects by regular sampling (Luksch et al. §6–7).
 //
-// Appended to `shaders/view.wgsl` at pipeline creation (`src/view/curved/gpu.rs`): it uses
+// Appended to `shaders/view.wgsl` at pipeline creation (`src/view/curved/gpu/mod.rs`): it uses
 // that file's `frame` uniforms, `VertexIn`, `VertexOut`, `FragmentOut`, `sample_radiosity`
 // and `linear_to_srgb`. Group 1 starts at binding 4 so it never meets view.wgsl's probe
 // bindings (group 1, bindings 0–1).

@@ -1,7 +1,7 @@
 // glint-view's display pass: the frame's linear radiance (Rgba16Float, every pass drawn into
 // it) to the 8-bit target: × 2^EV, the tone curve, sRGB. `src/view/tonemap.rs` is the same
 // mapping on the CPU (`tonemap::neutral`, `image_io::linear_to_srgb`); keep them in step.
-// Keep `DisplayUniforms` in sync with `src/view/display.rs` (a test compares their layouts).
+// Keep `DisplayUniforms` in sync with `src/view/passes/display.rs` (a test compares their layouts).
 
 struct DisplayUniforms {
     // 2^EV: multiplies the radiance before the curve.

@@ -2,7 +2,7 @@
 //
 // Appended to `shaders/view.wgsl` (frame uniforms, `VertexIn`, `FragmentOut`,
 // `linear_to_srgb`) and `shaders/srdm.wgsl` (the SRDM tables and `srdm_intersect`) by
-// `src/view/impostors.rs`. Per reflector, its triangles are drawn over the frame, depth tested
+// `src/view/impostors/pass.rs`. Per reflector, its triangles are drawn over the frame, depth tested
 // (GreaterEqual, reverse Z) against the scene pass so only its visible pixels run, and each
 // pixel:
 // 1. computes its reflected ray from its world position and normal (§3.1 step 1; the

@@ -2,7 +2,7 @@
 // `src/srdm/intersect.rs` (the CPU reference it is tested against, `tests/view_impostors.rs`).
 // Every step follows the CPU code line for line; comments name the step.
 //
-// The tables (`src/view/impostor_tables.rs` packs them; keep the structs in sync, a test
+// The tables (`src/view/impostors/srdm_tables.rs` packs them; keep the structs in sync, a test
 // compares their sizes):
 // - `srdm_views`: one entry per captured view: its camera and where its rows live;
 // - `srdm_points`: every view's n·w·m points (u, z), row (i, j) at first_point + (i·w + j)·m;

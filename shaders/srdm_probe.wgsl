@@ -1,6 +1,6 @@
 // glint-view: a batch of rays against the SRDM tables (`srdm.wgsl`), for the test that holds
 // the shader to the CPU intersection (`tests/view_impostors.rs`) and for timing it. Appended to
-// `srdm.wgsl`. Keep `ProbeRay` and `ProbeHit` in sync with `src/view/impostors.rs`.
+// `srdm.wgsl`. Keep `ProbeRay` and `ProbeHit` in sync with `src/view/impostors/probes.rs`.
 
 struct ProbeRay {
     // xyz: origin; w: t_max.

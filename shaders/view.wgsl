@@ -4,10 +4,10 @@
 // of its atlas page and the page's layer in a 2D texture array of Rgba16Float radiosity
 // (linear exitant radiance D; for a material with a base colour texture, D over the texture's
 // texel mean, multiplied here by the full-resolution texture: `surface_d`). The fragment shader reconstructs D with the uniform cubic
-// B-spline as four bilinear taps (Sigg and Hadwiger 2005); `src/view/bicubic.rs` is the same
+// B-spline as four bilinear taps (Sigg and Hadwiger 2005); `src/view/cpu/bicubic.rs` is the same
 // filter on the CPU (`bspline_4tap`) and the definition it is tested against (`bspline`).
 //
-// Keep `FrameUniforms` in sync with `src/view/renderer.rs` (a test compares their layouts).
+// Keep `FrameUniforms` in sync with `src/view/passes/renderer.rs` (a test compares their layouts).
 
 struct FrameUniforms {
     // World to clip: reverse-Z infinite perspective (depth 1 at the near plane, 0 at infinity).
@@ -27,7 +27,7 @@ struct FrameUniforms {
 @group(0) @binding(1) var radiosity: texture_2d_array<f32>;
 @group(0) @binding(2) var radiosity_sampler: sampler;
 // The scene's images (sRGB, one per layer from the corner) and per-material records:
-// `src/view/surface_textures.rs` (keep `TexRef` and `MaterialRecord` in sync).
+// `src/view/gpu/surface_textures.rs` (keep `TexRef` and `MaterialRecord` in sync).
 @group(0) @binding(3) var surface_images: texture_2d_array<f32>;
 @group(0) @binding(4) var<storage, read> materials: array<MaterialRecord>;
 
@@ -242,7 +242,7 @@ fn shade(in: VertexOut) -> FragmentOut {
 }
 
 // Test entry: reconstructs D at given lightmap coordinates, to hold this shader's filter to
-// the CPU's (`bicubic_probe` in src/view/probe.rs; tests/view.rs). Keep `ProbeInput` in sync
+// the CPU's (`bicubic_probe` in src/view/gpu/probe.rs; tests/view.rs). Keep `ProbeInput` in sync
 // with `probe::ProbeInput`.
 struct ProbeInput {
     lightmap: vec2<f32>,

@@ -5,7 +5,9 @@
 
 #![cfg(feature = "view")]
 
-use glint::view::gpu::{Gpu, read_texture_rgba8, render_test_triangle};
+use glint::view::gpu::Gpu;
+use glint::view::gpu::readback::read_texture_rgba8;
+use glint::view::gpu::triangle::render_test_triangle;
 
 /// Clip-space corners of the triangle drawn by `shaders/test_triangle.wgsl`.
 const TRIANGLE_CLIP: [[f32; 2]; 3] = [[-0.5, -0.5], [0.5, -0.5], [0.0, 0.5]];

@@ -497,8 +497,8 @@ fn the_bundle_carries_the_textures() {
 #[cfg(feature = "view")]
 #[test]
 fn the_viewer_shows_texture_detail_finer_than_the_lightmap() {
-    use glint::view::cpu_render;
-    use glint::view::offscreen::Offscreen;
+    use glint::view::cpu;
+    use glint::view::headless::offscreen::Offscreen;
     let dir = tempfile::tempdir().unwrap();
     let scene = Scene::load(textured_room(dir.path())).unwrap();
     let bundle = dir.path().join("b.glint");
@@ -521,7 +521,7 @@ fn the_viewer_shows_texture_detail_finer_than_the_lightmap() {
     off.render(&gpu, &camera).unwrap();
     let gpu_px = off.read_rgba8(&gpu).unwrap();
     let bvh = data.scene.build_bvh();
-    let cpu_px = cpu_render::to_srgb8(&cpu_render::render_scene(
+    let cpu_px = cpu::to_srgb8(&cpu::render_scene(
         &data.scene,
         &bvh,
         &data.map,
@@ -530,7 +530,7 @@ fn the_viewer_shows_texture_detail_finer_than_the_lightmap() {
         h,
         1.0,
     ));
-    let plain_px = cpu_render::to_srgb8(&cpu_render::render(&bvh, &data.map, &camera, w, h, 1.0));
+    let plain_px = cpu::to_srgb8(&cpu::render(&bvh, &data.map, &camera, w, h, 1.0));
     let mad = |a: &[u8], b: &[u8]| {
         a.chunks_exact(4)
             .zip(b.chunks_exact(4))

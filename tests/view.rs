@@ -35,12 +35,12 @@ use glint::camera::{Camera, pose_at};
 use glint::radiosity::RadiosityMap;
 use glint::radiosity::atlas::{Atlas, PageSize};
 use glint::scene::desc::RadiositySettings;
-use glint::view::bicubic;
-use glint::view::cpu_render;
+use glint::view::cpu;
+use glint::view::cpu::bicubic;
+use glint::view::gpu::probe::bicubic_probe;
 use glint::view::headless::Offscreen;
+use glint::view::headless::replay::Timings;
 use glint::view::load::{LoadError, load};
-use glint::view::probe::bicubic_probe;
-use glint::view::replay::Timings;
 
 use common::*;
 
@@ -219,7 +219,7 @@ fn golden(name: &str, bundle: &Path) {
     let gpu_px = off.read_rgba8(&gpu).unwrap();
 
     let bvh = data.scene.build_bvh();
-    let cpu_px = cpu_render::to_srgb8(&cpu_render::render(&bvh, &data.map, &camera, w, h, 1.0));
+    let cpu_px = cpu::to_srgb8(&cpu::render(&bvh, &data.map, &camera, w, h, 1.0));
 
     let (mad, edge) = compare(&gpu_px, &cpu_px);
     println!(
@@ -657,8 +657,8 @@ fn hdr_output_is_identical_at_any_exposure() {
 }
 
 /// The display pass (`shaders/display.wgsl`) maps the radiance target as the CPU's
-/// [`glint::view::display::DisplayMapping`] does (exposure, PBR Neutral, sRGB), to within one
-/// 8-bit step (f32 rounding between the two sRGB encoders).
+/// [`glint::view::passes::display::DisplayMapping`] does (exposure, PBR Neutral, sRGB), to
+/// within one 8-bit step (f32 rounding between the two sRGB encoders).
 #[test]
 fn display_pass_matches_the_cpu_mapping() {
     use glint::view::options::{Exposure, Tonemap};
@@ -676,7 +676,7 @@ fn display_pass_matches_the_cpu_mapping() {
         let mapping = off.frame().display_mapping();
         let hdr = off.read_hdr(&gpu).unwrap();
         let shown: Vec<Vec3> = hdr.iter().map(|&c| mapping.apply(c)).collect();
-        let cpu = cpu_render::to_srgb8(&shown);
+        let cpu = cpu::to_srgb8(&shown);
         let gpu_px = off.read_rgba8(&gpu).unwrap();
         let worst = gpu_px
             .iter()

@@ -17,8 +17,8 @@ use glint::scene::Scene;
 use glint::scene::desc::{Quality, RadiositySettings};
 use glint::srdm::SrdmSettings;
 use glint::view::load::load;
-use glint::view::radiance_maps;
 use glint::view::reflections::material::{ReflectanceChannel, ReflectanceLayout, load_material};
+use glint::view::reflections::radiance_maps;
 
 /// The reflector's name: a space and a slash, so its folder name differs from it.
 const REFLECTOR: &str = "Glossy Panel/1";

@@ -28,9 +28,9 @@ use glint::materials::envmap::CubeMap;
 use glint::progress::Silent;
 use glint::scene::Scene;
 use glint::scene::desc::RadiositySettings;
-use glint::view::billboard_tables::{Billboard, BillboardTables};
 use glint::view::curved::{CurvedMode, CurvedSettings};
 use glint::view::headless::Offscreen;
+use glint::view::impostors::billboard_tables::{Billboard, BillboardTables};
 use glint::view::impostors::{BillboardProbe, BillboardRay, ImpostorKind};
 use glint::view::load::load;
 
@@ -665,7 +665,7 @@ fn curved_impostor_switch_reflects_billboards_headless() {
     );
     let tables = glint::view::impostors::build_billboards(
         &data,
-        &glint::view::impostor_tables::impostor_reflectors(&data.scene, &[]),
+        &glint::view::impostors::srdm_tables::impostor_reflectors(&data.scene, &[]),
         0,
     )
     .unwrap();
@@ -776,8 +776,8 @@ const MAX_EDGE_ERROR_STEPS: f64 = 30.0;
 #[test]
 fn surface_billboard_of_a_table_top_matches_the_geometry_and_morphs_continuously() {
     use glint::bake::srdm_stage::ColourSource;
-    use glint::view::billboard_tables;
-    use glint::view::impostor_tables::impostor_reflectors;
+    use glint::view::impostors::billboard_tables;
+    use glint::view::impostors::srdm_tables::impostor_reflectors;
 
     let dir = tempfile::tempdir().unwrap();
     let scene = table_scene(dir.path());
@@ -959,8 +959,8 @@ impl Run {
 #[test]
 fn viewer_billboards_take_their_colour_from_d() {
     use glint::bake::srdm_stage;
-    use glint::view::impostor_tables::impostor_reflectors;
     use glint::view::impostors::build_billboards;
+    use glint::view::impostors::srdm_tables::impostor_reflectors;
 
     let dir = tempfile::tempdir().unwrap();
     let (scene, bundle) = box_scene(dir.path());
@@ -986,7 +986,8 @@ fn viewer_billboards_take_their_colour_from_d() {
         .zip(0..)
         .find(|(b, i)| {
             // Group 0 (sphere A) holds SphereB's billboard first, then Block's.
-            *i < tables.groups[0].range[1] && b.info[2] == glint::view::billboard_tables::NONE
+            *i < tables.groups[0].range[1]
+                && b.info[2] == glint::view::impostors::billboard_tables::NONE
         })
         .map(|(b, _)| *b)
         .expect("the block's billboard");
@@ -1022,7 +1023,7 @@ fn viewer_billboards_take_their_colour_from_d() {
 #[test]
 fn billboard_structs_match_the_shader_layout() {
     use glint::assert_wgsl_layout;
-    use glint::view::billboard_tables::{GpuBillboard, GpuGroup};
+    use glint::view::impostors::billboard_tables::{GpuBillboard, GpuGroup};
     use glint::view::impostors::{
         BILLBOARD_PROBE_SHADER_SOURCE, BILLBOARD_SHADER_SOURCE, BillboardProbeHit,
     };

@@ -435,7 +435,7 @@ fn cube_maps_reflect_the_walls_of_a_coloured_box() {
     off.render(&gpu, &camera).unwrap();
     let frame = off.read_hdr(&gpu).unwrap();
     let pixel_of = |p: Vec3| -> Vec3 {
-        let m = glint::view::renderer::view_projection(&camera, w as f32 / h as f32, 1e-3);
+        let m = glint::view::passes::renderer::view_projection(&camera, w as f32 / h as f32, 1e-3);
         let c = m * p.extend(1.0);
         let ndc = Vec2::new(c.x / c.w, c.y / c.w);
         let x = ((ndc.x + 1.0) * 0.5 * w as f32) as usize;
@@ -462,7 +462,7 @@ fn cube_maps_reflect_the_walls_of_a_coloured_box() {
         .unwrap();
     off.render(&gpu, &camera).unwrap();
     let frame = off.read_hdr(&gpu).unwrap();
-    let m = glint::view::renderer::view_projection(&camera, 1.0, 1e-3);
+    let m = glint::view::passes::renderer::view_projection(&camera, 1.0, 1e-3);
     let c = m * centre.extend(1.0) + m * Vec3::Z.extend(0.0) * SPHERE_RADIUS;
     let (x, y) = (
         ((c.x / c.w + 1.0) * 0.5 * w as f32) as usize,
@@ -699,7 +699,7 @@ fn glossy_room_teapot_matches_the_reference_path_tracer() {
         .join("curved-glossy-room");
     let write_png = |name: &str, rgb: &[Vec3]| {
         std::fs::create_dir_all(&failures).unwrap();
-        let bytes = glint::view::cpu_render::to_srgb8(rgb);
+        let bytes = glint::view::cpu::to_srgb8(rgb);
         let rgb8 = glint::view::headless::rgba_to_rgb(&bytes);
         let png = glint::image_io::encode_png(w, h, &rgb8, false).unwrap();
         std::fs::write(failures.join(name), png).unwrap();
@@ -841,7 +841,7 @@ fn d_cube(
     face: u32,
 ) -> CubeMap {
     teapot_cube(data, bvh, teapot, face, 2, &|hit| {
-        glint::view::bicubic::radiance(&data.map, hit.triangle, hit.bary).max(Vec3::ZERO)
+        glint::view::cpu::bicubic::radiance(&data.map, hit.triangle, hit.bary).max(Vec3::ZERO)
     })
 }
 
@@ -930,7 +930,8 @@ impl<'a> TeapotEnvironment<'a> {
     fn radiance(&self, offset: Vec3, d: Vec3, own: bool) -> Vec3 {
         if own && let Some((t, tri, bary)) = self.own.hit(self.centre + offset, d, self.t_min) {
             let triangle = &self.data.scene.triangles[tri as usize];
-            let colour = glint::view::bicubic::radiance(&self.data.map, tri, bary).max(Vec3::ZERO);
+            let colour =
+                glint::view::cpu::bicubic::radiance(&self.data.map, tri, bary).max(Vec3::ZERO);
             return own_radiance(
                 &self.lobes,
                 colour,

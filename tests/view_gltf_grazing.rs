@@ -333,7 +333,7 @@ fn gltf_metal_reflection_at_80_degrees_matches_the_path_tracer() {
         if e > tolerance || std::env::var_os("GLINT_GRAZING_IMAGES").is_some() {
             let dir = common::failure_dir(&format!("gltf-grazing-{name}"));
             let png = |f: &[Vec3]| {
-                let rgb = glint::view::headless::rgba_to_rgb(&glint::view::cpu_render::to_srgb8(f));
+                let rgb = glint::view::headless::rgba_to_rgb(&glint::view::cpu::to_srgb8(f));
                 glint::image_io::encode_png(SIZE.0, SIZE.1, &rgb, false).unwrap()
             };
             std::fs::write(dir.join("viewer.png"), png(&frames[k])).unwrap();

@@ -28,7 +28,7 @@ use glint::scene::desc::RadiositySettings;
 use glint::srdm::{DepthMap, ImpostorCamera, Srdm, SrdmParams};
 use glint::view::gpu::Gpu;
 use glint::view::headless::Offscreen;
-use glint::view::impostor_tables::{ImpostorParams, SrdmTables, ViewSource, colour_at};
+use glint::view::impostors::srdm_tables::{ImpostorParams, SrdmTables, ViewSource, colour_at};
 use glint::view::impostors::{ProbeRay, SrdmProbe};
 use glint::view::load::load;
 use glint::view::reflections::ReflectionMode;
@@ -274,11 +274,11 @@ fn wgsl_srdm_intersection_agrees_with_the_cpu() {
 #[test]
 fn params_match_the_shader_layout() {
     use glint::assert_wgsl_layout;
-    use glint::view::impostor_tables::GpuView;
+    use glint::view::impostors::srdm_tables::GpuView;
     use glint::view::impostors::{
         IMPOSTOR_SHADER_SOURCE, ProbeHit, SRDM_PROBE_SHADER_SOURCE, SRDM_SHADER_SOURCE,
     };
-    use glint::view::renderer::SHADER_SOURCE;
+    use glint::view::passes::renderer::SHADER_SOURCE;
     // ImpostorParams: three vec4 + 64 vec4 (WGSL uniform layout, 16-byte aligned).
     assert_eq!(std::mem::size_of::<ImpostorParams>(), (3 + 64) * 16);
     assert_eq!(std::mem::size_of::<GpuView>(), 6 * 16);

@@ -23,8 +23,8 @@ use glint::scene::{Plane, Scene};
 use glint::view::gpu::Gpu;
 use glint::view::headless::Offscreen;
 use glint::view::load::{ViewData, load};
+use glint::view::passes::renderer::view_projection;
 use glint::view::reflections::{RecursionSettings, ReflectionMode, mirror_point, recursive};
-use glint::view::renderer::view_projection;
 
 use common::gpu;
 
@@ -581,7 +581,7 @@ fn depth_two_approaches_the_path_tracer_where_the_second_image_is() {
         &Silent,
     )
     .unwrap();
-    let reference = glint::view::cpu_render::to_srgb8(&reference.image.rgb);
+    let reference = glint::view::cpu::to_srgb8(&reference.image.rgb);
     // 2×2 box filter of a full-size RGBA8 frame.
     let half = |img: &[u8]| -> Vec<u8> {
         let mut out = Vec::with_capacity((hw * hh * 4) as usize);

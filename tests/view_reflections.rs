@@ -36,7 +36,7 @@ use glint::geometry::Bvh;
 use glint::progress::Silent;
 use glint::scene::Scene;
 use glint::scene::desc::{Quality, RadiositySettings};
-use glint::view::cpu_render;
+use glint::view::cpu;
 use glint::view::headless::Offscreen;
 use glint::view::load::load;
 use glint::view::reflections::{self, ReflectionMode};
@@ -175,7 +175,7 @@ fn geometry_reflections_match_the_cpu_equation_on_glossy_room() {
             .unwrap();
         offscreen.render(&gpu, &camera).unwrap();
         let on = offscreen.read_rgba8(&gpu).unwrap();
-        let cpu = cpu_render::to_srgb8(&reflections::cpu_reference(
+        let cpu = cpu::to_srgb8(&reflections::cpu_reference(
             &data.scene,
             &reflections::reflectors_with_reflectance(&data),
             &bvh,
@@ -424,7 +424,7 @@ fn reflectance_brightens_towards_grazing_in_both_layouts() {
 /// maps selected never fewer.
 #[test]
 fn radiance_maps_are_selected_per_element_for_the_mirrored_eye() {
-    use glint::view::radiance_maps::{self, Selection};
+    use glint::view::reflections::radiance_maps::{self, Selection};
     let data = load(glossy_bundle()).unwrap_or_else(|e| panic!("{e}"));
     let cams = radiance_maps::load_cameras(&data.bundle, "Floor").unwrap();
     let floor = reflections::glossy_planar_reflectors(&data.scene)
@@ -473,7 +473,7 @@ fn radiance_maps_are_selected_per_element_for_the_mirrored_eye() {
 /// angle never worse than fewer (beyond [`MONOTONE_SLACK`]).
 #[test]
 fn image_reflections_approach_the_cpu_equation_on_glossy_room() {
-    use glint::view::radiance_maps::Selection;
+    use glint::view::reflections::radiance_maps::Selection;
     let data = load(glossy_bundle()).unwrap_or_else(|e| panic!("{e}"));
     let gpu = gpu();
     let path = data.scene.camera_path(None).unwrap();
@@ -482,7 +482,7 @@ fn image_reflections_approach_the_cpu_equation_on_glossy_room() {
     let mut offscreen = Offscreen::new(&gpu, &data, SIZE.0, SIZE.1).unwrap();
     for t in [0.0f32, 1.5] {
         let camera = pose_at(path, t);
-        let cpu = cpu_render::to_srgb8(&reflections::cpu_reference(
+        let cpu = cpu::to_srgb8(&reflections::cpu_reference(
             &data.scene,
             &reflectors,
             &bvh,
@@ -684,7 +684,7 @@ fn path_traced(
         ..RenderOptions::default()
     };
     let r = reference::render(&data.scene, &bvh, camera, &opts, &Silent).unwrap();
-    cpu_render::to_srgb8(&r.image.rgb)
+    cpu::to_srgb8(&r.image.rgb)
 }
 
 /// Golden images of glossy-room's `front` view in both modes against the reference path
@@ -854,7 +854,7 @@ fn mirror_reflecting_a_flat_wall_matches_in_both_modes() {
 /// the scene pass alone (medians of 5 frames).
 #[test]
 fn gpu_time_spans_the_reflection_passes() {
-    use glint::view::replay::GpuTimeSource;
+    use glint::view::headless::replay::GpuTimeSource;
     let data = load(glossy_bundle()).unwrap_or_else(|e| panic!("{e}"));
     let gpu = gpu();
     let camera = pose_at(data.scene.camera_path(None).unwrap(), 0.0);

@@ -150,7 +150,7 @@ fn write_failure(
     let dir = common::failure_dir(name);
     let png = |rgb: &[u8]| glint::image_io::encode_png(size.0, size.1, rgb, false).unwrap();
     for (file, f) in frames {
-        let rgb = glint::view::headless::rgba_to_rgb(&glint::view::cpu_render::to_srgb8(f));
+        let rgb = glint::view::headless::rgba_to_rgb(&glint::view::cpu::to_srgb8(f));
         std::fs::write(dir.join(format!("{file}.png")), png(&rgb)).unwrap();
     }
     let mut mask = vec![0u8; (size.0 * size.1 * 3) as usize];

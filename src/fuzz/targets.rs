@@ -421,7 +421,7 @@ fn run_srdm_index(_ctx: &TargetContext, input: &[u8]) -> Result<(), String> {
 
 #[cfg(feature = "view")]
 fn run_cameras(_ctx: &TargetContext, input: &[u8]) -> Result<(), String> {
-    use crate::view::radiance_maps::{CamerasFile, Selection, select};
+    use crate::view::reflections::radiance_maps::{CamerasFile, Selection, select};
     let cams: CamerasFile = serde_json::from_slice(input).map_err(|e| e.to_string())?;
     for s in [Selection::Angle, Selection::Distance] {
         for i in select(&cams.maps, Vec3::new(0.3, 1.7, -2.0), s, 2) {

@@ -97,7 +97,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         writeln!(
             stdout,
             "wrote {written} frame(s) and {}",
-            out.join(super::replay::TIMINGS_FILE).display()
+            out.join(super::headless::replay::TIMINGS_FILE).display()
         )?;
         return Ok(ExitCode::SUCCESS);
     }

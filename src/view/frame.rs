@@ -13,32 +13,24 @@
 //! 5. curved reflectors by cube maps (Nielsen §3.2, Luksch §6–7);
 //! 6. the recursive planar reflections (geometry depth ≠ 1, Nielsen §3.1), which draw the
 //!    curved reflectors seen in their maps with the cube maps of step 5;
-//! 7. the display pass ([`super::display`]): steps 1–6 add linear radiance into the radiance
-//!    target (the HDR output, never exposed); this maps it to the 8-bit target with the
+//! 7. the display pass ([`super::passes::display`]): steps 1–6 add linear radiance into the
+//!    radiance target (the HDR output, never exposed); this maps it to the 8-bit target with the
 //!    options' exposure and tone curve.
+//!
+//! Steps 2–6 are each a [`FramePass`], prepared and recorded from one list in this order.
 
 use super::curved::gpu::CurvedReflections;
-use super::display::{DisplayMapping, DisplayPass, RADIANCE_FORMAT};
 use super::exposure::auto_ev;
-use super::gpu::Gpu;
+use super::gpu::target::{FrameViews, TargetFormats};
+use super::gpu::{Gpu, RenderError};
 use super::impostors::{ImpostorReflections, ReflectorSet, impostor_pass};
 use super::load::ViewData;
 use super::options::{CurvedMode, Exposure, ReflectionMode, Tonemap, ViewOptions};
+use super::passes::display::{DisplayMapping, DisplayPass, RADIANCE_FORMAT};
+use super::passes::renderer::Renderer;
+use super::passes::{FrameContext, FramePass};
 use super::reflections::{GeometryReflections, RecursiveReflections, Source};
-use super::renderer::{RenderError, Renderer, TargetFormats};
 use crate::camera::Camera;
-
-/// The views a frame is drawn into, all of one size: linear radiance, the 8-bit display
-/// target and depth.
-#[derive(Clone, Copy)]
-pub struct FrameViews<'a> {
-    /// The linear radiance target ([`RADIANCE_FORMAT`]; also sampled by the display pass).
-    pub radiance: &'a wgpu::TextureView,
-    /// The display target (the format the passes were built for).
-    pub display: &'a wgpu::TextureView,
-    /// The depth buffer (reverse Z).
-    pub depth: &'a wgpu::TextureView,
-}
 
 /// Groups of passes that are built together: a change of options rebuilds the groups whose
 /// inputs changed.
@@ -132,7 +124,6 @@ impl FramePasses {
     ) -> Result<FramePasses, RenderError> {
         let formats = TargetFormats {
             color: RADIANCE_FORMAT,
-            hdr: false,
         };
         let renderer = Renderer::new(gpu, &data.scene, &data.map, formats)?;
         let display =
@@ -354,27 +345,37 @@ impl FramePasses {
         self.curved.as_ref()
     }
 
+    /// The passes drawn over the scene that are on, in the module's fixed order (steps 2–6).
+    fn over_scene(&self) -> impl Iterator<Item = &dyn FramePass> {
+        [
+            self.planar.as_ref().map(|p| p as &dyn FramePass),
+            self.impostors.as_ref().map(|p| p as &dyn FramePass),
+            self.curved_impostors.as_ref().map(|p| p as &dyn FramePass),
+            self.curved.as_ref().map(|p| p as &dyn FramePass),
+            self.recursive.as_ref().map(|p| p as &dyn FramePass),
+        ]
+        .into_iter()
+        .flatten()
+    }
+
+    /// What the passes over the scene are given for a frame seen by `camera`.
+    fn context<'a>(&'a self, camera: &'a Camera) -> FrameContext<'a> {
+        FrameContext {
+            renderer: &self.renderer,
+            camera,
+            curved: self.curved.as_ref(),
+        }
+    }
+
     /// Writes every pass's uniforms for `camera` (the writes land before the next
-    /// submission). Call before [`FramePasses::record`].
+    /// submission; each pass writes its own buffers). Call before [`FramePasses::record`].
     pub fn prepare(&self, gpu: &Gpu, camera: &Camera) {
         let (w, h) = self.size;
         self.renderer.prepare(gpu, camera, w, h);
         self.display.prepare(&gpu.queue, &self.display_mapping());
-        let curved = self.curved.as_ref();
-        if let Some(r) = &self.recursive {
-            r.prepare(gpu, &self.renderer, camera, curved);
-        }
-        if let Some(r) = &self.planar {
-            r.prepare(gpu, &self.renderer, camera, curved);
-        }
-        if let Some(r) = &self.impostors {
-            r.prepare(gpu, camera);
-        }
-        if let Some(r) = &self.curved_impostors {
-            r.prepare(gpu, camera);
-        }
-        if let Some(c) = &self.curved {
-            c.prepare(gpu, camera);
+        let frame = self.context(camera);
+        for pass in self.over_scene() {
+            pass.prepare(gpu, &frame);
         }
     }
 
@@ -389,9 +390,6 @@ impl FramePasses {
         views: FrameViews<'_>,
         timestamps: Option<&wgpu::QuerySet>,
     ) {
-        // Every pass adds linear radiance into the radiance target (their colour attachment;
-        // no second HDR attachment is needed).
-        let (color, hdr, depth) = (views.radiance, None, views.depth);
         let stamp = |begin, end| {
             timestamps.map(|query_set| wgpu::RenderPassTimestampWrites {
                 query_set,
@@ -400,31 +398,10 @@ impl FramePasses {
             })
         };
         self.renderer
-            .draw(encoder, color, hdr, depth, stamp(Some(0), None));
-        let curved = self.curved.as_ref();
-        if let Some(r) = &self.planar {
-            r.draw_timed(
-                encoder,
-                &self.renderer,
-                camera,
-                color,
-                hdr,
-                depth,
-                None,
-                curved,
-            );
-        }
-        if let Some(r) = &self.impostors {
-            r.draw(encoder, color, hdr, depth);
-        }
-        if let Some(r) = &self.curved_impostors {
-            r.draw(encoder, color, hdr, depth);
-        }
-        if let Some(c) = &self.curved {
-            c.draw(encoder, color, hdr, depth);
-        }
-        if let Some(r) = &self.recursive {
-            r.draw_timed(encoder, &self.renderer, color, hdr, depth, None, curved);
+            .draw(encoder, views.radiance, views.depth, stamp(Some(0), None));
+        let frame = self.context(camera);
+        for pass in self.over_scene() {
+            pass.draw(encoder, &frame, views);
         }
         self.display.record(
             device,
@@ -433,6 +410,83 @@ impl FramePasses {
             views.display,
             stamp(None, Some(1)),
         );
+    }
+}
+
+// Each technique's passes take what they need; the frame hands every pass the same context.
+
+impl FramePass for GeometryReflections {
+    fn prepare(&self, gpu: &Gpu, frame: &FrameContext<'_>) {
+        GeometryReflections::prepare(self, gpu, frame.renderer, frame.camera, frame.curved);
+    }
+
+    fn draw(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        frame: &FrameContext<'_>,
+        views: FrameViews<'_>,
+    ) {
+        GeometryReflections::draw(
+            self,
+            encoder,
+            frame.renderer,
+            frame.camera,
+            views.radiance,
+            views.depth,
+            frame.curved,
+        );
+    }
+}
+
+impl FramePass for RecursiveReflections {
+    fn prepare(&self, gpu: &Gpu, frame: &FrameContext<'_>) {
+        RecursiveReflections::prepare(self, gpu, frame.renderer, frame.camera, frame.curved);
+    }
+
+    fn draw(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        frame: &FrameContext<'_>,
+        views: FrameViews<'_>,
+    ) {
+        RecursiveReflections::draw(
+            self,
+            encoder,
+            frame.renderer,
+            views.radiance,
+            views.depth,
+            frame.curved,
+        );
+    }
+}
+
+impl FramePass for ImpostorReflections {
+    fn prepare(&self, gpu: &Gpu, frame: &FrameContext<'_>) {
+        ImpostorReflections::prepare(self, gpu, frame.camera);
+    }
+
+    fn draw(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        _frame: &FrameContext<'_>,
+        views: FrameViews<'_>,
+    ) {
+        ImpostorReflections::draw(self, encoder, views.radiance, views.depth);
+    }
+}
+
+impl FramePass for CurvedReflections {
+    fn prepare(&self, gpu: &Gpu, frame: &FrameContext<'_>) {
+        CurvedReflections::prepare(self, gpu, frame.camera);
+    }
+
+    fn draw(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        _frame: &FrameContext<'_>,
+        views: FrameViews<'_>,
+    ) {
+        CurvedReflections::draw(self, encoder, views.radiance, views.depth);
     }
 }
 

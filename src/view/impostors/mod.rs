@@ -10,7 +10,7 @@
 //!   distance attenuation of Figure 15, added to the frame like the planar composite.
 //!
 //! - With [`ImpostorKind::Billboard`], the same pass intersects reflected billboards instead
-//!   (§3.1, `shaders/billboards.wgsl`, tables from [`super::billboard_tables`], made at load
+//!   (§3.1, `shaders/billboards.wgsl`, tables from [`billboard_tables`], made at load
 //!   time): second-order reflections through reflective billboards, the §3.2 morph for
 //!   billboards connected to the environment, and misses reading the reflector's baked MIP
 //!   environment map (level 0, materials stage) where the bundle has one.
@@ -19,19 +19,21 @@
 //!
 //! With depth maps a ray that misses every impostor adds nothing (no environment lookup).
 
+pub mod billboard_tables;
 mod pass;
 mod probes;
+pub mod srdm_tables;
 mod tables_gpu;
 
 pub use pass::ImpostorReflections;
 pub use probes::{BillboardProbe, BillboardProbeHit, BillboardRay, ProbeHit, ProbeRay, SrdmProbe};
 pub use tables_gpu::{BillboardBuffers, SrdmBuffers};
 
-use super::billboard_tables::{self, BillboardTables};
 use super::gpu::Gpu;
-use super::impostor_tables::{ImpostorReflector, SrdmTables, ViewSource};
 use super::load::ViewData;
-use super::renderer::Renderer;
+use crate::view::passes::renderer::Renderer;
+use billboard_tables::BillboardTables;
+use srdm_tables::{ImpostorReflector, SrdmTables, ViewSource};
 
 /// WGSL of the SRDM intersection.
 pub const SRDM_SHADER_SOURCE: &str = include_str!("../../../shaders/srdm.wgsl");
@@ -114,7 +116,7 @@ pub fn impostor_pass(
     data: &ViewData,
     kind: ImpostorKind,
     set: ReflectorSet,
-) -> Result<ImpostorReflections, super::renderer::RenderError> {
+) -> Result<ImpostorReflections, crate::view::gpu::RenderError> {
     ImpostorReflections::new(
         gpu,
         renderer,

@@ -8,16 +8,16 @@ use super::{
     ImpostorSettings, ReflectorSet, SRDM_SHADER_SOURCE, build_billboards, load_tables,
 };
 use crate::camera::Camera;
-use crate::view::billboard_tables::BillboardTables;
-use crate::view::build::{bind_group_layout, buffer, buffer_init, render_pipeline, shader};
-use crate::view::composite::Composite;
+use crate::view::gpu::build::{bind_group_layout, buffer, buffer_init, render_pipeline, shader};
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
-use crate::view::impostor_tables::{
+use crate::view::impostors::billboard_tables::BillboardTables;
+use crate::view::impostors::srdm_tables::{
     ImpostorParams, ImpostorReflector, SrdmTables, impostor_reflectors,
 };
 use crate::view::load::ViewData;
+use crate::view::passes::composite::Composite;
+use crate::view::passes::renderer::{Renderer, SHADER_SOURCE, frame_bind_group_layout};
 use crate::view::reflections::reflectors_with_reflectance;
-use crate::view::renderer::{Renderer, SHADER_SOURCE, frame_bind_group_layout};
 
 struct ReflectorGpu {
     reflector: ImpostorReflector,
@@ -49,8 +49,8 @@ impl ImpostorReflections {
         renderer: &Renderer,
         data: &ViewData,
         settings: ImpostorSettings,
-    ) -> Result<ImpostorReflections, crate::view::renderer::RenderError> {
-        use crate::view::renderer::RenderError;
+    ) -> Result<ImpostorReflections, crate::view::gpu::RenderError> {
+        use crate::view::gpu::RenderError;
         let reflectors: Vec<ImpostorReflector> =
             impostor_reflectors(&data.scene, &reflectors_with_reflectance(data))
                 .into_iter()
@@ -251,14 +251,13 @@ impl ImpostorReflections {
         }
     }
 
-    /// Records, after the scene pass into `color`/`hdr`/`depth` (depth stored), one pass that
+    /// Records, after the scene pass into `color`/`depth` (depth stored), one pass that
     /// draws every reflector's visible pixels with their impostor reflections added. The frame
     /// uniforms are those of the renderer the pass was built for.
     pub fn draw(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         color: &wgpu::TextureView,
-        hdr: Option<&wgpu::TextureView>,
         depth: &wgpu::TextureView,
     ) {
         let nothing = match &self.billboards {
@@ -269,14 +268,9 @@ impl ImpostorReflections {
         if nothing || self.reflectors.iter().all(|r| r.vertex_count == 0) {
             return;
         }
-        let mut pass = self.composite.begin(
-            encoder,
-            "glint impostor reflections pass",
-            color,
-            hdr,
-            depth,
-            None,
-        );
+        let mut pass =
+            self.composite
+                .begin(encoder, "glint impostor reflections pass", color, depth);
         match &self.billboards {
             Some(b) => pass.set_bind_group(3, &b.group, &[]),
             None => pass.set_bind_group(1, &self.buffers.group, &[]),

@@ -5,16 +5,16 @@
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
-use super::super::billboard_tables::BillboardTables;
-use super::super::build::{compute_pipeline, shader};
 use super::super::gpu::{Gpu, GpuError, error_scoped};
-use super::super::impostor_tables::SrdmTables;
-use super::super::probe::{probe_io_layout, run_probe};
 use super::tables_gpu::{BillboardBuffers, SrdmBuffers};
 use super::{
     BILLBOARD_PROBE_SHADER_SOURCE, BILLBOARD_SHADER_SOURCE, SRDM_PROBE_SHADER_SOURCE,
     SRDM_SHADER_SOURCE,
 };
+use crate::view::gpu::build::{compute_pipeline, shader};
+use crate::view::gpu::probe::{probe_io_layout, run_probe};
+use crate::view::impostors::billboard_tables::BillboardTables;
+use crate::view::impostors::srdm_tables::SrdmTables;
 
 /// A compute pipeline running `entry` of the WGSL `source` over bind groups `layouts`.
 fn probe_pipeline(
@@ -126,7 +126,7 @@ pub type BillboardRay = ProbeRay;
 pub struct BillboardProbeHit {
     /// rgb: colour; w: t.
     pub colour: [f32; 4],
-    /// kind, billboard, 0, 0 (kinds as [`super::super::billboard_tables::BillboardShade::kind`]).
+    /// kind, billboard, 0, 0 (kinds as [`super::billboard_tables::BillboardShade::kind`]).
     pub kind: [u32; 4],
 }
 

@@ -1,10 +1,10 @@
 //! The impostor tables in GPU storage buffers: the SRDM tables (bind group 1 of
 //! `shaders/srdm.wgsl`) and the billboard tables (group 3 of `shaders/billboards.wgsl`).
 
-use super::super::billboard_tables::BillboardTables;
-use super::super::build::{bind_group_layout, buffer_init};
 use super::super::gpu::{Gpu, GpuError, error_scoped};
-use super::super::impostor_tables::SrdmTables;
+use crate::view::gpu::build::{bind_group_layout, buffer_init};
+use crate::view::impostors::billboard_tables::BillboardTables;
+use crate::view::impostors::srdm_tables::SrdmTables;
 
 /// The SRDM tables on the GPU and their bind group layout (group 1 of `srdm.wgsl`).
 pub struct SrdmBuffers {

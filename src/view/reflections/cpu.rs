@@ -91,7 +91,7 @@ pub fn cpu_reference_filtered(
     let clip = (scene.bounds.diagonal() * CLIP_FRACTION).max(1e-5);
     let aspect = width.max(1) as f32 / height.max(1) as f32;
     let d = |t: u32, bary| {
-        let q = crate::view::bicubic::radiance(map, t, bary).max(Vec3::ZERO);
+        let q = crate::view::cpu::bicubic::radiance(map, t, bary).max(Vec3::ZERO);
         scene.d_at(t, bary, q)
     };
     let pixels = |f: &(dyn Fn(u32, u32) -> Pixel + Sync)| {
@@ -113,7 +113,7 @@ pub fn cpu_reference_filtered(
     });
     let mut out: Vec<Vec3> = primary.iter().map(|p| p.0).collect();
     let pitch = pixel_tangent(camera.fov_y, height);
-    let view_proj = crate::view::renderer::view_projection(camera, aspect, 0.01);
+    let view_proj = crate::view::passes::renderer::view_projection(camera, aspect, 0.01);
     let size = Vec2::new(width as f32, height as f32);
     for (ri, refl) in reflectors.iter().enumerate() {
         if !primary.iter().any(|p| p.2.is_some_and(|(r, _)| r == ri)) {

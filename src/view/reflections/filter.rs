@@ -528,7 +528,7 @@ mod tests {
         let target = Vec3::ZERO;
         let eye = target + 1.6 * Vec3::new(0.0, a.cos(), a.sin());
         let cam = Camera::look_at(eye, target, Vec3::Y, 40f32.to_radians());
-        let vp = crate::view::renderer::view_projection(&cam, 1.5, 0.01);
+        let vp = crate::view::passes::renderer::view_projection(&cam, 1.5, 0.01);
         let size = Vec2::new(150.0, 100.0);
         let mirror = LobeShape::mirror_limit();
         let g = Grazing::at(vp, target, Vec3::Y, eye, size, &mirror, 0.01);
@@ -549,7 +549,7 @@ mod tests {
         assert!(g.shift > 0.0, "{g:?}");
         assert!(g.offset(Vec2::ZERO, 2.0).y > 0.0, "{g:?}");
         let top = Camera::look_at(Vec3::new(0.0, 2.0, 0.0), target, Vec3::Z, 0.7);
-        let vp = crate::view::renderer::view_projection(&top, 1.0, 0.01);
+        let vp = crate::view::passes::renderer::view_projection(&top, 1.0, 0.01);
         let g = Grazing::at(
             vp,
             target,

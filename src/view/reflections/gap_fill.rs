@@ -19,10 +19,10 @@ use exr::prelude::f16;
 use glam::Vec4;
 
 use super::splats::FILL_RING;
-use crate::view::build::{bind_group_layout, render_pipeline, shader};
+use crate::view::gpu::build::{bind_group_layout, render_pipeline, shader};
+use crate::view::gpu::readback::read_texture_rgba16f;
+use crate::view::gpu::target::{HDR_FORMAT, clear_pass, texture_2d};
 use crate::view::gpu::{Gpu, GpuError};
-use crate::view::readback::read_texture_rgba16f;
-use crate::view::target::{HDR_FORMAT, clear_pass, texture_2d};
 
 /// WGSL of the pass.
 pub const GAP_FILL_SHADER_SOURCE: &str = include_str!("../../../shaders/gap_fill.wgsl");

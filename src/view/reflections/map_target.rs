@@ -4,7 +4,7 @@
 //! recursion level in the recursive ones (Nielsen Figure 3).
 
 use crate::view::gpu::Gpu;
-use crate::view::target::{HDR_FORMAT, clear_pass, depth_texture, overlay_pass_on, texture_2d};
+use crate::view::gpu::target::{HDR_FORMAT, clear_pass, depth_texture, overlay_pass, texture_2d};
 
 /// A reflection map's textures and views.
 pub(super) struct ReflectionMap {
@@ -62,7 +62,7 @@ impl ReflectionMap {
         encoder: &'e mut wgpu::CommandEncoder,
         label: &str,
     ) -> wgpu::RenderPass<'e> {
-        overlay_pass_on(encoder, label, &[Some(&self.view)], &self.depth_view, None)
+        overlay_pass(encoder, label, &self.view, &self.depth_view)
     }
 }
 

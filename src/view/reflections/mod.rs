@@ -11,7 +11,7 @@
 //!    - geometry-based ([`ReflectionMode::Geometry`], Bastos §6's comparison baseline): the
 //!      scene re-rendered, a clip plane discarding what lies behind the mirror;
 //!    - image-based ([`ReflectionMode::Image`], §8.1.3): per reflector element, the `count`
-//!      baked radiance maps closest to the mirrored eye ([`super::radiance_maps::select`],
+//!      baked radiance maps closest to the mirrored eye ([`radiance_maps::select`],
 //!      by angle or distance) reprojected as splats (quads of two triangles: WebGPU has no point
 //!      size; the frame's kept points listed by index and drawn in one call per reflector),
 //!      sized by Eq. 3 per quadtree node, culled per node, points skipped when
@@ -49,6 +49,7 @@ pub mod material;
 mod params;
 mod passes;
 mod pyramid;
+pub mod radiance_maps;
 pub mod recursive;
 mod splat_maps;
 pub mod splats;
@@ -65,7 +66,8 @@ pub use recursive::{RecursionSettings, RecursionStats, RecursiveReflections};
 pub use splat_maps::FrameStats;
 pub use splats::{SPLAT_OVERLAP, Splat};
 
-/// WGSL of the reflection passes (appended to [`super::renderer::SHADER_SOURCE`]).
+/// WGSL of the reflection passes (appended to
+/// [`crate::view::passes::renderer::SHADER_SOURCE`]).
 pub const REFLECT_SHADER_SOURCE: &str = include_str!("../../../shaders/reflect.wgsl");
 
 /// Clip distance of the mirrored view as a fraction of the scene's bounding-box diagonal:
@@ -84,7 +86,7 @@ pub enum Source {
     /// element, the `count` maps closest to the mirrored eye by `selection`.
     Image {
         /// Angle (Bastos's default) or distance.
-        selection: super::radiance_maps::Selection,
+        selection: crate::view::reflections::radiance_maps::Selection,
         /// Maps per reflector element.
         count: usize,
     },
@@ -276,8 +278,8 @@ mod tests {
         );
         let m = mirror_camera(&cam, &plane);
         let (w, h) = (64.0f32, 48.0f32);
-        let a = super::super::renderer::view_projection(&cam, w / h, 1e-3);
-        let b = super::super::renderer::view_projection(&m, w / h, 1e-3);
+        let a = crate::view::passes::renderer::view_projection(&cam, w / h, 1e-3);
+        let b = crate::view::passes::renderer::view_projection(&m, w / h, 1e-3);
         for p in [
             Vec3::new(0.5, 1.0, -1.0),
             Vec3::new(-1.0, 2.0, 0.5),

@@ -10,11 +10,11 @@ use super::filter::{FILTER_RINGS, FilterTap, MAX_FILTER_TAPS, filter_taps};
 use super::lobe_shape::SHAPE_SIZE;
 use super::material::{MODULATION_SIZE, Modulation};
 use crate::materials::reflectance;
-use crate::view::build::{LayoutBuilder, bind_group_layout, render_pipeline};
-use crate::view::composite::Composite;
 use crate::view::gpu::Gpu;
-use crate::view::renderer::{Renderer, scene_vertex_layout};
-use crate::view::target::texture_2d;
+use crate::view::gpu::build::{LayoutBuilder, bind_group_layout, render_pipeline};
+use crate::view::gpu::target::texture_2d;
+use crate::view::passes::composite::Composite;
+use crate::view::passes::renderer::{Renderer, scene_vertex_layout};
 
 /// The parent clip of a composite that clips nothing ([`ReflectParams::parent`]).
 pub const NO_PARENT_CLIP: [f32; 4] = [0.0, 0.0, 0.0, -1.0];
@@ -121,7 +121,7 @@ impl ReflectParams {
 pub fn shader_source() -> String {
     format!(
         "{}\n{}",
-        crate::view::renderer::SHADER_SOURCE,
+        crate::view::passes::renderer::SHADER_SOURCE,
         super::REFLECT_SHADER_SOURCE
     )
 }

@@ -23,15 +23,17 @@ use super::{
 };
 use crate::camera::Camera;
 use crate::geometry::Aabb;
-use crate::view::build::{buffer_init, render_pipeline, shader};
-use crate::view::composite::Composite;
 use crate::view::curved::CurvedSettings;
-use crate::view::curved::gpu::CurvedReflections;
+use crate::view::curved::gpu::{CurvedReflections, MirroredView};
+use crate::view::gpu::RenderError;
+use crate::view::gpu::build::{buffer_init, render_pipeline, shader};
+use crate::view::gpu::target::{HDR_FORMAT, reverse_z_depth};
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
-use crate::view::renderer::{
-    HDR_FORMAT, RenderError, Renderer, SURFACE_TEXTURES, frame_bind_group, frame_bind_group_layout,
-    near_plane, reverse_z_depth, scene_vertex_layout, uniform_buffer, view_projection,
+use crate::view::passes::composite::Composite;
+use crate::view::passes::renderer::{
+    Renderer, SURFACE_TEXTURES, frame_bind_group, frame_bind_group_layout, near_plane,
+    scene_vertex_layout, uniform_buffer, view_projection,
 };
 
 /// Screen pixels beyond the filter's reach that image mode's splats still cover around an
@@ -177,7 +179,7 @@ impl GeometryReflections {
     ) -> Result<GeometryReflections, GpuError> {
         let (scene, map) = (&data.scene, &data.map);
         let device = &gpu.device;
-        let mesh = crate::view::renderer::SceneMesh::new(scene, &map.atlas);
+        let mesh = crate::view::passes::renderer::SceneMesh::new(scene, &map.atlas);
         let clip = (scene.bounds.diagonal() * CLIP_FRACTION).max(1e-5);
         error_scoped(device, "creating the reflection passes", || {
             let shader = shader(device, "glint reflection shader", &shader_source());
@@ -428,7 +430,7 @@ impl GeometryReflections {
     /// Writes each reflector's mirrored-view uniforms for `camera` and, in image mode, plans
     /// its splats (map selection, Eq. 3 sizes, culling, skipping; the writes land before the
     /// next submission). With `curved`, also the curved reflectors' mirrored views (slot =
-    /// the reflector's index), which [`GeometryReflections::draw_timed`] draws
+    /// the reflector's index), which [`GeometryReflections::draw`] draws
     /// into each mirror pass.
     pub fn prepare(
         &self,
@@ -445,15 +447,13 @@ impl GeometryReflections {
             if seen {
                 // The curved reflectors and the terminal ones seen in this mirror.
                 for c in curved.into_iter().chain(self.terminal.as_ref()) {
-                    c.prepare_mirror(
-                        gpu,
-                        renderer,
-                        slot,
-                        &mirrored,
-                        self.width,
-                        self.height,
-                        self.clip_plane(r),
-                    );
+                    let view = MirroredView {
+                        camera: &mirrored,
+                        width: self.width,
+                        height: self.height,
+                        clip: self.clip_plane(r),
+                    };
+                    c.prepare_mirror(gpu, renderer, slot, &view);
                 }
             }
             let u = renderer.uniforms(&mirrored, self.width, self.height);
@@ -513,36 +513,20 @@ impl GeometryReflections {
         }
     }
 
-    /// Records, after the scene pass into `color`/`hdr`/`depth` (depth stored), each visible
-    /// reflector's mirror pass and composite. Reflectors seen from behind are skipped.
+    /// Records, after the scene pass into `color`/`depth` (depth stored), each visible
+    /// reflector's mirror pass and composite. Reflectors seen from behind are skipped. With
+    /// `curved` (prepared by [`GeometryReflections::prepare`] with the same passes), the mirror
+    /// passes also draw the curved reflectors' specular term in the mirrored view, so a curved
+    /// reflector seen in a planar mirror is not kd·D alone: geometry mode over its scene pass,
+    /// image mode over the curved reflectors' kd·D it draws after the splats
+    /// ([`super::exact`]).
     pub fn draw(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         renderer: &Renderer,
         camera: &Camera,
         color: &wgpu::TextureView,
-        hdr: Option<&wgpu::TextureView>,
         depth: &wgpu::TextureView,
-    ) {
-        self.draw_timed(encoder, renderer, camera, color, hdr, depth, None, None);
-    }
-
-    /// [`GeometryReflections::draw`], the last pass writing its end timestamp into
-    /// `end_timestamp` (query set, index) when given. With `curved` (prepared by
-    /// [`GeometryReflections::prepare`] with the same passes), the mirror passes also draw
-    /// the curved reflectors' specular term in the mirrored view, so a curved reflector seen
-    /// in a planar mirror is not kd·D alone: geometry mode over its scene pass, image mode
-    /// over the curved reflectors' kd·D it draws after the splats ([`super::exact`]).
-    #[allow(clippy::too_many_arguments)]
-    pub fn draw_timed(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        renderer: &Renderer,
-        camera: &Camera,
-        color: &wgpu::TextureView,
-        hdr: Option<&wgpu::TextureView>,
-        depth: &wgpu::TextureView,
-        end_timestamp: Option<(&wgpu::QuerySet, u32)>,
         curved: Option<&CurvedReflections>,
     ) {
         let visible: Vec<(usize, &ReflectorGpu)> = self
@@ -551,7 +535,7 @@ impl GeometryReflections {
             .enumerate()
             .filter(|(_, r)| self.visible(r, camera))
             .collect();
-        for (k, &(slot, r)) in visible.iter().enumerate() {
+        for &(slot, r) in &visible {
             {
                 let mut pass = self.map.begin_mirror(encoder, "glint mirror pass", false);
                 match (self.source, &r.splats) {
@@ -608,15 +592,9 @@ impl GeometryReflections {
                 &self.pyramid,
                 matches!(self.source, Source::Image { .. }),
             );
-            let end = end_timestamp.filter(|_| k + 1 == visible.len());
-            let mut pass = self.composite.begin(
-                encoder,
-                "glint reflection composite pass",
-                color,
-                hdr,
-                depth,
-                end,
-            );
+            let mut pass =
+                self.composite
+                    .begin(encoder, "glint reflection composite pass", color, depth);
             pass.set_bind_group(1, &r.composite_params_group, &[]);
             pass.set_vertex_buffer(0, renderer.vertex_buffer().slice(..));
             pass.set_index_buffer(r.indices.slice(..), wgpu::IndexFormat::Uint32);

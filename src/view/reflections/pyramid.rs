@@ -3,9 +3,9 @@
 //! [`super::filter::Pyramid`]): level 0 (rgb·c, c) of M, each further level a 2×2 box of
 //! the one below, one render pass per level, recorded after M is complete.
 
-use crate::view::build::{bind_group_layout, render_pipeline, shader};
 use crate::view::gpu::Gpu;
-use crate::view::target::{HDR_FORMAT, clear_pass};
+use crate::view::gpu::build::{bind_group_layout, render_pipeline, shader};
+use crate::view::gpu::target::{HDR_FORMAT, clear_pass};
 
 use super::filter::level_count;
 

@@ -16,10 +16,10 @@ use super::exact::ExactSurfaces;
 use super::splats::{self, MapImage, MapSplats, NodeParams, SplatView};
 use crate::camera::Camera;
 use crate::radiance::index::{MapEntry, load_cameras, read_map};
-use crate::view::build::{buffer, buffer_init};
 use crate::view::gpu::Gpu;
+use crate::view::gpu::build::{buffer, buffer_init};
 use crate::view::load::ViewData;
-use crate::view::radiance_maps::{Selection, select};
+use crate::view::reflections::radiance_maps::{Selection, select};
 
 /// What the image-based mode drew for one reflector in the last prepared frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -710,9 +710,11 @@ mod tests {
             }
         );
         // `splat_points: array<SplatPoint>`: one Splat per element.
-        let (stride, element) =
-            crate::view::wgsl_layout::wgsl_array(&super::super::shader_source(), "splat_points")
-                .unwrap_or_else(|e| panic!("splat_points: {e}"));
+        let (stride, element) = crate::view::gpu::wgsl_layout::wgsl_array(
+            &super::super::shader_source(),
+            "splat_points",
+        )
+        .unwrap_or_else(|e| panic!("splat_points: {e}"));
         assert_eq!(stride as usize, std::mem::size_of::<Splat>());
         assert!(element.starts_with("Struct"), "splat_points of {element}");
     }
@@ -747,7 +749,7 @@ mod tests {
             ("splat_views", std::mem::size_of::<SplatView>()),
         ] {
             let (stride, element) =
-                crate::view::wgsl_layout::wgsl_array(&super::super::shader_source(), array)
+                crate::view::gpu::wgsl_layout::wgsl_array(&super::super::shader_source(), array)
                     .unwrap_or_else(|e| panic!("{array}: {e}"));
             assert_eq!(stride as usize, size, "{array}");
             assert!(element.starts_with("Struct"), "{array} of {element}");
@@ -768,8 +770,8 @@ mod tests {
     #[test]
     fn a_map_is_culled_to_its_elements_window() {
         use crate::scene::Plane;
+        use crate::view::passes::renderer::view_projection;
         use crate::view::reflections::mirror_camera;
-        use crate::view::renderer::view_projection;
         // The floor element x, z in [−0.5, 0.5]; the eye 2 m above the floor, 3 m back.
         let map = floor_map(64);
         let eye = Camera::look_at(
@@ -862,7 +864,7 @@ mod tests {
         let map = floor_map(512);
         let view = SplatView::new(&map);
         let vp_of = |eye: Vec3, at: Vec3| {
-            super::super::super::renderer::view_projection(
+            crate::view::passes::renderer::view_projection(
                 &Camera::look_at(eye, at, Vec3::Z, 1.0),
                 1.5,
                 0.01,
@@ -910,7 +912,7 @@ mod tests {
         // for an eye looking straight at the point.
         let eye = Vec3::new(0.3, 0.5, -0.2);
         let cam = Camera::look_at(eye, p, Vec3::Z, 1.0);
-        let vp = super::super::super::renderer::view_projection(&cam, 1.0, 0.01);
+        let vp = crate::view::passes::renderer::view_projection(&cam, 1.0, 0.01);
         let eq3 = point_size(&map, p, &cam, 400).unwrap() * (2.0 / 400.0);
         let got = footprint(&view, p, Vec3::Y, &vp).unwrap().extent();
         assert!(
@@ -1040,7 +1042,7 @@ mod tests {
     #[test]
     fn frustum_culls_boxes_outside_the_view() {
         let cam = Camera::look_at(Vec3::ZERO, -Vec3::Z, Vec3::Y, 1.0);
-        let vp = super::super::super::renderer::view_projection(&cam, 1.5, 0.01);
+        let vp = crate::view::passes::renderer::view_projection(&cam, 1.5, 0.01);
         let planes = frustum_planes(&vp);
         let inside = |c: Vec3| !box_outside(&planes, c - 0.1, c + 0.1);
         assert!(inside(Vec3::new(0.0, 0.0, -5.0)));
@@ -1058,7 +1060,7 @@ mod tests {
     #[test]
     fn a_window_crops_the_frustum_to_the_screen_it_covers() {
         let cam = Camera::look_at(Vec3::ZERO, -Vec3::Z, Vec3::Y, 60f32.to_radians());
-        let vp = crate::view::renderer::view_projection(&cam, 1.0, 0.01);
+        let vp = crate::view::passes::renderer::view_projection(&cam, 1.0, 0.01);
         // A square 1 m wide at 5 m: its window, half-width 0.5 · cot 30° / 5 = 0.173.
         let quad = [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)]
             .map(|(x, y)| Vec3::new(x, y, -5.0));
@@ -1144,7 +1146,7 @@ mod tests {
         assert!(m.splats[..128].iter().all(|s| s.node == 11));
         let mut params = vec![NodeParams::default(); 13];
         let plan_with = |cam: &Camera, detail: f32, rank: usize, params: &mut [NodeParams]| {
-            let vp = super::super::super::renderer::view_projection(cam, 1.0, 0.01);
+            let vp = crate::view::passes::renderer::view_projection(cam, 1.0, 0.01);
             let mut draws = Vec::new();
             let (culled, _) = plan_map(
                 &m,

@@ -24,8 +24,9 @@ use crate::scene::Scene;
 use crate::view::curved::gpu::CurvedReflections;
 use crate::view::curved::{CurvedReflector, CurvedSettings, MAX_LOBES};
 use crate::view::gpu::Gpu;
+use crate::view::gpu::RenderError;
 use crate::view::load::ViewData;
-use crate::view::renderer::{RenderError, Renderer};
+use crate::view::passes::renderer::Renderer;
 
 /// How far in front of its plane a planar reflector's cube map is taken, as a fraction of
 /// the scene's diagonal: off the plane, so its faces do not graze the wall the reflector

@@ -38,14 +38,16 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::window::{Window, WindowId};
 
-use super::display::RADIANCE_FORMAT;
-use super::frame::{FramePasses, FrameViews};
+use super::frame::FramePasses;
+use super::gpu::target::FrameViews;
 use super::gpu::{Gpu, GpuError, SUPPORTED_BACKENDS, VULKAN_INSTALL_HINT};
 use super::load::ViewData;
 use super::options::{ExposureKey, MAX_RECURSION_DEPTH, ViewOptions};
-use super::renderer::{RenderError, depth_texture};
-use super::target::texture_2d;
 use crate::camera::{Camera, frame_count};
+use crate::view::gpu::RenderError;
+use crate::view::gpu::target::depth_texture;
+use crate::view::gpu::target::texture_2d;
+use crate::view::passes::display::RADIANCE_FORMAT;
 
 /// Why the window viewer stopped with an error.
 #[derive(Debug, thiserror::Error)]

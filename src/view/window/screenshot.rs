@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use super::{Running, WindowError, next_free_name};
 use crate::camera::Camera;
 use crate::image_io;
-use crate::view::gpu::read_texture;
+use crate::view::gpu::readback::read_texture;
 use crate::view::headless::{Offscreen, rgba_to_rgb};
 use crate::view::load::ViewData;
 

@@ -4,8 +4,8 @@
 use exr::prelude::f16;
 
 use crate::materials::envmap::MipPyramid;
+use crate::view::gpu::target::HDR_FORMAT;
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
-use crate::view::renderer::HDR_FORMAT;
 
 /// A cube texture with every MIP level, and the views the passes need.
 pub struct CubeTexture {

@@ -6,12 +6,11 @@
 use super::super::generation_plan;
 use super::layout::{CurvedVertex, curved_group};
 use super::{CubeTexture, CurvedReflections, MIN_BUFFER};
-use crate::view::build::{bind_group_layout, buffer_init, render_pipeline};
 use crate::view::gpu::Gpu;
-use crate::view::renderer::{
-    ADDITIVE_KEEP_ALPHA, HDR_FORMAT, SURFACE_TEXTURES, reverse_z_depth, scene_vertex_layout,
-};
-use crate::view::target::clear_pass;
+use crate::view::gpu::build::{bind_group_layout, buffer_init, render_pipeline};
+use crate::view::gpu::target::clear_pass;
+use crate::view::gpu::target::{ADDITIVE_KEEP_ALPHA, HDR_FORMAT, reverse_z_depth};
+use crate::view::passes::renderer::{SURFACE_TEXTURES, scene_vertex_layout};
 
 impl CurvedReflections {
     /// Records every generation: per generation (written set `w`, read set `r`, never equal)
@@ -168,7 +167,7 @@ impl GenerationPipelines {
         .layouts(&[&empty, &mip_layout])
         .color(HDR_FORMAT, None)
         .build(device);
-        let depth = crate::view::renderer::depth_texture(gpu, face_size, face_size);
+        let depth = crate::view::gpu::target::depth_texture(gpu, face_size, face_size);
         let depth_view = depth.create_view(&wgpu::TextureViewDescriptor::default());
         GenerationPipelines {
             env: scene,

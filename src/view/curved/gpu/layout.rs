@@ -3,7 +3,7 @@
 //! reflector's own triangles) and its sampler.
 
 use super::super::CurvedParams;
-use crate::view::build::bind_group_layout;
+use crate::view::gpu::build::bind_group_layout;
 
 /// One vertex of a curved reflector (24 bytes): `CurvedVertexIn` in the shader.
 #[repr(C)]
@@ -132,7 +132,7 @@ mod tests {
 
     #[test]
     fn curved_vertex_matches_the_wgsl_input() {
-        crate::view::wgsl_layout::assert_vertex_layout(
+        crate::view::gpu::wgsl_layout::assert_vertex_layout(
             &CurvedVertex::layout(),
             std::mem::size_of::<CurvedVertex>(),
             &[

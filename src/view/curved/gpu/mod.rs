@@ -33,13 +33,15 @@ use super::{
     generation_plan, own_offset, pack_patterns, patterns_for, shader_source,
 };
 use crate::camera::Camera;
-use crate::view::build::{buffer_init, render_pipeline, shader};
-use crate::view::composite::Composite;
+use crate::view::gpu::RenderError;
+use crate::view::gpu::build::{buffer_init, render_pipeline, shader};
+use crate::view::gpu::target::{ADDITIVE_KEEP_ALPHA, HDR_FORMAT, reverse_z_depth};
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
-use crate::view::renderer::{
-    ADDITIVE_KEEP_ALPHA, HDR_FORMAT, RenderError, Renderer, SURFACE_TEXTURES, SceneMesh,
-    frame_bind_group, frame_bind_group_layout, reverse_z_depth, uniform_buffer,
+use crate::view::passes::composite::Composite;
+use crate::view::passes::renderer::{
+    Renderer, SURFACE_TEXTURES, SceneMesh, frame_bind_group, frame_bind_group_layout,
+    uniform_buffer,
 };
 
 /// Smallest buffer the curved passes make (a pattern buffer may be empty).
@@ -86,6 +88,21 @@ struct MirrorView {
     frame_group: wgpu::BindGroup,
     /// Per reflector: parameters and the composite group reading them.
     reflectors: Vec<(wgpu::Buffer, wgpu::BindGroup)>,
+}
+
+/// A view mirrored about a planar reflector, as its map sees the scene.
+#[derive(Clone, Copy)]
+pub struct MirroredView<'a> {
+    /// The camera mirrored about the reflector: the map's frame uniforms and the eye of every
+    /// curved reflector's term.
+    pub camera: &'a Camera,
+    /// The map's width in pixels.
+    pub width: u32,
+    /// The map's height in pixels.
+    pub height: u32,
+    /// The reflector's plane (normal xyz, w = normal · point + clip distance): fragments
+    /// behind it are discarded.
+    pub clip: Vec4,
 }
 
 /// The curved-reflector passes of one [`Renderer`]: cube maps made at construction, the
@@ -468,27 +485,21 @@ impl CurvedReflections {
         }
     }
 
-    /// Records, after the scene pass into `color`/`hdr`/`depth` (depth stored), the
+    /// Records, after the scene pass into `color`/`depth` (depth stored), the
     /// reflectors' specular term, depth-tested against the scene so only their visible pixels
     /// get it, added to kd·D.
     pub fn draw(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         color: &wgpu::TextureView,
-        hdr: Option<&wgpu::TextureView>,
         depth: &wgpu::TextureView,
     ) {
         if self.reflectors.is_empty() {
             return;
         }
-        let mut pass = self.composite.begin(
-            encoder,
-            "glint curved composite pass",
-            color,
-            hdr,
-            depth,
-            None,
-        );
+        let mut pass = self
+            .composite
+            .begin(encoder, "glint curved composite pass", color, depth);
         for r in &self.reflectors {
             pass.set_bind_group(1, &r.composite_group, &[]);
             pass.set_vertex_buffer(0, r.vertices.slice(..));
@@ -541,22 +552,9 @@ impl CurvedReflections {
         }
     }
 
-    /// Writes mirrored view `slot` (the planar passes number their mirror passes): `mirrored`
-    /// is the camera mirrored about a planar reflector (its frame uniforms at `width` ×
-    /// `height`, and the eye of every curved reflector's term), `clip` that reflector's plane
-    /// (normal xyz, w = normal · point + clip distance): fragments behind it are discarded.
+    /// Writes mirrored view `slot` (the planar passes number their mirror passes), `view`.
     /// The writes land before the next submission.
-    #[allow(clippy::too_many_arguments)]
-    pub fn prepare_mirror(
-        &self,
-        gpu: &Gpu,
-        renderer: &Renderer,
-        slot: usize,
-        mirrored: &Camera,
-        width: u32,
-        height: u32,
-        clip: Vec4,
-    ) {
+    pub fn prepare_mirror(&self, gpu: &Gpu, renderer: &Renderer, slot: usize, view: &MirroredView) {
         if self.reflectors.is_empty() {
             return;
         }
@@ -567,14 +565,20 @@ impl CurvedReflections {
             let view = self.new_mirror_view(gpu, renderer);
             views.push(view);
         }
+        let MirroredView {
+            camera,
+            width,
+            height,
+            clip,
+        } = *view;
         let view = &views[slot];
-        let mut u = renderer.uniforms(mirrored, width, height);
+        let mut u = renderer.uniforms(camera, width, height);
         u.encode_srgb = 0; // M holds linear radiance
         gpu.queue
             .write_buffer(&view.uniforms, 0, bytemuck::bytes_of(&u));
         for (r, (params, _)) in self.reflectors.iter().zip(&view.reflectors) {
             let mut p = r.base_params;
-            p.eye = mirrored.position.extend(0.0).to_array();
+            p.eye = camera.position.extend(0.0).to_array();
             p.clip = clip.to_array();
             gpu.queue.write_buffer(params, 0, bytemuck::bytes_of(&p));
         }

@@ -9,11 +9,12 @@ use super::{CubeTexture, CurvedReflections, MIN_BUFFER, OWN_MIN_BUFFER};
 use crate::materials::envmap::MipPyramid;
 use crate::radiosity::RadiosityMap;
 use crate::radiosity::atlas::{Atlas, PageSize};
-use crate::view::build::{buffer_init, compute_pipeline, shader};
+use crate::view::gpu::RenderError;
+use crate::view::gpu::build::{buffer_init, compute_pipeline, shader};
+use crate::view::gpu::probe::{probe_frame_group, probe_io_layout, run_probe};
+use crate::view::gpu::radiosity_textures::RadiosityTextures;
 use crate::view::gpu::{Gpu, error_scoped};
-use crate::view::probe::{probe_frame_group, probe_io_layout, run_probe};
-use crate::view::radiosity_textures::RadiosityTextures;
-use crate::view::renderer::{RenderError, frame_bind_group_layout};
+use crate::view::passes::renderer::frame_bind_group_layout;
 
 /// A ray's hit with a reflector itself: (t, the scene triangle, barycentrics).
 pub type SceneHit = (f32, u32, Vec2);

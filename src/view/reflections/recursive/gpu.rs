@@ -21,14 +21,18 @@ use super::{
     texture_bytes,
 };
 use crate::camera::Camera;
-use crate::view::build::{RenderPipelineBuilder, buffer, buffer_init, render_pipeline, shader};
-use crate::view::composite::Composite;
-use crate::view::curved::gpu::CurvedReflections;
+use crate::view::curved::gpu::{CurvedReflections, MirroredView};
+use crate::view::gpu::RenderError;
+use crate::view::gpu::build::{
+    RenderPipelineBuilder, buffer, buffer_init, render_pipeline, shader,
+};
+use crate::view::gpu::target::{ADDITIVE_KEEP_ALPHA, HDR_FORMAT, reverse_z_depth};
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
-use crate::view::renderer::{
-    ADDITIVE_KEEP_ALPHA, HDR_FORMAT, RenderError, Renderer, SURFACE_TEXTURES, frame_bind_group,
-    frame_bind_group_layout, reverse_z_depth, scene_vertex_layout, uniform_buffer,
+use crate::view::passes::composite::Composite;
+use crate::view::passes::renderer::{
+    Renderer, SURFACE_TEXTURES, frame_bind_group, frame_bind_group_layout, scene_vertex_layout,
+    uniform_buffer,
 };
 
 /// A child's map composited into its parent's: colour added, and the parent's alpha f_q (the
@@ -138,7 +142,7 @@ impl RecursiveReflections {
         settings: RecursionSettings,
     ) -> Result<RecursiveReflections, GpuError> {
         let device = &gpu.device;
-        let mesh = crate::view::renderer::SceneMesh::new(&data.scene, &data.map.atlas);
+        let mesh = crate::view::passes::renderer::SceneMesh::new(&data.scene, &data.map.atlas);
         let clip = (data.scene.bounds.diagonal() * CLIP_FRACTION).max(1e-5);
         error_scoped(device, "creating the recursive reflection passes", || {
             let shader = shader(
@@ -256,7 +260,7 @@ impl RecursiveReflections {
                 plan: Mutex::new(Plan::default()),
                 terminal: None,
                 clip,
-                near: crate::view::renderer::near_plane(&data.scene),
+                near: crate::view::passes::renderer::near_plane(&data.scene),
                 width,
                 height,
             }
@@ -288,7 +292,7 @@ impl RecursiveReflections {
         self.plan.lock().map(|p| p.stats).unwrap_or_default()
     }
 
-    /// Render passes [`RecursiveReflections::draw_timed`] records for the last prepared frame
+    /// Render passes [`RecursiveReflections::draw`] records for the last prepared frame
     /// (a scene pass, one per level of its pyramid and a composite per map).
     pub fn pass_count(&self) -> usize {
         (2 + crate::view::reflections::filter::level_count(self.width, self.height) as usize)
@@ -332,7 +336,7 @@ impl RecursiveReflections {
     /// Plans the reflection tree for `camera` and writes every node's uniforms (the writes
     /// land before the next submission). With `curved`, also the curved reflectors' view of
     /// every node (slot = the node's index), drawn into its map by
-    /// [`RecursiveReflections::draw_timed`].
+    /// [`RecursiveReflections::draw`].
     pub fn prepare(
         &self,
         gpu: &Gpu,
@@ -362,15 +366,13 @@ impl RecursiveReflections {
         }
         for (id, (node, slot)) in plan.nodes.iter().zip(slots.iter_mut()).enumerate() {
             for c in curved.into_iter().chain(self.terminal.as_ref()) {
-                c.prepare_mirror(
-                    gpu,
-                    renderer,
-                    id,
-                    &node.camera,
-                    self.width,
-                    self.height,
-                    self.clip_plane(node.reflector),
-                );
+                let view = MirroredView {
+                    camera: &node.camera,
+                    width: self.width,
+                    height: self.height,
+                    clip: self.clip_plane(node.reflector),
+                };
+                c.prepare_mirror(gpu, renderer, id, &view);
             }
             let r = &self.reflectors[node.reflector];
             let mut u = renderer.uniforms(&node.camera, self.width, self.height);
@@ -410,35 +412,28 @@ impl RecursiveReflections {
         }
     }
 
-    /// Records, after the scene pass into `color`/`hdr`/`depth` (depth stored), the last
-    /// prepared frame's reflection tree depth first (Figure 4), the last pass writing its end
-    /// timestamp into `end_timestamp` when given; with `curved` (prepared with the same
+    /// Records, after the scene pass into `color`/`depth` (depth stored), the last prepared
+    /// frame's reflection tree depth first (Figure 4); with `curved` (prepared with the same
     /// passes), each map also gets the curved reflectors' specular term in its view.
-    #[allow(clippy::too_many_arguments)]
-    pub fn draw_timed(
+    pub fn draw(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         renderer: &Renderer,
         color: &wgpu::TextureView,
-        hdr: Option<&wgpu::TextureView>,
         depth: &wgpu::TextureView,
-        end_timestamp: Option<(&wgpu::QuerySet, u32)>,
         curved: Option<&CurvedReflections>,
     ) {
         let (Ok(plan), Ok(slots)) = (self.plan.lock(), self.slots.lock()) else {
             return;
         };
-        for (k, &root) in plan.roots.iter().enumerate() {
+        for &root in &plan.roots {
             self.draw_node(encoder, renderer, &plan, &slots, root, curved);
             self.filter_node(encoder, &plan.nodes[root]);
-            let end = end_timestamp.filter(|_| k + 1 == plan.roots.len());
             let mut pass = self.frame_composite.begin(
                 encoder,
                 "glint recursive frame composite",
                 color,
-                hdr,
                 depth,
-                end,
             );
             self.composite(&mut pass, renderer, &plan.nodes[root], &slots[root]);
         }

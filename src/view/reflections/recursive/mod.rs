@@ -26,7 +26,7 @@ use glam::{Vec3, Vec4};
 use super::splats::frustum_planes;
 use super::{PlanarReflector, mirror_camera, signed_distance};
 use crate::camera::Camera;
-use crate::view::renderer::view_projection;
+use crate::view::passes::renderer::view_projection;
 
 mod gpu;
 

@@ -93,11 +93,11 @@ pub fn assert_layout(
 /// `assert_wgsl_layout!(SOURCE, "WgslName", RustType { field, field, … })`: panics unless
 /// the WGSL struct `WgslName` in `SOURCE` (a `&str`) has the size of `RustType` and its
 /// members lie at the listed fields' offsets, in order (see
-/// [`assert_layout`](crate::view::wgsl_layout::assert_layout)). List every field.
+/// [`assert_layout`](super::wgsl_layout::assert_layout)). List every field.
 #[macro_export]
 macro_rules! assert_wgsl_layout {
     ($source:expr, $wgsl:expr, $ty:ident { $($field:ident),+ $(,)? }) => {
-        $crate::view::wgsl_layout::assert_layout(
+        $crate::view::gpu::wgsl_layout::assert_layout(
             &$source,
             $wgsl,
             stringify!($ty),

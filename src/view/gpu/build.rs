@@ -4,7 +4,7 @@
 //! pipelines ([`compute_pipeline`]), bind-group layouts ([`LayoutBuilder`]) and buffers
 //! ([`buffer`], [`buffer_init`]).
 
-use super::gpu::Gpu;
+use super::Gpu;
 
 /// A shader module compiled from the WGSL `source`.
 pub fn shader(device: &wgpu::Device, label: &str, source: &str) -> wgpu::ShaderModule {

@@ -1,6 +1,13 @@
-//! Headless GPU access: adapter and device selection, the errors GPU work reports, and the
-//! smoke-test triangle that proves an adapter can run the viewer. Readback is in
-//! [`super::readback`] (re-exported here).
+//! Headless GPU access: adapter and device selection and the errors GPU work reports. The
+//! wgpu plumbing every pass shares is in the submodules:
+//! - [`build`]: shader modules, render and compute pipelines, bind-group layouts, buffers;
+//! - [`target`]: target formats, the offscreen target, depth and blend state, how passes begin;
+//! - [`readback`]: textures and buffers copied back to the CPU;
+//! - [`radiosity_textures`], [`surface_textures`]: the uploads of D's atlas pages and of the
+//!   scene's textures and material records;
+//! - [`probe`]: compute probes of the shaders, for tests against the CPU;
+//! - [`wgsl_layout`]: the checks that a `repr(C)` struct has its WGSL twin's layout (naga);
+//! - [`triangle`]: the smoke-test triangle that proves an adapter can run the viewer.
 //!
 //! Nothing here needs a window or a surface, so it runs on CI machines whose only GPU is a
 //! software Vulkan driver (Mesa lavapipe, from the Debian/Ubuntu package `mesa-vulkan-drivers`).
@@ -17,9 +24,14 @@
 
 use thiserror::Error;
 
-use super::build::{render_pipeline, shader};
-pub use super::readback::{read_buffer, read_texture, read_texture_rgba8};
-use super::target::{check_target_size, clear_pass, texture_2d};
+pub mod build;
+pub mod probe;
+pub mod radiosity_textures;
+pub mod readback;
+pub mod surface_textures;
+pub mod target;
+pub mod triangle;
+pub mod wgsl_layout;
 
 /// The backends the viewer renders with: Vulkan (and Metal / DX12 on the platforms that have
 /// them). GL is not among them (see the module documentation).
@@ -30,8 +42,80 @@ pub const VULKAN_INSTALL_HINT: &str = "glint-view renders only with Vulkan, Meta
      (wgpu's GL backend draws black walls); on Debian/Ubuntu install Mesa's Vulkan driver: \
      apt-get install mesa-vulkan-drivers libvulkan1";
 
-/// Pixel format of the offscreen target used by [`render_test_triangle`].
-const TEST_TRIANGLE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+/// Why the scene cannot be drawn on this device.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    /// wgpu reported an error.
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    /// The atlas does not fit the device's texture limits.
+    #[error(
+        "the radiosity atlas ({width}×{height} texels × {layers} pages) exceeds this GPU's limits ({max_side} texels per side, {max_layers} layers)"
+    )]
+    AtlasTooLarge {
+        /// Layer width.
+        width: u32,
+        /// Layer height.
+        height: u32,
+        /// Pages.
+        layers: u32,
+        /// `max_texture_dimension_2d`.
+        max_side: u32,
+        /// `max_texture_array_layers`.
+        max_layers: u32,
+    },
+    /// The scene's textures do not fit the device's texture limits (one layer per image, as
+    /// large as the largest image).
+    #[error(
+        "the scene's textures ({width}×{height} texels × {layers} images) exceed this GPU's limits ({max_side} texels per side, {max_layers} layers)"
+    )]
+    TexturesTooLarge {
+        /// Layer width.
+        width: u32,
+        /// Layer height.
+        height: u32,
+        /// Images.
+        layers: u32,
+        /// `max_texture_dimension_2d`.
+        max_side: u32,
+        /// `max_texture_array_layers`.
+        max_layers: u32,
+    },
+    /// The reflection passes cannot be set up (a missing stage, an unreadable radiance map).
+    #[error("reflections: {0}")]
+    Reflections(String),
+    /// The scene's vertex buffer exceeds the device's buffer limit.
+    #[error("the scene's {bytes} bytes of vertices exceed this GPU's buffer limit of {max} bytes")]
+    TooManyVertices {
+        /// Bytes needed.
+        bytes: u64,
+        /// `max_buffer_size`.
+        max: u64,
+    },
+}
+
+/// Whether a 2D texture array of `layers` layers of `width` × `height` fits the device.
+pub(crate) fn check_array_size(
+    gpu: &Gpu,
+    width: u32,
+    height: u32,
+    layers: u32,
+) -> Result<(), RenderError> {
+    let limits = gpu.device.limits();
+    if width > limits.max_texture_dimension_2d
+        || height > limits.max_texture_dimension_2d
+        || layers > limits.max_texture_array_layers
+    {
+        return Err(RenderError::AtlasTooLarge {
+            width,
+            height,
+            layers,
+            max_side: limits.max_texture_dimension_2d,
+            max_layers: limits.max_texture_array_layers,
+        });
+    }
+    Ok(())
+}
 
 /// Errors from GPU setup, rendering and readback.
 #[derive(Debug, Error)]
@@ -249,58 +333,4 @@ pub(crate) fn error_scoped<T>(
         Some(source) => Err(GpuError::Wgpu { context, source }),
         None => Ok(value),
     }
-}
-
-/// Renders the smoke-test triangle offscreen and returns its RGBA8 pixels.
-///
-/// The target is a `width` x `height` `Rgba8Unorm` texture cleared to opaque black. The shader
-/// `shaders/test_triangle.wgsl` generates the vertices from the vertex index at clip coordinates
-/// (-0.5, -0.5), (0.5, -0.5), (0, 0.5) and fills the triangle with opaque red (1, 0, 0, 1).
-/// Pixels are returned as by [`read_texture_rgba8`], top row first.
-///
-/// This exercises shader compilation, pipeline creation, rasterisation and readback, which is
-/// enough to prove that an adapter (for example lavapipe on CI) can run the viewer.
-pub fn render_test_triangle(gpu: &Gpu, width: u32, height: u32) -> Result<Vec<u8>, GpuError> {
-    check_target_size(&gpu.device, width, height)?;
-    let texture = error_scoped(&gpu.device, "rendering the test triangle", || {
-        let texture = texture_2d(
-            &gpu.device,
-            "glint test triangle target",
-            width,
-            height,
-            TEST_TRIANGLE_FORMAT,
-            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-        );
-        let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
-        let shader = shader(
-            &gpu.device,
-            "glint test triangle shader",
-            include_str!("../../shaders/test_triangle.wgsl"),
-        );
-        let pipeline = render_pipeline("glint test triangle", &shader, "vs_main", "fs_main")
-            .color(TEST_TRIANGLE_FORMAT, None)
-            .build(&gpu.device);
-
-        let mut encoder = gpu
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("glint test triangle encoder"),
-            });
-        {
-            let mut pass = clear_pass(
-                &mut encoder,
-                "glint test triangle pass",
-                &[Some(&view)],
-                wgpu::Color::BLACK,
-                None,
-                None,
-            );
-            pass.set_pipeline(&pipeline);
-            pass.draw(0..3, 0..1);
-        }
-        gpu.queue.submit([encoder.finish()]);
-        texture
-    })?;
-
-    read_texture_rgba8(gpu, &texture)
 }

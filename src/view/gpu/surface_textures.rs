@@ -8,8 +8,7 @@
 use bytemuck::{Pod, Zeroable};
 
 use super::build::buffer_init;
-use super::gpu::{Gpu, error_scoped};
-use super::renderer::RenderError;
+use super::{Gpu, RenderError, error_scoped};
 use crate::scene::Scene;
 use crate::scene::material::{AlphaMode, TextureRef};
 use crate::scene::texture::{Filter, Wrap};
@@ -141,24 +140,22 @@ impl SurfaceTextures {
         let width = images.iter().map(|i| i.width).max().unwrap_or(1);
         let height = images.iter().map(|i| i.height).max().unwrap_or(1);
         let layers = (images.len() as u32).max(1);
-        super::radiosity_textures::check_array_size(gpu, width, height, layers).map_err(
-            |e| match e {
-                RenderError::AtlasTooLarge {
-                    width,
-                    height,
-                    layers,
-                    max_side,
-                    max_layers,
-                } => RenderError::TexturesTooLarge {
-                    width,
-                    height,
-                    layers,
-                    max_side,
-                    max_layers,
-                },
-                e => e,
+        super::check_array_size(gpu, width, height, layers).map_err(|e| match e {
+            RenderError::AtlasTooLarge {
+                width,
+                height,
+                layers,
+                max_side,
+                max_layers,
+            } => RenderError::TexturesTooLarge {
+                width,
+                height,
+                layers,
+                max_side,
+                max_layers,
             },
-        )?;
+            e => e,
+        })?;
         let records = match scene {
             Some(s) => material_records(s),
             None => vec![PLAIN],
@@ -224,7 +221,7 @@ impl SurfaceTextures {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::view::renderer::SHADER_SOURCE;
+    use crate::view::passes::renderer::SHADER_SOURCE;
 
     #[test]
     fn records_match_the_wgsl_structs() {

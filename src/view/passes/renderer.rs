@@ -1,6 +1,6 @@
 //! The scene pass: the wgpu pipeline that draws a scene lit by its radiosity textures.
 //! What every pass shares (formats, targets, depth and blend state) is in
-//! [`super::target`], the wgpu builders in [`super::build`].
+//! [`crate::view::gpu::target`], the wgpu builders in [`crate::view::gpu::build`].
 //!
 //! - One indexed draw for the whole scene ([`SceneMesh`]): a vertex is a position, lightmap
 //!   coordinates in texels of its atlas page, the page, both texture coordinate sets and the
@@ -10,16 +10,16 @@
 //!   texture's texel mean; the fragment shader multiplies the full-resolution texture back in
 //!   and adds textured emission (`surface_d`), and discards alpha-masked cut-outs, from the
 //!   scene's images and material records in the frame bind group
-//!   ([`super::surface_textures`]). Only triangles of alpha-masked materials are drawn with
-//!   that shader (`fs_main`); the rest with one that never discards (`fs_opaque`), which lets
-//!   the depth test run before shading, and triangles of materials with neither textures nor
-//!   cut-outs with `fs_opaque` specialised to leave the textures out (`SURFACE_TEXTURES`
-//!   false, [`SurfaceShading`]). The draw is split into runs in scene order
+//!   ([`crate::view::gpu::surface_textures`]). Only triangles of alpha-masked materials are
+//!   drawn with that shader (`fs_main`); the rest with one that never discards
+//!   (`fs_opaque`), which lets the depth test run before shading, and triangles of materials
+//!   with neither textures nor cut-outs with `fs_opaque` specialised to leave the textures out
+//!   (`SURFACE_TEXTURES` false, [`SurfaceShading`]). The draw is split into runs in scene order
 //!   ([`shading_runs`]), so it draws what one draw would, in the same order.
 //! - The atlas pages in one `Rgba16Float` 2D texture array, every layer the size of the largest
 //!   page; smaller pages are padded by repeating their edge texels, so the clamp-to-edge
 //!   sampler behaves at a page's edge exactly as the CPU's clamped lookups do.
-//! - The fragment shader reconstructs D with the cubic B-spline ([`super::bicubic`]).
+//! - The fragment shader reconstructs D with the cubic B-spline ([`crate::view::cpu::bicubic`]).
 //! - Depth: `Depth32Float`, reverse Z with an infinite far plane (depth 1 at the near plane,
 //!   compare `Greater`), which keeps precision across scenes of any size.
 //! - Output: linear D to the frame's radiance target (`Rgba16Float`,
@@ -32,21 +32,17 @@ use std::ops::Range;
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec4};
 
-use super::build::{bind_group_layout, buffer, buffer_init, render_pipeline, shader};
-use super::gpu::{Gpu, GpuError, error_scoped};
-pub use super::radiosity_textures::RadiosityTextures;
-use super::target::clear_pass;
-pub use super::target::{
-    ADDITIVE_KEEP_ALPHA, COLOR_FORMAT, DEPTH_FORMAT, HDR_FORMAT, OffscreenTarget, TargetFormats,
-    depth_texture, overlay_pass, reverse_z_depth,
-};
 use crate::camera::Camera;
 use crate::radiosity::RadiosityMap;
 use crate::radiosity::atlas::Atlas;
 use crate::scene::{Material, Scene};
+use crate::view::gpu::build::{bind_group_layout, buffer, buffer_init, render_pipeline, shader};
+use crate::view::gpu::radiosity_textures::RadiosityTextures;
+use crate::view::gpu::target::{TargetFormats, clear_pass, reverse_z_depth};
+use crate::view::gpu::{Gpu, RenderError, error_scoped};
 
 /// WGSL source of the viewer's shaders.
-pub const SHADER_SOURCE: &str = include_str!("../../shaders/view.wgsl");
+pub const SHADER_SOURCE: &str = include_str!("../../../shaders/view.wgsl");
 
 /// Near plane as a fraction of the scene's bounding-box diagonal (the far plane is at
 /// infinity; reverse Z keeps depth precision even this close).
@@ -82,7 +78,7 @@ pub struct Vertex {
     pub uv0: [f32; 2],
     /// Texture coordinates, set 1 (zero without `TEXCOORD_1`).
     pub uv1: [f32; 2],
-    /// Material index (into the material records of [`super::surface_textures`]).
+    /// Material index (into the material records of [`crate::view::gpu::surface_textures`]).
     pub material: u32,
 }
 
@@ -98,58 +94,6 @@ pub(crate) fn scene_vertex_layout() -> wgpu::VertexBufferLayout<'static> {
         step_mode: wgpu::VertexStepMode::Vertex,
         attributes: &VERTEX_ATTRIBUTES,
     }
-}
-
-/// Why the scene cannot be drawn on this device.
-#[derive(Debug, thiserror::Error)]
-pub enum RenderError {
-    /// wgpu reported an error.
-    #[error(transparent)]
-    Gpu(#[from] GpuError),
-    /// The atlas does not fit the device's texture limits.
-    #[error(
-        "the radiosity atlas ({width}×{height} texels × {layers} pages) exceeds this GPU's limits ({max_side} texels per side, {max_layers} layers)"
-    )]
-    AtlasTooLarge {
-        /// Layer width.
-        width: u32,
-        /// Layer height.
-        height: u32,
-        /// Pages.
-        layers: u32,
-        /// `max_texture_dimension_2d`.
-        max_side: u32,
-        /// `max_texture_array_layers`.
-        max_layers: u32,
-    },
-    /// The scene's textures do not fit the device's texture limits (one layer per image, as
-    /// large as the largest image).
-    #[error(
-        "the scene's textures ({width}×{height} texels × {layers} images) exceed this GPU's limits ({max_side} texels per side, {max_layers} layers)"
-    )]
-    TexturesTooLarge {
-        /// Layer width.
-        width: u32,
-        /// Layer height.
-        height: u32,
-        /// Images.
-        layers: u32,
-        /// `max_texture_dimension_2d`.
-        max_side: u32,
-        /// `max_texture_array_layers`.
-        max_layers: u32,
-    },
-    /// The reflection passes cannot be set up (a missing stage, an unreadable radiance map).
-    #[error("reflections: {0}")]
-    Reflections(String),
-    /// The scene's vertex buffer exceeds the device's buffer limit.
-    #[error("the scene's {bytes} bytes of vertices exceed this GPU's buffer limit of {max} bytes")]
-    TooManyVertices {
-        /// Bytes needed.
-        bytes: u64,
-        /// `max_buffer_size`.
-        max: u64,
-    },
 }
 
 /// The scene as one indexed triangle list.
@@ -216,8 +160,9 @@ pub enum SurfaceShading {
 }
 
 impl SurfaceShading {
-    /// The shading `material` needs (as [`super::surface_textures::material_records`] reads
-    /// it: a material without a base colour texture stores D itself).
+    /// The shading `material` needs (as
+    /// [`crate::view::gpu::surface_textures::material_records`] reads it: a material without a
+    /// base colour texture stores D itself).
     pub fn of(material: &Material) -> SurfaceShading {
         if material.has_cutouts() {
             SurfaceShading::Masked
@@ -407,18 +352,12 @@ impl Renderer {
             let bind_group_layout = frame_bind_group_layout(device);
             let uniforms = uniform_buffer(device);
             let bind_group = frame_bind_group(device, &bind_group_layout, &uniforms, &textures);
-            let hdr_target = formats.hdr.then_some(wgpu::ColorTargetState {
-                format: HDR_FORMAT,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            });
             let pipeline = |label, entry, textures| {
                 render_pipeline(label, &shader, "vs_main", entry)
                     .layouts(&[&bind_group_layout])
                     .vertex(scene_vertex_layout())
                     .depth(reverse_z_depth(true, wgpu::CompareFunction::Greater))
                     .color(formats.color, None)
-                    .target(hdr_target.clone())
                     .override_bool(SURFACE_TEXTURES, textures)
                     .build(device)
             };
@@ -528,22 +467,20 @@ impl Renderer {
     }
 
     /// Records the scene's render pass: clears colour to black and depth to 0 (reverse Z),
-    /// draws every triangle, each [`ShadingRun`] with its pipeline. `hdr` must be given exactly
-    /// when the pipeline has an HDR target.
+    /// draws every triangle, each [`ShadingRun`] with its pipeline.
     pub fn draw(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         color: &wgpu::TextureView,
-        hdr: Option<&wgpu::TextureView>,
         depth: &wgpu::TextureView,
         timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
         let mut pass = clear_pass(
             encoder,
             "glint scene pass",
-            &[Some(color), hdr],
+            &[Some(color)],
             wgpu::Color::BLACK,
-            // Depth kept: the reflection composite (`super::reflections`) depth-tests against it.
+            // Depth kept: the reflection composite (`view::reflections`) depth-tests against it.
             Some((depth, true)),
             timestamps,
         );
@@ -584,7 +521,7 @@ mod tests {
 
     #[test]
     fn vertex_layout_matches_the_wgsl_input() {
-        crate::view::wgsl_layout::assert_vertex_layout(
+        crate::view::gpu::wgsl_layout::assert_vertex_layout(
             &scene_vertex_layout(),
             std::mem::size_of::<Vertex>(),
             &[

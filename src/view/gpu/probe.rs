@@ -6,14 +6,14 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec2, Vec3};
 
 use super::build::{bind_group_layout, buffer, buffer_init, compute_pipeline, shader};
-use super::gpu::{Gpu, GpuError, error_scoped};
 use super::radiosity_textures::RadiosityTextures;
 use super::readback::read_buffer;
-use super::renderer::{
-    FrameUniforms, RenderError, SHADER_SOURCE, frame_bind_group, frame_bind_group_layout,
-    uniform_buffer,
-};
 use crate::radiosity::RadiosityMap;
+use crate::view::gpu::RenderError;
+use crate::view::gpu::{Gpu, GpuError, error_scoped};
+use crate::view::passes::renderer::{
+    FrameUniforms, SHADER_SOURCE, frame_bind_group, frame_bind_group_layout, uniform_buffer,
+};
 
 /// The bind-group layout of a compute probe's own buffers: binding 0 the input items
 /// (read-only storage), binding 1 one output item per input (storage).
@@ -127,7 +127,7 @@ pub struct ProbeInput {
 
 /// Reconstructs D at each of `points` (lightmap coordinates in texels, page) with the shader's
 /// `sample_radiosity`, in a compute pass: what the fragment shader sees. For tests that hold
-/// the WGSL filter to [`super::bicubic::bspline`].
+/// the WGSL filter to [`crate::view::cpu::bicubic::bspline`].
 pub fn bicubic_probe(
     gpu: &Gpu,
     map: &RadiosityMap,

@@ -51,14 +51,15 @@ use crate::brdf::{Lobe, reflect};
 use crate::camera::Camera;
 use crate::scene::{ReflectorKind, Scene};
 
-/// WGSL of the curved-reflector passes (appended to [`super::renderer::SHADER_SOURCE`]).
-pub const CURVED_SHADER_SOURCE: &str = include_str!("../../shaders/curved.wgsl");
+/// WGSL of the curved-reflector passes (appended to
+/// [`crate::view::passes::renderer::SHADER_SOURCE`]).
+pub const CURVED_SHADER_SOURCE: &str = include_str!("../../../shaders/curved.wgsl");
 
 /// The full WGSL module of the curved-reflector passes.
 pub fn shader_source() -> String {
     format!(
         "{}\n{}",
-        super::renderer::SHADER_SOURCE,
+        crate::view::passes::renderer::SHADER_SOURCE,
         CURVED_SHADER_SOURCE
     )
 }

@@ -1,7 +1,7 @@
 //! Reflected billboards (Popescu et al. 2006 §3): their packing for `shaders/billboards.wgsl`,
 //! per reflector, and the CPU reference of the per-ray algorithm of §3.1 with the
-//! billboard-to-environment morph of §3.2. Pure: no GPU here; [`super::impostors`] uploads the
-//! tables. Each billboard is captured by [`crate::srdm::billboard`].
+//! billboard-to-environment morph of §3.2. Pure: no GPU here; [`super`] uploads the tables.
+//! Each billboard is captured by [`crate::srdm::billboard`].
 //!
 //! Layout: billboards are grouped per reflector ([`BillboardTables::groups`]): group g holds
 //! the billboards made for reflector g (one per impostor object, §3: "a different billboard is
@@ -24,7 +24,7 @@ use crate::srdm::capture::{ColourSource, impostor_triangles};
 
 pub use crate::srdm::billboard::Billboard;
 
-use super::impostor_tables::ImpostorReflector;
+use super::srdm_tables::ImpostorReflector;
 
 /// Billboard resolution unless set, texels per side.
 pub const DEFAULT_RESOLUTION: u32 = 128;

@@ -5,18 +5,22 @@ use std::time::Instant;
 
 use glam::Vec3;
 
-use super::build::buffer;
-use super::curved::gpu::CurvedReflections;
-use super::frame::{FramePasses, Rebuild};
-use super::gpu::{Gpu, GpuError, error_scoped};
-use super::impostors::ImpostorReflections;
-use super::load::ViewData;
-use super::options::{CurvedMode, CurvedSettings, Exposure, ReflectionMode, Tonemap, ViewOptions};
-use super::readback::{map_read, read_texture_rgba8, read_texture_rgba16f};
-use super::reflections::{GeometryReflections, RecursiveReflections};
-use super::renderer::{COLOR_FORMAT, OffscreenTarget, RenderError, Renderer};
 use super::replay::GpuTimeSource;
 use crate::camera::Camera;
+use crate::view::curved::gpu::CurvedReflections;
+use crate::view::frame::{FramePasses, Rebuild};
+use crate::view::gpu::RenderError;
+use crate::view::gpu::build::buffer;
+use crate::view::gpu::readback::{map_read, read_texture_rgba8, read_texture_rgba16f};
+use crate::view::gpu::target::{COLOR_FORMAT, OffscreenTarget};
+use crate::view::gpu::{Gpu, GpuError, error_scoped};
+use crate::view::impostors::ImpostorReflections;
+use crate::view::load::ViewData;
+use crate::view::options::{
+    CurvedMode, CurvedSettings, Exposure, ReflectionMode, Tonemap, ViewOptions,
+};
+use crate::view::passes::renderer::Renderer;
+use crate::view::reflections::{GeometryReflections, RecursiveReflections};
 
 /// Timestamp queries spanning a frame's render passes, when the device has them: the first
 /// pass's beginning (index 0) to the last pass's end (index 1).

@@ -1,15 +1,12 @@
 //! The composite: a pass drawn over the finished frame that adds a reflector's reflected term
 //! to its visible pixels (planar reflections' ks·(M*K)·R, the curved reflectors' specular term,
 //! the impostor reflections, the recursive tree's level-0 maps). Its pipeline writes the
-//! frame's colour target and, when the frame has one, its HDR target, both with
-//! [`ADDITIVE_KEEP_ALPHA`], depth tested against the scene (reverse Z, `GreaterEqual`) and not
+//! frame's colour target with [`ADDITIVE_KEEP_ALPHA`], depth tested against the scene (reverse Z, `GreaterEqual`) and not
 //! written; bind group 0 is the renderer's frame uniforms.
 
-use super::build::RenderPipelineBuilder;
 use super::renderer::{Renderer, frame_bind_group};
-use super::target::{
-    ADDITIVE_KEEP_ALPHA, HDR_FORMAT, TargetFormats, overlay_pass, reverse_z_depth,
-};
+use crate::view::gpu::build::RenderPipelineBuilder;
+use crate::view::gpu::target::{ADDITIVE_KEEP_ALPHA, TargetFormats, overlay_pass, reverse_z_depth};
 
 /// A composite's pipeline and its group 0 (the frame uniforms of the renderer it was built for).
 pub(crate) struct Composite {
@@ -23,14 +20,8 @@ fn over_frame<'a>(
     pipeline: RenderPipelineBuilder<'a>,
     formats: TargetFormats,
 ) -> RenderPipelineBuilder<'a> {
-    let additive = Some(ADDITIVE_KEEP_ALPHA);
     pipeline
-        .color(formats.color, additive)
-        .target(formats.hdr.then_some(wgpu::ColorTargetState {
-            format: HDR_FORMAT,
-            blend: additive,
-            write_mask: wgpu::ColorWrites::ALL,
-        }))
+        .color(formats.color, Some(ADDITIVE_KEEP_ALPHA))
         .depth(reverse_z_depth(false, wgpu::CompareFunction::GreaterEqual))
 }
 
@@ -54,19 +45,16 @@ impl Composite {
         }
     }
 
-    /// Begins the composite pass over the finished frame's `color`, `hdr` and `depth`
-    /// ([`overlay_pass`], writing its end time into `end_timestamp` when given), with the
-    /// pipeline and group 0 set.
+    /// Begins the composite pass over the finished frame's `color` and `depth`
+    /// ([`overlay_pass`]), with the pipeline and group 0 set.
     pub(crate) fn begin<'e>(
         &self,
         encoder: &'e mut wgpu::CommandEncoder,
         label: &str,
         color: &wgpu::TextureView,
-        hdr: Option<&wgpu::TextureView>,
         depth: &wgpu::TextureView,
-        end_timestamp: Option<(&wgpu::QuerySet, u32)>,
     ) -> wgpu::RenderPass<'e> {
-        let mut pass = overlay_pass(encoder, label, color, hdr, depth, end_timestamp);
+        let mut pass = overlay_pass(encoder, label, color, depth);
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.frame_group, &[]);
         pass

@@ -1,6 +1,6 @@
 //! Replaying a camera path: which frames, at which times, which of them are written, and the
 //! per-frame timings with their summary (`timings.json`). No GPU here: the headless renderer
-//! ([`super::headless`]) fills these in.
+//! ([`crate::view::headless`]) fills these in.
 
 use std::path::{Path, PathBuf};
 

@@ -6,12 +6,12 @@
 use exr::prelude::f16;
 use glam::Vec3;
 
-use super::gpu::{Gpu, error_scoped};
-use super::renderer::RenderError;
 use super::surface_textures::SurfaceTextures;
 use super::target::HDR_FORMAT;
 use crate::radiosity::RadiosityMap;
 use crate::scene::Scene;
+
+use super::{Gpu, RenderError, check_array_size, error_scoped};
 
 /// The radiosity pages on the GPU: a texture array with its sampler.
 pub struct RadiosityTextures {
@@ -111,29 +111,6 @@ impl RadiosityTextures {
         })?;
         Ok(textures)
     }
-}
-
-/// Whether a 2D texture array of `layers` layers of `width` × `height` fits the device.
-pub(crate) fn check_array_size(
-    gpu: &Gpu,
-    width: u32,
-    height: u32,
-    layers: u32,
-) -> Result<(), RenderError> {
-    let limits = gpu.device.limits();
-    if width > limits.max_texture_dimension_2d
-        || height > limits.max_texture_dimension_2d
-        || layers > limits.max_texture_array_layers
-    {
-        return Err(RenderError::AtlasTooLarge {
-            width,
-            height,
-            layers,
-            max_side: limits.max_texture_dimension_2d,
-            max_layers: limits.max_texture_array_layers,
-        });
-    }
-    Ok(())
 }
 
 /// A page as half-float RGBA texels, `layer_w` × `layer_h`, edge texels repeated beyond the

@@ -1,19 +1,20 @@
 //! The display pass: the frame's linear radiance, which every other pass draws into
 //! ([`RADIANCE_FORMAT`]), mapped to the 8-bit target (the offscreen colour texture or the
-//! window's surface): × 2^EV ([`super::exposure`]), the tone curve ([`super::tonemap`]), sRGB
-//! (`shaders/display.wgsl`). The radiance target itself is never exposed: it is the HDR output.
+//! window's surface): × 2^EV ([`crate::view::exposure`]), the tone curve
+//! ([`crate::view::tonemap`]), sRGB (`shaders/display.wgsl`). The radiance target itself is
+//! never exposed: it is the HDR output.
 
 use bytemuck::{Pod, Zeroable};
 
-use super::build::{bind_group_layout, buffer, render_pipeline, shader};
-use super::options::{Exposure, Tonemap};
-use super::target::HDR_FORMAT;
+use crate::view::gpu::build::{bind_group_layout, buffer, render_pipeline, shader};
+use crate::view::gpu::target::HDR_FORMAT;
+use crate::view::options::{Exposure, Tonemap};
 
 /// Format of the radiance target every pass of a frame draws into.
 pub const RADIANCE_FORMAT: wgpu::TextureFormat = HDR_FORMAT;
 
 /// WGSL of the display pass.
-pub const DISPLAY_SHADER_SOURCE: &str = include_str!("../../shaders/display.wgsl");
+pub const DISPLAY_SHADER_SOURCE: &str = include_str!("../../../shaders/display.wgsl");
 
 /// Mirrors `DisplayUniforms` in `shaders/display.wgsl` (16 bytes).
 #[repr(C)]
@@ -35,7 +36,7 @@ pub struct DisplayUniforms {
 pub struct DisplayMapping {
     /// `auto` or a fixed EV.
     pub exposure: Exposure,
-    /// The EV `auto` stands for ([`super::exposure::auto_ev`] of the bundle's D).
+    /// The EV `auto` stands for ([`crate::view::exposure::auto_ev`] of the bundle's D).
     pub auto_ev: f32,
     /// The tone curve.
     pub tonemap: Tonemap,
@@ -132,7 +133,7 @@ impl DisplayPass {
                 },
             ],
         });
-        let mut pass = super::target::clear_pass(
+        let mut pass = crate::view::gpu::target::clear_pass(
             encoder,
             "glint display pass",
             &[Some(target)],

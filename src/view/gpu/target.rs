@@ -2,13 +2,12 @@
 //! target, the reverse-Z depth state, the additive blend of passes drawn over the scene, and
 //! how a pass begins: clearing its targets, or loading a finished frame (the overlay).
 
-use super::frame::FrameViews;
-use super::gpu::{Gpu, GpuError, error_scoped};
+use crate::view::gpu::{Gpu, GpuError, error_scoped};
 
 /// Offscreen colour target format: the hardware encodes linear output to sRGB.
 pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 
-/// Format of the optional HDR target (linear radiance) and of the radiosity textures.
+/// Format of the radiance target (linear radiance) and of the radiosity textures.
 pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 
 /// Depth buffer format.
@@ -17,10 +16,8 @@ pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 /// Target formats of a [`Renderer`]'s pipeline.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct TargetFormats {
-    /// The display colour target. When it is not an sRGB format the shader encodes sRGB.
+    /// The colour target. When it is not an sRGB format the shader encodes sRGB.
     pub color: wgpu::TextureFormat,
-    /// Whether an [`HDR_FORMAT`] target receives linear radiance too.
-    pub hdr: bool,
 }
 
 /// Depth state of every pass: reverse-Z (nearer is greater) on [`DEPTH_FORMAT`].
@@ -49,40 +46,21 @@ pub const ADDITIVE_KEEP_ALPHA: wgpu::BlendState = wgpu::BlendState {
     },
 };
 
-/// Begins a pass that draws over a finished frame: it loads and keeps `color`, `hdr` (when
-/// given) and `depth`, so its fragments add to the scene and are depth tested against it.
-/// With `end_timestamp` (query set, index), the pass writes its end time there.
+/// Begins a pass that draws over a finished frame: it loads and keeps `color` and `depth`, so
+/// its fragments add to the scene and are depth tested against it.
 pub fn overlay_pass<'e>(
     encoder: &'e mut wgpu::CommandEncoder,
     label: &str,
     color: &wgpu::TextureView,
-    hdr: Option<&wgpu::TextureView>,
     depth: &wgpu::TextureView,
-    end_timestamp: Option<(&wgpu::QuerySet, u32)>,
-) -> wgpu::RenderPass<'e> {
-    overlay_pass_on(encoder, label, &[Some(color), hdr], depth, end_timestamp)
-}
-
-/// [`overlay_pass`] over the colour attachments `colors` (`None`: a slot the pass's pipelines
-/// leave empty), each loaded and kept.
-pub fn overlay_pass_on<'e>(
-    encoder: &'e mut wgpu::CommandEncoder,
-    label: &str,
-    colors: &[Option<&wgpu::TextureView>],
-    depth: &wgpu::TextureView,
-    end_timestamp: Option<(&wgpu::QuerySet, u32)>,
 ) -> wgpu::RenderPass<'e> {
     begin_pass(
         encoder,
         label,
-        colors,
+        &[Some(color)],
         wgpu::LoadOp::Load,
         Some((depth, wgpu::LoadOp::Load, wgpu::StoreOp::Store)),
-        end_timestamp.map(|(query_set, index)| wgpu::RenderPassTimestampWrites {
-            query_set,
-            beginning_of_pass_write_index: None,
-            end_of_pass_write_index: Some(index),
-        }),
+        None,
     )
 }
 
@@ -198,6 +176,18 @@ pub fn depth_texture(gpu: &Gpu, width: u32, height: u32) -> wgpu::Texture {
         DEPTH_FORMAT,
         wgpu::TextureUsages::RENDER_ATTACHMENT,
     )
+}
+
+/// The views a frame is drawn into, all of one size: linear radiance, the 8-bit display
+/// target and depth.
+#[derive(Clone, Copy)]
+pub struct FrameViews<'a> {
+    /// The linear radiance target ([`HDR_FORMAT`]; also sampled by the display pass).
+    pub radiance: &'a wgpu::TextureView,
+    /// The display target (the format the passes were built for).
+    pub display: &'a wgpu::TextureView,
+    /// The depth buffer (reverse Z).
+    pub depth: &'a wgpu::TextureView,
 }
 
 /// An offscreen target: linear radiance (readable: the HDR output), the 8-bit colour the

@@ -7,7 +7,7 @@ use exr::prelude::f16;
 use glam::Vec4;
 
 use super::build::buffer;
-use super::gpu::{Gpu, GpuError, error_scoped};
+use crate::view::gpu::{Gpu, GpuError, error_scoped};
 
 /// Bytes per texel of the RGBA8 formats handled by [`read_texture_rgba8`].
 const RGBA8_BYTES_PER_PIXEL: u32 = 4;

@@ -1,20 +1,23 @@
 //! Headless replay: every frame of a camera path rendered without a window
-//! ([`Offscreen`], re-exported from [`super::offscreen`]), frames written as PNG (and EXR),
+//! ([`Offscreen`], re-exported from [`offscreen`]), frames written as PNG (and EXR),
 //! per-frame GPU and CPU times to `timings.json`.
+
+pub mod offscreen;
+pub mod replay;
 
 use std::path::{Path, PathBuf};
 
-use super::gpu::{Gpu, GpuError};
-use super::load::{LoadError, ViewData, load};
-pub use super::offscreen::{FrameTimes, Offscreen};
-use super::options::ViewOptions;
-use super::renderer::RenderError;
-use super::replay::{
+use crate::image_io::{self, ImageError};
+use crate::progress::Progress;
+use crate::view::gpu::RenderError;
+use crate::view::gpu::{Gpu, GpuError};
+use crate::view::load::{LoadError, ViewData, load};
+use crate::view::options::ViewOptions;
+pub use offscreen::{FrameTimes, Offscreen};
+use replay::{
     FrameTiming, Summary, TIMINGS_FILE, TIMINGS_FORMAT, TIMINGS_VERSION, Timings, frame_file_name,
     is_written, schedule,
 };
-use crate::image_io::{self, ImageError};
-use crate::progress::Progress;
 
 /// Why a headless replay failed.
 #[derive(Debug, thiserror::Error)]

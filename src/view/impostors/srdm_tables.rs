@@ -1,6 +1,6 @@
 //! The SRDM tables as the shaders read them (`shaders/srdm.wgsl`), and the per-reflector
 //! parameters of the impostor reflections pass (`shaders/impostors.wgsl`). Pure: packing and
-//! small math only; [`super::impostors`] uploads them.
+//! small math only; [`crate::view::impostors`] uploads them.
 //!
 //! Views of one impostor object are consecutive; `impostors[k]` holds object k's first view
 //! and view count.
@@ -8,10 +8,10 @@
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
-use super::reflections::{MODULATION_SIZE, PlanarReflector};
 use crate::scene::Scene;
 use crate::scene::desc::ReflectorKind;
 use crate::srdm::{Domain, Srdm};
+use crate::view::reflections::{MODULATION_SIZE, PlanarReflector};
 
 /// One captured view as `srdm.wgsl` reads it (`SrdmView`).
 #[repr(C)]

@@ -10,8 +10,8 @@
 //!   centre of projection is closest to the mirrored eye by angle seen from the element's
 //!   centre ([`Selection::Angle`], Bastos's default) or by distance ([`Selection::Distance`]).
 //!
-//! The maps and their quadtrees are decoded and splatted by [`super::reflections`]
-//! (Eq. 3 sizes per node, culling and skipping in [`super::reflections::splats`]).
+//! The maps and their quadtrees are decoded and splatted by [`crate::view::reflections`]
+//! (Eq. 3 sizes per node, culling and skipping in [`super::splats`]).
 
 use glam::Vec3;
 

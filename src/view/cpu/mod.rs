@@ -1,6 +1,8 @@
 //! The CPU reference of the viewer's frame: one ray through each pixel centre, cast through the
 //! scene's BVH, D looked up at the nearest hit with the same cubic B-spline the fragment shader
-//! uses ([`super::bicubic::radiance`]). The golden-image tests compare the GPU frame to this.
+//! uses ([`bicubic::radiance`]). The golden-image tests compare the GPU frame to this.
+
+pub mod bicubic;
 
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -59,8 +61,7 @@ fn render_with(
                 let dir = camera.ray_direction(Camera::pixel_ndc(x, y, width, height), aspect);
                 match bvh.closest_hit(camera.position, dir, f32::INFINITY) {
                     Some(hit) => {
-                        let q =
-                            super::bicubic::radiance(map, hit.triangle, hit.bary).max(Vec3::ZERO);
+                        let q = bicubic::radiance(map, hit.triangle, hit.bary).max(Vec3::ZERO);
                         d(hit.triangle, hit.bary, q) * exposure
                     }
                     None => Vec3::ZERO,
