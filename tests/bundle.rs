@@ -413,7 +413,22 @@ fn glint_bundle_stats_verify_ls() {
         ],
     )
     .unwrap();
-    bake(&dir, "srdm", "h", &[("bunny.srdm", "srdm", &[1u8; 64])]).unwrap();
+    // An SRDM stage as readers require it: its index lists the view's files.
+    let index = br#"{"version":1,"colour":"radiosity","settings":{"domains":3,"points":3,"resolution":16},
+        "views":[{"impostor":"bunny","view":0,"srdm":"bunny.srdm","capture":"bunny.exr",
+        "position":[0,0,1],"forward":[0,0,-1]}]}"#;
+    bake(
+        &dir,
+        "srdm",
+        "h",
+        &[
+            ("index.json", "srdm-index", index),
+            ("bunny.srdm", "srdm", &[1u8; 64]),
+            ("bunny.exr", "impostor-exr", &[3u8; 16]),
+        ],
+    )
+    .unwrap();
+    let total = 1567 + index.len() + 16;
     let d = dir.to_str().unwrap();
 
     let (code, out, _) = glint_bundle(&["stats", d]);
@@ -422,19 +437,19 @@ fn glint_bundle_stats_verify_ls() {
         out.contains("radiosity") && out.contains("radiosity-exr") && out.contains("1500"),
         "{out}"
     );
-    assert!(out.contains("total") && out.contains("1567"), "{out}");
+    assert!(out.contains("total") && out.contains(&total.to_string()), "{out}");
     assert!(out.contains("texels"), "{out}");
 
     let (code, out, _) = glint_bundle(&["stats", d, "--json"]);
     assert_eq!(code, 0);
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();
-    assert_eq!(v["total"]["bytes"], 1567);
-    assert_eq!(v["total"]["files"], 4);
+    assert_eq!(v["total"]["bytes"], total);
+    assert_eq!(v["total"]["files"], 6);
     assert_eq!(v["stages"][0]["kinds"]["radiosity-exr"]["files"], 2);
 
     let (code, out, _) = glint_bundle(&["ls", d]);
     assert_eq!(code, 0);
-    assert_eq!(out.lines().count(), 2 + 4, "{out}");
+    assert_eq!(out.lines().count(), 2 + 6, "{out}");
     assert!(out.contains("srdm/bunny.srdm"));
 
     let (code, out, _) = glint_bundle(&["verify", d]);

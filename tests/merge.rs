@@ -68,15 +68,28 @@ impl Version {
             _ => {
                 let item = unit.strip_prefix("radiance.").unwrap();
                 vec![
-                    (format!("{item}/cameras.json"), "cameras"),
+                    (format!("{item}/cameras.json"), "radiance-cameras"),
                     (format!("{item}/map0.exr"), "radiance-exr"),
                 ]
             }
         };
+        // The scene stage's files are what readers check: scene.json names its glTF.
+        let text = |f: &str| match f {
+            "scene.json" => format!(
+                r#"{{"version":1,"name":"{}","geometry":"scene.glb","note":{:?}}}"#,
+                self.name,
+                body(f)
+            ),
+            "scene.glb" => format!(
+                r#"{{"asset":{{"version":"2.0"}},"extras":{{"note":{:?}}}}}"#,
+                body(f)
+            ),
+            _ => body(f),
+        };
         names
             .into_iter()
             .map(|(f, k)| {
-                let bytes = body(&f).into_bytes();
+                let bytes = text(&f).into_bytes();
                 (f, k, bytes)
             })
             .collect()
