@@ -414,7 +414,8 @@ fn glint_bundle_stats_verify_ls() {
     )
     .unwrap();
     // An SRDM stage as readers require it: its index lists the view's files.
-    let index = br#"{"version":1,"colour":"radiosity","settings":{"domains":3,"points":3,"resolution":16},
+    let index =
+        br#"{"version":1,"colour":"radiosity","settings":{"domains":3,"points":3,"resolution":16},
         "views":[{"impostor":"bunny","view":0,"srdm":"bunny.srdm","capture":"bunny.exr",
         "position":[0,0,1],"forward":[0,0,-1]}]}"#;
     bake(
@@ -437,7 +438,10 @@ fn glint_bundle_stats_verify_ls() {
         out.contains("radiosity") && out.contains("radiosity-exr") && out.contains("1500"),
         "{out}"
     );
-    assert!(out.contains("total") && out.contains(&total.to_string()), "{out}");
+    assert!(
+        out.contains("total") && out.contains(&total.to_string()),
+        "{out}"
+    );
     assert!(out.contains("texels"), "{out}");
 
     let (code, out, _) = glint_bundle(&["stats", d, "--json"]);
