@@ -7,6 +7,7 @@ parent declares, and the parent re-exports its submodules), so edges between a m
 own ancestors are left out unless `--strict`. Prints every strongly connected group of files
 and exits 1 if there is one."""
 
+import importlib.util
 import re
 import sys
 from pathlib import Path
@@ -101,37 +102,11 @@ for m in ours:
         if strict or not related:
             edges[m].add(target)
 
-# Tarjan's strongly connected components.
-index, low, stack, on, groups, counter = {}, {}, [], set(), [], [0]
-
-
-def visit(v):
-    index[v] = low[v] = counter[0]
-    counter[0] += 1
-    stack.append(v)
-    on.add(v)
-    for w in edges[v]:
-        if w not in index:
-            visit(w)
-            low[v] = min(low[v], low[w])
-        elif w in on:
-            low[v] = min(low[v], index[w])
-    if low[v] == index[v]:
-        group = []
-        while True:
-            w = stack.pop()
-            on.discard(w)
-            group.append(w)
-            if w == v:
-                break
-        if len(group) > 1:
-            groups.append(sorted(group))
-
-
-sys.setrecursionlimit(10000)
-for v in sorted(edges):
-    if v not in index:
-        visit(v)
+# The strongly connected components, found by import-loops.py's Tarjan (one copy of it).
+_spec = importlib.util.spec_from_file_location("import_loops", Path(__file__).with_name("import-loops.py"))
+import_loops = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(import_loops)
+groups = [comp for comp, _ in import_loops.cycles(edges)]
 for g in groups:
     print("loop:", " ".join(str(files[m]) for m in g))
     for m in g:
