@@ -84,8 +84,8 @@ pub const CACHE_BUDGET: u64 = 2 << 30;
 /// after 256 even an albedo of 0.95 leaves 2·10⁻⁶ of it, and `tolerance` stops long before.
 pub const MAX_BOUNCES: u32 = 256;
 
-/// Largest `rays` and `light_samples` per texel: 64 × the high preset's first batch, which
-/// refinement already raises by up to 64× where a texel needs it.
+/// Largest `rays` and `light_samples` per texel: 64× and 512× the high preset's first batch,
+/// which refinement already raises by up to 64× where a texel needs it.
 pub const MAX_SAMPLES: u32 = 65_536;
 
 /// Largest `min_chart_texels`: a chart's density is raised by at most 16× for it anyway.
@@ -298,7 +298,7 @@ impl RadiositySettings {
                 self.light_samples.into(),
                 1,
                 MAX_SAMPLES.into(),
-                "64 × the high preset's; refinement adds more where a texel needs it",
+                "512 × the high preset's; refinement adds more where a texel needs it",
             ),
             (
                 "bounces",
