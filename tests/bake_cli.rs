@@ -152,20 +152,7 @@ fn a_bad_scene_writes_nothing() {
 #[test]
 fn diffuse_scene_skips_glossy_stages_with_reasons() {
     let dir = tempfile::tempdir().unwrap();
-    write_gltf(
-        dir.path(),
-        "box",
-        &[quad("Floor", 0, 1, 0.0, 1.0), quad("Light", 1, 1, 1.0, 0.2)],
-        &[
-            MaterialSpec::diffuse("white", 0.7),
-            MaterialSpec {
-                emissive: [1.0; 3],
-                strength: 5.0,
-                ..MaterialSpec::diffuse("lamp", 0.0)
-            },
-        ],
-    );
-    let scene = write_scene(dir.path(), r#"{ "version": 1, "geometry": "box.gltf" }"#);
+    let scene = lit_floor(dir.path());
     let bundle = dir.path().join("box.glint");
     let (code, out, _) = glint_bake(&[
         scene.to_str().unwrap(),
@@ -478,24 +465,6 @@ fn glint_radiosity_refuses_a_density_that_gives_no_element() {
         "{err}"
     );
     assert!(!bundle.exists());
-}
-
-/// A lit floor: a scene with no glossy material, quick to bake whole.
-fn lit_floor(dir: &Path) -> PathBuf {
-    write_gltf(
-        dir,
-        "box",
-        &[quad("Floor", 0, 1, 0.0, 1.0), quad("Light", 1, 1, 1.0, 0.2)],
-        &[
-            MaterialSpec::diffuse("white", 0.7),
-            MaterialSpec {
-                emissive: [1.0; 3],
-                strength: 5.0,
-                ..MaterialSpec::diffuse("lamp", 0.0)
-            },
-        ],
-    );
-    write_scene(dir, r#"{ "version": 1, "geometry": "box.gltf" }"#)
 }
 
 /// A bundle path that is not UTF-8 is written lossily in the JSON reports: `glint-bake

@@ -36,6 +36,19 @@ fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
+/// Bakes `scene`'s draft radiosity unit into the shard `bundle`.
+fn radiosity_unit(scene: &Path, bundle: &Path) -> (i32, String, String) {
+    bake(&[
+        s(scene),
+        "--quality",
+        "draft",
+        "--unit",
+        "radiosity",
+        "--bundle",
+        s(bundle),
+    ])
+}
+
 /// glossy-room's folder copied (so tests may edit its scene.json) and every unit baked at
 /// draft into `shards/`, once per test binary; tests copy both before changing anything.
 fn pristine() -> &'static Path {
@@ -486,17 +499,7 @@ fn the_radiosity_unit_needs_every_gathering_shard_and_then_solves_the_same_d() {
         &other.join("gather.0.glint"),
     );
     let radiosity = other.join("radiosity.glint");
-    let unit = || {
-        bake(&[
-            s(&scene),
-            "--quality",
-            "draft",
-            "--unit",
-            "radiosity",
-            "--bundle",
-            s(&radiosity),
-        ])
-    };
+    let unit = || radiosity_unit(&scene, &radiosity);
     // gather.1's shard is missing: the unit says which and how to make it.
     let (code, _, err) = unit();
     assert_ne!(code, 0);
@@ -525,17 +528,7 @@ fn a_missing_dependency_shard_is_called_missing_and_a_partial_one_incomplete() {
     let scene = repo("scenes/cornell-box/scene.json");
     let radiosity = tmp.path().join("radiosity.glint");
     let gather = tmp.path().join("gather.0.glint");
-    let unit = || {
-        bake(&[
-            s(&scene),
-            "--quality",
-            "draft",
-            "--unit",
-            "radiosity",
-            "--bundle",
-            s(&radiosity),
-        ])
-    };
+    let unit = || radiosity_unit(&scene, &radiosity);
     // No gather.0 shard at all: it is missing there, and nothing says its unit failed.
     let (code, _, err) = unit();
     assert_ne!(code, 0);
@@ -574,20 +567,7 @@ fn json_reports_write_paths_that_are_not_utf8_lossily() {
     use std::ffi::OsStr;
     use std::os::unix::ffi::OsStrExt;
     let dir = tempfile::tempdir().unwrap();
-    write_gltf(
-        dir.path(),
-        "box",
-        &[quad("Floor", 0, 1, 0.0, 1.0), quad("Light", 1, 1, 1.0, 0.2)],
-        &[
-            MaterialSpec::diffuse("white", 0.7),
-            MaterialSpec {
-                emissive: [1.0; 3],
-                strength: 5.0,
-                ..MaterialSpec::diffuse("lamp", 0.0)
-            },
-        ],
-    );
-    let scene = write_scene(dir.path(), r#"{ "version": 1, "geometry": "box.gltf" }"#);
+    let scene = lit_floor(dir.path());
     let shards = dir.path().join(OsStr::from_bytes(b"shards-\xff"));
     let bundle = dir.path().join(OsStr::from_bytes(b"units-\xff.glint"));
     let json = |cmd: &mut Command| {

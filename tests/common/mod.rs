@@ -309,6 +309,21 @@ pub fn write_room(dir: &Path) -> PathBuf {
     write_gltf(dir, "room", &meshes, &materials)
 }
 
+/// A lit floor (`box.gltf` and its scene.json in `dir`): a scene with no glossy material,
+/// quick to bake whole. Returns the scene.json's path.
+pub fn lit_floor(dir: &Path) -> PathBuf {
+    write_gltf(
+        dir,
+        "box",
+        &[quad("Floor", 0, 1, 0.0, 1.0), quad("Light", 1, 1, 1.0, 0.2)],
+        &[
+            MaterialSpec::diffuse("white", 0.7),
+            MaterialSpec::emitter("lamp", [1.0; 3], 5.0),
+        ],
+    );
+    write_scene(dir, r#"{ "version": 1, "geometry": "box.gltf" }"#)
+}
+
 /// Writes `scene.json` with the given JSON text into `dir` and returns its path.
 pub fn write_scene(dir: &Path, json: &str) -> PathBuf {
     let path = dir.join("scene.json");
