@@ -5,7 +5,6 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use common::*;
 use glam::Vec3;
@@ -20,12 +19,7 @@ use glint::radiosity::d_identity;
 use glint::scene::{Quality, Scene};
 
 fn run(bin: &str, args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(bin).args(args).output().unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    common::run_exe(bin, args)
 }
 
 fn materials(args: &[&str]) -> (i32, String, String) {

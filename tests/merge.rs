@@ -232,15 +232,7 @@ fn whole(dir: &Path, label: &str) -> Version {
 }
 
 fn glint_bundle(args: &[&Path]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_glint-bundle"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    common::run_exe(env!("CARGO_BIN_EXE_glint-bundle"), args)
 }
 
 /// `glint-bundle merge OUT SHARD…` (with `extra` flags first).

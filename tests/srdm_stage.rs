@@ -4,7 +4,6 @@
 mod common;
 
 use std::path::Path;
-use std::process::Command;
 
 use common::*;
 use glam::{Vec2, Vec3};
@@ -276,12 +275,7 @@ fn a_scene_without_impostors_is_skipped_and_writes_nothing() {
 }
 
 fn run(bin: &str, args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(bin).args(args).output().unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    common::run_exe(bin, args)
 }
 
 #[test]

@@ -16,12 +16,7 @@ use common::*;
 use glint::scene::Quality;
 
 fn run(bin: &str, args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(bin).args(args).output().unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    common::run_exe(bin, args)
 }
 
 fn bake(args: &[&str]) -> (i32, String, String) {

@@ -324,6 +324,16 @@ pub fn lit_floor(dir: &Path) -> PathBuf {
     write_scene(dir, r#"{ "version": 1, "geometry": "box.gltf" }"#)
 }
 
+/// Runs the executable `exe` with `args`: its exit code (-1 when killed), stdout and stderr.
+pub fn run_exe<S: AsRef<std::ffi::OsStr>>(exe: &str, args: &[S]) -> (i32, String, String) {
+    let out = std::process::Command::new(exe).args(args).output().unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
 /// Writes `scene.json` with the given JSON text into `dir` and returns its path.
 pub fn write_scene(dir: &Path, json: &str) -> PathBuf {
     let path = dir.join("scene.json");
