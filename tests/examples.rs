@@ -254,6 +254,32 @@ fn build_script_bake_watches_the_scene_files_and_rebakes_an_edited_scene() {
     assert!(e.contains("scene.json") && e.contains("geometry"), "{e}");
 }
 
+#[test]
+fn scene_files_lists_the_gltf_s_external_images_by_their_decoded_paths() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene_json = lit_floor(dir.path());
+    // An image beside the glTF (under a percent-escaped URI) and one inside it.
+    let gltf_path = dir.path().join("box.gltf");
+    let mut gltf: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&gltf_path).unwrap()).unwrap();
+    gltf["images"] = serde_json::json!([
+        { "uri": "maps/wood%20grain.png" },
+        { "uri": "data:image/png;base64,AAAA" }
+    ]);
+    std::fs::write(&gltf_path, gltf.to_string()).unwrap();
+    std::fs::create_dir(dir.path().join("maps")).unwrap();
+    std::fs::write(dir.path().join("maps/wood grain.png"), b"png").unwrap();
+    let scene = Scene::load(&scene_json).unwrap();
+    let names: Vec<_> = scene_files(&scene)
+        .iter()
+        .map(|f| f.strip_prefix(dir.path()).unwrap().to_owned())
+        .collect();
+    let expected: Vec<PathBuf> = ["box.bin", "box.gltf", "maps/wood grain.png", "scene.json"]
+        .map(PathBuf::from)
+        .into();
+    assert_eq!(names, expected);
+}
+
 /// The `build.rs` of README's recipe is the one lib.rs's documentation compiles as a doctest.
 #[test]
 fn readme_build_rs_recipe_is_the_compiled_one() {

@@ -24,8 +24,9 @@ pub enum BuildBakeError {
 }
 
 /// The files `scene` was loaded from: its scene.json, the glTF it names and every external
-/// buffer and image that glTF names (`data:` URIs are inside the glTF). A bake's output
-/// depends on these alone, so they are what a build script watches.
+/// buffer and image that glTF names (`data:` URIs are inside the glTF). Of the scene, a bake
+/// reads these files alone (and hashes them all into its scene hash), so they are what a
+/// build script watches.
 pub fn scene_files(scene: &Scene) -> Vec<PathBuf> {
     let gltf_path = scene
         .path
