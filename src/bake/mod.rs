@@ -1,6 +1,7 @@
 //! Bake stages: what a scene requires, the stages that write into a bundle, and the tools' command
 //! lines over them (`tool`, `unit_tool`, and `bundle_tool` for `glint-bundle`).
 
+pub mod build_script;
 pub mod bundle_tool;
 pub mod materials;
 pub mod merge;
@@ -10,6 +11,7 @@ pub mod radiance_stage;
 pub mod radiosity_stage;
 pub mod report;
 pub mod run;
+pub mod scene_read;
 pub mod scene_stage;
 pub mod shard;
 pub mod srdm_stage;

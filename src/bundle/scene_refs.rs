@@ -12,7 +12,7 @@ use super::{AssetRecord, Bundle, BundleError, StageRecord};
 const STAGE: &str = "scene";
 
 impl Bundle {
-    /// Checks every file reference of the scene stage ([`crate::bundle::scene_refs`]); an empty
+    /// Checks every file reference of the scene stage (module `bundle::scene_refs`); an empty
     /// list when they are all confined (or the bundle has no scene stage).
     pub fn check_scene_references(&self) -> Vec<BundleError> {
         let Some(stage) = self.stage(STAGE) else {

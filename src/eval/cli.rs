@@ -505,17 +505,7 @@ impl ProbeArgs {
         } = self;
         let pts: Vec<probe::ProbePoint> = read_json(&points, POINTS_JSON)?;
         let b = Bundle::open(&bundle)?;
-        let scene_json = b.stage_asset("scene", "scene.json").map_err(|_| {
-            anyhow::anyhow!(
-                "{}: no scene stage (bake it with glint-bake)",
-                bundle.display()
-            )
-        })?;
-        // The scene stage's files name only its own checked assets (as the viewer requires).
-        if let Some(p) = b.verify_stages(&["scene"]).into_iter().next() {
-            anyhow::bail!("{}: {p}", bundle.display());
-        }
-        let scene = Scene::load(b.asset_path(scene_json))?;
+        let scene = b.load_scene()?;
         let map = RadiosityMap::load(&b)?.with_context(|| {
             format!(
                 "{}: no radiosity stage (bake it with glint-bake)",

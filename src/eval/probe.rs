@@ -273,7 +273,7 @@ pub fn diffuse_points_clear_of(
 const CLEARANCE_DIRECTIONS: usize = 16;
 
 /// Distance from surface point `p` (unit normal `n`) to the nearest other surface in front of
-/// it, looked for along [`CLEARANCE_DIRECTIONS`] directions just above the tangent plane
+/// it, looked for along `CLEARANCE_DIRECTIONS` directions just above the tangent plane
 /// (where a wall meeting this surface at a concave edge, or an object standing on it, is
 /// nearest) and along the normal; infinite when none is hit.
 ///

@@ -1,4 +1,4 @@
-//! Ray casting over the scene's triangles with an eight-wide BVH ([`wide`]) built from obvhs'
+//! Ray casting over the scene's triangles with an eight-wide BVH (`wide`) built from obvhs'
 //! BVH2.
 
 mod wide;

@@ -6,7 +6,7 @@
 //! - [`reflectance`]: R and the albedo A as a sphere map and a grazing-dense 1D map;
 //! - [`pattern_format`]: the sample-pattern table file;
 //! - [`envmap`]: cube-map environment maps, their MIP pyramids and the §8 estimators;
-//! - [`settings`]: the stage's settings; [`index`]: `materials/index.json`, typed, and its
+//! - [`settings`](crate::settings::materials): the stage's settings; [`index`]: `materials/index.json`, typed, and its
 //!   hash-checked reader.
 
 pub mod envmap;

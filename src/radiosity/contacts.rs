@@ -36,7 +36,7 @@ pub const REACH: f32 = 2.0;
 pub const TEXEL_BUDGET: f64 = 2.0;
 
 /// A texel asks for a boost where the nearest distance changes by more than this fraction
-/// to a neighbouring texel ([`requests`]).
+/// to a neighbouring texel (`requests`).
 pub const VARY: f32 = 0.25;
 
 /// A boost below this is not worth a chart's rebuild.

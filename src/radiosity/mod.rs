@@ -1,4 +1,4 @@
-//! Radiosity (Bastos et al. §7, after [2] there: radiosity textures): the view-independent
+//! Radiosity (Bastos et al. §7, after \[2\] there: radiosity textures): the view-independent
 //! diffuse light D, solved on lightmap texels and looked up by every other stage.
 
 pub mod atlas;

@@ -393,7 +393,7 @@ pub struct StitchStats {
 /// Σ_points,filters |(lookup_a − lookup_b) / D_p|² + λ²·Σ_texels |y|² + μ²·Σ_adjacent |y_i − y_j|²
 ///
 /// (D_p the seam point's level, the mean of its two sides; s and D floored at
-/// [`RELATIVE_FLOOR`] × the median seam level; λ = `closeness`, μ = `smoothness`; adjacent:
+/// `RELATIVE_FLOOR` × the median seam level; λ = `closeness`, μ = `smoothness`; adjacent:
 /// 4-neighbours in one chart, a texel that does not change counting as y = 0). Relative
 /// terms make a dark seam (under a model, at a contact) close as well as a bright one: in
 /// absolute terms its jump is small beside the pulls of brighter texels nearby. The

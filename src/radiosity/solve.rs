@@ -68,12 +68,12 @@ const REFINE_SLICE: usize = 16384;
 pub struct SolveSettings {
     /// [`RadiositySettings::rays`].
     pub rays: u32,
-    /// [`RadiositySettings::light_samples`]; with more than [`LIGHTS_SAMPLED_EACH`] emitters,
-    /// drawn from all of them ([`super::many_lights`]).
+    /// [`RadiositySettings::light_samples`]; with more than `LIGHTS_SAMPLED_EACH` emitters,
+    /// drawn from all of them (`radiosity::many_lights`).
     pub light_samples: u32,
     /// [`RadiositySettings::bounces`].
     pub bounces: u32,
-    /// [`RadiositySettings::glossy_depth`] ([`super::transport`]).
+    /// [`RadiositySettings::glossy_depth`] (`radiosity::transport`).
     pub glossy_depth: u32,
     /// [`RadiositySettings::tolerance`].
     pub tolerance: f32,
@@ -84,7 +84,7 @@ pub struct SolveSettings {
     pub seed: u64,
     /// [`RadiositySettings::cache_budget`], bytes. An element refined beyond it has its new
     /// rays read once, against the reflected radiance of that moment, and kept as sums
-    /// ([`Links::freeze`]); under the budget every cached ray follows every bounce
+    /// (`Links::freeze`); under the budget every cached ray follows every bounce
     /// (docs/tuning.md#cache-budget).
     pub cache_budget: u64,
 }

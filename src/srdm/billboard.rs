@@ -119,7 +119,7 @@ fn surface_frame(tris: &[Triangle], plane: &crate::scene::Plane, towards: Vec3) 
 /// Centroid placement (`surface` `None`): the plane through the object's centroid B
 /// perpendicular to B→reflector, captured by casting one ray per texel from a camera on that
 /// line with a 10° field of view holding the object's bounding sphere. Surface placement: the
-/// flat object's own plane ([`surface_frame`]), captured by rays along its normal. Colour is
+/// flat object's own plane (`surface_frame`), captured by rays along its normal. Colour is
 /// `colour` at the hit (D or the albedo, as the SRDM stage), alpha the coverage; `normals`
 /// asks for per-texel normals (a reflective object).
 pub fn capture(

@@ -310,7 +310,7 @@ pub struct SimplifiedRow {
 }
 
 /// Simplifies one row of samples ([`BACKGROUND`] or depth, sample k at u = k + ½) to at most
-/// `m` points (§4.2). See [`RowSimplifier::run`] for the algorithm.
+/// `m` points (§4.2). See `RowSimplifier::run` for the algorithm.
 pub fn simplify_row(samples: &[f32], m: usize) -> SimplifiedRow {
     let mut out = vec![[0.0f32; 2]; m];
     let mut simplifier = RowSimplifier::default();

@@ -9,7 +9,7 @@
 //!
 //! The structure is pure: no file system, no printing; [`Srdm::to_bytes`] / [`Srdm::from_bytes`]
 //! hold the binary format. Beside it: [`capture`] (the impostor captures and their EXR),
-//! [`billboard`] (the §3 billboard capture), [`settings`], and [`index`] (`srdm/index.json` and
+//! [`billboard`] (the §3 billboard capture), [`settings`](crate::settings::srdm), and [`index`] (`srdm/index.json` and
 //! the hash-checked reader the viewer uses). The bake stage (`bake::srdm_stage`) runs the
 //! captures and writes the bundle.
 //!

@@ -23,8 +23,8 @@
 //! results are gathered in order, so the bytes do not depend on the thread count.
 //!
 //! The math lives in [`crate::materials`]; this module runs the steps in order: choose the
-//! materials ([`lobes::chosen_materials`]), bake their lobes ([`lobes::bake_lobes`]), write
-//! them ([`lobes::write_materials`]), the environment maps ([`env_maps::write_env_maps`]), the
+//! materials ([`lobes::chosen_materials`]), bake their lobes (`lobes::bake_lobes`), write
+//! them (`lobes::write_materials`), the environment maps (`env_maps::write_env_maps`), the
 //! index, then commit.
 
 mod env_maps;

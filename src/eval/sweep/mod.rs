@@ -13,9 +13,9 @@
 //! overrides) and the base view. Every setting's bundle starts as a copy of the base bundle,
 //! so only the stages its knob changes (and the stages downstream of them) are baked again.
 //!
-//! - [`knobs`]: the knob grammar and the point each value gives;
-//! - [`viewer`]: the headless viewer's frame for a point;
-//! - [`report`]: CSV and SVG.
+//! - `knobs`: the knob grammar and the point each value gives;
+//! - `viewer`: the headless viewer's frame for a point;
+//! - `report`: CSV and SVG.
 
 mod knobs;
 mod report;

@@ -159,7 +159,7 @@ pub enum GpuError {
         max: u32,
     },
 
-    /// The texture given to [`read_texture_rgba8`] cannot be read back as RGBA8 pixels.
+    /// The texture given to [`read_texture_rgba8`](readback::read_texture_rgba8) cannot be read back as RGBA8 pixels.
     #[error("cannot read back texture as RGBA8: {0}")]
     UnsupportedTexture(String),
 

@@ -13,7 +13,7 @@ pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 /// Depth buffer format.
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
-/// Target formats of a [`Renderer`]'s pipeline.
+/// Target formats of a [`Renderer`](crate::view::passes::renderer::Renderer)'s pipeline.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct TargetFormats {
     /// The colour target. When it is not an sRGB format the shader encodes sRGB.

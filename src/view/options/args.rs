@@ -90,7 +90,7 @@ pub struct ViewArgs {
     /// Geometry reflections: recursion depth 0–4 (Nielsen & Christensen 2002 §3.1): 0 draws
     /// no reflections (as `--reflections off`), 1 mirrors the scene once per reflector (the
     /// default), 2–4 also draw the reflectors seen in each reflection, one reflection map per
-    /// level. Needs `--reflections geometry`. In the window, [ and ] change it.
+    /// level. Needs `--reflections geometry`. In the window, \[ and \] change it.
     #[arg(long, value_name = "N", value_parser = parse_depth)]
     pub recursion_depth: Option<u8>,
     /// Recursive reflections: a branch stops when its accumulated specular weight (the product

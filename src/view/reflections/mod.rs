@@ -3,8 +3,8 @@
 //! reflector's plane, K the material's kernel, R its reflectance modulation, D the baked
 //! radiosity (exitant radiance, kd already in it).
 //!
-//! Per reflector seen from its reflecting side and frame, two passes ([`passes`]; the
-//! shader's inputs in [`params`], M's target in [`map_target`]):
+//! Per reflector seen from its reflecting side and frame, two passes (`passes`; the
+//! shader's inputs in `params`, M's target in `map_target`):
 //! 1. M into an offscreen Rgba16Float texture in the reflected view (the viewpoint and its
 //!    axes mirrored about the plane, [`mirror_camera`]), alpha = the fraction of the
 //!    reflected ray beyond the plane (for K's scale), from one of two [`Source`]s:
@@ -15,7 +15,7 @@
 //!      by angle or distance) reprojected as splats (quads of two triangles: WebGPU has no point
 //!      size; the frame's kept points listed by index and drawn in one call per reflector),
 //!      sized by Eq. 3 per quadtree node, culled per node, points skipped when
-//!      minified ([`splats`], on the GPU in [`splat_maps`]). Texels no splat covered (gaps,
+//!      minified ([`splats`], on the GPU in `splat_maps`). Texels no splat covered (gaps,
 //!      and directions no selected map saw: at grazing views, beyond the maps' frusta) are
 //!      filled in the composite from the nearest covered ones ([`splats::fill_hole`]);
 //!      texels where a farther surface shows between rows of splats are closed from the

@@ -38,7 +38,7 @@ pub struct ReflectParams {
     pub kernel: [f32; 4],
     /// The composite's clip: in a recursive map, the parent mirror's plane (normal xyz,
     /// w = normal · point + clip distance), fragments p with xyz · p ≤ w discarded;
-    /// [`NO_PARENT_CLIP`] for a composite into the frame.
+    /// `NO_PARENT_CLIP` for a composite into the frame.
     pub parent: [f32; 4],
     /// ks·R at the 1D map's cosines (rgb; a unused).
     pub modulation: [[f32; 4]; MODULATION_SIZE],

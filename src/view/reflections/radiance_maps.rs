@@ -1,7 +1,7 @@
 //! The baked radiance maps of a planar reflector as the viewer's image-based mode (Bastos §6)
 //! reads them, and the selection of the maps closest to the reflected view
 //! (Bastos et al. 1999 §8.1.3): "we mirror the viewpoint and viewing direction about each
-//! reflection plane … a search for the minimal angle … [or] the distance from the reference
+//! reflection plane … a search for the minimal angle … \[or\] the distance from the reference
 //! of the radiance maps to the reflected camera".
 //!
 //! - [`load_cameras`]: `radiance/NAME/cameras.json` (every map's file stem, element, camera

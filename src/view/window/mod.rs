@@ -8,7 +8,7 @@
 //!   a `camera_paths` entry of scene.json (`recorded-N.json` in the output folder).
 //! - The `-` and `=` keys lower and raise the exposure by half a stop, `0` returns to auto, M
 //!   switches the tone curve ([`exposure_key`], [`super::exposure::Exposure::step`]).
-//! - G, T, I, K, C, [ and ] change the [`ViewOptions`]; [`FramePasses`] rebuilds what they
+//! - G, T, I, K, C, \[ and \] change the [`ViewOptions`]; [`FramePasses`] rebuilds what they
 //!   feed, so the window draws exactly what headless replay draws with the same options.
 //! - P saves a screenshot (`screenshot-N.png`): the window's own next frame, read back from
 //!   the surface (or, where the surface cannot be copied, the same passes rendered offscreen).
@@ -96,7 +96,7 @@ pub struct WindowOptions {
     pub out: PathBuf,
     /// Save a screenshot after this many frames and exit (automation).
     pub screenshot_after: Option<u64>,
-    /// What the frame shows at start (G, T, I, K, C, [ and ] change it).
+    /// What the frame shows at start (G, T, I, K, C, \[ and \] change it).
     pub view: ViewOptions,
 }
 

@@ -1,9 +1,9 @@
 //! The GPU half of curved reflectors (see [`super`] for the equations): the composite pass
 //! that shades the reflectors' pixels, in the frame and inside planar mirrors' passes.
 //!
-//! - [`layout`]: the reflector vertex format and the curved shader's bind group 1;
-//! - [`cube`]: cube textures with every MIP level, and baked pyramids uploaded as cubes;
-//! - [`baked`]: the materials stage's baked MIP pyramids and ξ₀;
+//! - `layout`: the reflector vertex format and the curved shader's bind group 1;
+//! - `cube`: cube textures with every MIP level, and baked pyramids uploaded as cubes;
+//! - `baked`: the materials stage's baked MIP pyramids and ξ₀;
 //! - each reflector's own triangles with their BVH ([`super::own_mesh`]), which reflected
 //!   rays are cast at first (self-reflection);
 //! - `generation`: the live cube maps, generated once, double-buffered across generations;
