@@ -98,7 +98,11 @@ wait_jobs() {
   while [ -n "$(squeue -h -o %i)" ]; do
     stuck=$(squeue -h -t PENDING -o '%r' | grep -E -m1 'PartitionConfig|PartitionNodeLimit|DependencyNeverSatisfied|BadConstraints' || true)
     if [ -n "$stuck" ] || [ "$(date +%s)" -ge "$deadline" ]; then
-      echo "slurm: jobs that will not finish${stuck:+ (pending: $stuck)}${stuck:- after ${timeout} s}; squeue:" >&2
+      if [ -n "$stuck" ]; then
+        echo "slurm: a job can never start (squeue reason $stuck); the queue:" >&2
+      else
+        echo "slurm: jobs still queued after ${timeout} s; the queue:" >&2
+      fi
       squeue -o '%.12i %.12j %.9T %.6C %.8m %r' >&2
       exit 1
     fi
@@ -116,10 +120,6 @@ check_run() {
   glint-bundle verify "$1" >/dev/null
 }
 
-t0=$(date +%s)
-glint-bake "$scene" --quality draft --bundle whole.glint >/dev/null 2>whole.log
-echo "slurm: whole draft bake $(( $(date +%s) - t0 )) s"
-
 # README's recipe; the sbatch option after `--` lets two units share the 2-CPU node.
 t0=$(date +%s)
 bash "$repo/deploy/slurm/submit.sh" "$scene" "$work/shards" "$work/merged.glint" draft -- --cpus-per-task=1
@@ -128,6 +128,9 @@ check_run merged.glint
 grep -q 'threads: 1 (SLURM_CPUS_PER_TASK)' glint-unit-*.log \
   || { echo "slurm: no unit ran with the 1 CPU granted" >&2; cat glint-unit-*.log >&2; exit 1; }
 echo "slurm: submit.sh to merged bundle $(( $(date +%s) - t0 )) s"
+t0=$(date +%s)
+glint-bake "$scene" --quality draft --bundle whole.glint >/dev/null 2>whole.log
+echo "slurm: whole draft bake $(( $(date +%s) - t0 )) s"
 python3 "$repo/.ci/same-assets.py" whole.glint/manifest.json merged.glint/manifest.json \
   "slurm: glossy-room baked by Slurm job arrays and merged"
 
@@ -165,7 +168,7 @@ wait_jobs
 check_run merged.glint
 snapshot >after.txt
 diff before.txt after.txt >&2 || { echo "slurm: resubmitting rewrote finished units' shards" >&2; exit 1; }
-fresh=$(grep -L 'up to date' glint-unit-*.log | xargs grep -h -o 'unit [a-zA-Z0-9_.]*' | sort -u | tr '\n' ' ')
+fresh=$(grep -L 'up to date' glint-unit-*.log | xargs -r grep -h -o 'unit [a-zA-Z0-9_.]*' | sort -u | tr '\n' ' ')
 [ "$fresh" = "unit $slow " ] || { echo "slurm: resubmitting baked '$fresh', expected only $slow" >&2; exit 1; }
 python3 "$repo/.ci/same-assets.py" whole.glint/manifest.json merged.glint/manifest.json \
   "slurm: $slow cancelled mid-run and resubmitted, $((units - 1)) finished units left alone"

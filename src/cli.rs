@@ -36,7 +36,10 @@ pub fn init_threads() {
     let rayon = std::env::var("RAYON_NUM_THREADS").ok();
     let slurm = std::env::var("SLURM_CPUS_PER_TASK").ok();
     if let Some(n) = threads_granted(rayon.as_deref(), slurm.as_deref()) {
-        match rayon::ThreadPoolBuilder::new().num_threads(n).build_global() {
+        match rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+        {
             Ok(()) => log::info!("threads: {n} (SLURM_CPUS_PER_TASK)"),
             Err(e) => log::warn!("SLURM_CPUS_PER_TASK={n} not applied: {e}"),
         }
