@@ -358,6 +358,10 @@ fn the_kubernetes_indexed_jobs_parse_match_the_plan_and_their_pods_bake_a_unit()
         }
         // A wave: one pod per unit of the wave, each picking its unit by completion index.
         assert_eq!(step, format!("wave-{w}"));
+        // Fits a 2-CPU node, and the CPU limit (which glint's thread count follows) is the request.
+        let cpu = container.at("resources.requests.cpu").str();
+        assert_eq!(cpu, "2", "{step}");
+        assert_eq!(container.at("resources.limits.cpu").str(), cpu, "{step}");
         assert_eq!(job.at("spec.completionMode").str(), "Indexed");
         let completions: usize = job.at("spec.completions").str().parse().unwrap();
         assert_eq!(

@@ -7,10 +7,10 @@
 #
 # What each job asks for (an array task bakes one unit, with as many threads as CPUs granted):
 #   every unit:            GLINT_CPUS CPUs (default 2)
-#   waves 0 and 2, merge:  GLINT_MEM memory (default 2G; no unit but radiosity's exceeded
-#                          1.1 GiB on a 2M-triangle building at default quality)
+#   waves 0 and 2, merge:  GLINT_MEM memory (default 2G: every stage but radiosity peaked at
+#                          1.1 GiB or less on a 2M-triangle building at default quality)
 #   wave 1 (radiosity):    GLINT_RADIOSITY_MEM (default 8G: the whole solve, 7.0 GiB on that
-#                          building; the gathered rays' hits, 4 bytes each, on top)
+#                          building; see docs/measurements.md#scale)
 #   the merge:             1 CPU
 # A default larger than the largest node `sinfo` lists is lowered to that node's size, so no job
 # waits for a node that does not exist. sbatch options after `--` go to every job after these,
@@ -57,7 +57,7 @@ for wave in 0 1 2; do
   if [ "$wave" = 1 ]; then wave_mem=$radiosity_mem; fi
   job=$(sbatch --parsable "${after[@]}" --array="0-$((n - 1))" --export="ALL,WAVE=$wave" \
     --cpus-per-task="$cpus" --mem="$wave_mem" "${extra[@]}" "$here/glint-unit.sbatch")
-  echo "wave $wave: $n units, job $job ($cpus CPUs, $wave_mem each)"
+  echo "wave $wave: $n units, job $job ($cpus CPUs, $wave_mem each${extra[*]:+; then ${extra[*]}})"
   after=(--dependency="afterok:$job")
 done
 job=$(sbatch --parsable "${after[@]}" --job-name=glint-merge --output=glint-merge-%j.log \
