@@ -163,6 +163,7 @@ units=$(glint-bake "$scene" --quality draft --plan | awk 'NR > 2 { print $1 }' |
 [ "$(grep -c '/unit.json$' before.txt)" = $((units - 1)) ] \
   || { echo "slurm: expected $((units - 1)) finished units before resubmitting:" >&2; cat before.txt >&2; exit 1; }
 rm -f glint-*.log
+t0=$(date +%s)
 bash "$repo/deploy/slurm/submit.sh" "$scene" "$work/shards" "$work/merged.glint" draft -- --cpus-per-task=1
 wait_jobs
 check_run merged.glint
@@ -171,5 +172,5 @@ diff before.txt after.txt >&2 || { echo "slurm: resubmitting rewrote finished un
 fresh=$(grep -L 'up to date' glint-unit-*.log | xargs -r grep -h -o 'unit [a-zA-Z0-9_.]*' | sort -u | tr '\n' ' ')
 [ "$fresh" = "unit $slow " ] || { echo "slurm: resubmitting baked '$fresh', expected only $slow" >&2; exit 1; }
 python3 "$repo/.ci/same-assets.py" whole.glint/manifest.json merged.glint/manifest.json \
-  "slurm: $slow cancelled mid-run and resubmitted, $((units - 1)) finished units left alone"
+  "slurm: $slow cancelled mid-run and resubmitted ($(( $(date +%s) - t0 )) s), $((units - 1)) finished units left alone"
 echo "slurm: done in $(( $(date +%s) - started )) s"
