@@ -3,8 +3,10 @@
 # glossy-room at draft: the merged bundle must equal a whole bake byte for byte, and a unit
 # cancelled with `scancel` mid-run, resubmitted, must leave the finished units' shards alone.
 # The cluster lives in a temporary folder (munge key and socket, slurm.conf, state, logs): munged,
-# slurmctld and slurmd run as root and are stopped on exit. Jobs still pending after
-# GLINT_SLURM_TIMEOUT seconds (default 300) fail the run, naming each with squeue's reason.
+# slurmctld and slurmd run as root and are stopped on exit; the one node has this machine's CPUs.
+# A job that can never start (squeue reason PartitionConfig: it asks more than the node has)
+# fails the run at once, and jobs still queued after GLINT_SLURM_TIMEOUT seconds (default 300)
+# fail it too, each printed with its squeue reason.
 # usage: .ci/slurm.sh BIN_DIR
 set -euo pipefail
 bin=$(cd "$1" && pwd)
