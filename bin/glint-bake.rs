@@ -21,6 +21,7 @@ struct Args {
 
 fn main() -> ExitCode {
     glint::cli::init_logging();
+    glint::cli::init_threads();
     let args = Args::parse();
     glint::cli::exit_code(run(&args.bake, &mut std::io::stdout().lock()))
 }

@@ -21,6 +21,7 @@ struct Args {
 
 fn main() -> ExitCode {
     glint::cli::init_logging();
+    glint::cli::init_threads();
     let args = Args::parse();
     let tool = Tool::Materials;
     glint::cli::exit_code(run(&args.bake, tool, &mut std::io::stdout().lock()))

@@ -29,6 +29,32 @@ pub fn quiet_gpu_probe() {
     }
 }
 
+/// Sizes rayon's global pool to the CPUs Slurm granted the task (`SLURM_CPUS_PER_TASK`), since
+/// without CPU binding the task sees every CPU of the node. `RAYON_NUM_THREADS`, when set, wins
+/// (rayon reads it itself). Call it in `main` before any parallel work.
+pub fn init_threads() {
+    let rayon = std::env::var("RAYON_NUM_THREADS").ok();
+    let slurm = std::env::var("SLURM_CPUS_PER_TASK").ok();
+    if let Some(n) = threads_granted(rayon.as_deref(), slurm.as_deref()) {
+        match rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+        {
+            Ok(()) => log::info!("threads: {n} (SLURM_CPUS_PER_TASK)"),
+            Err(e) => log::warn!("SLURM_CPUS_PER_TASK={n} not applied: {e}"),
+        }
+    }
+}
+
+/// The thread count Slurm's grant asks for: `SLURM_CPUS_PER_TASK` when it is a positive count
+/// and `RAYON_NUM_THREADS` is unset or empty; `None` leaves rayon's own choice.
+fn threads_granted(rayon: Option<&str>, slurm: Option<&str>) -> Option<usize> {
+    if rayon.is_some_and(|r| !r.trim().is_empty()) {
+        return None;
+    }
+    slurm?.trim().parse().ok().filter(|&n| n > 0)
+}
+
 /// Maps a binary's result to its exit code: 0 on success, 1 on error (printed with its whole
 /// chain of causes). A closed pipe (`glint-bundle ls | head`) is not an error.
 pub fn exit_code(result: anyhow::Result<ExitCode>) -> ExitCode {
@@ -151,6 +177,16 @@ pub fn parse_quality(s: &str) -> Result<crate::settings::Quality, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn slurm_cpus_set_the_thread_count_unless_rayon_num_threads_does() {
+        assert_eq!(threads_granted(None, Some("2")), Some(2));
+        assert_eq!(threads_granted(Some(""), Some(" 3 ")), Some(3));
+        assert_eq!(threads_granted(Some("8"), Some("2")), None);
+        assert_eq!(threads_granted(None, None), None);
+        assert_eq!(threads_granted(None, Some("0")), None);
+        assert_eq!(threads_granted(None, Some("2(x3)")), None);
+    }
 
     #[test]
     fn size_parses_and_names_the_problem() {

@@ -1,8 +1,9 @@
 //! The job-engine recipes under `deploy/` stay valid: the Kubernetes manifest parses (a YAML
 //! subset reader below: block mappings and sequences, scalars, literal blocks) into the Jobs
 //! the README describes, sized by the plan's waves, and its pod script bakes a unit when run
-//! here; the Slurm array script bakes the unit of its task index, and `submit.sh` chains the
-//! waves and the merge (run with a stand-in `sbatch` that records its arguments).
+//! here; the Slurm array script bakes the unit of its task index with the CPUs granted, and
+//! `submit.sh` chains the waves and the merge, asking for what a node can give (run with
+//! stand-ins for `sbatch` and `sinfo`; `.ci/slurm.sh` runs it on a real cluster).
 
 mod common;
 
@@ -357,6 +358,10 @@ fn the_kubernetes_indexed_jobs_parse_match_the_plan_and_their_pods_bake_a_unit()
         }
         // A wave: one pod per unit of the wave, each picking its unit by completion index.
         assert_eq!(step, format!("wave-{w}"));
+        // Fits a 2-CPU node, and the CPU limit (which glint's thread count follows) is the request.
+        let cpu = container.at("resources.requests.cpu").str();
+        assert_eq!(cpu, "2", "{step}");
+        assert_eq!(container.at("resources.limits.cpu").str(), cpu, "{step}");
         assert_eq!(job.at("spec.completionMode").str(), "Indexed");
         let completions: usize = job.at("spec.completions").str().parse().unwrap();
         assert_eq!(
@@ -391,8 +396,16 @@ fn the_kubernetes_indexed_jobs_parse_match_the_plan_and_their_pods_bake_a_unit()
     }
 }
 
+/// Writes an executable stand-in command `name` into `dir`.
+fn stand_in(dir: &Path, name: &str, script: &str) {
+    use std::os::unix::fs::PermissionsExt;
+    let path = dir.join(name);
+    std::fs::write(&path, format!("#!/usr/bin/env bash\n{script}")).unwrap();
+    std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o755)).unwrap();
+}
+
 #[test]
-fn the_slurm_array_script_bakes_its_tasks_unit_and_submit_chains_the_waves() {
+fn the_slurm_array_script_bakes_its_tasks_unit_with_the_cpus_granted() {
     let sbatch = repo("deploy/slurm/glint-unit.sbatch");
     let text = std::fs::read_to_string(&sbatch).unwrap();
     let directives: Vec<&str> = text
@@ -406,6 +419,9 @@ fn the_slurm_array_script_bakes_its_tasks_unit_and_submit_chains_the_waves() {
             .unwrap_or_else(|| panic!("#SBATCH {d}: not --flag=value"));
         assert!(flag.starts_with("--") && !value.is_empty(), "#SBATCH {d}");
     }
+    // A direct `sbatch` must fit a small node: 2 CPUs, a few GB.
+    assert!(directives.contains(&"--cpus-per-task=2"), "{directives:?}");
+    assert!(directives.contains(&"--mem=2G"), "{directives:?}");
     for script in ["deploy/slurm/glint-unit.sbatch", "deploy/slurm/submit.sh"] {
         let ok = Command::new("bash")
             .args(["-n", repo(script).to_str().unwrap()])
@@ -424,51 +440,75 @@ fn the_slurm_array_script_bakes_its_tasks_unit_and_submit_chains_the_waves() {
             .env("QUALITY", "draft")
             .env("WAVE", "0")
             .env("SLURM_ARRAY_TASK_ID", k)
+            .env("SLURM_CPUS_PER_TASK", "1")
+            .env_remove("RAYON_NUM_THREADS")
             .env("PATH", path_with_binaries(None))
             .output()
             .unwrap()
     };
     let out = task("0");
     assert_baked_first_unit(&out, &scene, &shards);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("threads: 1 (SLURM_CPUS_PER_TASK)"),
+        "{stderr}"
+    );
     let out = task("99");
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("wave 0 has no unit 99"));
+}
 
-    // submit.sh with an `sbatch` that records its arguments and answers a job id.
+/// Runs submit.sh with stand-ins for `sbatch` (records its arguments, answers a job id) and
+/// `sinfo` (one node of `cpus` CPUs and `mb` MB); returns its calls of sbatch.
+fn submit_calls(cpus: u32, mb: u32, env: &[(&str, &str)], extra: &[&str]) -> Vec<String> {
+    let scene = repo("scenes/glossy-room/scene.json");
+    let tmp = tempfile::tempdir().unwrap();
     let fake = tmp.path().join("bin");
     std::fs::create_dir_all(&fake).unwrap();
     let log = tmp.path().join("sbatch.log");
-    std::fs::write(
-        fake.join("sbatch"),
-        format!(
-            "#!/usr/bin/env bash\necho \"$*\" >> '{}'\nwc -l < '{}'\n",
-            log.display(),
-            log.display()
-        ),
-    )
-    .unwrap();
-    Command::new("chmod")
-        .args(["+x", fake.join("sbatch").to_str().unwrap()])
-        .status()
-        .unwrap();
-    let out = Command::new("bash")
-        .args([
-            repo("deploy/slurm/submit.sh").to_str().unwrap(),
-            scene.to_str().unwrap(),
-            shards.to_str().unwrap(),
-            tmp.path().join("out.glint").to_str().unwrap(),
-            "draft",
-        ])
-        .env("PATH", path_with_binaries(Some(&fake)))
-        .output()
-        .unwrap();
+    let log = log.display();
+    stand_in(
+        &fake,
+        "sbatch",
+        &format!("echo \"$*\" >> '{log}'\nwc -l < '{log}'\n"),
+    );
+    stand_in(
+        &fake,
+        "sinfo",
+        &format!("case \"$*\" in *%c*) echo {cpus} ;; *%m*) echo {mb} ;; esac\n"),
+    );
+    let shards = tmp.path().join("shards");
+    let out_glint = tmp.path().join("out.glint");
+    let mut cmd = Command::new("bash");
+    cmd.arg(repo("deploy/slurm/submit.sh"))
+        .args([&scene, &shards, &out_glint])
+        .arg("draft")
+        .args(extra)
+        .env("PATH", path_with_binaries(Some(&fake)));
+    for k in ["GLINT_CPUS", "GLINT_MEM", "GLINT_RADIOSITY_MEM"] {
+        cmd.env_remove(k);
+    }
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    let out = cmd.output().unwrap();
     assert!(
         out.status.success(),
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let calls = std::fs::read_to_string(&log).unwrap();
-    let calls: Vec<&str> = calls.lines().collect();
+    std::fs::read_to_string(tmp.path().join("sbatch.log"))
+        .unwrap()
+        .lines()
+        .map(String::from)
+        .collect()
+}
+
+#[test]
+fn submit_chains_the_waves_and_asks_what_a_node_can_give() {
+    let scene = repo("scenes/glossy-room/scene.json");
+    // A large node: the documented defaults, and options after `--` last on every call.
+    let calls = submit_calls(64, 256_000, &[], &["--", "--partition=p", "--mem=3G"]);
     assert_eq!(calls.len(), 4, "{calls:?}");
     // Each wave's array after the one before, sized by the plan's wave.
     for (w, call) in calls[..3].iter().enumerate() {
@@ -485,10 +525,42 @@ fn the_slurm_array_script_bakes_its_tasks_unit_and_submit_chains_the_waves() {
                 "{call}"
             );
         }
+        let mem = if w == 1 { "8192M" } else { "2048M" };
+        assert!(
+            call.contains(&format!(
+                "--cpus-per-task=2 --mem={mem} --partition=p --mem=3G "
+            )),
+            "{call}"
+        );
+        assert!(call.ends_with("glint-unit.sbatch"), "{call}");
     }
     assert!(
-        calls[3].contains("--dependency=afterok:3") && calls[3].contains("glint-bundle merge"),
+        calls[3].contains("--dependency=afterok:3")
+            && calls[3].contains("--cpus-per-task=1 --mem=2048M --partition=p --mem=3G ")
+            && calls[3].contains("glint-bundle merge"),
         "{}",
         calls[3]
+    );
+    // A node of 1 CPU and 1000 MB: no default asks for more, so no job waits forever.
+    let calls = submit_calls(1, 1000, &[], &[]);
+    for call in &calls[..3] {
+        assert!(call.contains("--cpus-per-task=1 --mem=1000M "), "{call}");
+    }
+    // The user's own sizes are taken as given.
+    let env = [
+        ("GLINT_CPUS", "3"),
+        ("GLINT_MEM", "5G"),
+        ("GLINT_RADIOSITY_MEM", "20G"),
+    ];
+    let calls = submit_calls(1, 1000, &env, &[]);
+    assert!(
+        calls[0].contains("--cpus-per-task=3 --mem=5G "),
+        "{}",
+        calls[0]
+    );
+    assert!(
+        calls[1].contains("--cpus-per-task=3 --mem=20G "),
+        "{}",
+        calls[1]
     );
 }
