@@ -633,7 +633,7 @@ fn replay_of_a_bundle_whose_path_is_not_utf8_writes_its_timings() {
             "--size",
             "16x16",
             "--every",
-            "100",
+            "0",
         ])
         .arg("--out")
         .arg(&out)

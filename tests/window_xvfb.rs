@@ -172,7 +172,9 @@ fn headless_frame(bundle: &Path, args: &[&str], (w, h): (u32, u32)) -> Vec<u8> {
     use glint::view::window::{FlyCamera, initial_camera};
     let data = glint::view::load::load(bundle).unwrap();
     let gpu = glint::view::gpu::Gpu::headless().unwrap();
-    let options = ViewOptions::from_args_for(args.iter().copied(), &data.baked()).unwrap();
+    let options =
+        ViewOptions::from_args_for(args.iter().copied(), &glint::view::defaults::baked(&data))
+            .unwrap();
     // The window starts at the fly camera of the initial view.
     let camera = FlyCamera::from_camera(&initial_camera(&data)).camera();
     let off = Offscreen::with_options(&gpu, &data, w, h, &options).unwrap();

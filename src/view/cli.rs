@@ -8,6 +8,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Parser;
 
+use super::defaults::baked;
 use super::gpu::Gpu;
 use super::headless::{ReplayOptions, ViewError, replay_with};
 use super::load::load;
@@ -89,11 +90,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let path = args.replay.clone().filter(|n| !n.is_empty());
     let camera = args.camera()?;
     let data = load(&args.bundle)?;
-    let modes = args.view.defaults(&data.baked());
-    let view = args
-        .view
-        .options_for(&data.baked())
-        .map_err(anyhow::Error::msg)?;
+    let baked = baked(&data);
+    let modes = args.view.defaults(&baked);
+    let view = args.view.options_for(&baked).map_err(anyhow::Error::msg)?;
     log::info!("view: {}", modes.describe());
     if args.headless {
         let out = args.out.clone().context("--headless needs --out DIR")?;

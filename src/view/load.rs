@@ -16,7 +16,6 @@ use crate::bundle::{Bundle, BundleError};
 use crate::radiosity::RadiosityMap;
 use crate::radiosity::map::MapError;
 use crate::scene::{Scene, SceneError};
-use crate::view::options::Baked;
 
 /// Stages the viewer needs.
 pub const REQUIRED_STAGES: [&str; 2] = ["scene", "radiosity"];
@@ -125,24 +124,6 @@ pub struct ViewData {
     pub scene: Scene,
     /// The radiosity textures and their atlas (one entry per scene triangle).
     pub map: RadiosityMap,
-}
-
-impl ViewData {
-    /// What the bundle holds for the viewer's reflection modes: the modes `glint-view` turns
-    /// on when its command line leaves them unset.
-    pub fn baked(&self) -> Baked {
-        let has = |stage: &str| {
-            self.bundle
-                .stage(stage)
-                .is_some_and(|s| !s.assets.is_empty())
-        };
-        Baked {
-            radiance_maps: has("radiance")
-                && !crate::view::reflections::glossy_planar_reflectors(&self.scene).is_empty(),
-            curved_reflectors: crate::view::curved::curved_reflectors(&self.scene).len(),
-            impostor_captures: has("srdm") && !self.scene.impostors.is_empty(),
-        }
-    }
 }
 
 impl std::fmt::Debug for ViewData {

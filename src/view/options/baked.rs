@@ -4,7 +4,7 @@
 use super::{CurvedMode, ReflectionMode};
 
 /// What a bundle was baked for, as far as the default reflection modes go (filled in by
-/// `view::load::ViewData::baked`).
+/// `view::defaults::baked`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Baked {
     /// Glossy planar reflectors with the `radiance` stage baked: image-based reflections.
