@@ -265,7 +265,7 @@ impl Timings {
         };
         let which = match self.rendered {
             Rendered::All => String::new(),
-            Rendered::Every(k) => format!(" (every {k}th of {})", self.path_frames),
+            Rendered::Every(k) => format!(" (one in {k} of {})", self.path_frames),
             Rendered::Frame(k) => format!(" (frame {k} of {})", self.path_frames),
             Rendered::Camera(_) => " (camera from the command line)".into(),
         };
