@@ -42,7 +42,7 @@ done
 if [ "${VIEW:-1}" != 0 ] && [ -x "$before/glint-view" ] && [ -x "$after/glint-view" ]; then
   q=$(echo "$qualities" | awk '{print $1}')
   for scene in $scenes; do
-    for mode in "off" "geometry --recursion-depth 2 --curved cubemap" "image --curved cubemap"; do
+    for mode in "off --curved off --impostors off" "geometry --recursion-depth 2 --curved cubemap --impostors off" "image --curved cubemap --impostors off"; do
       tag=$(echo "$mode" | tr ' ' '_' | tr -d '-')
       for side in before after; do
         bin=$([ $side = before ] && echo "$before" || echo "$after")

@@ -39,7 +39,7 @@ use glint::view::cpu;
 use glint::view::cpu::bicubic;
 use glint::view::gpu::probe::bicubic_probe;
 use glint::view::headless::Offscreen;
-use glint::view::headless::replay::Timings;
+use glint::view::headless::replay::{Rendered, Timings};
 use glint::view::load::{LoadError, load};
 
 use common::*;
@@ -434,7 +434,10 @@ fn replay_of_a_ten_frame_path_writes_ten_frames_and_timings() {
     assert!(timings.summary.gpu_ms.max >= timings.summary.gpu_ms.p95);
     assert!(timings.summary.gpu_ms.p95 >= timings.summary.gpu_ms.median);
 
-    // --every 4 writes frames 0, 4, 8; all ten are still timed.
+    assert_eq!(timings.path_frames, 10);
+    assert_eq!(timings.rendered, Rendered::All);
+
+    // --every 4 renders, times and writes frames 0, 4, 8 alone, and timings.json says so.
     let out2 = tempfile::tempdir().unwrap();
     let (code, _, stderr) = glint_view(&[
         bundle.to_str().unwrap(),
@@ -449,17 +452,166 @@ fn replay_of_a_ten_frame_path_writes_ten_frames_and_timings() {
         "4",
     ]);
     assert_eq!(code, 0, "{stderr}");
-    let t: Timings =
-        serde_json::from_str(&std::fs::read_to_string(out2.path().join("timings.json")).unwrap())
-            .unwrap();
-    assert_eq!(t.frames.len(), 10);
-    let written: Vec<usize> = t
-        .frames
-        .iter()
-        .filter(|f| !f.files.is_empty())
-        .map(|f| f.frame)
+    let json = std::fs::read_to_string(out2.path().join("timings.json")).unwrap();
+    let t: Timings = serde_json::from_str(&json).unwrap();
+    let rendered: Vec<usize> = t.frames.iter().map(|f| f.frame).collect();
+    assert_eq!(rendered, [0, 4, 8], "only the written frames are rendered");
+    assert!(
+        t.frames
+            .iter()
+            .all(|f| f.files == [format!("frame_{:05}.png", f.frame)])
+    );
+    assert_eq!((t.path_frames, t.rendered), (10, Rendered::Every(4)));
+    assert!(
+        json.contains("\"path_frames\": 10") && json.contains("\"every\": 4"),
+        "{json}"
+    );
+}
+
+/// `--frame K` renders and writes frame K of the path alone, the same image as a replay
+/// writes for it; a frame past the path's end, or `--frame` without `--replay`, is refused
+/// naming the flag and what it expected.
+#[test]
+fn frame_k_renders_one_frame_of_the_path() {
+    let bundle = cornell_bundle().to_str().unwrap();
+    let (one, every) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let replay = |out: &Path, extra: &[&str]| {
+        let mut args = vec![bundle, "--replay", "ten", "--headless", "--size", "48x32"];
+        args.extend_from_slice(extra);
+        args.extend(["--out", out.to_str().unwrap()]);
+        glint_view(&args)
+    };
+    let (code, stdout, stderr) = replay(one.path(), &["--frame", "5"]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(
+        stdout.contains("1 frames of cornell-box/ten (frame 5 of 10)"),
+        "{stdout}"
+    );
+    assert!(
+        stderr.contains("view: reflections off (no radiance maps baked), curved off (no curved reflectors), impostors off (no impostor depth maps baked)"),
+        "{stderr}"
+    );
+    let files: Vec<String> = std::fs::read_dir(one.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".png"))
         .collect();
-    assert_eq!(written, [0, 4, 8]);
+    assert_eq!(files, ["frame_00005.png"]);
+    let t: Timings =
+        serde_json::from_str(&std::fs::read_to_string(one.path().join("timings.json")).unwrap())
+            .unwrap();
+    assert_eq!(t.frames.len(), 1);
+    assert_eq!((t.frames[0].frame, t.rendered), (5, Rendered::Frame(5)));
+    let (code, _, stderr) = replay(every.path(), &["--every", "5"]);
+    assert_eq!(code, 0, "{stderr}");
+    let frame = |dir: &Path| read_png(&dir.join("frame_00005.png")).unwrap();
+    assert!(
+        frame(one.path()) == frame(every.path()),
+        "frame 5 is frame 5"
+    );
+
+    let (code, _, stderr) = replay(one.path(), &["--frame", "10"]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(
+        stderr.contains("--frame 10: camera path `ten` has 10 frame(s), numbered 0 to 9"),
+        "{stderr}"
+    );
+    let (code, _, stderr) = replay(one.path(), &["--frame", "1.5"]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("'--frame <K>'"), "{stderr}");
+    let (code, _, stderr) = glint_view(&[bundle, "--headless", "--frame", "2", "--out", "x"]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("--replay"), "{stderr}");
+}
+
+/// `--eye`, `--target` and `--fov` render one view without a path: the `ten` path's first
+/// pose given on the command line draws its frame 0; bad values name the flag and what it
+/// expected.
+#[test]
+fn a_camera_on_the_command_line_renders_one_view() {
+    let bundle = cornell_bundle().to_str().unwrap();
+    let (cam, path) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let view = |extra: &[&str]| {
+        let mut args = vec![bundle, "--headless", "--size", "48x32", "--out"];
+        args.push(cam.path().to_str().unwrap());
+        args.extend_from_slice(extra);
+        glint_view(&args)
+    };
+    let pose = ["--eye", "-0.5,1,3.8", "--target", "0,1,0", "--fov", "39.3"];
+    let (code, stdout, stderr) = view(&pose);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(
+        stdout.contains("(camera from the command line)"),
+        "{stdout}"
+    );
+    let t: Timings =
+        serde_json::from_str(&std::fs::read_to_string(cam.path().join("timings.json")).unwrap())
+            .unwrap();
+    assert_eq!((t.frames.len(), t.path.as_str()), (1, ""));
+    let Rendered::Camera(k) = t.rendered else {
+        panic!("{:?}", t.rendered)
+    };
+    assert_eq!(
+        (k.position, k.target, k.fov_y_deg),
+        ([-0.5, 1.0, 3.8], [0.0, 1.0, 0.0], 39.3)
+    );
+    let (code, _, stderr) = glint_view(&[
+        bundle,
+        "--replay",
+        "ten",
+        "--frame",
+        "0",
+        "--headless",
+        "--size",
+        "48x32",
+        "--out",
+        path.path().to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let frame = |dir: &Path| read_png(&dir.join("frame_00000.png")).unwrap();
+    assert!(
+        frame(cam.path()) == frame(path.path()),
+        "the same pose draws the same frame"
+    );
+
+    for (args, says) in [
+        (
+            &["--eye", "1,2", "--target", "0,0,0"][..],
+            "'--eye <X,Y,Z>': expected three numbers X,Y,Z",
+        ),
+        (
+            &["--eye", "1,2,x", "--target", "0,0,0"],
+            "'--eye <X,Y,Z>': expected three numbers",
+        ),
+        (
+            &["--eye", "1,2,3", "--target", "0,0,1e9"],
+            "'--target <X,Y,Z>': expected three numbers X,Y,Z within",
+        ),
+        (
+            &["--eye", "0,1,0", "--target", "0,1,0"],
+            "--eye 0,1,0 and --target 0,1,0: the camera is at its target",
+        ),
+        (
+            &["--eye", "0,1,0", "--target", "0,3,0"],
+            "looks straight up or down",
+        ),
+        (
+            &["--eye", "0,1,3", "--target", "0,1,0", "--fov", "180"],
+            "'--fov <DEG>': expected a vertical field of view in degrees, from 0.1 to 179",
+        ),
+        (&["--eye", "0,1,3"], "--target"),
+        (
+            &["--eye", "0,1,3", "--target", "0,1,0", "--replay"],
+            "cannot be used with",
+        ),
+    ] {
+        let (code, _, stderr) = view(args);
+        assert!(code == 1 || code == 2, "{args:?}: exit {code}");
+        assert!(
+            stderr.contains(says),
+            "{args:?}: {says:?} missing from {stderr}"
+        );
+    }
 }
 
 /// A bundle path that is not UTF-8 is written lossily in timings.json (the replay panicked
@@ -481,7 +633,7 @@ fn replay_of_a_bundle_whose_path_is_not_utf8_writes_its_timings() {
             "--size",
             "16x16",
             "--every",
-            "100",
+            "0",
         ])
         .arg("--out")
         .arg(&out)

@@ -631,7 +631,15 @@ fn curved_impostor_switch_reflects_billboards_headless() {
     let run = |args: &[&str]| {
         let o = std::process::Command::new(env!("CARGO_BIN_EXE_glint-view"))
             .arg(&bundle)
-            .args(["--headless", "--replay", "--size", "64x48", "--out"])
+            .args([
+                "--headless",
+                "--replay",
+                "--reflections",
+                "off",
+                "--size",
+                "64x48",
+                "--out",
+            ])
             .arg(&out)
             .args(args)
             .env("XDG_RUNTIME_DIR", std::env::temp_dir())
@@ -649,7 +657,14 @@ fn curved_impostor_switch_reflects_billboards_headless() {
     assert!(!ok && err.contains("srdm"), "{err}");
     let (ok, err) = run(&["--curved", "billboard"]);
     assert!(!ok && err.contains("cubemap, impostor, off"), "{err}");
-    let (ok, err) = run(&["--impostors", "on", "--impostor-kind", "billboard"]);
+    let (ok, err) = run(&[
+        "--impostors",
+        "on",
+        "--impostor-kind",
+        "billboard",
+        "--curved",
+        "off",
+    ]);
     assert!(ok, "{err}");
 
     // Second order (§3.1, through sphere B's reflective billboard, whose tertiary rays search

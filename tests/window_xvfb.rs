@@ -98,8 +98,15 @@ fn every_reflection_switch_runs_in_the_window() {
     let glossy = shipped_bundle(&Recipe::every_needed_stage("glossy-room", Quality::Draft));
     let bunny = shipped_bundle(&Recipe::every_needed_stage("bunny-mirror", Quality::Draft));
 
+    // Each switch against everything off (the bundles' defaults turn reflections on).
     let shot = |bundle: &Path, name: &str, args: &[&str]| {
-        window_frames(&xvfb, bundle, &dir.path().join(name), args)
+        let mut all = args.to_vec();
+        for flag in ["--reflections", "--curved", "--impostors"] {
+            if !args.contains(&flag) {
+                all.extend([flag, "off"]);
+            }
+        }
+        window_frames(&xvfb, bundle, &dir.path().join(name), &all)
     };
     let off = shot(&glossy, "off", &[]);
     let geometry = shot(&glossy, "geometry", &["--reflections", "geometry"]);
@@ -165,7 +172,9 @@ fn headless_frame(bundle: &Path, args: &[&str], (w, h): (u32, u32)) -> Vec<u8> {
     use glint::view::window::{FlyCamera, initial_camera};
     let data = glint::view::load::load(bundle).unwrap();
     let gpu = glint::view::gpu::Gpu::headless().unwrap();
-    let options = ViewOptions::from_args(args.iter().copied()).unwrap();
+    let options =
+        ViewOptions::from_args_for(args.iter().copied(), &glint::view::defaults::baked(&data))
+            .unwrap();
     // The window starts at the fly camera of the initial view.
     let camera = FlyCamera::from_camera(&initial_camera(&data)).camera();
     let off = Offscreen::with_options(&gpu, &data, w, h, &options).unwrap();

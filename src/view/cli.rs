@@ -8,9 +8,12 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Parser;
 
-use super::headless::{ReplayOptions, ViewError, replay};
+use super::defaults::baked;
+use super::gpu::Gpu;
+use super::headless::{ReplayOptions, ViewError, replay_with};
 use super::load::load;
 use super::options::ViewArgs;
+use crate::camera::{Camera, Keyframe};
 
 use super::window::{WindowOptions, run_window};
 use crate::progress::TerminalProgress;
@@ -22,8 +25,10 @@ use crate::progress::TerminalProgress;
     about = "View a bundle's scene lit by its radiosity textures: a window with a fly camera, or a headless replay of a camera path to frames and timings",
     after_help = "Window keys: WASD + Q/E move (Shift: faster, mouse wheel: speed), drag with the left mouse button to look, \
 1-9 play camera path N, Space pause/resume, R start/stop recording a path, P screenshot, G reflections off/geometry/image, T reflectance sphere/1D map, I impostor reflections (planar), K impostors srdm/billboard, C curved reflectors off/cubemap/impostor, [ ] recursion depth (geometry reflections), - = exposure down/up half a stop, 0 auto exposure, M tone curve neutral/none, H help, Esc quit.\n\n\
-Examples:\n  glint-view out/cornell-box.glint\n  glint-view out/cornell-box.glint --replay --headless --size 720x486 --out out/frames/cornell-box\n  glint-view out/breakfast-room.glint --replay walkthrough --headless --out out/frames/breakfast --every 10 --hdr"
+Reflections default to what the bundle was baked for (image-based planar reflections where it has radiance maps, cube maps for curved reflectors, impostors where it has depth maps but no radiance maps); a line at start names the modes chosen, and --reflections, --curved and --impostors override them.\n\n\
+Examples:\n  glint-view out/glossy-room.glint\n  glint-view out/glossy-room.glint --replay --headless --size 720x486 --every 10 --out out/frames/glossy-room\n  glint-view out/glossy-room.glint --replay walkthrough --frame 120 --headless --hdr --out out/frames/one\n  glint-view out/glossy-room.glint --headless --eye 1.2,1.45,1.5 --target -0.15,0.95,-1 --fov 55 --out out/frames/view\n  glint-view out/glossy-room.glint --replay --headless --reflections off --curved off --out out/frames/diffuse"
 )]
+#[command(group(clap::ArgGroup::new("shot").args(["replay", "eye"])))]
 /// `glint-view`'s arguments.
 pub struct Args {
     /// The bundle to view (a folder written by glint-bake), e.g. out/cornell-box.glint.
@@ -32,9 +37,31 @@ pub struct Args {
     /// Replay a camera path: the named one, or the scene's first when no name is given.
     #[arg(long, value_name = "NAME", num_args = 0..=1, default_missing_value = "")]
     replay: Option<String>,
-    /// Render offscreen without a window (needs --replay and --out); no display needed.
-    #[arg(long, requires = "replay", requires = "out")]
+    /// Render offscreen without a window (needs --out, and --replay or --eye); no display
+    /// needed.
+    #[arg(long, requires = "shot", requires = "out")]
     headless: bool,
+    /// Headless: render and write frame K of the replayed path alone (from 0).
+    #[arg(
+        long,
+        value_name = "K",
+        requires = "replay",
+        requires = "headless",
+        conflicts_with = "every"
+    )]
+    frame: Option<usize>,
+    /// A camera for a one-off view without a path: its eye position, world metres (with
+    /// --target; headless: one frame, frame_00000.png; window: the starting view).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, requires = "target",
+          allow_hyphen_values = true)]
+    eye: Option<[f32; 3]>,
+    /// The point the --eye camera looks at (up is +Y).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, requires = "eye",
+          allow_hyphen_values = true)]
+    target: Option<[f32; 3]>,
+    /// Vertical field of view of the --eye camera, degrees (0.1 to 179).
+    #[arg(long, value_name = "DEG", value_parser = parse_fov, requires = "eye", default_value = "60")]
+    fov: f32,
     /// Frame (headless) or initial window size, WIDTHxHEIGHT.
     #[arg(long, value_parser = crate::cli::parse_size, default_value = "720x486")]
     size: (u32, u32),
@@ -42,8 +69,8 @@ pub struct Args {
     /// (window; default: the current folder).
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
-    /// Write every K-th frame (frame 0, K, 2K, …); every frame is still rendered and timed.
-    /// 0 writes no frames, only timings.json.
+    /// Render and write every K-th frame of the path (frame 0, K, 2K, …); the others are not
+    /// rendered. 0 renders and times every frame and writes none, only timings.json.
     #[arg(long, value_name = "K", default_value_t = 1)]
     every: usize,
     /// Also write each written frame as a half-float EXR of linear radiance (never exposed:
@@ -61,18 +88,27 @@ pub struct Args {
 /// [`crate::cli::exit_code`]).
 pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     let path = args.replay.clone().filter(|n| !n.is_empty());
-    let view = args.view.options().map_err(anyhow::Error::msg)?;
+    let camera = args.camera()?;
+    let data = load(&args.bundle)?;
+    let baked = baked(&data);
+    let modes = args.view.defaults(&baked);
+    let view = args.view.options_for(&baked).map_err(anyhow::Error::msg)?;
+    log::info!("view: {}", modes.describe());
     if args.headless {
         let out = args.out.clone().context("--headless needs --out DIR")?;
+        let gpu = Gpu::headless_with_features(wgpu::Features::TIMESTAMP_QUERY)?;
         let progress = TerminalProgress::new();
-        let timings = replay(
-            &args.bundle,
+        let timings = replay_with(
+            &gpu,
+            &data,
             &ReplayOptions {
                 path,
                 width: args.size.0,
                 height: args.size.1,
                 out: Some(out.clone()),
                 every: args.every,
+                frame: args.frame,
+                camera,
                 hdr: args.hdr,
                 view,
             },
@@ -101,7 +137,6 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
         )?;
         return Ok(ExitCode::SUCCESS);
     }
-    let data = load(&args.bundle)?;
     run_window(
         data,
         WindowOptions {
@@ -111,8 +146,67 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 .map(|n| if n.is_empty() { None } else { Some(n) }),
             out: args.out.unwrap_or_else(|| PathBuf::from(".")),
             screenshot_after: args.screenshot_after,
+            camera: camera.as_ref().map(Camera::from_keyframe),
             view,
         },
     )?;
     Ok(ExitCode::SUCCESS)
+}
+
+impl Args {
+    /// The camera `--eye`, `--target` and `--fov` give, or why it has no view direction.
+    fn camera(&self) -> anyhow::Result<Option<Keyframe>> {
+        let (Some(eye), Some(target)) = (self.eye, self.target) else {
+            return Ok(None);
+        };
+        let dir = glam::Vec3::from(target) - glam::Vec3::from(eye);
+        let [ex, ey, ez] = eye;
+        let [tx, ty, tz] = target;
+        if dir.length() <= 1e-6 * (1.0 + glam::Vec3::from(eye).abs().max_element()) {
+            anyhow::bail!(
+                "--eye {ex},{ey},{ez} and --target {tx},{ty},{tz}: the camera is at its target; give a --target apart from --eye"
+            );
+        }
+        if dir.normalize().cross(glam::Vec3::Y).length() < 1e-4 {
+            anyhow::bail!(
+                "--eye {ex},{ey},{ez} and --target {tx},{ty},{tz}: the camera looks straight up or down, along its up vector +Y; move --target sideways"
+            );
+        }
+        Ok(Some(Keyframe {
+            time: 0.0,
+            position: eye,
+            target,
+            up: [0.0, 1.0, 0.0],
+            fov_y_deg: self.fov,
+        }))
+    }
+}
+
+/// Largest coordinate of `--eye` and `--target`, metres (as scene.json's keyframes).
+const MAX_COORDINATE: f32 = 1e6;
+
+/// `X,Y,Z`: three finite numbers within ±[`MAX_COORDINATE`].
+fn parse_point(s: &str) -> Result<[f32; 3], String> {
+    let expected = || {
+        format!("expected three numbers X,Y,Z within ±{MAX_COORDINATE} metres, e.g. 1.2,1.45,1.5")
+    };
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|c| c.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| expected())?;
+    match v.as_slice() {
+        [x, y, z] if v.iter().all(|c| c.is_finite() && c.abs() <= MAX_COORDINATE) => {
+            Ok([*x, *y, *z])
+        }
+        _ => Err(expected()),
+    }
+}
+
+/// A vertical field of view in degrees, 0.1 to 179 (as scene.json's keyframes).
+fn parse_fov(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(v) if (0.1..=179.0).contains(&v) => Ok(v),
+        _ => Err("expected a vertical field of view in degrees, from 0.1 to 179".into()),
+    }
 }

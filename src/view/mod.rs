@@ -5,7 +5,8 @@
 //! - [`options`]: [`options::ViewOptions`], what a frame shows, and its command-line form.
 //! - [`exposure`], [`tonemap`]: how linear radiance becomes an 8-bit frame (`--exposure
 //!   auto|EV`, Khronos PBR Neutral); [`passes::display`] is that mapping's GPU pass.
-//! - [`load`]: bundle → scene + radiosity map, every check done first (clear errors, no panics).
+//! - [`load`]: bundle → scene + radiosity map, every check done first (clear errors, no panics);
+//!   [`defaults`]: what it was baked for, the reflection modes a view starts with.
 //! - [`frame`]: every pass of a frame built from the options, recorded in one fixed order.
 //!
 //! The passes, by what they draw:
@@ -32,6 +33,8 @@ pub mod cli;
 pub mod cpu;
 #[cfg(feature = "view")]
 pub mod curved;
+#[cfg(feature = "view")]
+pub mod defaults;
 pub mod exposure;
 #[cfg(feature = "view")]
 pub mod frame;

@@ -7,6 +7,7 @@ pub mod replay;
 
 use std::path::{Path, PathBuf};
 
+use crate::camera::{Camera, Keyframe};
 use crate::image_io::{self, ImageError};
 use crate::progress::Progress;
 use crate::view::gpu::RenderError;
@@ -15,8 +16,8 @@ use crate::view::load::{LoadError, ViewData, load};
 use crate::view::options::ViewOptions;
 pub use offscreen::{FrameTimes, Offscreen};
 use replay::{
-    FrameTiming, Summary, TIMINGS_FILE, TIMINGS_FORMAT, TIMINGS_VERSION, Timings, frame_file_name,
-    is_written, schedule,
+    FrameTiming, Rendered, ScheduledFrame, Summary, TIMINGS_FILE, TIMINGS_FORMAT, TIMINGS_VERSION,
+    Timings, frame_file_name, schedule,
 };
 
 /// Why a headless replay failed.
@@ -35,6 +36,14 @@ pub enum ViewError {
         /// The bundle.
         bundle: PathBuf,
         /// Which path was asked for and which exist.
+        message: String,
+    },
+    /// The frame asked for is past the camera path's end.
+    #[error("bundle {}: {message}", bundle.display())]
+    NoFrame {
+        /// The bundle.
+        bundle: PathBuf,
+        /// The frame asked for and the path's frames.
         message: String,
     },
     /// The camera path has more frames than a replay renders.
@@ -102,8 +111,14 @@ pub struct ReplayOptions {
     pub height: u32,
     /// Output folder for frames and timings.json; `None` writes nothing (benchmarks).
     pub out: Option<PathBuf>,
-    /// Write every `every`-th frame (0: none; timings.json is still written).
+    /// Render and write every `every`-th frame of the path (0: render and time every frame,
+    /// write none; timings.json is still written).
     pub every: usize,
+    /// Render frame K of the path alone (`every` is then ignored).
+    pub frame: Option<usize>,
+    /// Render one frame from this camera instead of a path (`path`, `frame` and `every` are
+    /// then ignored).
+    pub camera: Option<Keyframe>,
     /// Also write each written frame as a half-float EXR of linear radiance (never exposed).
     pub hdr: bool,
     /// What the frames show.
@@ -118,6 +133,8 @@ impl Default for ReplayOptions {
             height: 486,
             out: None,
             every: 1,
+            frame: None,
+            camera: None,
             hdr: false,
             view: ViewOptions::default(),
         }
@@ -142,8 +159,8 @@ pub fn replay(
     replay_with(&gpu, &data, options, progress)
 }
 
-/// Renders every frame of the camera path offscreen, writes the chosen frames and
-/// `timings.json` into `options.out` (created if missing), and returns the timings.
+/// Renders the chosen frames of the camera path (or the one camera) offscreen, writes them
+/// and `timings.json` into `options.out` (created if missing), and returns the timings.
 /// One untimed warm-up frame is rendered first (shader compilation, first uploads).
 pub fn replay_with(
     gpu: &Gpu,
@@ -151,6 +168,92 @@ pub fn replay_with(
     options: &ReplayOptions,
     progress: &dyn Progress,
 ) -> Result<Timings, ViewError> {
+    let bundle = data.bundle.dir().to_owned();
+    let (path_name, path_frames, frames, rendered) = match options.camera {
+        Some(key) => {
+            let frame = ScheduledFrame {
+                index: 0,
+                time: 0.0,
+                camera: Camera::from_keyframe(&key),
+            };
+            (String::new(), 1, vec![frame], Rendered::Camera(key))
+        }
+        None => path_frames(data, options)?,
+    };
+    if let Some(out) = &options.out {
+        crate::out_dir::create_dir_all(out).map_err(|source| ViewError::Io {
+            path: out.clone(),
+            source,
+        })?;
+    }
+    let offscreen =
+        Offscreen::with_options(gpu, data, options.width, options.height, &options.view)?;
+    log::info!(
+        "8-bit frames: exposure {} ({:+.2} EV; auto would be {:+.2} EV), tone curve {}",
+        options.view.exposure,
+        options.view.exposure.ev(offscreen.frame().auto_ev()),
+        offscreen.frame().auto_ev(),
+        options.view.tonemap
+    );
+    // `--every 0` times every frame and writes none.
+    let write = rendered != Rendered::All || options.every != 0;
+
+    let warmup = offscreen.render(gpu, &frames[0].camera)?;
+    progress.phase("rendering frames", frames.len() as u64);
+    let mut timings: Vec<FrameTiming> = Vec::with_capacity(frames.len());
+    for f in &frames {
+        if progress.cancelled() {
+            return Err(ViewError::Interrupted {
+                rendered: timings.len(),
+                frames: frames.len(),
+                written: timings.iter().filter(|t| !t.files.is_empty()).count(),
+                out: options.out.clone(),
+            });
+        }
+        let t = offscreen.render(gpu, &f.camera)?;
+        let mut files = Vec::new();
+        if let Some(out) = &options.out
+            && write
+        {
+            files = write_frame(gpu, &offscreen, out, f.index, options.hdr)?;
+        }
+        timings.push(FrameTiming {
+            frame: f.index,
+            time: f.time,
+            gpu_ms: t.gpu_ms,
+            cpu_ms: t.cpu_ms,
+            frame_ms: t.frame_ms,
+            files,
+        });
+        progress.advance(1);
+    }
+    let result = Timings {
+        format: TIMINGS_FORMAT.into(),
+        version: TIMINGS_VERSION,
+        bundle,
+        scene: data.scene.name.clone(),
+        path: path_name,
+        path_frames,
+        rendered,
+        size: [options.width, options.height],
+        adapter: gpu.adapter_summary(),
+        gpu_time_source: offscreen.gpu_time_source(),
+        warmup_ms: warmup.frame_ms,
+        summary: Summary::of(&timings),
+        frames: timings,
+    };
+    if let Some(out) = &options.out {
+        result.write(out)?;
+    }
+    Ok(result)
+}
+
+/// The camera path `options` names: its name, its frame count, the frames to render and
+/// which they are.
+fn path_frames(
+    data: &ViewData,
+    options: &ReplayOptions,
+) -> Result<(String, usize, Vec<ScheduledFrame>, Rendered), ViewError> {
     let bundle = data.bundle.dir().to_owned();
     let path = data
         .scene
@@ -178,72 +281,19 @@ pub fn replay_with(
                 message,
             }
         })?;
-    if let Some(out) = &options.out {
-        crate::out_dir::create_dir_all(out).map_err(|source| ViewError::Io {
-            path: out.clone(),
-            source,
-        })?;
-    }
-    let offscreen =
-        Offscreen::with_options(gpu, data, options.width, options.height, &options.view)?;
-    log::info!(
-        "8-bit frames: exposure {} ({:+.2} EV; auto would be {:+.2} EV), tone curve {}",
-        options.view.exposure,
-        options.view.exposure.ev(offscreen.frame().auto_ev()),
-        offscreen.frame().auto_ev(),
-        options.view.tonemap
-    );
-    let frames = schedule(path).map_err(|message| ViewError::PathTooLong {
+    let all = schedule(path).map_err(|message| ViewError::PathTooLong {
         bundle: bundle.clone(),
         message,
     })?;
-
-    let warmup = offscreen.render(gpu, &frames[0].camera)?;
-    progress.phase("rendering frames", frames.len() as u64);
-    let mut timings: Vec<FrameTiming> = Vec::with_capacity(frames.len());
-    for f in &frames {
-        if progress.cancelled() {
-            return Err(ViewError::Interrupted {
-                rendered: timings.len(),
-                frames: frames.len(),
-                written: timings.iter().filter(|t| !t.files.is_empty()).count(),
-                out: options.out.clone(),
-            });
-        }
-        let t = offscreen.render(gpu, &f.camera)?;
-        let mut files = Vec::new();
-        if let Some(out) = &options.out
-            && is_written(f.index, options.every)
-        {
-            files = write_frame(gpu, &offscreen, out, f.index, options.hdr)?;
-        }
-        timings.push(FrameTiming {
-            frame: f.index,
-            time: f.time,
-            gpu_ms: t.gpu_ms,
-            cpu_ms: t.cpu_ms,
-            frame_ms: t.frame_ms,
-            files,
-        });
-        progress.advance(1);
-    }
-    let result = Timings {
-        format: TIMINGS_FORMAT.into(),
-        version: TIMINGS_VERSION,
-        bundle,
-        scene: data.scene.name.clone(),
-        path: path.name.clone(),
-        size: [options.width, options.height],
-        adapter: gpu.adapter_summary(),
-        gpu_time_source: offscreen.gpu_time_source(),
-        warmup_ms: warmup.frame_ms,
-        summary: Summary::of(&timings),
-        frames: timings,
+    let count = all.len();
+    let rendered = match options.frame {
+        Some(k) => Rendered::Frame(k),
+        None => Rendered::every(options.every),
     };
-    if let Some(out) = &options.out {
-        result.write(out)?;
-    }
-    Ok(result)
+    let frames = rendered
+        .pick(&path.name, all)
+        .map_err(|message| ViewError::NoFrame { bundle, message })?;
+    Ok((path.name.clone(), count, frames, rendered))
 }
 
 /// Writes the target's current frame as PNG (exposed, tone-mapped) and, when `hdr`, as EXR

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::camera::{Camera, MAX_FRAMES, frame_count, frame_time, pose_at};
+use crate::camera::{Camera, Keyframe, MAX_FRAMES, frame_count, frame_time, pose_at};
 use crate::scene::CameraPath;
 
 /// File name of the timings written next to the frames.
@@ -52,9 +52,61 @@ pub fn schedule(path: &CameraPath) -> Result<Vec<ScheduledFrame>, String> {
 }
 
 /// Whether frame `index` is written to disk when writing every `every`-th frame (frame 0 is
-/// always written; `every` = 0 writes none). Every frame is rendered and timed regardless.
+/// always written; `every` = 0 writes none).
 pub fn is_written(index: usize, every: usize) -> bool {
     every != 0 && index.is_multiple_of(every)
+}
+
+/// Which frames a replay renders (`rendered` in timings.json; `frames` lists each by number).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Rendered {
+    /// Every frame of the path (`--every 1`; `--every 0` times them all and writes none).
+    #[default]
+    All,
+    /// Frames 0, K, 2K, … of the path (`--every K`, K > 1), each written.
+    Every(usize),
+    /// Frame K of the path alone (`--frame K`).
+    Frame(usize),
+    /// One frame from a camera given on the command line, not from a path.
+    Camera(Keyframe),
+}
+
+impl Rendered {
+    /// The frames of a replay writing every `every`-th frame: those it writes (all of them
+    /// with `every` = 0, which writes none and times every frame).
+    pub fn every(every: usize) -> Rendered {
+        if every > 1 {
+            Rendered::Every(every)
+        } else {
+            Rendered::All
+        }
+    }
+
+    /// The frames of `frames` (a path's [`schedule`]) to render, or why there are none
+    /// (`--frame` past the path's end).
+    pub fn pick(
+        &self,
+        path: &str,
+        frames: Vec<ScheduledFrame>,
+    ) -> Result<Vec<ScheduledFrame>, String> {
+        match *self {
+            Rendered::All | Rendered::Camera(_) => Ok(frames),
+            Rendered::Every(k) => Ok(frames
+                .into_iter()
+                .filter(|f| f.index.is_multiple_of(k))
+                .collect()),
+            Rendered::Frame(k) => {
+                let n = frames.len();
+                frames.into_iter().nth(k).map(|f| vec![f]).ok_or_else(|| {
+                    format!(
+                        "--frame {k}: camera path `{path}` has {n} frame(s), numbered 0 to {}",
+                        n - 1
+                    )
+                })
+            }
+        }
+    }
 }
 
 /// File name of frame `index` with extension `ext` (`png`, `exr`): `frame_00042.png`.
@@ -167,8 +219,14 @@ pub struct Timings {
     pub bundle: PathBuf,
     /// Its scene's name.
     pub scene: String,
-    /// The camera path replayed.
+    /// The camera path replayed (empty for a camera given on the command line).
     pub path: String,
+    /// Frames in that path at its fps (1 for a camera given on the command line).
+    #[serde(default)]
+    pub path_frames: usize,
+    /// Which of them were rendered and timed: each is in `frames`.
+    #[serde(default)]
+    pub rendered: Rendered,
     /// Frame width and height in pixels.
     pub size: [u32; 2],
     /// The adapter: name, backend, device type, driver.
@@ -180,7 +238,7 @@ pub struct Timings {
     pub warmup_ms: f64,
     /// Median, p95 and max of each column.
     pub summary: Summary,
-    /// Every frame, in order.
+    /// Every rendered frame, in order.
     pub frames: Vec<FrameTiming>,
 }
 
@@ -205,8 +263,14 @@ impl Timings {
                 s.median, s.p95, s.max
             )
         };
+        let which = match self.rendered {
+            Rendered::All => String::new(),
+            Rendered::Every(k) => format!(" (one in {k} of {})", self.path_frames),
+            Rendered::Frame(k) => format!(" (frame {k} of {})", self.path_frames),
+            Rendered::Camera(_) => " (camera from the command line)".into(),
+        };
         let mut out = format!(
-            "{} frames of {}/{} at {}x{} on {}\n{:<10} {:>10} {:>10} {:>10}\n",
+            "{} frames of {}/{}{which} at {}x{} on {}\n{:<10} {:>10} {:>10} {:>10}\n",
             self.frames.len(),
             self.scene,
             self.path,
@@ -293,6 +357,34 @@ mod tests {
     }
 
     #[test]
+    fn rendered_picks_the_frames_it_names() {
+        let frames = || schedule(&path(9.0, 1.0)).unwrap();
+        let indices = |r: Rendered| -> Vec<usize> {
+            r.pick("p", frames())
+                .unwrap()
+                .iter()
+                .map(|f| f.index)
+                .collect()
+        };
+        assert_eq!(indices(Rendered::every(4)), [0, 4, 8]);
+        assert_eq!(indices(Rendered::every(1)), (0..10).collect::<Vec<_>>());
+        assert_eq!(indices(Rendered::every(0)), (0..10).collect::<Vec<_>>());
+        assert_eq!(indices(Rendered::Frame(9)), [9]);
+        let e = Rendered::Frame(10).pick("p", frames()).unwrap_err();
+        assert_eq!(
+            e,
+            "--frame 10: camera path `p` has 10 frame(s), numbered 0 to 9"
+        );
+        let json = |r: Rendered| serde_json::to_string(&r).unwrap();
+        assert_eq!(json(Rendered::All), "\"all\"");
+        assert_eq!(json(Rendered::Every(40)), r#"{"every":40}"#);
+        assert_eq!(json(Rendered::Frame(3)), r#"{"frame":3}"#);
+        let key = path(1.0, 1.0).keyframes[0];
+        let camera: Rendered = serde_json::from_str(&json(Rendered::Camera(key))).unwrap();
+        assert_eq!(camera, Rendered::Camera(key));
+    }
+
+    #[test]
     fn stats_median_p95_max() {
         let v: Vec<f64> = (1..=100).map(f64::from).collect();
         let s = Stats::of(&v);
@@ -335,6 +427,8 @@ mod tests {
             bundle: "out/x.glint".into(),
             scene: "x".into(),
             path: "orbit".into(),
+            path_frames: 3,
+            rendered: Rendered::All,
             size: [720, 486],
             adapter: "llvmpipe".into(),
             gpu_time_source: GpuTimeSource::SubmitToComplete,

@@ -1,6 +1,7 @@
 //! [`ViewArgs`]: `glint-view`'s command-line form of [`ViewOptions`], and
 //! [`ViewOptions::from_args`], the same parser for tests and tools.
 
+use super::baked::{Asked, Baked, Defaults};
 use super::{
     CurvedMode, CurvedSettings, DEFAULT_FACE_SIZE, DEFAULT_GENERATIONS, DEFAULT_WEIGHT_CUTOFF,
     Exposure, ImpostorKind, RecursionSettings, ReflectanceChannel, ReflectanceLayout,
@@ -29,9 +30,9 @@ pub struct ViewArgs {
     pub tonemap: Tonemap,
     /// Glossy planar reflections: `geometry` (the mirrored scene re-rendered per reflector,
     /// ks·R·M added to D), `image` (the baked radiance maps splatted; needs the radiance
-    /// stage) or `off`.
-    #[arg(long, value_name = "MODE", default_value = "off")]
-    pub reflections: ReflectionMode,
+    /// stage) or `off`. Default: `image` when the bundle has radiance maps, else `off`.
+    #[arg(long, value_name = "MODE")]
+    pub reflections: Option<ReflectionMode>,
     /// Image-based reflections: radiance maps selected per reflector element.
     #[arg(long, value_name = "N", default_value_t = 2,
           value_parser = clap::value_parser!(u8).range(1..=16))]
@@ -48,10 +49,12 @@ pub struct ViewArgs {
     #[arg(long, value_name = "CHANNEL", default_value = "albedo")]
     pub reflectance_channel: ReflectanceChannel,
     /// Reflections of impostors in planar reflectors (Popescu §3–4): `on` or `off`. Curved
-    /// reflectors reflect impostors with `--curved impostor` instead.
-    #[arg(long, value_name = "on|off", default_value = "off", value_parser = parse_on_off,
+    /// reflectors reflect impostors with `--curved impostor` instead. Default: `on` when the
+    /// bundle has impostor depth maps (srdm stage) but no radiance maps and `--reflections`
+    /// is not given (radiance maps and geometry reflections show the impostor objects already).
+    #[arg(long, value_name = "on|off", value_parser = parse_on_off,
           action = clap::ArgAction::Set)]
-    pub impostors: bool,
+    pub impostors: Option<bool>,
     /// What stands for impostor objects in reflections (`--impostors on`, `--curved
     /// impostor`): `srdm` (depth maps through their SRDM rows, §4.3; needs the srdm stage) or
     /// `billboard` (one billboard per object and reflector, §3, made at load time; misses
@@ -60,8 +63,9 @@ pub struct ViewArgs {
     pub impostor_kind: ImpostorKind,
     /// Curved reflectors: `cubemap` (a view-independent cube map per reflector, Nielsen §3.2),
     /// `impostor` (reflected rays against the impostors only, Popescu §3–4) or `off`.
-    #[arg(long, value_name = "MODE", default_value = "off")]
-    pub curved: CurvedMode,
+    /// Default: `cubemap` when the scene has glossy curved reflectors, else `off`.
+    #[arg(long, value_name = "MODE")]
+    pub curved: Option<CurvedMode>,
     /// Curved reflectors: regular samples per pixel and lobe (Luksch §6–7; the pattern
     /// closest to N); 0: one mirror lookup. The glossy term reads the baked MIP environment
     /// map when the bundle's materials stage has one, else the live cube map.
@@ -118,8 +122,19 @@ struct ViewCli {
 
 impl ViewOptions {
     /// The options `glint-view` renders with for these view arguments (e.g. `["--maps",
-    /// "4"]`): the same parser, defaults and checks.
+    /// "4"]`) on a bundle with nothing baked for reflections: the same parser, defaults and
+    /// checks.
     pub fn from_args<I, S>(args: I) -> Result<ViewOptions, String>
+    where
+        I: IntoIterator<Item = S>,
+        S: Into<std::ffi::OsString> + Clone,
+    {
+        ViewOptions::from_args_for(args, &Baked::default())
+    }
+
+    /// [`ViewOptions::from_args`] on a bundle holding `baked`: the modes left unset are the
+    /// ones it was baked for ([`Defaults::resolve`]).
+    pub fn from_args_for<I, S>(args: I, baked: &Baked) -> Result<ViewOptions, String>
     where
         I: IntoIterator<Item = S>,
         S: Into<std::ffi::OsString> + Clone,
@@ -128,35 +143,60 @@ impl ViewOptions {
         let argv = std::iter::once(std::ffi::OsString::from("glint-view"))
             .chain(args.into_iter().map(Into::into));
         let cli = ViewCli::try_parse_from(argv).map_err(|e| e.to_string())?;
-        cli.view.options()
+        cli.view.options_for(baked)
     }
 }
 
 impl ViewArgs {
-    /// The options these arguments ask for; `--recursion-depth` without `--reflections
-    /// geometry` is an error.
+    /// The options these arguments ask for with nothing baked for reflections (every mode
+    /// left unset is off); `--recursion-depth` without `--reflections geometry` is an error.
     pub fn options(&self) -> Result<ViewOptions, String> {
+        self.options_for(&Baked::default())
+    }
+
+    /// The reflection modes these arguments give on a bundle holding `baked`.
+    pub fn defaults(&self, baked: &Baked) -> Defaults {
+        Defaults::resolve(
+            Asked {
+                reflections: self.reflections,
+                curved: self.curved,
+                impostors: self.impostors,
+            },
+            *baked,
+        )
+    }
+
+    /// The options these arguments ask for on a bundle holding `baked`: modes left unset
+    /// are what it was baked for ([`ViewArgs::defaults`]); `--recursion-depth` without
+    /// `--reflections geometry` is an error.
+    pub fn options_for(&self, baked: &Baked) -> Result<ViewOptions, String> {
+        let modes = self.defaults(baked);
         if let Some(d) = self.recursion_depth
-            && self.reflections != ReflectionMode::Geometry
+            && modes.reflections != ReflectionMode::Geometry
         {
+            let why = if self.reflections.is_some() {
+                ""
+            } else {
+                ", the default for this bundle"
+            };
             return Err(format!(
-                "--recursion-depth {d} needs --reflections geometry (reflections are {})",
-                self.reflections
+                "--recursion-depth {d} needs --reflections geometry (reflections are {}{why})",
+                modes.reflections
             ));
         }
         let options = ViewOptions {
             exposure: self.exposure,
             tonemap: self.tonemap,
-            reflections: self.reflections,
+            reflections: modes.reflections,
             selection: self.selection,
             maps: usize::from(self.maps),
             reflectance: ReflectanceSettings {
                 layout: self.reflectance,
                 channel: self.reflectance_channel,
             },
-            impostors: self.impostors,
+            impostors: modes.impostors,
             impostor_kind: self.impostor_kind,
-            curved: self.curved,
+            curved: modes.curved,
             curved_settings: CurvedSettings {
                 glossy_samples: self.glossy_samples,
                 face_size: self.cube_size,
@@ -277,6 +317,43 @@ mod tests {
             }
         );
         assert!(o.recursive() && o.shows_reflections());
+    }
+
+    #[test]
+    fn unset_modes_are_what_the_bundle_was_baked_for() {
+        let baked = Baked {
+            radiance_maps: true,
+            curved_reflectors: 1,
+            impostor_captures: true,
+        };
+        let o = ViewOptions::from_args_for(["--maps", "4"], &baked).unwrap();
+        assert_eq!(
+            (o.reflections, o.curved, o.impostors, o.maps),
+            (ReflectionMode::Image, CurvedMode::Cubemap, false, 4)
+        );
+        let o = ViewOptions::from_args_for(
+            [
+                "--reflections",
+                "off",
+                "--curved",
+                "impostor",
+                "--impostors",
+                "on",
+            ],
+            &baked,
+        )
+        .unwrap();
+        assert_eq!(
+            (o.reflections, o.curved, o.impostors),
+            (ReflectionMode::Off, CurvedMode::Impostor, true)
+        );
+        let e = ViewOptions::from_args_for(["--recursion-depth", "2"], &baked).unwrap_err();
+        assert!(
+            e.contains(
+                "needs --reflections geometry (reflections are image, the default for this bundle)"
+            ),
+            "{e}"
+        );
     }
 
     #[test]

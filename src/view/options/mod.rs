@@ -6,8 +6,10 @@
 //! `view::frame::FramePasses` (feature `view`).
 
 mod args;
+mod baked;
 
 pub use args::{ViewArgs, parse_on_off};
+pub use baked::{Asked, Baked, Defaults};
 use serde::Serialize;
 
 pub use super::exposure::{Exposure, ExposureKey, MAX_EV};

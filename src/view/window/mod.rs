@@ -96,6 +96,8 @@ pub struct WindowOptions {
     pub out: PathBuf,
     /// Save a screenshot after this many frames and exit (automation).
     pub screenshot_after: Option<u64>,
+    /// The starting camera (`None`: the first path's first pose, or a view of the whole scene).
+    pub camera: Option<Camera>,
     /// What the frame shows at start (G, T, I, K, C, \[ and \] change it).
     pub view: ViewOptions,
 }
@@ -134,7 +136,7 @@ pub fn run_window(data: ViewData, options: WindowOptions) -> Result<(), WindowEr
     };
     let event_loop = EventLoop::new().map_err(|e| WindowError::EventLoop(e.to_string()))?;
     event_loop.set_control_flow(ControlFlow::Poll);
-    let fly = FlyCamera::from_camera(&initial_camera(&data));
+    let fly = FlyCamera::from_camera(&options.camera.unwrap_or_else(|| initial_camera(&data)));
     let mut app = App {
         speed: (data.scene.bounds.diagonal() * 0.2).max(1e-3),
         data,
