@@ -86,9 +86,10 @@ impl TexelDivisor {
 
 /// Per texel of page `page` (row-major): the triangle it belongs to, or `u32::MAX`. A texel
 /// belongs to the first triangle (in scene order) whose closest point to the texel's centre
-/// lies inside the texel; the padding around charts takes a neighbour's triangle, as the
-/// radiosity stage dilates D from the chart itself.
-pub fn texel_owners(atlas: &Atlas, page: usize) -> Vec<u32> {
+/// lies inside the texel, passing over those `shown` rejects (a black base colour shows no L,
+/// so a texel shared with a lit neighbour takes the neighbour's divisor); the padding around
+/// charts takes a neighbour's triangle, as the radiosity stage dilates D from the chart itself.
+pub fn texel_owners(atlas: &Atlas, page: usize, shown: &dyn Fn(u32) -> bool) -> Vec<u32> {
     let size = atlas.pages[page];
     let (w, h) = (size.width as usize, size.height as usize);
     let mut owner = vec![u32::MAX; w * h];
@@ -102,7 +103,7 @@ pub fn texel_owners(atlas: &Atlas, page: usize) -> Vec<u32> {
         for y in lo.y as usize..y1 {
             for x in lo.x as usize..x1 {
                 let i = y * w + x;
-                if owner[i] != u32::MAX {
+                if owner[i] != u32::MAX && shown(owner[i]) {
                     continue;
                 }
                 let centre = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
@@ -140,6 +141,25 @@ pub fn texel_owners(atlas: &Atlas, page: usize) -> Vec<u32> {
         }
     }
     owner
+}
+
+/// glint's cubic B-spline reconstruction of `rgb` (`w` × `h`, row-major) at every texel centre:
+/// the separable kernel [1, 4, 1] / 6 (the uniform cubic B-spline at −1, 0, 1), edges clamped.
+/// An engine's bilinear filter between these values follows the viewer's bicubic D, where the
+/// raw texels would show each one as a facet.
+pub fn bspline_at_centres(rgb: &[Vec3], w: usize, h: usize) -> Vec<Vec3> {
+    let pass = |src: &[Vec3], step: usize, n: usize, at: &dyn Fn(usize) -> (usize, usize)| {
+        let mut out = vec![Vec3::ZERO; src.len()];
+        for (i, o) in out.iter_mut().enumerate() {
+            let (k, _) = at(i);
+            let prev = if k > 0 { i - step } else { i };
+            let next = if k + 1 < n { i + step } else { i };
+            *o = (src[prev] + 4.0 * src[i] + src[next]) / 6.0;
+        }
+        out
+    };
+    let rows = pass(rgb, 1, w, &|i| (i % w, i / w));
+    pass(&rows, w, h, &|i| (i / w, i % w))
 }
 
 /// The barycentrics on triangle coordinates `c` of the point closest to texel (x, y)'s centre.
@@ -237,6 +257,18 @@ mod tests {
         let pages = vec![vec![Vec3::new(1.0, 510.0, 3.0)], vec![Vec3::splat(2.0)]];
         assert_eq!(scale_for(&pages, RGBD_MAX), 2.0);
         assert_eq!(scale_for(&[vec![Vec3::ZERO]], RGBD_MAX), 1.0);
+    }
+
+    #[test]
+    fn the_bspline_keeps_constants_and_spreads_an_impulse_by_its_weights() {
+        let flat = vec![Vec3::splat(2.0); 12];
+        assert!(bspline_at_centres(&flat, 4, 3)
+            .iter()
+            .all(|c| (*c - Vec3::splat(2.0)).abs().max_element() < 1e-6));
+        let mut one = vec![Vec3::ZERO; 25];
+        one[12] = Vec3::splat(36.0);
+        let f = bspline_at_centres(&one, 5, 5);
+        assert_eq!((f[12].x, f[11].x, f[7].x, f[6].x, f[0].x), (16.0, 4.0, 4.0, 1.0, 0.0));
     }
 
     #[test]

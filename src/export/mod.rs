@@ -265,8 +265,13 @@ fn lightmap_pages(scene: &Scene, map: &RadiosityMap, factors: &[Vec3]) -> Vec<Ve
     let atlas = &map.atlas;
     (0..atlas.pages.len())
         .map(|p| {
-            let w = atlas.pages[p].width as usize;
-            let owners = lightmap::texel_owners(atlas, p);
+            let (w, h) = (atlas.pages[p].width as usize, atlas.pages[p].height as usize);
+            let factor = |t: u32| {
+                let m = scene.triangles[t as usize].material as usize;
+                factors.get(m).copied().unwrap_or(Vec3::ONE)
+            };
+            let owners = lightmap::texel_owners(atlas, p, &|t| factor(t).max_element() > 0.0);
+            let stored = lightmap::bspline_at_centres(&map.pages[p], w, h);
             owners
                 .iter()
                 .enumerate()
@@ -277,16 +282,15 @@ fn lightmap_pages(scene: &Scene, map: &RadiosityMap, factors: &[Vec3]) -> Vec<Ve
                     let c = atlas.tri_coords[t as usize];
                     let bary = lightmap::texel_bary(c, i % w, i / w);
                     let surface = scene.texel_surface(t, &c, bary);
-                    let m = scene.triangles[t as usize].material as usize;
                     let divisor = TexelDivisor {
-                        factor: factors.get(m).copied().unwrap_or(Vec3::ONE),
+                        factor: factor(t),
                         emission: if surface.modulation.is_some() {
                             Vec3::ZERO
                         } else {
                             surface.emission
                         },
                     };
-                    divisor.lightmap(map.pages[p][i])
+                    divisor.lightmap(stored[i])
                 })
                 .collect()
         })
