@@ -262,13 +262,18 @@ mod tests {
     #[test]
     fn the_bspline_keeps_constants_and_spreads_an_impulse_by_its_weights() {
         let flat = vec![Vec3::splat(2.0); 12];
-        assert!(bspline_at_centres(&flat, 4, 3)
-            .iter()
-            .all(|c| (*c - Vec3::splat(2.0)).abs().max_element() < 1e-6));
+        assert!(
+            bspline_at_centres(&flat, 4, 3)
+                .iter()
+                .all(|c| (*c - Vec3::splat(2.0)).abs().max_element() < 1e-6)
+        );
         let mut one = vec![Vec3::ZERO; 25];
         one[12] = Vec3::splat(36.0);
         let f = bspline_at_centres(&one, 5, 5);
-        assert_eq!((f[12].x, f[11].x, f[7].x, f[6].x, f[0].x), (16.0, 4.0, 4.0, 1.0, 0.0));
+        assert_eq!(
+            (f[12].x, f[11].x, f[7].x, f[6].x, f[0].x),
+            (16.0, 4.0, 4.0, 1.0, 0.0)
+        );
     }
 
     #[test]

@@ -172,7 +172,7 @@ pub fn export(
         .map_err(|e| inconsistent(format!("{}: {e}", gltf_path.display())))?;
     let source = serde_json::to_value(gltf.document.as_json())
         .map_err(|e| inconsistent(format!("{}: {e}", gltf_path.display())))?;
-    let images = read_images(&gltf_path, &gltf, &source).map_err(|m| inconsistent(m))?;
+    let images = read_images(&gltf_path, &gltf, &source).map_err(&inconsistent)?;
     let mut materials: Vec<Value> = source
         .get("materials")
         .and_then(Value::as_array)
@@ -265,7 +265,10 @@ fn lightmap_pages(scene: &Scene, map: &RadiosityMap, factors: &[Vec3]) -> Vec<Ve
     let atlas = &map.atlas;
     (0..atlas.pages.len())
         .map(|p| {
-            let (w, h) = (atlas.pages[p].width as usize, atlas.pages[p].height as usize);
+            let (w, h) = (
+                atlas.pages[p].width as usize,
+                atlas.pages[p].height as usize,
+            );
             let factor = |t: u32| {
                 let m = scene.triangles[t as usize].material as usize;
                 factors.get(m).copied().unwrap_or(Vec3::ONE)
