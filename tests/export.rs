@@ -328,3 +328,95 @@ fn a_bundle_without_radiosity_is_refused_naming_the_stage() {
     );
     assert!(!glb.exists(), "nothing written");
 }
+
+#[test]
+fn page_size_and_format_options_shape_the_lightmaps() {
+    let glb = out_dir("options").join("glossy-room-64-srgb.glb");
+    let (code, stdout, stderr) = common::run_exe(
+        env!("CARGO_BIN_EXE_glint-bundle"),
+        &[
+            "export".as_ref(),
+            bundle("glossy-room").as_os_str(),
+            glb.as_os_str(),
+            "--page-size".as_ref(),
+            "64".as_ref(),
+            "--format".as_ref(),
+            "srgb".as_ref(),
+            "--json".as_ref(),
+        ],
+    );
+    assert_eq!(code, 0, "{stdout}{stderr}");
+    let report: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(report["encoding"], "srgb");
+    let bytes = std::fs::read(&glb).unwrap();
+    let g = gltf::Glb::from_slice(&bytes).unwrap();
+    let json: serde_json::Value = serde_json::from_slice(&g.json).unwrap();
+    assert_eq!(json["extras"]["glint_lightmaps"]["encoding"], "srgb");
+    let bin = g.bin.unwrap();
+    let mut pages = 0;
+    for image in json["images"].as_array().unwrap() {
+        if !image["name"]
+            .as_str()
+            .is_some_and(|n| n.starts_with("lightmap"))
+        {
+            continue;
+        }
+        let view = &json["bufferViews"][image["bufferView"].as_u64().unwrap() as usize];
+        let start = view["byteOffset"].as_u64().unwrap() as usize;
+        let end = start + view["byteLength"].as_u64().unwrap() as usize;
+        let png = image::load_from_memory(&bin[start..end]).unwrap();
+        assert!(
+            png.width().max(png.height()) <= 64,
+            "{}×{}",
+            png.width(),
+            png.height()
+        );
+        assert!(!png.color().has_alpha(), "srgb pages are RGB");
+        pages += 1;
+    }
+    assert_eq!(pages, report["pages"].as_array().unwrap().len());
+    let (code, _, stderr) = common::run_exe(
+        env!("CARGO_BIN_EXE_glint-bundle"),
+        &[
+            "export".as_ref(),
+            bundle("glossy-room").as_os_str(),
+            glb.as_os_str(),
+            "--format".as_ref(),
+            "exr".as_ref(),
+        ],
+    );
+    assert_eq!(code, 2, "an unknown format is a usage error: {stderr}");
+    assert!(stderr.contains("rgbd, srgb"), "{stderr}");
+}
+
+#[test]
+fn the_export_lightmaps_example_runs() {
+    // `cargo test` builds the examples before the tests; `cargo test --test export` does not.
+    let exe = std::env::current_exe().unwrap();
+    let example = exe
+        .parent()
+        .and_then(Path::parent)
+        .unwrap()
+        .join("examples/export_lightmaps");
+    if !example.is_file() {
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let status = Command::new(cargo)
+            .args(["build", "--example", "export_lightmaps"])
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .status()
+            .unwrap();
+        assert!(status.success());
+    }
+    let glb = out_dir("example").join("glossy-room.glb");
+    let (code, stdout, stderr) = common::run_exe(
+        example.to_str().unwrap(),
+        &[
+            bundle("glossy-room").as_os_str(),
+            glb.as_os_str(),
+            "32".as_ref(),
+        ],
+    );
+    assert_eq!(code, 0, "{stdout}{stderr}");
+    assert!(stdout.contains("lightmap page 0: 32×"), "{stdout}");
+    assert!(glb.is_file());
+}
