@@ -420,3 +420,24 @@ fn the_export_lightmaps_example_runs() {
     assert!(stdout.contains("lightmap page 0: 32×"), "{stdout}");
     assert!(glb.is_file());
 }
+
+#[test]
+fn an_export_is_deterministic() {
+    let dir = out_dir("twice");
+    let [a, b] = ["a.glb", "b.glb"].map(|n| dir.join(n));
+    for glb in [&a, &b] {
+        let (code, _, stderr) = common::run_exe(
+            env!("CARGO_BIN_EXE_glint-bundle"),
+            &[
+                "export".as_ref(),
+                bundle("textured-room").as_os_str(),
+                glb.as_os_str(),
+            ],
+        );
+        assert_eq!(code, 0, "{stderr}");
+    }
+    assert!(
+        std::fs::read(&a).unwrap() == std::fs::read(&b).unwrap(),
+        "same bundle, same bytes"
+    );
+}
