@@ -98,25 +98,45 @@ impl Out {
 /// One primitive's welded vertices.
 #[derive(Default)]
 struct Prim {
-    key: HashMap<[u32; 10], u32>,
+    key: HashMap<[u32; 12], u32>,
     pos: Vec<f32>,
     nrm: Vec<f32>,
     uv0: Vec<f32>,
     uv1: Vec<f32>,
+    /// The source's own TEXCOORD_1, written as TEXCOORD_2 for materials that sample it.
+    uv2: Vec<f32>,
     idx: Vec<u32>,
 }
 
 impl Prim {
-    fn vertex(&mut self, p: Vec3, n: Vec3, uv0: Vec2, lm: Vec2) -> u32 {
-        let k = [p.x, p.y, p.z, n.x, n.y, n.z, uv0.x, uv0.y, lm.x, lm.y].map(f32::to_bits);
+    fn vertex(&mut self, p: Vec3, n: Vec3, uv0: Vec2, lm: Vec2, uv2: Vec2) -> u32 {
+        let k = [
+            p.x, p.y, p.z, n.x, n.y, n.z, uv0.x, uv0.y, lm.x, lm.y, uv2.x, uv2.y,
+        ]
+        .map(f32::to_bits);
         let next = self.key.len() as u32;
         *self.key.entry(k).or_insert_with(|| {
             self.pos.extend([p.x, p.y, p.z]);
             self.nrm.extend([n.x, n.y, n.z]);
             self.uv0.extend([uv0.x, uv0.y]);
             self.uv1.extend([lm.x, lm.y]);
+            self.uv2.extend([uv2.x, uv2.y]);
             next
         })
+    }
+}
+
+/// `m` with every `texCoord` 1 made 2: the lightmap takes set 1, the source's set 1 moves to 2.
+pub fn move_texcoord_1(m: &mut Value) {
+    match m {
+        Value::Object(o) => {
+            if o.get("texCoord").and_then(Value::as_u64) == Some(1) {
+                o.insert("texCoord".into(), json!(2));
+            }
+            o.values_mut().for_each(move_texcoord_1);
+        }
+        Value::Array(a) => a.iter_mut().for_each(move_texcoord_1),
+        _ => {}
     }
 }
 
@@ -241,6 +261,7 @@ pub fn build(
             return i;
         }
         let mut v = materials[m as usize].clone();
+        move_texcoord_1(&mut v);
         let tex = page_texture[page as usize];
         if material_of.keys().any(|&(mm, _)| mm == m) {
             let name = v.get("name").and_then(Value::as_str).unwrap_or("material");
@@ -289,7 +310,8 @@ pub fn build(
                 let n = tri.n[v].normalize_or_zero();
                 let n = if n == Vec3::ZERO { face } else { n };
                 let lm = atlas.tri_coords[t as usize][v] * inv;
-                let i = prim.vertex(tri.p[v], n, tri.uv[v], lm);
+                let uv2 = tri.uv1.map_or(Vec2::ZERO, |uv| uv[v]);
+                let i = prim.vertex(tri.p[v], n, tri.uv[v], lm, uv2);
                 prim.idx.push(i);
             }
         }
@@ -304,8 +326,11 @@ pub fn build(
             // TEXCOORD_0 always: glTF numbers a semantic's sets from 0 without gaps.
             let uv0 = out.floats(&p.uv0, 2, "VEC2", false);
             let uv1 = out.floats(&p.uv1, 2, "VEC2", false);
-            let attributes =
+            let mut attributes =
                 json!({ "POSITION": pos, "NORMAL": nrm, "TEXCOORD_0": uv0, "TEXCOORD_1": uv1 });
+            if uses_texcoord_1(&materials[m as usize]) {
+                attributes["TEXCOORD_2"] = json!(out.floats(&p.uv2, 2, "VEC2", false));
+            }
             let indices = out.indices(&p.idx);
             primitives.push(
                 json!({ "attributes": attributes, "indices": indices, "material": material }),
@@ -387,11 +412,28 @@ mod tests {
     #[test]
     fn vertices_split_where_lightmap_coordinates_differ() {
         let mut p = Prim::default();
-        let a = p.vertex(Vec3::ZERO, Vec3::Y, Vec2::ZERO, Vec2::ZERO);
-        let b = p.vertex(Vec3::ZERO, Vec3::Y, Vec2::ZERO, Vec2::ZERO);
-        let c = p.vertex(Vec3::ZERO, Vec3::Y, Vec2::ZERO, Vec2::new(0.5, 0.0));
+        let a = p.vertex(Vec3::ZERO, Vec3::Y, Vec2::ZERO, Vec2::ZERO, Vec2::ZERO);
+        let b = p.vertex(Vec3::ZERO, Vec3::Y, Vec2::ZERO, Vec2::ZERO, Vec2::ZERO);
+        let c = p.vertex(
+            Vec3::ZERO,
+            Vec3::Y,
+            Vec2::ZERO,
+            Vec2::new(0.5, 0.0),
+            Vec2::ZERO,
+        );
         assert_eq!((a, b, c), (0, 0, 1));
         assert_eq!(p.uv1, vec![0.0, 0.0, 0.5, 0.0]);
+    }
+
+    #[test]
+    fn a_material_sampling_set_1_moves_to_set_2() {
+        let mut m = json!({ "pbrMetallicRoughness": { "baseColorTexture": { "index": 0, "texCoord": 1 } },
+                            "emissiveTexture": { "index": 1 } });
+        assert!(uses_texcoord_1(&m));
+        move_texcoord_1(&mut m);
+        assert_eq!(m["pbrMetallicRoughness"]["baseColorTexture"]["texCoord"], 2);
+        assert_eq!(m["emissiveTexture"].get("texCoord"), None);
+        assert!(!uses_texcoord_1(&m));
     }
 
     #[test]

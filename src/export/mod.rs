@@ -178,16 +178,6 @@ pub fn export(
         .and_then(Value::as_array)
         .cloned()
         .unwrap_or_default();
-    if let Some((i, _)) = materials
-        .iter()
-        .enumerate()
-        .find(|(_, m)| gltf_out::uses_texcoord_1(m))
-    {
-        return Err(inconsistent(format!(
-            "{}: material {i} samples a texture with texCoord 1, which the lightmap takes; export supports TEXCOORD_0 textures only",
-            gltf_path.display()
-        )));
-    }
     if scene.materials.len() > materials.len() {
         materials.push(gltf_out::default_material());
     }
