@@ -103,6 +103,7 @@ pub mod camera;
 pub mod cli;
 pub mod colour;
 pub mod eval;
+pub mod export;
 pub mod fuzz;
 pub mod geometry;
 pub mod image_io;

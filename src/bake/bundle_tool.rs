@@ -1,4 +1,4 @@
-//! `glint-bundle`'s command line: `stats`, `verify`, `merge` and `ls` of a bundle. The binary parses
+//! `glint-bundle`'s command line: `stats`, `verify`, `merge`, `export` and `ls` of a bundle. The binary parses
 //! [`Args`] and calls [`run`].
 
 use std::io::Write;
@@ -16,7 +16,7 @@ use crate::bundle::stats::{BundleStats, format_table, human_bytes};
     name = "glint-bundle",
     version,
     about = "Inspect and verify a glint asset bundle (NAME.glint/)",
-    after_help = "Examples:\n  glint-bundle stats out/cornell-box.glint\n  glint-bundle merge out/glossy-room.glint shards/*.glint\n  glint-bundle stats out/cornell-box.glint --json | jq .total\n  glint-bundle verify out/cornell-box.glint && echo intact\n  glint-bundle ls out/cornell-box.glint"
+    after_help = "Examples:\n  glint-bundle stats out/cornell-box.glint\n  glint-bundle merge out/glossy-room.glint shards/*.glint\n  glint-bundle stats out/cornell-box.glint --json | jq .total\n  glint-bundle verify out/cornell-box.glint && echo intact\n  glint-bundle ls out/cornell-box.glint\n  glint-bundle export out/glossy-room.glint out/glossy-room.glb"
 )]
 /// `glint-bundle`'s arguments: one subcommand.
 pub struct Args {
@@ -65,6 +65,23 @@ enum Command {
         /// the same scene is replaced without it.
         #[arg(long)]
         force: bool,
+    },
+    /// Write the scene as a binary glTF with the radiosity stage's D as lightmaps: TEXCOORD_1,
+    /// MSFT_lightmap and the same binding in extras (docs/export.md).
+    Export {
+        /// The bundle folder.
+        bundle: PathBuf,
+        /// The .glb to write (replaced whole, never half-written).
+        out: PathBuf,
+        /// Largest lightmap page side in texels (larger pages are box-filtered down; 0: as baked).
+        #[arg(long, value_name = "TEXELS", default_value_t = 0)]
+        page_size: u32,
+        /// Lightmap encoding: rgbd (HDR, RGBA PNG) or srgb (LDR RGB PNG, clipped at the scale).
+        #[arg(long, default_value = "rgbd")]
+        format: crate::export::lightmap::LightmapFormat,
+        /// Print a JSON report.
+        #[arg(long)]
+        json: bool,
     },
     /// List every asset: stage, kind, size, path.
     Ls {
@@ -163,6 +180,34 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                     report.stages.len(),
                     report.stages.join(", "),
                     report.assets
+                )?;
+            }
+        }
+        Command::Export {
+            bundle,
+            out: glb,
+            page_size,
+            format,
+            json,
+        } => {
+            let options = crate::export::ExportOptions {
+                max_page: page_size,
+                format,
+            };
+            let report = crate::export::export(&bundle, &glb, &options)?;
+            if json {
+                writeln!(out, "{}", serde_json::to_string_pretty(&report)?)?;
+            } else {
+                writeln!(
+                    out,
+                    "ok: {} — {} triangles, {} lightmap page(s) ({}, scale {}), auto exposure {:+.2} EV, {}",
+                    glb.display(),
+                    report.triangles,
+                    report.pages.len(),
+                    report.encoding,
+                    report.scale,
+                    report.exposure_ev,
+                    human_bytes(report.bytes)
                 )?;
             }
         }

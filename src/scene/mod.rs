@@ -12,7 +12,7 @@ pub mod faces;
 mod gltf_cameras;
 pub(crate) mod gltf_import;
 pub mod gltf_textures;
-mod gltf_uri;
+pub(crate) mod gltf_uri;
 mod impostor;
 mod light;
 pub mod material;
