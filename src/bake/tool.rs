@@ -13,6 +13,7 @@ use anyhow::Context;
 use super::materials::{self, MaterialsError, MaterialsSettings, Outcome};
 use super::report::{BakeReport, SrdmViews};
 use super::srdm_stage::{self, SrdmOutcome, SrdmSettings};
+use super::written::Written;
 use super::{BakeSettings, Stage, bake_all, plan, radiance_stage, radiosity_stage};
 use super::{scene_stage, up_to_date};
 use crate::cli::BakeArgs;
@@ -59,8 +60,14 @@ fn setting_error<T: serde::Serialize>(
     }
 }
 
-/// Runs `tool` with `args`, writing its report to `out`.
+/// Runs `tool` with `args`, writing its report to `out`. Stopped by Ctrl-C, its error says
+/// which stages it wrote ([`Written`]).
 pub fn run(args: &BakeArgs, tool: Tool, out: &mut dyn Write) -> anyhow::Result<ExitCode> {
+    let written = Written::snapshot(&[&args.bundle]);
+    run_tool(args, tool, out).map_err(|e| written.explain(e))
+}
+
+fn run_tool(args: &BakeArgs, tool: Tool, out: &mut dyn Write) -> anyhow::Result<ExitCode> {
     let scene = Scene::load(&args.options.scene)?;
     let quality = args.options.quality.unwrap_or(scene.desc.bake.quality);
     match tool {
