@@ -234,6 +234,10 @@ fn bake_every_stage(
         scene.reflectors.len(),
         scene.impostors.len()
     );
+    let unused = super::plan::unused_declarations(scene);
+    for u in &unused {
+        log::warn!("{}: {u}", scene.path.display());
+    }
     let settings = BakeSettings::resolve(scene, quality)?;
     // One reporter for the whole run: it owns the process's only Ctrl-C handler.
     let progress = TerminalProgress::new();
@@ -251,7 +255,9 @@ fn bake_every_stage(
         stages: stages?,
     };
     if args.options.json {
-        writeln!(out, "{}", serde_json::to_string_pretty(&report.to_json())?)?;
+        let mut v = report.to_json();
+        v["warnings"] = serde_json::to_value(&unused)?;
+        writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
     } else {
         write!(out, "{report}")?;
     }
