@@ -360,13 +360,25 @@ fn a_lobe_without_model_is_ggx_and_kurt_is_named_when_wanted() {
     let mut kurt = m.lobes[0];
     kurt.model = glint::scene::LobeModel::Kurt;
     assert_eq!(serde_json::to_value(kurt).unwrap()["model"], "kurt");
-    // A Kurt lobe that forgot its `model` is told how to keep it.
-    let e = load_err(
+    // A lobe with `alpha` and no `model`, as scene.json files and bundles written while
+    // `kurt` was the default have it, stays `kurt`.
+    let (_dir, path) = room_scene(
         r#", "materials": { "FloorMat": { "lobes": [ { "ks": [1,1,1], "r0": 0.04, "mx": 0.1, "my": 0.1, "alpha": 0 } ] } }"#,
+    );
+    let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let m = scene
+        .materials
+        .iter()
+        .find(|m| m.name == "FloorMat")
+        .unwrap();
+    assert_eq!(m.lobes[0].model, glint::scene::LobeModel::Kurt);
+    // `alpha` on a lobe that names another model is refused, saying how to keep kurt.
+    let e = load_err(
+        r#", "materials": { "FloorMat": { "lobes": [ { "model": "ggx", "ks": [1,1,1], "r0": 0.04, "mx": 0.1, "my": 0.1, "alpha": 0 } ] } }"#,
     );
     assert!(
         e.contains("materials.FloorMat.lobes")
-            && e.contains("model ggx, the default")
+            && e.contains("model ggx")
             && e.contains(r#"name "model": "kurt""#),
         "{e}"
     );

@@ -79,11 +79,12 @@ pub struct MaterialOverride {
 /// One glossy lobe: k_s times a reflection model (Luksch et al. Eq. 1). Every model takes
 /// `ks`, `r0`, `mx` and `my`, which mean the same in each; `alpha` belongs to `kurt` alone,
 /// which requires it.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct LobeDesc {
     /// Reflection model: `ggx` (the default: glTF's lobe, GGX D and Smith G), `beckmann`
     /// (Beckmann D, Smith G) or `kurt` (Beckmann D and Kurt's shadowing exponent `alpha`).
+    /// A lobe with `alpha` and no `model` is `kurt`, the one model that takes `alpha`.
     #[serde(default, skip_serializing_if = "LobeModel::is_ggx")]
     pub model: LobeModel,
     /// Lobe reflectivity k_s (linear RGB; colour of metals lives here).
@@ -101,6 +102,42 @@ pub struct LobeDesc {
     /// brighten grazing reflection).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub alpha: Option<f32>,
+}
+
+/// A lobe as scene.json writes it, before its model is settled.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LobeFields {
+    #[serde(default)]
+    model: Option<LobeModel>,
+    ks: [f32; 3],
+    r0: f32,
+    mx: f32,
+    my: f32,
+    #[serde(default)]
+    alpha: Option<f32>,
+}
+
+/// Read through [`LobeFields`] so that a lobe with `alpha` and no `model` stays `kurt`:
+/// scene.json files, and the bundles' copies of them, written while `kurt` was the default
+/// keep their look.
+impl<'de> Deserialize<'de> for LobeDesc {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<LobeDesc, D::Error> {
+        let f = LobeFields::deserialize(d)?;
+        let model = f.model.unwrap_or(if f.alpha.is_some() {
+            LobeModel::Kurt
+        } else {
+            LobeModel::Ggx
+        });
+        Ok(LobeDesc {
+            model,
+            ks: f.ks,
+            r0: f.r0,
+            mx: f.mx,
+            my: f.my,
+            alpha: f.alpha,
+        })
+    }
 }
 
 /// The lobe type under its former name (every lobe was a Kurt lobe).

@@ -250,15 +250,10 @@ impl Material {
                     ));
                 }
                 (LobeModel::Ggx | LobeModel::Beckmann, Some(_)) => {
-                    let default = if l.model.is_ggx() {
-                        ", the default"
-                    } else {
-                        ""
-                    };
                     return Err((
                         "lobes",
                         format!(
-                            "lobe {i} (model {model}{default}): `alpha` is the kurt model's shadowing exponent; {model} has Smith shadowing and takes ks, r0, mx, my (remove alpha, or name \"model\": \"kurt\")"
+                            "lobe {i} (model {model}): `alpha` is the kurt model's shadowing exponent; {model} has Smith shadowing and takes ks, r0, mx, my (remove alpha, or name \"model\": \"kurt\")"
                         ),
                     ));
                 }
