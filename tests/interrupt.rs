@@ -68,16 +68,14 @@ fn a_bake_in_a_log_prints_progress_lines_with_rate_and_eta() {
     );
 }
 
+/// Runs `exe` (a bake tool) on a long radiosity bake into `bundle`, sends it SIGINT part-way
+/// through gathering, and returns its exit code and stderr.
 #[cfg(unix)]
-#[test]
-fn sigint_stops_glint_bake_with_130_and_says_which_stages_it_wrote() {
-    let dir = tempfile::tempdir().unwrap();
-    let scene = lit_floor_with(dir.path(), 128, 1024);
-    let bundle = dir.path().join("stopped.glint");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_glint-bake"))
-        .arg(&scene)
+fn interrupted_mid_gathering(exe: &str, scene: &Path, bundle: &Path) -> (Option<i32>, String) {
+    let mut child = Command::new(exe)
+        .arg(scene)
         .arg("--bundle")
-        .arg(&bundle)
+        .arg(bundle)
         .env(glint::progress::LOG_INTERVAL_VAR, "0.1")
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -103,7 +101,7 @@ fn sigint_stops_glint_bake_with_130_and_says_which_stages_it_wrote() {
             Ok(_) => {}
             Err(e) => {
                 let _ = child.kill();
-                panic!("glint-bake never gathered: {e}");
+                panic!("{exe} never gathered: {e}");
             }
         }
     }
@@ -113,8 +111,17 @@ fn sigint_stops_glint_bake_with_130_and_says_which_stages_it_wrote() {
         .unwrap();
     assert!(kill.success());
     let status = child.wait().unwrap();
-    let err = reader.join().unwrap();
-    assert_eq!(status.code(), Some(130), "{err}");
+    (status.code(), reader.join().unwrap())
+}
+
+#[cfg(unix)]
+#[test]
+fn sigint_stops_glint_bake_with_130_and_says_which_stages_it_wrote() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = lit_floor_with(dir.path(), 128, 1024);
+    let bundle = dir.path().join("stopped.glint");
+    let (code, err) = interrupted_mid_gathering(env!("CARGO_BIN_EXE_glint-bake"), &scene, &bundle);
+    assert_eq!(code, Some(130), "{err}");
     let last = err.lines().last().unwrap_or_default();
     assert!(
         last.starts_with("error: interrupted: wrote stage scene of ")
@@ -125,6 +132,27 @@ fn sigint_stops_glint_bake_with_130_and_says_which_stages_it_wrote() {
     // What it says is what the bundle holds: the scene stage, intact; no radiosity.
     let b = Bundle::open(&bundle).unwrap();
     assert!(b.stage("scene").is_some());
+    assert!(b.stage("radiosity").is_none());
+    assert!(b.verify().is_empty(), "{:?}", b.verify());
+}
+
+#[cfg(unix)]
+#[test]
+fn sigint_stops_a_single_stage_tool_the_same_way() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = lit_floor_with(dir.path(), 128, 1024);
+    let bundle = dir.path().join("radiosity.glint");
+    let (code, err) =
+        interrupted_mid_gathering(env!("CARGO_BIN_EXE_glint-radiosity"), &scene, &bundle);
+    assert_eq!(code, Some(130), "{err}");
+    // The tool writes the scene stage before its own: that much was written.
+    let last = err.lines().last().unwrap_or_default();
+    assert!(
+        last.starts_with("error: interrupted: wrote stage scene of ")
+            && last.contains("radiosity.glint (complete)"),
+        "{err}"
+    );
+    let b = Bundle::open(&bundle).unwrap();
     assert!(b.stage("radiosity").is_none());
     assert!(b.verify().is_empty(), "{:?}", b.verify());
 }
