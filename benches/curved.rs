@@ -142,7 +142,7 @@ fn rough_teapot_scene(scene_json: &Path, work: &Path) -> PathBuf {
     v["name"] = "glossy-room-rough".into();
     v["materials"]["PolishedMetal"] = serde_json::json!({
         "albedo": [0.0, 0.0, 0.0],
-        "lobes": [{ "ks": [0.95, 0.64, 0.54], "r0": 1.0, "mx": ROUGH_M, "my": ROUGH_M, "alpha": 0.0 }]
+        "lobes": [{ "model": "kurt", "ks": [0.95, 0.64, 0.54], "r0": 1.0, "mx": ROUGH_M, "my": ROUGH_M, "alpha": 0.0 }]
     });
     let path = dir.join("scene.json");
     std::fs::write(&path, serde_json::to_string_pretty(&v).unwrap())

@@ -22,6 +22,8 @@ struct Args {
 fn main() -> ExitCode {
     glint::cli::init_logging();
     glint::cli::init_threads();
+    // Ctrl-C from here on stops the bake between work items; it exits 130.
+    glint::progress::install_interrupt_handler();
     let args = Args::parse();
     let tool = Tool::Materials;
     glint::cli::exit_code(run(&args.bake, tool, &mut std::io::stdout().lock()))

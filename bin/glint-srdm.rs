@@ -24,6 +24,8 @@ struct Args {
 fn main() -> ExitCode {
     glint::cli::init_logging();
     glint::cli::init_threads();
+    // Ctrl-C from here on stops the bake between work items; it exits 130.
+    glint::progress::install_interrupt_handler();
     let args = Args::parse();
     let tool = Tool::Srdm(args.srdm);
     glint::cli::exit_code(run(&args.bake, tool, &mut std::io::stdout().lock()))

@@ -55,12 +55,20 @@ fn threads_granted(rayon: Option<&str>, slurm: Option<&str>) -> Option<usize> {
     slurm?.trim().parse().ok().filter(|&n| n > 0)
 }
 
-/// Maps a binary's result to its exit code: 0 on success, 1 on error (printed with its whole
+/// The exit code of a program stopped by Ctrl-C: 128 + SIGINT, what a shell reports.
+pub const INTERRUPTED: u8 = 130;
+
+/// Maps a binary's result to its exit code: 0 on success, [`INTERRUPTED`] when Ctrl-C stopped
+/// it ([`crate::progress::is_interruption`]), 1 on another error (each printed with its whole
 /// chain of causes). A closed pipe (`glint-bundle ls | head`) is not an error.
 pub fn exit_code(result: anyhow::Result<ExitCode>) -> ExitCode {
     match result {
         Ok(code) => code,
         Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
+        Err(e) if crate::progress::is_interruption(&e) => {
+            let _ = writeln!(std::io::stderr(), "error: {}", chain_message(&e));
+            ExitCode::from(INTERRUPTED)
+        }
         Err(e) => {
             let _ = writeln!(std::io::stderr(), "error: {}", chain_message(&e));
             ExitCode::FAILURE

@@ -16,7 +16,7 @@ use glint::radiosity::{RadiosityMap, atlas};
 use glint::scene::Scene;
 
 /// A near-perfect mirror (as in tests/transport.rs).
-const MIRROR: &str = r#"{ "albedo": [0, 0, 0], "lobes": [{ "ks": [1, 1, 1], "r0": 1.0, "mx": 0.001, "my": 0.001, "alpha": 0.5 }] }"#;
+const MIRROR: &str = r#"{ "albedo": [0, 0, 0], "lobes": [{ "model": "kurt", "ks": [1, 1, 1], "r0": 1.0, "mx": 0.001, "my": 0.001, "alpha": 0.5 }] }"#;
 
 /// A closed box of half-size 0.5 with a mirror floor, `lamps` area lights of scene.json in a
 /// row under the ceiling and `panels` emissive ceiling panels (each its own quad, so its own

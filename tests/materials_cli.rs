@@ -57,8 +57,8 @@ fn glossy_scene(dir: &Path, extra: &str) -> PathBuf {
         dir,
         &format!(
             r#"{{ "version": 1, "geometry": "room.gltf",
-  "materials": {{ "Brushed": {{ "lobes": [ {{ "ks": [0.8, 0.8, 0.8], "r0": 0.9, "mx": 0.2, "my": 0.05, "alpha": 0.5 }},
-                                            {{ "ks": [0.2, 0.2, 0.2], "r0": 0.04, "mx": 0.01, "my": 0.01, "alpha": 0 }} ] }} }},
+  "materials": {{ "Brushed": {{ "lobes": [ {{ "model": "kurt", "ks": [0.8, 0.8, 0.8], "r0": 0.9, "mx": 0.2, "my": 0.05, "alpha": 0.5 }},
+                                            {{ "model": "kurt", "ks": [0.2, 0.2, 0.2], "r0": 0.04, "mx": 0.01, "my": 0.01, "alpha": 0 }} ] }} }},
   "reflectors": [ {{ "mesh": "Panel", "kind": "planar" }}, {{ "mesh": "Ball", "kind": "curved" }} ]{extra} }}"#
         ),
     )

@@ -432,6 +432,66 @@ fn a_merge_failing_or_killed_at_any_commit_step_leaves_the_old_bundle_or_the_new
     }
 }
 
+#[cfg(unix)]
+#[test]
+fn a_merge_stopped_by_ctrl_c_exits_130_and_leaves_the_bundle_as_it_was() {
+    const CHILD: &str = "GLINT_TEST_MERGE_SIGINT";
+    // The child: Ctrl-C (a real SIGINT, to itself) reaches the shared handler, then the merge
+    // runs and its result becomes the exit code as every binary's does.
+    if std::env::var_os(CHILD).is_some() {
+        glint::progress::install_interrupt_handler();
+        let me = std::process::id().to_string();
+        assert!(
+            Command::new("kill")
+                .args(["-INT", &me])
+                .status()
+                .unwrap()
+                .success()
+        );
+        let start = std::time::Instant::now();
+        while !glint::progress::interrupted() {
+            assert!(start.elapsed().as_secs() < 10, "SIGINT never arrived");
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+        let dir = PathBuf::from(std::env::var("GLINT_TEST_MERGE_DIR").unwrap());
+        let shards: Vec<PathBuf> = std::env::var("GLINT_TEST_MERGE_SHARDS")
+            .unwrap()
+            .split('\n')
+            .map(PathBuf::from)
+            .collect();
+        let result = merge(&dir, &shards, MergeOptions::default())
+            .map(|_| std::process::ExitCode::SUCCESS)
+            .map_err(anyhow::Error::from);
+        std::process::exit(match glint::cli::exit_code(result) {
+            c if c == std::process::ExitCode::from(130) => 130,
+            c if c == std::process::ExitCode::SUCCESS => 0,
+            _ => 1,
+        });
+    }
+    let f = Fixture::new();
+    let dir = f.copy_of_old("stopped.glint");
+    let shards: Vec<&str> = f.of(B).iter().map(|p| p.to_str().unwrap()).collect();
+    let out = Command::new(std::env::current_exe().unwrap())
+        .args([
+            "--exact",
+            "a_merge_stopped_by_ctrl_c_exits_130_and_leaves_the_bundle_as_it_was",
+            "--nocapture",
+        ])
+        .env(CHILD, "1")
+        .env("GLINT_TEST_MERGE_DIR", &dir)
+        .env("GLINT_TEST_MERGE_SHARDS", shards.join("\n"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(130), "{err}");
+    assert!(
+        err.contains("interrupted: nothing was written;")
+            && err.contains("stopped.glint is as it was"),
+        "{err}"
+    );
+    assert_eq!(whole(&dir, "stopped by Ctrl-C"), A);
+}
+
 fn strace() -> Option<PathBuf> {
     let path = std::env::var_os("PATH")?;
     std::env::split_paths(&path)

@@ -312,7 +312,9 @@ fn a_glossy_surface_in_a_map_shows_what_it_reflects() {
             .filter(|h| scene.objects[0].triangles.contains(&h.triangle))
             .expect("the ray meets the floor")
     };
-    let metal = load(r#"{ "ks": [1, 1, 1], "r0": 1.0, "mx": 0.01, "my": 0.01, "alpha": 0.0 }"#);
+    let metal = load(
+        r#"{ "model": "kurt", "ks": [1, 1, 1], "r0": 1.0, "mx": 0.01, "my": 0.01, "alpha": 0.0 }"#,
+    );
     let bvh = metal.build_bvh();
     let h = floor_hit(&metal, &bvh, down);
     let d_metal = d(&metal);
@@ -323,8 +325,9 @@ fn a_glossy_surface_in_a_map_shows_what_it_reflects() {
     );
     // A wider lobe at this view still sees only the ceiling: k_s times its albedo, a little
     // under the mirror's.
-    let glossy =
-        load(r#"{ "ks": [0.5, 0.5, 0.5], "r0": 1.0, "mx": 0.2, "my": 0.2, "alpha": 0.0 }"#);
+    let glossy = load(
+        r#"{ "model": "kurt", "ks": [0.5, 0.5, 0.5], "r0": 1.0, "mx": 0.2, "my": 0.2, "alpha": 0.0 }"#,
+    );
     let l = glint::radiance::shading::exitant(&glossy, &bvh, &d(&glossy), &h, down);
     assert!(
         l.x > 0.3 && l.x < 0.41,

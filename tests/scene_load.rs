@@ -30,7 +30,7 @@ fn room_loads_with_materials_reflectors_and_paths() {
     let (_dir, path) = room_scene(
         r#",
         "reflectors": [ { "mesh": "Panel", "kind": "planar" }, { "material": "FloorMat", "kind": "planar" } ],
-        "materials": { "FloorMat": { "lobes": [ { "ks": [0.5, 0.5, 0.5], "r0": 0.05, "mx": 0.1, "my": 0.1, "alpha": 0 } ] } },
+        "materials": { "FloorMat": { "lobes": [ { "model": "kurt", "ks": [0.5, 0.5, 0.5], "r0": 0.05, "mx": 0.1, "my": 0.1, "alpha": 0 } ] } },
         "camera_paths": [ { "name": "a", "keyframes": [
             { "time": 0, "position": [0, 1, 0.9], "target": [0, 1, 0], "fov_y_deg": 60 },
             { "time": 1, "position": [0.5, 1, 0.9], "target": [0, 1, 0], "fov_y_deg": 60 } ] } ]"#,
@@ -275,12 +275,12 @@ fn bad_values_name_their_field() {
         "{e}"
     );
     let e = load_err(
-        r#", "materials": { "FloorMat": { "lobes": [ { "ks": [1,1,1], "r0": 0.04, "mx": 0, "my": 0.1, "alpha": 0 } ] } }"#,
+        r#", "materials": { "FloorMat": { "lobes": [ { "model": "kurt", "ks": [1,1,1], "r0": 0.04, "mx": 0, "my": 0.1, "alpha": 0 } ] } }"#,
     );
     assert!(e.contains("materials.FloorMat.lobes"), "{e}");
     // Values in words, not Rust's Debug output of the lobe.
     assert!(
-        e.contains("lobe 0 (ks [1, 1, 1], r0 0.04, mx 0, my 0.1, alpha 0)")
+        e.contains("lobe 0 (model kurt, ks [1, 1, 1], r0 0.04, mx 0, my 0.1, alpha 0)")
             && !e.contains("KurtLobe")
             && !e.contains('{'),
         "{e}"
@@ -337,9 +337,51 @@ fn lobes_name_their_model_and_a_bad_model_is_refused_naming_the_choices() {
         "{e}"
     );
     let e = load_err(
-        r#", "materials": { "FloorMat": { "lobes": [ { "ks": [1,1,1], "r0": 0.04, "mx": 0.1, "my": 0.1 } ] } }"#,
+        r#", "materials": { "FloorMat": { "lobes": [ { "model": "kurt", "ks": [1,1,1], "r0": 0.04, "mx": 0.1, "my": 0.1 } ] } }"#,
     );
     assert!(e.contains("needs `alpha`"), "{e}");
+}
+
+#[test]
+fn a_lobe_without_model_is_ggx_and_kurt_is_named_when_wanted() {
+    let (_dir, path) = room_scene(
+        r#", "materials": { "FloorMat": { "lobes": [ { "ks": [1,1,1], "r0": 0.04, "mx": 0.09, "my": 0.09 } ] } }"#,
+    );
+    let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let m = scene
+        .materials
+        .iter()
+        .find(|m| m.name == "FloorMat")
+        .unwrap();
+    assert_eq!(m.lobes[0].model, glint::scene::LobeModel::Ggx);
+    // Written back, the default is left out and `kurt` is named.
+    let ggx = serde_json::to_value(m.lobes[0]).unwrap();
+    assert!(ggx.get("model").is_none(), "{ggx}");
+    let mut kurt = m.lobes[0];
+    kurt.model = glint::scene::LobeModel::Kurt;
+    assert_eq!(serde_json::to_value(kurt).unwrap()["model"], "kurt");
+    // A lobe with `alpha` and no `model`, as scene.json files and bundles written while
+    // `kurt` was the default have it, stays `kurt`.
+    let (_dir, path) = room_scene(
+        r#", "materials": { "FloorMat": { "lobes": [ { "ks": [1,1,1], "r0": 0.04, "mx": 0.1, "my": 0.1, "alpha": 0 } ] } }"#,
+    );
+    let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let m = scene
+        .materials
+        .iter()
+        .find(|m| m.name == "FloorMat")
+        .unwrap();
+    assert_eq!(m.lobes[0].model, glint::scene::LobeModel::Kurt);
+    // `alpha` on a lobe that names another model is refused, saying how to keep kurt.
+    let e = load_err(
+        r#", "materials": { "FloorMat": { "lobes": [ { "model": "ggx", "ks": [1,1,1], "r0": 0.04, "mx": 0.1, "my": 0.1, "alpha": 0 } ] } }"#,
+    );
+    assert!(
+        e.contains("materials.FloorMat.lobes")
+            && e.contains("model ggx")
+            && e.contains(r#"name "model": "kurt""#),
+        "{e}"
+    );
 }
 
 #[test]

@@ -16,7 +16,7 @@ use glint::scene::Scene;
 
 /// A near-perfect mirror: no diffuse term, one lobe with F = 1 whose albedo is 1 in the
 /// mirror limit (α = ½ cancels the lobe's cos θ factors there).
-const MIRROR: &str = r#"{ "albedo": [0, 0, 0], "lobes": [{ "ks": [1, 1, 1], "r0": 1.0, "mx": 0.001, "my": 0.001, "alpha": 0.5 }] }"#;
+const MIRROR: &str = r#"{ "albedo": [0, 0, 0], "lobes": [{ "model": "kurt", "ks": [1, 1, 1], "r0": 1.0, "mx": 0.001, "my": 0.001, "alpha": 0.5 }] }"#;
 
 /// A closed box of half-size 0.5 (inward faces): walls and ceiling of material 0, the floor
 /// (`Y0`) of material 1 = "floor", a planar reflector, with `extra` scene.json members.

@@ -74,7 +74,7 @@ fn corridor() -> &'static ViewData {
         let scene_json = common::write_scene(
             &dir,
             r#"{ "version": 1, "name": "mirror-corridor", "geometry": "corridor.gltf",
-  "materials": { "MirrorMat": { "albedo": [0.02, 0.02, 0.02], "lobes": [ { "ks": [0.9, 0.9, 0.9], "r0": 1.0, "mx": 0.0005, "my": 0.0005, "alpha": 0 } ] } },
+  "materials": { "MirrorMat": { "albedo": [0.02, 0.02, 0.02], "lobes": [ { "model": "kurt", "ks": [0.9, 0.9, 0.9], "r0": 1.0, "mx": 0.0005, "my": 0.0005, "alpha": 0 } ] } },
   "reflectors": [ { "mesh": "MirrorA", "kind": "planar" }, { "mesh": "MirrorB", "kind": "planar" } ],
   "camera_paths": [ { "name": "v", "fps": 30, "keyframes": [
     { "time": 0.0, "position": [0.6, 0.3, 0.0], "target": [-1.0, 0.0, 0.0], "fov_y_deg": 60.0 } ] } ] }"#,
@@ -393,7 +393,7 @@ fn straddling() -> &'static ViewData {
         let scene_json = common::write_scene(
             &dir,
             r#"{ "version": 1, "name": "straddling-shelf", "geometry": "straddle.gltf",
-  "materials": { "MirrorMat": { "albedo": [0.02, 0.02, 0.02], "lobes": [ { "ks": [0.9, 0.9, 0.9], "r0": 1.0, "mx": 0.0005, "my": 0.0005, "alpha": 0 } ] } },
+  "materials": { "MirrorMat": { "albedo": [0.02, 0.02, 0.02], "lobes": [ { "model": "kurt", "ks": [0.9, 0.9, 0.9], "r0": 1.0, "mx": 0.0005, "my": 0.0005, "alpha": 0 } ] } },
   "reflectors": [ { "mesh": "MirrorA", "kind": "planar" }, { "mesh": "Shelf", "kind": "planar" } ],
   "camera_paths": [ { "name": "v", "fps": 30, "keyframes": [
     { "time": 0.0, "position": [0.6, 0.0, 0.0], "target": [-1.0, -0.3, 0.0], "fov_y_deg": 60.0 } ] } ] }"#,

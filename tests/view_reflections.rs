@@ -780,7 +780,7 @@ fn floor_mirror_room(name: &str, m: f32) -> (Scene, PathBuf) {
         &dir,
         &format!(
             r#"{{ "version": 1, "name": "{name}-room", "geometry": "room.gltf",
-  "materials": {{ "FloorMat": {{ "albedo": [0.05, 0.05, 0.05], "lobes": [ {{ "ks": [1, 1, 1], "r0": 1.0, "mx": {m}, "my": {m}, "alpha": 0 }} ] }} }},
+  "materials": {{ "FloorMat": {{ "albedo": [0.05, 0.05, 0.05], "lobes": [ {{ "model": "kurt", "ks": [1, 1, 1], "r0": 1.0, "mx": {m}, "my": {m}, "alpha": 0 }} ] }} }},
   "reflectors": [ {{ "mesh": "Floor", "kind": "planar" }} ],
   "camera_paths": [ {{ "name": "v", "fps": 30, "keyframes": [
     {{ "time": 0.0, "position": [0.7, 0.9, 0.6], "target": [-0.9, 0.1, -0.1], "fov_y_deg": 60.0 }} ] }} ] }}"#

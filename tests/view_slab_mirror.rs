@@ -119,7 +119,7 @@ fn bake_room(slab: bool) -> PathBuf {
         &dir,
         &format!(
             r#"{{ "version": 1, "name": "{name}-mirror", "geometry": "room.gltf",
-  "materials": {{ "MirrorMat": {{ "albedo": [0, 0, 0], "lobes": [ {{ "ks": [1, 1, 1], "r0": 1.0, "mx": 0.0005, "my": 0.0005, "alpha": 0 }} ] }} }},
+  "materials": {{ "MirrorMat": {{ "albedo": [0, 0, 0], "lobes": [ {{ "model": "kurt", "ks": [1, 1, 1], "r0": 1.0, "mx": 0.0005, "my": 0.0005, "alpha": 0 }} ] }} }},
   "reflectors": [ {{ "mesh": "Mirror", "kind": "planar"{face} }} ] }}"#
         ),
     );

@@ -163,6 +163,8 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
             json,
             force,
         } => {
+            // Ctrl-C stops the merge before its commit, which then exits 130.
+            crate::progress::install_interrupt_handler();
             let options = crate::bake::merge::MergeOptions {
                 force,
                 ..Default::default()

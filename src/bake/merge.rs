@@ -117,7 +117,19 @@ pub fn merge(
         stages: Vec::new(),
         assets: 0,
     };
+    // Ctrl-C stops the merge before its one commit: the bundle stays as it was.
+    let stop = || {
+        crate::progress::interrupted().then(|| {
+            MergeError::one(format!(
+                "interrupted: nothing was written; {} is as it was (a merge commits every stage at once)",
+                out.display()
+            ))
+        })
+    };
     for part in assembly.stages {
+        if let Some(e) = stop() {
+            return Err(e);
+        }
         let units: Vec<(&str, &Bundle)> = part
             .units
             .iter()
@@ -136,6 +148,9 @@ pub fn merge(
                 ..info
             },
         );
+    }
+    if let Some(e) = stop() {
+        return Err(e);
     }
     commit
         .commit()

@@ -18,6 +18,7 @@ pub mod srdm_stage;
 pub mod tool;
 pub mod unit_tool;
 pub mod units;
+pub mod written;
 
 use std::path::Path;
 

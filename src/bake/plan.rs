@@ -91,3 +91,59 @@ pub fn plan(scene: &Scene) -> Vec<StagePlan> {
         })
         .collect()
 }
+
+/// A reflector or impostor scene.json declares that the bake leaves out or that nothing
+/// shows, and why: glint-bake warns of each rather than skip it without a word.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Unused {
+    /// Its entry in scene.json, e.g. `reflectors[3]`.
+    pub field: String,
+    /// Its name.
+    pub name: String,
+    /// What the bake does with it, why, and what to change.
+    pub reason: String,
+}
+
+impl std::fmt::Display for Unused {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} ({}): {}", self.field, self.name, self.reason)
+    }
+}
+
+/// Every declared reflector the bake skips and every impostor no reflector shows.
+pub fn unused_declarations(scene: &Scene) -> Vec<Unused> {
+    let glossy = |m: u32| scene.materials[m as usize].is_glossy();
+    let mut out = Vec::new();
+    for r in &scene.reflectors {
+        let material = &scene.materials[r.material as usize].name;
+        let (kind, maps) = match r.kind {
+            ReflectorKind::Planar => ("planar", "radiance maps"),
+            ReflectorKind::Curved => ("curved", "environment map"),
+        };
+        let reason = if !glossy(r.material) {
+            format!(
+                "skipped, no {maps}: its material {material:?} has no glossy lobe, so it is drawn diffuse (give {material:?} `lobes` in scene.json's `materials`, or remove the reflector)"
+            )
+        } else if r.kind == ReflectorKind::Curved && !scene.has_emitters() {
+            "skipped, no environment map: the scene has no emitters, so no radiosity (D) lights it"
+                .to_string()
+        } else {
+            continue;
+        };
+        out.push(Unused {
+            field: format!("reflectors[{}]", r.index),
+            name: r.name.clone(),
+            reason: format!("{kind} reflector {reason}"),
+        });
+    }
+    if !scene.reflectors.iter().any(|r| glossy(r.material)) {
+        for (i, imp) in scene.impostors.iter().enumerate() {
+            out.push(Unused {
+                field: format!("impostors[{i}]"),
+                name: imp.name.clone(),
+                reason: "baked, but never drawn: impostors are drawn in reflections, and no reflector has a glossy material".into(),
+            });
+        }
+    }
+    out
+}

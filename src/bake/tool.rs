@@ -13,6 +13,7 @@ use anyhow::Context;
 use super::materials::{self, MaterialsError, MaterialsSettings, Outcome};
 use super::report::{BakeReport, SrdmViews};
 use super::srdm_stage::{self, SrdmOutcome, SrdmSettings};
+use super::written::Written;
 use super::{BakeSettings, Stage, bake_all, plan, radiance_stage, radiosity_stage};
 use super::{scene_stage, up_to_date};
 use crate::cli::BakeArgs;
@@ -59,8 +60,14 @@ fn setting_error<T: serde::Serialize>(
     }
 }
 
-/// Runs `tool` with `args`, writing its report to `out`.
+/// Runs `tool` with `args`, writing its report to `out`. Stopped by Ctrl-C, its error says
+/// which stages it wrote ([`Written`]).
 pub fn run(args: &BakeArgs, tool: Tool, out: &mut dyn Write) -> anyhow::Result<ExitCode> {
+    let written = Written::snapshot(&[&args.bundle]);
+    run_tool(args, tool, out).map_err(|e| written.explain(e))
+}
+
+fn run_tool(args: &BakeArgs, tool: Tool, out: &mut dyn Write) -> anyhow::Result<ExitCode> {
     let scene = Scene::load(&args.options.scene)?;
     let quality = args.options.quality.unwrap_or(scene.desc.bake.quality);
     match tool {
@@ -227,6 +234,10 @@ fn bake_every_stage(
         scene.reflectors.len(),
         scene.impostors.len()
     );
+    let unused = super::plan::unused_declarations(scene);
+    for u in &unused {
+        log::warn!("{}: {u}", scene.path.display());
+    }
     let settings = BakeSettings::resolve(scene, quality)?;
     // One reporter for the whole run: it owns the process's only Ctrl-C handler.
     let progress = TerminalProgress::new();
@@ -244,7 +255,9 @@ fn bake_every_stage(
         stages: stages?,
     };
     if args.options.json {
-        writeln!(out, "{}", serde_json::to_string_pretty(&report.to_json())?)?;
+        let mut v = report.to_json();
+        v["warnings"] = serde_json::to_value(&unused)?;
+        writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
     } else {
         write!(out, "{report}")?;
     }

@@ -8,6 +8,7 @@ use std::process::ExitCode;
 use super::BakeSettings;
 use super::shard::{UnitReport, bake_unit};
 use super::units::{UnitPlan, plan_units};
+use super::written::Written;
 use crate::bundle::stats::format_table;
 use crate::cli::{BakeArgs, GlintBakeArgs};
 use crate::progress::TerminalProgress;
@@ -30,13 +31,29 @@ pub fn run(args: &GlintBakeArgs, out: &mut dyn Write) -> anyhow::Result<ExitCode
         print_plan(&plan, args.wave, args.options.json, out)?;
         return Ok(ExitCode::SUCCESS);
     }
+    let mut targets: Vec<PathBuf> = args.bundle.iter().cloned().collect();
+    if let Some(dir) = &args.units {
+        targets.extend(plan.units.iter().map(|u| shard_path(dir, &u.id)));
+    }
+    let written = Written::snapshot(&targets.iter().map(PathBuf::as_path).collect::<Vec<_>>());
+    run_units(args, &scene, &settings, &plan, out).map_err(|e| written.explain(e))
+}
+
+/// `--unit` or `--units`: bakes, merges, reports.
+fn run_units(
+    args: &GlintBakeArgs,
+    scene: &Scene,
+    settings: &BakeSettings,
+    plan: &UnitPlan,
+    out: &mut dyn Write,
+) -> anyhow::Result<ExitCode> {
     let progress = TerminalProgress::new();
     let result = if let Some(id) = &args.unit {
         let shard = args.bundle.as_deref().expect("clap requires --bundle");
         bake_unit(
-            &scene,
-            &settings,
-            &plan,
+            scene,
+            settings,
+            plan,
             id,
             shard,
             args.d_shard.as_deref(),
@@ -45,7 +62,7 @@ pub fn run(args: &GlintBakeArgs, out: &mut dyn Write) -> anyhow::Result<ExitCode
         .map(|r| vec![r])
     } else {
         let dir = args.units.as_deref().expect("one mode is chosen");
-        bake_every_unit(&scene, &settings, &plan, dir, &progress)
+        bake_every_unit(scene, settings, plan, dir, &progress)
     };
     progress.finish();
     let reports = result?;

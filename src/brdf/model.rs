@@ -9,11 +9,11 @@ use serde::{Deserialize, Serialize};
 #[serde(rename_all = "lowercase")]
 pub enum LobeModel {
     /// Kurt et al. 2010 as the regular-sampling paper writes it (Luksch et al. Eq. 2):
-    /// Beckmann D, shadowing exponent `alpha`, Schlick F. The default.
-    #[default]
+    /// Beckmann D, shadowing exponent `alpha`, Schlick F. Named in scene.json when wanted.
     Kurt,
     /// The glTF 2.0 specular lobe (specification Appendix B): GGX D with α = `mx`, `my`,
-    /// height-correlated Smith G, Schlick F. glTF materials map to it.
+    /// height-correlated Smith G, Schlick F. glTF materials map to it; scene.json's default.
+    #[default]
     Ggx,
     /// Cook–Torrance with Beckmann D (m = `mx`, `my`), Smith G and Schlick F.
     Beckmann,
@@ -38,9 +38,16 @@ impl LobeModel {
     /// Every model.
     pub const ALL: [LobeModel; 3] = [LobeModel::Kurt, LobeModel::Ggx, LobeModel::Beckmann];
 
-    /// Whether this is the default model (`kurt`): scene.json and the bundle leave it out.
+    /// Whether this is `kurt`, the model the bundle's materials index leaves out (its format
+    /// predates the other models, so an absent `model` there means `kurt`).
     pub fn is_kurt(&self) -> bool {
         *self == LobeModel::Kurt
+    }
+
+    /// Whether this is scene.json's default model (`ggx`, glTF's lobe): scene.json leaves it
+    /// out.
+    pub fn is_ggx(&self) -> bool {
+        *self == LobeModel::Ggx
     }
 
     /// The name scene.json uses.

@@ -636,7 +636,22 @@ impl SweepArgs {
             &progress,
         );
         progress.finish();
-        let rows = rows?;
+        let rows = rows.map_err(|e| {
+            let e = anyhow::Error::from(e);
+            if !crate::progress::is_interruption(&e) {
+                return e;
+            }
+            // The rows done so far left their files; the table and plot come at the end.
+            crate::progress::Interrupted {
+                written: format!(
+                    "wrote {} and, for the settings swept so far, their bundles under {} and views under {}; no sweep.csv, sweep.svg or table",
+                    out.join("reference.exr").display(),
+                    out.join("bundles").display(),
+                    out.join("views").display()
+                ),
+            }
+            .into()
+        })?;
         std::io::stdout()
             .lock()
             .write_all(sweep::to_csv(&rows).as_bytes())?;

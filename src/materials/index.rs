@@ -58,8 +58,8 @@ pub struct IndexedMaterial {
 /// One lobe of an [`IndexedMaterial`]: its parameters and files.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct IndexedLobe {
-    /// Reflection model (absent: `kurt`).
-    #[serde(default, skip_serializing_if = "LobeModel::is_kurt")]
+    /// Reflection model (absent: `kurt`, as in bundles written before the other models).
+    #[serde(default = "kurt", skip_serializing_if = "LobeModel::is_kurt")]
     pub model: LobeModel,
     /// Specular colour k_s.
     pub ks: [f32; 3],
@@ -83,6 +83,11 @@ pub struct IndexedLobe {
     pub reflectance_grazing_cos: f32,
     /// The regular sample pattern ([`super::pattern_format`]).
     pub pattern: IndexedPattern,
+}
+
+/// The index's `model` when absent.
+fn kurt() -> LobeModel {
+    LobeModel::Kurt
 }
 
 /// The kernel file of a lobe.
@@ -295,5 +300,23 @@ impl MaterialsIndex {
             filter: entry.filter,
             levels,
         }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_index_lobe_without_model_is_kurt_although_scene_json_defaults_to_ggx() {
+        let text = include_str!("../../fuzz/corpus/materials_index/index.json");
+        let index: MaterialsIndex = serde_json::from_str(text).unwrap();
+        let lobe = &index.materials[0].lobes[0];
+        assert_eq!(lobe.model, LobeModel::Kurt);
+        // Written back the same way: kurt left out, another model named.
+        assert!(serde_json::to_value(lobe).unwrap().get("model").is_none());
+        let mut ggx = lobe.clone();
+        ggx.model = LobeModel::Ggx;
+        assert_eq!(serde_json::to_value(&ggx).unwrap()["model"], "ggx");
     }
 }

@@ -70,19 +70,22 @@ pub struct MaterialOverride {
     /// Emitted radiance (linear RGB, W·sr⁻¹·m⁻², ≥ 0).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub emission: Option<[f32; 3]>,
-    /// Glossy lobes, each of the model it names (`kurt` when absent); `[]` makes the
-    /// material purely diffuse.
+    /// Glossy lobes, each of the model it names (`ggx`, glTF's lobe, when absent); `[]`
+    /// makes the material purely diffuse.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lobes: Option<Vec<LobeDesc>>,
 }
 
-/// One glossy lobe: k_s times a reflection model (Luksch et al. Eq. 1). The parameters mean
-/// the same in every model; `alpha` belongs to `kurt` alone.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+/// One glossy lobe: k_s times a reflection model (Luksch et al. Eq. 1). Every model takes
+/// `ks`, `r0`, `mx` and `my`, which mean the same in each; `alpha` belongs to `kurt` alone,
+/// which requires it.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct LobeDesc {
-    /// Reflection model: `kurt` (default), `ggx` or `beckmann`.
-    #[serde(default, skip_serializing_if = "LobeModel::is_kurt")]
+    /// Reflection model: `ggx` (the default: glTF's lobe, GGX D and Smith G), `beckmann`
+    /// (Beckmann D, Smith G) or `kurt` (Beckmann D and Kurt's shadowing exponent `alpha`).
+    /// A lobe with `alpha` and no `model` is `kurt`, the one model that takes `alpha`.
+    #[serde(default, skip_serializing_if = "LobeModel::is_ggx")]
     pub model: LobeModel,
     /// Lobe reflectivity k_s (linear RGB; colour of metals lives here).
     pub ks: [f32; 3],
@@ -93,10 +96,48 @@ pub struct LobeDesc {
     pub mx: f32,
     /// Width of the distribution along the bitangent, > 0.
     pub my: f32,
-    /// `kurt` only, and required there: the shadowing exponent α in [0, 1] (0 keeps the
-    /// directional albedo ≤ 1).
+    /// `kurt` only, and required there: Kurt's shadowing exponent α in [0, 1], the power of
+    /// ((n·ωᵢ)(n·ωₒ)) in the lobe's denominator, F D / (4 (ωₒ·h) ((n·ωᵢ)(n·ωₒ))^α), which
+    /// stands in for a shadowing term (0 keeps the directional albedo ≤ 1; larger values
+    /// brighten grazing reflection).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub alpha: Option<f32>,
+}
+
+/// A lobe as scene.json writes it, before its model is settled.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LobeFields {
+    #[serde(default)]
+    model: Option<LobeModel>,
+    ks: [f32; 3],
+    r0: f32,
+    mx: f32,
+    my: f32,
+    #[serde(default)]
+    alpha: Option<f32>,
+}
+
+/// Read through [`LobeFields`] so that a lobe with `alpha` and no `model` stays `kurt`:
+/// scene.json files, and the bundles' copies of them, written while `kurt` was the default
+/// keep their look.
+impl<'de> Deserialize<'de> for LobeDesc {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<LobeDesc, D::Error> {
+        let f = LobeFields::deserialize(d)?;
+        let model = f.model.unwrap_or(if f.alpha.is_some() {
+            LobeModel::Kurt
+        } else {
+            LobeModel::Ggx
+        });
+        Ok(LobeDesc {
+            model,
+            ks: f.ks,
+            r0: f.r0,
+            mx: f.mx,
+            my: f.my,
+            alpha: f.alpha,
+        })
+    }
 }
 
 /// The lobe type under its former name (every lobe was a Kurt lobe).

@@ -231,16 +231,11 @@ impl Material {
             let [r, g, b] = l.ks;
             let alpha = l.alpha.map_or("none".to_string(), |a| a.to_string());
             let model = l.model.name();
-            let named = if l.model.is_kurt() {
-                String::new()
-            } else {
-                format!("model {model}, ")
-            };
             if !ok {
                 return Err((
                     "lobes",
                     format!(
-                        "lobe {i} ({named}ks [{r}, {g}, {b}], r0 {}, mx {}, my {}, alpha {alpha}): need ks ≥ 0, r0 and alpha in [0, 1], mx and my > 0 and finite",
+                        "lobe {i} (model {model}, ks [{r}, {g}, {b}], r0 {}, mx {}, my {}, alpha {alpha}): need ks ≥ 0, r0 and alpha in [0, 1], mx and my > 0 and finite",
                         l.r0, l.mx, l.my
                     ),
                 ));
@@ -258,7 +253,7 @@ impl Material {
                     return Err((
                         "lobes",
                         format!(
-                            "lobe {i} (model {model}): `alpha` is the kurt model's shadowing exponent; {model} has Smith shadowing and takes ks, r0, mx, my (remove alpha)"
+                            "lobe {i} (model {model}): `alpha` is the kurt model's shadowing exponent; {model} has Smith shadowing and takes ks, r0, mx, my (remove alpha, or name \"model\": \"kurt\")"
                         ),
                     ));
                 }
