@@ -749,3 +749,119 @@ fn impostor_captures_see_through_cut_outs() {
     eprintln!("billboard: {reds} red, {greens} green");
     assert!(reds > 200 && greens > 200, "{reds} red, {greens} green");
 }
+
+/// A 20 m square floor tiled with a fine black and white checker (cells of 3.1 cm: a 16 × 16
+/// image repeated every 0.5 m) under an emissive ceiling, seen from 0.3 m above it. Far away
+/// (4–8 m: a pixel spans dozens of cells along the view) the viewer's frame is the checker's
+/// mean times the stored D, smooth, not black and white speckles; near the camera
+/// (under 0.75 m: a cell spans several pixels) it still shows the cells.
+/// `GLINT_VIEW_TEXTURE_MIPS=0` (no mip levels) makes the far floor speckle and this fail.
+#[cfg(feature = "view")]
+#[test]
+fn a_fine_checker_at_a_grazing_angle_filters_to_its_mean_far_away() {
+    use glint::camera::Camera;
+    use glint::scene::texture::mips::LinearLevel;
+    use glint::view::cpu;
+    use glint::view::headless::offscreen::Offscreen;
+    let dir = tempfile::tempdir().unwrap();
+    let (x, z) = (Vec3::X * 20.0, Vec3::Z * 20.0);
+    let o = Vec3::new(-10.0, 0.0, -10.0);
+    let meshes = vec![
+        quad("Floor", 0, o, z, x, 40.0),
+        quad("Ceiling", 1, o + Vec3::Y * 3.0, x, z, 1.0),
+    ];
+    let checker: Vec<[u8; 4]> = (0..256)
+        .map(|i| {
+            if (i % 16 + i / 16) % 2 == 0 {
+                [250, 250, 250, 255]
+            } else {
+                [10, 10, 10, 255]
+            }
+        })
+        .collect();
+    let materials = json!([
+        {"name": "Tiles", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.0, "roughnessFactor": 1.0}},
+        {"name": "Light", "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0},
+         "emissiveFactor": [1.0, 1.0, 1.0]}
+    ]);
+    let scene_json = write_gltf(
+        dir.path(),
+        &meshes,
+        materials,
+        json!([{"source": 0, "sampler": 0}]),
+        json!([{"wrapS": 10497, "wrapT": 10497}]),
+        &[png(16, 16, &checker)],
+    );
+    let scene = Scene::load(scene_json).unwrap();
+    let bundle = dir.path().join("b.glint");
+    glint::bake::scene_stage::bake(&scene, &bundle, false).unwrap();
+    let settings = glint::scene::desc::RadiositySettings {
+        texel_density: 2.0,
+        ..common::quick_radiosity(1)
+    };
+    glint::bake::radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent).unwrap();
+    let data = glint::view::load::load(&bundle).unwrap_or_else(|e| panic!("{e}"));
+    let eye = Vec3::new(0.0, 0.3, 9.0);
+    let camera = Camera::look_at(eye, Vec3::new(0.0, 0.0, 6.5), Vec3::Y, 50f32.to_radians());
+    let (w, h) = (160u32, 120u32);
+    let gpu = common::gpu();
+    let off = Offscreen::new(&gpu, &data, w, h).unwrap_or_else(|e| panic!("{e}"));
+    off.render(&gpu, &camera).unwrap();
+    let frame = off.read_hdr(&gpu).unwrap();
+    // The stored D without the texture, times the texture's mean: what a pixel covering
+    // many cells shows.
+    let bvh = data.scene.build_bvh();
+    let plain = cpu::render(&bvh, &data.map, &camera, w, h, 1.0);
+    let mean = LinearLevel::of(&data.scene.textures[0]).mean().truncate();
+    // Each floor pixel's ratio of its frame value to that, by its distance from the eye.
+    let (mut near, mut far) = (Vec::new(), Vec::new());
+    for py in 0..h {
+        for px in 0..w {
+            let d = camera.ray_direction(Camera::pixel_ndc(px, py, w, h), w as f32 / h as f32);
+            if d.y >= 0.0 {
+                continue;
+            }
+            let t = -eye.y / d.y;
+            let p = eye + d * t;
+            if p.x.abs() > 9.0 || p.z.abs() > 9.0 {
+                continue;
+            }
+            let i = (py * w + px) as usize;
+            let r = frame[i].x / (plain[i].x * mean.x);
+            if (4.0..8.0).contains(&t) {
+                far.push(r);
+            } else if t < 0.75 {
+                near.push(r);
+            }
+        }
+    }
+    let stats = |v: &[f32]| {
+        let m = v.iter().sum::<f32>() / v.len() as f32;
+        let var = v.iter().map(|r| (r - m) * (r - m)).sum::<f32>() / v.len() as f32;
+        (m, var.sqrt())
+    };
+    let ((far_mean, far_sd), (near_mean, near_sd)) = (stats(&far), stats(&near));
+    eprintln!(
+        "far ({} px): mean {far_mean:.3}, sd {far_sd:.3}; near ({} px): mean {near_mean:.3}, sd {near_sd:.3}",
+        far.len(),
+        near.len()
+    );
+    assert!(
+        far.len() > 500 && near.len() > 500,
+        "{} {}",
+        far.len(),
+        near.len()
+    );
+    assert!(
+        (far_mean - 1.0).abs() < 0.05 && far_sd < 0.05,
+        "the far floor is not its texture's mean: ratio {far_mean} ± {far_sd}"
+    );
+    // Near, the cells show: bilinear between the centres of one-texel cells of 250 and 10
+    // spans ratios from about 0 to 2 (a triangle wave, not a flat mean).
+    let lo = near.iter().copied().fold(f32::INFINITY, f32::min);
+    let hi = near.iter().copied().fold(0.0, f32::max);
+    assert!(
+        near_sd > 0.25 && lo < 0.25 && hi > 1.75,
+        "the near floor shows no cells: ratio {near_mean} ± {near_sd}, {lo}..{hi}"
+    );
+}
