@@ -6,9 +6,9 @@
 //! mean and odd sizes lose no row or column. A level's texels come from one copy of the
 //! image only: wrap modes fold coordinates later, against each level's own size.
 
-use glam::Vec4;
+use glam::{Vec2, Vec4};
 
-use super::Image;
+use super::{Filter, Image, Sampler};
 use crate::image_io::linear_to_srgb;
 
 /// Width and height of level `level` of a `width` × `height` image.
@@ -138,11 +138,40 @@ pub fn mip_chain(image: &Image) -> Vec<Image> {
     out
 }
 
+/// The level of detail of a screen footprint whose steps to the next pixel across and down
+/// are `dx` and `dy`, in level-0 texels: log2 of the longer (isotropic, as GPUs without
+/// anisotropic filtering choose), clamped to [0, `top`].
+pub fn level_of_detail(dx: Vec2, dy: Vec2, top: u32) -> f32 {
+    let rho2 = dx.length_squared().max(dy.length_squared());
+    let lod = 0.5 * rho2.log2();
+    if lod.is_nan() {
+        0.0
+    } else {
+        lod.clamp(0.0, top as f32)
+    }
+}
+
+/// A texture's value at `uv` (after any transform) and level of detail `lod`, as the viewer
+/// filters it: [`Image::sample`] in levels ⌊lod⌋ and ⌊lod⌋ + 1 of `levels` (level 0 first,
+/// then [`mip_chain`]), blended linearly; a nearest sampler reads level 0 alone.
+pub fn sample_trilinear(levels: &[Image], sampler: &Sampler, uv: Vec2, lod: f32) -> Vec4 {
+    if sampler.filter == Filter::Nearest {
+        return levels[0].sample(sampler, uv);
+    }
+    let lod = lod.clamp(0.0, (levels.len() - 1) as f32);
+    let k = lod.floor() as usize;
+    let f = lod - k as f32;
+    let a = levels[k].sample(sampler, uv);
+    if f <= 0.0 {
+        return a;
+    }
+    a * (1.0 - f) + levels[k + 1].sample(sampler, uv) * f
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::texture::{Filter, Sampler, Wrap};
-    use glam::Vec2;
+    use crate::scene::texture::Wrap;
 
     fn checker(width: u32, height: u32, a: [u8; 4], b: [u8; 4]) -> Image {
         Image {
@@ -267,5 +296,46 @@ mod tests {
             let want = if wrap == Wrap::Repeat { 1.0 } else { 0.0 };
             assert!((t.x - want).abs() < 1e-6, "{wrap:?}: {t}");
         }
+    }
+
+    /// Level 0 up close, the chain's levels at whole levels of detail, a blend between, the
+    /// last level beyond; a 4-texel step is level 2, a nearest sampler level 0 always.
+    #[test]
+    fn trilinear_blends_the_two_levels_around_the_level_of_detail() {
+        let img = checker(8, 8, [0, 0, 0, 255], [255, 255, 255, 255]);
+        let mut levels = vec![img.clone()];
+        levels.extend(mip_chain(&img));
+        let s = Sampler::default();
+        let uv = Vec2::new(0.3, 0.55);
+        assert_eq!(sample_trilinear(&levels, &s, uv, 0.0), img.sample(&s, uv));
+        assert_eq!(
+            sample_trilinear(&levels, &s, uv, 2.0),
+            levels[2].sample(&s, uv)
+        );
+        let half = sample_trilinear(&levels, &s, uv, 0.25);
+        let want = img.sample(&s, uv) * 0.75 + levels[1].sample(&s, uv) * 0.25;
+        assert!(close(half, want, 1e-6), "{half} {want}");
+        assert_eq!(
+            sample_trilinear(&levels, &s, uv, 9.0),
+            levels[3].texel_linear(0, 0)
+        );
+        let nearest = Sampler {
+            filter: Filter::Nearest,
+            ..s
+        };
+        assert_eq!(
+            sample_trilinear(&levels, &nearest, uv, 3.0),
+            img.sample(&nearest, uv)
+        );
+        assert_eq!(
+            level_of_detail(Vec2::new(4.0, 0.0), Vec2::new(0.0, 1.0), 5),
+            2.0
+        );
+        assert_eq!(
+            level_of_detail(Vec2::new(3.0, 4.0), Vec2::new(0.0, 1.0), 1),
+            1.0
+        );
+        assert_eq!(level_of_detail(Vec2::ZERO, Vec2::ZERO, 5), 0.0);
+        assert_eq!(level_of_detail(Vec2::splat(0.5), Vec2::ZERO, 5), 0.0);
     }
 }
