@@ -18,7 +18,7 @@ use crate::scene::texture::{Filter, Image, Wrap};
 
 /// Set to `0`, the textures are uploaded without their mip chains (level 0 alone: every
 /// texture sampled at full resolution), to measure what the levels cost and change.
-pub const NO_MIPS_ENV: &str = "GLINT_VIEW_TEXTURE_MIPS";
+pub const TEXTURE_MIPS_ENV: &str = "GLINT_VIEW_TEXTURE_MIPS";
 
 /// One texture slot of a material (48 bytes; `TexRef` in `shaders/view.wgsl`).
 #[repr(C)]
@@ -167,7 +167,7 @@ impl SurfaceTextures {
             Some(s) => material_records(s),
             None => vec![PLAIN],
         };
-        let mips = std::env::var_os(NO_MIPS_ENV).is_none_or(|v| v != "0");
+        let mips = std::env::var_os(TEXTURE_MIPS_ENV).is_none_or(|v| v != "0");
         let level_count = if mips { level_count(width, height) } else { 1 };
         let chains: Vec<Vec<Image>> = if mips {
             images.iter().map(mip_chain).collect()
