@@ -399,7 +399,7 @@ fn own_radiance(hit: vec4<f32>, offset: vec3<f32>, dir: vec3<f32>, lod: f32) -> 
     let uv0 = r.uv0[0] * w.x + r.uv0[1] * w.y + r.uv0[2] * w.z;
     let uv1 = r.uv1[0] * w.x + r.uv1[1] * w.y + r.uv1[2] * w.z;
     let q = max(sample_radiosity(lm, r.ids.x), vec3<f32>(0.0));
-    var sum = surface_d(q, r.ids.y, uv0, uv1);
+    var sum = surface_d(q, r.ids.y, uv0, uv1, level_zero());
     let m = r.n[0].xyz * w.x + r.n[1].xyz * w.y + r.n[2].xyz * w.z;
     if dot(m, m) <= 1e-12 {
         return sum;
@@ -619,13 +619,14 @@ fn vs_env(v: VertexIn) -> EnvOut {
 
 @fragment
 fn fs_env(in: EnvOut) -> @location(0) vec4<f32> {
+    let g = uv_grads(in.uv0, in.uv1);
     if cut_out(in.material, in.uv0, in.uv1) {
         discard;
     }
     let q = max(sample_radiosity(in.lightmap, in.page), vec3<f32>(0.0));
     // Alpha: the distance from the face camera (the map's centre), for `curved_lookup`.
     let distance = length(in.world - frame.eye.xyz);
-    return vec4<f32>(surface_d(q, in.material, in.uv0, in.uv1) * frame.exposure, distance);
+    return vec4<f32>(surface_d(q, in.material, in.uv0, in.uv1, g) * frame.exposure, distance);
 }
 
 @fragment

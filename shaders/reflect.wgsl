@@ -125,11 +125,12 @@ fn beyond(p: vec3<f32>) -> f32 {
 
 @fragment
 fn fs_mirror(in: MirrorOut) -> @location(0) vec4<f32> {
+    let g = uv_grads(in.uv0, in.uv1);
     if side(in.world) <= reflect_params.ks.a || cut_out(in.material, in.uv0, in.uv1) {
         discard;
     }
     let q = max(sample_radiosity(in.lightmap, in.page), vec3<f32>(0.0));
-    let d = surface_d(q, in.material, in.uv0, in.uv1) * frame.exposure;
+    let d = surface_d(q, in.material, in.uv0, in.uv1, g) * frame.exposure;
     return vec4<f32>(d, beyond(in.world));
 }
 

@@ -3,7 +3,7 @@
 // One draw for the whole scene: every vertex carries its lightmap coordinates in texel units
 // of its atlas page and the page's layer in a 2D texture array of Rgba16Float radiosity
 // (linear exitant radiance D; for a material with a base colour texture, D over the texture's
-// texel mean, multiplied here by the full-resolution texture: `surface_d`). The fragment shader reconstructs D with the uniform cubic
+// texel mean, multiplied here by the texture, mipmapped: `surface_d`). The fragment shader reconstructs D with the uniform cubic
 // B-spline as four bilinear taps (Sigg and Hadwiger 2005); `src/view/cpu/bicubic.rs` is the same
 // filter on the CPU (`bspline_4tap`) and the definition it is tested against (`bspline`).
 //
@@ -104,38 +104,85 @@ fn wrap_index(i: i32, n: i32, mode: f32) -> i32 {
     return ((i % n) + n) % n;
 }
 
-fn texel(t: TexRef, x: i32, y: i32) -> vec4<f32> {
-    let w = i32(t.a.y);
-    let h = i32(t.a.z);
-    let i = wrap_index(x, w, t.b.x);
-    let j = wrap_index(y, h, t.b.y);
-    return textureLoad(surface_images, vec2<i32>(i, j), i32(t.a.x), 0);
+// The fragment's UV sets' screen derivatives: d0 for uv0, d1 for uv1, each (d/dx, d/dy).
+// Taken by each fragment entry point before any branch or discard (derivatives need uniform
+// control flow), and passed down to `surface_d`.
+struct UvGrads {
+    d0: vec4<f32>,
+    d1: vec4<f32>,
+};
+
+fn uv_grads(uv0: vec2<f32>, uv1: vec2<f32>) -> UvGrads {
+    return UvGrads(vec4<f32>(dpdx(uv0), dpdy(uv0)), vec4<f32>(dpdx(uv1), dpdy(uv1)));
 }
 
-// Linear RGBA of texture `t` at the fragment's UVs, as Image::sample: the transform, then
-// nearest or bilinear between texel centres, wrapped.
-fn sample_surface(t: TexRef, uv0: vec2<f32>, uv1: vec2<f32>) -> vec4<f32> {
+// No footprint on the screen (a point a ray found): every texture at full resolution.
+fn level_zero() -> UvGrads {
+    return UvGrads(vec4<f32>(0.0), vec4<f32>(0.0));
+}
+
+// Texel (x, y) of mip level `level` of texture `t`, wrapped by that level's own size
+// (glint::scene::texture::mips::level_size: halved, rounded down, at least 1).
+fn texel(t: TexRef, level: i32, x: i32, y: i32) -> vec4<f32> {
+    let w = max(i32(t.a.y) >> u32(level), 1);
+    let h = max(i32(t.a.z) >> u32(level), 1);
+    let i = wrap_index(x, w, t.b.x);
+    let j = wrap_index(y, h, t.b.y);
+    return textureLoad(surface_images, vec2<i32>(i, j), i32(t.a.x), level);
+}
+
+// Bilinear between the texel centres of level `level` at transformed coordinate `uv`, as
+// Image::sample on that level.
+fn bilinear(t: TexRef, uv: vec2<f32>, level: i32) -> vec4<f32> {
+    let size = vec2<f32>(vec2<i32>(max(i32(t.a.y) >> u32(level), 1), max(i32(t.a.z) >> u32(level), 1)));
+    let p = uv * size - vec2<f32>(0.5);
+    let p0 = floor(p);
+    let f = p - p0;
+    let x0 = i32(p0.x);
+    let y0 = i32(p0.y);
+    let top = mix(texel(t, level, x0, y0), texel(t, level, x0 + 1, y0), f.x);
+    let bottom = mix(texel(t, level, x0, y0 + 1), texel(t, level, x0 + 1, y0 + 1), f.x);
+    return mix(top, bottom, f.y);
+}
+
+// Linear RGBA of texture `t` at the fragment's UVs: the transform, then (linear samplers)
+// trilinear: bilinear in the two mip levels around the level of detail that `g`, the UVs'
+// screen derivatives, give (log2 of the longer screen axis's step in level-0 texels,
+// clamped to the image's levels), blended; nearest samplers (glTF magFilter NEAREST; the
+// scene keeps no minFilter) read the nearest level-0 texel, as Image::sample.
+fn sample_surface(t: TexRef, uv0: vec2<f32>, uv1: vec2<f32>, g: UvGrads) -> vec4<f32> {
     let uv_in = select(uv0, uv1, t.a.w > 0.5);
     let s = sin(t.b.w);
     let c = cos(t.b.w);
     let q = uv_in * t.c.zw;
     let uv = t.c.xy + vec2<f32>(c * q.x + s * q.y, -s * q.x + c * q.y);
-    let p = uv * t.a.yz - vec2<f32>(0.5);
     if t.b.z > 0.5 {
-        let n = floor(p + vec2<f32>(0.5));
-        return texel(t, i32(n.x), i32(n.y));
+        let n = floor(uv * t.a.yz);
+        return texel(t, 0, i32(n.x), i32(n.y));
     }
-    let p0 = floor(p);
-    let f = p - p0;
-    let x0 = i32(p0.x);
-    let y0 = i32(p0.y);
-    let top = mix(texel(t, x0, y0), texel(t, x0 + 1, y0), f.x);
-    let bottom = mix(texel(t, x0, y0 + 1), texel(t, x0 + 1, y0 + 1), f.x);
-    return mix(top, bottom, f.y);
+    // The transform's linear part applied to the derivatives, in level-0 texels.
+    let d = select(g.d0, g.d1, t.a.w > 0.5);
+    let qx = d.xy * t.c.zw;
+    let qy = d.zw * t.c.zw;
+    let dx = vec2<f32>(c * qx.x + s * qx.y, -s * qx.x + c * qx.y) * t.a.yz;
+    let dy = vec2<f32>(c * qy.x + s * qy.y, -s * qy.x + c * qy.y) * t.a.yz;
+    let rho2 = max(dot(dx, dx), dot(dy, dy));
+    let top = min(firstLeadingBit(u32(max(t.a.y, t.a.z))), textureNumLevels(surface_images) - 1u);
+    // log2(0) is −∞: no footprint clamps to level 0.
+    let lod = clamp(0.5 * log2(rho2), 0.0, f32(top));
+    let l0 = floor(lod);
+    let a = bilinear(t, uv, i32(l0));
+    let f = lod - l0;
+    if f <= 0.0 {
+        return a;
+    }
+    return mix(a, bilinear(t, uv, i32(l0) + 1), f);
 }
 
 // Whether the fragment lies in a cut-out (alpha MASK: factor × base colour alpha < cutoff),
-// as glint::scene::texturing::cut_out: rays pass there, so it is not drawn.
+// as glint::scene::texturing::cut_out: rays pass there, so it is not drawn. The test reads
+// level 0, as the solve's and the path tracer's rays do: a level's averaged alpha would
+// thin the coverage away with distance.
 fn cut_out(material: u32, uv0: vec2<f32>, uv1: vec2<f32>) -> bool {
     if !SURFACE_TEXTURES {
         return false;
@@ -146,14 +193,15 @@ fn cut_out(material: u32, uv0: vec2<f32>, uv1: vec2<f32>) -> bool {
     }
     var a = m.alpha.y;
     if m.alpha.z >= 0.0 {
-        a = a * sample_surface(m.cutout, uv0, uv1).a;
+        a = a * sample_surface(m.cutout, uv0, uv1, level_zero()).a;
     }
     return a < m.alpha.x;
 }
 
 // D at the fragment from the stored texel value q (glint::scene::texturing): q itself for a
-// material without a base colour texture, else q · t(x) + E(x).
-fn surface_d(q: vec3<f32>, material: u32, uv0: vec2<f32>, uv1: vec2<f32>) -> vec3<f32> {
+// material without a base colour texture, else q · t(x) + E(x), the textures filtered over
+// the footprint `g` gives (`sample_surface`).
+fn surface_d(q: vec3<f32>, material: u32, uv0: vec2<f32>, uv1: vec2<f32>, g: UvGrads) -> vec3<f32> {
     if !SURFACE_TEXTURES {
         return q;
     }
@@ -161,10 +209,10 @@ fn surface_d(q: vec3<f32>, material: u32, uv0: vec2<f32>, uv1: vec2<f32>) -> vec
     if m.base.a.x < 0.0 {
         return q;
     }
-    let t = sample_surface(m.base, uv0, uv1).rgb;
+    let t = sample_surface(m.base, uv0, uv1, g).rgb;
     var e = m.emission.rgb;
     if m.emissive.a.x >= 0.0 {
-        e = e * sample_surface(m.emissive, uv0, uv1).rgb;
+        e = e * sample_surface(m.emissive, uv0, uv1, g).rgb;
     }
     return q * t + e;
 }
@@ -214,10 +262,11 @@ struct FragmentOut {
 // Triangles of alpha-masked materials: cut-outs discarded, then shaded as `fs_opaque`.
 @fragment
 fn fs_main(in: VertexOut) -> FragmentOut {
+    let g = uv_grads(in.uv0, in.uv1);
     if cut_out(in.material, in.uv0, in.uv1) {
         discard;
     }
-    return shade(in);
+    return shade(in, g);
 }
 
 // Every other triangle. A shader that never discards lets the depth test run before shading
@@ -225,12 +274,12 @@ fn fs_main(in: VertexOut) -> FragmentOut {
 // triangles are drawn with this entry point (`renderer::alpha_runs`).
 @fragment
 fn fs_opaque(in: VertexOut) -> FragmentOut {
-    return shade(in);
+    return shade(in, uv_grads(in.uv0, in.uv1));
 }
 
-fn shade(in: VertexOut) -> FragmentOut {
+fn shade(in: VertexOut, g: UvGrads) -> FragmentOut {
     let q = max(sample_radiosity(in.lightmap, in.page), vec3<f32>(0.0));
-    let d = surface_d(q, in.material, in.uv0, in.uv1) * frame.exposure;
+    let d = surface_d(q, in.material, in.uv0, in.uv1, g) * frame.exposure;
     var out: FragmentOut;
     var color = d;
     if frame.encode_srgb != 0u {

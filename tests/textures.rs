@@ -749,3 +749,236 @@ fn impostor_captures_see_through_cut_outs() {
     eprintln!("billboard: {reds} red, {greens} green");
     assert!(reds > 200 && greens > 200, "{reds} red, {greens} green");
 }
+
+/// A 20 m square floor at y = 0 (UV = 2 × (z + 10, x + 10): 40 repeats) under an emissive
+/// ceiling, its base colour texture `image` (`width` × `height`) with `texture` (glTF
+/// textureInfo) and sampler `sampler`, seen from 0.3 m above it towards the horizon
+/// (160 × 120): the bundle's data, the camera, the viewer's linear frame and the stored D
+/// without the texture (CPU).
+#[cfg(feature = "view")]
+fn tiled_floor(
+    dir: &Path,
+    image: Vec<u8>,
+    texture: Value,
+    sampler: Value,
+) -> (
+    glint::view::load::ViewData,
+    glint::camera::Camera,
+    Vec<Vec3>,
+    Vec<Vec3>,
+) {
+    use glint::view::cpu;
+    use glint::view::headless::offscreen::Offscreen;
+    let (x, z) = (Vec3::X * 20.0, Vec3::Z * 20.0);
+    let o = Vec3::new(-10.0, 0.0, -10.0);
+    let meshes = vec![
+        quad("Floor", 0, o, z, x, 40.0),
+        quad("Ceiling", 1, o + Vec3::Y * 3.0, x, z, 1.0),
+    ];
+    let materials = json!([
+        {"name": "Tiles", "pbrMetallicRoughness": {"baseColorTexture": texture, "metallicFactor": 0.0, "roughnessFactor": 1.0}},
+        {"name": "Light", "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0},
+         "emissiveFactor": [1.0, 1.0, 1.0]}
+    ]);
+    let scene_json = write_gltf(
+        dir,
+        &meshes,
+        materials,
+        json!([{"source": 0, "sampler": 0}]),
+        json!([sampler]),
+        &[image],
+    );
+    let scene = Scene::load(scene_json).unwrap();
+    let bundle = dir.join("b.glint");
+    glint::bake::scene_stage::bake(&scene, &bundle, false).unwrap();
+    let settings = glint::scene::desc::RadiositySettings {
+        texel_density: 2.0,
+        ..common::quick_radiosity(1)
+    };
+    glint::bake::radiosity_stage::bake(&scene, &bundle, &settings, false, &Silent).unwrap();
+    let data = glint::view::load::load(&bundle).unwrap_or_else(|e| panic!("{e}"));
+    let camera = glint::camera::Camera::look_at(
+        Vec3::new(0.0, 0.3, 9.0),
+        Vec3::new(0.0, 0.0, 6.5),
+        Vec3::Y,
+        50f32.to_radians(),
+    );
+    let (w, h) = FLOOR_FRAME;
+    let gpu = common::gpu();
+    let off = Offscreen::new(&gpu, &data, w, h).unwrap_or_else(|e| panic!("{e}"));
+    off.render(&gpu, &camera).unwrap();
+    let frame = off.read_hdr(&gpu).unwrap();
+    let bvh = data.scene.build_bvh();
+    let plain = cpu::render(&bvh, &data.map, &camera, w, h, 1.0);
+    (data, camera, frame, plain)
+}
+
+/// Frame size of [`tiled_floor`].
+const FLOOR_FRAME: (u32, u32) = (160, 120);
+
+/// Where pixel (x, y)'s ray meets [`tiled_floor`]'s floor within 9 m of its centre: the
+/// distance and the point.
+#[cfg(feature = "view")]
+fn floor_hit(camera: &glint::camera::Camera, x: u32, y: u32) -> Option<(f32, Vec3)> {
+    use glint::camera::Camera;
+    let (w, h) = FLOOR_FRAME;
+    let d = camera.ray_direction(Camera::pixel_ndc(x, y, w, h), w as f32 / h as f32);
+    if d.y >= 0.0 {
+        return None;
+    }
+    let t = -camera.position.y / d.y;
+    let p = camera.position + d * t;
+    (p.x.abs() <= 9.0 && p.z.abs() <= 9.0).then_some((t, p))
+}
+
+/// A fine black and white checker on [`tiled_floor`] (cells of 3.1 cm: a 16 × 16 image
+/// repeated every 0.5 m). Far away (4–8 m: a pixel spans dozens of cells along the view) the
+/// viewer's frame is the checker's mean times the stored D, smooth, not black and white
+/// speckles; near the camera (under 0.75 m: a cell spans several pixels) it still shows the
+/// cells. `GLINT_VIEW_TEXTURE_MIPS=0` (no mip levels) makes the far floor speckle and this
+/// fail.
+#[cfg(feature = "view")]
+#[test]
+fn a_fine_checker_at_a_grazing_angle_filters_to_its_mean_far_away() {
+    use glint::scene::texture::mips::LinearLevel;
+    let dir = tempfile::tempdir().unwrap();
+    let checker: Vec<[u8; 4]> = (0..256)
+        .map(|i| {
+            if (i % 16 + i / 16) % 2 == 0 {
+                [250, 250, 250, 255]
+            } else {
+                [10, 10, 10, 255]
+            }
+        })
+        .collect();
+    let (data, camera, frame, plain) = tiled_floor(
+        dir.path(),
+        png(16, 16, &checker),
+        json!({"index": 0}),
+        json!({"wrapS": 10497, "wrapT": 10497}),
+    );
+    // What a pixel covering many cells shows: the stored D times the texture's mean.
+    let mean = LinearLevel::of(&data.scene.textures[0]).mean().truncate();
+    // Each floor pixel's ratio of its frame value to that, by its distance from the eye.
+    let (w, h) = FLOOR_FRAME;
+    let (mut near, mut far) = (Vec::new(), Vec::new());
+    for py in 0..h {
+        for px in 0..w {
+            let Some((t, _)) = floor_hit(&camera, px, py) else {
+                continue;
+            };
+            let i = (py * w + px) as usize;
+            let r = frame[i].x / (plain[i].x * mean.x);
+            if (4.0..8.0).contains(&t) {
+                far.push(r);
+            } else if t < 0.75 {
+                near.push(r);
+            }
+        }
+    }
+    let stats = |v: &[f32]| {
+        let m = v.iter().sum::<f32>() / v.len() as f32;
+        let var = v.iter().map(|r| (r - m) * (r - m)).sum::<f32>() / v.len() as f32;
+        (m, var.sqrt())
+    };
+    let ((far_mean, far_sd), (near_mean, near_sd)) = (stats(&far), stats(&near));
+    eprintln!(
+        "far ({} px): mean {far_mean:.3}, sd {far_sd:.3}; near ({} px): mean {near_mean:.3}, sd {near_sd:.3}",
+        far.len(),
+        near.len()
+    );
+    assert!(
+        far.len() > 500 && near.len() > 500,
+        "{} {}",
+        far.len(),
+        near.len()
+    );
+    assert!(
+        (far_mean - 1.0).abs() < 0.05 && far_sd < 0.05,
+        "the far floor is not its texture's mean: ratio {far_mean} ± {far_sd}"
+    );
+    // Near, the cells show: bilinear between the centres of one-texel cells of 250 and 10
+    // spans ratios from about 0 to 2 (a triangle wave, not a flat mean).
+    let lo = near.iter().copied().fold(f32::INFINITY, f32::min);
+    let hi = near.iter().copied().fold(0.0, f32::max);
+    assert!(
+        near_sd > 0.25 && lo < 0.25 && hi > 1.75,
+        "the near floor shows no cells: ratio {near_mean} ± {near_sd}, {lo}..{hi}"
+    );
+}
+
+/// An odd-sized (13 × 9) texture on [`tiled_floor`] with a `KHR_texture_transform`
+/// (rotated, scaled unequally, offset) and mirrored repeat along u: every floor pixel of the
+/// viewer's frame is its CPU definition, the stored D times
+/// [`glint::scene::texture::mips::sample_trilinear`] at the level of detail of the pixel's UV
+/// steps to its 2 × 2 quad's neighbours (the GPU's derivatives): the levels' sizes, wraps and
+/// the transform's effect on the footprint as the shader applies them.
+#[cfg(feature = "view")]
+#[test]
+fn transformed_odd_sized_textures_filter_as_their_cpu_definition() {
+    use glint::scene::texture::mips::{level_of_detail, mip_chain, sample_trilinear};
+    let dir = tempfile::tempdir().unwrap();
+    let texels: Vec<[u8; 4]> = (0..13 * 9u32)
+        .map(|i| {
+            let v = |k: u32| (60 + (i * k + i / 13 * 7) % 190) as u8;
+            [v(37), v(91), v(53), 255]
+        })
+        .collect();
+    let (data, camera, frame, plain) = tiled_floor(
+        dir.path(),
+        png(13, 9, &texels),
+        json!({"index": 0, "extensions": {"KHR_texture_transform": {
+            "offset": [0.1, 0.2], "rotation": 0.4, "scale": [1.3, 0.8]}}}),
+        json!({"wrapS": 33648, "wrapT": 10497}),
+    );
+    let t = data.scene.materials[0].base_texture.unwrap();
+    assert!(!t.transform.is_identity());
+    let img = &data.scene.textures[0];
+    let mut levels = vec![img.clone()];
+    levels.extend(mip_chain(img));
+    let size = glam::Vec2::new(img.width as f32, img.height as f32);
+    let uv_at = |x: u32, y: u32| {
+        floor_hit(&camera, x, y).map(|(_, p)| {
+            t.transform
+                .apply(glam::Vec2::new(2.0 * (p.z + 10.0), 2.0 * (p.x + 10.0)))
+        })
+    };
+    let (w, h) = FLOOR_FRAME;
+    let mut errors = Vec::new();
+    let mut top_lod = 0.0f32;
+    let mut between = 0;
+    for py in 0..h - 1 {
+        for px in 0..w - 1 {
+            let (x0, y0) = (px & !1, py & !1);
+            let (Some(uv), Some(a), Some(b), Some(c)) = (
+                uv_at(px, py),
+                uv_at(x0, y0),
+                uv_at(x0 + 1, y0),
+                uv_at(x0, y0 + 1),
+            ) else {
+                continue;
+            };
+            let lod = level_of_detail((b - a) * size, (c - a) * size, levels.len() as u32 - 1);
+            top_lod = top_lod.max(lod);
+            between += usize::from(lod > 0.1 && lod < 2.9 && lod.fract() > 0.1);
+            let want = sample_trilinear(&levels, &t.sampler, uv, lod).truncate();
+            let i = (py * w + px) as usize;
+            let got = frame[i] / plain[i];
+            errors.push((got - want).abs().max_element());
+        }
+    }
+    errors.sort_by(f32::total_cmp);
+    let mean = errors.iter().sum::<f32>() / errors.len() as f32;
+    let p99 = errors[errors.len() * 99 / 100];
+    eprintln!(
+        "{} floor pixels ({between} between levels), levels of detail up to {top_lod:.2}: error mean {mean:.4}, 99th percentile {p99:.4}, max {:.4}",
+        errors.len(),
+        errors[errors.len() - 1]
+    );
+    // Every level is read (13 × 9 has 4), and many pixels blend two.
+    assert!(
+        top_lod == 3.0 && between > 1000,
+        "levels of detail up to {top_lod}, {between} pixels between levels"
+    );
+    assert!(mean < 0.003 && p99 < 0.01, "mean {mean}, p99 {p99}");
+}

@@ -4,6 +4,8 @@
 //! `KHR_texture_transform` UV transform (offset · rotation · scale). Pure functions: the
 //! images are decoded by `gltf_textures`.
 
+pub mod mips;
+
 use std::sync::LazyLock;
 
 use glam::{Vec2, Vec4};

@@ -1,9 +1,11 @@
 //! The scene's textures on the GPU, for the fragment shader's D(x) = Q · t(x) + E(x)
 //! ([`crate::scene::texturing`]): every image in one `Rgba8UnormSrgb` 2D texture array (each
-//! in its own layer at its own size from the corner, no resampling: full resolution), and one
+//! in its own layer at its own size from the corner, level 0 at full resolution, level k its
+//! level k of [`crate::scene::texture::mips`] from the same corner), and one
 //! [`MaterialRecord`] per material saying which layer its base colour and emissive textures
 //! are, with their samplers and transforms. The shader filters by hand with `textureLoad`
-//! (wrap modes and bilinear weights exactly as [`crate::scene::texture::Image::sample`]).
+//! (wrap modes and bilinear weights exactly as [`crate::scene::texture::Image::sample`] within
+//! a level; trilinear between the two levels its UV derivatives choose).
 
 use bytemuck::{Pod, Zeroable};
 
@@ -11,7 +13,12 @@ use super::build::buffer_init;
 use super::{Gpu, RenderError, error_scoped};
 use crate::scene::Scene;
 use crate::scene::material::{AlphaMode, TextureRef};
-use crate::scene::texture::{Filter, Wrap};
+use crate::scene::texture::mips::{level_count, mip_chain};
+use crate::scene::texture::{Filter, Image, Wrap};
+
+/// Set to `0`, the textures are uploaded without their mip chains (level 0 alone: every
+/// texture sampled at full resolution), to measure what the levels cost and change.
+pub const TEXTURE_MIPS_ENV: &str = "GLINT_VIEW_TEXTURE_MIPS";
 
 /// One texture slot of a material (48 bytes; `TexRef` in `shaders/view.wgsl`).
 #[repr(C)]
@@ -160,6 +167,13 @@ impl SurfaceTextures {
             Some(s) => material_records(s),
             None => vec![PLAIN],
         };
+        let mips = std::env::var_os(TEXTURE_MIPS_ENV).is_none_or(|v| v != "0");
+        let level_count = if mips { level_count(width, height) } else { 1 };
+        let chains: Vec<Vec<Image>> = if mips {
+            images.iter().map(mip_chain).collect()
+        } else {
+            vec![Vec::new(); images.len()]
+        };
         error_scoped(&gpu.device, "uploading the scene's textures", || {
             let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some("glint surface textures"),
@@ -168,18 +182,29 @@ impl SurfaceTextures {
                     height,
                     depth_or_array_layers: layers,
                 },
-                mip_level_count: 1,
+                mip_level_count: level_count,
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D2,
                 format: wgpu::TextureFormat::Rgba8UnormSrgb,
                 usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
                 view_formats: &[],
             });
-            for (layer, img) in images.iter().enumerate() {
+            let levels =
+                images
+                    .iter()
+                    .zip(&chains)
+                    .enumerate()
+                    .flat_map(|(layer, (img, chain))| {
+                        std::iter::once(img)
+                            .chain(chain)
+                            .enumerate()
+                            .map(move |(level, img)| (layer, level as u32, img))
+                    });
+            for (layer, level, img) in levels {
                 gpu.queue.write_texture(
                     wgpu::TexelCopyTextureInfo {
                         texture: &texture,
-                        mip_level: 0,
+                        mip_level: level,
                         origin: wgpu::Origin3d {
                             x: 0,
                             y: 0,
