@@ -218,6 +218,10 @@ fn glint_view_frame(bundle: &Path, dir: &Path) -> PathBuf {
             &size,
             "--reflections",
             "off",
+            "--curved",
+            "off",
+            "--impostors",
+            "off",
             "--every",
             "1000000",
         ])
