@@ -2,6 +2,7 @@
 //! lines over them (`tool`, `unit_tool`, and `bundle_tool` for `glint-bundle`).
 
 pub mod bundle_tool;
+pub mod incremental;
 pub mod materials;
 pub mod merge;
 pub mod part;
