@@ -124,7 +124,7 @@ pub fn bake_incremental(
             let why = if fresh(u) {
                 String::new()
             } else {
-                why_rebake(&shard, u, &rebaked)
+                why_rebake(&shard, u, &rebaked, &scene_changes)
             };
             if !why.is_empty() {
                 log::info!("{}: rebaking unit {} ({why})", u.stage, u.id);
@@ -207,8 +207,14 @@ pub fn bake_incremental(
 }
 
 /// Why unit `u`, whose shard at `shard` does not hold its key, is baked: the inputs that
-/// differ from the shard's last bake, and the units it reads that were rebaked.
-fn why_rebake(shard: &Path, u: &Unit, rebaked: &BTreeSet<String>) -> String {
+/// differ from the shard's last bake (each with the fields of `scene_changes` it reads), and
+/// the units it reads that were rebaked.
+fn why_rebake(
+    shard: &Path,
+    u: &Unit,
+    rebaked: &BTreeSet<String>,
+    scene_changes: &[String],
+) -> String {
     let old: Option<Marker> = crate::bundle::read_top_file(shard, MARKER)
         .ok()
         .flatten()
@@ -235,8 +241,17 @@ fn why_rebake(shard: &Path, u: &Unit, rebaked: &BTreeSet<String>) -> String {
                     .map(String::as_str),
             )
             .collect();
-        if !changed.is_empty() {
-            parts.push(format!("{} changed", changed.join(", ")));
+        for input in changed {
+            let fields: Vec<&str> = scene_changes
+                .iter()
+                .filter(|c| touches(input, u, c))
+                .map(String::as_str)
+                .collect();
+            parts.push(if fields.is_empty() {
+                format!("{input} changed")
+            } else {
+                format!("{input} changed: {}", fields.join(", "))
+            });
         }
     }
     let reads: Vec<&str> = u
@@ -253,6 +268,31 @@ fn why_rebake(shard: &Path, u: &Unit, rebaked: &BTreeSet<String>) -> String {
         parts.push("its shard is incomplete or damaged".into());
     }
     parts.join("; ")
+}
+
+/// Whether the changed scene.json field `change` (`materials.Floor.albedo`) is part of unit
+/// `u`'s `input`.
+fn touches(input: &str, u: &Unit, change: &str) -> bool {
+    let under = |prefix: &str| {
+        change == prefix
+            || change.starts_with(&format!("{prefix}."))
+            || change.starts_with(&format!("{prefix}["))
+            || change.starts_with(&format!("{prefix} "))
+    };
+    match input {
+        "scene_files" => true,
+        "materials" => under("materials"),
+        "material" => u
+            .item
+            .as_ref()
+            .is_some_and(|m| under(&format!("materials.{m}"))),
+        "lights" => under("lights"),
+        "reflectors" | "reflector" => under("reflectors"),
+        "impostor" => under("impostors"),
+        "first_camera" => under("camera_paths"),
+        "settings" | "plan" => under("bake") || under("reflectors"),
+        _ => false,
+    }
 }
 
 /// Removes the gathering units' shards (scratch once D is baked from them).
@@ -390,6 +430,28 @@ mod tests {
                 "impostors added"
             ]
         );
+    }
+
+    #[test]
+    fn a_changed_input_is_named_with_the_fields_it_reads() {
+        let unit = |item: Option<&str>| Unit {
+            id: "material.Floor".into(),
+            stage: "materials".into(),
+            item: item.map(String::from),
+            inputs: BTreeMap::new(),
+            depends_on: Vec::new(),
+            key: String::new(),
+            cost: 0.0,
+            wave: 0,
+        };
+        let u = unit(Some("Floor"));
+        assert!(touches("material", &u, "materials.Floor.albedo"));
+        assert!(!touches("material", &u, "materials.FloorTile.albedo"));
+        assert!(touches("materials", &u, "materials.FloorTile.albedo"));
+        assert!(touches("lights", &u, "lights[0].radiance"));
+        assert!(touches("reflectors", &u, "reflectors"));
+        assert!(!touches("lights", &u, "camera_paths[0].fps"));
+        assert!(touches("scene_files", &u, "camera_paths[0].fps"));
     }
 
     #[test]
