@@ -9,8 +9,12 @@
 //! of the scene without it). Every glossy material of glossy-room belongs to a reflector, so
 //! the roughness edited is GlossyTable's (TableTop's).
 //!
+//! A full bake is also timed once stage by stage (`bake_all`, what the stage tools run) unless
+//! `--no-per-stage`.
+//!
 //! `cargo bench --no-default-features --bench edit_loop [-- [--quality Q] [--runs N]
-//! [--only EDIT,…]]` (edits: noop, camera, albedo, roughness, light, reflector).
+//! [--only EDIT,…] [--no-per-stage]]` (edits: noop, camera, albedo, roughness, light,
+//! reflector).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -135,6 +139,7 @@ fn copy_bundle(bundle: &Path, to: &Path) {
 fn main() {
     let mut args = std::env::args().skip(1).filter(|a| a != "--bench");
     let (mut quality, mut runs, mut only) = (None, 3usize, None::<Vec<String>>);
+    let mut no_per_stage = false;
     let mut scene_dir = glint_repo().join("scenes/glossy-room");
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -143,6 +148,7 @@ fn main() {
                 let found = Quality::ALL.into_iter().find(|p| p.name() == q);
                 quality = Some(found.unwrap_or_else(|| panic!("--quality {q}: no such preset")));
             }
+            "--no-per-stage" => no_per_stage = true,
             "--runs" => runs = args.next().expect("--runs N").parse().unwrap(),
             "--only" => {
                 only = Some(
@@ -180,6 +186,21 @@ fn main() {
         }
     }
     let full = median(full);
+    // The same scene baked stage by stage (`bake_all`, no unit cache), once: what the units'
+    // route costs a bake from scratch.
+    let per_stage = (!no_per_stage).then(|| {
+        let bundle = work.path().join("per-stage.glint");
+        let start = Instant::now();
+        let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
+        let settings = BakeSettings::resolve(&scene, quality.unwrap_or(scene.desc.bake.quality))
+            .unwrap_or_else(|e| panic!("{e}"));
+        glint::bake::bake_all(&scene, &bundle, &settings, false, &Silent)
+            .unwrap_or_else(|e| panic!("{e}"));
+        let t = start.elapsed().as_secs_f64();
+        eprintln!("per-stage bake: {t:.2} s");
+        remove(&bundle);
+        t
+    });
 
     let mut rows = vec![[
         "edit".to_string(),
@@ -195,6 +216,15 @@ fn main() {
         format!("{full:.2}"),
         "100%".into(),
     ]);
+    if let Some(t) = per_stage {
+        rows.push([
+            "full/stages".into(),
+            "from scratch, stage by stage (bake_all), 1 run".into(),
+            "all".into(),
+            format!("{t:.2}"),
+            format!("{:.1}%", 100.0 * t / full),
+        ]);
+    }
     for e in edits() {
         if only
             .as_ref()
