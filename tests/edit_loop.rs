@@ -183,9 +183,51 @@ fn each_edit_rebakes_only_what_it_touches_and_gives_the_bytes_of_a_fresh_bake() 
     assert!(has(&baked, "radiance.Floor"), "{baked:?}");
     assert!(!has(&baked, "material.PanelMat"), "{baked:?}");
     assert_same_as_fresh(&scene, &bundle, &fresh("reflector"), "reflector added");
+    // And what a bake stage by stage (no unit cache, D gathered in one run) gives.
+    let whole = tmp.path().join("whole.glint");
+    let loaded = glint::scene::Scene::load(&scene).unwrap();
+    let settings =
+        glint::bake::BakeSettings::resolve(&loaded, glint::scene::Quality::Draft).unwrap();
+    glint::bake::bake_all(&loaded, &whole, &settings, false, &glint::progress::Silent).unwrap();
+    assert_eq!(stages(&whole), stages(&bundle), "stage by stage");
 
     // And once more: nothing to do.
     assert_eq!(bake_units(&scene, &bundle), Vec::<String>::new());
+
+    // A damaged shard in the cache: its unit alone is rebaked.
+    let cache = tmp.path().join("out/room.glint.units");
+    let file = first_file(&cache.join("material.PanelMat.glint"));
+    std::fs::write(&file, b"damaged").unwrap();
+    assert_eq!(bake_units(&scene, &bundle), ["material.PanelMat"]);
+    assert_same_as_fresh(&scene, &bundle, &fresh("reflector"), "damaged shard");
+
+    // A damaged or deleted bundle: assembled again from the cache, nothing baked.
+    std::fs::write(first_file(&bundle), b"damaged").unwrap();
+    assert_eq!(bake_units(&scene, &bundle), Vec::<String>::new());
+    assert_same_as_fresh(&scene, &bundle, &fresh("reflector"), "damaged bundle");
+    std::fs::remove_dir_all(&bundle).unwrap();
+    assert_eq!(bake_units(&scene, &bundle), Vec::<String>::new());
+    assert_same_as_fresh(&scene, &bundle, &fresh("reflector"), "deleted bundle");
+}
+
+/// The first asset file (not `manifest.json`, `unit.json` or the lock) under `dir`'s stage
+/// folders, in name order.
+fn first_file(dir: &Path) -> std::path::PathBuf {
+    let mut entries: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    entries.sort();
+    for p in entries {
+        if p.is_dir() {
+            return first_file(&p);
+        }
+        let name = p.file_name().unwrap().to_str().unwrap();
+        if !["manifest.json", "unit.json", ".lock"].contains(&name) {
+            return p;
+        }
+    }
+    panic!("{}: no asset file", dir.display())
 }
 
 #[test]

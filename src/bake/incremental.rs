@@ -4,8 +4,8 @@
 //! reads), and the bundle is then assembled from the shards ([`super::merge`]), which gives
 //! the same bytes as a bake from scratch. Nothing changed: nothing is written.
 //!
-//! The gathering units' shards are scratch: once the `radiosity` unit that reads them is
-//! baked they are removed, and while it is up to date they are not baked again.
+//! The gathering units are not run: the `radiosity` unit gathers every element itself (the
+//! same D), as a bake stage by stage does, without writing each ray's hit to disk.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use super::merge::{MergeOptions, merge};
-use super::shard::{MARKER, Marker, bake_unit, parse_marker, read_shard};
+use super::shard::{MARKER, Marker, bake_unit_gathering, parse_marker};
 use super::unit_tool::shard_path;
 use super::units::{GATHER, Unit, UnitPlan, kind, plan_units};
 use super::{BakeSettings, Stage, StageReport, StageStatus};
@@ -58,7 +58,7 @@ pub struct UnitOutcome {
 pub struct Incremental {
     /// Per stage, as a whole bake reports it.
     pub stages: Vec<StageReport>,
-    /// Per unit, in plan order (gathering units left out when D was up to date).
+    /// Per unit, in plan order, less the gathering units (the `radiosity` unit gathers).
     pub units: Vec<UnitOutcome>,
     /// Whether the bundle was (re)assembled; false when it already held this plan's bake.
     pub assembled: bool,
@@ -108,16 +108,16 @@ pub fn bake_incremental(
             scene_changes.join(", ")
         );
     }
+    // The marker alone says whether to log a rebake; `bake_unit` checks the assets too.
     let fresh = |u: &Unit| {
-        read_shard(&shard_path(&cache, &u.id)).is_ok_and(|(m, _)| m.unit == u.id && m.key == u.key)
+        old_marker(&shard_path(&cache, &u.id)).is_some_and(|m| m.unit == u.id && m.key == u.key)
     };
-    let d_fresh = plan.unit("radiosity").is_some_and(fresh);
     let mut outcomes: Vec<UnitOutcome> = Vec::new();
     let mut rebaked: BTreeSet<String> = BTreeSet::new();
     let last = plan.units.iter().map(|u| u.wave).max().unwrap_or(0);
     for wave in 0..=last {
         for u in plan.units.iter().filter(|u| u.wave == wave) {
-            if kind(&u.id) == GATHER && d_fresh {
+            if kind(&u.id) == GATHER {
                 continue;
             }
             let shard = shard_path(&cache, &u.id);
@@ -129,7 +129,8 @@ pub fn bake_incremental(
             if !why.is_empty() {
                 log::info!("{}: rebaking unit {} ({why})", u.stage, u.id);
             }
-            let r = bake_unit(scene, settings, plan, &u.id, &shard, None, progress)?;
+            let r =
+                bake_unit_gathering(scene, settings, plan, &u.id, &shard, None, true, progress)?;
             let seconds = match r.status {
                 StageStatus::Baked { seconds } => seconds,
                 _ => 0.0,
@@ -142,12 +143,13 @@ pub fn bake_incremental(
                 unit: u.id.clone(),
                 stage: u.stage.clone(),
                 baked,
-                why: if baked { why } else { String::new() },
+                why: match (baked, why.is_empty()) {
+                    (false, _) => String::new(),
+                    (true, true) => "its shard is damaged".into(),
+                    (true, false) => why,
+                },
                 seconds,
             });
-            if u.id == "radiosity" && baked {
-                remove_gathers(&cache, plan);
-            }
         }
     }
 
@@ -182,10 +184,7 @@ pub fn bake_incremental(
             } else {
                 let of_stage: Vec<&UnitOutcome> = outcomes
                     .iter()
-                    .filter(|o| {
-                        o.stage == p.stage.name()
-                            || (p.stage == Stage::Radiosity && o.stage == GATHER)
-                    })
+                    .filter(|o| o.stage == p.stage.name())
                     .collect();
                 if of_stage.iter().any(|o| o.baked) {
                     StageStatus::Baked {
@@ -215,16 +214,8 @@ fn why_rebake(
     rebaked: &BTreeSet<String>,
     scene_changes: &[String],
 ) -> String {
-    let old: Option<Marker> = crate::bundle::read_top_file(shard, MARKER)
-        .ok()
-        .flatten()
-        .and_then(|t| parse_marker(shard, t.as_bytes()).ok());
-    let Some(old) = old.filter(|m| m.unit == u.id) else {
-        return if kind(&u.id) == GATHER {
-            "gathering for unit radiosity".into()
-        } else {
-            "no earlier bake in the cache".into()
-        };
+    let Some(old) = old_marker(shard).filter(|m| m.unit == u.id) else {
+        return "no earlier bake in the cache".into();
     };
     let mut parts = Vec::new();
     if let Some(before) = old.plan.unit(&u.id) {
@@ -270,6 +261,12 @@ fn why_rebake(
     parts.join("; ")
 }
 
+/// The marker of the shard at `shard`, unchecked against its assets.
+fn old_marker(shard: &Path) -> Option<Marker> {
+    let text = crate::bundle::read_top_file(shard, MARKER).ok().flatten()?;
+    parse_marker(shard, text.as_bytes()).ok()
+}
+
 /// Whether the changed scene.json field `change` (`materials.Floor.albedo`) is part of unit
 /// `u`'s `input`.
 fn touches(input: &str, u: &Unit, change: &str) -> bool {
@@ -295,25 +292,14 @@ fn touches(input: &str, u: &Unit, change: &str) -> bool {
     }
 }
 
-/// Removes the gathering units' shards (scratch once D is baked from them).
-fn remove_gathers(cache: &Path, plan: &UnitPlan) {
-    for u in plan.units.iter().filter(|u| kind(&u.id) == GATHER) {
-        let shard = shard_path(cache, &u.id);
-        match std::fs::remove_dir_all(&shard) {
-            Ok(()) => {}
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-            Err(e) => log::warn!("{}: cannot remove: {e}", shard.display()),
-        }
-    }
-}
-
-/// The identities of the bundle's stages, when it holds this scene's bake intact.
-fn bundle_stages(bundle: &Path, plan: &UnitPlan) -> Option<BTreeMap<String, String>> {
+/// The identities of the bundle's stages, when it holds this scene's bake (`verify`: with
+/// every asset intact).
+fn bundle_stages(bundle: &Path, plan: &UnitPlan, verify: bool) -> Option<BTreeMap<String, String>> {
     let b = Bundle::open(bundle).ok()?;
     let m = b.manifest();
     let ours = m.scene_name == plan.scene_name
         && m.stages.values().all(|r| r.scene_hash == plan.scene_hash);
-    (ours && b.verify().is_empty()).then(|| {
+    (ours && (!verify || b.verify().is_empty())).then(|| {
         m.stages
             .iter()
             .map(|(name, r)| (name.clone(), r.identity()))
@@ -329,12 +315,16 @@ fn assembled_matches(bundle: &Path, cache: &Path, plan: &UnitPlan) -> bool {
     let Ok(a) = serde_json::from_slice::<Assembled>(&text) else {
         return false;
     };
-    a.plan_hash == plan.plan_hash && bundle_stages(bundle, plan).as_ref() == Some(&a.stages)
+    a.plan_hash == plan.plan_hash && bundle_stages(bundle, plan, true).as_ref() == Some(&a.stages)
 }
 
 fn record_assembled(bundle: &Path, cache: &Path, plan: &UnitPlan) -> anyhow::Result<()> {
-    let Some(stages) = bundle_stages(bundle, plan) else {
-        anyhow::bail!("{}: the assembled bundle does not verify", bundle.display());
+    // Just written from verified shards: read back without hashing every asset again.
+    let Some(stages) = bundle_stages(bundle, plan, false) else {
+        anyhow::bail!(
+            "{}: the assembled bundle holds another scene",
+            bundle.display()
+        );
     };
     let a = Assembled {
         plan_hash: plan.plan_hash.clone(),
