@@ -70,6 +70,18 @@ fn stages(bundle: &Path) -> Stages {
         .collect()
 }
 
+/// Per stage, the folder the manifest names.
+fn folders(bundle: &Path) -> BTreeMap<String, String> {
+    let m: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(bundle.join("manifest.json")).unwrap()).unwrap();
+    m["stages"]
+        .as_object()
+        .unwrap()
+        .iter()
+        .map(|(name, r)| (name.clone(), r["dir"].as_str().unwrap().to_string()))
+        .collect()
+}
+
 /// `glint-bake` at draft into `bundle`: the units it baked.
 fn bake_units(scene: &Path, bundle: &Path) -> Vec<String> {
     let (code, out, err) = bake(&[
@@ -130,9 +142,15 @@ fn each_edit_rebakes_only_what_it_touches_and_gives_the_bytes_of_a_fresh_bake() 
     let fresh = |k: &str| tmp.path().join(format!("fresh/{k}.glint"));
     let has = |v: &[String], id: &str| v.iter().any(|u| u == id);
 
-    // A camera path: the scene copy alone.
+    // A camera path: the scene copy alone; the other stages' folders are kept, not copied.
+    let before = folders(&bundle);
     edit(&scene, |v| v["camera_paths"][0]["fps"] = 24.into());
     assert_eq!(bake_units(&scene, &bundle), ["scene"]);
+    let after = folders(&bundle);
+    assert_ne!(before["scene"], after["scene"]);
+    for stage in ["radiosity", "materials", "radiance"] {
+        assert_eq!(before[stage], after[stage], "{stage}");
+    }
     assert_same_as_fresh(&scene, &bundle, &fresh("camera"), "camera path");
 
     // One albedo: D and what reads it; the materials whose lobes did not change are kept.
@@ -205,6 +223,8 @@ fn each_edit_rebakes_only_what_it_touches_and_gives_the_bytes_of_a_fresh_bake() 
     std::fs::write(first_file(&bundle), b"damaged").unwrap();
     assert_eq!(bake_units(&scene, &bundle), Vec::<String>::new());
     assert_same_as_fresh(&scene, &bundle, &fresh("reflector"), "damaged bundle");
+    let problems = glint::bundle::Bundle::open(&bundle).unwrap().verify();
+    assert!(problems.is_empty(), "{problems:?}");
     std::fs::remove_dir_all(&bundle).unwrap();
     assert_eq!(bake_units(&scene, &bundle), Vec::<String>::new());
     assert_same_as_fresh(&scene, &bundle, &fresh("reflector"), "deleted bundle");

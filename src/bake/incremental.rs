@@ -167,6 +167,7 @@ pub fn bake_incremental(
             &shards,
             MergeOptions {
                 force,
+                keep_unchanged: true,
                 ..Default::default()
             },
         )?;

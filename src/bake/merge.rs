@@ -60,6 +60,9 @@ pub struct MergeReport {
 pub struct MergeOptions {
     /// Replace a bundle of another scene (by name) instead of refusing.
     pub force: bool,
+    /// Leave a stage the bundle holds already with the assets and settings the merge would
+    /// write (only its scene hash is updated), instead of writing it again.
+    pub keep_unchanged: bool,
     /// Called before each file-system step of the commit (fault-injection tests).
     pub fault_hook: Option<FaultHook>,
 }
@@ -68,6 +71,7 @@ impl std::fmt::Debug for MergeOptions {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("MergeOptions")
             .field("force", &self.force)
+            .field("keep_unchanged", &self.keep_unchanged)
             .finish_non_exhaustive()
     }
 }
@@ -117,7 +121,43 @@ pub fn merge(
         stages: Vec::new(),
         assets: 0,
     };
+    let current = if options.keep_unchanged {
+        Bundle::open(out).ok()
+    } else {
+        None
+    };
+    let mut kept = Vec::new();
+    for part in &assembly.stages {
+        let units: Vec<(&str, &Bundle)> = part
+            .units
+            .iter()
+            .map(|(id, i)| (id.as_str(), &read[*i].2))
+            .collect();
+        let name = part.stage.name();
+        let held = current
+            .as_ref()
+            .and_then(|b| Some((b, b.stage(name)?)))
+            .filter(|(_, r)| r.settings == part.settings);
+        if let Some((b, r)) = held
+            && same_assets(part.stage, &units, r)?
+            && b.verify_stages(&[name]).is_empty()
+        {
+            kept.push((part.stage.name(), r.identity()));
+        }
+    }
+    // A commit writes at least one stage: with none changed, all are written again.
+    if kept.len() == assembly.stages.len() {
+        kept.clear();
+    }
+    drop(current);
+    for (stage, identity) in &kept {
+        commit.keep(stage, identity);
+        report.stages.push((*stage).into());
+    }
     for part in assembly.stages {
+        if kept.iter().any(|(k, _)| *k == part.stage.name()) {
+            continue;
+        }
         let units: Vec<(&str, &Bundle)> = part
             .units
             .iter()
@@ -317,6 +357,45 @@ pub(crate) fn check_shards(
         });
     }
     Ok(Assembly { plan, stages })
+}
+
+/// Whether the stage `record` holds exactly the assets (paths and hashes, in order) that
+/// [`assemble`] would write from `units`.
+fn same_assets(
+    stage: Stage,
+    units: &[(&str, &Bundle)],
+    record: &StageRecord,
+) -> Result<bool, MergeError> {
+    let name = stage.name();
+    let index_path = format!("{name}/index.json");
+    let joins_index = matches!(stage, Stage::Materials | Stage::Srdm);
+    let mut want: Vec<(String, String)> = Vec::new();
+    let mut indexes = Vec::new();
+    for (id, shard) in units {
+        let r = shard.stage(name).expect("checked by check_shards");
+        for a in &r.assets {
+            if joins_index && a.path == index_path {
+                let bytes = shard
+                    .read_asset(a)
+                    .map_err(|e| MergeError::one(format!("stage `{name}`: {e}")))?;
+                indexes.push((*id, bytes));
+            } else {
+                want.push((a.path.clone(), a.blake3.clone()));
+            }
+        }
+    }
+    if joins_index {
+        let bytes = match stage {
+            Stage::Srdm => join_srdm(&indexes)?,
+            _ => join_materials(&indexes)?,
+        };
+        want.push((index_path, blake3::hash(&bytes).to_hex().to_string()));
+    }
+    Ok(want.len() == record.assets.len()
+        && want
+            .iter()
+            .zip(&record.assets)
+            .all(|((p, h), a)| *p == a.path && *h == a.blake3))
 }
 
 /// Writes stage `stage` of `out` from its units' shards into a [`StageWriter`]; returns it
