@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::merge::{MergeOptions, merge};
+use super::merge::{MergeOptions, merge_keeping};
 use super::shard::{MARKER, Marker, bake_unit_gathering, parse_marker};
 use super::unit_tool::shard_path;
 use super::units::{GATHER, Unit, UnitPlan, kind, plan_units};
@@ -162,12 +162,11 @@ pub fn bake_incremental(
             .filter(|u| kind(&u.id) != GATHER)
             .map(|u| shard_path(&cache, &u.id))
             .collect();
-        merge(
+        merge_keeping(
             bundle,
             &shards,
             MergeOptions {
                 force,
-                keep_unchanged: true,
                 ..Default::default()
             },
         )?;

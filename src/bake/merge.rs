@@ -60,9 +60,6 @@ pub struct MergeReport {
 pub struct MergeOptions {
     /// Replace a bundle of another scene (by name) instead of refusing.
     pub force: bool,
-    /// Leave a stage the bundle holds already with the assets and settings the merge would
-    /// write (only its scene hash is updated), instead of writing it again.
-    pub keep_unchanged: bool,
     /// Called before each file-system step of the commit (fault-injection tests).
     pub fault_hook: Option<FaultHook>,
 }
@@ -71,7 +68,6 @@ impl std::fmt::Debug for MergeOptions {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("MergeOptions")
             .field("force", &self.force)
-            .field("keep_unchanged", &self.keep_unchanged)
             .finish_non_exhaustive()
     }
 }
@@ -85,6 +81,26 @@ pub fn merge(
     out: &Path,
     shards: &[PathBuf],
     options: MergeOptions,
+) -> Result<MergeReport, MergeError> {
+    merge_into(out, shards, options, false)
+}
+
+/// [`merge`], leaving each stage the bundle holds already with the assets (intact) and
+/// settings the merge would write: only its scene hash is updated, and its files are not
+/// written again. At least one stage is written.
+pub fn merge_keeping(
+    out: &Path,
+    shards: &[PathBuf],
+    options: MergeOptions,
+) -> Result<MergeReport, MergeError> {
+    merge_into(out, shards, options, true)
+}
+
+fn merge_into(
+    out: &Path,
+    shards: &[PathBuf],
+    options: MergeOptions,
+    keep_unchanged: bool,
 ) -> Result<MergeReport, MergeError> {
     if shards.is_empty() {
         return Err(MergeError::one("no shards given"));
@@ -121,7 +137,7 @@ pub fn merge(
         stages: Vec::new(),
         assets: 0,
     };
-    let current = if options.keep_unchanged {
+    let current = if keep_unchanged {
         Bundle::open(out).ok()
     } else {
         None
