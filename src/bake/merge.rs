@@ -82,6 +82,26 @@ pub fn merge(
     shards: &[PathBuf],
     options: MergeOptions,
 ) -> Result<MergeReport, MergeError> {
+    merge_into(out, shards, options, false)
+}
+
+/// [`merge`], leaving each stage the bundle holds already with the assets (intact) and
+/// settings the merge would write: only its scene hash is updated, and its files are not
+/// written again. At least one stage is written.
+pub fn merge_keeping(
+    out: &Path,
+    shards: &[PathBuf],
+    options: MergeOptions,
+) -> Result<MergeReport, MergeError> {
+    merge_into(out, shards, options, true)
+}
+
+fn merge_into(
+    out: &Path,
+    shards: &[PathBuf],
+    options: MergeOptions,
+    keep_unchanged: bool,
+) -> Result<MergeReport, MergeError> {
     if shards.is_empty() {
         return Err(MergeError::one("no shards given"));
     }
@@ -126,9 +146,45 @@ pub fn merge(
             ))
         })
     };
+    let current = if keep_unchanged {
+        Bundle::open(out).ok()
+    } else {
+        None
+    };
+    let mut kept = Vec::new();
+    for part in &assembly.stages {
+        let units: Vec<(&str, &Bundle)> = part
+            .units
+            .iter()
+            .map(|(id, i)| (id.as_str(), &read[*i].2))
+            .collect();
+        let name = part.stage.name();
+        let held = current
+            .as_ref()
+            .and_then(|b| Some((b, b.stage(name)?)))
+            .filter(|(_, r)| r.settings == part.settings);
+        if let Some((b, r)) = held
+            && same_assets(part.stage, &units, r)?
+            && b.verify_stages(&[name]).is_empty()
+        {
+            kept.push((part.stage.name(), r.identity()));
+        }
+    }
+    // A commit writes at least one stage: with none changed, all are written again.
+    if kept.len() == assembly.stages.len() {
+        kept.clear();
+    }
+    drop(current);
+    for (stage, identity) in &kept {
+        commit.keep(stage, identity);
+        report.stages.push((*stage).into());
+    }
     for part in assembly.stages {
         if let Some(e) = stop() {
             return Err(e);
+        }
+        if kept.iter().any(|(k, _)| *k == part.stage.name()) {
+            continue;
         }
         let units: Vec<(&str, &Bundle)> = part
             .units
@@ -254,9 +310,11 @@ pub(crate) fn check_shards(
             ));
         }
     }
+    // Gathering shards are read by the `radiosity` unit alone, whose key covers theirs.
     let missing: Vec<&str> = plan
         .units
         .iter()
+        .filter(|u| kind(&u.id) != GATHER)
         .map(|u| u.id.as_str())
         .filter(|id| !by_unit.contains_key(id))
         .collect();
@@ -330,6 +388,45 @@ pub(crate) fn check_shards(
         });
     }
     Ok(Assembly { plan, stages })
+}
+
+/// Whether the stage `record` holds exactly the assets (paths and hashes, in order) that
+/// [`assemble`] would write from `units`.
+fn same_assets(
+    stage: Stage,
+    units: &[(&str, &Bundle)],
+    record: &StageRecord,
+) -> Result<bool, MergeError> {
+    let name = stage.name();
+    let index_path = format!("{name}/index.json");
+    let joins_index = matches!(stage, Stage::Materials | Stage::Srdm);
+    let mut want: Vec<(String, String)> = Vec::new();
+    let mut indexes = Vec::new();
+    for (id, shard) in units {
+        let r = shard.stage(name).expect("checked by check_shards");
+        for a in &r.assets {
+            if joins_index && a.path == index_path {
+                let bytes = shard
+                    .read_asset(a)
+                    .map_err(|e| MergeError::one(format!("stage `{name}`: {e}")))?;
+                indexes.push((*id, bytes));
+            } else {
+                want.push((a.path.clone(), a.blake3.clone()));
+            }
+        }
+    }
+    if joins_index {
+        let bytes = match stage {
+            Stage::Srdm => join_srdm(&indexes)?,
+            _ => join_materials(&indexes)?,
+        };
+        want.push((index_path, blake3::hash(&bytes).to_hex().to_string()));
+    }
+    Ok(want.len() == record.assets.len()
+        && want
+            .iter()
+            .zip(&record.assets)
+            .all(|((p, h), a)| *p == a.path && *h == a.blake3))
 }
 
 /// Writes stage `stage` of `out` from its units' shards into a [`StageWriter`]; returns it

@@ -3,6 +3,7 @@
 
 pub mod build_script;
 pub mod bundle_tool;
+pub mod incremental;
 pub mod materials;
 pub mod merge;
 pub mod part;

@@ -228,6 +228,23 @@ pub fn bake_unit(
     d_shard: Option<&Path>,
     progress: &dyn Progress,
 ) -> anyhow::Result<UnitReport> {
+    bake_unit_gathering(scene, settings, plan, id, shard, d_shard, false, progress)
+}
+
+/// [`bake_unit`], where the `radiosity` unit gathers every element itself when `gather_here`
+/// (the same D: each element draws from its own random streams) instead of reading the
+/// gathering units' shards.
+#[allow(clippy::too_many_arguments)]
+pub fn bake_unit_gathering(
+    scene: &Scene,
+    settings: &BakeSettings,
+    plan: &UnitPlan,
+    id: &str,
+    shard: &Path,
+    d_shard: Option<&Path>,
+    gather_here: bool,
+    progress: &dyn Progress,
+) -> anyhow::Result<UnitReport> {
     let unit = plan.unit(id).ok_or_else(|| {
         let ids: Vec<&str> = plan.units.iter().map(|u| u.id.as_str()).collect();
         anyhow::anyhow!(
@@ -268,7 +285,16 @@ pub fn bake_unit(
         item: plan.item(unit),
         d_from: d_path.as_deref(),
     };
-    let stage = bake_stage_part(scene, settings, plan, unit, shard, part, progress)?;
+    let stage = bake_stage_part(
+        scene,
+        settings,
+        plan,
+        unit,
+        shard,
+        part,
+        gather_here,
+        progress,
+    )?;
     let read_d = match &d_path {
         Some(p) => Some(super::part::require_d(p)?.1),
         None => None,
@@ -370,6 +396,7 @@ fn gather_sources(unit: &Unit, shard: &Path, plan: &UnitPlan) -> anyhow::Result<
 
 /// Bakes the stage part of `unit` into `shard` (replacing what it held); returns the name of
 /// the stage it committed there.
+#[allow(clippy::too_many_arguments)]
 fn bake_stage_part(
     scene: &Scene,
     s: &BakeSettings,
@@ -377,6 +404,7 @@ fn bake_stage_part(
     unit: &Unit,
     shard: &Path,
     part: Part<'_>,
+    gather_here: bool,
     progress: &dyn Progress,
 ) -> anyhow::Result<&'static str> {
     let force = true;
@@ -393,7 +421,11 @@ fn bake_stage_part(
             radiosity_stage::GATHER_STAGE
         }
         "radiosity" => {
-            let gathers = gather_sources(unit, shard, plan)?;
+            let gathers = if gather_here {
+                Vec::new()
+            } else {
+                gather_sources(unit, shard, plan)?
+            };
             let from = if gathers.is_empty() {
                 Gathering::Here
             } else {

@@ -14,7 +14,7 @@ use super::materials::{self, MaterialsError, MaterialsSettings, Outcome};
 use super::report::{BakeReport, SrdmViews};
 use super::srdm_stage::{self, SrdmOutcome, SrdmSettings};
 use super::written::Written;
-use super::{BakeSettings, Stage, bake_all, plan, radiance_stage, radiosity_stage};
+use super::{BakeSettings, Stage, plan, radiance_stage, radiosity_stage};
 use super::{scene_stage, up_to_date};
 use crate::cli::BakeArgs;
 use crate::progress::TerminalProgress;
@@ -241,7 +241,7 @@ fn bake_every_stage(
     let settings = BakeSettings::resolve(scene, quality)?;
     // One reporter for the whole run: it owns the process's only Ctrl-C handler.
     let progress = TerminalProgress::new();
-    let stages = bake_all(
+    let done = super::incremental::bake_incremental(
         scene,
         &args.bundle,
         &settings,
@@ -249,14 +249,17 @@ fn bake_every_stage(
         &progress,
     );
     progress.finish();
+    let done = done?;
     let report = BakeReport {
         scene: scene.name.clone(),
         bundle: args.bundle.clone(),
-        stages: stages?,
+        stages: done.stages.clone(),
     };
     if args.options.json {
         let mut v = report.to_json();
         v["warnings"] = serde_json::to_value(&unused)?;
+        v["units"] = serde_json::to_value(&done.units)?;
+        v["assembled"] = done.assembled.into();
         writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
     } else {
         write!(out, "{report}")?;

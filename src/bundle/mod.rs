@@ -79,9 +79,9 @@ pub enum BundleError {
     /// A baker would mix stages of two different scenes (or two versions of one).
     #[error(transparent)]
     SceneMismatch(Box<SceneMismatch>),
-    /// A merge would replace a bundle of another scene (by name).
+    /// A merge or a whole bake would replace a bundle of another scene (by name).
     #[error(
-        "{}: holds scene `{found_name}` (hash {found_hash:.12}…), not `{name}` (hash {hash:.12}…) being merged; pass --force to replace it",
+        "{}: holds scene `{found_name}` (hash {found_hash:.12}…), not `{name}` (hash {hash:.12}…) being written; pass --force to replace it",
         dir.display()
     )]
     OtherScene {
@@ -91,7 +91,7 @@ pub enum BundleError {
         found_name: Box<str>,
         /// The hash of that scene's stages.
         found_hash: Box<str>,
-        /// The scene being merged.
+        /// The scene being written (baked or merged).
         name: Box<str>,
         /// Its hash.
         hash: Box<str>,

@@ -295,6 +295,7 @@ impl StageWriter {
         let mut records = commit_stages(
             &dir,
             &mut [(self, info)],
+            &[],
             &mut hook,
             SceneGuard::Hash { force },
         )?;
@@ -306,6 +307,8 @@ impl StageWriter {
 pub struct SceneCommit {
     dir: PathBuf,
     stages: Vec<(StageWriter, StageInfo)>,
+    /// Stages the bundle holds already as they should be: (name, identity when read).
+    keep: Vec<(String, String)>,
     force: bool,
     hook: Option<FaultHook>,
 }
@@ -328,9 +331,18 @@ impl SceneCommit {
         SceneCommit {
             dir: dir.as_ref().to_owned(),
             stages: Vec::new(),
+            keep: Vec::new(),
             force,
             hook: None,
         }
+    }
+
+    /// Keeps stage `stage` of the bundle as it is (its folder and files), recorded as of
+    /// this commit's scene: the commit checks under the lock that the bundle still holds it
+    /// with `identity` ([`StageRecord::identity`]), and refuses
+    /// ([`BundleError::SourceChanged`]) if another writer replaced it meanwhile.
+    pub fn keep(&mut self, stage: &str, identity: &str) {
+        self.keep.push((stage.into(), identity.into()));
     }
 
     /// Refuses early, before any file is written, what [`SceneCommit::commit`] would refuse
@@ -380,7 +392,13 @@ impl SceneCommit {
             return Ok(Vec::new());
         }
         let guard = SceneGuard::Name { force: self.force };
-        commit_stages(&self.dir, &mut self.stages, &mut self.hook, guard)
+        commit_stages(
+            &self.dir,
+            &mut self.stages,
+            &self.keep,
+            &mut self.hook,
+            guard,
+        )
     }
 }
 
@@ -415,6 +433,7 @@ fn other_scene(old: &Manifest, name: &str, hash: &str) -> Option<(String, String
 fn commit_stages(
     dir: &Path,
     stages: &mut [(StageWriter, StageInfo)],
+    keep: &[(String, String)],
     hook: &mut Option<FaultHook>,
     guard: SceneGuard,
 ) -> Result<Vec<StageRecord>, BundleError> {
@@ -440,12 +459,26 @@ fn commit_stages(
             }
         }
     }
+    for (stage, read) in keep {
+        let now = old.stages.get(stage).map(StageRecord::identity);
+        if now.as_deref() != Some(read.as_str()) {
+            return Err(BundleError::SourceChanged {
+                dir: dir.to_owned(),
+                stage: stage.clone(),
+                read: read.clone(),
+                now: now.unwrap_or_else(|| "none".into()),
+            });
+        }
+    }
     let mut manifest = old.clone();
     let written: BTreeSet<String> = stages.iter().map(|(w, _)| w.stage.clone()).collect();
+    let kept = |name: &str| keep.iter().any(|(k, _)| k == name);
     let foreign: Vec<String> = manifest
         .stages
         .iter()
-        .filter(|(name, r)| !written.contains(*name) && r.scene_hash != scene_hash)
+        .filter(|(name, r)| {
+            !written.contains(*name) && !kept(name.as_str()) && r.scene_hash != scene_hash
+        })
         .map(|(name, _)| name.clone())
         .collect();
     match guard {
@@ -513,6 +546,11 @@ fn commit_stages(
     }
     for name in &foreign {
         manifest.stages.remove(name);
+    }
+    for (name, _) in keep {
+        if let Some(r) = manifest.stages.get_mut(name) {
+            r.scene_hash = scene_hash.clone();
+        }
     }
 
     // The next free version of each stage: above every `stage.K` on disk or in the manifest.

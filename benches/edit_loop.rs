@@ -1,0 +1,303 @@
+//! The edit loop: per kind of edit to a scene (a camera path, one albedo, one glossy
+//! roughness, one light's power, a reflector added), what the plain `glint-bake` rebakes
+//! ([`glint::bake::incremental`]) and its wall time (scene load included) against a full
+//! bake, median of `--runs` runs. Each run starts from a copy of one baked bundle and its unit
+//! cache, so no run pays for undoing the last.
+//!
+//! On glossy-room (the default), the light is the ceiling lamp's emissive material (the scene
+//! has no area lights), and the reflector added is TableTop's (the run starts from a bundle
+//! of the scene without it). Every glossy material of glossy-room belongs to a reflector, so
+//! the roughness edited is GlossyTable's (TableTop's).
+//!
+//! A full bake is also timed once stage by stage (`bake_all`, what the stage tools run) unless
+//! `--no-per-stage`.
+//!
+//! `cargo bench --no-default-features --bench edit_loop [-- [--quality Q] [--runs N]
+//! [--only EDIT,…] [--no-per-stage]]` (edits: noop, camera, albedo, roughness, light,
+//! reflector).
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use glint::bake::BakeSettings;
+use glint::bake::incremental::{Incremental, bake_incremental, cache_dir};
+use glint::bundle::stats::format_table;
+use glint::progress::Silent;
+use glint::scene::{Quality, Scene};
+use serde_json::{Value, json};
+
+/// One edit of scene.json.
+struct Edit {
+    name: &'static str,
+    what: &'static str,
+    apply: fn(&mut Value),
+    /// Applied to the scene of the bundle each run starts from (`reflector`: without it).
+    base: Option<fn(&mut Value)>,
+}
+
+fn edits() -> Vec<Edit> {
+    vec![
+        Edit {
+            name: "noop",
+            what: "nothing changed",
+            apply: |_| {},
+            base: None,
+        },
+        Edit {
+            name: "camera",
+            what: "camera path `walkthrough`: keyframe 2 moved",
+            apply: |v| v["camera_paths"][0]["keyframes"][2]["position"] = json!([-2.0, 1.5, 1.2]),
+            base: None,
+        },
+        Edit {
+            name: "albedo",
+            what: "GlossyFloor albedo",
+            apply: |v| v["materials"]["GlossyFloor"]["albedo"] = json!([0.5, 0.4, 0.4]),
+            base: None,
+        },
+        Edit {
+            name: "roughness",
+            what: "GlossyTable roughness 0.15 → 0.2",
+            apply: |v| {
+                let lobe = &mut v["materials"]["GlossyTable"]["lobes"][0];
+                lobe["mx"] = 0.2.into();
+                lobe["my"] = 0.2.into();
+            },
+            base: None,
+        },
+        Edit {
+            name: "light",
+            what: "CeilingLight emission ×1.5",
+            apply: |v| {
+                v["materials"]["CeilingLight"] = json!({ "emission": [30.0, 28.5, 25.5] });
+            },
+            base: None,
+        },
+        Edit {
+            name: "reflector",
+            what: "TableTop planar reflector added",
+            apply: |_| {},
+            base: Some(|v| {
+                v["reflectors"]
+                    .as_array_mut()
+                    .expect("reflectors")
+                    .retain(|r| r["mesh"] != "TableTop")
+            }),
+        },
+    ]
+}
+
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        let dest = to.join(e.file_name());
+        if e.file_type().unwrap().is_dir() {
+            copy_dir(&e.path(), &dest);
+        } else {
+            std::fs::copy(e.path(), dest).unwrap();
+        }
+    }
+}
+
+fn remove(p: &Path) {
+    if p.exists() {
+        std::fs::remove_dir_all(p).unwrap();
+    }
+}
+
+fn write_scene(path: &Path, original: &Value, f: impl FnOnce(&mut Value)) {
+    let mut v = original.clone();
+    f(&mut v);
+    std::fs::write(path, serde_json::to_string_pretty(&v).unwrap()).unwrap();
+}
+
+/// Loads the scene and bakes it into `bundle` as `glint-bake` does: (seconds, what it did).
+fn bake(scene_json: &Path, bundle: &Path, quality: Option<Quality>) -> (f64, Incremental) {
+    let start = Instant::now();
+    let scene = Scene::load(scene_json).unwrap_or_else(|e| panic!("{e}"));
+    let settings = BakeSettings::resolve(&scene, quality.unwrap_or(scene.desc.bake.quality))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let done = bake_incremental(&scene, bundle, &settings, false, &Silent)
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    (start.elapsed().as_secs_f64(), done)
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Copies `bundle` and its unit cache to `to` (and its cache).
+fn copy_bundle(bundle: &Path, to: &Path) {
+    remove(to);
+    remove(&cache_dir(to));
+    copy_dir(bundle, to);
+    copy_dir(&cache_dir(bundle), &cache_dir(to));
+}
+
+fn main() {
+    let mut args = std::env::args().skip(1).filter(|a| a != "--bench");
+    let (mut quality, mut runs, mut only) = (None, 3usize, None::<Vec<String>>);
+    let mut no_per_stage = false;
+    let mut scene_dir = glint_repo().join("scenes/glossy-room");
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "--quality" => {
+                let q = args.next().expect("--quality Q");
+                let found = Quality::ALL.into_iter().find(|p| p.name() == q);
+                quality = Some(found.unwrap_or_else(|| panic!("--quality {q}: no such preset")));
+            }
+            "--no-per-stage" => no_per_stage = true,
+            "--runs" => runs = args.next().expect("--runs N").parse().unwrap(),
+            "--only" => {
+                only = Some(
+                    args.next()
+                        .expect("--only EDIT,…")
+                        .split(',')
+                        .map(String::from)
+                        .collect(),
+                )
+            }
+            p => scene_dir = PathBuf::from(p).parent().unwrap().to_owned(),
+        }
+    }
+    let work = tempfile::tempdir().unwrap();
+    let scene_copy = work.path().join("scene");
+    copy_dir(&scene_dir, &scene_copy);
+    let scene_json = scene_copy.join("scene.json");
+    let original: Value = serde_json::from_slice(&std::fs::read(&scene_json).unwrap()).unwrap();
+
+    // Full bakes, each into a new bundle with an empty cache; the first is every run's start.
+    let base = work.path().join("base.glint");
+    let mut full = Vec::new();
+    for r in 0..runs {
+        let bundle = if r == 0 {
+            base.clone()
+        } else {
+            work.path().join(format!("full{r}.glint"))
+        };
+        let (t, _) = bake(&scene_json, &bundle, quality);
+        eprintln!("full bake {}: {t:.2} s", r + 1);
+        full.push(t);
+        if r > 0 {
+            remove(&bundle);
+            remove(&cache_dir(&bundle));
+        }
+    }
+    let full = median(full);
+    // The same scene baked stage by stage (`bake_all`, no unit cache), once: what the units'
+    // route costs a bake from scratch.
+    let per_stage = (!no_per_stage).then(|| {
+        let bundle = work.path().join("per-stage.glint");
+        let start = Instant::now();
+        let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
+        let settings = BakeSettings::resolve(&scene, quality.unwrap_or(scene.desc.bake.quality))
+            .unwrap_or_else(|e| panic!("{e}"));
+        glint::bake::bake_all(&scene, &bundle, &settings, false, &Silent)
+            .unwrap_or_else(|e| panic!("{e}"));
+        let t = start.elapsed().as_secs_f64();
+        eprintln!("per-stage bake: {t:.2} s");
+        remove(&bundle);
+        t
+    });
+
+    let mut rows = vec![[
+        "edit".to_string(),
+        "what changed".into(),
+        "units rebaked".into(),
+        "median s".into(),
+        "vs full".into(),
+    ]];
+    rows.push([
+        "full".into(),
+        "bake from scratch".into(),
+        "all".into(),
+        format!("{full:.2}"),
+        "100%".into(),
+    ]);
+    if let Some(t) = per_stage {
+        rows.push([
+            "full/stages".into(),
+            "from scratch, stage by stage (bake_all), 1 run".into(),
+            "all".into(),
+            format!("{t:.2}"),
+            format!("{:.1}%", 100.0 * t / full),
+        ]);
+    }
+    for e in edits() {
+        if only
+            .as_ref()
+            .is_some_and(|o| !o.iter().any(|n| n == e.name))
+        {
+            continue;
+        }
+        let start_from = match e.base {
+            None => base.clone(),
+            Some(f) => {
+                let b = work.path().join(format!("base-{}.glint", e.name));
+                write_scene(&scene_json, &original, f);
+                bake(&scene_json, &b, quality);
+                b
+            }
+        };
+        let mut times = Vec::new();
+        let mut rebaked = String::new();
+        for r in 0..runs {
+            let bundle = work.path().join("edited.glint");
+            copy_bundle(&start_from, &bundle);
+            // Nothing changed: scene.json as it was, byte for byte.
+            if e.name == "noop" {
+                std::fs::copy(scene_dir.join("scene.json"), &scene_json).unwrap();
+            } else {
+                write_scene(&scene_json, &original, e.apply);
+            }
+            let (t, done) = bake(&scene_json, &bundle, quality);
+            eprintln!("{} {}: {t:.2} s", e.name, r + 1);
+            times.push(t);
+            // The gathering units as one entry: there are many at higher presets.
+            let gathers: Vec<f64> = done
+                .baked()
+                .filter(|u| u.stage == "gather")
+                .map(|u| u.seconds)
+                .collect();
+            let mut units: Vec<String> = Vec::new();
+            if !gathers.is_empty() {
+                let t: f64 = gathers.iter().sum();
+                units.push(format!("gather ×{} ({t:.1} s)", gathers.len()));
+            }
+            units.extend(
+                done.baked()
+                    .filter(|u| u.stage != "gather")
+                    .map(|u| format!("{} ({:.1} s)", u.unit, u.seconds)),
+            );
+            rebaked = if units.is_empty() {
+                "none".into()
+            } else {
+                units.join(", ")
+            };
+        }
+        let t = median(times);
+        rows.push([
+            e.name.into(),
+            e.what.into(),
+            rebaked,
+            format!("{t:.2}"),
+            format!("{:.1}%", 100.0 * t / full),
+        ]);
+    }
+    println!(
+        "edit loop: {} at {}, median of {runs}",
+        scene_dir.display(),
+        quality.map_or("its own quality".into(), |q: Quality| q.name().to_string())
+    );
+    print!(
+        "{}",
+        format_table(&rows, &[false, false, false, true, true])
+    );
+}
+
+/// The repository root (benches run there).
+fn glint_repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}

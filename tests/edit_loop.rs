@@ -1,0 +1,287 @@
+//! The edit loop: the same `glint-bake SCENE --bundle B` after each kind of edit rebakes only
+//! the work units whose inputs changed, and leaves a bundle byte for byte what a bake from
+//! scratch of the edited scene gives; nothing changed, nothing is written; a bundle of
+//! another scene is replaced only with `--force`, and the refusal names both scenes.
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use common::*;
+
+fn bake(args: &[&str]) -> (i32, String, String) {
+    run_exe(env!("CARGO_BIN_EXE_glint-bake"), args)
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// A room (diffuse floor, metal panel, emissive ceiling), an area light, a camera path, a
+/// glossy lobe on the floor and the panel as planar reflector; sampled coarsely, to bake in
+/// seconds.
+fn edit_room(dir: &Path) -> std::path::PathBuf {
+    write_room(dir);
+    write_scene(
+        dir,
+        r#"{
+  "version": 1,
+  "name": "edit-room",
+  "geometry": "room.gltf",
+  "materials": {
+    "FloorMat": { "lobes": [{ "ks": [0.3, 0.3, 0.3], "r0": 0.04, "mx": 0.3, "my": 0.3, "alpha": 0.0 }] }
+  },
+  "lights": [
+    { "name": "lamp", "corner": [-0.2, 1.9, -0.2], "edge_u": [0.4, 0.0, 0.0], "edge_v": [0.0, 0.0, 0.4], "radiance": [5.0, 5.0, 5.0] }
+  ],
+  "reflectors": [{ "mesh": "Panel", "kind": "planar", "radiance": { "elements": [2, 2], "cameras_per_hemisphere": 4, "resolution": 16 } }],
+  "bake": { "radiosity": { "rays": 16, "light_samples": 4, "bounces": 4 } },
+  "camera_paths": [
+    { "name": "walk", "fps": 30, "keyframes": [
+      { "time": 0.0, "position": [0.5, 1.0, 1.5], "target": [-0.9, 0.8, 0.0], "fov_y_deg": 60.0 },
+      { "time": 1.0, "position": [0.0, 1.0, 1.5], "target": [-0.9, 0.8, 0.0], "fov_y_deg": 60.0 }
+    ] }
+  ]
+}"#,
+    )
+}
+
+fn edit(scene: &Path, f: impl FnOnce(&mut serde_json::Value)) {
+    let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(scene).unwrap()).unwrap();
+    f(&mut v);
+    std::fs::write(scene, serde_json::to_string_pretty(&v).unwrap()).unwrap();
+}
+
+/// Per stage: (scene hash, settings, every asset's path, kind, size and BLAKE3 in order).
+type Stages = BTreeMap<String, serde_json::Value>;
+
+fn stages(bundle: &Path) -> Stages {
+    let m: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(bundle.join("manifest.json")).unwrap()).unwrap();
+    m["stages"]
+        .as_object()
+        .unwrap()
+        .iter()
+        .map(|(name, r)| {
+            let v = serde_json::json!([r["scene_hash"], r["settings"], r["assets"]]);
+            (name.clone(), v)
+        })
+        .collect()
+}
+
+/// Per stage, the folder the manifest names.
+fn folders(bundle: &Path) -> BTreeMap<String, String> {
+    let m: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(bundle.join("manifest.json")).unwrap()).unwrap();
+    m["stages"]
+        .as_object()
+        .unwrap()
+        .iter()
+        .map(|(name, r)| (name.clone(), r["dir"].as_str().unwrap().to_string()))
+        .collect()
+}
+
+/// `glint-bake` at draft into `bundle`: the units it baked.
+fn bake_units(scene: &Path, bundle: &Path) -> Vec<String> {
+    let (code, out, err) = bake(&[
+        s(scene),
+        "--quality",
+        "draft",
+        "--bundle",
+        s(bundle),
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    v["units"]
+        .as_array()
+        .unwrap_or_else(|| panic!("no units in the report: {out}"))
+        .iter()
+        .filter(|u| u["baked"] == true)
+        .map(|u| u["unit"].as_str().unwrap().to_string())
+        .collect()
+}
+
+/// The bundle at `bundle` holds what a bake from scratch of `scene` gives, byte for byte.
+fn assert_same_as_fresh(scene: &Path, bundle: &Path, fresh: &Path, what: &str) {
+    bake_units(scene, fresh);
+    let (a, b) = (stages(fresh), stages(bundle));
+    assert_eq!(
+        a.keys().collect::<Vec<_>>(),
+        b.keys().collect::<Vec<_>>(),
+        "{what}: stages"
+    );
+    for (name, v) in &a {
+        assert_eq!(
+            v, &b[name],
+            "{what}: stage {name} differs from a fresh bake"
+        );
+    }
+}
+
+#[test]
+fn each_edit_rebakes_only_what_it_touches_and_gives_the_bytes_of_a_fresh_bake() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = edit_room(tmp.path());
+    let bundle = tmp.path().join("out/room.glint");
+    let args = [s(&scene), "--quality", "draft", "--bundle", s(&bundle)];
+    let (code, _, err) = bake(&args);
+    assert_eq!(code, 0, "{err}");
+
+    // Nothing changed: nothing baked, nothing written.
+    let manifest = std::fs::read(bundle.join("manifest.json")).unwrap();
+    let (code, out, err) = bake(&args);
+    assert_eq!(code, 0, "{err}");
+    assert!(!out.contains("baked in"), "{out}");
+    assert_eq!(
+        std::fs::read(bundle.join("manifest.json")).unwrap(),
+        manifest
+    );
+
+    let fresh = |k: &str| tmp.path().join(format!("fresh/{k}.glint"));
+    let has = |v: &[String], id: &str| v.iter().any(|u| u == id);
+
+    // A camera path: the scene copy alone; the other stages' folders are kept, not copied.
+    let before = folders(&bundle);
+    edit(&scene, |v| v["camera_paths"][0]["fps"] = 24.into());
+    assert_eq!(bake_units(&scene, &bundle), ["scene"]);
+    let after = folders(&bundle);
+    assert_ne!(before["scene"], after["scene"]);
+    for stage in ["radiosity", "materials", "radiance"] {
+        assert_eq!(before[stage], after[stage], "{stage}");
+    }
+    assert_same_as_fresh(&scene, &bundle, &fresh("camera"), "camera path");
+
+    // One albedo: D and what reads it; the materials whose lobes did not change are kept.
+    edit(&scene, |v| {
+        v["materials"]["FloorMat"]["albedo"] = serde_json::json!([0.6, 0.5, 0.4])
+    });
+    let baked = bake_units(&scene, &bundle);
+    assert!(
+        has(&baked, "radiosity") && has(&baked, "radiance.Panel"),
+        "{baked:?}"
+    );
+    assert!(!has(&baked, "material.PanelMat"), "{baked:?}");
+    assert_same_as_fresh(&scene, &bundle, &fresh("albedo"), "albedo");
+
+    // A glossy roughness of a material that is no reflector: its lobes, and D (glossy
+    // transport carries its light); the other material's kernels are kept.
+    edit(&scene, |v| {
+        v["materials"]["FloorMat"]["lobes"][0]["mx"] = 0.2.into();
+        v["materials"]["FloorMat"]["lobes"][0]["my"] = 0.2.into();
+    });
+    let baked = bake_units(&scene, &bundle);
+    assert!(has(&baked, "material.FloorMat"), "{baked:?}");
+    assert!(!has(&baked, "material.PanelMat"), "{baked:?}");
+    assert_same_as_fresh(&scene, &bundle, &fresh("roughness"), "roughness");
+
+    // One light's power: D and what reads it, no material kernel.
+    edit(&scene, |v| {
+        v["lights"][0]["radiance"] = serde_json::json!([8.0, 8.0, 8.0])
+    });
+    let baked = bake_units(&scene, &bundle);
+    assert!(has(&baked, "radiosity"), "{baked:?}");
+    assert!(
+        !baked.iter().any(|u| u.starts_with("material.")),
+        "{baked:?}"
+    );
+    assert_same_as_fresh(&scene, &bundle, &fresh("light"), "light power");
+
+    // A reflector added: its radiance maps (and D: mirror lights read the reflectors); the
+    // other reflector's material kernels are kept.
+    edit(&scene, |v| {
+        v["reflectors"]
+            .as_array_mut()
+            .unwrap()
+            .push(serde_json::json!({ "mesh": "Floor", "kind": "planar",
+                "radiance": { "elements": [2, 2], "cameras_per_hemisphere": 4, "resolution": 16 } }))
+    });
+    let baked = bake_units(&scene, &bundle);
+    assert!(has(&baked, "radiance.Floor"), "{baked:?}");
+    assert!(!has(&baked, "material.PanelMat"), "{baked:?}");
+    assert_same_as_fresh(&scene, &bundle, &fresh("reflector"), "reflector added");
+    // And what a bake stage by stage (no unit cache, D gathered in one run) gives.
+    let whole = tmp.path().join("whole.glint");
+    let loaded = glint::scene::Scene::load(&scene).unwrap();
+    let settings =
+        glint::bake::BakeSettings::resolve(&loaded, glint::scene::Quality::Draft).unwrap();
+    glint::bake::bake_all(&loaded, &whole, &settings, false, &glint::progress::Silent).unwrap();
+    assert_eq!(stages(&whole), stages(&bundle), "stage by stage");
+
+    // And once more: nothing to do.
+    assert_eq!(bake_units(&scene, &bundle), Vec::<String>::new());
+
+    // A damaged shard in the cache: its unit alone is rebaked.
+    let cache = tmp.path().join("out/room.glint.units");
+    let file = first_file(&cache.join("material.PanelMat.glint"));
+    std::fs::write(&file, b"damaged").unwrap();
+    assert_eq!(bake_units(&scene, &bundle), ["material.PanelMat"]);
+    assert_same_as_fresh(&scene, &bundle, &fresh("reflector"), "damaged shard");
+
+    // A damaged or deleted bundle: assembled again from the cache, nothing baked.
+    std::fs::write(first_file(&bundle), b"damaged").unwrap();
+    assert_eq!(bake_units(&scene, &bundle), Vec::<String>::new());
+    assert_same_as_fresh(&scene, &bundle, &fresh("reflector"), "damaged bundle");
+    let problems = glint::bundle::Bundle::open(&bundle).unwrap().verify();
+    assert!(problems.is_empty(), "{problems:?}");
+    std::fs::remove_dir_all(&bundle).unwrap();
+    assert_eq!(bake_units(&scene, &bundle), Vec::<String>::new());
+    assert_same_as_fresh(&scene, &bundle, &fresh("reflector"), "deleted bundle");
+}
+
+/// The first asset file (not `manifest.json`, `unit.json` or the lock) under `dir`'s stage
+/// folders, in name order.
+fn first_file(dir: &Path) -> std::path::PathBuf {
+    let mut entries: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    entries.sort();
+    for p in entries {
+        if p.is_dir() {
+            return first_file(&p);
+        }
+        let name = p.file_name().unwrap().to_str().unwrap();
+        if !["manifest.json", "unit.json", ".lock"].contains(&name) {
+            return p;
+        }
+    }
+    panic!("{}: no asset file", dir.display())
+}
+
+#[test]
+fn a_bundle_of_another_scene_is_replaced_only_with_force_and_the_refusal_names_both() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = lit_floor(tmp.path());
+    let bundle = tmp.path().join("b.glint");
+    let (code, _, err) = bake(&[s(&scene), "--quality", "draft", "--bundle", s(&bundle)]);
+    assert_eq!(code, 0, "{err}");
+    edit(&scene, |v| v["name"] = "other-floor".into());
+    let manifest = std::fs::read(bundle.join("manifest.json")).unwrap();
+    let (code, _, err) = bake(&[s(&scene), "--quality", "draft", "--bundle", s(&bundle)]);
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("`other-floor`") && err.contains("--force"),
+        "{err}"
+    );
+    let old: serde_json::Value = serde_json::from_slice(&manifest).unwrap();
+    let old_name = old["scene_name"].as_str().unwrap();
+    assert!(err.contains(&format!("`{old_name}`")), "{err}");
+    assert_eq!(
+        std::fs::read(bundle.join("manifest.json")).unwrap(),
+        manifest
+    );
+    let (code, _, err) = bake(&[
+        s(&scene),
+        "--quality",
+        "draft",
+        "--bundle",
+        s(&bundle),
+        "--force",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let m: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(bundle.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(m["scene_name"], "other-floor");
+}
