@@ -271,7 +271,7 @@ fn nanos(d: Duration) -> u64 {
     u64::try_from(d.as_nanos()).unwrap_or(u64::MAX)
 }
 
-/// `gathering: 41200/100399 (41%), 686/s, ETA 1 min 26 s`.
+/// One progress line: the phase, done/total with its percentage, the rate and the time left.
 pub fn progress_line(name: &str, done: u64, total: u64, elapsed: Duration) -> String {
     let secs = elapsed.as_secs_f64();
     let rate = if secs > 0.0 { done as f64 / secs } else { 0.0 };
