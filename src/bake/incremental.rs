@@ -13,8 +13,8 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use super::merge::{MergeOptions, merge_keeping};
+use super::shard::shard_path;
 use super::shard::{MARKER, Marker, bake_unit_gathering, parse_marker};
-use super::unit_tool::shard_path;
 use super::units::{GATHER, Unit, UnitPlan, kind, plan_units};
 use super::{BakeSettings, Stage, StageReport, StageStatus};
 use crate::bundle::{Bundle, SceneCommit, StageWriter, write_atomic};

@@ -458,3 +458,8 @@ fn bake_stage_part(
     };
     Ok(stage)
 }
+
+/// The shard of unit `id` in `dir`.
+pub fn shard_path(dir: &Path, id: &str) -> PathBuf {
+    dir.join(format!("{id}.glint"))
+}

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use super::BakeSettings;
-use super::shard::{UnitReport, bake_unit};
+use super::shard::{UnitReport, bake_unit, shard_path};
 use super::units::{UnitPlan, plan_units};
 use super::written::Written;
 use crate::bundle::stats::format_table;
@@ -104,11 +104,6 @@ fn run_units(
         }
     }
     Ok(ExitCode::SUCCESS)
-}
-
-/// The shard of unit `id` in `dir`.
-pub fn shard_path(dir: &Path, id: &str) -> PathBuf {
-    dir.join(format!("{id}.glint"))
 }
 
 /// Bakes every unit of `plan` into `dir`, wave by wave.
