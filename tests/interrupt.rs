@@ -122,18 +122,23 @@ fn sigint_stops_glint_bake_with_130_and_says_which_stages_it_wrote() {
     let bundle = dir.path().join("stopped.glint");
     let (code, err) = interrupted_mid_gathering(env!("CARGO_BIN_EXE_glint-bake"), &scene, &bundle);
     assert_eq!(code, Some(130), "{err}");
+    // glint-bake bakes through its unit cache and assembles the bundle last: stopped while
+    // gathering, it wrote no bundle, and the finished scene unit is kept in the cache.
     let last = err.lines().last().unwrap_or_default();
     assert!(
-        last.starts_with("error: interrupted: wrote stage scene of ")
-            && last.contains("stopped.glint (complete)")
-            && last.contains("any stage under way was not written"),
+        last.starts_with("error: interrupted: nothing was written; ")
+            && last.contains("stopped.glint is as before")
+            && last.contains("finished work unit(s) scene kept in ")
+            && last.contains("stopped.glint.units"),
         "{err}"
     );
-    // What it says is what the bundle holds: the scene stage, intact; no radiosity.
-    let b = Bundle::open(&bundle).unwrap();
-    assert!(b.stage("scene").is_some());
-    assert!(b.stage("radiosity").is_none());
-    assert!(b.verify().is_empty(), "{:?}", b.verify());
+    // What it says is what the disk holds: no stage in the bundle; the scene unit's shard, complete.
+    assert!(Bundle::open(&bundle).map_or(true, |b| b.manifest().stages.is_empty()));
+    let cache = dir.path().join("stopped.glint.units");
+    let shard = Bundle::open(cache.join("scene.glint")).unwrap();
+    assert!(shard.stage("scene").is_some());
+    assert!(cache.join("scene.glint/unit.json").is_file());
+    assert!(!cache.join("radiosity.glint/unit.json").exists());
 }
 
 #[cfg(unix)]

@@ -63,7 +63,10 @@ fn setting_error<T: serde::Serialize>(
 /// Runs `tool` with `args`, writing its report to `out`. Stopped by Ctrl-C, its error says
 /// which stages it wrote ([`Written`]).
 pub fn run(args: &BakeArgs, tool: Tool, out: &mut dyn Write) -> anyhow::Result<ExitCode> {
-    let written = Written::snapshot(&[&args.bundle]);
+    let mut written = Written::snapshot(&[&args.bundle]);
+    if matches!(tool, Tool::All) {
+        written = written.with_unit_cache(super::incremental::cache_dir(&args.bundle));
+    }
     run_tool(args, tool, out).map_err(|e| written.explain(e))
 }
 

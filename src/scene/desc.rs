@@ -118,7 +118,7 @@ struct LobeFields {
     alpha: Option<f32>,
 }
 
-/// Read through [`LobeFields`] so that a lobe with `alpha` and no `model` stays `kurt`:
+/// Read through `LobeFields` so that a lobe with `alpha` and no `model` stays `kurt`:
 /// scene.json files, and the bundles' copies of them, written while `kurt` was the default
 /// keep their look.
 impl<'de> Deserialize<'de> for LobeDesc {
