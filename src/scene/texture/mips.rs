@@ -179,7 +179,7 @@ mod tests {
             height,
             texels: (0..width * height)
                 .map(|i| {
-                    if (i % width + i / width) % 2 == 0 {
+                    if (i % width + i / width).is_multiple_of(2) {
                         a
                     } else {
                         b
