@@ -21,7 +21,6 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use common::shipped::{Recipe, Step, shipped_bundle};
-use glint::scene::desc::RadiositySettings;
 
 /// Largest whole-frame relative RMSE, ‖babylon − glint‖ / ‖glint‖ over every pixel and
 /// channel of the 8-bit display frames.
@@ -42,30 +41,11 @@ const SHIPPED: [&str; 5] = [
     "breakfast-room",
 ];
 
-fn settings() -> RadiositySettings {
-    RadiositySettings {
-        texel_density: 8.0,
-        rays: 32,
-        light_samples: 4,
-        bounces: 3,
-        tolerance: 1e-2,
-        glossy_depth: 0,
-        target_error: None,
-        min_chart_texels: 0,
-        min_scene_texels: 0,
-        contact_boost: 0.0,
-        texels_per_radian: 0.0,
-        stitch_seams: false,
-        cache_budget_mib: 2048,
-        max_elements: 0,
-    }
-}
-
 fn bundle(scene: &'static str) -> PathBuf {
     shipped_bundle(
         &Recipe::new(scene)
             .then(Step::Scene)
-            .then(Step::Radiosity(settings())),
+            .then(Step::Radiosity(common::quick_radiosity(3))),
     )
 }
 
