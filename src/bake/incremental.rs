@@ -344,12 +344,7 @@ fn scene_changes(cache: &Path, scene: &Scene) -> Vec<String> {
         .ok()
         .and_then(|b| b.read_stage_file(Stage::Scene.name(), "scene.json").ok())
         .and_then(|t| serde_json::from_slice::<serde_json::Value>(&t).ok());
-    // As the scene stage stores it: named, its geometry beside it.
-    let mut desc = scene.desc.clone();
-    desc.name = Some(scene.name.clone());
-    if let Some(f) = Path::new(&desc.geometry).file_name() {
-        desc.geometry = f.to_string_lossy().into_owned();
-    }
+    let desc = super::scene_stage::stored_desc(scene);
     // Through text, as stored: a value's own f32 digits, not its f64 widening.
     let new = serde_json::to_string(&desc)
         .ok()

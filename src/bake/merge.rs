@@ -151,20 +151,26 @@ fn merge_into(
     } else {
         None
     };
+    // Each stage's units with their shards, in assembly order.
+    let units: Vec<Vec<(&str, &Bundle)>> = assembly
+        .stages
+        .iter()
+        .map(|part| {
+            part.units
+                .iter()
+                .map(|(id, i)| (id.as_str(), &read[*i].2))
+                .collect()
+        })
+        .collect();
     let mut kept = Vec::new();
-    for part in &assembly.stages {
-        let units: Vec<(&str, &Bundle)> = part
-            .units
-            .iter()
-            .map(|(id, i)| (id.as_str(), &read[*i].2))
-            .collect();
+    for (part, units) in assembly.stages.iter().zip(&units) {
         let name = part.stage.name();
         let held = current
             .as_ref()
             .and_then(|b| Some((b, b.stage(name)?)))
             .filter(|(_, r)| r.settings == part.settings);
         if let Some((b, r)) = held
-            && same_assets(part.stage, &units, r)?
+            && same_assets(part.stage, units, r)?
             && b.verify_stages(&[name]).is_empty()
         {
             kept.push((part.stage.name(), r.identity()));
@@ -179,27 +185,22 @@ fn merge_into(
         commit.keep(stage, identity);
         report.stages.push((*stage).into());
     }
-    for part in assembly.stages {
+    for (part, units) in assembly.stages.iter().zip(&units) {
         if let Some(e) = stop() {
             return Err(e);
         }
         if kept.iter().any(|(k, _)| *k == part.stage.name()) {
             continue;
         }
-        let units: Vec<(&str, &Bundle)> = part
-            .units
-            .iter()
-            .map(|(id, i)| (id.as_str(), &read[*i].2))
-            .collect();
         let name = part.stage.name();
-        let (w, info) = assemble(out, plan, part.stage, &units)?;
+        let (w, info) = assemble(out, plan, part.stage, units)?;
         report.assets += w.assets().len();
         report.stages.push(name.into());
         commit.push(
             w,
             StageInfo {
-                settings: part.settings,
-                stats: part.stats,
+                settings: part.settings.clone(),
+                stats: part.stats.clone(),
                 bake_seconds: part.bake_seconds,
                 ..info
             },

@@ -12,7 +12,6 @@ pub mod radiance_stage;
 pub mod radiosity_stage;
 pub mod report;
 pub mod run;
-pub mod scene_read;
 pub mod scene_stage;
 pub mod shard;
 pub mod srdm_stage;

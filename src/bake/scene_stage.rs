@@ -6,6 +6,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use crate::bundle::{BundleError, StageInfo, StageRecord, StageWriter};
+use crate::scene::desc::SceneDesc;
 use crate::scene::{Scene, SceneError, uri_path};
 
 use super::Stage;
@@ -51,10 +52,6 @@ pub fn bake(scene: &Scene, bundle: &Path, force: bool) -> Result<StageRecord, Sc
         })
     };
     let gltf_bytes = read(&gltf_path)?;
-    let file_name = gltf_path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "geometry.glb".into());
 
     // External buffers and images of a .gltf, at the same relative paths; one whose URI is
     // not a plain relative path inside the glTF's folder (`../x.bin`, percent-escapes) is
@@ -105,12 +102,10 @@ pub fn bake(scene: &Scene, bundle: &Path, force: bool) -> Result<StageRecord, Sc
     };
 
     let mut w = StageWriter::begin(bundle, Stage::Scene.name())?;
-    let mut desc = scene.desc.clone();
-    desc.geometry = file_name.clone();
-    desc.name = Some(scene.name.clone());
+    let desc = stored_desc(scene);
     let json = serde_json::to_string_pretty(&desc).expect("scene description serializes");
     w.write("scene.json", "scene-json", json.as_bytes())?;
-    w.write(&file_name, "gltf", &gltf_bytes)?;
+    w.write(&desc.geometry, "gltf", &gltf_bytes)?;
     for (name, bytes) in &buffers {
         w.write(name, "gltf-buffer", bytes)?;
     }
@@ -125,6 +120,17 @@ pub fn bake(scene: &Scene, bundle: &Path, force: bool) -> Result<StageRecord, Sc
         bake_seconds: start.elapsed().as_secs_f64(),
         force,
     })?)
+}
+
+/// `scene`'s description as the stage stores it: named, its geometry the file beside it.
+pub fn stored_desc(scene: &Scene) -> SceneDesc {
+    let mut desc = scene.desc.clone();
+    desc.name = Some(scene.name.clone());
+    desc.geometry = Path::new(&desc.geometry)
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "geometry.glb".into());
+    desc
 }
 
 /// Whether a buffer URI is a path the bundle can store as it is: relative, `/`-separated,

@@ -18,6 +18,7 @@
 
 pub mod manifest;
 mod names;
+pub mod scene_read;
 mod scene_refs;
 pub mod stats;
 mod writer;

@@ -12,10 +12,11 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 use serde_json::Value;
 
+use crate::bundle::scene_read::SceneReadError;
 use crate::bundle::{Bundle, BundleError};
 use crate::radiosity::RadiosityMap;
 use crate::radiosity::map::MapError;
-use crate::scene::{Scene, SceneError};
+use crate::scene::Scene;
 use gltf_out::{Binding, Embedded};
 use lightmap::{LightmapFormat, TexelDivisor};
 
@@ -68,15 +69,9 @@ pub enum ExportError {
         /// The stage.
         stage: &'static str,
     },
-    /// The scene stage.
-    #[error("bundle {}: {source}", bundle.display())]
-    Scene {
-        /// The bundle.
-        bundle: PathBuf,
-        /// What failed.
-        #[source]
-        source: SceneError,
-    },
+    /// The scene stage (its message names the bundle).
+    #[error(transparent)]
+    Scene(#[from] SceneReadError),
     /// The radiosity stage.
     #[error("bundle {}: {source}", bundle.display())]
     Radiosity {
@@ -127,23 +122,14 @@ pub fn export(
             });
         }
     }
-    if let Some(e) = b.verify_stages(&["scene", "radiosity"]).into_iter().next() {
+    if let Some(e) = b.verify_stages(&["radiosity"]).into_iter().next() {
         return Err(ExportError::Bundle {
             bundle: bundle.to_owned(),
             source: e,
         });
     }
-    let scene_stage = b.stage("scene").expect("checked above");
-    let scene_json = scene_stage
-        .assets
-        .iter()
-        .find(|a| a.kind == "scene-json")
-        .ok_or_else(|| inconsistent("stage `scene` has no scene-json asset".into()))?;
-    let scene_path = b.asset_path(scene_json);
-    let scene = Scene::load(&scene_path).map_err(|source| ExportError::Scene {
-        bundle: bundle.to_owned(),
-        source,
-    })?;
+    let scene = b.load_scene()?;
+    let scene_path = scene.path.clone();
     let map = RadiosityMap::load(&b)
         .map_err(|source| ExportError::Radiosity {
             bundle: bundle.to_owned(),

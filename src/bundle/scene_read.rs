@@ -1,5 +1,5 @@
 //! The scene a bundle carries, read back: the typed reader of the `scene` stage that
-//! [`super::scene_stage`] writes, for `glint-eval probe` and library programs. Each later
+//! [`crate::bake::scene_stage`] writes, for `glint-eval probe` and library programs. Each later
 //! stage's reader lies next to its format: [`crate::radiosity::RadiosityMap::load`],
 //! [`crate::materials::index::MaterialsIndex::load`], [`crate::radiance::index::load_cameras`],
 //! [`crate::srdm::index::load`].
