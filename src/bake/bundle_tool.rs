@@ -284,6 +284,16 @@ fn index_references(b: &Bundle) -> Vec<String> {
                     );
                 }
             }
+            for (i, p) in ix.probes.iter().enumerate() {
+                for (k, level) in p.levels.iter().enumerate() {
+                    need(
+                        materials::STAGE,
+                        at,
+                        format!("probes[{i}].levels[{k}]"),
+                        level,
+                    );
+                }
+            }
         }
         Ok(None) => {}
         Err(e) => unreadable.push(e.to_string()),

@@ -286,6 +286,7 @@ fn touches(input: &str, u: &Unit, change: &str) -> bool {
         "lights" => under("lights"),
         "reflectors" | "reflector" => under("reflectors"),
         "impostor" => under("impostors"),
+        "probe" => under("probes") || under("materials"),
         "first_camera" => under("camera_paths"),
         "settings" | "plan" => under("bake") || under("reflectors"),
         _ => false,

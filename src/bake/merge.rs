@@ -504,16 +504,18 @@ fn join_srdm(parts: &[(&str, Vec<u8>)]) -> Result<Vec<u8>, MergeError> {
 /// units, the reason the material units give for their absence is kept.
 fn join_materials(parts: &[(&str, Vec<u8>)]) -> Result<Vec<u8>, MergeError> {
     let mut joined: Option<MaterialsIndex> = None;
-    let mut env_units = false;
+    let (mut env_units, mut probe_units) = (false, false);
     for (id, bytes) in parts {
         let index = MaterialsIndex::parse(bytes)
             .map_err(|e| MergeError::one(format!("unit `{id}`: {e}")))?;
         env_units |= kind(id) == "envmap";
+        probe_units |= kind(id) == "probe";
         match &mut joined {
             None => joined = Some(index),
             Some(j) => {
                 j.materials.extend(index.materials);
                 j.env_maps.extend(index.env_maps);
+                j.probes.extend(index.probes);
             }
         }
     }
@@ -521,6 +523,9 @@ fn join_materials(parts: &[(&str, Vec<u8>)]) -> Result<Vec<u8>, MergeError> {
         joined.ok_or_else(|| MergeError::one("no materials/index.json in the materials units"))?;
     if env_units {
         index.env_maps_skipped = None;
+    }
+    if probe_units {
+        index.probes_skipped = None;
     }
     Ok(index.to_bytes())
 }
@@ -537,7 +542,7 @@ fn merge_stats(
     }
     let sum_keys: &[&str] = match stage {
         Stage::Radiance => &["maps", "rays_cast"],
-        Stage::Materials => &["materials", "lobes", "env_maps"],
+        Stage::Materials => &["materials", "lobes", "env_maps", "probes"],
         Stage::Srdm => &[
             "views",
             "srdm_bytes",
@@ -597,6 +602,9 @@ fn merge_stats(
     // environment-map unit baked them.
     if stage == Stage::Materials && units.iter().any(|(id, _)| kind(id) == "envmap") {
         out.remove("env_maps_skipped");
+    }
+    if stage == Stage::Materials && units.iter().any(|(id, _)| kind(id) == "probe") {
+        out.remove("probes_skipped");
     }
     out
 }

@@ -23,6 +23,8 @@ pub enum Item {
     /// A curved reflector's environment map: index into
     /// [`super::materials::curved_glossy_reflectors`].
     EnvMap(usize),
+    /// A reflection probe: index into [`crate::materials::probes::scene_probes`].
+    Probe(usize),
 }
 
 impl Item {

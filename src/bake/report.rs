@@ -136,7 +136,10 @@ impl fmt::Display for MaterialsReport {
             "filter".into(),
             "size".into(),
         ]];
-        rows.extend(self.env_maps.iter().map(|e| {
+        if let Some(reason) = &self.probes_skipped {
+            writeln!(f, "reflection probes skipped: {reason}")?;
+        }
+        rows.extend(self.env_maps.iter().chain(&self.probes).map(|e| {
             [
                 e.reflector.clone(),
                 e.material.clone(),

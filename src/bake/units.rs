@@ -11,6 +11,7 @@
 //! - `radiosity`: the radiosity stage from the gathering units' batches: the bounces, and
 //!   the refinement rounds a target error asks for;
 //! - `material.FOLDER`: one glossy material's lobes (kernel, reflectance, pattern);
+//! - `probe.FOLDER`: one reflection probe's prefiltered cube map (reads D);
 //! - `envmap.FOLDER`: one glossy curved reflector's environment map (reads D);
 //! - `radiance.FOLDER`: one glossy planar reflector's radiance maps (reads D);
 //! - `srdm.FOLDER`: one impostor's captures and SRDM tables (reads D when the scene has it).
@@ -108,6 +109,7 @@ impl UnitPlan {
         match kind(&unit.id) {
             "material" => Item::Material(k),
             "envmap" => Item::EnvMap(k),
+            "probe" => Item::Probe(k),
             "radiance" => Item::Reflector(k),
             "srdm" => Item::Impostor(k),
             _ => Item::All,
@@ -279,6 +281,29 @@ pub fn plan_units(scene: &Scene, settings: &BakeSettings) -> Result<UnitPlan, St
             });
         }
         if has_d {
+            // A probe's capture reads every triangle and material, and its place comes from
+            // the glossy groups and scene.json's `probes`.
+            let probes = crate::materials::probes::scene_probes(scene);
+            for (p, folder) in probes.iter().zip(materials::probe_folders(scene)) {
+                drafts.push(Draft {
+                    id: format!("probe.{folder}"),
+                    stage: Stage::Materials.name(),
+                    item: Some(p.name.clone()),
+                    inputs: vec![
+                        ("geometry", geometry.clone()),
+                        ("materials", all_materials.clone()),
+                        (
+                            "probe",
+                            hash_json(&(p.position.to_array(), p.radius.to_bits())),
+                        ),
+                        ("folder", hash_str(&folder)),
+                        ("settings", settings_hash.clone()),
+                        ("generator", generator.clone()),
+                    ],
+                    reads: reads_d(true),
+                    cost: 6.0 * (s.env_map_size as f64 * s.env_supersample as f64).powi(2),
+                });
+            }
             let curved = curved_glossy_reflectors(scene);
             let env_folders = crate::bundle::unique_folders(
                 curved.iter().map(|&r| scene.reflectors[r].name.as_str()),

@@ -40,6 +40,13 @@ pub struct MaterialsIndex {
     pub env_maps: Vec<IndexedEnvMap>,
     /// Why environment maps were not baked, if they were not.
     pub env_maps_skipped: Option<String>,
+    /// Reflection probes for glossy surfaces that no reflector declares
+    /// ([`super::probes`]); absent when the scene needs none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub probes: Vec<IndexedProbe>,
+    /// Why the probes the scene needs were not baked, if they were not.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub probes_skipped: Option<String>,
 }
 
 /// One material of [`MaterialsIndex`].
@@ -163,6 +170,27 @@ pub struct IndexedEnvMap {
     pub layout: String,
 }
 
+/// One reflection probe of [`MaterialsIndex`]: a prefiltered radiance cube map whose level 0
+/// also holds, in channel `Z`, the distance from the centre to what each texel sees (0:
+/// nothing).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct IndexedProbe {
+    /// Probe name (a glossy material's, or scene.json's).
+    pub name: String,
+    /// Capture point, metres.
+    pub centre: [f32; 3],
+    /// Reach, metres.
+    pub radius: f32,
+    /// Face size of level 0.
+    pub face_size: usize,
+    /// MIP filter.
+    pub filter: MipFilter,
+    /// Paths of the levels in the stage, finest first.
+    pub levels: Vec<String>,
+    /// [`ENV_LAYOUT`].
+    pub layout: String,
+}
+
 /// Why the materials stage cannot be read. Messages name the file.
 #[derive(Debug, thiserror::Error)]
 pub enum MaterialsReadError {
@@ -255,29 +283,62 @@ impl MaterialsIndex {
         let Some(entry) = self.env_map(reflector) else {
             return Ok(None);
         };
-        let bad = |path: &str, message: String| MaterialsReadError::Index {
-            path: format!("{STAGE}/{path}"),
-            message,
+        let (pyramid, _) = read_pyramid(bundle, &entry.levels, entry.filter, reflector)?;
+        Ok(Some(pyramid))
+    }
+
+    /// Reads probe `index` ([`MaterialsIndex::probes`]): its MIP pyramid and the distances of
+    /// its level 0 (every level hash-checked).
+    pub fn read_probe(
+        &self,
+        bundle: &Bundle,
+        index: usize,
+    ) -> Result<(MipPyramid, CubeMap), MaterialsReadError> {
+        let entry = &self.probes[index];
+        let (pyramid, distances) = read_pyramid(bundle, &entry.levels, entry.filter, &entry.name)?;
+        let distances = distances.ok_or_else(|| MaterialsReadError::Index {
+            path: format!("{STAGE}/{}", entry.levels[0]),
+            message: format!(
+                "probe {}: level 0 has no `Z` channel (distances)",
+                entry.name
+            ),
+        })?;
+        Ok((pyramid, distances))
+    }
+}
+
+/// Reads the cube-map levels at `paths` (strips of six faces, finest first, a power-of-two
+/// level 0) and level 0's `Z` channel, if any, as a cube map of distances (in every channel).
+fn read_pyramid(
+    bundle: &Bundle,
+    paths: &[String],
+    filter: MipFilter,
+    name: &str,
+) -> Result<(MipPyramid, Option<CubeMap>), MaterialsReadError> {
+    let bad = |path: &str, message: String| MaterialsReadError::Index {
+        path: format!("{STAGE}/{path}"),
+        message,
+    };
+    let mut levels = Vec::new();
+    let mut distances = None;
+    for path in paths {
+        let image = MaterialsIndex::read_image(bundle, path)?;
+        let n = image.height;
+        if image.width != 6 * n || n == 0 {
+            return Err(bad(
+                path,
+                format!("{}×{n} is not a strip of six faces", image.width),
+            ));
+        }
+        let ch = |c: &str| {
+            image
+                .channel(c)
+                .map_err(|source| MaterialsReadError::Image {
+                    path: format!("{STAGE}/{path}"),
+                    source,
+                })
         };
-        let mut levels = Vec::new();
-        for path in &entry.levels {
-            let image = Self::read_image(bundle, path)?;
-            let n = image.height;
-            if image.width != 6 * n || n == 0 {
-                return Err(bad(
-                    path,
-                    format!("{}×{n} is not a strip of six faces", image.width),
-                ));
-            }
-            let ch = |c: &str| {
-                image
-                    .channel(c)
-                    .map_err(|source| MaterialsReadError::Image {
-                        path: format!("{STAGE}/{path}"),
-                        source,
-                    })
-            };
-            let (r, g, b) = (ch("R")?, ch("G")?, ch("B")?);
+        let unstrip = |r: &[f32], g: &[f32], b: &[f32]| {
             let mut map = CubeMap::new(n);
             for face in 0..6 {
                 for y in 0..n {
@@ -288,19 +349,23 @@ impl MaterialsIndex {
                     }
                 }
             }
-            levels.push(map);
+            map
+        };
+        if levels.is_empty()
+            && let Ok(z) = image.channel("Z")
+        {
+            distances = Some(unstrip(z, z, z));
         }
-        if levels.is_empty() || !levels[0].size.is_power_of_two() {
-            return Err(bad(
-                INDEX_FILE,
-                format!("env maps of {reflector}: no power-of-two level 0"),
-            ));
-        }
-        Ok(Some(MipPyramid {
-            filter: entry.filter,
-            levels,
-        }))
+        let (r, g, b) = (ch("R")?, ch("G")?, ch("B")?);
+        levels.push(unstrip(r, g, b));
     }
+    if levels.is_empty() || !levels[0].size.is_power_of_two() {
+        return Err(bad(
+            INDEX_FILE,
+            format!("env maps of {name}: no power-of-two level 0"),
+        ));
+    }
+    Ok((MipPyramid { filter, levels }, distances))
 }
 
 #[cfg(test)]

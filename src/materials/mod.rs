@@ -13,6 +13,7 @@ pub mod envmap;
 pub mod index;
 pub mod kernel;
 pub mod pattern_format;
+pub mod probes;
 pub mod reflectance;
 
 pub use crate::settings::materials::{MaterialsOverride, MaterialsSettings};

@@ -11,6 +11,7 @@ use std::collections::BTreeMap;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+pub use super::probe::ProbeDesc;
 pub use crate::brdf::LobeModel;
 pub use crate::camera::{CameraPath, Keyframe};
 pub use crate::settings::materials::MaterialsOverride;
@@ -51,6 +52,10 @@ pub struct SceneDesc {
     /// Objects replaced by depth-map impostors when seen in curved reflectors.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub impostors: Vec<ImpostorDesc>,
+    /// Reflection probes added to (or moved from) those the bake places for glossy
+    /// surfaces that no reflector declares.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub probes: Vec<ProbeDesc>,
     /// Camera paths replayed by the viewer. Each perspective camera node of the glTF is added
     /// as a one-keyframe path named after its node; a path named here wins a name clash.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]

@@ -17,6 +17,7 @@ mod impostor;
 mod light;
 pub mod material;
 mod plane;
+pub mod probe;
 mod reflector;
 pub mod texture;
 pub mod texturing;
@@ -283,6 +284,7 @@ impl Scene {
             .map_err(|(f, m)| field(f, m))?;
         let impostors = impostor::resolve(&desc.impostors, &objects, &triangles)
             .map_err(|(f, m)| field(f, m))?;
+        probe::check(&desc.probes, &bounds).map_err(|(f, m)| field(f, m))?;
         camera_path::check_paths(&desc.camera_paths).map_err(|(f, m)| field(f, m))?;
         let mut camera_paths = desc.camera_paths.clone();
         gltf_cameras::merge(&mut camera_paths, imported.cameras, &gltf_path);

@@ -19,5 +19,9 @@ pub fn baked(data: &ViewData) -> Baked {
         radiance_maps: has("radiance") && !glossy_planar_reflectors(&data.scene).is_empty(),
         curved_reflectors: curved_reflectors(&data.scene).len(),
         impostor_captures: has("srdm") && !data.scene.impostors.is_empty(),
+        probes: crate::materials::MaterialsIndex::load(&data.bundle)
+            .ok()
+            .flatten()
+            .map_or(0, |index| index.probes.len()),
     }
 }

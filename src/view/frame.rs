@@ -5,7 +5,8 @@
 //! same options give the same image everywhere.
 //!
 //! The order ([`FramePasses::record`]):
-//! 1. the scene pass: kd·D (clears colour and depth);
+//! 1. the scene pass: kd·D (clears colour and depth), then the reflection probes' specular
+//!    term of glossy surfaces that no reflector declares ([`super::probes`]);
 //! 2. the single planar reflection pass of geometry depth 1 or the image mode (ks·(M*K)·R,
 //!    Bastos §8);
 //! 3. impostor reflections in planar reflectors (Popescu §3–4);
@@ -29,6 +30,7 @@ use super::options::{CurvedMode, Exposure, ReflectionMode, Tonemap, ViewOptions}
 use super::passes::display::{DisplayMapping, DisplayPass, RADIANCE_FORMAT};
 use super::passes::renderer::Renderer;
 use super::passes::{FrameContext, FramePass};
+use super::probes::gpu::ProbeReflections;
 use super::reflections::{GeometryReflections, RecursiveReflections, Source};
 use crate::camera::Camera;
 
@@ -42,6 +44,8 @@ pub struct Rebuild {
     pub impostors: bool,
     /// Curved reflectors: cube maps, or impostors in `--curved impostor`.
     pub curved: bool,
+    /// Reflection probes.
+    pub probes: bool,
 }
 
 impl Rebuild {
@@ -50,6 +54,7 @@ impl Rebuild {
         planar: true,
         impostors: true,
         curved: true,
+        probes: true,
     };
 
     /// The groups whose inputs differ between `old` and `new`.
@@ -75,10 +80,12 @@ impl Rebuild {
                 (o.curved == CurvedMode::Impostor).then_some(o.impostor_kind),
             )
         };
+        let probes = |o: &ViewOptions| (o.probes, o.probes.then_some(o.reflectance));
         Rebuild {
             planar: planar(old) != planar(new),
             impostors: impostors(old) != impostors(new),
             curved: curved(old) != curved(new),
+            probes: probes(old) != probes(new),
         }
     }
 }
@@ -96,6 +103,7 @@ pub struct FramePasses {
     impostors: Option<ImpostorReflections>,
     curved_impostors: Option<ImpostorReflections>,
     curved: Option<CurvedReflections>,
+    probes: Option<ProbeReflections>,
 }
 
 impl FramePasses {
@@ -141,6 +149,7 @@ impl FramePasses {
             impostors: None,
             curved_impostors: None,
             curved: None,
+            probes: None,
         })
     }
 
@@ -174,6 +183,7 @@ impl FramePasses {
                 planar: changed.planar || groups.planar,
                 impostors: changed.impostors || groups.impostors,
                 curved: changed.curved || groups.curved,
+                probes: changed.probes || groups.probes,
             },
         )
     }
@@ -276,6 +286,12 @@ impl FramePasses {
                 }
             }
         }
+        if groups.probes {
+            self.probes = None;
+            if o.probes {
+                self.probes = ProbeReflections::new(gpu, &self.renderer, data, o.reflectance)?;
+            }
+        }
         Ok(())
     }
 
@@ -345,9 +361,15 @@ impl FramePasses {
         self.curved.as_ref()
     }
 
+    /// Reflection probes, if on and baked.
+    pub fn probes(&self) -> Option<&ProbeReflections> {
+        self.probes.as_ref()
+    }
+
     /// The passes drawn over the scene that are on, in the module's fixed order (steps 2–6).
     fn over_scene(&self) -> impl Iterator<Item = &dyn FramePass> {
         [
+            self.probes.as_ref().map(|p| p as &dyn FramePass),
             self.planar.as_ref().map(|p| p as &dyn FramePass),
             self.impostors.as_ref().map(|p| p as &dyn FramePass),
             self.curved_impostors.as_ref().map(|p| p as &dyn FramePass),
@@ -472,6 +494,21 @@ impl FramePass for ImpostorReflections {
         views: FrameViews<'_>,
     ) {
         ImpostorReflections::draw(self, encoder, views.radiance, views.depth);
+    }
+}
+
+impl FramePass for ProbeReflections {
+    fn prepare(&self, gpu: &Gpu, frame: &FrameContext<'_>) {
+        ProbeReflections::prepare(self, gpu, frame.camera);
+    }
+
+    fn draw(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        _frame: &FrameContext<'_>,
+        views: FrameViews<'_>,
+    ) {
+        ProbeReflections::draw(self, encoder, views.radiance, views.depth);
     }
 }
 

@@ -18,6 +18,7 @@
 //!   (Popescu §3.1, §4.3): the CPU tables, their upload and the pass.
 //! - [`curved`]: curved reflectors by cube maps (Nielsen §3.2) and glossy curved objects by
 //!   regular sampling (Luksch §6–7).
+//! - [`probes`]: reflection probes, the specular term of glossy surfaces no reflector declares.
 //!
 //! Plumbing and front ends:
 //! - [`gpu`]: adapter and device selection, GPU errors, builders, targets, readback, the
@@ -49,6 +50,8 @@ pub mod load;
 pub mod options;
 #[cfg(feature = "view")]
 pub mod passes;
+#[cfg(feature = "view")]
+pub mod probes;
 #[cfg(feature = "view")]
 pub mod reflections;
 pub mod tonemap;

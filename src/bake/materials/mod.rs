@@ -16,6 +16,11 @@
 //! ([`crate::materials::envmap`]). These need the bundle's `radiosity` stage; without it they are skipped with
 //! the reason and the rest of the stage is baked.
 //!
+//! Per reflection probe the scene needs (`materials/probes/<probe>/mip<ℓ>.exr`, kind
+//! `env-mip`; [`crate::materials::probes`]): the same capture from the probe's point, its MIP
+//! levels, level 0 with the distance to what each texel sees. Skipped, as environment maps
+//! are, without D.
+//!
 //! `materials/index.json` (kind `materials-index`, [`crate::materials::index`]) lists
 //! everything with its parameters.
 //! EXR channels are f32 for K and R (exact sums, large grazing values), half for env maps.
@@ -29,6 +34,7 @@
 
 mod env_maps;
 mod lobes;
+mod probes;
 mod report;
 
 use std::collections::BTreeMap;
@@ -52,6 +58,7 @@ use super::part::{Item, Part};
 use super::{Stage, plan};
 pub use env_maps::curved_glossy_reflectors;
 pub use lobes::chosen_materials;
+pub use probes::probe_folders;
 
 /// Why the materials stage failed.
 #[derive(Debug, thiserror::Error)]
@@ -274,6 +281,16 @@ fn bake_reading(
     let mut stats: BTreeMap<String, serde_json::Value> = BTreeMap::new();
     let materials = lobes::write_materials(&mut w, scene, &chosen, &folders, &baked, &mut stats)?;
     let d_source = shading.as_ref().ok().map(|s| s.source.clone());
+    let take_probe = |k: usize| item.takes(Item::Probe(k));
+    let probes = probes::write_probes(
+        &mut w,
+        scene,
+        settings,
+        &shading,
+        &take_probe,
+        progress,
+        &mut stats,
+    )?;
     let take_env = |k: usize| item.takes(Item::EnvMap(k));
     let env = env_maps::write_env_maps(
         &mut w, scene, settings, shading, &take_env, progress, &mut stats,
@@ -285,6 +302,8 @@ fn bake_reading(
         materials: materials.index,
         env_maps: env.index,
         env_maps_skipped: env.skipped.clone(),
+        probes: probes.index,
+        probes_skipped: probes.skipped.clone(),
     };
     w.write(INDEX_FILE, "materials-index", &index.to_bytes())?;
 
@@ -293,6 +312,13 @@ fn bake_reading(
     stats.insert("env_maps".into(), env.reports.len().into());
     if let Some(reason) = &env.skipped {
         stats.insert("env_maps_skipped".into(), reason.clone().into());
+    }
+    // Only scenes that need probes say so: the others' records stay as they were.
+    if !probes.reports.is_empty() {
+        stats.insert("probes".into(), probes.reports.len().into());
+    }
+    if let Some(reason) = &probes.skipped {
+        stats.insert("probes_skipped".into(), reason.clone().into());
     }
     let record = w.commit(StageInfo {
         scene_name: scene.name.clone(),
@@ -308,5 +334,7 @@ fn bake_reading(
         materials: materials.reports,
         env_maps: env.reports,
         env_maps_skipped: env.skipped,
+        probes: probes.reports,
+        probes_skipped: probes.skipped,
     })))
 }

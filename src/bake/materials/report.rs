@@ -90,4 +90,10 @@ pub struct Report {
     pub env_maps: Vec<EnvReport>,
     /// Why environment maps were not baked, if they were not.
     pub env_maps_skipped: Option<String>,
+    /// Per reflection probe (`reflector`: `probe NAME`, no material).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub probes: Vec<EnvReport>,
+    /// Why the probes the scene needs were not baked, if they were not.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub probes_skipped: Option<String>,
 }

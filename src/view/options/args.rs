@@ -110,6 +110,12 @@ pub struct ViewArgs {
     #[arg(long, value_name = "on|off", default_value = "on", value_parser = parse_on_off,
           action = clap::ArgAction::Set)]
     pub terminal_cubemaps: bool,
+    /// Reflection probes (`on`/`off`): every glossy surface that no reflector declares adds
+    /// ks·R × the prefiltered radiance of the probe the bake placed for it, in both
+    /// reflection modes. Default: `on` when the bundle's materials stage holds probes.
+    #[arg(long, value_name = "on|off", value_parser = parse_on_off,
+          action = clap::ArgAction::Set)]
+    pub probes: Option<bool>,
 }
 
 /// `glint-view`'s view arguments alone, for [`ViewOptions::from_args`].
@@ -161,6 +167,7 @@ impl ViewArgs {
                 reflections: self.reflections,
                 curved: self.curved,
                 impostors: self.impostors,
+                probes: self.probes,
             },
             *baked,
         )
@@ -209,6 +216,7 @@ impl ViewArgs {
                 cutoff: self.reflection_cutoff,
                 terminal: self.terminal_cubemaps,
             },
+            probes: modes.probes,
             splat_buffer_bytes: None,
         };
         options.check()?;
@@ -284,6 +292,8 @@ mod tests {
             "0.5",
             "--terminal-cubemaps",
             "off",
+            "--probes",
+            "on",
         ])
         .unwrap();
         assert_eq!(
@@ -313,6 +323,7 @@ mod tests {
                     cutoff: 0.5,
                     terminal: false,
                 },
+                probes: true,
                 splat_buffer_bytes: None,
             }
         );
@@ -325,12 +336,15 @@ mod tests {
             radiance_maps: true,
             curved_reflectors: 1,
             impostor_captures: true,
+            probes: 1,
         };
         let o = ViewOptions::from_args_for(["--maps", "4"], &baked).unwrap();
         assert_eq!(
-            (o.reflections, o.curved, o.impostors, o.maps),
-            (ReflectionMode::Image, CurvedMode::Cubemap, false, 4)
+            (o.reflections, o.curved, o.impostors, o.probes, o.maps),
+            (ReflectionMode::Image, CurvedMode::Cubemap, false, true, 4)
         );
+        let o = ViewOptions::from_args_for(["--probes", "off"], &baked).unwrap();
+        assert!(!o.probes);
         let o = ViewOptions::from_args_for(
             [
                 "--reflections",

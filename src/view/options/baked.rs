@@ -13,6 +13,8 @@ pub struct Baked {
     pub curved_reflectors: usize,
     /// Impostor objects with the `srdm` stage baked: depth maps to reflect.
     pub impostor_captures: bool,
+    /// Reflection probes in the materials stage.
+    pub probes: usize,
 }
 
 /// The reflection modes the command line asked for (`None`: not given).
@@ -24,6 +26,8 @@ pub struct Asked {
     pub curved: Option<CurvedMode>,
     /// `--impostors`.
     pub impostors: Option<bool>,
+    /// `--probes`.
+    pub probes: Option<bool>,
 }
 
 /// The reflection modes a view starts with, each with why.
@@ -35,6 +39,8 @@ pub struct Defaults {
     pub curved: CurvedMode,
     /// Impostor reflections in planar reflectors.
     pub impostors: bool,
+    /// Reflection probes.
+    pub probes: bool,
     asked: Asked,
     baked: Baked,
 }
@@ -58,10 +64,12 @@ impl Defaults {
         let impostors = asked.impostors.unwrap_or(
             baked.impostor_captures && asked.reflections.is_none() && !baked.radiance_maps,
         );
+        let probes = asked.probes.unwrap_or(baked.probes > 0);
         Defaults {
             reflections,
             curved,
             impostors,
+            probes,
             asked,
             baked,
         }
@@ -94,11 +102,19 @@ impl Defaults {
         } else {
             "--reflections given"
         };
+        let probes = match (self.asked.probes, b.probes) {
+            (Some(_), _) => "--probes".to_string(),
+            (None, 0) => "no probes baked".to_string(),
+            (None, 1) => "1 probe baked".to_string(),
+            (None, n) => format!("{n} probes baked"),
+        };
+        let on = |b: bool| if b { "on" } else { "off" };
         format!(
-            "reflections {} ({reflections}), curved {} ({curved}), impostors {} ({impostors})",
+            "reflections {} ({reflections}), curved {} ({curved}), impostors {} ({impostors}), probes {} ({probes})",
             self.reflections,
             self.curved,
-            if self.impostors { "on" } else { "off" }
+            on(self.impostors),
+            on(self.probes)
         )
     }
 }
@@ -111,6 +127,7 @@ mod tests {
         radiance_maps: true,
         curved_reflectors: 1,
         impostor_captures: true,
+        probes: 2,
     };
 
     fn modes(d: Defaults) -> (ReflectionMode, CurvedMode, bool) {
@@ -124,7 +141,7 @@ mod tests {
         assert_eq!(
             d.describe(),
             "reflections off (no radiance maps baked), curved off (no curved reflectors), \
-             impostors off (no impostor depth maps baked)"
+             impostors off (no impostor depth maps baked), probes off (no probes baked)"
         );
     }
 
@@ -138,7 +155,7 @@ mod tests {
         assert_eq!(
             d.describe(),
             "reflections image (radiance maps baked), curved cubemap (1 curved reflector), \
-             impostors off (radiance maps show the impostor objects)"
+             impostors off (radiance maps show the impostor objects), probes on (2 probes baked)"
         );
     }
 
@@ -170,12 +187,14 @@ mod tests {
             reflections: Some(ReflectionMode::Off),
             curved: Some(CurvedMode::Off),
             impostors: Some(true),
+            probes: Some(false),
         };
         let d = Defaults::resolve(asked, EVERYTHING);
         assert_eq!(modes(d), (ReflectionMode::Off, CurvedMode::Off, true));
         assert_eq!(
             d.describe(),
-            "reflections off (--reflections), curved off (--curved), impostors on (--impostors)"
+            "reflections off (--reflections), curved off (--curved), impostors on (--impostors), \
+             probes off (--probes)"
         );
         let d = Defaults::resolve(
             Asked {

@@ -373,6 +373,8 @@ pub struct ViewOptions {
     /// Geometry mode's recursion: depth 1 is the single mirror pass, any other depth the
     /// recursive passes. Ignored in the other modes.
     pub recursion: RecursionSettings,
+    /// Reflection probes: the specular term of glossy surfaces no reflector declares.
+    pub probes: bool,
     /// Image-based mode: the most bytes of splats one storage buffer holds (`None`: what the
     /// GPU binds in one, its `max_storage_buffer_binding_size`); a reflector's maps are split
     /// over as many buffers as that needs. Lower it to exercise the split.
@@ -394,6 +396,7 @@ impl Default for ViewOptions {
             curved: CurvedMode::Off,
             curved_settings: CurvedSettings::default(),
             recursion: RecursionSettings::default(),
+            probes: false,
             splat_buffer_bytes: None,
         }
     }

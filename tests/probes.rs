@@ -1,0 +1,181 @@
+//! Reflection probes at bake time: where the bake places them on the shipped scenes, what
+//! scene.json's `probes` changes, the errors it gets for bad ones, and the probe work units.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::*;
+use glint::bake::BakeSettings;
+use glint::bake::units::plan_units;
+use glint::materials::probes::{assign, scene_groups, scene_probes};
+use glint::scene::Scene;
+use glint::scene::desc::Quality;
+
+/// A copy of shipped scene `name` in `dir` with its scene.json edited by `edit`.
+fn edited(dir: &Path, name: &str, edit: impl FnOnce(&mut serde_json::Value)) -> PathBuf {
+    let to = dir.join(name);
+    copy_dir(&repo(&format!("scenes/{name}")), &to);
+    let path = to.join("scene.json");
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    edit(&mut v);
+    std::fs::write(&path, serde_json::to_string_pretty(&v).unwrap()).unwrap();
+    path
+}
+
+fn load(path: &Path) -> Scene {
+    Scene::load(path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// glossy-room with its glossy table top left undeclared (no `TableTop` reflector): the
+/// scene of a user who declares only the floor, the mirror and the teapot.
+fn undeclared_table(dir: &Path, edit: impl FnOnce(&mut serde_json::Value)) -> PathBuf {
+    edited(dir, "glossy-room", |v| {
+        let reflectors = v["reflectors"].as_array_mut().unwrap();
+        reflectors.retain(|r| r["mesh"] != "TableTop");
+        edit(v);
+    })
+}
+
+#[test]
+fn an_undeclared_glossy_table_gets_one_probe_above_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = load(&undeclared_table(dir.path(), |_| {}));
+    let groups = scene_groups(&scene);
+    let names: Vec<&str> = groups
+        .iter()
+        .map(|g| scene.materials[g.material as usize].name.as_str())
+        .collect();
+    assert_eq!(names, ["GlossyTable"]);
+    let probes = scene_probes(&scene);
+    assert_eq!(probes.len(), 1);
+    let p = &probes[0];
+    assert_eq!(p.name, "GlossyTable");
+    // Above the table top (its normal is +y), over its centre, within reach of it.
+    let b = &groups[0].bounds;
+    assert!(p.position.y > b.max.y + 0.05, "{}", p.position);
+    assert!((p.position.x - b.center().x).abs() < 1e-4);
+    assert!((p.position.z - b.center().z).abs() < 1e-4);
+    assert!(scene.bounds.min.cmple(p.position).all() && p.position.cmple(scene.bounds.max).all());
+    assert!(p.position.distance(b.center()) <= p.radius);
+    assert_eq!(assign(&probes, &groups[0]), Some(0));
+}
+
+#[test]
+fn scenes_without_undeclared_glossy_surfaces_get_no_probes() {
+    // Shipped glossy-room declares every glossy surface; cornell-box has none.
+    assert!(scene_probes(&load(&repo("scenes/glossy-room/scene.json"))).is_empty());
+    assert!(scene_probes(&load(&repo("scenes/cornell-box/scene.json"))).is_empty());
+    let dir = tempfile::tempdir().unwrap();
+    // Without the table's lobe nothing undeclared is glossy, and a probe asked for is moot.
+    let path = undeclared_table(dir.path(), |v| {
+        v["materials"]["GlossyTable"]["lobes"] = serde_json::json!([]);
+        v["probes"] = serde_json::json!([{ "name": "extra", "position": [0.0, 1.5, 0.0] }]);
+    });
+    let scene = load(&path);
+    assert!(scene_groups(&scene).is_empty());
+    assert!(scene_probes(&scene).is_empty());
+}
+
+#[test]
+fn scene_json_moves_and_adds_probes() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = undeclared_table(dir.path(), |v| {
+        v["probes"] = serde_json::json!([
+            { "name": "GlossyTable", "position": [0.1, 1.6, -0.2] },
+            { "name": "corner", "position": [2.5, 1.0, 2.0], "radius": 0.5 }
+        ]);
+    });
+    let scene = load(&path);
+    let probes = scene_probes(&scene);
+    let placed = scene_probes(&load(&undeclared_table(&dir.path().join("b"), |_| {})));
+    assert_eq!(probes.len(), 2);
+    assert_eq!(probes[0].name, "GlossyTable");
+    assert_eq!(probes[0].position.to_array(), [0.1, 1.6, -0.2]);
+    // Moved without a radius: the placed reach is kept.
+    assert_eq!(probes[0].radius, placed[0].radius);
+    assert_eq!((probes[1].name.as_str(), probes[1].radius), ("corner", 0.5));
+    // The table still reads its own probe: the added one does not reach it.
+    assert_eq!(assign(&probes, &scene_groups(&scene)[0]), Some(0));
+
+    // Each probe is its own work unit, after the materials' and before the environment maps'.
+    let plan = plan_units(
+        &scene,
+        &BakeSettings::resolve(&scene, Quality::Draft).unwrap(),
+    )
+    .unwrap();
+    let ids: Vec<&str> = plan
+        .units
+        .iter()
+        .filter(|u| u.stage == "materials")
+        .map(|u| u.id.as_str())
+        .collect();
+    let probe_ids: Vec<&str> = ids
+        .iter()
+        .copied()
+        .filter(|id| id.starts_with("probe."))
+        .collect();
+    assert_eq!(probe_ids, ["probe.GlossyTable", "probe.corner"]);
+    let pos = |id: &str| ids.iter().position(|i| *i == id).unwrap();
+    assert!(pos("probe.corner") < pos("envmap.Teapot"), "{ids:?}");
+    // Moving a probe changes its unit's key alone.
+    let before = plan_units(
+        &load(&undeclared_table(&dir.path().join("c"), |_| {})),
+        &BakeSettings::resolve(&scene, Quality::Draft).unwrap(),
+    )
+    .unwrap();
+    let key = |p: &glint::bake::units::UnitPlan, id: &str| p.unit(id).unwrap().key.clone();
+    assert_ne!(
+        key(&plan, "probe.GlossyTable"),
+        key(&before, "probe.GlossyTable")
+    );
+    assert_eq!(key(&plan, "envmap.Teapot"), key(&before, "envmap.Teapot"));
+}
+
+#[test]
+fn bad_probes_are_rejected_with_file_and_field() {
+    let dir = tempfile::tempdir().unwrap();
+    for (i, (probes, field, says)) in [
+        (
+            serde_json::json!([{ "name": "a", "position": [0.0, 9.0, 0.0] }]),
+            "probes[0].position",
+            "outside the scene's bounds",
+        ),
+        (
+            serde_json::json!([
+                { "name": "a", "position": [0.0, 1.0, 0.0] },
+                { "name": "a", "position": [0.0, 1.2, 0.0] }
+            ]),
+            "probes[1].name",
+            "names two probes",
+        ),
+        (
+            serde_json::json!([{ "name": "a", "position": [0.0, 1.0, 0.0], "radius": -1.0 }]),
+            "probes[0].radius",
+            "not a finite number > 0",
+        ),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let sub = dir.path().join(i.to_string());
+        let path = edited(&sub, "glossy-room", |v| v["probes"] = probes);
+        let e = Scene::load(&path).unwrap_err().to_string();
+        assert!(
+            e.contains(&path.display().to_string())
+                && e.contains(&format!("field `{field}`"))
+                && e.contains(says),
+            "{e}"
+        );
+    }
+    // Unknown keys and missing fields are serde's errors, with the file and line.
+    let path = edited(&dir.path().join("x"), "glossy-room", |v| {
+        v["probes"] = serde_json::json!([{ "name": "a", "where": [0.0, 1.0, 0.0] }])
+    });
+    let e = Scene::load(&path).unwrap_err().to_string();
+    assert!(
+        e.contains(&path.display().to_string()) && e.contains("where"),
+        "{e}"
+    );
+}
