@@ -58,34 +58,37 @@ const LIFT: f32 = 0.1;
 /// Per glossy material (`glossy[m]`), its triangles outside `declared` (the triangles of
 /// declared reflectors), in material order; materials with none have no group.
 pub fn glossy_groups(triangles: &[Triangle], glossy: &[bool], declared: &[bool]) -> Vec<Group> {
-    let mut groups: Vec<Option<(Vec<u32>, Aabb, Vec3, f32)>> = vec![None; glossy.len()];
+    let mut groups: Vec<Option<Group>> = vec![None; glossy.len()];
+    // Per material, the area summed (the mean normal's divisor).
+    let mut areas = vec![0.0f32; glossy.len()];
     for (t, tri) in triangles.iter().enumerate() {
         let m = tri.material as usize;
         if !glossy.get(m).copied().unwrap_or(false) || declared.get(t).copied().unwrap_or(false) {
             continue;
         }
-        let g = groups[m].get_or_insert_with(|| (Vec::new(), Aabb::EMPTY, Vec3::ZERO, 0.0));
-        g.0.push(t as u32);
-        g.1 = tri.p.iter().fold(g.1, |b, p| b.grow(*p));
+        let g = groups[m].get_or_insert_with(|| Group {
+            material: m as u32,
+            triangles: Vec::new(),
+            bounds: Aabb::EMPTY,
+            mean_normal: Vec3::ZERO,
+        });
+        g.triangles.push(t as u32);
+        g.bounds = tri.p.iter().fold(g.bounds, |b, p| b.grow(*p));
         let a = tri.area();
-        g.2 += tri.face_normal() * a;
-        g.3 += a;
+        g.mean_normal += tri.face_normal() * a;
+        areas[m] += a;
     }
     groups
         .into_iter()
-        .enumerate()
-        .filter_map(|(m, g)| {
-            let (triangles, bounds, normal, area) = g?;
-            Some(Group {
-                material: m as u32,
-                triangles,
-                bounds,
-                mean_normal: if area > 0.0 {
-                    normal / area
-                } else {
-                    Vec3::ZERO
-                },
-            })
+        .zip(areas)
+        .filter_map(|(g, area)| {
+            let mut g = g?;
+            g.mean_normal = if area > 0.0 {
+                g.mean_normal / area
+            } else {
+                Vec3::ZERO
+            };
+            Some(g)
         })
         .collect()
 }
