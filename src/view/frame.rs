@@ -583,5 +583,17 @@ mod tests {
         let mut glossy = cube;
         glossy.curved_settings.glossy_samples = 4;
         assert!(Rebuild::between(&cube, &glossy).curved);
+
+        // Probes: on/off, and R's source while on.
+        let mut probes = base;
+        probes.probes = true;
+        let r = Rebuild::between(&base, &probes);
+        assert!(r.probes && !r.planar && !r.curved && !r.impostors, "{r:?}");
+        let mut sphere = probes;
+        sphere.reflectance.layout = crate::view::options::ReflectanceLayout::Sphere;
+        assert!(Rebuild::between(&probes, &sphere).probes);
+        let mut sphere_off = base;
+        sphere_off.reflectance.layout = crate::view::options::ReflectanceLayout::Sphere;
+        assert!(!Rebuild::between(&base, &sphere_off).probes);
     }
 }
