@@ -57,6 +57,17 @@ fn an_undeclared_glossy_table_gets_one_probe_above_it() {
     assert!(p.position.y > b.max.y + 0.05, "{}", p.position);
     assert!((p.position.x - b.center().x).abs() < 1e-4);
     assert!((p.position.z - b.center().z).abs() < 1e-4);
+    // Clear of the teapot standing on the table (it would see the teapot's inside).
+    let teapot = scene
+        .reflectors
+        .iter()
+        .find(|r| r.name == "Teapot")
+        .unwrap();
+    assert!(
+        p.position.y > teapot.bounds.max.y,
+        "{} inside the teapot",
+        p.position
+    );
     assert!(scene.bounds.min.cmple(p.position).all() && p.position.cmple(scene.bounds.max).all());
     assert!(p.position.distance(b.center()) <= p.radius);
     assert_eq!(assign(&probes, &groups[0]), Some(0));
