@@ -50,6 +50,62 @@ pub struct Material {
     /// two sides share the surface's lightmap texels) instead of stopping as black.
     #[serde(skip)]
     pub double_sided: bool,
+    /// Thin transmission (glTF `KHR_materials_transmission`); [`Transmission::NONE`] for an
+    /// opaque material, which serializes as before.
+    #[serde(skip_serializing_if = "Transmission::is_none")]
+    pub transmission: Transmission,
+}
+
+/// Thin-glass transmission: light passes straight through the surface (no refraction: the
+/// surface has no thickness), scaled by `tint` × `factor` × (1 − F), F the dielectric Fresnel
+/// reflectance of `ior` (Schlick). The material's diffuse albedo already carries
+/// (1 − `factor`); its Fresnel reflection F is its glossy lobe.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Transmission {
+    /// glTF `transmissionFactor` in [0, 1] (0: opaque). `transmissionTexture` is not read.
+    pub factor: f32,
+    /// Colour of the transmitted light: the base colour factor (linear RGB).
+    pub tint: Vec3,
+    /// Index of refraction (`KHR_materials_ior`, 1.5 by default).
+    pub ior: f32,
+}
+
+impl Transmission {
+    /// An opaque material's.
+    pub const NONE: Transmission = Transmission {
+        factor: 0.0,
+        tint: Vec3::ONE,
+        ior: DEFAULT_IOR,
+    };
+
+    /// Whether nothing is transmitted.
+    pub fn is_none(&self) -> bool {
+        self.factor <= 0.0
+    }
+
+    /// Fresnel reflectance at normal incidence, ((n − 1)/(n + 1))².
+    pub fn f0(&self) -> f32 {
+        f0_of_ior(self.ior)
+    }
+
+    /// Fraction of the radiance arriving at angle cos θ (either side) that leaves straight
+    /// through: tint × factor × (1 − F(cos θ)).
+    pub fn weight(&self, cos: f32) -> Vec3 {
+        if self.is_none() {
+            return Vec3::ZERO;
+        }
+        let f = crate::brdf::kurt::fresnel_schlick(self.f0(), cos.abs().min(1.0));
+        self.tint * (self.factor * (1.0 - f))
+    }
+}
+
+/// glTF's default index of refraction (`KHR_materials_ior`).
+pub const DEFAULT_IOR: f32 = 1.5;
+
+/// Dielectric Fresnel reflectance at normal incidence for index of refraction `ior` (in air).
+pub fn f0_of_ior(ior: f32) -> f32 {
+    let r = (ior - 1.0) / (ior + 1.0);
+    r * r
 }
 
 /// A material's use of one texture: which image, how it is sampled, which UV set.
@@ -183,11 +239,48 @@ impl Material {
             alpha_factor: base_color[3],
             alpha_mode: AlphaMode::Opaque,
             double_sided: false,
+            transmission: Transmission {
+                tint: base,
+                ..Transmission::NONE
+            },
         }
+    }
+
+    /// Makes the material thin glass with glTF `transmissionFactor` `factor` and index of
+    /// refraction `ior`: the diffuse albedo keeps (1 − factor) of itself, and a dielectric's
+    /// Fresnel lobe (glTF's r0 0.04, for IOR 1.5) takes the r0 of `ior`.
+    pub fn set_transmission(&mut self, factor: f32, ior: f32) {
+        let factor = factor.clamp(0.0, 1.0);
+        let old = self.transmission.factor;
+        let before = if old < 1.0 {
+            self.albedo / (1.0 - old)
+        } else {
+            Vec3::ZERO
+        };
+        self.albedo = before * (1.0 - factor);
+        let f0 = f0_of_ior(ior);
+        for l in &mut self.lobes {
+            if (l.r0 - f0_of_ior(self.transmission.ior)).abs() < 1e-6 && l.ks == [1.0; 3] {
+                l.r0 = f0;
+            }
+        }
+        self.transmission.factor = factor;
+        self.transmission.ior = ior;
+    }
+
+    /// Whether light passes through the material (thin transmission).
+    pub fn is_transmissive(&self) -> bool {
+        !self.transmission.is_none()
     }
 
     /// Applies scene.json overrides.
     pub fn apply(&mut self, over: &MaterialOverride) {
+        if over.transmission.is_some() || over.ior.is_some() {
+            self.set_transmission(
+                over.transmission.unwrap_or(self.transmission.factor),
+                over.ior.unwrap_or(self.transmission.ior),
+            );
+        }
         if let Some(a) = over.albedo {
             self.albedo = Vec3::from_array(a);
         }
@@ -219,6 +312,13 @@ impl Material {
                 "emission",
                 format!("{} is not ≥ 0 and finite", self.emission),
             ));
+        }
+        let t = &self.transmission;
+        if !(0.0..=1.0).contains(&t.factor) {
+            return Err(("transmission", format!("{} is not in [0, 1]", t.factor)));
+        }
+        if !(t.ior.is_finite() && t.ior >= 1.0) {
+            return Err(("ior", format!("{} is not ≥ 1 and finite", t.ior)));
         }
         for (i, l) in self.lobes.iter().enumerate() {
             let ok = l.ks.iter().all(|k| k.is_finite() && *k >= 0.0)
@@ -408,6 +508,7 @@ mod tests {
             albedo: Some([0.2, 0.2, 0.2]),
             emission: None,
             lobes: Some(vec![lobe]),
+            ..Default::default()
         });
         assert_eq!(m.albedo, Vec3::splat(0.2));
         assert_eq!(m.lobes, vec![lobe]);

@@ -403,6 +403,8 @@ impl FramePasses {
         for pass in self.over_scene() {
             pass.draw(encoder, &frame, views);
         }
+        self.renderer
+            .draw_glass(encoder, views.radiance, views.depth);
         self.display.record(
             device,
             encoder,

@@ -32,6 +32,7 @@ use std::ops::Range;
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec4};
 
+use super::glass::{GlassPasses, split_runs, transmissive_triangles};
 use crate::camera::Camera;
 use crate::radiosity::RadiosityMap;
 use crate::radiosity::atlas::Atlas;
@@ -317,6 +318,9 @@ pub struct Renderer {
     /// `fs_main`: triangles of alpha-masked materials.
     masked_pipeline: wgpu::RenderPipeline,
     runs: Vec<ShadingRun>,
+    /// `runs` less the transmissive triangles, which [`Renderer::draw_glass`] draws.
+    opaque_runs: Vec<ShadingRun>,
+    glass: Option<GlassPasses>,
     bind_group: wgpu::BindGroup,
     uniforms: wgpu::Buffer,
     vertices: wgpu::Buffer,
@@ -393,11 +397,16 @@ impl Renderer {
             vertex_buffer,
             index_buffer,
         ) = renderer;
+        let runs = shading_runs(SurfaceShading::of_triangles(scene));
+        let (opaque_runs, glass_runs) = split_runs(runs.clone(), &transmissive_triangles(scene));
+        let glass = GlassPasses::new(gpu, scene, &glass_runs, formats, (&uniforms, &textures))?;
         Ok(Renderer {
             plain_pipeline,
             pipeline,
             masked_pipeline,
-            runs: shading_runs(SurfaceShading::of_triangles(scene)),
+            runs,
+            opaque_runs,
+            glass,
             bind_group,
             uniforms,
             vertices: vertex_buffer,
@@ -487,13 +496,26 @@ impl Renderer {
         pass.set_bind_group(0, &self.bind_group, &[]);
         pass.set_vertex_buffer(0, self.vertices.slice(..));
         pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
-        for run in &self.runs {
+        for run in &self.opaque_runs {
             pass.set_pipeline(match run.shading {
                 SurfaceShading::Plain => &self.plain_pipeline,
                 SurfaceShading::Textured => &self.pipeline,
                 SurfaceShading::Masked => &self.masked_pipeline,
             });
             pass.draw_indexed(run.indices.clone(), 0, 0..1);
+        }
+    }
+
+    /// Records the transmissive triangles over the finished frame ([`GlassPasses`]); nothing
+    /// without glass.
+    pub fn draw_glass(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        color: &wgpu::TextureView,
+        depth: &wgpu::TextureView,
+    ) {
+        if let Some(g) = &self.glass {
+            g.draw(encoder, color, depth, (&self.vertices, &self.indices));
         }
     }
 }
@@ -556,7 +578,7 @@ mod tests {
 
     #[test]
     fn a_material_is_plain_without_base_texture_or_cut_outs() {
-        use crate::scene::material::{AlphaMode, TextureRef};
+        use crate::scene::material::{AlphaMode, TextureRef, Transmission};
         let plain = Material {
             name: "plain".into(),
             albedo: Vec3::splat(0.5),
@@ -567,6 +589,7 @@ mod tests {
             alpha_factor: 1.0,
             alpha_mode: AlphaMode::Opaque,
             double_sided: false,
+            transmission: Transmission::NONE,
         };
         let texture = TextureRef {
             image: 0,
