@@ -981,3 +981,25 @@ fn slab_mirror_errors_name_the_reflector_and_what_was_found() {
         "{e}"
     );
 }
+
+#[test]
+fn transmission_and_ior_are_read_from_scene_json_and_checked() {
+    let (_dir, path) =
+        room_scene(r#", "materials": { "FloorMat": { "transmission": 0.5, "ior": 2.0 } }"#);
+    let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let m = scene
+        .materials
+        .iter()
+        .find(|m| m.name == "FloorMat")
+        .unwrap();
+    assert_eq!((m.transmission.factor, m.transmission.ior), (0.5, 2.0));
+    // The glTF's diffuse 0.5, halved.
+    assert!((m.albedo - Vec3::splat(0.25)).abs().max_element() < 1e-6);
+    let e = load_err(r#", "materials": { "FloorMat": { "transmission": 1.5 } }"#);
+    assert!(
+        e.contains("materials.FloorMat.transmission") && e.contains("[0, 1]"),
+        "{e}"
+    );
+    let e = load_err(r#", "materials": { "FloorMat": { "ior": 0.5 } }"#);
+    assert!(e.contains("materials.FloorMat.ior"), "{e}");
+}

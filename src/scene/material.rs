@@ -250,7 +250,6 @@ impl Material {
     /// refraction `ior`: the diffuse albedo keeps (1 − factor) of itself, and a dielectric's
     /// Fresnel lobe (glTF's r0 0.04, for IOR 1.5) takes the r0 of `ior`.
     pub fn set_transmission(&mut self, factor: f32, ior: f32) {
-        let factor = factor.clamp(0.0, 1.0);
         let old = self.transmission.factor;
         let before = if old < 1.0 {
             self.albedo / (1.0 - old)
@@ -294,6 +293,13 @@ impl Material {
 
     /// Checks the values' ranges; returns the offending field and why.
     pub fn check(&self) -> Result<(), (&'static str, String)> {
+        let t = &self.transmission;
+        if !(0.0..=1.0).contains(&t.factor) {
+            return Err(("transmission", format!("{} is not in [0, 1]", t.factor)));
+        }
+        if !(t.ior.is_finite() && t.ior >= 1.0) {
+            return Err(("ior", format!("{} is not ≥ 1 and finite", t.ior)));
+        }
         let finite = |v: Vec3| v.is_finite();
         if !finite(self.albedo) || self.albedo.min_element() < 0.0 {
             return Err(("albedo", format!("{} is not ≥ 0 and finite", self.albedo)));
@@ -312,13 +318,6 @@ impl Material {
                 "emission",
                 format!("{} is not ≥ 0 and finite", self.emission),
             ));
-        }
-        let t = &self.transmission;
-        if !(0.0..=1.0).contains(&t.factor) {
-            return Err(("transmission", format!("{} is not in [0, 1]", t.factor)));
-        }
-        if !(t.ior.is_finite() && t.ior >= 1.0) {
-            return Err(("ior", format!("{} is not ≥ 1 and finite", t.ior)));
         }
         for (i, l) in self.lobes.iter().enumerate() {
             let ok = l.ks.iter().all(|k| k.is_finite() && *k >= 0.0)
@@ -491,6 +490,56 @@ mod tests {
         let m = Material::from_gltf("white", [1.0, 1.0, 1.0, 1.0], 0.0, 1.0, [0.0; 3], 1.0);
         let (field, _) = m.check().unwrap_err();
         assert_eq!(field, "albedo");
+    }
+
+    #[test]
+    fn thin_glass_keeps_one_minus_transmission_of_its_diffuse_and_takes_its_ior() {
+        let mut m = Material::from_gltf("glass", [0.8, 0.6, 0.4, 1.0], 0.0, 0.0, [0.0; 3], 1.0);
+        assert!(!m.is_transmissive());
+        let opaque_albedo = m.albedo;
+        m.set_transmission(0.75, 1.5);
+        assert!(m.is_transmissive());
+        assert!((m.albedo - opaque_albedo * 0.25).abs().max_element() < 1e-6);
+        assert_eq!(m.transmission.tint, Vec3::new(0.8, 0.6, 0.4));
+        assert!((m.lobes[0].r0 - 0.04).abs() < 1e-6);
+        // Normal incidence: tint × factor × (1 − F₀); grazing: F = 1, nothing passes.
+        let w = m.transmission.weight(-1.0);
+        assert!(
+            (w - Vec3::new(0.8, 0.6, 0.4) * 0.75 * 0.96)
+                .abs()
+                .max_element()
+                < 1e-6
+        );
+        assert_eq!(m.transmission.weight(0.0), Vec3::ZERO);
+        // IOR 2: F₀ = 1/9, in the transmission and in glTF's dielectric lobe.
+        m.set_transmission(0.75, 2.0);
+        assert!((m.transmission.f0() - 1.0 / 9.0).abs() < 1e-6);
+        assert!((m.lobes[0].r0 - 1.0 / 9.0).abs() < 1e-6);
+        assert!((m.albedo - opaque_albedo * 0.25).abs().max_element() < 1e-6);
+        assert!(m.check().is_ok());
+    }
+
+    #[test]
+    fn transmission_overrides_are_checked() {
+        let mut m = Material::from_gltf("pane", [0.9; 4], 0.0, 1.0, [0.0; 3], 1.0);
+        m.apply(&MaterialOverride {
+            transmission: Some(0.5),
+            ..Default::default()
+        });
+        assert!((m.albedo - Vec3::splat(0.45)).abs().max_element() < 1e-6);
+        assert_eq!(m.transmission.ior, DEFAULT_IOR);
+        // An albedo given with it is the diffuse albedo as the solve uses it.
+        m.apply(&MaterialOverride {
+            albedo: Some([0.1; 3]),
+            transmission: Some(0.8),
+            ..Default::default()
+        });
+        assert_eq!((m.albedo, m.transmission.factor), (Vec3::splat(0.1), 0.8));
+        m.transmission.factor = 1.5;
+        assert_eq!(m.check().unwrap_err().0, "transmission");
+        m.transmission.factor = 0.5;
+        m.transmission.ior = 0.9;
+        assert_eq!(m.check().unwrap_err().0, "ior");
     }
 
     #[test]
