@@ -11,7 +11,8 @@ use super::emitters::{Emitters, luminance, power, var_of_mean};
 use super::many_lights::{Choice, LIGHTS_SAMPLED_EACH, ManyLights};
 use super::mirror_lights::MirrorLights;
 use super::next_event::{Arrival, At, NextEvent, Receiver, Source};
-use super::transmission::{Glass, RayMis, RayOut, drawn_visible, gather_ray};
+use super::through_glass::{GatherCx, RayMis, RayOut, gather_ray};
+use super::transmission::{Glass, drawn_visible};
 use super::transport::{Glossy, Term};
 use crate::geometry::Bvh;
 use crate::sampling::{Rng, basis, r2, sample_cosine_hemisphere};
@@ -167,26 +168,37 @@ pub(super) fn gather(
             hits.push(u32::MAX);
             continue;
         }
-        match bvh.closest_hit(origin, d, f32::INFINITY) {
-            Some(h) if glass.is_some_and(|g| g.passes(h.triangle)) => {
-                open += 1;
-                let mis = RayMis {
-                    n_rays,
-                    p_bsdf: l.z / PI,
-                    n_light,
-                    many: &many,
-                };
-                let mut out = RayOut {
-                    hits: &mut hits,
-                    terms: &mut terms,
-                    direct: &mut direct,
-                    via_glossy: &mut via_glossy,
-                    rays: &mut rays,
-                };
-                let c = gather_ray(cx, origin, d, h, &mis, rng, &mut out);
-                moments.ray_const += c;
-                moments.ray_const2 += c * c;
-            }
+        let hit = bvh.closest_hit(origin, d, f32::INFINITY);
+        if let Some(h) = hit
+            && let Some(glass) = glass.filter(|g| g.passes(h.triangle))
+        {
+            open += 1;
+            let gcx = GatherCx {
+                glass,
+                atlas: cx.atlas,
+                offsets: cx.offsets,
+                emitters: cx.emitters,
+                glossy: cx.glossy.as_ref(),
+            };
+            let mis = RayMis {
+                n_rays,
+                p_bsdf: l.z / PI,
+                n_light,
+                many: &many,
+            };
+            let mut out = RayOut {
+                hits: &mut hits,
+                terms: &mut terms,
+                direct: &mut direct,
+                via_glossy: &mut via_glossy,
+                rays: &mut rays,
+            };
+            let c = gather_ray(&gcx, origin, d, h, &mis, rng, &mut out);
+            moments.ray_const += c;
+            moments.ray_const2 += c * c;
+            continue;
+        }
+        match hit {
             Some(h) => {
                 let ht = &scene.triangles[h.triangle as usize];
                 let hn = ht.face_normal();

@@ -27,6 +27,7 @@ use super::impostors::{ImpostorReflections, ReflectorSet, impostor_pass};
 use super::load::ViewData;
 use super::options::{CurvedMode, Exposure, ReflectionMode, Tonemap, ViewOptions};
 use super::passes::display::{DisplayMapping, DisplayPass, RADIANCE_FORMAT};
+use super::passes::glass::GlassPasses;
 use super::passes::renderer::Renderer;
 use super::passes::{FrameContext, FramePass};
 use super::reflections::{GeometryReflections, RecursiveReflections, Source};
@@ -96,6 +97,8 @@ pub struct FramePasses {
     impostors: Option<ImpostorReflections>,
     curved_impostors: Option<ImpostorReflections>,
     curved: Option<CurvedReflections>,
+    /// Transmissive triangles, drawn last.
+    glass: Option<GlassPasses>,
 }
 
 impl FramePasses {
@@ -126,6 +129,7 @@ impl FramePasses {
             color: RADIANCE_FORMAT,
         };
         let renderer = Renderer::new(gpu, &data.scene, &data.map, formats)?;
+        let glass = GlassPasses::new(gpu, &data.scene, &renderer)?;
         let display =
             crate::view::gpu::error_scoped(&gpu.device, "creating the display pass", || {
                 DisplayPass::new(&gpu.device, display_format)
@@ -141,6 +145,7 @@ impl FramePasses {
             impostors: None,
             curved_impostors: None,
             curved: None,
+            glass,
         })
     }
 
@@ -403,8 +408,9 @@ impl FramePasses {
         for pass in self.over_scene() {
             pass.draw(encoder, &frame, views);
         }
-        self.renderer
-            .draw_glass(encoder, views.radiance, views.depth);
+        if let Some(glass) = &self.glass {
+            glass.draw(encoder, &self.renderer, views.radiance, views.depth);
+        }
         self.display.record(
             device,
             encoder,

@@ -13,14 +13,13 @@ use std::ops::Range;
 
 use crate::scene::Scene;
 use crate::view::gpu::build::{bind_group_layout, buffer_init, render_pipeline, shader};
-use crate::view::gpu::target::{ADDITIVE_KEEP_ALPHA, TargetFormats, overlay_pass, reverse_z_depth};
+use crate::view::gpu::target::{ADDITIVE_KEEP_ALPHA, overlay_pass, reverse_z_depth};
 use crate::view::gpu::{Gpu, RenderError, error_scoped};
 
 use super::renderer::{
-    SHADER_SOURCE, SURFACE_TEXTURES, ShadingRun, SurfaceShading, frame_bind_group,
+    Renderer, SHADER_SOURCE, SURFACE_TEXTURES, SurfaceShading, frame_bind_group,
     frame_bind_group_layout, scene_vertex_layout,
 };
-use crate::view::gpu::radiosity_textures::RadiosityTextures;
 
 /// WGSL of the glass passes, appended to [`SHADER_SOURCE`].
 pub const GLASS_SOURCE: &str = include_str!("../../../shaders/glass.wgsl");
@@ -38,47 +37,6 @@ const MULTIPLY_KEEP_ALPHA: wgpu::BlendState = wgpu::BlendState {
         operation: wgpu::BlendOperation::Add,
     },
 };
-
-/// Whether each of `scene`'s triangles transmits (scene order).
-pub fn transmissive_triangles(scene: &Scene) -> Vec<bool> {
-    scene
-        .triangles
-        .iter()
-        .map(|t| {
-            scene
-                .materials
-                .get(t.material as usize)
-                .is_some_and(|m| m.is_transmissive())
-        })
-        .collect()
-}
-
-/// Splits `runs` (of scene triangles, three indices each) into the runs of opaque triangles
-/// and those of transmissive ones (`glass[t]`), each in scene order.
-pub fn split_runs(runs: Vec<ShadingRun>, glass: &[bool]) -> (Vec<ShadingRun>, Vec<ShadingRun>) {
-    let (mut opaque, mut clear) = (Vec::new(), Vec::new());
-    for run in runs {
-        let mut start = run.indices.start;
-        while start < run.indices.end {
-            let is_glass = glass[start as usize / 3];
-            let mut end = start + 3;
-            while end < run.indices.end && glass[end as usize / 3] == is_glass {
-                end += 3;
-            }
-            let part = ShadingRun {
-                indices: start..end,
-                shading: run.shading,
-            };
-            if is_glass {
-                clear.push(part);
-            } else {
-                opaque.push(part);
-            }
-            start = end;
-        }
-    }
-    (opaque, clear)
-}
 
 /// Per material: tint × transmission factor and the Fresnel F₀ (`glass` in glass.wgsl).
 pub fn glass_records(scene: &Scene) -> Vec<[f32; 4]> {
@@ -107,15 +65,13 @@ pub struct GlassPasses {
 }
 
 impl GlassPasses {
-    /// `None` when `runs` (the transmissive triangles' runs) is empty; `frame` is the scene
-    /// pass's uniform buffer and textures.
+    /// The passes of `renderer`'s transmissive triangles (`scene`'s); `None` without any.
     pub fn new(
         gpu: &Gpu,
         scene: &Scene,
-        runs: &[ShadingRun],
-        formats: TargetFormats,
-        frame: (&wgpu::Buffer, &RadiosityTextures),
+        renderer: &Renderer,
     ) -> Result<Option<GlassPasses>, RenderError> {
+        let runs = renderer.glass_runs();
         if runs.is_empty() {
             return Ok(None);
         }
@@ -124,7 +80,12 @@ impl GlassPasses {
             let source = format!("{SHADER_SOURCE}\n{GLASS_SOURCE}");
             let module = shader(device, "glint glass shader", &source);
             let frame_layout = frame_bind_group_layout(device);
-            let frame_group = frame_bind_group(device, &frame_layout, frame.0, frame.1);
+            let frame_group = frame_bind_group(
+                device,
+                &frame_layout,
+                renderer.frame_uniform_buffer(),
+                renderer.textures(),
+            );
             let textures = runs.iter().any(|r| r.shading != SurfaceShading::Plain);
             let layout = bind_group_layout()
                 .storage(0, wgpu::ShaderStages::FRAGMENT)
@@ -150,7 +111,7 @@ impl GlassPasses {
                     .layout_slots(&[Some(&frame_layout), None, Some(&layout)])
                     .vertex(scene_vertex_layout())
                     .depth(reverse_z_depth(false, wgpu::CompareFunction::Greater))
-                    .color(formats.color, Some(blend))
+                    .color(renderer.formats().color, Some(blend))
                     .override_bool(SURFACE_TEXTURES, textures)
                     .build(device)
             };
@@ -165,16 +126,16 @@ impl GlassPasses {
         Ok(Some(passes))
     }
 
-    /// Records both passes over the finished frame in `color`, depth tested against `depth`;
-    /// `mesh` is the scene pass's vertex and index buffers.
+    /// Records both passes over the finished frame in `color`, depth tested against `depth`,
+    /// with `renderer`'s vertices and indices.
     pub fn draw(
         &self,
         encoder: &mut wgpu::CommandEncoder,
+        renderer: &Renderer,
         color: &wgpu::TextureView,
         depth: &wgpu::TextureView,
-        mesh: (&wgpu::Buffer, &wgpu::Buffer),
     ) {
-        let (vertices, indices) = mesh;
+        let (vertices, indices) = (renderer.vertex_buffer(), renderer.index_buffer());
         let mut pass = overlay_pass(encoder, "glint glass passes", color, depth);
         pass.set_bind_group(0, &self.frame_group, &[]);
         pass.set_bind_group(2, &self.bind_group, &[]);
@@ -186,26 +147,5 @@ impl GlassPasses {
                 pass.draw_indexed(r.clone(), 0, 0..1);
             }
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::view::passes::renderer::SurfaceShading::{Plain, Textured};
-
-    #[test]
-    fn split_runs_separates_glass_triangles_in_order() {
-        let run = |indices: Range<u32>, shading| ShadingRun { indices, shading };
-        let runs = vec![run(0..12, Plain), run(12..18, Textured)];
-        let glass = [false, true, true, false, true, false];
-        let (opaque, clear) = split_runs(runs.clone(), &glass);
-        assert_eq!(
-            opaque,
-            vec![run(0..3, Plain), run(9..12, Plain), run(15..18, Textured)]
-        );
-        assert_eq!(clear, vec![run(3..9, Plain), run(12..15, Textured)]);
-        let (all, none) = split_runs(runs.clone(), &[false; 6]);
-        assert_eq!((all, none), (runs, vec![]));
     }
 }

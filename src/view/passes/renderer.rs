@@ -32,7 +32,6 @@ use std::ops::Range;
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec4};
 
-use super::glass::{GlassPasses, split_runs, transmissive_triangles};
 use crate::camera::Camera;
 use crate::radiosity::RadiosityMap;
 use crate::radiosity::atlas::Atlas;
@@ -214,6 +213,47 @@ pub fn shading_runs(shadings: impl IntoIterator<Item = SurfaceShading>) -> Vec<S
     runs
 }
 
+/// Whether each of `scene`'s triangles transmits (scene order).
+pub fn transmissive_triangles(scene: &Scene) -> Vec<bool> {
+    scene
+        .triangles
+        .iter()
+        .map(|t| {
+            scene
+                .materials
+                .get(t.material as usize)
+                .is_some_and(|m| m.is_transmissive())
+        })
+        .collect()
+}
+
+/// Splits `runs` (of scene triangles, three indices each) into the runs of opaque triangles
+/// and those of transmissive ones (`glass[t]`), each in scene order.
+pub fn split_runs(runs: Vec<ShadingRun>, glass: &[bool]) -> (Vec<ShadingRun>, Vec<ShadingRun>) {
+    let (mut opaque, mut clear) = (Vec::new(), Vec::new());
+    for run in runs {
+        let mut start = run.indices.start;
+        while start < run.indices.end {
+            let is_glass = glass[start as usize / 3];
+            let mut end = start + 3;
+            while end < run.indices.end && glass[end as usize / 3] == is_glass {
+                end += 3;
+            }
+            let part = ShadingRun {
+                indices: start..end,
+                shading: run.shading,
+            };
+            if is_glass {
+                clear.push(part);
+            } else {
+                opaque.push(part);
+            }
+            start = end;
+        }
+    }
+    (opaque, clear)
+}
+
 /// The `override` in view.wgsl that specialises a pipeline to scenes (or runs) without
 /// surface textures or cut-outs ([`SurfaceShading::Plain`]).
 pub(crate) const SURFACE_TEXTURES: &str = "SURFACE_TEXTURES";
@@ -318,9 +358,9 @@ pub struct Renderer {
     /// `fs_main`: triangles of alpha-masked materials.
     masked_pipeline: wgpu::RenderPipeline,
     runs: Vec<ShadingRun>,
-    /// `runs` less the transmissive triangles, which [`Renderer::draw_glass`] draws.
+    /// `runs` less the transmissive triangles, which [`super::glass`] draws.
     opaque_runs: Vec<ShadingRun>,
-    glass: Option<GlassPasses>,
+    glass_runs: Vec<ShadingRun>,
     bind_group: wgpu::BindGroup,
     uniforms: wgpu::Buffer,
     vertices: wgpu::Buffer,
@@ -399,14 +439,13 @@ impl Renderer {
         ) = renderer;
         let runs = shading_runs(SurfaceShading::of_triangles(scene));
         let (opaque_runs, glass_runs) = split_runs(runs.clone(), &transmissive_triangles(scene));
-        let glass = GlassPasses::new(gpu, scene, &glass_runs, formats, (&uniforms, &textures))?;
         Ok(Renderer {
             plain_pipeline,
             pipeline,
             masked_pipeline,
             runs,
             opaque_runs,
-            glass,
+            glass_runs,
             bind_group,
             uniforms,
             vertices: vertex_buffer,
@@ -416,6 +455,11 @@ impl Renderer {
             formats,
             near: near_plane(scene),
         })
+    }
+
+    /// The runs of transmissive triangles, which the scene pass leaves out.
+    pub(crate) fn glass_runs(&self) -> &[ShadingRun] {
+        &self.glass_runs
     }
 
     /// The formats the pipeline renders to.
@@ -505,19 +549,6 @@ impl Renderer {
             pass.draw_indexed(run.indices.clone(), 0, 0..1);
         }
     }
-
-    /// Records the transmissive triangles over the finished frame ([`GlassPasses`]); nothing
-    /// without glass.
-    pub fn draw_glass(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        color: &wgpu::TextureView,
-        depth: &wgpu::TextureView,
-    ) {
-        if let Some(g) = &self.glass {
-            g.draw(encoder, color, depth, (&self.vertices, &self.indices));
-        }
-    }
 }
 
 #[cfg(test)]
@@ -574,6 +605,22 @@ mod tests {
             shading_runs([Textured, Plain, Textured]),
             vec![run(0..3, Textured), run(3..6, Plain), run(6..9, Textured)]
         );
+    }
+
+    #[test]
+    fn split_runs_separates_glass_triangles_in_order() {
+        use SurfaceShading::{Plain, Textured};
+        let run = |indices: Range<u32>, shading| ShadingRun { indices, shading };
+        let runs = vec![run(0..12, Plain), run(12..18, Textured)];
+        let glass = [false, true, true, false, true, false];
+        let (opaque, clear) = split_runs(runs.clone(), &glass);
+        assert_eq!(
+            opaque,
+            vec![run(0..3, Plain), run(9..12, Plain), run(15..18, Textured)]
+        );
+        assert_eq!(clear, vec![run(3..9, Plain), run(12..15, Textured)]);
+        let (all, none) = split_runs(runs.clone(), &[false; 6]);
+        assert_eq!((all, none), (runs, vec![]));
     }
 
     #[test]
