@@ -1,4 +1,5 @@
-//! Thin glass in the solve (glTF `KHR_materials_transmission`, [`Transmission`]): a ray that
+//! Thin glass in the solve (glTF `KHR_materials_transmission`,
+//! [`crate::scene::material::Transmission`]): a ray that
 //! meets a transmissive surface, from either side, goes on straight through it with weight
 //! tint × factor × (1 − F), at most [`MAX_LAYERS`] surfaces deep, without random choices.
 //!
@@ -14,8 +15,9 @@
 //! irradiance on its front side / π, plus emission. What it transmits depends on direction and
 //! is not D: rays that reach the glass read the light behind it here, and the viewer draws the
 //! frame behind it tinted. Its Fresnel reflection is its glossy lobe ([`super::transport`]).
-//! Emitters' images in mirrors ([`super::mirror_lights`]) and glossy paths' own rays still
-//! treat glass as opaque.
+//! Still opaque to glass: emitters' images in mirrors ([`super::mirror_lights`]), and a glossy
+//! path's continuation rays and its shadow rays towards many-lights points
+//! ([`super::transport`]); its shadow rays towards each emitter ([`super::next_event`]) pass.
 
 use glam::Vec3;
 
