@@ -596,3 +596,116 @@ fn texels_per_radian_is_a_setting_like_the_others() {
     let old: RadiositySettings = serde_json::from_value(json).unwrap();
     assert_eq!(old.texels_per_radian, 0.0);
 }
+
+/// A receiver (albedo 0.5, facing up at y = 0) lit by a 1 × 1 emitter of radiance 2 facing
+/// down at y = 1, through a rough glass pane of base colour `tint` at y = 0.5 that covers it.
+fn light_behind_a_pane(dir: &Path, tint: [f32; 3], factor: f32) -> Scene {
+    let meshes = [
+        quad("Receiver", 0, 1, 0.0, 1.0),
+        flip(quad("Emitter", 1, 1, 1.0, 0.5)),
+        quad("Pane", 2, 1, 0.5, 2.0),
+    ];
+    let glass = MaterialSpec {
+        name: "glass",
+        base: [tint[0], tint[1], tint[2], 1.0],
+        ..MaterialSpec::diffuse("glass", 0.0)
+    };
+    let materials = [
+        MaterialSpec::diffuse("grey", 0.5),
+        emissive("lamp", 0.0, 2.0),
+        glass,
+    ];
+    write_gltf(dir, "s", &meshes, &materials);
+    add_transmission(&dir.join("s.gltf"), 2, factor);
+    Scene::load(write_scene(
+        dir,
+        r#"{ "version": 1, "geometry": "s.gltf" }"#,
+    ))
+    .unwrap()
+}
+
+/// ρ/π ∫ L T(cos θ) cos θ cos θ_l / r² dA over the emitter of [`light_behind_a_pane`], seen
+/// from the receiver's centre: the pane is parallel to both, so a ray crosses it at the
+/// receiver's angle θ, where thin glass passes tint × factor × (1 − F_Schlick(0.04, cos θ)).
+fn through_pane_analytic(tint: [f32; 3], factor: f32) -> [f64; 3] {
+    let n = 400;
+    let mut sum = 0.0f64;
+    for i in 0..n {
+        for j in 0..n {
+            let x = -0.5 + (i as f64 + 0.5) / n as f64;
+            let z = -0.5 + (j as f64 + 0.5) / n as f64;
+            let r2 = x * x + z * z + 1.0;
+            let cos = 1.0 / r2.sqrt();
+            let f = 0.04 + 0.96 * (1.0 - cos).powi(5);
+            sum += (1.0 - f) * cos * cos / r2 / (n * n) as f64;
+        }
+    }
+    tint.map(|t| 0.5 * 2.0 * t as f64 * factor as f64 * sum / std::f64::consts::PI)
+}
+
+#[test]
+fn a_light_behind_a_tinted_pane_lights_the_receiver_through_it() {
+    use glint::eval::probe::ProbePoint;
+    use glint::eval::reference::{ProbeTraceOptions, trace_probes};
+    let dir = tempfile::tempdir().unwrap();
+    let tint = [0.8, 0.6, 0.4];
+    let scene = light_behind_a_pane(dir.path(), tint, 1.0);
+    let glass = &scene.materials[scene.triangles[4].material as usize];
+    assert_eq!(
+        glass.transmission.factor, 1.0,
+        "the glTF's transmission is read"
+    );
+    assert_eq!(
+        glass.albedo,
+        Vec3::ZERO,
+        "a fully transmissive pane diffuses nothing"
+    );
+    let want = through_pane_analytic(tint, 1.0);
+
+    let (atlas, sol) = run(&scene, 16.0, 1024, 256, 4);
+    let got = at(&scene, &atlas, &sol, Vec3::ZERO);
+    eprintln!("solve {got} vs analytic {want:?}");
+    for c in 0..3 {
+        assert!(
+            (got[c] as f64 / want[c] - 1.0).abs() < 0.02,
+            "solve, channel {c}: {got} vs analytic {want:?}"
+        );
+    }
+
+    let bvh = scene.build_bvh();
+    let points = [ProbePoint {
+        name: None,
+        position: [0.0, 0.0, 0.0],
+        normal: [0.0, 1.0, 0.0],
+    }];
+    let opts = ProbeTraceOptions {
+        paths: 16384,
+        ..ProbeTraceOptions::default()
+    };
+    let traced = &trace_probes(&scene, &bvh, &points, 0.01, &opts, &Silent).unwrap()[0];
+    let se = traced.std_error.unwrap();
+    eprintln!("path tracer {:?} ± {se:?}", traced.radiance);
+    for c in 0..3 {
+        let (v, w) = (traced.radiance[c] as f64, want[c]);
+        assert!(
+            (v - w).abs() < 4.0 * se[c] as f64 + 0.01 * w,
+            "path tracer, channel {c}: {v} ± {} vs analytic {w}",
+            se[c]
+        );
+    }
+}
+
+#[test]
+fn a_half_transmissive_pane_passes_half_and_keeps_half_its_diffuse_albedo() {
+    let dir = tempfile::tempdir().unwrap();
+    let tint = [0.9, 0.9, 0.9];
+    let scene = light_behind_a_pane(dir.path(), tint, 0.5);
+    let glass = &scene.materials[scene.triangles[4].material as usize];
+    assert!((glass.albedo - Vec3::splat(0.45)).abs().max_element() < 1e-6);
+    let want = through_pane_analytic(tint, 0.5)[0];
+    // The pane's diffuse half faces the emitter: its light goes up, not to the receiver.
+    let (atlas, sol) = run(&scene, 16.0, 1024, 256, 4);
+    let got = at(&scene, &atlas, &sol, Vec3::ZERO).x as f64;
+    eprintln!("solve {got} vs analytic {want}");
+    assert!((got / want - 1.0).abs() < 0.02, "{got} vs analytic {want}");
+}

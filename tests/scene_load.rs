@@ -981,3 +981,56 @@ fn slab_mirror_errors_name_the_reflector_and_what_was_found() {
         "{e}"
     );
 }
+
+#[test]
+fn transmission_and_ior_are_read_from_scene_json_and_checked() {
+    let (_dir, path) =
+        room_scene(r#", "materials": { "FloorMat": { "transmission": 0.5, "ior": 2.0 } }"#);
+    let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let m = scene
+        .materials
+        .iter()
+        .find(|m| m.name == "FloorMat")
+        .unwrap();
+    assert_eq!((m.transmission.factor, m.transmission.ior), (0.5, 2.0));
+    // The glTF's diffuse 0.5, halved.
+    assert!((m.albedo - Vec3::splat(0.25)).abs().max_element() < 1e-6);
+    let e = load_err(r#", "materials": { "FloorMat": { "transmission": 1.5 } }"#);
+    assert!(
+        e.contains("materials.FloorMat.transmission") && e.contains("[0, 1]"),
+        "{e}"
+    );
+    let e = load_err(r#", "materials": { "FloorMat": { "ior": 0.5 } }"#);
+    assert!(e.contains("materials.FloorMat.ior"), "{e}");
+}
+
+#[test]
+fn gltf_transmission_and_ior_make_thin_glass() {
+    let dir = tempfile::tempdir().unwrap();
+    let gltf = write_room(dir.path());
+    // PanelMat (index 1): metallic 1 in the room; make it a smooth dielectric of IOR 2.
+    add_transmission(&gltf, 1, 0.9);
+    let mut doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&gltf).unwrap()).unwrap();
+    let m = &mut doc["materials"][1];
+    m["pbrMetallicRoughness"]["metallicFactor"] = 0.0.into();
+    m["extensions"]["KHR_materials_ior"] = serde_json::json!({ "ior": 2.0 });
+    std::fs::write(&gltf, serde_json::to_string(&doc).unwrap()).unwrap();
+    let path = write_scene(dir.path(), r#"{ "version": 1, "geometry": "room.gltf" }"#);
+    let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let m = scene
+        .materials
+        .iter()
+        .find(|m| m.name == "PanelMat")
+        .unwrap();
+    assert_eq!((m.transmission.factor, m.transmission.ior), (0.9, 2.0));
+    assert_eq!(m.transmission.tint, Vec3::splat(0.9));
+    // glTF's dielectric lobe takes F₀ = 1/9 of IOR 2; the diffuse keeps a tenth.
+    assert!((m.lobes[0].r0 - 1.0 / 9.0).abs() < 1e-6, "{:?}", m.lobes);
+    assert!(
+        (m.albedo - Vec3::splat(0.9 * 0.96 * 0.1))
+            .abs()
+            .max_element()
+            < 1e-6
+    );
+}

@@ -9,7 +9,12 @@
 //!   occluders; BRDF-sampled rays that cross one collect its emission, MIS-weighted against
 //!   next-event estimation (a lamp seen in a mirror is found by BRDF sampling);
 //! - emissive triangles emit from their front face only; back faces are black and end a path;
-//! - a miss returns [`RenderOptions::background`] (a uniform sky; black for scenes).
+//! - a miss returns [`RenderOptions::background`] (a uniform sky; black for scenes);
+//! - thin glass ([`crate::scene::material::Transmission`]) passes a path straight through,
+//!   from either side, chosen with the probability of its transmittance's largest channel
+//!   (else the path meets its surface: reflection lobe and reduced diffuse part); shadow rays
+//!   cross it with its transmittance. The solver walks the same glass deterministically, so
+//!   the two agree only if both are right.
 //!
 //! One concept over 700 lines: one path tracer (`Tracer`), whose two entry points, images and
 //! probes of D, share every sampling routine.
@@ -181,6 +186,8 @@ struct Tracer<'a> {
     emitters: Emitters,
     shaders: Vec<Shader>,
     opts: &'a RenderOptions,
+    /// Whether any material transmits (else a shadow ray is one occlusion query).
+    glass: bool,
 }
 
 impl<'a> Tracer<'a> {
@@ -202,6 +209,7 @@ impl<'a> Tracer<'a> {
             emitters: Emitters::new(scene),
             shaders,
             opts,
+            glass: scene.materials.iter().any(|m| m.is_transmissive()),
         }
     }
 
@@ -223,11 +231,14 @@ impl<'a> Tracer<'a> {
         rng: &mut Rng,
     ) -> Vec3 {
         let mut l = Vec3::ZERO;
+        // Distance from the last scattering vertex to `origin`: glass passed straight through
+        // lies in between, and emitters' densities are of the whole distance.
+        let mut passed = 0.0f32;
         for depth in depth..=self.opts.max_depth {
             let hit = self.bvh.closest_hit(origin, dir, f32::INFINITY);
             if let Some(p_bsdf) = prev_pdf {
                 let t_max = hit.map_or(f32::INFINITY, |h| h.t);
-                l += throughput * self.lights_along(origin, dir, t_max, p_bsdf);
+                l += throughput * self.lights_along(origin, dir, t_max, passed, p_bsdf);
             }
             let Some(hit) = hit else {
                 l += throughput * self.opts.background;
@@ -237,6 +248,21 @@ impl<'a> Tracer<'a> {
             let mat = &self.scene.materials[tri.material as usize];
             let mut ng = tri.face_normal();
             let mut cos_hit = -dir.dot(ng);
+            // Thin glass: straight through with the probability of its transmittance's
+            // largest channel, else the surface (its reflection and reduced diffuse part).
+            if mat.is_transmissive() {
+                let t = mat.transmission.weight(cos_hit);
+                let q = t.max_element().min(1.0);
+                if rng.uniform() < q {
+                    throughput *= t / q;
+                    let p = origin + dir * hit.t;
+                    let next = self.bvh.offset_origin(p, -ng * cos_hit.signum());
+                    passed += (next - origin).dot(dir);
+                    origin = next;
+                    continue;
+                }
+                throughput /= 1.0 - q;
+            }
             // A double-sided surface's back is a surface of the same material facing the
             // other way; other back faces are black, as in the radiosity solver.
             let back = cos_hit <= 0.0;
@@ -251,8 +277,8 @@ impl<'a> Tracer<'a> {
                 let w = match prev_pdf {
                     None => 1.0,
                     Some(p_bsdf) => {
-                        let p_light =
-                            self.emitters.area_pdf(mat.emission) * hit.t * hit.t / cos_hit;
+                        let dist = passed + hit.t;
+                        let p_light = self.emitters.area_pdf(mat.emission) * dist * dist / cos_hit;
                         power(p_bsdf, p_light)
                     }
                 };
@@ -303,8 +329,40 @@ impl<'a> Tracer<'a> {
             origin = o;
             dir = d;
             prev_pdf = Some(pdf);
+            passed = 0.0;
         }
         l
+    }
+
+    /// The fraction of light that crosses the segment from `origin` along `dir` (unit) up to
+    /// `reach`: the product of the transmittances of the glass it passes, `None` when an
+    /// opaque surface (or more glass than a path's depth) blocks it.
+    fn transmittance(&self, mut origin: Vec3, dir: Vec3, reach: f32) -> Option<Vec3> {
+        if !self.bvh.occluded(origin, dir, reach) {
+            return Some(Vec3::ONE);
+        }
+        if !self.glass {
+            return None;
+        }
+        let end = origin + dir * reach;
+        let mut w = Vec3::ONE;
+        for _ in 0..=self.opts.max_depth {
+            let Some(hit) = self.bvh.closest_hit(origin, dir, (end - origin).dot(dir)) else {
+                return Some(w);
+            };
+            let tri = &self.scene.triangles[hit.triangle as usize];
+            let mat = &self.scene.materials[tri.material as usize];
+            if !mat.is_transmissive() {
+                return None;
+            }
+            let ng = tri.face_normal();
+            let cos = dir.dot(ng);
+            w *= mat.transmission.weight(cos);
+            origin = self
+                .bvh
+                .offset_origin(origin + dir * hit.t, ng * cos.signum());
+        }
+        None
     }
 
     /// A world direction from `shader`'s mixture at a point with frame `frame` and geometric
@@ -331,7 +389,8 @@ impl<'a> Tracer<'a> {
 
     /// Emission of the area lights a BRDF-sampled ray (density `p_bsdf`) crosses before
     /// `t_max`, MIS-weighted against their sampling in [`Tracer::direct`].
-    fn lights_along(&self, origin: Vec3, dir: Vec3, t_max: f32, p_bsdf: f32) -> Vec3 {
+    /// `passed` is the distance from the vertex that sampled the ray to `origin`.
+    fn lights_along(&self, origin: Vec3, dir: Vec3, t_max: f32, passed: f32, p_bsdf: f32) -> Vec3 {
         let mut l = Vec3::ZERO;
         for light in &self.scene.lights {
             let Some(t) = ray_quad(origin, dir, light.corner, light.edge_u, light.edge_v, t_max)
@@ -343,6 +402,7 @@ impl<'a> Tracer<'a> {
                 cos_l = cos_l.abs();
             }
             if cos_l > 0.0 {
+                let t = passed + t;
                 let p_light = t * t / (cos_l * light.area);
                 l += light.radiance * power(p_bsdf, p_light);
             }
@@ -407,13 +467,16 @@ impl<'a> Tracer<'a> {
             }
             let wi = frame.to_local(d);
             let f = shader.brdf.eval(wo, wi);
-            if f == Vec3::ZERO || self.bvh.occluded(origin, d, dist * (1.0 - 1e-4)) {
+            if f == Vec3::ZERO {
                 continue;
             }
+            let Some(tr) = self.transmittance(origin, d, dist * (1.0 - 1e-4)) else {
+                continue;
+            };
             // MIS against BRDF-sampled rays, which cross the quad in [`Tracer::lights_along`].
             let p_light = dist2 / (cos_l * light.area);
             let w = power(p_light, shader.pdf(wo, wi));
-            l += f * light.radiance * (wi.z * w / p_light);
+            l += f * light.radiance * tr * (wi.z * w / p_light);
         }
         if !self.emitters.tris.is_empty() {
             let t = self.emitters.pick(rng.uniform());
@@ -434,8 +497,8 @@ impl<'a> Tracer<'a> {
                     let w = power(p_light, shader.pdf(wo, wi));
                     // Stop short of the emitter so that its own triangle does not occlude.
                     let reach = (dist - 4.0 * self.bvh.epsilon()).max(0.0);
-                    if !self.bvh.occluded(origin, d, reach) {
-                        l += f * self.scene.emission_at(t, at) * (wi.z * w / p_light);
+                    if let Some(tr) = self.transmittance(origin, d, reach) {
+                        l += f * self.scene.emission_at(t, at) * tr * (wi.z * w / p_light);
                     }
                 }
             }

@@ -11,6 +11,8 @@ use super::emitters::{Emitters, luminance, power, var_of_mean};
 use super::many_lights::{Choice, LIGHTS_SAMPLED_EACH, ManyLights};
 use super::mirror_lights::MirrorLights;
 use super::next_event::{Arrival, At, NextEvent, Receiver, Source};
+use super::through_glass::{GatherCx, RayMis, RayOut, gather_ray};
+use super::transmission::{Glass, drawn_visible};
 use super::transport::{Glossy, Term};
 use crate::geometry::Bvh;
 use crate::sampling::{Rng, basis, r2, sample_cosine_hemisphere};
@@ -154,6 +156,7 @@ pub(super) fn gather(
     // With many emitters, one distribution over them all, and that many samples from it.
     let many = cx.many.map(|m| (m, m.choose(origin, ns)));
     let n_many = n_light * LIGHTS_SAMPLED_EACH as u32;
+    let glass = Glass::of(scene, bvh);
 
     // Gathering rays (cosine-distributed about the shading normal), from a low-discrepancy
     // sequence: the incoming radiance is smooth over most of the hemisphere.
@@ -165,7 +168,37 @@ pub(super) fn gather(
             hits.push(u32::MAX);
             continue;
         }
-        match bvh.closest_hit(origin, d, f32::INFINITY) {
+        let hit = bvh.closest_hit(origin, d, f32::INFINITY);
+        if let Some(h) = hit
+            && let Some(glass) = glass.filter(|g| g.passes(h.triangle))
+        {
+            open += 1;
+            let gcx = GatherCx {
+                glass,
+                atlas: cx.atlas,
+                offsets: cx.offsets,
+                emitters: cx.emitters,
+                glossy: cx.glossy.as_ref(),
+            };
+            let mis = RayMis {
+                n_rays,
+                p_bsdf: l.z / PI,
+                n_light,
+                many: &many,
+            };
+            let mut out = RayOut {
+                hits: &mut hits,
+                terms: &mut terms,
+                direct: &mut direct,
+                via_glossy: &mut via_glossy,
+                rays: &mut rays,
+            };
+            let c = gather_ray(&gcx, origin, d, h, &mis, rng, &mut out);
+            moments.ray_const += c;
+            moments.ray_const2 += c * c;
+            continue;
+        }
+        match hit {
             Some(h) => {
                 let ht = &scene.triangles[h.triangle as usize];
                 let hn = ht.face_normal();
@@ -364,6 +397,7 @@ fn sample_many(
         return (Vec3::ZERO, 0.0);
     }
     let (scene, bvh) = (cx.scene, cx.bvh);
+    let glass = Glass::of(scene, bvh);
     let mut sum = Vec3::ZERO;
     let (mut y, mut y2) = (0.0f64, 0.0f64);
     for k in 0..n {
@@ -372,16 +406,19 @@ fn sample_many(
             continue;
         };
         let cos_s = dr.d.dot(ns);
-        if cos_s <= 0.0 || dr.d.dot(ng) <= 0.0 || !dr.visible(bvh, origin, rays) {
+        if cos_s <= 0.0 || dr.d.dot(ng) <= 0.0 {
             continue;
         }
+        let Some(tr) = drawn_visible(glass.as_ref(), bvh, &dr, origin, rays) else {
+            continue;
+        };
         let p_light = dr.p_light;
         // Gathering rays find emissive triangles too; area lights are not geometry.
         let wgt = match dr.point.triangle {
             None => 1.0,
             Some(_) => power(n as f32, p_light, n_rays as f32, cos_s / PI),
         };
-        let c = dr.point.radiance * (wgt * cos_s / p_light);
+        let c = dr.point.radiance * tr * (wgt * cos_s / p_light);
         sum += c;
         let v = luminance(c) as f64 / PI as f64;
         y += v;

@@ -84,12 +84,16 @@ impl Drawn {
     /// emissive triangle, which must not occlude itself); counts the ray.
     pub fn visible(&self, bvh: &Bvh, origin: Vec3, rays: &mut u64) -> bool {
         *rays += 1;
+        !bvh.occluded(origin, self.d, self.reach(bvh))
+    }
+
+    /// How far a shadow ray towards the point goes.
+    pub fn reach(&self, bvh: &Bvh) -> f32 {
         let dist = self.dist;
-        let reach = match self.point.triangle {
+        match self.point.triangle {
             None => dist * (1.0 - 1e-5),
             Some(_) => dist - 2.0 * bvh.epsilon().max(dist * 1e-5),
-        };
-        !bvh.occluded(origin, self.d, reach)
+        }
     }
 }
 

@@ -16,6 +16,8 @@ pub use mirror_lights::{MIRROR_ROUGHNESS, is_mirror};
 pub mod seams;
 pub mod solve;
 mod terms;
+mod through_glass;
+mod transmission;
 mod transport;
 mod varint;
 

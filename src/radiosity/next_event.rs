@@ -19,6 +19,7 @@
 use glam::Vec3;
 
 use super::emitters::{Emitters, stratified_point};
+use super::transmission::{Glass, shadow};
 use crate::geometry::Bvh;
 use crate::sampling::{Rng, sample_triangle};
 use crate::scene::{AreaLight, Scene};
@@ -85,6 +86,7 @@ impl NextEvent<'_> {
         receiver: &mut R,
     ) {
         let (scene, bvh) = (self.scene, self.bvh);
+        let glass = Glass::of(scene, bvh);
         let grid = (n as f32).sqrt().ceil() as u32;
         for light in &scene.lights {
             for k in 0..n {
@@ -103,11 +105,12 @@ impl NextEvent<'_> {
                     continue;
                 };
                 *rays += 1;
-                if bvh.occluded(at.origin, d, dist * (1.0 - 1e-5)) {
+                let Some(tr) = shadow(glass.as_ref(), bvh, at.origin, d, dist * (1.0 - 1e-5))
+                else {
                     continue;
-                }
+                };
                 let a = Arrival {
-                    radiance: light.radiance,
+                    radiance: light.radiance * tr,
                     dist2,
                     cos_l,
                     p_light: dist2 / (cos_l * light.area),
@@ -136,12 +139,13 @@ impl NextEvent<'_> {
             };
             *rays += 1;
             // Stop short of the emitter: it must not occlude itself.
-            if bvh.occluded(at.origin, d, dist - 2.0 * bvh.epsilon().max(dist * 1e-5)) {
+            let reach = dist - 2.0 * bvh.epsilon().max(dist * 1e-5);
+            let Some(tr) = shadow(glass.as_ref(), bvh, at.origin, d, reach) else {
                 continue;
-            }
+            };
             let e = scene.materials[et.material as usize].emission;
             let a = Arrival {
-                radiance: scene.emission_at(picked, b),
+                radiance: scene.emission_at(picked, b) * tr,
                 dist2,
                 cos_l,
                 p_light: self.emitters.area_pdf(e) * dist2 / cos_l,

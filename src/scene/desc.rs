@@ -79,6 +79,16 @@ pub struct MaterialOverride {
     /// makes the material purely diffuse.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lobes: Option<Vec<LobeDesc>>,
+    /// Thin transmission in [0, 1] (glTF `KHR_materials_transmission` `transmissionFactor`):
+    /// that fraction of the light passes straight through, tinted by the glTF base colour and
+    /// less its Fresnel reflection; the glTF's diffuse albedo is scaled by (1 − transmission)
+    /// (an `albedo` given here is taken as the scaled one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transmission: Option<f32>,
+    /// Index of refraction ≥ 1 of a transmissive material (`KHR_materials_ior`; 1.5 when
+    /// absent): sets the Fresnel reflectance of its transmission and of glTF's dielectric lobe.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ior: Option<f32>,
 }
 
 /// One glossy lobe: k_s times a reflection model (Luksch et al. Eq. 1). Every model takes

@@ -8,8 +8,9 @@ use gltf::{Semantic, buffer::Source, mesh::Mode};
 
 use super::gltf_textures::Textures;
 use super::gltf_uri::uri_path;
+use super::material::{DEFAULT_IOR, Material};
 use super::texture::Image;
-use super::{CameraPath, Object, SceneError, gltf_cameras, material::Material};
+use super::{CameraPath, Object, SceneError, gltf_cameras};
 use crate::geometry::Triangle;
 
 /// What a glTF file contributes to a scene.
@@ -168,6 +169,12 @@ pub fn import_bytes(path: &Path, bytes: Vec<u8>, scale: f32) -> Result<Imported,
             m.emissive_factor(),
             m.emissive_strength().unwrap_or(1.0),
         );
+        let ior = m.ior().unwrap_or(DEFAULT_IOR);
+        match m.transmission() {
+            Some(t) => material.set_transmission(t.transmission_factor(), ior),
+            None if ior != DEFAULT_IOR => material.set_transmission(0.0, ior),
+            None => {}
+        }
         textures
             .read_material(path, dir, &buffers, &m, &mut material)
             .map_err(err)?;

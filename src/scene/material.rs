@@ -50,6 +50,62 @@ pub struct Material {
     /// two sides share the surface's lightmap texels) instead of stopping as black.
     #[serde(skip)]
     pub double_sided: bool,
+    /// Thin transmission (glTF `KHR_materials_transmission`); [`Transmission::NONE`] for an
+    /// opaque material, which serializes as before.
+    #[serde(skip_serializing_if = "Transmission::is_none")]
+    pub transmission: Transmission,
+}
+
+/// Thin-glass transmission: light passes straight through the surface (no refraction: the
+/// surface has no thickness), scaled by `tint` × `factor` × (1 − F), F the dielectric Fresnel
+/// reflectance of `ior` (Schlick). The material's diffuse albedo already carries
+/// (1 − `factor`); its Fresnel reflection F is its glossy lobe.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Transmission {
+    /// glTF `transmissionFactor` in [0, 1] (0: opaque). `transmissionTexture` is not read.
+    pub factor: f32,
+    /// Colour of the transmitted light: the base colour factor (linear RGB).
+    pub tint: Vec3,
+    /// Index of refraction (`KHR_materials_ior`, 1.5 by default).
+    pub ior: f32,
+}
+
+impl Transmission {
+    /// An opaque material's.
+    pub const NONE: Transmission = Transmission {
+        factor: 0.0,
+        tint: Vec3::ONE,
+        ior: DEFAULT_IOR,
+    };
+
+    /// Whether nothing is transmitted.
+    pub fn is_none(&self) -> bool {
+        self.factor <= 0.0
+    }
+
+    /// Fresnel reflectance at normal incidence, ((n − 1)/(n + 1))².
+    pub fn f0(&self) -> f32 {
+        f0_of_ior(self.ior)
+    }
+
+    /// Fraction of the radiance arriving at angle cos θ (either side) that leaves straight
+    /// through: tint × factor × (1 − F(cos θ)).
+    pub fn weight(&self, cos: f32) -> Vec3 {
+        if self.is_none() {
+            return Vec3::ZERO;
+        }
+        let f = crate::brdf::kurt::fresnel_schlick(self.f0(), cos.abs().min(1.0));
+        self.tint * (self.factor * (1.0 - f))
+    }
+}
+
+/// glTF's default index of refraction (`KHR_materials_ior`).
+pub const DEFAULT_IOR: f32 = 1.5;
+
+/// Dielectric Fresnel reflectance at normal incidence for index of refraction `ior` (in air).
+pub fn f0_of_ior(ior: f32) -> f32 {
+    let r = (ior - 1.0) / (ior + 1.0);
+    r * r
 }
 
 /// A material's use of one texture: which image, how it is sampled, which UV set.
@@ -183,11 +239,47 @@ impl Material {
             alpha_factor: base_color[3],
             alpha_mode: AlphaMode::Opaque,
             double_sided: false,
+            transmission: Transmission {
+                tint: base,
+                ..Transmission::NONE
+            },
         }
+    }
+
+    /// Makes the material thin glass with glTF `transmissionFactor` `factor` and index of
+    /// refraction `ior`: the diffuse albedo keeps (1 − factor) of itself, and a dielectric's
+    /// Fresnel lobe (glTF's r0 0.04, for IOR 1.5) takes the r0 of `ior`.
+    pub fn set_transmission(&mut self, factor: f32, ior: f32) {
+        let old = self.transmission.factor;
+        let before = if old < 1.0 {
+            self.albedo / (1.0 - old)
+        } else {
+            Vec3::ZERO
+        };
+        self.albedo = before * (1.0 - factor);
+        let f0 = f0_of_ior(ior);
+        for l in &mut self.lobes {
+            if (l.r0 - f0_of_ior(self.transmission.ior)).abs() < 1e-6 && l.ks == [1.0; 3] {
+                l.r0 = f0;
+            }
+        }
+        self.transmission.factor = factor;
+        self.transmission.ior = ior;
+    }
+
+    /// Whether light passes through the material (thin transmission).
+    pub fn is_transmissive(&self) -> bool {
+        !self.transmission.is_none()
     }
 
     /// Applies scene.json overrides.
     pub fn apply(&mut self, over: &MaterialOverride) {
+        if over.transmission.is_some() || over.ior.is_some() {
+            self.set_transmission(
+                over.transmission.unwrap_or(self.transmission.factor),
+                over.ior.unwrap_or(self.transmission.ior),
+            );
+        }
         if let Some(a) = over.albedo {
             self.albedo = Vec3::from_array(a);
         }
@@ -201,6 +293,13 @@ impl Material {
 
     /// Checks the values' ranges; returns the offending field and why.
     pub fn check(&self) -> Result<(), (&'static str, String)> {
+        let t = &self.transmission;
+        if !(0.0..=1.0).contains(&t.factor) {
+            return Err(("transmission", format!("{} is not in [0, 1]", t.factor)));
+        }
+        if !(t.ior.is_finite() && t.ior >= 1.0) {
+            return Err(("ior", format!("{} is not ≥ 1 and finite", t.ior)));
+        }
         let finite = |v: Vec3| v.is_finite();
         if !finite(self.albedo) || self.albedo.min_element() < 0.0 {
             return Err(("albedo", format!("{} is not ≥ 0 and finite", self.albedo)));
@@ -394,6 +493,56 @@ mod tests {
     }
 
     #[test]
+    fn thin_glass_keeps_one_minus_transmission_of_its_diffuse_and_takes_its_ior() {
+        let mut m = Material::from_gltf("glass", [0.8, 0.6, 0.4, 1.0], 0.0, 0.0, [0.0; 3], 1.0);
+        assert!(!m.is_transmissive());
+        let opaque_albedo = m.albedo;
+        m.set_transmission(0.75, 1.5);
+        assert!(m.is_transmissive());
+        assert!((m.albedo - opaque_albedo * 0.25).abs().max_element() < 1e-6);
+        assert_eq!(m.transmission.tint, Vec3::new(0.8, 0.6, 0.4));
+        assert!((m.lobes[0].r0 - 0.04).abs() < 1e-6);
+        // Normal incidence: tint × factor × (1 − F₀); grazing: F = 1, nothing passes.
+        let w = m.transmission.weight(-1.0);
+        assert!(
+            (w - Vec3::new(0.8, 0.6, 0.4) * 0.75 * 0.96)
+                .abs()
+                .max_element()
+                < 1e-6
+        );
+        assert_eq!(m.transmission.weight(0.0), Vec3::ZERO);
+        // IOR 2: F₀ = 1/9, in the transmission and in glTF's dielectric lobe.
+        m.set_transmission(0.75, 2.0);
+        assert!((m.transmission.f0() - 1.0 / 9.0).abs() < 1e-6);
+        assert!((m.lobes[0].r0 - 1.0 / 9.0).abs() < 1e-6);
+        assert!((m.albedo - opaque_albedo * 0.25).abs().max_element() < 1e-6);
+        assert!(m.check().is_ok());
+    }
+
+    #[test]
+    fn transmission_overrides_are_checked() {
+        let mut m = Material::from_gltf("pane", [0.9; 4], 0.0, 1.0, [0.0; 3], 1.0);
+        m.apply(&MaterialOverride {
+            transmission: Some(0.5),
+            ..Default::default()
+        });
+        assert!((m.albedo - Vec3::splat(0.45)).abs().max_element() < 1e-6);
+        assert_eq!(m.transmission.ior, DEFAULT_IOR);
+        // An albedo given with it is the diffuse albedo as the solve uses it.
+        m.apply(&MaterialOverride {
+            albedo: Some([0.1; 3]),
+            transmission: Some(0.8),
+            ..Default::default()
+        });
+        assert_eq!((m.albedo, m.transmission.factor), (Vec3::splat(0.1), 0.8));
+        m.transmission.factor = 1.5;
+        assert_eq!(m.check().unwrap_err().0, "transmission");
+        m.transmission.factor = 0.5;
+        m.transmission.ior = 0.9;
+        assert_eq!(m.check().unwrap_err().0, "ior");
+    }
+
+    #[test]
     fn overrides_replace_fields() {
         let mut m = Material::from_gltf("floor", [0.5; 4], 0.0, 1.0, [0.0; 3], 1.0);
         let lobe = LobeDesc {
@@ -408,6 +557,7 @@ mod tests {
             albedo: Some([0.2, 0.2, 0.2]),
             emission: None,
             lobes: Some(vec![lobe]),
+            ..Default::default()
         });
         assert_eq!(m.albedo, Vec3::splat(0.2));
         assert_eq!(m.lobes, vec![lobe]);

@@ -14,7 +14,9 @@
 //! 5. curved reflectors by cube maps (Nielsen §3.2, Luksch §6–7);
 //! 6. the recursive planar reflections (geometry depth ≠ 1, Nielsen §3.1), which draw the
 //!    curved reflectors seen in their maps with the cube maps of step 5;
-//! 7. the display pass ([`super::passes::display`]): steps 1–6 add linear radiance into the
+//! 7. thin glass ([`super::passes::glass`]), over everything opaque: what lies behind it is
+//!    multiplied by its transmittance, then its own D is added;
+//! 8. the display pass ([`super::passes::display`]): steps 1–7 add linear radiance into the
 //!    radiance target (the HDR output, never exposed); this maps it to the 8-bit target with the
 //!    options' exposure and tone curve.
 //!
@@ -28,6 +30,7 @@ use super::impostors::{ImpostorReflections, ReflectorSet, impostor_pass};
 use super::load::ViewData;
 use super::options::{CurvedMode, Exposure, ReflectionMode, Tonemap, ViewOptions};
 use super::passes::display::{DisplayMapping, DisplayPass, RADIANCE_FORMAT};
+use super::passes::glass::GlassPasses;
 use super::passes::renderer::Renderer;
 use super::passes::{FrameContext, FramePass};
 use super::probes::gpu::ProbeReflections;
@@ -104,6 +107,8 @@ pub struct FramePasses {
     curved_impostors: Option<ImpostorReflections>,
     curved: Option<CurvedReflections>,
     probes: Option<ProbeReflections>,
+    /// Transmissive triangles, drawn last.
+    glass: Option<GlassPasses>,
 }
 
 impl FramePasses {
@@ -134,6 +139,7 @@ impl FramePasses {
             color: RADIANCE_FORMAT,
         };
         let renderer = Renderer::new(gpu, &data.scene, &data.map, formats)?;
+        let glass = GlassPasses::new(gpu, &data.scene, &renderer)?;
         let display =
             crate::view::gpu::error_scoped(&gpu.device, "creating the display pass", || {
                 DisplayPass::new(&gpu.device, display_format)
@@ -150,6 +156,7 @@ impl FramePasses {
             curved_impostors: None,
             curved: None,
             probes: None,
+            glass,
         })
     }
 
@@ -424,6 +431,9 @@ impl FramePasses {
         let frame = self.context(camera);
         for pass in self.over_scene() {
             pass.draw(encoder, &frame, views);
+        }
+        if let Some(glass) = &self.glass {
+            glass.draw(encoder, &self.renderer, views.radiance, views.depth);
         }
         self.display.record(
             device,

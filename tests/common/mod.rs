@@ -273,6 +273,20 @@ pub fn write_gltf(
     path
 }
 
+/// Makes material `index` of the glTF at `gltf` thin glass: `KHR_materials_transmission` with
+/// `transmissionFactor` `factor`.
+pub fn add_transmission(gltf: &Path, index: usize, factor: f32) {
+    let mut doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(gltf).unwrap()).unwrap();
+    doc["materials"][index]["extensions"]["KHR_materials_transmission"] =
+        serde_json::json!({ "transmissionFactor": factor });
+    doc["extensionsUsed"]
+        .as_array_mut()
+        .unwrap()
+        .push("KHR_materials_transmission".into());
+    std::fs::write(gltf, serde_json::to_string_pretty(&doc).unwrap()).unwrap();
+}
+
 /// The room of [`write_room`]: floor (material 0), a glossy-capable panel (material 1) and
 /// an emissive ceiling (material 2), as meshes and materials to extend.
 pub fn room() -> (Vec<MeshSpec>, Vec<MaterialSpec>) {

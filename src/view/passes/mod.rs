@@ -6,6 +6,7 @@
 
 pub mod composite;
 pub mod display;
+pub mod glass;
 pub mod renderer;
 
 use crate::camera::Camera;

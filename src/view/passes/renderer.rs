@@ -213,6 +213,47 @@ pub fn shading_runs(shadings: impl IntoIterator<Item = SurfaceShading>) -> Vec<S
     runs
 }
 
+/// Whether each of `scene`'s triangles transmits (scene order).
+pub fn transmissive_triangles(scene: &Scene) -> Vec<bool> {
+    scene
+        .triangles
+        .iter()
+        .map(|t| {
+            scene
+                .materials
+                .get(t.material as usize)
+                .is_some_and(|m| m.is_transmissive())
+        })
+        .collect()
+}
+
+/// Splits `runs` (of scene triangles, three indices each) into the runs of opaque triangles
+/// and those of transmissive ones (`glass[t]`), each in scene order.
+pub fn split_runs(runs: Vec<ShadingRun>, glass: &[bool]) -> (Vec<ShadingRun>, Vec<ShadingRun>) {
+    let (mut opaque, mut clear) = (Vec::new(), Vec::new());
+    for run in runs {
+        let mut start = run.indices.start;
+        while start < run.indices.end {
+            let is_glass = glass[start as usize / 3];
+            let mut end = start + 3;
+            while end < run.indices.end && glass[end as usize / 3] == is_glass {
+                end += 3;
+            }
+            let part = ShadingRun {
+                indices: start..end,
+                shading: run.shading,
+            };
+            if is_glass {
+                clear.push(part);
+            } else {
+                opaque.push(part);
+            }
+            start = end;
+        }
+    }
+    (opaque, clear)
+}
+
 /// The `override` in view.wgsl that specialises a pipeline to scenes (or runs) without
 /// surface textures or cut-outs ([`SurfaceShading::Plain`]).
 pub(crate) const SURFACE_TEXTURES: &str = "SURFACE_TEXTURES";
@@ -317,6 +358,9 @@ pub struct Renderer {
     /// `fs_main`: triangles of alpha-masked materials.
     masked_pipeline: wgpu::RenderPipeline,
     runs: Vec<ShadingRun>,
+    /// `runs` less the transmissive triangles, which [`super::glass`] draws.
+    opaque_runs: Vec<ShadingRun>,
+    glass_runs: Vec<ShadingRun>,
     bind_group: wgpu::BindGroup,
     uniforms: wgpu::Buffer,
     vertices: wgpu::Buffer,
@@ -393,11 +437,15 @@ impl Renderer {
             vertex_buffer,
             index_buffer,
         ) = renderer;
+        let runs = shading_runs(SurfaceShading::of_triangles(scene));
+        let (opaque_runs, glass_runs) = split_runs(runs.clone(), &transmissive_triangles(scene));
         Ok(Renderer {
             plain_pipeline,
             pipeline,
             masked_pipeline,
-            runs: shading_runs(SurfaceShading::of_triangles(scene)),
+            runs,
+            opaque_runs,
+            glass_runs,
             bind_group,
             uniforms,
             vertices: vertex_buffer,
@@ -407,6 +455,11 @@ impl Renderer {
             formats,
             near: near_plane(scene),
         })
+    }
+
+    /// The runs of transmissive triangles, which the scene pass leaves out.
+    pub(crate) fn glass_runs(&self) -> &[ShadingRun] {
+        &self.glass_runs
     }
 
     /// The formats the pipeline renders to.
@@ -487,7 +540,7 @@ impl Renderer {
         pass.set_bind_group(0, &self.bind_group, &[]);
         pass.set_vertex_buffer(0, self.vertices.slice(..));
         pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
-        for run in &self.runs {
+        for run in &self.opaque_runs {
             pass.set_pipeline(match run.shading {
                 SurfaceShading::Plain => &self.plain_pipeline,
                 SurfaceShading::Textured => &self.pipeline,
@@ -555,8 +608,24 @@ mod tests {
     }
 
     #[test]
+    fn split_runs_separates_glass_triangles_in_order() {
+        use SurfaceShading::{Plain, Textured};
+        let run = |indices: Range<u32>, shading| ShadingRun { indices, shading };
+        let runs = vec![run(0..12, Plain), run(12..18, Textured)];
+        let glass = [false, true, true, false, true, false];
+        let (opaque, clear) = split_runs(runs.clone(), &glass);
+        assert_eq!(
+            opaque,
+            vec![run(0..3, Plain), run(9..12, Plain), run(15..18, Textured)]
+        );
+        assert_eq!(clear, vec![run(3..9, Plain), run(12..15, Textured)]);
+        let (all, none) = split_runs(runs.clone(), &[false; 6]);
+        assert_eq!((all, none), (runs, vec![]));
+    }
+
+    #[test]
     fn a_material_is_plain_without_base_texture_or_cut_outs() {
-        use crate::scene::material::{AlphaMode, TextureRef};
+        use crate::scene::material::{AlphaMode, TextureRef, Transmission};
         let plain = Material {
             name: "plain".into(),
             albedo: Vec3::splat(0.5),
@@ -567,6 +636,7 @@ mod tests {
             alpha_factor: 1.0,
             alpha_mode: AlphaMode::Opaque,
             double_sided: false,
+            transmission: Transmission::NONE,
         };
         let texture = TextureRef {
             image: 0,

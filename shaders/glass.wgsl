@@ -1,0 +1,50 @@
+// Thin glass (src/view/passes/glass.rs), appended to view.wgsl: transmissive triangles are
+// drawn after everything opaque, in two passes over the finished frame. The first multiplies
+// what is behind by the transmittance tint × factor × (1 − F(cos θ)) (`fs_glass_tint`), the
+// second adds the glass's own light, its diffuse D (`fs_glass_add`), so that a pixel holds
+// D + T · (the frame behind).
+
+// Per material: rgb tint × transmission factor (0 for opaque materials), a the Fresnel
+// reflectance at normal incidence ((n − 1)/(n + 1))².
+@group(2) @binding(0) var<storage, read> glass: array<vec4<f32>>;
+
+struct GlassOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) lightmap: vec2<f32>,
+    @location(1) @interpolate(flat) page: u32,
+    @location(2) uv0: vec2<f32>,
+    @location(3) uv1: vec2<f32>,
+    @location(4) @interpolate(flat) material: u32,
+    // World position: the view angle the Fresnel term needs.
+    @location(5) world: vec3<f32>,
+};
+
+@vertex
+fn vs_glass(v: VertexIn) -> GlassOut {
+    let s = scene_vertex(v);
+    return GlassOut(s.clip, s.lightmap, s.page, s.uv0, s.uv1, s.material, v.position);
+}
+
+// Transmittance towards the eye: Schlick's Fresnel at the facet's angle (either side).
+@fragment
+fn fs_glass_tint(in: GlassOut) -> @location(0) vec4<f32> {
+    let n = normalize(cross(dpdx(in.world), dpdy(in.world)));
+    if cut_out(in.material, in.uv0, in.uv1) {
+        discard;
+    }
+    let c = abs(dot(n, normalize(frame.eye.xyz - in.world)));
+    let g = glass[in.material];
+    let f = g.a + (1.0 - g.a) * pow(1.0 - min(c, 1.0), 5.0);
+    return vec4<f32>(g.rgb * (1.0 - f), 1.0);
+}
+
+// The glass's own exitant radiance D, as the scene pass shades an opaque surface.
+@fragment
+fn fs_glass_add(in: GlassOut) -> FragmentOut {
+    let g = uv_grads(in.uv0, in.uv1);
+    if cut_out(in.material, in.uv0, in.uv1) {
+        discard;
+    }
+    let v = VertexOut(in.clip, in.lightmap, in.page, in.uv0, in.uv1, in.material);
+    return shade(v, g);
+}

@@ -1,0 +1,151 @@
+//! Thin glass in the viewer ([`crate::scene::material::Transmission`]): the scene pass leaves
+//! transmissive triangles out, and after every pass over the scene (reflections included,
+//! so a mirror seen through glass is tinted too) they are drawn in two passes over the frame
+//! (`shaders/glass.wgsl`): one multiplies what is behind by the transmittance
+//! tint × factor × (1 − F) at the pixel's view angle, the next adds the glass's own D. Both
+//! depth test against the opaque scene and write no depth.
+//!
+//! Overlapping panes are approximated: every pane's tint applies before any pane's D is
+//! added, so the nearer pane does not tint the farther one's D. Reflection passes and
+//! radiance maps still draw glass as an opaque surface of its D.
+
+use std::ops::Range;
+
+use crate::scene::Scene;
+use crate::view::gpu::build::{bind_group_layout, buffer_init, render_pipeline, shader};
+use crate::view::gpu::target::{ADDITIVE_KEEP_ALPHA, overlay_pass, reverse_z_depth};
+use crate::view::gpu::{Gpu, RenderError, error_scoped};
+
+use super::renderer::{
+    Renderer, SHADER_SOURCE, SURFACE_TEXTURES, SurfaceShading, frame_bind_group,
+    frame_bind_group_layout, scene_vertex_layout,
+};
+
+/// WGSL of the glass passes, appended to [`SHADER_SOURCE`].
+pub const GLASS_SOURCE: &str = include_str!("../../../shaders/glass.wgsl");
+
+/// Multiplies the target by the fragment's colour (the transmittance) and keeps its alpha.
+const MULTIPLY_KEEP_ALPHA: wgpu::BlendState = wgpu::BlendState {
+    color: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::Zero,
+        dst_factor: wgpu::BlendFactor::Src,
+        operation: wgpu::BlendOperation::Add,
+    },
+    alpha: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::Zero,
+        dst_factor: wgpu::BlendFactor::One,
+        operation: wgpu::BlendOperation::Add,
+    },
+};
+
+/// Per material: tint × transmission factor and the Fresnel F₀ (`glass` in glass.wgsl).
+pub fn glass_records(scene: &Scene) -> Vec<[f32; 4]> {
+    let mut records: Vec<[f32; 4]> = scene
+        .materials
+        .iter()
+        .map(|m| {
+            let t = &m.transmission;
+            let c = t.tint * if m.is_transmissive() { t.factor } else { 0.0 };
+            [c.x, c.y, c.z, t.f0()]
+        })
+        .collect();
+    // A storage buffer may not be empty.
+    records.push([0.0; 4]);
+    records
+}
+
+/// The glass passes: their pipelines, their records, and the index ranges they draw.
+pub struct GlassPasses {
+    tint: wgpu::RenderPipeline,
+    add: wgpu::RenderPipeline,
+    /// The scene pass's bindings (group 0).
+    frame_group: wgpu::BindGroup,
+    bind_group: wgpu::BindGroup,
+    runs: Vec<Range<u32>>,
+}
+
+impl GlassPasses {
+    /// The passes of `renderer`'s transmissive triangles (`scene`'s); `None` without any.
+    pub fn new(
+        gpu: &Gpu,
+        scene: &Scene,
+        renderer: &Renderer,
+    ) -> Result<Option<GlassPasses>, RenderError> {
+        let runs = renderer.glass_runs();
+        if runs.is_empty() {
+            return Ok(None);
+        }
+        let device = &gpu.device;
+        let passes = error_scoped(device, "creating the glass pipelines", || {
+            let source = format!("{SHADER_SOURCE}\n{GLASS_SOURCE}");
+            let module = shader(device, "glint glass shader", &source);
+            let frame_layout = frame_bind_group_layout(device);
+            let frame_group = frame_bind_group(
+                device,
+                &frame_layout,
+                renderer.frame_uniform_buffer(),
+                renderer.textures(),
+            );
+            let textures = runs.iter().any(|r| r.shading != SurfaceShading::Plain);
+            let layout = bind_group_layout()
+                .storage(0, wgpu::ShaderStages::FRAGMENT)
+                .build(device, "glint glass bind group layout");
+            let records = glass_records(scene);
+            let buffer = buffer_init(
+                gpu,
+                "glint glass records",
+                wgpu::BufferUsages::STORAGE,
+                bytemuck::cast_slice(&records),
+                16,
+            );
+            let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("glint glass bind group"),
+                layout: &layout,
+                entries: &[wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: buffer.as_entire_binding(),
+                }],
+            });
+            let pipeline = |label, entry, blend| {
+                render_pipeline(label, &module, "vs_glass", entry)
+                    .layout_slots(&[Some(&frame_layout), None, Some(&layout)])
+                    .vertex(scene_vertex_layout())
+                    .depth(reverse_z_depth(false, wgpu::CompareFunction::Greater))
+                    .color(renderer.formats().color, Some(blend))
+                    .override_bool(SURFACE_TEXTURES, textures)
+                    .build(device)
+            };
+            GlassPasses {
+                tint: pipeline("glint glass tint", "fs_glass_tint", MULTIPLY_KEEP_ALPHA),
+                add: pipeline("glint glass light", "fs_glass_add", ADDITIVE_KEEP_ALPHA),
+                frame_group,
+                bind_group,
+                runs: runs.iter().map(|r| r.indices.clone()).collect(),
+            }
+        })?;
+        Ok(Some(passes))
+    }
+
+    /// Records both passes over the finished frame in `color`, depth tested against `depth`,
+    /// with `renderer`'s vertices and indices.
+    pub fn draw(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        renderer: &Renderer,
+        color: &wgpu::TextureView,
+        depth: &wgpu::TextureView,
+    ) {
+        let (vertices, indices) = (renderer.vertex_buffer(), renderer.index_buffer());
+        let mut pass = overlay_pass(encoder, "glint glass passes", color, depth);
+        pass.set_bind_group(0, &self.frame_group, &[]);
+        pass.set_bind_group(2, &self.bind_group, &[]);
+        pass.set_vertex_buffer(0, vertices.slice(..));
+        pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
+        for pipeline in [&self.tint, &self.add] {
+            pass.set_pipeline(pipeline);
+            for r in &self.runs {
+                pass.draw_indexed(r.clone(), 0, 0..1);
+            }
+        }
+    }
+}
