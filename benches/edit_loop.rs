@@ -13,16 +13,18 @@
 //! `--no-per-stage`.
 //!
 //! `cargo bench --no-default-features --bench edit_loop [-- [--quality Q] [--runs N]
-//! [--only EDIT,…] [--no-per-stage]]` (edits: noop, camera, albedo, roughness, light,
-//! reflector).
+//! [--only EDIT,…] [--no-per-stage] [--phases]]` (edits: noop, camera, albedo, roughness,
+//! light, reflector). `--phases` prints, for every bake, the seconds of each progress phase
+//! (gathering, refining, bouncing, radiance maps…) in order: where an edit's time goes.
 
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use std::time::Instant;
 
 use glint::bake::BakeSettings;
 use glint::bake::incremental::{Incremental, bake_incremental, cache_dir};
 use glint::bundle::stats::format_table;
-use glint::progress::Silent;
+use glint::progress::{Progress, Silent};
 use glint::scene::{Quality, Scene};
 use serde_json::{Value, json};
 
@@ -112,15 +114,66 @@ fn write_scene(path: &Path, original: &Value, f: impl FnOnce(&mut Value)) {
     std::fs::write(path, serde_json::to_string_pretty(&v).unwrap()).unwrap();
 }
 
+/// Times the progress phases of one bake: each phase lasts until the next begins.
+struct Phases {
+    /// The bake's start, and the phases begun so far (name, seconds from the start).
+    start: Instant,
+    begun: Mutex<Vec<(String, f64)>>,
+}
+
+impl Phases {
+    fn new() -> Phases {
+        Phases {
+            start: Instant::now(),
+            begun: Mutex::new(vec![("until the first phase".into(), 0.0)]),
+        }
+    }
+
+    /// `phase 1.23 s, phase 4.56 s, …`, the last phase lasting until now.
+    fn report(&self) -> String {
+        let end = self.start.elapsed().as_secs_f64();
+        let begun = self.begun.lock().unwrap();
+        let mut parts = Vec::new();
+        for (i, (name, at)) in begun.iter().enumerate() {
+            let until = begun.get(i + 1).map_or(end, |n| n.1);
+            parts.push(format!("{name} {:.2} s", until - at));
+        }
+        parts.join(", ")
+    }
+}
+
+impl Progress for Phases {
+    fn phase(&self, name: &str, _: u64) {
+        let at = self.start.elapsed().as_secs_f64();
+        self.begun.lock().unwrap().push((name.into(), at));
+    }
+    fn advance(&self, _: u64) {}
+}
+
 /// Loads the scene and bakes it into `bundle` as `glint-bake` does: (seconds, what it did).
-fn bake(scene_json: &Path, bundle: &Path, quality: Option<Quality>) -> (f64, Incremental) {
+/// With `phases`, prints the seconds of each progress phase.
+fn bake(
+    scene_json: &Path,
+    bundle: &Path,
+    quality: Option<Quality>,
+    phases: bool,
+) -> (f64, Incremental) {
+    let timed = Phases::new();
+    let progress: &dyn Progress = if phases { &timed } else { &Silent };
     let start = Instant::now();
     let scene = Scene::load(scene_json).unwrap_or_else(|e| panic!("{e}"));
     let settings = BakeSettings::resolve(&scene, quality.unwrap_or(scene.desc.bake.quality))
         .unwrap_or_else(|e| panic!("{e}"));
-    let done = bake_incremental(&scene, bundle, &settings, false, &Silent)
+    let done = bake_incremental(&scene, bundle, &settings, false, progress)
         .unwrap_or_else(|e| panic!("{e:#}"));
-    (start.elapsed().as_secs_f64(), done)
+    let t = start.elapsed().as_secs_f64();
+    if phases {
+        eprintln!("  phases: {}", timed.report());
+        for u in done.baked() {
+            eprintln!("  unit {}: {:.2} s", u.unit, u.seconds);
+        }
+    }
+    (t, done)
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -139,7 +192,7 @@ fn copy_bundle(bundle: &Path, to: &Path) {
 fn main() {
     let mut args = std::env::args().skip(1).filter(|a| a != "--bench");
     let (mut quality, mut runs, mut only) = (None, 3usize, None::<Vec<String>>);
-    let mut no_per_stage = false;
+    let (mut no_per_stage, mut phases) = (false, false);
     let mut scene_dir = glint_repo().join("scenes/glossy-room");
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -149,6 +202,7 @@ fn main() {
                 quality = Some(found.unwrap_or_else(|| panic!("--quality {q}: no such preset")));
             }
             "--no-per-stage" => no_per_stage = true,
+            "--phases" => phases = true,
             "--runs" => runs = args.next().expect("--runs N").parse().unwrap(),
             "--only" => {
                 only = Some(
@@ -177,7 +231,7 @@ fn main() {
         } else {
             work.path().join(format!("full{r}.glint"))
         };
-        let (t, _) = bake(&scene_json, &bundle, quality);
+        let (t, _) = bake(&scene_json, &bundle, quality, phases);
         eprintln!("full bake {}: {t:.2} s", r + 1);
         full.push(t);
         if r > 0 {
@@ -194,10 +248,15 @@ fn main() {
         let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
         let settings = BakeSettings::resolve(&scene, quality.unwrap_or(scene.desc.bake.quality))
             .unwrap_or_else(|e| panic!("{e}"));
-        glint::bake::bake_all(&scene, &bundle, &settings, false, &Silent)
+        let timed = Phases::new();
+        let progress: &dyn Progress = if phases { &timed } else { &Silent };
+        glint::bake::bake_all(&scene, &bundle, &settings, false, progress)
             .unwrap_or_else(|e| panic!("{e}"));
         let t = start.elapsed().as_secs_f64();
         eprintln!("per-stage bake: {t:.2} s");
+        if phases {
+            eprintln!("  phases: {}", timed.report());
+        }
         remove(&bundle);
         t
     });
@@ -237,7 +296,7 @@ fn main() {
             Some(f) => {
                 let b = work.path().join(format!("base-{}.glint", e.name));
                 write_scene(&scene_json, &original, f);
-                bake(&scene_json, &b, quality);
+                bake(&scene_json, &b, quality, false);
                 b
             }
         };
@@ -252,7 +311,7 @@ fn main() {
             } else {
                 write_scene(&scene_json, &original, e.apply);
             }
-            let (t, done) = bake(&scene_json, &bundle, quality);
+            let (t, done) = bake(&scene_json, &bundle, quality, phases);
             eprintln!("{} {}: {t:.2} s", e.name, r + 1);
             times.push(t);
             // The gathering units as one entry: there are many at higher presets.
