@@ -16,6 +16,9 @@
 //! [--only EDIT,…] [--no-per-stage] [--phases]]` (edits: noop, camera, albedo, roughness,
 //! light, reflector). `--phases` prints, for every bake, the seconds of each progress phase
 //! (gathering, refining, bouncing, radiance maps…) in order: where an edit's time goes.
+//!
+//! Each bake's CPU time (user + system, all threads) is given beside its wall time: on a
+//! machine shared with other work, the wall time follows the load, the CPU time much less.
 
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -150,23 +153,49 @@ impl Progress for Phases {
     fn advance(&self, _: u64) {}
 }
 
-/// Loads the scene and bakes it into `bundle` as `glint-bake` does: (seconds, what it did).
+/// The CPU seconds (user + system) this process has used so far.
+fn cpu_seconds() -> f64 {
+    // SAFETY: getrusage only writes the struct it is given.
+    let mut u: libc::rusage = unsafe { std::mem::zeroed() };
+    let rc = unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut u) };
+    assert_eq!(rc, 0, "getrusage");
+    let secs = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    secs(u.ru_utime) + secs(u.ru_stime)
+}
+
+/// A bake's wall and CPU seconds.
+#[derive(Clone, Copy)]
+struct Took {
+    wall: f64,
+    cpu: f64,
+}
+
+impl Took {
+    fn since(start: Instant, cpu: f64) -> Took {
+        Took {
+            wall: start.elapsed().as_secs_f64(),
+            cpu: cpu_seconds() - cpu,
+        }
+    }
+}
+
+/// Loads the scene and bakes it into `bundle` as `glint-bake` does: (time, what it did).
 /// With `phases`, prints the seconds of each progress phase.
 fn bake(
     scene_json: &Path,
     bundle: &Path,
     quality: Option<Quality>,
     phases: bool,
-) -> (f64, Incremental) {
+) -> (Took, Incremental) {
     let timed = Phases::new();
     let progress: &dyn Progress = if phases { &timed } else { &Silent };
-    let start = Instant::now();
+    let (start, cpu) = (Instant::now(), cpu_seconds());
     let scene = Scene::load(scene_json).unwrap_or_else(|e| panic!("{e}"));
     let settings = BakeSettings::resolve(&scene, quality.unwrap_or(scene.desc.bake.quality))
         .unwrap_or_else(|e| panic!("{e}"));
     let done = bake_incremental(&scene, bundle, &settings, false, progress)
         .unwrap_or_else(|e| panic!("{e:#}"));
-    let t = start.elapsed().as_secs_f64();
+    let t = Took::since(start, cpu);
     if phases {
         eprintln!("  phases: {}", timed.report());
         for u in done.baked() {
@@ -179,6 +208,14 @@ fn bake(
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
+}
+
+/// Medians of the wall and CPU times.
+fn medians(v: &[Took]) -> Took {
+    Took {
+        wall: median(v.iter().map(|t| t.wall).collect()),
+        cpu: median(v.iter().map(|t| t.cpu).collect()),
+    }
 }
 
 /// Copies `bundle` and its unit cache to `to` (and its cache).
@@ -232,19 +269,19 @@ fn main() {
             work.path().join(format!("full{r}.glint"))
         };
         let (t, _) = bake(&scene_json, &bundle, quality, phases);
-        eprintln!("full bake {}: {t:.2} s", r + 1);
+        eprintln!("full bake {}: {:.2} s, CPU {:.2} s", r + 1, t.wall, t.cpu);
         full.push(t);
         if r > 0 {
             remove(&bundle);
             remove(&cache_dir(&bundle));
         }
     }
-    let full = median(full);
+    let full = medians(&full);
     // The same scene baked stage by stage (`bake_all`, no unit cache), once: what the units'
     // route costs a bake from scratch.
     let per_stage = (!no_per_stage).then(|| {
         let bundle = work.path().join("per-stage.glint");
-        let start = Instant::now();
+        let (start, cpu) = (Instant::now(), cpu_seconds());
         let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
         let settings = BakeSettings::resolve(&scene, quality.unwrap_or(scene.desc.bake.quality))
             .unwrap_or_else(|e| panic!("{e}"));
@@ -252,8 +289,8 @@ fn main() {
         let progress: &dyn Progress = if phases { &timed } else { &Silent };
         glint::bake::bake_all(&scene, &bundle, &settings, false, progress)
             .unwrap_or_else(|e| panic!("{e}"));
-        let t = start.elapsed().as_secs_f64();
-        eprintln!("per-stage bake: {t:.2} s");
+        let t = Took::since(start, cpu);
+        eprintln!("per-stage bake: {:.2} s, CPU {:.2} s", t.wall, t.cpu);
         if phases {
             eprintln!("  phases: {}", timed.report());
         }
@@ -267,21 +304,37 @@ fn main() {
         "units rebaked".into(),
         "median s".into(),
         "vs full".into(),
+        "CPU s".into(),
+        "CPU vs full".into(),
     ]];
+    let of_full = |t: Took| {
+        [
+            format!("{:.2}", t.wall),
+            format!("{:.1}%", 100.0 * t.wall / full.wall),
+            format!("{:.2}", t.cpu),
+            format!("{:.1}%", 100.0 * t.cpu / full.cpu),
+        ]
+    };
+    let [w, wp, c, cp] = of_full(full);
     rows.push([
         "full".into(),
         "bake from scratch".into(),
         "all".into(),
-        format!("{full:.2}"),
-        "100%".into(),
+        w,
+        wp,
+        c,
+        cp,
     ]);
     if let Some(t) = per_stage {
+        let [w, wp, c, cp] = of_full(t);
         rows.push([
             "full/stages".into(),
             "from scratch, stage by stage (bake_all), 1 run".into(),
             "all".into(),
-            format!("{t:.2}"),
-            format!("{:.1}%", 100.0 * t / full),
+            w,
+            wp,
+            c,
+            cp,
         ]);
     }
     for e in edits() {
@@ -312,7 +365,7 @@ fn main() {
                 write_scene(&scene_json, &original, e.apply);
             }
             let (t, done) = bake(&scene_json, &bundle, quality, phases);
-            eprintln!("{} {}: {t:.2} s", e.name, r + 1);
+            eprintln!("{} {}: {:.2} s, CPU {:.2} s", e.name, r + 1, t.wall, t.cpu);
             times.push(t);
             // The gathering units as one entry: there are many at higher presets.
             let gathers: Vec<f64> = done
@@ -336,14 +389,8 @@ fn main() {
                 units.join(", ")
             };
         }
-        let t = median(times);
-        rows.push([
-            e.name.into(),
-            e.what.into(),
-            rebaked,
-            format!("{t:.2}"),
-            format!("{:.1}%", 100.0 * t / full),
-        ]);
+        let [w, wp, c, cp] = of_full(medians(&times));
+        rows.push([e.name.into(), e.what.into(), rebaked, w, wp, c, cp]);
     }
     println!(
         "edit loop: {} at {}, median of {runs}",
@@ -352,7 +399,7 @@ fn main() {
     );
     print!(
         "{}",
-        format_table(&rows, &[false, false, false, true, true])
+        format_table(&rows, &[false, false, false, true, true, true, true])
     );
 }
 
