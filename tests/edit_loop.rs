@@ -290,7 +290,7 @@ fn a_bundle_of_another_scene_is_replaced_only_with_force_and_the_refusal_names_b
 fn a_shard_checked_or_written_in_this_run_is_not_hashed_again() {
     use glint::bake::shard::{Checked, bake_unit_gathering, read_shard, read_shard_checked};
     let tmp = tempfile::tempdir().unwrap();
-    let scene = glint::scene::Scene::load(&edit_room(tmp.path())).unwrap();
+    let scene = glint::scene::Scene::load(edit_room(tmp.path())).unwrap();
     let settings =
         glint::bake::BakeSettings::resolve(&scene, glint::scene::Quality::Draft).unwrap();
     let plan = glint::bake::units::plan_units(&scene, &settings).unwrap();
