@@ -13,16 +13,21 @@
 //! `--no-per-stage`.
 //!
 //! `cargo bench --no-default-features --bench edit_loop [-- [--quality Q] [--runs N]
-//! [--only EDIT,…] [--no-per-stage]]` (edits: noop, camera, albedo, roughness, light,
-//! reflector).
+//! [--only EDIT,…] [--no-per-stage] [--phases]]` (edits: noop, camera, albedo, roughness,
+//! light, reflector). `--phases` prints, for every bake, the seconds of each progress phase
+//! (gathering, refining, bouncing, radiance maps…) in order: where an edit's time goes.
+//!
+//! Each bake's CPU time (user + system, all threads) is given beside its wall time: on a
+//! machine shared with other work, the wall time follows the load, the CPU time much less.
 
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use std::time::Instant;
 
 use glint::bake::BakeSettings;
 use glint::bake::incremental::{Incremental, bake_incremental, cache_dir};
 use glint::bundle::stats::format_table;
-use glint::progress::Silent;
+use glint::progress::{Progress, Silent};
 use glint::scene::{Quality, Scene};
 use serde_json::{Value, json};
 
@@ -112,20 +117,105 @@ fn write_scene(path: &Path, original: &Value, f: impl FnOnce(&mut Value)) {
     std::fs::write(path, serde_json::to_string_pretty(&v).unwrap()).unwrap();
 }
 
-/// Loads the scene and bakes it into `bundle` as `glint-bake` does: (seconds, what it did).
-fn bake(scene_json: &Path, bundle: &Path, quality: Option<Quality>) -> (f64, Incremental) {
-    let start = Instant::now();
+/// Times the progress phases of one bake: each phase lasts until the next begins.
+struct Phases {
+    /// The bake's start, and the phases begun so far (name, seconds from the start).
+    start: Instant,
+    begun: Mutex<Vec<(String, f64)>>,
+}
+
+impl Phases {
+    fn new() -> Phases {
+        Phases {
+            start: Instant::now(),
+            begun: Mutex::new(vec![("until the first phase".into(), 0.0)]),
+        }
+    }
+
+    /// `phase 1.23 s, phase 4.56 s, …`, the last phase lasting until now.
+    fn report(&self) -> String {
+        let end = self.start.elapsed().as_secs_f64();
+        let begun = self.begun.lock().unwrap();
+        let mut parts = Vec::new();
+        for (i, (name, at)) in begun.iter().enumerate() {
+            let until = begun.get(i + 1).map_or(end, |n| n.1);
+            parts.push(format!("{name} {:.2} s", until - at));
+        }
+        parts.join(", ")
+    }
+}
+
+impl Progress for Phases {
+    fn phase(&self, name: &str, _: u64) {
+        let at = self.start.elapsed().as_secs_f64();
+        self.begun.lock().unwrap().push((name.into(), at));
+    }
+    fn advance(&self, _: u64) {}
+}
+
+/// The CPU seconds (user + system) this process has used so far.
+fn cpu_seconds() -> f64 {
+    // SAFETY: getrusage only writes the struct it is given.
+    let mut u: libc::rusage = unsafe { std::mem::zeroed() };
+    let rc = unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut u) };
+    assert_eq!(rc, 0, "getrusage");
+    let secs = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    secs(u.ru_utime) + secs(u.ru_stime)
+}
+
+/// A bake's wall and CPU seconds.
+#[derive(Clone, Copy)]
+struct Took {
+    wall: f64,
+    cpu: f64,
+}
+
+impl Took {
+    fn since(start: Instant, cpu: f64) -> Took {
+        Took {
+            wall: start.elapsed().as_secs_f64(),
+            cpu: cpu_seconds() - cpu,
+        }
+    }
+}
+
+/// Loads the scene and bakes it into `bundle` as `glint-bake` does: (time, what it did).
+/// With `phases`, prints the seconds of each progress phase.
+fn bake(
+    scene_json: &Path,
+    bundle: &Path,
+    quality: Option<Quality>,
+    phases: bool,
+) -> (Took, Incremental) {
+    let timed = Phases::new();
+    let progress: &dyn Progress = if phases { &timed } else { &Silent };
+    let (start, cpu) = (Instant::now(), cpu_seconds());
     let scene = Scene::load(scene_json).unwrap_or_else(|e| panic!("{e}"));
     let settings = BakeSettings::resolve(&scene, quality.unwrap_or(scene.desc.bake.quality))
         .unwrap_or_else(|e| panic!("{e}"));
-    let done = bake_incremental(&scene, bundle, &settings, false, &Silent)
+    let done = bake_incremental(&scene, bundle, &settings, false, progress)
         .unwrap_or_else(|e| panic!("{e:#}"));
-    (start.elapsed().as_secs_f64(), done)
+    let t = Took::since(start, cpu);
+    if phases {
+        eprintln!("  phases: {}", timed.report());
+        for u in done.baked() {
+            eprintln!("  unit {}: {:.2} s", u.unit, u.seconds);
+        }
+    }
+    (t, done)
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
+}
+
+/// Medians of the wall and CPU times.
+fn medians(v: &[Took]) -> Took {
+    Took {
+        wall: median(v.iter().map(|t| t.wall).collect()),
+        cpu: median(v.iter().map(|t| t.cpu).collect()),
+    }
 }
 
 /// Copies `bundle` and its unit cache to `to` (and its cache).
@@ -139,7 +229,7 @@ fn copy_bundle(bundle: &Path, to: &Path) {
 fn main() {
     let mut args = std::env::args().skip(1).filter(|a| a != "--bench");
     let (mut quality, mut runs, mut only) = (None, 3usize, None::<Vec<String>>);
-    let mut no_per_stage = false;
+    let (mut no_per_stage, mut phases) = (false, false);
     let mut scene_dir = glint_repo().join("scenes/glossy-room");
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -149,6 +239,7 @@ fn main() {
                 quality = Some(found.unwrap_or_else(|| panic!("--quality {q}: no such preset")));
             }
             "--no-per-stage" => no_per_stage = true,
+            "--phases" => phases = true,
             "--runs" => runs = args.next().expect("--runs N").parse().unwrap(),
             "--only" => {
                 only = Some(
@@ -177,27 +268,32 @@ fn main() {
         } else {
             work.path().join(format!("full{r}.glint"))
         };
-        let (t, _) = bake(&scene_json, &bundle, quality);
-        eprintln!("full bake {}: {t:.2} s", r + 1);
+        let (t, _) = bake(&scene_json, &bundle, quality, phases);
+        eprintln!("full bake {}: {:.2} s, CPU {:.2} s", r + 1, t.wall, t.cpu);
         full.push(t);
         if r > 0 {
             remove(&bundle);
             remove(&cache_dir(&bundle));
         }
     }
-    let full = median(full);
+    let full = medians(&full);
     // The same scene baked stage by stage (`bake_all`, no unit cache), once: what the units'
     // route costs a bake from scratch.
     let per_stage = (!no_per_stage).then(|| {
         let bundle = work.path().join("per-stage.glint");
-        let start = Instant::now();
+        let (start, cpu) = (Instant::now(), cpu_seconds());
         let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
         let settings = BakeSettings::resolve(&scene, quality.unwrap_or(scene.desc.bake.quality))
             .unwrap_or_else(|e| panic!("{e}"));
-        glint::bake::bake_all(&scene, &bundle, &settings, false, &Silent)
+        let timed = Phases::new();
+        let progress: &dyn Progress = if phases { &timed } else { &Silent };
+        glint::bake::bake_all(&scene, &bundle, &settings, false, progress)
             .unwrap_or_else(|e| panic!("{e}"));
-        let t = start.elapsed().as_secs_f64();
-        eprintln!("per-stage bake: {t:.2} s");
+        let t = Took::since(start, cpu);
+        eprintln!("per-stage bake: {:.2} s, CPU {:.2} s", t.wall, t.cpu);
+        if phases {
+            eprintln!("  phases: {}", timed.report());
+        }
         remove(&bundle);
         t
     });
@@ -208,21 +304,37 @@ fn main() {
         "units rebaked".into(),
         "median s".into(),
         "vs full".into(),
+        "CPU s".into(),
+        "CPU vs full".into(),
     ]];
+    let of_full = |t: Took| {
+        [
+            format!("{:.2}", t.wall),
+            format!("{:.1}%", 100.0 * t.wall / full.wall),
+            format!("{:.2}", t.cpu),
+            format!("{:.1}%", 100.0 * t.cpu / full.cpu),
+        ]
+    };
+    let [w, wp, c, cp] = of_full(full);
     rows.push([
         "full".into(),
         "bake from scratch".into(),
         "all".into(),
-        format!("{full:.2}"),
-        "100%".into(),
+        w,
+        wp,
+        c,
+        cp,
     ]);
     if let Some(t) = per_stage {
+        let [w, wp, c, cp] = of_full(t);
         rows.push([
             "full/stages".into(),
             "from scratch, stage by stage (bake_all), 1 run".into(),
             "all".into(),
-            format!("{t:.2}"),
-            format!("{:.1}%", 100.0 * t / full),
+            w,
+            wp,
+            c,
+            cp,
         ]);
     }
     for e in edits() {
@@ -237,7 +349,7 @@ fn main() {
             Some(f) => {
                 let b = work.path().join(format!("base-{}.glint", e.name));
                 write_scene(&scene_json, &original, f);
-                bake(&scene_json, &b, quality);
+                bake(&scene_json, &b, quality, false);
                 b
             }
         };
@@ -252,8 +364,8 @@ fn main() {
             } else {
                 write_scene(&scene_json, &original, e.apply);
             }
-            let (t, done) = bake(&scene_json, &bundle, quality);
-            eprintln!("{} {}: {t:.2} s", e.name, r + 1);
+            let (t, done) = bake(&scene_json, &bundle, quality, phases);
+            eprintln!("{} {}: {:.2} s, CPU {:.2} s", e.name, r + 1, t.wall, t.cpu);
             times.push(t);
             // The gathering units as one entry: there are many at higher presets.
             let gathers: Vec<f64> = done
@@ -277,14 +389,8 @@ fn main() {
                 units.join(", ")
             };
         }
-        let t = median(times);
-        rows.push([
-            e.name.into(),
-            e.what.into(),
-            rebaked,
-            format!("{t:.2}"),
-            format!("{:.1}%", 100.0 * t / full),
-        ]);
+        let [w, wp, c, cp] = of_full(medians(&times));
+        rows.push([e.name.into(), e.what.into(), rebaked, w, wp, c, cp]);
     }
     println!(
         "edit loop: {} at {}, median of {runs}",
@@ -293,7 +399,7 @@ fn main() {
     );
     print!(
         "{}",
-        format_table(&rows, &[false, false, false, true, true])
+        format_table(&rows, &[false, false, false, true, true, true, true])
     );
 }
 

@@ -285,3 +285,39 @@ fn a_bundle_of_another_scene_is_replaced_only_with_force_and_the_refusal_names_b
         serde_json::from_slice(&std::fs::read(bundle.join("manifest.json")).unwrap()).unwrap();
     assert_eq!(m["scene_name"], "other-floor");
 }
+
+#[test]
+fn a_shard_checked_or_written_in_this_run_is_not_hashed_again() {
+    use glint::bake::shard::{Checked, bake_unit_gathering, read_shard, read_shard_checked};
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = glint::scene::Scene::load(edit_room(tmp.path())).unwrap();
+    let settings =
+        glint::bake::BakeSettings::resolve(&scene, glint::scene::Quality::Draft).unwrap();
+    let plan = glint::bake::units::plan_units(&scene, &settings).unwrap();
+    let shard = tmp.path().join("scene.glint");
+    let checked = Checked::default();
+    let silent = &glint::progress::Silent;
+    bake_unit_gathering(
+        &scene, &settings, &plan, "scene", &shard, None, true, &checked, silent,
+    )
+    .unwrap();
+    std::fs::write(first_file(&shard), b"damaged").unwrap();
+    // Written in this run: read back without hashing its files again.
+    assert!(read_shard_checked(&shard, &checked).is_ok());
+    // A run that has not checked it hashes them, and finds the damage.
+    let err = read_shard(&shard).unwrap_err().to_string();
+    assert!(err.contains("damaged asset"), "{err}");
+    let fresh = Checked::default();
+    assert!(read_shard_checked(&shard, &fresh).is_err());
+    // Baked again, the unit sees the damage (its own check) and rebakes; what it wrote then
+    // reads back intact.
+    let r = bake_unit_gathering(
+        &scene, &settings, &plan, "scene", &shard, None, true, &fresh, silent,
+    )
+    .unwrap();
+    assert!(
+        matches!(r.status, glint::bake::StageStatus::Baked { .. }),
+        "{r:?}"
+    );
+    assert!(read_shard(&shard).is_ok());
+}

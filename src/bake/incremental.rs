@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 
 use super::merge::{MergeOptions, merge_keeping};
 use super::shard::shard_path;
-use super::shard::{MARKER, Marker, bake_unit_gathering, parse_marker};
+use super::shard::{Checked, MARKER, Marker, bake_unit_gathering, parse_marker};
 use super::units::{GATHER, Unit, UnitPlan, kind, plan_units};
 use super::{BakeSettings, Stage, StageReport, StageStatus};
 use crate::bundle::{Bundle, SceneCommit, StageWriter, write_atomic};
@@ -112,6 +112,8 @@ pub fn bake_incremental(
     let fresh = |u: &Unit| {
         old_marker(&shard_path(&cache, &u.id)).is_some_and(|m| m.unit == u.id && m.key == u.key)
     };
+    // Each shard's files are hashed once a run: by its unit, or as it is written.
+    let checked = Checked::default();
     let mut outcomes: Vec<UnitOutcome> = Vec::new();
     let mut rebaked: BTreeSet<String> = BTreeSet::new();
     let last = plan.units.iter().map(|u| u.wave).max().unwrap_or(0);
@@ -129,8 +131,9 @@ pub fn bake_incremental(
             if !why.is_empty() {
                 log::info!("{}: rebaking unit {} ({why})", u.stage, u.id);
             }
-            let r =
-                bake_unit_gathering(scene, settings, plan, &u.id, &shard, None, true, progress)?;
+            let r = bake_unit_gathering(
+                scene, settings, plan, &u.id, &shard, None, true, &checked, progress,
+            )?;
             let seconds = match r.status {
                 StageStatus::Baked { seconds } => seconds,
                 _ => 0.0,
@@ -156,6 +159,7 @@ pub fn bake_incremental(
     let assembled = if rebaked.is_empty() && assembled_matches(bundle, &cache, plan) {
         false
     } else {
+        progress.phase("assembling the bundle", 1);
         let shards: Vec<PathBuf> = plan
             .units
             .iter()
@@ -169,8 +173,10 @@ pub fn bake_incremental(
                 force,
                 ..Default::default()
             },
+            &checked,
         )?;
         record_assembled(bundle, &cache, plan)?;
+        progress.advance(1);
         true
     };
 

@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use super::Stage;
-use super::shard::{Marker, read_shard};
+use super::shard::{Checked, Marker, read_shard_checked};
 use super::units::{GATHER, UnitPlan, kind};
 use crate::bundle::{
     Bundle, FaultHook, Manifest, SceneCommit, StageInfo, StageRecord, StageWriter,
@@ -82,18 +82,20 @@ pub fn merge(
     shards: &[PathBuf],
     options: MergeOptions,
 ) -> Result<MergeReport, MergeError> {
-    merge_into(out, shards, options, false)
+    merge_into(out, shards, options, false, &Checked::default())
 }
 
 /// [`merge`], leaving each stage the bundle holds already with the assets (intact) and
 /// settings the merge would write: only its scene hash is updated, and its files are not
-/// written again. At least one stage is written.
+/// written again. At least one stage is written. Shards `checked` holds (this run baked or
+/// checked them) are not hashed again.
 pub fn merge_keeping(
     out: &Path,
     shards: &[PathBuf],
     options: MergeOptions,
+    checked: &Checked,
 ) -> Result<MergeReport, MergeError> {
-    merge_into(out, shards, options, true)
+    merge_into(out, shards, options, true, checked)
 }
 
 fn merge_into(
@@ -101,6 +103,7 @@ fn merge_into(
     shards: &[PathBuf],
     options: MergeOptions,
     keep_unchanged: bool,
+    checked: &Checked,
 ) -> Result<MergeReport, MergeError> {
     if shards.is_empty() {
         return Err(MergeError::one("no shards given"));
@@ -108,7 +111,7 @@ fn merge_into(
     let mut problems = Vec::new();
     let mut read: Vec<(PathBuf, Marker, Bundle)> = Vec::new();
     for s in shards {
-        match read_shard(s) {
+        match read_shard_checked(s, checked) {
             Ok((m, b)) => read.push((s.clone(), m, b)),
             Err(e) => problems.push(e.to_string()),
         }

@@ -422,7 +422,9 @@ pub fn bake_from(
     crate::bundle::check_scene(bundle, &scene.name, &scene.content_hash, force)?;
     // Before the compute: a bundle that cannot be written fails now.
     let mut w = StageWriter::begin(bundle, Stage::Radiosity.name())?;
+    progress.phase("building the atlas", 1);
     let p = prepare(scene, settings, density)?;
+    progress.advance(1);
     let mut solution = match gathering {
         Gathering::Here => solve(scene, &p.bvh, &p.atlas, &p.samples, &p.solve, progress)?,
         Gathering::From(shards) => {
@@ -433,13 +435,20 @@ pub fn bake_from(
         }
     };
     let (atlas, samples) = (&p.atlas, &p.samples);
+    if settings.stitch_seams {
+        progress.phase("stitching seams", 1);
+    }
     let seam = settings
         .stitch_seams
         .then(|| seams::stitch_seams(&scene.triangles, atlas, samples, &mut solution.radiance));
+    if settings.stitch_seams {
+        progress.advance(1);
+    }
     if progress.cancelled() {
         return Err(Cancelled.into());
     }
 
+    progress.phase("writing radiosity", atlas.pages.len() as u64);
     let mut offset = 0usize;
     for (i, page) in atlas.pages.iter().enumerate() {
         let n = (page.width * page.height) as usize;
@@ -454,6 +463,7 @@ pub fn bake_from(
             false,
         )?;
         w.write(&format!("page{i}.png"), "preview-png", &png)?;
+        progress.advance(1);
     }
     w.write("atlas.bin", "atlas", &format::encode(atlas))?;
 

@@ -7,7 +7,9 @@
 //! whose shard already holds a marker with the unit's key, and whose assets are intact, is
 //! up to date: only the marker is rewritten, naming the current plan.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
@@ -130,10 +132,35 @@ fn no_marker(shard: &Path) -> ShardError {
     }
 }
 
+/// The shards one run has hashed every asset of, or written, each with the identity of the
+/// stage it held then: read again in the same run (by a unit that reads D, by the assembly),
+/// such a shard's marker and manifest are checked but its files are not hashed again.
+#[derive(Debug, Default)]
+pub struct Checked(Mutex<BTreeMap<PathBuf, String>>);
+
+impl Checked {
+    /// Whether the shard at `shard` was checked or written holding the stage `identity`.
+    fn holds(&self, shard: &Path, identity: &str) -> bool {
+        let held = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        held.get(shard).is_some_and(|i| i == identity)
+    }
+
+    /// Records that the shard at `shard` holds the stage `identity`, every asset intact.
+    fn insert(&self, shard: &Path, identity: String) {
+        let mut held = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        held.insert(shard.to_owned(), identity);
+    }
+}
+
 /// Reads a shard's marker and checks the shard against it: the stage it names exists with
 /// the recorded identity and every asset matches its hash. Returns the marker and the opened
 /// shard.
 pub fn read_shard(shard: &Path) -> Result<(Marker, Bundle), ShardError> {
+    read_shard_checked(shard, &Checked::default())
+}
+
+/// [`read_shard`], hashing the assets only of a shard `checked` does not hold as it is now.
+pub fn read_shard_checked(shard: &Path, checked: &Checked) -> Result<(Marker, Bundle), ShardError> {
     let text = match crate::bundle::read_top_file(shard, MARKER) {
         Ok(Some(t)) => t,
         Ok(None) => return Err(no_marker(shard)),
@@ -142,6 +169,9 @@ pub fn read_shard(shard: &Path) -> Result<(Marker, Bundle), ShardError> {
     let marker = parse_marker(shard, text.as_bytes())?;
     let bundle = Bundle::open(shard).map_err(|e| invalid(shard, e.to_string()))?;
     check_marker(shard, &marker, bundle.manifest())?;
+    if checked.holds(shard, &marker.stage_identity) {
+        return Ok((marker, bundle));
+    }
     let problems = bundle.verify();
     if let Some(p) = problems.first() {
         return Err(invalid(
@@ -153,6 +183,7 @@ pub fn read_shard(shard: &Path) -> Result<(Marker, Bundle), ShardError> {
             ),
         ));
     }
+    checked.insert(shard, marker.stage_identity.clone());
     Ok((marker, bundle))
 }
 
@@ -228,12 +259,17 @@ pub fn bake_unit(
     d_shard: Option<&Path>,
     progress: &dyn Progress,
 ) -> anyhow::Result<UnitReport> {
-    bake_unit_gathering(scene, settings, plan, id, shard, d_shard, false, progress)
+    let checked = Checked::default();
+    bake_unit_gathering(
+        scene, settings, plan, id, shard, d_shard, false, &checked, progress,
+    )
 }
 
 /// [`bake_unit`], where the `radiosity` unit gathers every element itself when `gather_here`
 /// (the same D: each element draws from its own random streams) instead of reading the
 /// gathering units' shards.
+/// Shards `checked` holds are not hashed again (the unit's own, the D it reads); the unit's
+/// shard is added to it, checked or written.
 #[allow(clippy::too_many_arguments)]
 pub fn bake_unit_gathering(
     scene: &Scene,
@@ -243,6 +279,7 @@ pub fn bake_unit_gathering(
     shard: &Path,
     d_shard: Option<&Path>,
     gather_here: bool,
+    checked: &Checked,
     progress: &dyn Progress,
 ) -> anyhow::Result<UnitReport> {
     let unit = plan.unit(id).ok_or_else(|| {
@@ -259,10 +296,13 @@ pub fn bake_unit_gathering(
         shard: shard.to_owned(),
         status,
     };
-    if let Ok((old, _)) = read_shard(shard)
-        && old.unit == unit.id
-        && old.key == unit.key
-    {
+    // The marker first: a shard of another key is rebaked without hashing its files.
+    let same_key = crate::bundle::read_top_file(shard, MARKER)
+        .ok()
+        .flatten()
+        .and_then(|t| parse_marker(shard, t.as_bytes()).ok())
+        .is_some_and(|m| m.unit == unit.id && m.key == unit.key);
+    if same_key && let Ok((old, _)) = read_shard_checked(shard, checked) {
         if old.plan != *plan {
             write_marker(
                 shard,
@@ -280,7 +320,7 @@ pub fn bake_unit_gathering(
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
         Err(e) => anyhow::bail!("{}: cannot remove: {e}", shard.join(MARKER).display()),
     }
-    let d_path = d_source(unit, shard, d_shard, plan)?;
+    let d_path = d_source(unit, shard, d_shard, plan, checked)?;
     let part = Part {
         item: plan.item(unit),
         d_from: d_path.as_deref(),
@@ -296,7 +336,7 @@ pub fn bake_unit_gathering(
         progress,
     )?;
     let read_d = match &d_path {
-        Some(p) => Some(super::part::require_d(p)?.1),
+        Some(p) => Some(d_identity(p)?),
         None => None,
     };
     let identity = Bundle::open(shard)?
@@ -316,14 +356,29 @@ pub fn bake_unit_gathering(
             unit: unit.id.clone(),
             key: unit.key.clone(),
             stage: stage.into(),
-            stage_identity: identity,
+            stage_identity: identity.clone(),
             read_d,
             plan: plan.clone(),
         },
     )?;
+    // Just written: the assets are the bytes the unit hashed as it wrote them.
+    checked.insert(shard, identity);
     Ok(report(StageStatus::Baked {
         seconds: start.elapsed().as_secs_f64(),
     }))
+}
+
+/// The identity of the radiosity stage of the shard at `d_shard` (which the unit just read).
+fn d_identity(d_shard: &Path) -> anyhow::Result<String> {
+    Bundle::open(d_shard)?
+        .stage(crate::radiosity::current::STAGE)
+        .map(|r| r.identity())
+        .ok_or_else(|| {
+            anyhow::anyhow!(
+                "{}: has no `radiosity` stage: bake the `radiosity` unit into it first",
+                d_shard.display()
+            )
+        })
 }
 
 fn write_marker(shard: &Path, marker: &Marker) -> anyhow::Result<()> {
@@ -340,6 +395,7 @@ fn dep_shard(
     shard: &Path,
     given: Option<&Path>,
     plan: &UnitPlan,
+    checked: &Checked,
 ) -> anyhow::Result<PathBuf> {
     let path = match given {
         Some(p) => p.to_owned(),
@@ -348,7 +404,7 @@ fn dep_shard(
             .unwrap_or(Path::new("."))
             .join(format!("{dep}.glint")),
     };
-    let (marker, _) = read_shard(&path).map_err(|e| match e {
+    let (marker, _) = read_shard_checked(&path, checked).map_err(|e| match e {
         ShardError::Missing { .. } => anyhow::anyhow!(
             "unit `{}` reads unit `{dep}`'s shard, which is missing at {}: bake `{dep}` first (`glint-bake SCENE --unit {dep} --bundle {}`)",
             unit.id,
@@ -378,11 +434,12 @@ fn d_source(
     shard: &Path,
     d_shard: Option<&Path>,
     plan: &UnitPlan,
+    checked: &Checked,
 ) -> anyhow::Result<Option<PathBuf>> {
     if !unit.depends_on.iter().any(|d| d == "radiosity") {
         return Ok(None);
     }
-    dep_shard(unit, "radiosity", shard, d_shard, plan).map(Some)
+    dep_shard(unit, "radiosity", shard, d_shard, plan, checked).map(Some)
 }
 
 /// The gathering shards the `radiosity` unit reads, beside `shard`, in plan order.
@@ -390,7 +447,7 @@ fn gather_sources(unit: &Unit, shard: &Path, plan: &UnitPlan) -> anyhow::Result<
     unit.depends_on
         .iter()
         .filter(|d| kind(d) == GATHER)
-        .map(|d| dep_shard(unit, d, shard, None, plan))
+        .map(|d| dep_shard(unit, d, shard, None, plan, &Checked::default()))
         .collect()
 }
 
