@@ -1,7 +1,8 @@
 //! glint-view's anti-aliasing (`--samples`), through the binary on the software Vulkan adapter
 //! (lavapipe): the default frame is multisampled (silhouettes get intermediate values that a
 //! single-sampled frame has not), `--samples 1` draws exactly what the viewer drew before it
-//! had anti-aliasing, and a sample count it does not offer is refused with the accepted values.
+//! had anti-aliasing, a sample count it does not offer is refused with the accepted values, one
+//! the GPU cannot draw falls back with a warning, and a new count rebuilds built passes.
 //!
 //! `tests/golden/cornell-box-samples1.png` is the `orbit` path's frame 0 at [`SIZE`] of this
 //! test's bake, written by glint-view before multisampling existed (exact bytes: the
@@ -189,4 +190,61 @@ fn a_sample_count_the_viewer_does_not_offer_is_refused() {
             "--samples {bad}: {stderr}"
         );
     }
+}
+
+#[test]
+fn a_count_the_gpu_cannot_draw_falls_back_with_a_warning() {
+    let (code, stderr, eight) = frame(&["--samples", "8"]);
+    assert_eq!(code, 0, "{stderr}");
+    // lavapipe multisamples 4 times, not 8: the frame is drawn with 4 samples and says so.
+    let Some(drawn) = stderr
+        .split("drawing ")
+        .nth(1)
+        .and_then(|s| s.split(" sample").next())
+    else {
+        println!("this adapter multisamples 8 times: nothing falls back");
+        return;
+    };
+    assert!(stderr.contains("cannot multisample"), "{stderr}");
+    let (code, stderr, fallback) = frame(&["--samples", drawn]);
+    assert_eq!(code, 0, "--samples {drawn}: {stderr}");
+    assert!(
+        eight == fallback,
+        "--samples 8 did not draw what --samples {drawn} draws"
+    );
+}
+
+/// Switching the sample count of built passes rebuilds them for it: the frame is the one
+/// passes built with that count draw, and switching back draws the single-sampled frame again.
+#[test]
+fn a_new_sample_count_rebuilds_the_passes() {
+    use glint::camera::pose_at;
+    use glint::view::gpu::Gpu;
+    use glint::view::headless::Offscreen;
+    use glint::view::options::ViewOptions;
+    let data = glint::view::load::load(cornell()).unwrap_or_else(|e| panic!("{e}"));
+    let path = data.scene.camera_path(Some("orbit")).unwrap();
+    let camera = pose_at(path, path.keyframes[0].time);
+    let gpu = gpu();
+    let (w, h) = (96, 64);
+    let draw = |gpu: &Gpu, o: &Offscreen| {
+        o.render(gpu, &camera).unwrap();
+        o.read_rgba8(gpu).unwrap()
+    };
+    let mut switched = Offscreen::new(&gpu, &data, w, h).unwrap();
+    assert_eq!(switched.frame().samples(), 1);
+    let single = draw(&gpu, &switched);
+    let one = switched.options;
+    let four = ViewOptions { samples: 4, ..one };
+    switched.set_options(&gpu, &data, &four).unwrap();
+    assert_eq!(switched.frame().samples(), 4);
+    let built = Offscreen::with_options(&gpu, &data, w, h, &four).unwrap();
+    let multi = draw(&gpu, &switched);
+    assert!(
+        multi == draw(&gpu, &built),
+        "switched to 4 samples vs built with 4"
+    );
+    assert!(multi != single, "4 samples draw what 1 sample draws");
+    switched.set_options(&gpu, &data, &one).unwrap();
+    assert!(draw(&gpu, &switched) == single, "switched back to 1 sample");
 }
