@@ -23,7 +23,7 @@
 //! path's first keyframe, [`FIDELITY_SIZE`], [`FIDELITY_SPP`] paths per pixel: its noise is
 //! part of the figure), and over the reflectors' pixels against the CPU evaluation of the
 //! viewer's own equation (the viewer's share of the error). `GLINT_BENCH_TABLES` (a comma list
-//! of `frames`, `reflections`, `fidelity`; all by default) picks the tables and
+//! of `frames`, `reflections`, `fidelity`, `aa`; all by default) picks the tables and
 //! `GLINT_BENCH_SCENES` (a comma list) the scenes, `GLINT_BENCH_MODES` (a comma list of
 //! `geometry`, `geometry2` (depth 2), `off`, `image1`, `image2`, `image4`, `image2d`; all by
 //! default) the reflection table's modes (geometry always runs: the ratios are to it). `GLINT_BENCH_FIDELITY_QUALITY`
@@ -40,8 +40,10 @@
 //! `GLINT_BENCH_TERMINAL=off` turns the near-mirrors' terminal cube maps off in the
 //! reflections table (as `--terminal-cubemaps off`).
 //!
-//! A fourth table (`probes`, not in the default list) times glossy-room, its table top left
-//! undeclared, with and without the reflection probe that then lights it ([`probe_table`]).
+//! A fourth table (`aa`, [`aa_table`]) is anti-aliasing's cost: the frame table's replays
+//! (one run each) at one sample a pixel and at the default multisample count. A fifth
+//! (`probes`, not in the default list) times glossy-room, its table top left undeclared, with
+//! and without the reflection probe that then lights it ([`probe_table`]).
 //!
 //! `cargo bench --bench view` (the `view` feature, on by default). The adapter is the one
 //! `Gpu::headless` picks: a hardware GPU when there is one, else Mesa's lavapipe; `WGPU_BACKEND`
@@ -92,7 +94,7 @@ fn main() {
         .unwrap_or(REPEATS)
         .max(1);
     let tables = std::env::var("GLINT_BENCH_TABLES")
-        .unwrap_or_else(|_| "frames,reflections,fidelity".to_string());
+        .unwrap_or_else(|_| "frames,reflections,fidelity,aa".to_string());
     let wanted = |t: &str| tables.split(',').any(|w| w.trim() == t);
     if wanted("frames") {
         frame_table(&gpu, &work, &adapter, repeats);
@@ -102,6 +104,9 @@ fn main() {
     }
     if wanted("fidelity") {
         fidelity_table(&gpu, &work);
+    }
+    if wanted("aa") {
+        aa_table(&gpu, &work);
     }
     if wanted("probes") {
         probe_table(&gpu, &work, repeats);
@@ -250,6 +255,63 @@ fn frame_table(gpu: &Gpu, work: &Path, adapter: &str, repeats: usize) {
             &rows,
             &[false, true, false, true, true, true, true, true, true, true]
         )
+    );
+}
+
+/// Anti-aliasing's cost: each shipped scene's first camera path replayed as in
+/// [`frame_table`] (every frame timed, one run) at `--samples 1` and at the default sample
+/// count, the per-frame medians side by side.
+fn aa_table(gpu: &Gpu, work: &Path) {
+    let on = ViewOptions::default().samples;
+    let mut rows = vec![[
+        "scene".to_string(),
+        "frames".to_string(),
+        "GPU median ms, 1 sample".to_string(),
+        format!("GPU median ms, {on}x MSAA"),
+        "ratio".to_string(),
+        "frame median ms, 1 sample".to_string(),
+        format!("frame median ms, {on}x MSAA"),
+    ]];
+    for name in picked(&SCENES) {
+        let bundle = bake_if_needed(
+            &repo(&format!("scenes/{name}/scene.json")),
+            work,
+            name,
+            false,
+        );
+        let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
+        let run = |samples: u32| {
+            let options = ReplayOptions {
+                width: SIZE.0,
+                height: SIZE.1,
+                every: 0,
+                view: ViewOptions {
+                    samples,
+                    ..ViewOptions::default()
+                },
+                ..ReplayOptions::default()
+            };
+            replay_with(gpu, &data, &options, &Silent).unwrap_or_else(|e| panic!("{e}"))
+        };
+        let (off, aa) = (run(1), run(on));
+        let (a, b) = (&off.summary, &aa.summary);
+        rows.push([
+            name.to_string(),
+            off.frames.len().to_string(),
+            format!("{:.2}", a.gpu_ms.median),
+            format!("{:.2}", b.gpu_ms.median),
+            format!("{:.2}", b.gpu_ms.median / a.gpu_ms.median),
+            format!("{:.2}", a.frame_ms.median),
+            format!("{:.2}", b.frame_ms.median),
+        ]);
+    }
+    println!(
+        "\nanti-aliasing at {}x{}: every frame of each scene's first camera path (draft bake, D only), one run per sample count\n",
+        SIZE.0, SIZE.1
+    );
+    print!(
+        "{}",
+        format_table(&rows, &[false, true, true, true, true, true, true])
     );
 }
 

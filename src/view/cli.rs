@@ -96,7 +96,9 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
     log::info!("view: {}", modes.describe());
     if args.headless {
         let out = args.out.clone().context("--headless needs --out DIR")?;
-        let gpu = Gpu::headless_with_features(wgpu::Features::TIMESTAMP_QUERY)?;
+        let gpu = Gpu::headless_with_features(
+            wgpu::Features::TIMESTAMP_QUERY | super::gpu::target::MULTISAMPLE_FEATURES,
+        )?;
         let progress = TerminalProgress::new();
         let timings = replay_with(
             &gpu,

@@ -20,11 +20,14 @@
 //!    radiance target (the HDR output, never exposed); this maps it to the 8-bit target with the
 //!    options' exposure and tone curve.
 //!
+//! With anti-aliasing (`--samples` above 1) steps 1–7 draw into the passes' own
+//! [`MultisampleTarget`] (radiance and depth), resolved into the radiance target before step 8.
+//!
 //! Steps 2–6 are each a [`FramePass`], prepared and recorded from one list in this order.
 
 use super::curved::gpu::CurvedReflections;
 use super::exposure::auto_ev;
-use super::gpu::target::{FrameViews, TargetFormats};
+use super::gpu::target::{FrameViews, MultisampleTarget, TargetFormats, frame_samples};
 use super::gpu::{Gpu, RenderError};
 use super::impostors::{ImpostorReflections, ReflectorSet, impostor_pass};
 use super::load::ViewData;
@@ -101,6 +104,8 @@ pub struct FramePasses {
     auto_ev: f32,
     options: ViewOptions,
     size: (u32, u32),
+    /// What the geometry passes draw into when the frame is multisampled.
+    multisample: Option<MultisampleTarget>,
     planar: Option<GeometryReflections>,
     recursive: Option<RecursiveReflections>,
     impostors: Option<ImpostorReflections>,
@@ -121,24 +126,22 @@ impl FramePasses {
         size: (u32, u32),
         options: &ViewOptions,
     ) -> Result<FramePasses, RenderError> {
-        let mut frame = FramePasses::scene_only(gpu, data, display_format, size)?;
+        let mut frame = FramePasses::scene_only(gpu, data, display_format, size, options.samples)?;
         frame.options = *options;
         frame.rebuild(gpu, data, Rebuild::ALL)?;
         Ok(frame)
     }
 
-    /// The scene pass alone, with the default options (no reflections), and the display pass
-    /// writing `display_format`.
+    /// The scene pass alone, with the default options (no reflections) but `samples` samples
+    /// a pixel ([`ViewOptions::samples`]), and the display pass writing `display_format`.
     pub fn scene_only(
         gpu: &Gpu,
         data: &ViewData,
         display_format: wgpu::TextureFormat,
         size: (u32, u32),
+        samples: u32,
     ) -> Result<FramePasses, RenderError> {
-        let formats = TargetFormats {
-            color: RADIANCE_FORMAT,
-        };
-        let renderer = Renderer::new(gpu, &data.scene, &data.map, formats)?;
+        let (renderer, multisample) = scene_pass(gpu, data, size, samples)?;
         let glass = GlassPasses::new(gpu, &data.scene, &renderer)?;
         let display =
             crate::view::gpu::error_scoped(&gpu.device, "creating the display pass", || {
@@ -148,8 +151,12 @@ impl FramePasses {
             renderer,
             display,
             auto_ev: auto_ev(&data.scene.triangles, &data.map),
-            options: ViewOptions::default(),
+            options: ViewOptions {
+                samples,
+                ..ViewOptions::default()
+            },
             size,
+            multisample,
             planar: None,
             recursive: None,
             impostors: None,
@@ -168,12 +175,11 @@ impl FramePasses {
         data: &ViewData,
         options: &ViewOptions,
     ) -> Result<(), RenderError> {
-        let changed = Rebuild::between(&self.options, options);
-        self.options = *options;
-        self.rebuild(gpu, data, changed)
+        self.set_options_rebuilding(gpu, data, options, Rebuild::default())
     }
 
     /// Switches to `options` and rebuilds the groups in `groups` whether or not they changed.
+    /// A new sample count rebuilds every pass: their pipelines are built for it.
     pub fn set_options_rebuilding(
         &mut self,
         gpu: &Gpu,
@@ -182,7 +188,13 @@ impl FramePasses {
         groups: Rebuild,
     ) -> Result<(), RenderError> {
         let changed = Rebuild::between(&self.options, options);
+        let resample = options.samples != self.options.samples;
         self.options = *options;
+        if resample {
+            (self.renderer, self.multisample) = scene_pass(gpu, data, self.size, options.samples)?;
+            self.glass = GlassPasses::new(gpu, &data.scene, &self.renderer)?;
+            return self.rebuild(gpu, data, Rebuild::ALL);
+        }
         self.rebuild(
             gpu,
             data,
@@ -206,6 +218,9 @@ impl FramePasses {
             return Ok(());
         }
         self.size = size;
+        if let Some(m) = &self.multisample {
+            self.multisample = Some(MultisampleTarget::new(gpu, size.0, size.1, m.samples)?);
+        }
         self.rebuild(
             gpu,
             data,
@@ -338,6 +353,12 @@ impl FramePasses {
         self.size
     }
 
+    /// Samples per pixel the frame draws with: [`ViewOptions::samples`], or fewer where the
+    /// GPU cannot multisample that many ([`frame_samples`]).
+    pub fn samples(&self) -> u32 {
+        self.renderer.formats().samples
+    }
+
     /// The scene pass.
     pub fn renderer(&self) -> &Renderer {
         &self.renderer
@@ -408,7 +429,8 @@ impl FramePasses {
         }
     }
 
-    /// Records every pass into `views` in the module's fixed order. With `timestamps`, the
+    /// Records every pass into `views` in the module's fixed order (a multisampled frame's
+    /// geometry into its own target, resolved into `views.radiance`). With `timestamps`, the
     /// scene pass writes index 0 at its beginning and the display pass, the last, index 1 at
     /// its end, so the span holds every pass.
     pub fn record(
@@ -426,14 +448,21 @@ impl FramePasses {
                 end_of_pass_write_index: end,
             })
         };
+        let drawn = match &self.multisample {
+            Some(m) => m.views(views),
+            None => views,
+        };
         self.renderer
-            .draw(encoder, views.radiance, views.depth, stamp(Some(0), None));
+            .draw(encoder, drawn.radiance, drawn.depth, stamp(Some(0), None));
         let frame = self.context(camera);
         for pass in self.over_scene() {
-            pass.draw(encoder, &frame, views);
+            pass.draw(encoder, &frame, drawn);
         }
         if let Some(glass) = &self.glass {
-            glass.draw(encoder, &self.renderer, views.radiance, views.depth);
+            glass.draw(encoder, &self.renderer, drawn.radiance, drawn.depth);
+        }
+        if let Some(m) = &self.multisample {
+            m.resolve(encoder, views.radiance);
         }
         self.display.record(
             device,
@@ -443,6 +472,29 @@ impl FramePasses {
             stamp(None, Some(1)),
         );
     }
+}
+
+/// The scene pass of `data` drawing `samples` samples a pixel (or the most the GPU offers
+/// below that, [`frame_samples`]), and the multisampled target it draws into at `size` when
+/// that is more than one.
+fn scene_pass(
+    gpu: &Gpu,
+    data: &ViewData,
+    (width, height): (u32, u32),
+    samples: u32,
+) -> Result<(Renderer, Option<MultisampleTarget>), RenderError> {
+    let samples = frame_samples(gpu, samples);
+    let formats = TargetFormats {
+        color: RADIANCE_FORMAT,
+        samples,
+    };
+    let renderer = Renderer::new(gpu, &data.scene, &data.map, formats)?;
+    let multisample = if samples > 1 {
+        Some(MultisampleTarget::new(gpu, width, height, samples)?)
+    } else {
+        None
+    };
+    Ok((renderer, multisample))
 }
 
 // Each technique's passes take what they need; the frame hands every pass the same context.

@@ -51,6 +51,7 @@ pub struct RenderPipelineBuilder<'a> {
     depth: Option<wgpu::DepthStencilState>,
     topology: wgpu::PrimitiveTopology,
     constants: Vec<(&'a str, f64)>,
+    samples: u32,
 }
 
 /// A pipeline `label` drawing with `shader`'s `vs` and `fs` entry points; by default a
@@ -72,6 +73,7 @@ pub fn render_pipeline<'a>(
         depth: None,
         topology: wgpu::PrimitiveTopology::TriangleList,
         constants: Vec::new(),
+        samples: 1,
     }
 }
 
@@ -121,6 +123,12 @@ impl<'a> RenderPipelineBuilder<'a> {
         self
     }
 
+    /// Samples per pixel of the targets it draws into (default 1: single-sampled).
+    pub fn samples(mut self, count: u32) -> Self {
+        self.samples = count;
+        self
+    }
+
     /// Sets the shader's pipeline-overridable bool `name` (a WGSL `override`) in both stages.
     pub fn override_bool(mut self, name: &'a str, value: bool) -> Self {
         self.constants.push((name, f64::from(u8::from(value))));
@@ -153,7 +161,10 @@ impl<'a> RenderPipelineBuilder<'a> {
                 ..Default::default()
             },
             depth_stencil: self.depth,
-            multisample: wgpu::MultisampleState::default(),
+            multisample: wgpu::MultisampleState {
+                count: self.samples,
+                ..Default::default()
+            },
             fragment: Some(wgpu::FragmentState {
                 module: self.shader,
                 entry_point: Some(self.fs),

@@ -1,6 +1,14 @@
 //! What every pass draws into and how it meets the frame: the target formats, the offscreen
-//! target, the reverse-Z depth state, the additive blend of passes drawn over the scene, and
-//! how a pass begins: clearing its targets, or loading a finished frame (the overlay).
+//! target, the multisampled target of an anti-aliased frame, the reverse-Z depth state, the
+//! additive blend of passes drawn over the scene, and how a pass begins: clearing its
+//! targets, or loading a finished frame (the overlay).
+//!
+//! Anti-aliasing multisamples the main frame's geometry passes only: the scene pass and every
+//! composite drawn over it (planar, recursive, impostor and curved reflections) draw into a
+//! [`MultisampleTarget`] of the frame's sample count, resolved into the single-sampled
+//! radiance the display pass reads. The passes that draw reflection maps, their pyramids and
+//! cube maps stay single-sampled: they are filtered (pyramids, MIP chains) before the frame
+//! reads them, which smooths their edges anyway.
 
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 
@@ -18,6 +26,51 @@ pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 pub struct TargetFormats {
     /// The colour target. When it is not an sRGB format the shader encodes sRGB.
     pub color: wgpu::TextureFormat,
+    /// Samples per pixel of the colour and depth targets (1: single-sampled).
+    pub samples: u32,
+}
+
+/// The optional device features that let a frame multisample at every count the adapter
+/// offers for its formats (without them: WebGPU's guaranteed counts, 1 and 4).
+pub const MULTISAMPLE_FEATURES: wgpu::Features =
+    wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES;
+
+/// The sample count a frame asked to draw with `requested` samples a pixel gets on `gpu`: the
+/// largest count up to `requested` at which the device can multisample the frame's radiance
+/// ([`HDR_FORMAT`], resolvable) and depth ([`DEPTH_FORMAT`]), with a warning when that is
+/// fewer than asked (1: no multisampling).
+pub fn frame_samples(gpu: &Gpu, requested: u32) -> u32 {
+    let features = gpu.device.features();
+    let supports = |format: wgpu::TextureFormat, count: u32, resolve: bool| {
+        let adapter = gpu.adapter.get_texture_format_features(format).flags;
+        // Without these features the device validates against WebGPU's guaranteed counts.
+        let device = if features.contains(MULTISAMPLE_FEATURES) {
+            adapter
+        } else {
+            format.guaranteed_format_features(features).flags
+        };
+        [adapter, device].iter().all(|f| {
+            f.sample_count_supported(count)
+                && (!resolve || f.contains(wgpu::TextureFormatFeatureFlags::MULTISAMPLE_RESOLVE))
+        })
+    };
+    let samples = (1..=requested.max(1))
+        .rev()
+        .find(|&n| n == 1 || (supports(HDR_FORMAT, n, true) && supports(DEPTH_FORMAT, n, false)))
+        .unwrap_or(1);
+    if samples != requested {
+        log::warn!(
+            "{} cannot multisample the frame ({HDR_FORMAT:?} and {DEPTH_FORMAT:?}) {requested} times; \
+             drawing {samples} sample(s) a pixel{}",
+            gpu.adapter.get_info().name,
+            if samples == 1 {
+                " (no anti-aliasing)"
+            } else {
+                ""
+            }
+        );
+    }
+    samples
 }
 
 /// Depth state of every pass: reverse-Z (nearer is greater) on [`DEPTH_FORMAT`].
@@ -45,6 +98,31 @@ pub const ADDITIVE_KEEP_ALPHA: wgpu::BlendState = wgpu::BlendState {
         operation: wgpu::BlendOperation::Add,
     },
 };
+
+/// Records a pass that only resolves the multisampled `color` into `into` (each pixel the
+/// mean of its samples; the multisampled contents are not needed afterwards).
+fn resolve_pass(
+    encoder: &mut wgpu::CommandEncoder,
+    color: &wgpu::TextureView,
+    into: &wgpu::TextureView,
+) {
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some("glint multisample resolve"),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: color,
+            depth_slice: None,
+            resolve_target: Some(into),
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Load,
+                store: wgpu::StoreOp::Discard,
+            },
+        })],
+        depth_stencil_attachment: None,
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+}
 
 /// Begins a pass that draws over a finished frame: it loads and keeps `color` and `depth`, so
 /// its fragments add to the scene and are depth tested against it.
@@ -137,6 +215,19 @@ pub fn texture_2d(
     format: wgpu::TextureFormat,
     usage: wgpu::TextureUsages,
 ) -> wgpu::Texture {
+    multisampled_2d(device, label, (width, height), 1, format, usage)
+}
+
+/// A `width` × `height` 2D texture of `format` for `usage` with `samples` samples a texel: one
+/// MIP level.
+fn multisampled_2d(
+    device: &wgpu::Device,
+    label: &str,
+    (width, height): (u32, u32),
+    samples: u32,
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
     device.create_texture(&wgpu::TextureDescriptor {
         label: Some(label),
         size: wgpu::Extent3d {
@@ -145,7 +236,7 @@ pub fn texture_2d(
             depth_or_array_layers: 1,
         },
         mip_level_count: 1,
-        sample_count: 1,
+        sample_count: samples,
         dimension: wgpu::TextureDimension::D2,
         format,
         usage,
@@ -188,6 +279,74 @@ pub struct FrameViews<'a> {
     pub display: &'a wgpu::TextureView,
     /// The depth buffer (reverse Z).
     pub depth: &'a wgpu::TextureView,
+}
+
+/// The multisampled radiance and depth an anti-aliased frame's geometry passes draw into (see
+/// the module documentation for which), resolved into the frame's radiance before the display
+/// pass.
+pub struct MultisampleTarget {
+    /// Samples per pixel.
+    pub samples: u32,
+    _color: wgpu::Texture,
+    _depth: wgpu::Texture,
+    color_view: wgpu::TextureView,
+    depth_view: wgpu::TextureView,
+}
+
+impl MultisampleTarget {
+    /// Radiance ([`HDR_FORMAT`]) and depth of `samples` samples a pixel for a `width` ×
+    /// `height` frame; `samples` must be one [`frame_samples`] returned.
+    pub fn new(
+        gpu: &Gpu,
+        width: u32,
+        height: u32,
+        samples: u32,
+    ) -> Result<MultisampleTarget, GpuError> {
+        check_target_size(&gpu.device, width, height)?;
+        error_scoped(
+            &gpu.device,
+            "creating the multisampled frame target",
+            || {
+                let texture = |label, format| {
+                    multisampled_2d(
+                        &gpu.device,
+                        label,
+                        (width, height),
+                        samples,
+                        format,
+                        wgpu::TextureUsages::RENDER_ATTACHMENT,
+                    )
+                };
+                let color = texture("glint multisampled radiance", HDR_FORMAT);
+                let depth = texture("glint multisampled depth", DEPTH_FORMAT);
+                let view =
+                    |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
+                MultisampleTarget {
+                    samples,
+                    color_view: view(&color),
+                    depth_view: view(&depth),
+                    _color: color,
+                    _depth: depth,
+                }
+            },
+        )
+    }
+
+    /// `frame` with its radiance and depth replaced by this target's: what the geometry
+    /// passes draw into.
+    pub fn views<'a>(&'a self, frame: FrameViews<'a>) -> FrameViews<'a> {
+        FrameViews {
+            radiance: &self.color_view,
+            depth: &self.depth_view,
+            ..frame
+        }
+    }
+
+    /// Records the resolve of the drawn radiance into `radiance` (single-sampled, the frame's
+    /// own), each pixel the mean of its samples.
+    pub fn resolve(&self, encoder: &mut wgpu::CommandEncoder, radiance: &wgpu::TextureView) {
+        resolve_pass(encoder, &self.color_view, radiance);
+    }
 }
 
 /// An offscreen target: linear radiance (readable: the HDR output), the 8-bit colour the

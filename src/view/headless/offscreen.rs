@@ -98,7 +98,8 @@ impl Offscreen {
     /// A `width` × `height` offscreen renderer of `data`, drawing D only until a `set_*` call
     /// turns passes on, its 8-bit frames shown by [`ViewOptions::linear_display`] (0 EV, no
     /// tone curve: radiance clamped and sRGB-encoded, as the CPU references are) until
-    /// [`Offscreen::set_display`] says otherwise.
+    /// [`Offscreen::set_display`] says otherwise, one sample a pixel (the CPU references cast
+    /// one ray through each pixel's centre) until [`Offscreen::set_options`] says otherwise.
     pub fn new(
         gpu: &Gpu,
         data: &ViewData,
@@ -106,8 +107,11 @@ impl Offscreen {
         height: u32,
     ) -> Result<Offscreen, RenderError> {
         let target = OffscreenTarget::new(gpu, width, height)?;
-        let mut frame = FramePasses::scene_only(gpu, data, COLOR_FORMAT, (width, height))?;
-        let options = ViewOptions::default().linear_display();
+        let mut frame = FramePasses::scene_only(gpu, data, COLOR_FORMAT, (width, height), 1)?;
+        let options = ViewOptions {
+            samples: 1,
+            ..ViewOptions::default().linear_display()
+        };
         frame.set_display(options.exposure, options.tonemap);
         Ok(Offscreen {
             target,

@@ -6,6 +6,7 @@ use super::{
     CurvedMode, CurvedSettings, DEFAULT_FACE_SIZE, DEFAULT_GENERATIONS, DEFAULT_WEIGHT_CUTOFF,
     Exposure, ImpostorKind, RecursionSettings, ReflectanceChannel, ReflectanceLayout,
     ReflectanceSettings, ReflectionMode, Selection, Tonemap, ViewOptions, parse_depth,
+    parse_samples,
 };
 
 /// The command-line form of [`ViewOptions`] (`#[command(flatten)]` in `glint-view`).
@@ -116,6 +117,12 @@ pub struct ViewArgs {
     #[arg(long, value_name = "on|off", value_parser = parse_on_off,
           action = clap::ArgAction::Set)]
     pub probes: Option<bool>,
+    /// Anti-aliasing: samples per pixel, 1 (off), 2, 4 or 8: the frame's geometry is
+    /// multisampled and resolved before the exposure and tone curve. A GPU that cannot
+    /// multisample that many draws the most it can (1 with none), with a warning.
+    #[arg(long, value_name = "N", default_value_t = super::DEFAULT_SAMPLES,
+          value_parser = parse_samples)]
+    pub samples: u32,
 }
 
 /// `glint-view`'s view arguments alone, for [`ViewOptions::from_args`].
@@ -218,6 +225,7 @@ impl ViewArgs {
             },
             probes: modes.probes,
             splat_buffer_bytes: None,
+            samples: self.samples,
         };
         options.check()?;
         Ok(options)
@@ -294,6 +302,8 @@ mod tests {
             "off",
             "--probes",
             "on",
+            "--samples",
+            "2",
         ])
         .unwrap();
         assert_eq!(
@@ -325,6 +335,7 @@ mod tests {
                 },
                 probes: true,
                 splat_buffer_bytes: None,
+                samples: 2,
             }
         );
         assert!(o.recursive() && o.shows_reflections());
@@ -381,10 +392,22 @@ mod tests {
         assert!(e.contains("--maps"), "{e}");
         let e = options(&["--selection", "near"]).unwrap_err();
         assert!(e.contains("angle, distance"), "{e}");
+        for bad in ["3", "0", "16", "x"] {
+            let e = options(&["--samples", bad]).unwrap_err();
+            assert!(
+                e.contains("--samples") && e.contains("give 1 (no anti-aliasing), 2, 4 or 8"),
+                "{e}"
+            );
+        }
         let o = ViewOptions {
             maps: 0,
             ..ViewOptions::default()
         };
         assert!(o.check().unwrap_err().contains("maps 0"));
+        let o = ViewOptions {
+            samples: 3,
+            ..ViewOptions::default()
+        };
+        assert!(o.check().unwrap_err().contains("samples 3"));
     }
 }

@@ -345,6 +345,23 @@ pub fn parse_depth(s: &str) -> Result<u8, String> {
     }
 }
 
+/// Samples per pixel `--samples` accepts: 1 (no anti-aliasing) or a multisample count.
+pub const SAMPLE_COUNTS: [u32; 4] = [1, 2, 4, 8];
+
+/// Samples per pixel unless set: 4× multisampling, which every WebGPU adapter offers for the
+/// frame's formats.
+pub const DEFAULT_SAMPLES: u32 = 4;
+
+/// Parses a sample count for the command line: one of [`SAMPLE_COUNTS`].
+pub fn parse_samples(s: &str) -> Result<u32, String> {
+    match s.parse::<u32>() {
+        Ok(n) if SAMPLE_COUNTS.contains(&n) => Ok(n),
+        _ => Err(format!(
+            "{s:?} is not a sample count: give 1 (no anti-aliasing), 2, 4 or 8"
+        )),
+    }
+}
+
 /// Everything that decides what a viewer frame shows, apart from the camera and the size.
 /// The window starts with these (its keys change them), headless replay and the sweep's
 /// viewer render with them.
@@ -380,6 +397,10 @@ pub struct ViewOptions {
     /// over as many buffers as that needs. Lower it to exercise the split.
     #[serde(skip)]
     pub splat_buffer_bytes: Option<u64>,
+    /// Anti-aliasing: samples per pixel of the frame's geometry (multisampled, resolved before
+    /// the display pass), one of [`SAMPLE_COUNTS`]; 1 is off. A GPU that cannot multisample
+    /// the frame's formats that many times draws fewer (`view::gpu::target::frame_samples`).
+    pub samples: u32,
 }
 
 impl Default for ViewOptions {
@@ -398,6 +419,7 @@ impl Default for ViewOptions {
             recursion: RecursionSettings::default(),
             probes: false,
             splat_buffer_bytes: None,
+            samples: DEFAULT_SAMPLES,
         }
     }
 }
@@ -471,6 +493,12 @@ impl ViewOptions {
             return Err(format!(
                 "cube generations {} is not in 1 ..= 8",
                 c.generations
+            ));
+        }
+        if !SAMPLE_COUNTS.contains(&self.samples) {
+            return Err(format!(
+                "samples {} is not a sample count: give 1 (no anti-aliasing), 2, 4 or 8",
+                self.samples
             ));
         }
         Ok(())

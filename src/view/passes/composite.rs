@@ -2,7 +2,8 @@
 //! to its visible pixels (planar reflections' ks·(M*K)·R, the curved reflectors' specular term,
 //! the impostor reflections, the recursive tree's level-0 maps). Its pipeline writes the
 //! frame's colour target with [`ADDITIVE_KEEP_ALPHA`], depth tested against the scene (reverse Z, `GreaterEqual`) and not
-//! written; bind group 0 is the renderer's frame uniforms.
+//! written, at the frame's sample count (multisampled like the scene pass when the frame is
+//! anti-aliased); bind group 0 is the renderer's frame uniforms.
 
 use super::renderer::{Renderer, frame_bind_group};
 use crate::view::gpu::build::RenderPipelineBuilder;
@@ -22,6 +23,7 @@ fn over_frame<'a>(
 ) -> RenderPipelineBuilder<'a> {
     pipeline
         .color(formats.color, Some(ADDITIVE_KEEP_ALPHA))
+        .samples(formats.samples)
         .depth(reverse_z_depth(false, wgpu::CompareFunction::GreaterEqual))
 }
 

@@ -112,6 +112,7 @@ impl GlassPasses {
                     .vertex(scene_vertex_layout())
                     .depth(reverse_z_depth(false, wgpu::CompareFunction::Greater))
                     .color(renderer.formats().color, Some(blend))
+                    .samples(renderer.formats().samples)
                     .override_bool(SURFACE_TEXTURES, textures)
                     .build(device)
             };

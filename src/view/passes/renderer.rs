@@ -402,6 +402,7 @@ impl Renderer {
                     .vertex(scene_vertex_layout())
                     .depth(reverse_z_depth(true, wgpu::CompareFunction::Greater))
                     .color(formats.color, None)
+                    .samples(formats.samples)
                     .override_bool(SURFACE_TEXTURES, textures)
                     .build(device)
             };

@@ -45,8 +45,8 @@ use super::load::ViewData;
 use super::options::{ExposureKey, MAX_RECURSION_DEPTH, ViewOptions};
 use crate::camera::{Camera, frame_count};
 use crate::view::gpu::RenderError;
-use crate::view::gpu::target::depth_texture;
 use crate::view::gpu::target::texture_2d;
+use crate::view::gpu::target::{MULTISAMPLE_FEATURES, depth_texture};
 use crate::view::passes::display::RADIANCE_FORMAT;
 
 /// Why the window viewer stopped with an error.
@@ -266,7 +266,7 @@ impl App {
                 "no Vulkan, Metal or DX12 adapter can present to the window ({e}): {VULKAN_INSTALL_HINT}"
             ))
         })?;
-        let gpu = Gpu::from_adapter(adapter, wgpu::Features::empty())?;
+        let gpu = Gpu::from_adapter(adapter, MULTISAMPLE_FEATURES)?;
         log::info!("GPU: {}", gpu.adapter_summary());
         let size = window.inner_size();
         let mut config = surface
