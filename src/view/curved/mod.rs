@@ -121,6 +121,33 @@ pub fn curved_reflectors(scene: &Scene) -> Vec<CurvedReflector> {
         .collect()
 }
 
+/// The scene's planar near-mirrors ([`crate::radiosity::is_mirror`]) as the cube maps see
+/// them: each curved reflector's map draws their mirror term, read from its own previous
+/// generation, since their kd·D alone (a mirror's is black) is not what its rays meet there.
+/// Lobes as [`curved_reflectors`] keeps them; `centre` is the capture centre, unused.
+pub fn near_mirrors(scene: &Scene) -> Vec<CurvedReflector> {
+    scene
+        .reflectors
+        .iter()
+        .filter(|r| r.kind == ReflectorKind::Planar)
+        .filter_map(|r| {
+            let material = scene.materials.get(r.material as usize)?;
+            if !crate::radiosity::is_mirror(material) {
+                return None;
+            }
+            let mut lobes: Vec<Lobe> = material.lobes.iter().map(Lobe::from).collect();
+            lobes.retain(|l| l.ks.max_element() > 0.0);
+            lobes.truncate(MAX_LOBES);
+            (!lobes.is_empty()).then(|| CurvedReflector {
+                name: r.name.clone(),
+                triangles: r.triangles.clone(),
+                centre: crate::materials::envmap::capture_centre(scene, &r.triangles),
+                lobes,
+            })
+        })
+        .collect()
+}
+
 /// The 90° camera of cube face `face` (+X, −X, +Y, −Y, +Z, −Z) at `centre`, oriented as
 /// WebGPU samples cube maps (and as [`crate::materials::envmap::face_direction`]
 /// stores them): pixel (x, y) of a square image from it looks along the direction of texel
