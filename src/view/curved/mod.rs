@@ -13,6 +13,10 @@
 //!   a generation writes one set and reads only the other, so a map is never sampled while
 //!   it is being written (wgpu would also reject a texture bound for sampling and rendering
 //!   in one pass). Generation 0 reads the zero-initialized set: no interreflection.
+//! - Planar near-mirrors ([`near_mirrors`]) in the maps: from generation 1 on, each map draws
+//!   their mirror term, the rays they reflect looked up in that reflector's own previous map
+//!   (distance-corrected, its own triangles hit first). Their kd·D alone is black, which a
+//!   copper teapot facing glossy-room's mirror panel showed as a black patch.
 //! - The reflector's pixels: kd·D from the scene pass plus, added by blending,
 //!   - `--glossy-samples 0`: Σ_lobes ks·F(n·ω_o)·cube(r), one lookup in the mirror direction
 //!     r (F: Schlick, Eq. 3); [`mirror_specular`] is the CPU form;
