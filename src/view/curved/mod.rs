@@ -13,6 +13,10 @@
 //!   a generation writes one set and reads only the other, so a map is never sampled while
 //!   it is being written (wgpu would also reject a texture bound for sampling and rendering
 //!   in one pass). Generation 0 reads the zero-initialized set: no interreflection.
+//! - Planar near-mirrors ([`near_mirrors`]) in the maps: from generation 1 on, each map draws
+//!   their mirror term, the rays they reflect looked up in that reflector's own previous map
+//!   (distance-corrected, its own triangles hit first). Their kd·D alone is black, which a
+//!   copper teapot facing glossy-room's mirror panel showed as a black patch.
 //! - The reflector's pixels: kd·D from the scene pass plus, added by blending,
 //!   - `--glossy-samples 0`: Σ_lobes ks·F(n·ω_o)·cube(r), one lookup in the mirror direction
 //!     r (F: Schlick, Eq. 3); [`mirror_specular`] is the CPU form;
@@ -112,6 +116,33 @@ pub fn curved_reflectors(scene: &Scene) -> Vec<CurvedReflector> {
                 lobes.truncate(MAX_LOBES);
             }
             Some(CurvedReflector {
+                name: r.name.clone(),
+                triangles: r.triangles.clone(),
+                centre: crate::materials::envmap::capture_centre(scene, &r.triangles),
+                lobes,
+            })
+        })
+        .collect()
+}
+
+/// The scene's planar near-mirrors ([`crate::radiosity::is_mirror`]) as the cube maps see
+/// them: each curved reflector's map draws their mirror term, read from its own previous
+/// generation, since their kd·D alone (a mirror's is black) is not what its rays meet there.
+/// Lobes as [`curved_reflectors`] keeps them; `centre` is the capture centre, unused.
+pub fn near_mirrors(scene: &Scene) -> Vec<CurvedReflector> {
+    scene
+        .reflectors
+        .iter()
+        .filter(|r| r.kind == ReflectorKind::Planar)
+        .filter_map(|r| {
+            let material = scene.materials.get(r.material as usize)?;
+            if !crate::radiosity::is_mirror(material) {
+                return None;
+            }
+            let mut lobes: Vec<Lobe> = material.lobes.iter().map(Lobe::from).collect();
+            lobes.retain(|l| l.ks.max_element() > 0.0);
+            lobes.truncate(MAX_LOBES);
+            (!lobes.is_empty()).then(|| CurvedReflector {
                 name: r.name.clone(),
                 triangles: r.triangles.clone(),
                 centre: crate::materials::envmap::capture_centre(scene, &r.triangles),

@@ -1,9 +1,10 @@
 //! Generating the live cube maps (Nielsen & Christensen 2002 §3.2, McReynolds'
 //! interreflection scheme): per generation and reflector, the scene without it and the other
-//! curved reflectors' mirror terms from the previous generation's maps into each face, then
-//! the faces' MIP levels (2×2 box).
+//! curved reflectors' mirror terms from the previous generation's maps into each face, and
+//! the planar near-mirrors' mirror terms from its own previous map, then the faces' MIP
+//! levels (2×2 box).
 
-use super::super::generation_plan;
+use super::super::{CurvedParams, generation_plan};
 use super::layout::{CurvedVertex, curved_group};
 use super::{CubeTexture, CurvedReflections, MIN_BUFFER};
 use crate::view::gpu::Gpu;
@@ -48,7 +49,40 @@ impl CurvedReflections {
                 .collect();
             pair_params.push(row);
         }
-        for step in generation_plan(self.settings.generations) {
+        // Per reflector i and near-mirror k: k's lobes seen from i's centre, its rays looked up
+        // in i's own map (distance-corrected from the mirror's point, its own triangles hit
+        // first), so the mirror shows the room i's previous generation saw.
+        let mirror_params: Vec<Vec<wgpu::Buffer>> = self
+            .reflectors
+            .iter()
+            .enumerate()
+            .map(|(i, ri)| {
+                self.mirrors
+                    .iter()
+                    .map(|m| {
+                        let mut p = CurvedParams::new(
+                            &m.reflector,
+                            None,
+                            ri.reflector.centre,
+                            self.maps[0][i].size,
+                        );
+                        p.centre = ri.base_params.centre;
+                        p.info[3] = ri.base_params.info[3];
+                        buffer_init(
+                            gpu,
+                            "glint mirror-in-cube params",
+                            wgpu::BufferUsages::UNIFORM,
+                            bytemuck::bytes_of(&p),
+                            MIN_BUFFER,
+                        )
+                    })
+                    .collect()
+            })
+            .collect();
+        for (g, step) in generation_plan(self.settings.generations)
+            .into_iter()
+            .enumerate()
+        {
             assert_ne!(step.write, step.read, "a cube map never reads its own set");
             for (i, ri) in self.reflectors.iter().enumerate() {
                 // A reflector without lobes adds nothing where it is drawn, so nothing reads
@@ -76,6 +110,26 @@ impl CurvedReflections {
                         })
                     })
                     .collect();
+                // The first generation reads the cleared set: a mirror would add nothing.
+                let mirror_groups: Vec<wgpu::BindGroup> = if g == 0 {
+                    Vec::new()
+                } else {
+                    mirror_params[i]
+                        .iter()
+                        .map(|params| {
+                            curved_group(
+                                device,
+                                &self.curved_layout,
+                                params,
+                                &ri.patterns,
+                                &self.maps[step.read][i].cube,
+                                &self.sampler,
+                                &self.maps[step.read][i].cube,
+                                (&ri.own_nodes, &ri.own_tris),
+                            )
+                        })
+                        .collect()
+                };
                 for face in 0..6 {
                     let mut pass = clear_pass(
                         encoder,
@@ -101,6 +155,11 @@ impl CurvedReflections {
                             pass.set_vertex_buffer(0, rj.vertices.slice(..));
                             pass.draw(0..rj.vertex_count, 0..1);
                         }
+                    }
+                    for (m, group) in self.mirrors.iter().zip(&mirror_groups) {
+                        pass.set_bind_group(1, group, &[]);
+                        pass.set_vertex_buffer(0, m.vertices.slice(..));
+                        pass.draw(0..m.vertex_count, 0..1);
                     }
                 }
                 pipes.record_mips(device, target, encoder);

@@ -30,7 +30,7 @@ pub use probe::glossy_probe;
 use super::own_mesh::{self, OWN_STACK, OwnMesh};
 use super::{
     CurvedParams, CurvedReflector, CurvedSettings, bounding_radius, curved_reflectors, face_camera,
-    generation_plan, own_offset, pack_patterns, patterns_for, shader_source,
+    generation_plan, near_mirrors, own_offset, pack_patterns, patterns_for, shader_source,
 };
 use crate::camera::Camera;
 use crate::view::gpu::RenderError;
@@ -81,6 +81,13 @@ struct ReflectorGpu {
     patterns: wgpu::Buffer,
 }
 
+/// A planar near-mirror as the cube maps draw it ([`super::near_mirrors`]).
+struct SeenMirror {
+    reflector: CurvedReflector,
+    vertices: wgpu::Buffer,
+    vertex_count: u32,
+}
+
 /// One mirrored view of the curved reflectors (a planar mirror's pass): its frame uniforms
 /// and, per reflector, its parameters (mirrored eye, the mirror's clip plane).
 struct MirrorView {
@@ -112,6 +119,8 @@ pub struct MirroredView<'a> {
 pub struct CurvedReflections {
     settings: CurvedSettings,
     reflectors: Vec<ReflectorGpu>,
+    /// The near-mirrors that are not among `reflectors`, drawn into their cube maps.
+    mirrors: Vec<SeenMirror>,
     /// `maps[set][reflector]`.
     maps: [Vec<CubeTexture>; 2],
     final_set: usize,
@@ -271,6 +280,28 @@ impl CurvedReflections {
                 }
                 v
             };
+            let mirrors = near_mirrors(scene)
+                .into_iter()
+                .filter(|m| {
+                    m.triangles
+                        .iter()
+                        .all(|&t| in_reflector[t as usize] == usize::MAX)
+                })
+                .map(|reflector| {
+                    let verts = reflector_vertices(scene, &reflector.triangles);
+                    SeenMirror {
+                        vertices: buffer_init(
+                            gpu,
+                            "glint mirror vertices",
+                            wgpu::BufferUsages::VERTEX,
+                            bytemuck::cast_slice(&verts),
+                            MIN_BUFFER,
+                        ),
+                        vertex_count: verts.len() as u32,
+                        reflector,
+                    }
+                })
+                .collect();
             let gpus = reflectors
                 .into_iter()
                 .zip(baked)
@@ -410,6 +441,7 @@ impl CurvedReflections {
                 CurvedReflections {
                     settings,
                     reflectors: gpus,
+                    mirrors,
                     maps,
                     final_set,
                     composite,
