@@ -149,10 +149,11 @@ struct Anchors {
     runs: Vec<AnchorRun>,
 }
 
-/// One bake of an anchor: its lightmap density and samples, seconds and D at the probes.
+/// One bake of an anchor: its lightmap's side (texels) and samples, seconds and D at the
+/// probes.
 #[derive(serde::Deserialize)]
 struct AnchorRun {
-    texels_per_metre: f64,
+    size: u32,
     samples: u32,
     seconds: f64,
     probes: Vec<ProbeValue>,
@@ -440,7 +441,7 @@ fn main() {
                         );
                     }
                     let m = compare_probes(&run.probes, &truth).unwrap();
-                    let setting = format!("{} texels/m, {} samples", run.texels_per_metre, run.samples);
+                    let setting = format!("{}² texels, {} samples", run.size, run.samples);
                     (setting, m.rel_rmse, run.seconds)
                 })
                 .collect();
