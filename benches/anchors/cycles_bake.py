@@ -142,7 +142,8 @@ def unwrap(obj):
 
 
 def bake(obj, side, samples, args):
-    """Bakes D into a side × side float image; returns (side, RGBA floats, rows from the bottom)."""
+    """Bakes D into a side × side float image per material slot; returns, per slot, (side,
+    RGBA floats, rows from the bottom)."""
     scene = bpy.context.scene
     scene.render.engine = "CYCLES"
     scene.cycles.device = "CPU"
@@ -164,8 +165,12 @@ def bake(obj, side, samples, args):
         scene.world = bpy.data.worlds.new("black")
     scene.world.use_nodes = False
     scene.world.color = (0.0, 0.0, 0.0)
-    image = bpy.data.images.new("lightmap", side, side, float_buffer=True, alpha=False)
-    for slot in obj.material_slots:
+    # One image per material: the bake's margin fills the gaps between islands from the
+    # nearest island, which in a shared image may be another material's (the emitter's).
+    images = []
+    for k, slot in enumerate(obj.material_slots):
+        image = bpy.data.images.new(f"lightmap{k}", side, side, float_buffer=True, alpha=False)
+        images.append(image)
         nodes = slot.material.node_tree.nodes
         node = nodes.get("lightmap") or nodes.new("ShaderNodeTexImage")
         node.name = "lightmap"
@@ -180,9 +185,12 @@ def bake(obj, side, samples, args):
         margin=4,
         use_clear=True,
     )
-    pixels = array.array("f", bytes(4 * side * side * 4))
-    image.pixels.foreach_get(pixels)
-    return (side, pixels)
+    out = []
+    for image in images:
+        pixels = array.array("f", bytes(4 * side * side * 4))
+        image.pixels.foreach_get(pixels)
+        out.append((side, pixels))
+    return out
 
 
 def bilinear(img, uv):
@@ -239,7 +247,7 @@ def probe(obj, img, points, reach):
             t = (d00 * d21 - d01 * d20) / den
             ua, ub, uc = (uv[i].uv for i in poly.loop_indices)
             at = ua * (1.0 - s - t) + ub * s + uc * t
-            value = [float(x) for x in bilinear(img, at)]
+            value = [float(x) for x in bilinear(img[poly.material_index], at)]
         entry = {"position": pt["position"], "found": found is not None, "radiance": value}
         if "name" in pt:
             entry = {"name": pt["name"], **entry}
