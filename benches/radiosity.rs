@@ -74,11 +74,17 @@ const REFERENCE: SolveSettings = SolveSettings {
 /// next one begins (or [`PhaseClock::stop`]), and phases of one name add up.
 #[derive(Default)]
 struct PhaseClock {
-    state: Mutex<(Option<(String, Instant)>, Vec<(String, f64, u32)>)>,
+    state: Mutex<ClockState>,
 }
 
+/// (phase, seconds, times entered) in first-seen order.
+type Phases = Vec<(String, f64, u32)>;
+
+/// The current phase and when it began, and the phases closed so far.
+type ClockState = (Option<(String, Instant)>, Phases);
+
 impl PhaseClock {
-    fn close(state: &mut (Option<(String, Instant)>, Vec<(String, f64, u32)>)) {
+    fn close(state: &mut ClockState) {
         if let Some((name, since)) = state.0.take() {
             let secs = since.elapsed().as_secs_f64();
             match state.1.iter_mut().find(|(n, _, _)| *n == name) {
@@ -92,7 +98,7 @@ impl PhaseClock {
     }
 
     /// Ends the current phase; returns (phase, seconds, times entered) in first-seen order.
-    fn stop(&self) -> Vec<(String, f64, u32)> {
+    fn stop(&self) -> Phases {
         let mut state = self.state.lock().unwrap();
         Self::close(&mut state);
         state.1.clone()

@@ -611,13 +611,13 @@ fn components(n: usize, rows: &[&[(usize, f64)]], neighbours: &[(Vec<usize>, f64
     let mut id = vec![usize::MAX; n];
     let mut members: Vec<Vec<usize>> = Vec::new();
     let mut local = vec![0; n];
-    for i in 0..n {
+    for (i, slot) in local.iter_mut().enumerate() {
         let r = root(&mut parent, i);
         if id[r] == usize::MAX {
             id[r] = members.len();
             members.push(Vec::new());
         }
-        local[i] = members[id[r]].len();
+        *slot = members[id[r]].len();
         members[id[r]].push(i);
     }
     let mut part_rows = vec![Vec::new(); members.len()];
@@ -861,7 +861,7 @@ impl Envelope {
                     .iter()
                     .map(|x| x * x)
                     .sum::<f64>();
-            if !(d > 0.0) {
+            if d.is_nan() || d <= 0.0 {
                 return None;
             }
             values[at(i, i)] = d.sqrt();
@@ -1142,4 +1142,96 @@ pub fn stitch_seams(
         start.elapsed().as_secs_f64()
     );
     report
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// M·v through `p`'s rows and neighbours, term by term as [`stitch`] defines M.
+    fn apply(p: &Problem, lambda2: f64, mu2: f64, v: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        let mut y: Vec<[f64; 3]> = p
+            .neighbours
+            .iter()
+            .enumerate()
+            .map(|(i, (nbrs, fixed))| {
+                let mut s = [0.0; 3];
+                for c in 0..3 {
+                    s[c] = (lambda2 + mu2 * (nbrs.len() as f64 + fixed)) * v[i][c];
+                    for &j in nbrs {
+                        s[c] -= mu2 * v[j][c];
+                    }
+                }
+                s
+            })
+            .collect();
+        for row in &p.rows {
+            let mut a = [0.0; 3];
+            for &(i, w) in row {
+                for c in 0..3 {
+                    a[c] += w * v[i][c];
+                }
+            }
+            for &(i, w) in row {
+                for c in 0..3 {
+                    y[i][c] += w * a[c];
+                }
+            }
+        }
+        y
+    }
+
+    /// Two 40-texel sides of a seam tied by constraints of weight ~1 against the stitch's
+    /// weak pulls (λ² = 10⁻⁶, μ² = 9·10⁻⁶), plus a texel no constraint reads (a second
+    /// connected part): the factor's solution satisfies M·x = b to rounding.
+    #[test]
+    fn the_factor_solves_a_stiff_seam_problem_exactly() {
+        let side: usize = 40;
+        let mut rows = Vec::new();
+        for k in 0..side {
+            rows.push(vec![
+                (k, 0.75),
+                (side + k, -0.5),
+                (side + (k + 1) % side, -0.25),
+            ]);
+        }
+        let mut neighbours: Vec<(Vec<usize>, f64)> = Vec::new();
+        for s in 0..2 {
+            for k in 0..side {
+                let nbrs = [k.checked_sub(1), (k + 1 < side).then_some(k + 1)]
+                    .into_iter()
+                    .flatten()
+                    .map(|j| s * side + j)
+                    .collect::<Vec<_>>();
+                let fixed = 4.0 - nbrs.len() as f64 - 1.0;
+                neighbours.push((nbrs, fixed));
+            }
+        }
+        neighbours.push((Vec::new(), 4.0));
+        let n = neighbours.len();
+        let p = Problem { rows, neighbours };
+        let (lambda2, mu2) = (1e-6, 9e-6);
+        let factor = Envelope::factor(&p, lambda2, mu2).expect("small enough to factor");
+        let mut order = factor.order.clone();
+        order.sort_unstable();
+        assert_eq!(order, (0..n).collect::<Vec<_>>(), "not a permutation");
+        let b: Vec<[f64; 3]> = (0..n)
+            .map(|i| {
+                let t = i as f64;
+                [t.sin(), 1.0, -(0.3 * t).cos()]
+            })
+            .collect();
+        let x = factor.solve(&b);
+        let mx = apply(&p, lambda2, mu2, &x);
+        for (i, (got, want)) in mx.iter().zip(&b).enumerate() {
+            for c in 0..3 {
+                assert!(
+                    (got[c] - want[c]).abs() < 1e-8,
+                    "unknown {i}, channel {c}: M·x = {} against b = {}",
+                    got[c],
+                    want[c]
+                );
+            }
+        }
+    }
 }
