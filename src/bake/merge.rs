@@ -507,18 +507,19 @@ fn join_srdm(parts: &[(&str, Vec<u8>)]) -> Result<Vec<u8>, MergeError> {
 /// units, the reason the material units give for their absence is kept.
 fn join_materials(parts: &[(&str, Vec<u8>)]) -> Result<Vec<u8>, MergeError> {
     let mut joined: Option<MaterialsIndex> = None;
-    let (mut env_units, mut probe_units) = (false, false);
+    let mut env_units = false;
     for (id, bytes) in parts {
         let index = MaterialsIndex::parse(bytes)
             .map_err(|e| MergeError::one(format!("unit `{id}`: {e}")))?;
         env_units |= kind(id) == "envmap";
-        probe_units |= kind(id) == "probe";
         match &mut joined {
             None => joined = Some(index),
             Some(j) => {
                 j.materials.extend(index.materials);
                 j.env_maps.extend(index.env_maps);
                 j.probes.extend(index.probes);
+                // Only probe units note why probes were skipped.
+                j.probes_skipped = j.probes_skipped.take().or(index.probes_skipped);
             }
         }
     }
@@ -526,9 +527,6 @@ fn join_materials(parts: &[(&str, Vec<u8>)]) -> Result<Vec<u8>, MergeError> {
         joined.ok_or_else(|| MergeError::one("no materials/index.json in the materials units"))?;
     if env_units {
         index.env_maps_skipped = None;
-    }
-    if probe_units {
-        index.probes_skipped = None;
     }
     Ok(index.to_bytes())
 }
@@ -605,9 +603,6 @@ fn merge_stats(
     // environment-map unit baked them.
     if stage == Stage::Materials && units.iter().any(|(id, _)| kind(id) == "envmap") {
         out.remove("env_maps_skipped");
-    }
-    if stage == Stage::Materials && units.iter().any(|(id, _)| kind(id) == "probe") {
-        out.remove("probes_skipped");
     }
     out
 }

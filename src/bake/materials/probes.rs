@@ -51,7 +51,9 @@ pub fn write_probes(
         reports: Vec::new(),
         skipped: None,
     };
-    if probes.is_empty() {
+    // A unit that bakes no probe says nothing about them: its shard is kept across edits that
+    // add or remove probes, so a note there could outlive the probes it spoke of.
+    if !(0..probes.len()).any(take) {
         return Ok(out);
     }
     let shading = match shading {
