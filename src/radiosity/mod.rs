@@ -13,6 +13,7 @@ pub mod map;
 mod mirror_lights;
 mod next_event;
 pub use mirror_lights::{MIRROR_ROUGHNESS, is_mirror};
+mod seam_solve;
 pub mod seams;
 pub mod solve;
 mod terms;
