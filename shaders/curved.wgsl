@@ -7,7 +7,7 @@
 // bindings (group 1, bindings 0–1).
 //
 // Entry points:
-// - `vs_env`/`fs_env`: D into a cube face (linear Rgba16Float, the face camera in `frame`),
+// - `vs_world` (view.wgsl)/`fs_env`: D into a cube face (linear Rgba16Float, the face camera in `frame`),
 //   alpha the distance from the face camera (0 where nothing is seen);
 // - `vs_curved`/`fs_curved_env`: another curved reflector's mirror term in that face, looked
 //   up in the previous generation's cube map (McReynolds' scheme, as Nielsen adopts it);
@@ -599,26 +599,8 @@ fn fs_curved_mirror(in: CurvedOut) -> @location(0) vec4<f32> {
     return vec4<f32>(c, f);
 }
 
-// `VertexOut` and the world position, which only the cube faces need (the frame's scene pass
-// keeps one varying fewer).
-struct EnvOut {
-    @builtin(position) clip: vec4<f32>,
-    @location(0) lightmap: vec2<f32>,
-    @location(1) @interpolate(flat) page: u32,
-    @location(2) uv0: vec2<f32>,
-    @location(3) uv1: vec2<f32>,
-    @location(4) @interpolate(flat) material: u32,
-    @location(5) world: vec3<f32>,
-};
-
-@vertex
-fn vs_env(v: VertexIn) -> EnvOut {
-    let base = scene_vertex(v);
-    return EnvOut(base.clip, base.lightmap, base.page, base.uv0, base.uv1, base.material, v.position);
-}
-
 @fragment
-fn fs_env(in: EnvOut) -> @location(0) vec4<f32> {
+fn fs_env(in: WorldOut) -> @location(0) vec4<f32> {
     let g = uv_grads(in.uv0, in.uv1);
     if cut_out(in.material, in.uv0, in.uv1) {
         discard;

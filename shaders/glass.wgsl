@@ -8,26 +8,9 @@
 // reflectance at normal incidence ((n − 1)/(n + 1))².
 @group(2) @binding(0) var<storage, read> glass: array<vec4<f32>>;
 
-struct GlassOut {
-    @builtin(position) clip: vec4<f32>,
-    @location(0) lightmap: vec2<f32>,
-    @location(1) @interpolate(flat) page: u32,
-    @location(2) uv0: vec2<f32>,
-    @location(3) uv1: vec2<f32>,
-    @location(4) @interpolate(flat) material: u32,
-    // World position: the view angle the Fresnel term needs.
-    @location(5) world: vec3<f32>,
-};
-
-@vertex
-fn vs_glass(v: VertexIn) -> GlassOut {
-    let s = scene_vertex(v);
-    return GlassOut(s.clip, s.lightmap, s.page, s.uv0, s.uv1, s.material, v.position);
-}
-
 // Transmittance towards the eye: Schlick's Fresnel at the facet's angle (either side).
 @fragment
-fn fs_glass_tint(in: GlassOut) -> @location(0) vec4<f32> {
+fn fs_glass_tint(in: WorldOut) -> @location(0) vec4<f32> {
     let n = normalize(cross(dpdx(in.world), dpdy(in.world)));
     if cut_out(in.material, in.uv0, in.uv1) {
         discard;
@@ -40,7 +23,7 @@ fn fs_glass_tint(in: GlassOut) -> @location(0) vec4<f32> {
 
 // The glass's own exitant radiance D, as the scene pass shades an opaque surface.
 @fragment
-fn fs_glass_add(in: GlassOut) -> FragmentOut {
+fn fs_glass_add(in: WorldOut) -> FragmentOut {
     let g = uv_grads(in.uv0, in.uv1);
     if cut_out(in.material, in.uv0, in.uv1) {
         discard;

@@ -80,7 +80,25 @@ fn vs_main(v: VertexIn) -> VertexOut {
     return scene_vertex(v);
 }
 
-// `vs_main`'s work, callable by other entry points (`vs_env` in curved.wgsl).
+// `VertexOut` and the world position, for the passes that need the view ray at a fragment
+// (cube-map faces, glass); the scene pass keeps one varying fewer.
+struct WorldOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) lightmap: vec2<f32>,
+    @location(1) @interpolate(flat) page: u32,
+    @location(2) uv0: vec2<f32>,
+    @location(3) uv1: vec2<f32>,
+    @location(4) @interpolate(flat) material: u32,
+    @location(5) world: vec3<f32>,
+};
+
+@vertex
+fn vs_world(v: VertexIn) -> WorldOut {
+    let s = scene_vertex(v);
+    return WorldOut(s.clip, s.lightmap, s.page, s.uv0, s.uv1, s.material, v.position);
+}
+
+// `vs_main`'s work, callable by other entry points (`vs_world`).
 fn scene_vertex(v: VertexIn) -> VertexOut {
     var out: VertexOut;
     out.clip = frame.view_proj * vec4<f32>(v.position, 1.0);

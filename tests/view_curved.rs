@@ -24,7 +24,6 @@ use glint::bake::{materials, radiosity_stage, scene_stage};
 use glint::brdf::pattern::closest_pattern_for;
 use glint::brdf::{Frame, Lobe, LobeModel};
 use glint::camera::Camera;
-use glint::eval::reference::{RenderOptions, render};
 use glint::materials::envmap::{self, CubeMap, MipFilter, MipPyramid};
 use glint::progress::Silent;
 use glint::scene::Scene;
@@ -622,25 +621,8 @@ fn glossy_room_teapot_matches_the_reference_path_tracer() {
         .find(|r| r.name == "Teapot")
         .unwrap()
         .material;
-    for (i, m) in reference_scene.materials.iter_mut().enumerate() {
-        if i as u32 != teapot_material {
-            m.lobes.clear();
-        }
-    }
-    let bvh = reference_scene.build_bvh();
-    let reference = render(
-        &reference_scene,
-        &bvh,
-        &camera,
-        &RenderOptions {
-            width: w,
-            height: h,
-            spp: 64,
-            ..Default::default()
-        },
-        &Silent,
-    )
-    .unwrap();
+    let (bvh, reference) =
+        traced_with_lobes_of(&mut reference_scene, teapot_material, &camera, (w, h));
 
     // The teapot's interior pixels: the pixel and its four neighbours hit the teapot.
     let on_teapot: Vec<bool> = {

@@ -13,7 +13,6 @@ use glam::Vec3;
 use glint::bake::materials::{self, MaterialsSettings};
 use glint::bake::{radiosity_stage, scene_stage};
 use glint::camera::Camera;
-use glint::eval::reference::{RenderOptions, render};
 use glint::materials::probes::scene_groups;
 use glint::progress::Silent;
 use glint::scene::Scene;
@@ -85,25 +84,8 @@ fn the_glossy_table_reflects_its_probe_towards_the_path_tracer() {
     // The reference: the table's lobes kept, every other material diffuse (D is the diffuse
     // solution; the probe shows that room).
     let mut reference_scene = scene;
-    for (i, m) in reference_scene.materials.iter_mut().enumerate() {
-        if i as u32 != group.material {
-            m.lobes.clear();
-        }
-    }
-    let bvh = reference_scene.build_bvh();
-    let reference = render(
-        &reference_scene,
-        &bvh,
-        &camera,
-        &RenderOptions {
-            width: w,
-            height: h,
-            spp: 64,
-            ..Default::default()
-        },
-        &Silent,
-    )
-    .unwrap();
+    let (bvh, reference) =
+        traced_with_lobes_of(&mut reference_scene, group.material, &camera, (w, h));
 
     // The pixels whose ray and its four neighbours' hit the table top.
     let mut in_group = vec![false; reference_scene.triangles.len()];

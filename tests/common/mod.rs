@@ -484,3 +484,30 @@ pub fn copy_dir(from: &Path, to: &Path) {
         }
     }
 }
+
+/// The path tracer's frame (64 spp) of `scene` with only `material`'s glossy lobes kept, every
+/// other material diffuse: the viewer's D is the diffuse solution, so that is the light its
+/// specular term reflects. With the BVH it traced, for masks of what each pixel sees.
+pub fn traced_with_lobes_of(
+    scene: &mut glint::scene::Scene,
+    material: u32,
+    camera: &glint::camera::Camera,
+    (width, height): (u32, u32),
+) -> (glint::geometry::Bvh, glint::eval::reference::Rendered) {
+    for (i, m) in scene.materials.iter_mut().enumerate() {
+        if i as u32 != material {
+            m.lobes.clear();
+        }
+    }
+    let bvh = scene.build_bvh();
+    let options = glint::eval::reference::RenderOptions {
+        width,
+        height,
+        spp: 64,
+        ..Default::default()
+    };
+    let rendered =
+        glint::eval::reference::render(scene, &bvh, camera, &options, &glint::progress::Silent)
+            .unwrap();
+    (bvh, rendered)
+}

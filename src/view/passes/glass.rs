@@ -107,7 +107,7 @@ impl GlassPasses {
                 }],
             });
             let pipeline = |label, entry, blend| {
-                render_pipeline(label, &module, "vs_glass", entry)
+                render_pipeline(label, &module, "vs_world", entry)
                     .layout_slots(&[Some(&frame_layout), None, Some(&layout)])
                     .vertex(scene_vertex_layout())
                     .depth(reverse_z_depth(false, wgpu::CompareFunction::Greater))

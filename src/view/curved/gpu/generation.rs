@@ -189,7 +189,7 @@ impl GenerationPipelines {
         gpu: &Gpu,
     ) -> GenerationPipelines {
         let additive = Some(ADDITIVE_KEEP_ALPHA);
-        let scene = render_pipeline("glint cube env", shader, "vs_env", "fs_env")
+        let scene = render_pipeline("glint cube env", shader, "vs_world", "fs_env")
             .layouts(&[frame_layout])
             .vertex(scene_vertex_layout())
             .color(HDR_FORMAT, None)
