@@ -1,5 +1,6 @@
 //! The probe pass on the GPU: per glossy group its triangles, its parameters and the cube
-//! maps of the probe it reads; drawn over the finished scene through a [`Composite`].
+//! maps of the probe it reads; drawn over the finished scene through a `Composite`
+//! (`view::passes::composite`).
 
 use glam::Vec3;
 
