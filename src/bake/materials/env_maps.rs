@@ -7,9 +7,12 @@ use std::collections::BTreeMap;
 use super::report::EnvReport;
 use super::{EnvShading, MaterialsError};
 use crate::bundle::StageWriter;
-use crate::image_io::encode_rgb_exr;
+use crate::image_io::{ChannelData, ExrCompression, Precision, encode_rgb_exr_with};
 use crate::materials::MaterialsSettings;
-use crate::materials::envmap::{CaptureSettings, MipPyramid, capture_centre, capture_cube};
+use crate::materials::envmap::{
+    CaptureSettings, ENV_GLOSSY_SAMPLES, MAX_MIRROR_BOUNCES, MipPyramid, capture_centre,
+    capture_cube,
+};
 use crate::materials::index::{ENV_LAYOUT, IndexedEnvMap};
 use crate::progress::Progress;
 use crate::scene::{ReflectorKind, Scene};
@@ -65,12 +68,7 @@ pub fn write_env_maps(
         Ok(s) => s,
     };
     let bvh = scene.build_bvh();
-    let capture = CaptureSettings {
-        face_size: settings.env_map_size as usize,
-        supersample: settings.env_supersample,
-        mirror_bounces: crate::materials::envmap::MAX_MIRROR_BOUNCES,
-        glossy_samples: crate::materials::envmap::ENV_GLOSSY_SAMPLES,
-    };
+    let capture = capture_settings(settings);
     let env_folders =
         crate::bundle::unique_folders(curved.iter().map(|&r| scene.reflectors[r].name.as_str()));
     progress.phase(
@@ -93,21 +91,7 @@ pub fn write_env_maps(
             progress,
         )?;
         let pyramid = MipPyramid::build(cube, settings.env_filter);
-        let mut bytes = 0u64;
-        let mut paths = Vec::new();
-        for (l, level) in pyramid.levels.iter().enumerate() {
-            let rel = format!("env/{}/mip{l:02}.exr", env_folders[k]);
-            let data =
-                encode_rgb_exr(6 * level.size, level.size, &level.strip()).map_err(|source| {
-                    MaterialsError::Image {
-                        path: rel.clone(),
-                        source,
-                    }
-                })?;
-            bytes += data.len() as u64;
-            w.write(&rel, "env-mip", &data)?;
-            paths.push(rel);
-        }
+        let (paths, bytes) = write_levels(w, &format!("env/{}", env_folders[k]), &pyramid, None)?;
         let material = scene.materials[refl.material as usize].name.clone();
         stats.insert(
             format!("env {}", refl.name),
@@ -137,4 +121,53 @@ pub fn write_env_maps(
         });
     }
     Ok(out)
+}
+
+/// The capture of an environment map or a reflection probe: both show the room as the curved
+/// reflectors see it.
+pub fn capture_settings(settings: &MaterialsSettings) -> CaptureSettings {
+    CaptureSettings {
+        face_size: settings.env_map_size as usize,
+        supersample: settings.env_supersample,
+        mirror_bounces: MAX_MIRROR_BOUNCES,
+        glossy_samples: ENV_GLOSSY_SAMPLES,
+    }
+}
+
+/// Writes `pyramid`'s levels as `FOLDER/mip<ℓ>.exr` (kind `env-mip`), level 0 with the
+/// distances `z` in channel `Z` when given; their paths and bytes.
+pub fn write_levels(
+    w: &mut StageWriter,
+    folder: &str,
+    pyramid: &MipPyramid,
+    z: Option<&[f32]>,
+) -> Result<(Vec<String>, u64), MaterialsError> {
+    let mut bytes = 0u64;
+    let mut paths = Vec::new();
+    for (l, level) in pyramid.levels.iter().enumerate() {
+        let rel = format!("{folder}/mip{l:02}.exr");
+        let extra: Vec<ChannelData> = match z {
+            Some(samples) if l == 0 => vec![ChannelData {
+                name: "Z",
+                precision: Precision::Float,
+                samples,
+            }],
+            _ => Vec::new(),
+        };
+        let data = encode_rgb_exr_with(
+            6 * level.size,
+            level.size,
+            &level.strip(),
+            &extra,
+            ExrCompression::Zip16,
+        )
+        .map_err(|source| MaterialsError::Image {
+            path: rel.clone(),
+            source,
+        })?;
+        bytes += data.len() as u64;
+        w.write(&rel, "env-mip", &data)?;
+        paths.push(rel);
+    }
+    Ok((paths, bytes))
 }

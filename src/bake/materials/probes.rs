@@ -6,14 +6,12 @@
 
 use std::collections::BTreeMap;
 
+use super::env_maps::{capture_settings, write_levels};
 use super::report::EnvReport;
 use super::{EnvShading, MaterialsError};
 use crate::bundle::StageWriter;
-use crate::image_io::{ChannelData, ExrCompression, Precision, encode_rgb_exr_with};
 use crate::materials::MaterialsSettings;
-use crate::materials::envmap::{
-    CaptureSettings, ENV_GLOSSY_SAMPLES, MAX_MIRROR_BOUNCES, MipPyramid, capture_cube,
-};
+use crate::materials::envmap::{MipPyramid, capture_cube};
 use crate::materials::index::{ENV_LAYOUT, IndexedProbe};
 use crate::materials::probes::{capture_distances, scene_probes};
 use crate::progress::Progress;
@@ -64,13 +62,7 @@ pub fn write_probes(
         Ok(s) => s,
     };
     let bvh = scene.build_bvh();
-    // The curved reflectors' capture: the probes show the same room.
-    let capture = CaptureSettings {
-        face_size: settings.env_map_size as usize,
-        supersample: settings.env_supersample,
-        mirror_bounces: MAX_MIRROR_BOUNCES,
-        glossy_samples: ENV_GLOSSY_SAMPLES,
-    };
+    let capture = capture_settings(settings);
     let folders = probe_folders(scene);
     progress.phase(
         "reflection probes",
@@ -92,31 +84,8 @@ pub fn write_probes(
         let distances = capture_distances(&bvh, probe.position, capture.face_size);
         let z: Vec<f32> = distances.strip().iter().map(|v| v.x).collect();
         let pyramid = MipPyramid::build(cube, settings.env_filter);
-        let mut bytes = 0u64;
-        let mut paths = Vec::new();
-        for (l, level) in pyramid.levels.iter().enumerate() {
-            let rel = format!("probes/{}/mip{l:02}.exr", folders[k]);
-            let extra = [ChannelData {
-                name: "Z",
-                precision: Precision::Float,
-                samples: &z,
-            }];
-            let extra: &[ChannelData] = if l == 0 { &extra } else { &[] };
-            let data = encode_rgb_exr_with(
-                6 * level.size,
-                level.size,
-                &level.strip(),
-                extra,
-                ExrCompression::Zip16,
-            )
-            .map_err(|source| MaterialsError::Image {
-                path: rel.clone(),
-                source,
-            })?;
-            bytes += data.len() as u64;
-            w.write(&rel, "env-mip", &data)?;
-            paths.push(rel);
-        }
+        let (paths, bytes) =
+            write_levels(w, &format!("probes/{}", folders[k]), &pyramid, Some(&z))?;
         stats.insert(
             format!("probe {}", probe.name),
             serde_json::json!({
