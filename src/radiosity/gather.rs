@@ -48,6 +48,8 @@ pub(super) struct Context<'a> {
     pub mirrors: Option<&'a MirrorLights>,
     /// The emitters as one per-point distribution, when there are too many to sample each.
     pub many: Option<&'a ManyLights>,
+    /// The scene's glass ([`Glass::of`]), which gathering and shadow rays pass.
+    pub glass: Option<Glass<'a>>,
 }
 
 impl Context<'_> {
@@ -56,6 +58,7 @@ impl Context<'_> {
             scene: self.scene,
             bvh: self.bvh,
             emitters: self.emitters,
+            glass: self.glass,
         }
     }
 }
@@ -156,7 +159,7 @@ pub(super) fn gather(
     // With many emitters, one distribution over them all, and that many samples from it.
     let many = cx.many.map(|m| (m, m.choose(origin, ns)));
     let n_many = n_light * LIGHTS_SAMPLED_EACH as u32;
-    let glass = Glass::of(scene, bvh);
+    let glass = cx.glass;
 
     // Gathering rays (cosine-distributed about the shading normal), from a low-discrepancy
     // sequence: the incoming radiance is smooth over most of the hemisphere.
@@ -397,7 +400,7 @@ fn sample_many(
         return (Vec3::ZERO, 0.0);
     }
     let (scene, bvh) = (cx.scene, cx.bvh);
-    let glass = Glass::of(scene, bvh);
+    let glass = cx.glass;
     let mut sum = Vec3::ZERO;
     let (mut y, mut y2) = (0.0f64, 0.0f64);
     for k in 0..n {

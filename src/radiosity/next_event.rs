@@ -29,6 +29,8 @@ pub(super) struct NextEvent<'a> {
     pub scene: &'a Scene,
     pub bvh: &'a Bvh,
     pub emitters: &'a Emitters,
+    /// The scene's glass ([`Glass::of`]), which shadow rays pass.
+    pub glass: Option<Glass<'a>>,
 }
 
 /// Where light is estimated.
@@ -86,7 +88,7 @@ impl NextEvent<'_> {
         receiver: &mut R,
     ) {
         let (scene, bvh) = (self.scene, self.bvh);
-        let glass = Glass::of(scene, bvh);
+        let glass = self.glass;
         let grid = (n as f32).sqrt().ceil() as u32;
         for light in &scene.lights {
             for k in 0..n {
@@ -252,6 +254,7 @@ mod tests {
             scene: &scene,
             bvh: &bvh,
             emitters: &emitters,
+            glass: super::super::transmission::Glass::of(&scene, &bvh),
         };
         let below = 0.6;
         let p = Vec3::new(0.5 * (lo.x + hi.x), ceiling - below, 0.5 * (lo.z + hi.z));

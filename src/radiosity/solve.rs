@@ -30,6 +30,7 @@ use super::gather::{Context, Gathered, RaySequence, gather};
 use super::many_lights::{LIGHTS_SAMPLED_EACH, ManyLights};
 use super::mirror_lights::MirrorLights;
 use super::terms::PackedTerms;
+use super::transmission::Glass;
 use super::transport::{Glossy, Term};
 use super::varint;
 use crate::geometry::Bvh;
@@ -242,6 +243,7 @@ impl Lights {
             ),
             mirrors: self.mirrors.as_ref(),
             many: self.many.as_ref(),
+            glass: Glass::of(scene, bvh),
         }
     }
 }

@@ -28,6 +28,7 @@ use super::emitters::{Emitters, luminance, power};
 use super::many_lights::{Choice, ManyLights};
 use super::mirror_lights::MirrorLights;
 use super::next_event::{Arrival, At, NextEvent, Receiver, Source};
+use super::transmission::Glass;
 use crate::brdf::Frame;
 use crate::brdf::Lobe;
 use crate::geometry::{Bvh, Hit, ray_quad};
@@ -111,6 +112,8 @@ pub(super) struct Glossy<'a> {
     mirrors: Option<&'a MirrorLights>,
     /// The emitters as one per-point distribution, when there are too many to sample each.
     many: Option<&'a ManyLights>,
+    /// The scene's glass, which the vertices' shadow rays towards each emitter pass.
+    glass: Option<Glass<'a>>,
 }
 
 impl<'a> Glossy<'a> {
@@ -137,6 +140,7 @@ impl<'a> Glossy<'a> {
             depth,
             mirrors,
             many,
+            glass: Glass::of(scene, bvh),
         })
     }
 
@@ -353,6 +357,7 @@ impl<'a> Glossy<'a> {
             scene: self.scene,
             bvh: self.bvh,
             emitters: self.emitters,
+            glass: self.glass,
         }
         .estimate(&at, 1, rng, rays, &mut vertex);
         vertex.l
