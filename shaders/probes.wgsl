@@ -11,8 +11,6 @@
 // Keep `ProbeParams` in sync with `view::probes::ProbeParams` (a test compares them).
 
 struct ProbeParams {
-    // xyz: the eye.
-    eye: vec4<f32>,
     // xyz: the probe's centre; w: 1 = distance-corrected lookups, 0 = from the centre.
     centre: vec4<f32>,
     // x: the MIP level of the material's lobe; yzw: unused.
@@ -90,7 +88,7 @@ fn probe_lookup(offset: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
 
 @fragment
 fn fs_probe(in: ProbeOut) -> @location(0) vec4<f32> {
-    let wo = normalize(probe.eye.xyz - in.world);
+    let wo = normalize(frame.eye.xyz - in.world);
     var n = normalize(in.normal);
     if dot(n, wo) < 0.0 {
         n = -n;

@@ -560,9 +560,8 @@ impl FramePass for ImpostorReflections {
 }
 
 impl FramePass for ProbeReflections {
-    fn prepare(&self, gpu: &Gpu, frame: &FrameContext<'_>) {
-        ProbeReflections::prepare(self, gpu, frame.camera);
-    }
+    /// Nothing per frame: the probe shader reads the eye from the frame's uniforms.
+    fn prepare(&self, _gpu: &Gpu, _frame: &FrameContext<'_>) {}
 
     fn draw(
         &self,

@@ -5,7 +5,6 @@
 use glam::Vec3;
 
 use super::{ProbeParams, shader_source};
-use crate::camera::Camera;
 use crate::materials::MaterialsIndex;
 use crate::materials::envmap::MipPyramid;
 use crate::materials::probes::{Probe, assign, lobe_lod, scene_groups};
@@ -23,8 +22,7 @@ use crate::view::reflections::material::{MODULATION_SIZE, ReflectanceLayout, loa
 struct GroupGpu {
     vertices: wgpu::Buffer,
     vertex_count: u32,
-    params: wgpu::Buffer,
-    base: ProbeParams,
+    /// Its parameters (static: the eye comes from the frame's uniforms) and textures.
     group: wgpu::BindGroup,
 }
 
@@ -160,7 +158,6 @@ impl ProbeReflections {
                         16,
                     );
                     let mut base = ProbeParams {
-                        eye: [0.0; 4],
                         centre: probes[*p].position.extend(1.0).to_array(),
                         info: [*lod, 0.0, 0.0, 0.0],
                         modulation: [[0.0; 4]; MODULATION_SIZE],
@@ -171,7 +168,7 @@ impl ProbeReflections {
                     let params = buffer_init(
                         gpu,
                         "glint probe parameters",
-                        wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                        wgpu::BufferUsages::UNIFORM,
                         bytemuck::bytes_of(&base),
                         16,
                     );
@@ -206,8 +203,6 @@ impl ProbeReflections {
                     GroupGpu {
                         vertices,
                         vertex_count: verts.len() as u32,
-                        params,
-                        base,
                         group,
                     }
                 })
@@ -226,15 +221,6 @@ impl ProbeReflections {
     /// Which probe each glossy group reads, at which level.
     pub fn uses(&self) -> &[ProbeUse] {
         &self.uses
-    }
-
-    /// Writes each group's parameters for `camera` (lands before the next submission).
-    pub fn prepare(&self, gpu: &Gpu, camera: &Camera) {
-        for g in &self.groups {
-            let mut p = g.base;
-            p.eye = camera.position.extend(1.0).to_array();
-            gpu.queue.write_buffer(&g.params, 0, bytemuck::bytes_of(&p));
-        }
     }
 
     /// Records, after the scene pass into `color`/`depth` (depth stored), the groups'

@@ -39,8 +39,6 @@ pub const PARALLAX_STEPS: usize = 4;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct ProbeParams {
-    /// xyz: the eye.
-    pub eye: [f32; 4],
     /// xyz: the probe's centre; w: 1 distance-corrected lookups, 0 from the centre.
     pub centre: [f32; 4],
     /// x: the lobe's MIP level.
@@ -84,7 +82,6 @@ mod tests {
             "ProbeParams",
             std::mem::size_of::<ProbeParams>(),
             &[
-                ("eye", std::mem::offset_of!(ProbeParams, eye)),
                 ("centre", std::mem::offset_of!(ProbeParams, centre)),
                 ("info", std::mem::offset_of!(ProbeParams, info)),
                 ("modulation", std::mem::offset_of!(ProbeParams, modulation)),
