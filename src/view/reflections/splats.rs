@@ -25,7 +25,7 @@
 //! docs/tuning.md#hole-fill).
 //!
 //! Several maps per element, by priority: a lower-ranked map is thinned by Eq. 3's step to
-//! every 2^rank-th point (it fills holes, which coarser splats fill as well) and its splats
+//! every 2^rank-th point where it is minified ([`rank_step`]) and its splats
 //! have their depth scaled by [`RANK_DEPTH_SCALE`] per rank (reverse Z: pushed back to
 //! 1/0.7 of their distance), so they fill what the better maps leave empty (holes between
 //! splats, disocclusions) and do not paint their coarser or more oblique samples over the
@@ -470,6 +470,22 @@ pub fn step(size: Vec2) -> u32 {
     1 << k
 }
 
+/// Eq. 3's step for a node of a map of `rank` (0: its element's best) whose map pixels span
+/// `size` pixels of the detail M keeps there. A lower-ranked map only fills what the better
+/// ones leave empty, so where it is minified its points are at least 2^rank apart (a quarter
+/// of them per rank, each splat grown to match). Where it is magnified it is not thinned: it
+/// fills disocclusions, the parts of an object the best map's camera does not see, and
+/// there its sparse splats alternated with the wall that camera sees past the object, a
+/// torn reflection in a mirror (docs/tuning.md#rank-thinning).
+pub fn rank_step(size: Vec2, rank: usize) -> u32 {
+    let k = step(size);
+    if size.max_element() < 1.0 {
+        k.max(1 << rank.min(2))
+    } else {
+        k
+    }
+}
+
 /// The number of a leaf's `count` points kept at step `k` (its prefix in progressive order).
 pub fn kept(count: u32, k: u32) -> u32 {
     count.div_ceil(k.max(1) * k.max(1))
@@ -668,9 +684,7 @@ pub fn plan_map(
             culled += 1;
             continue;
         };
-        // A lower-ranked map only fills what the better ones leave empty: its points at least
-        // 2^rank apart (a quarter of them per rank, each splat grown to match).
-        let k = step(size / detail(node.mean).max(1.0)).max(1 << rank.min(2));
+        let k = rank_step(size / detail(node.mean).max(1.0), rank);
         // Eq. 3: the kept points' spacing is k map pixels. Each point's splat is that many of
         // its own footprints, on its surface, grown to a pixel in `vs_splat`
         // ([`footprint`], [`splat_half_edges`]).
@@ -1037,6 +1051,20 @@ mod tests {
         assert_eq!(step(Vec2::splat(3.0)), 1);
         assert_eq!(step(Vec2::splat(0.3)), 2);
         assert_eq!(step(Vec2::new(0.1, 0.2)), 4);
+    }
+
+    #[test]
+    fn lower_ranks_are_thinned_only_where_minified() {
+        // The best map: Eq. 3's step alone.
+        assert_eq!(rank_step(Vec2::splat(0.3), 0), 2);
+        assert_eq!(rank_step(Vec2::splat(0.7), 0), 1);
+        // Minified: every 2^rank-th point at least (rank 2 and beyond alike).
+        assert_eq!(rank_step(Vec2::splat(0.7), 1), 2);
+        assert_eq!(rank_step(Vec2::splat(0.7), 3), 4);
+        assert_eq!(rank_step(Vec2::new(0.1, 0.2), 1), 4);
+        // Magnified along either axis: every point, whatever the rank.
+        assert_eq!(rank_step(Vec2::new(0.5, 1.0), 1), 1);
+        assert_eq!(rank_step(Vec2::splat(3.0), 2), 1);
     }
 
     #[test]
