@@ -1205,8 +1205,17 @@ mod tests {
         assert_eq!(params[11].spacing, SPLAT_OVERLAP, "magnified: every point");
         assert_eq!(params[11].pixel_ndc, [0.01, 0.01]);
         assert_eq!(params[11].depth_scale, 1.0);
-        // The second-ranked map of the same view: a quarter of the points, pushed back.
+        // The second-ranked map of the same view, magnified: every point, pushed back.
         let (draws, _) = plan_with(&up, 1.0, 1, &mut params);
+        assert_eq!(draws, [0..256]);
+        assert!(params[11].depth_scale < 1.0, "rank 1 is pushed back");
+        // Where the composite keeps coarser detail than its map pixels (minified), it keeps a
+        // quarter of the points.
+        let size = point_size(&map, Vec3::new(0.0, 4.0, 0.0), &up, 100)
+            .unwrap()
+            .max_element();
+        assert!(size > 1.0, "magnified: {size}");
+        let (draws, _) = plan_with(&up, 1.5 * size, 1, &mut params);
         let total: u32 = draws.iter().map(|d| d.end - d.start).sum();
         assert_eq!(total, 64, "{draws:?}");
         // Its thinned ranges no longer merge, yet they are one list of kept splats (one draw):
