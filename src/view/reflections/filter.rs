@@ -268,6 +268,16 @@ pub fn level(variance: f32, scale: f32) -> f32 {
     (0.5 * (4.0 * (variance * scale * scale + 1.0 / 6.0)).log2()).max(0.0)
 }
 
+/// The weight of a read at `q` (pixels) of level `level` in a `size` frame: 1 inside, 0 beyond,
+/// linear over one footprint 2^level centred on the frame's edge. M holds nothing beyond the
+/// frame, so such reads are left out of Σ W·c; cut at the edge, each of the filter's reads that
+/// crosses it as the pixel moves changes the sum at once, a step across the whole row (bands
+/// in a highlight whose kernel reaches past the frame).
+pub fn edge_fade(q: Vec2, size: Vec2, level: f32) -> f32 {
+    let inside = q.min(size - q).min_element();
+    (inside / level.exp2() + 0.5).clamp(0.0, 1.0)
+}
+
 /// The finest detail of M, in pixels, that the filter `taps` keep at `scale` pixels per
 /// kernel texel: 2^⌊L⌋ for the lowest level L read by a tap of at least half the mean
 /// weight (1 when such a tap reads level 0, as every tap of an ungathered kernel does; the
@@ -385,9 +395,10 @@ impl Pyramid {
                 (0..reads)
                     .map(|j| {
                         let q = p + grazing.axis * step * (j as f32 - 0.5 * (reads - 1) as f32);
-                        // Beyond the frame M holds nothing: the read is left out.
-                        if q.cmpge(Vec2::ZERO).all() && q.cmple(size).all() {
-                            self.sample(q / size, l)
+                        // Beyond the frame M holds nothing: the read fades out across it.
+                        let fade = edge_fade(q, size, l);
+                        if fade > 0.0 {
+                            self.sample(q / size, l) * fade
                         } else {
                             Vec4::ZERO
                         }
