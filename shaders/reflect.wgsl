@@ -291,8 +291,12 @@ fn composite(in: MirrorOut) -> FragmentOut {
                 // view. It is left out (the sum is normalized by Σ w·c), not clamped: the
                 // edge texels repeated would stand for everything beyond, spreading a lamp
                 // at the frame's edge as a glow along it (docs/tuning.md#frame-edge-reads).
-                if all(q >= vec2<f32>(0.0)) && all(q <= size) {
-                    taken = taken + textureSampleLevel(pyramid, reflection_sampler, q / size, level);
+                // It fades out over one footprint across the edge (`filter::edge_fade`):
+                // cut there, each read crossing it stepped the whole row.
+                let inside = min(min(q.x, q.y), min(size.x - q.x, size.y - q.y));
+                let fade = clamp(inside / exp2(level) + 0.5, 0.0, 1.0);
+                if fade > 0.0 {
+                    taken = taken + fade * textureSampleLevel(pyramid, reflection_sampler, q / size, level);
                 }
             }
             sum = sum + t.z / f32(reads) * taken;
