@@ -853,7 +853,8 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
         let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
         let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
         let reflectors = reflections::reflectors_with_reflectance(&data);
-        let bvh = Bvh::build(&data.scene.triangles);
+        // With the scene's cut-out filter: the path tracer sees through alpha-masked texels.
+        let bvh = data.scene.build_bvh();
         let options = fidelity_options(&data, quality);
         let mut off =
             Offscreen::with_options(gpu, &data, w, h, &options).unwrap_or_else(|e| panic!("{e}"));
