@@ -485,7 +485,7 @@ fn stand_in() {
         let object = &scene.objects[t.object as usize];
         (object, t.face_normal().dot(dir).abs())
     };
-    let key = |path: &str| scene.camera_path(Some(path)).unwrap().keyframes[0].clone();
+    let key = |path: &str| scene.camera_path(Some(path)).unwrap().keyframes[0];
     let k = key("tiles");
     let (eye, dir) = (
         Vec3::from(k.position),
