@@ -17,12 +17,15 @@
 //! passes included), and the mean error against the reference path tracer and against the CPU
 //! evaluation of the same equation ([`reflection_table`]).
 //!
-//! A third table measures fidelity ([`fidelity_table`]): per shipped scene with glossy
-//! planar reflectors and per mode (geometry mode at recursion depths 1 and 2), the whole-frame relative RMSE and the relative RMSE over
+//! A third table measures fidelity ([`fidelity_table`]): per shipped scene (every folder of
+//! `scenes/`), drawn as `glint-view` draws by default (its multisampling, probes and glass),
+//! and per mode (geometry mode at recursion depths 1 and 2, image, off; reflections off alone
+//! without planar reflectors), the whole-frame relative RMSE and the relative RMSE over
 //! the reflectors' pixels against the reference path tracer at the same camera (each camera
 //! path's first keyframe, [`FIDELITY_SIZE`], [`FIDELITY_SPP`] paths per pixel: its noise is
-//! part of the figure), and over the reflectors' pixels against the CPU evaluation of the
-//! viewer's own equation (the viewer's share of the error). `GLINT_BENCH_TABLES` (a comma list
+//! part of the figure), over the reflectors' pixels against the CPU evaluation of the
+//! viewer's own equation (the viewer's share of the error), and per glossy material in view
+//! its mean luminance over the path tracer's. `GLINT_BENCH_TABLES` (a comma list
 //! of `frames`, `reflections`, `fidelity`, `aa`; all by default) picks the tables and
 //! `GLINT_BENCH_SCENES` (a comma list) the scenes, `GLINT_BENCH_MODES` (a comma list of
 //! `geometry`, `geometry2` (depth 2), `off`, `image1`, `image2`, `image4`, `image2d`; all by
@@ -66,7 +69,7 @@ use glint::view::headless::replay::GpuTimeSource;
 use glint::view::headless::replay::schedule;
 use glint::view::headless::{ReplayOptions, replay_with};
 use glint::view::load::load;
-use glint::view::options::{CurvedMode, CurvedSettings, RecursionSettings, ViewOptions};
+use glint::view::options::{CurvedSettings, RecursionSettings, ViewOptions};
 use glint::view::reflections::radiance_maps::Selection;
 use glint::view::reflections::{self, ReflectionMode};
 
@@ -603,29 +606,12 @@ fn dump_f32(stem: &Path, what: &str, rgb: &[glam::Vec3]) {
     std::fs::write(&file, bytes).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
 }
 
-fn dump_hits(
-    stem: &Path,
-    scene: &glint::scene::Scene,
-    bvh: &Bvh,
-    camera: &glint::camera::Camera,
-    w: u32,
-    h: u32,
-) {
-    let aspect = w as f32 / h as f32;
-    let bytes: Vec<u8> = (0..w * h)
-        .flat_map(|k| {
-            let ndc = glint::camera::Camera::pixel_ndc(k % w, k / w, w, h);
-            let hit = bvh.closest_hit(
-                camera.position,
-                camera.ray_direction(ndc, aspect),
-                f32::INFINITY,
-            );
-            let pair = hit.map_or([u32::MAX; 2], |hit| {
-                let t = &scene.triangles[hit.triangle as usize];
-                [t.material, t.object]
-            });
-            pair.into_iter().flat_map(u32::to_le_bytes)
-        })
+fn dump_hits(stem: &Path, scene: &Scene, objects: &[[u32; 2]]) {
+    let bytes: Vec<u8> = objects
+        .iter()
+        .flatten()
+        .copied()
+        .flat_map(u32::to_le_bytes)
         .collect();
     let name = stem.file_name().unwrap().to_string_lossy().to_string();
     std::fs::write(stem.with_file_name(format!("{name}-hits.u32")), bytes)
@@ -636,6 +622,32 @@ fn dump_hits(
         names.join("\n"),
     )
     .unwrap_or_else(|e| panic!("{e}"));
+}
+
+/// Per pixel centre of `camera`'s `w` × `h` frame, the material and object of the primary
+/// hit (`u32::MAX` twice for a miss).
+fn primary_hits(
+    scene: &Scene,
+    bvh: &Bvh,
+    camera: &glint::camera::Camera,
+    w: u32,
+    h: u32,
+) -> Vec<[u32; 2]> {
+    let aspect = w as f32 / h as f32;
+    (0..w * h)
+        .map(|k| {
+            let ndc = glint::camera::Camera::pixel_ndc(k % w, k / w, w, h);
+            let hit = bvh.closest_hit(
+                camera.position,
+                camera.ray_direction(ndc, aspect),
+                f32::INFINITY,
+            );
+            hit.map_or([u32::MAX; 2], |hit| {
+                let t = &scene.triangles[hit.triangle as usize];
+                [t.material, t.object]
+            })
+        })
+        .collect()
 }
 
 /// The `w` × `h` image whose pixels are the means of `ss` × `ss` blocks of the row-major
@@ -701,13 +713,95 @@ fn cached_reference(
     image
 }
 
-/// Fidelity of both reflection modes (and reflections off): per shipped scene with glossy
-/// planar reflectors and per camera path's first keyframe, on bakes at the preset of
-/// [`fidelity_settings`] (materials and radiance stages too), the relative RMSE
-/// (`glint::eval::compare`, linear radiance, per pixel) of the whole frame and of the
-/// reflectors' pixels against the reference path tracer, and of the reflectors' pixels
-/// against the CPU equation ([`reflections::cpu_reference`], M*K exact: the viewer's own
-/// share).
+/// Glossy materials covering fewer pixels than this in a frame get no row in the fidelity
+/// table's per-material part (their mean is mostly edge pixels).
+const MIN_MATERIAL_PIXELS: usize = 50;
+
+/// A glossy material's mean luminance off by more than this fraction of the path tracer's
+/// is flagged in the fidelity table (issue 44's bound).
+const MATERIAL_TOLERANCE: f64 = 0.10;
+
+/// A frame's relative RMSE (noise out) above this is flagged in the fidelity table.
+const FRAME_TOLERANCE: f64 = 0.05;
+
+/// The fidelity table's modes: geometry at recursion depths 1 and 2 (a glossy floor's
+/// reflection of a mirror, and of the lamp in it, is there only from depth 2 on), image,
+/// and reflections off (a scene without planar reflectors has that mode alone).
+static FIDELITY_MODES: [(&str, ReflectionMode, u8); 4] = [
+    ("geometry", ReflectionMode::Geometry, 1),
+    ("geometry d2", ReflectionMode::Geometry, 2),
+    ("image", ReflectionMode::Image, 1),
+    ("off", ReflectionMode::Off, 1),
+];
+
+/// Every shipped scene: the folders of `scenes/` that hold a scene.json, by name.
+fn shipped_scenes() -> Vec<String> {
+    let dir = repo("scenes");
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .filter_map(Result::ok)
+        .filter(|e| e.path().join("scene.json").is_file())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+/// The viewer's options for `data` as `glint-view` starts with no arguments (its default
+/// multisampling, probes and curved cube maps where baked), with the identity display
+/// mapping and the bench's curved-reflector knobs.
+fn fidelity_options(data: &glint::view::load::ViewData, quality: Quality) -> ViewOptions {
+    let baked = glint::view::defaults::baked(data);
+    let options = ViewOptions::from_args_for(std::iter::empty::<&str>(), &baked)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .linear_display();
+    // Curved reflectors by cube maps (Nielsen §3.2), glossy ones by regular sampling of the
+    // baked MIP environment map at the preset's sample budget (Luksch §6–7).
+    let curved_settings = CurvedSettings {
+        glossy_samples: std::env::var("GLINT_BENCH_GLOSSY_SAMPLES").map_or(
+            glint::materials::MaterialsSettings::preset(quality).sample_budget,
+            |v| {
+                v.parse()
+                    .unwrap_or_else(|e| panic!("GLINT_BENCH_GLOSSY_SAMPLES={v}: {e}"))
+            },
+        ),
+        parallax: std::env::var("GLINT_BENCH_CUBE_PARALLAX").map_or(true, |v| v != "off"),
+        self_occlusion: std::env::var("GLINT_BENCH_CUBE_SELF_OCCLUSION")
+            .map_or(true, |v| v != "off"),
+        face_size: std::env::var("GLINT_BENCH_FACE_SIZE").map_or(
+            glint::view::curved::DEFAULT_FACE_SIZE,
+            |v| {
+                v.parse()
+                    .unwrap_or_else(|e| panic!("GLINT_BENCH_FACE_SIZE={v}: {e}"))
+            },
+        ),
+        ..options.curved_settings
+    };
+    ViewOptions {
+        curved_settings,
+        ..options
+    }
+}
+
+/// Mean luminance of `rgb` over the pixels `of`.
+fn mean_luminance(rgb: &[glam::Vec3], of: &[usize]) -> f64 {
+    let sum: f64 = of
+        .iter()
+        .map(|&k| f64::from(glint::colour::luminance(rgb[k])))
+        .sum();
+    sum / of.len().max(1) as f64
+}
+
+/// Fidelity of both reflection modes (and reflections off): per shipped scene (every folder
+/// of `scenes/`) and per camera path's first keyframe, on bakes at the preset of
+/// [`fidelity_settings`] (materials and radiance stages too), drawn as `glint-view` draws by
+/// default ([`fidelity_options`]: its multisampling, probes, glass and curved cube maps), the
+/// relative RMSE (`glint::eval::compare`, linear radiance, per pixel) of the whole frame and
+/// of the planar reflectors' pixels against the reference path tracer, and of the
+/// reflectors' pixels against the CPU equation ([`reflections::cpu_reference`], M*K exact:
+/// the viewer's own share). A scene without planar reflectors has one mode, reflections off.
+/// A second part gives, per glossy material covering at least [`MIN_MATERIAL_PIXELS`]
+/// pixel centres, its pixels' mean luminance in each mode over the path tracer's.
 ///
 /// The reference is the mean of two path-traced images with seeds 1 and 2 (cached,
 /// [`cached_reference`]). Their difference measures its noise: for independent images
@@ -729,59 +823,60 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
         ]
         .map(String::from),
     ];
+    let mut material_rows = vec![
+        [
+            "scene",
+            "camera",
+            "material",
+            "specular term",
+            "px",
+            "path tracer",
+            "geometry",
+            "geometry d2",
+            "image",
+            "off",
+        ]
+        .map(String::from),
+    ];
     let image = |rgb: Vec<glam::Vec3>| Image {
         width: w as usize,
         height: h as usize,
         rgb,
     };
     let mut noise_rows = Vec::new();
-    for name in picked(&["glossy-room", "breakfast-room", "bunny-mirror"]) {
+    let mut misses = Vec::new();
+    let shipped = shipped_scenes();
+    let shipped: Vec<&str> = shipped.iter().map(String::as_str).collect();
+    for name in picked(&shipped) {
         let scene_json = repo(&format!("scenes/{name}/scene.json"));
         let bundle = bake_all_at(&scene_json, work, name, quality);
         let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
         let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
         let reflectors = reflections::reflectors_with_reflectance(&data);
-        if reflectors.is_empty() {
-            continue;
-        }
-        let bvh = Bvh::build(&data.scene.triangles);
-        let mut off = Offscreen::new(gpu, &data, w, h).unwrap_or_else(|e| panic!("{e}"));
-        let mut fine = (ss > 1)
-            .then(|| Offscreen::new(gpu, &data, w * ss, h * ss).unwrap_or_else(|e| panic!("{e}")));
-        // Curved reflectors by cube maps (Nielsen §3.2), glossy ones by regular sampling of
-        // the baked MIP environment map at the preset's sample budget (Luksch §6–7).
-        let curved_settings = CurvedSettings {
-            glossy_samples: std::env::var("GLINT_BENCH_GLOSSY_SAMPLES").map_or(
-                glint::materials::MaterialsSettings::preset(quality).sample_budget,
-                |v| {
-                    v.parse()
-                        .unwrap_or_else(|e| panic!("GLINT_BENCH_GLOSSY_SAMPLES={v}: {e}"))
-                },
-            ),
-            parallax: std::env::var("GLINT_BENCH_CUBE_PARALLAX").map_or(true, |v| v != "off"),
-            self_occlusion: std::env::var("GLINT_BENCH_CUBE_SELF_OCCLUSION")
-                .map_or(true, |v| v != "off"),
-            face_size: std::env::var("GLINT_BENCH_FACE_SIZE").map_or(
-                glint::view::curved::DEFAULT_FACE_SIZE,
-                |v| {
-                    v.parse()
-                        .unwrap_or_else(|e| panic!("GLINT_BENCH_FACE_SIZE={v}: {e}"))
-                },
-            ),
-            ..CurvedSettings::default()
+        // With the scene's cut-out filter: the path tracer sees through alpha-masked texels.
+        let bvh = data.scene.build_bvh();
+        let options = fidelity_options(&data, quality);
+        let mut off =
+            Offscreen::with_options(gpu, &data, w, h, &options).unwrap_or_else(|e| panic!("{e}"));
+        let mut fine = (ss > 1).then(|| {
+            Offscreen::with_options(gpu, &data, w * ss, h * ss, &options)
+                .unwrap_or_else(|e| panic!("{e}"))
+        });
+        let modes = if reflectors.is_empty() {
+            &FIDELITY_MODES[3..]
+        } else {
+            &FIDELITY_MODES[..]
         };
-        let curved = data
-            .scene
-            .desc
-            .reflectors
-            .iter()
-            .any(|r| r.kind == glint::scene::desc::ReflectorKind::Curved);
-        if curved {
-            for o in std::iter::once(&mut off).chain(fine.as_mut()) {
-                o.set_curved(gpu, &data, CurvedMode::Cubemap, curved_settings)
-                    .unwrap_or_else(|e| panic!("{e}"));
+        let specular_term = |m: u32| {
+            let material = &data.scene.materials[m as usize];
+            if data.scene.reflectors.iter().any(|r| r.material == m) {
+                "reflector"
+            } else if !material.transmission.is_none() {
+                "glass, probe"
+            } else {
+                "probe"
             }
-        }
+        };
         for path in &data.scene.camera_paths {
             let camera = glint::camera::pose_at(path, 0.0);
             let [a, b] = [1, 2].map(|seed| {
@@ -801,29 +896,44 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
                     .map(|(x, y)| 0.5 * (*x + *y))
                     .collect(),
             );
-            let equation = image(reflections::cpu_reference(
-                &data.scene,
-                &reflectors,
-                &bvh,
-                &data.map,
-                &camera,
-                w,
-                h,
-                1.0,
-            ));
+            let equation = (!reflectors.is_empty()).then(|| {
+                image(reflections::cpu_reference(
+                    &data.scene,
+                    &reflectors,
+                    &bvh,
+                    &data.map,
+                    &camera,
+                    w,
+                    h,
+                    1.0,
+                ))
+            });
             let mask = reflections::reflector_pixels(&bvh, &reflectors, &camera, w, h);
             // The CPU equation has no cube-mapped reflectors: its column leaves out the
             // pixels whose mirrored ray meets one (the teapot seen in glossy-room's mirror, or
             // the mirror seen in its floor, geometry mode's terminal cube maps).
             let (equation_mask, curved_seen) =
                 without_cube_mapped(&mask, &data.scene, &bvh, &reflectors, &camera, w, h);
+            let hits = primary_hits(&data.scene, &bvh, &camera, w, h);
             let dump = dump_dir().map(|dir| dir.join(format!("{name}-{}", path.name)));
             if let Some(stem) = &dump {
                 dump_f32(stem, "ref-a", &a.rgb);
                 dump_f32(stem, "ref-b", &b.rgb);
-                dump_f32(stem, "equation", &equation.rgb);
-                dump_hits(stem, &data.scene, &bvh, &camera, w, h);
+                if let Some(equation) = &equation {
+                    dump_f32(stem, "equation", &equation.rgb);
+                }
+                dump_hits(stem, &data.scene, &hits);
             }
+            // Each glossy material's pixels (by the primary hit at the pixel's centre).
+            let glossy: Vec<(u32, Vec<usize>)> = (0..data.scene.materials.len() as u32)
+                .filter(|&m| data.scene.materials[m as usize].is_glossy())
+                .map(|m| {
+                    let px = (0..hits.len()).filter(|&k| hits[k][0] == m).collect();
+                    (m, px)
+                })
+                .filter(|(_, px): &(u32, Vec<usize>)| px.len() >= MIN_MATERIAL_PIXELS)
+                .collect();
+            let mut ratios = vec![vec!["-".to_string(); FIDELITY_MODES.len()]; glossy.len()];
             let pixels = mask.iter().filter(|m| **m).count();
             let masked = (pixels > 0).then_some(&mask[..]);
             // The mean's noise: half the relative difference of its two halves.
@@ -836,14 +946,7 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
                  {curved_seen} reflector px see a cube-mapped reflector, left out of the CPU equation's column",
                 path.name
             ));
-            // Geometry mode at recursion depth 2 too: a glossy floor's reflection of a mirror
-            // (and of the lamp in it) is there only from depth 2 on.
-            for (label, mode, depth) in [
-                ("geometry", ReflectionMode::Geometry, 1),
-                ("geometry d2", ReflectionMode::Geometry, 2),
-                ("image", ReflectionMode::Image, 1),
-                ("off", ReflectionMode::Off, 1),
-            ] {
+            for &(label, mode, depth) in modes {
                 let set = |o: &mut Offscreen| {
                     let options = ViewOptions {
                         reflections: mode,
@@ -874,29 +977,67 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
                     compare(a, b, m).map(|r| r.rel_rmse).ok()
                 };
                 let show = |e: Option<f64>| e.map_or("-".to_string(), |e| format!("{e:.3}"));
-                let out = |e: Option<f64>, n: f64| show(e.map(|e| (e * e - n * n).max(0.0).sqrt()));
+                let out = |e: Option<f64>, n: f64| e.map(|e| (e * e - n * n).max(0.0).sqrt());
                 if let Some(stem) = &dump {
                     dump_f32(stem, label, &filtered.rgb);
                 }
                 let frame_error = rel(&filtered, &traced, None);
+                let frame_out = out(frame_error, noise_frame);
+                let flag = if frame_out.is_some_and(|e| e > FRAME_TOLERANCE) {
+                    misses.push(format!("{name} {} {label}: frame", path.name));
+                    " !"
+                } else {
+                    ""
+                };
                 let reflector_error = masked.and_then(|m| rel(&filtered, &traced, Some(m)));
+                let column = FIDELITY_MODES.iter().position(|m| m.0 == label).unwrap();
+                for ((m, px), ratio) in glossy.iter().zip(&mut ratios) {
+                    let r = mean_luminance(&filtered.rgb, px) / mean_luminance(&traced.rgb, px);
+                    let flag = if (r - 1.0).abs() > MATERIAL_TOLERANCE {
+                        let material = &data.scene.materials[*m as usize].name;
+                        misses.push(format!("{name} {} {label}: {material}", path.name));
+                        " !"
+                    } else {
+                        ""
+                    };
+                    ratio[column] = format!("{r:.3}{flag}");
+                }
                 rows.push([
                     name.to_string(),
                     path.name.clone(),
                     label.to_string(),
                     show(frame_error),
-                    out(frame_error, noise_frame),
+                    format!("{}{flag}", show(frame_out)),
                     show(reflector_error),
-                    out(reflector_error, noise_reflector),
-                    show(masked.and_then(|_| rel(&frame, &equation, Some(&equation_mask)))),
+                    show(out(reflector_error, noise_reflector)),
+                    show(equation.as_ref().and_then(|equation| {
+                        masked.and_then(|_| rel(&frame, equation, Some(&equation_mask)))
+                    })),
                     pixels.to_string(),
+                ]);
+            }
+            for ((m, px), ratio) in glossy.iter().zip(ratios) {
+                let [depth1, depth2, image_mode, reflections_off] =
+                    <[String; 4]>::try_from(ratio).unwrap();
+                material_rows.push([
+                    name.to_string(),
+                    path.name.clone(),
+                    data.scene.materials[*m as usize].name.clone(),
+                    specular_term(*m).to_string(),
+                    px.len().to_string(),
+                    format!("{:.4}", mean_luminance(&traced.rgb, px)),
+                    depth1,
+                    depth2,
+                    image_mode,
+                    reflections_off,
                 ]);
             }
         }
     }
     println!(
-        "\nfidelity at {w}x{h}, {} bakes, each camera path's first keyframe: relative RMSE (linear, per pixel) vs the path tracer (the mean of 2 × {spp} spp; \"noise out\": its noise taken out; the viewer's frame box-filtered from {ss}×{ss} samples a pixel) and vs the CPU equation (M*K exact, at pixel centres; it has no cube-mapped reflectors, curved or a near-mirror seen in another reflector, so reflector pixels that see one are left out of that column)\n",
-        quality.name()
+        "\nfidelity at {w}x{h}, {} bakes, {} samples a pixel (the viewer's default), each camera path's first keyframe: relative RMSE (linear, per pixel) vs the path tracer (the mean of 2 × {spp} spp; \"noise out\": its noise taken out, \"!\" above {FRAME_TOLERANCE}; the viewer's frame box-filtered from {ss}×{ss} samples a pixel) and vs the CPU equation (M*K exact, at pixel centres; it has no cube-mapped reflectors, curved or a near-mirror seen in another reflector, so reflector pixels that see one are left out of that column)\n",
+        quality.name(),
+        glint::view::options::DEFAULT_SAMPLES,
     );
     print!(
         "{}",
@@ -908,6 +1049,26 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
     for line in noise_rows {
         println!("{line}");
     }
+    println!(
+        "\nglossy materials in view (at least {MIN_MATERIAL_PIXELS} pixel centres): the path tracer's mean luminance over their pixels, and each mode's over it (\"!\": off by more than {MATERIAL_TOLERANCE})\n"
+    );
+    print!(
+        "{}",
+        format_table(
+            &material_rows,
+            &[
+                false, false, false, false, true, true, true, true, true, true
+            ]
+        )
+    );
+    println!(
+        "\noutside the bounds: {}",
+        if misses.is_empty() {
+            "none".to_string()
+        } else {
+            misses.join("; ")
+        }
+    );
 }
 
 /// `mask` without the pixels whose ray, mirrored at the planar reflector it meets, meets a

@@ -431,3 +431,87 @@ fn textured_room_generator_is_deterministic() {
         "scenes/textured-room/textured-room.glb",
     );
 }
+
+#[test]
+fn stand_in() {
+    let scene = load("stand-in");
+    check(
+        &scene,
+        &Expected {
+            triangles: 80,
+            lights: &[],
+            reflectors: &[("MirrorFloor", ReflectorKind::Planar, Some(UP))],
+            impostors: &[],
+            paths: &[("room", 2), ("tiles", 1), ("mirror", 1)],
+            cameras_inside: true,
+        },
+    );
+    let material = |name: &str| scene.materials.iter().find(|m| m.name == name).unwrap();
+    // Glossy textured surfaces that no reflector declares: the bake gives each a probe.
+    for name in ["Tiles", "Vanity"] {
+        let m = material(name);
+        assert!(m.is_glossy() && m.base_texture.is_some(), "{name}: {m:?}");
+    }
+    let probes: Vec<String> = glint::materials::probes::scene_probes(&scene)
+        .into_iter()
+        .map(|p| p.name)
+        .collect();
+    assert!(
+        probes.iter().any(|p| p == "Tiles") && probes.iter().any(|p| p == "Vanity"),
+        "probes {probes:?}"
+    );
+    let glass = material("Glass").transmission;
+    assert!(
+        (glass.factor - 0.9).abs() < 1e-6 && (glass.ior - 1.5).abs() < 1e-6,
+        "{glass:?}"
+    );
+    let mirror = &scene.materials[scene.reflectors[0].material as usize];
+    assert!(mirror.sharpest_roughness().unwrap() < 1e-3, "{mirror:?}");
+    assert!(emission_of(&scene, "CeilingLight").min_element() > 10.0);
+
+    // The fine tile (a 32 × 56 texture, 5 cm tiles) seen at a grazing angle from `tiles`,
+    // and the mirror floor from 10° above with the column standing on it from `mirror`.
+    let tile = &scene.textures[material("Tiles").base_texture.unwrap().image as usize];
+    assert!(
+        tile.width <= 64 && tile.height <= 64,
+        "{}x{}",
+        tile.width,
+        tile.height
+    );
+    let bvh = scene.build_bvh();
+    let object_of = |eye: Vec3, dir: Vec3| {
+        let hit = bvh.closest_hit(eye, dir, f32::INFINITY).unwrap();
+        let t = &scene.triangles[hit.triangle as usize];
+        let object = &scene.objects[t.object as usize];
+        (object, t.face_normal().dot(dir).abs())
+    };
+    let key = |path: &str| scene.camera_path(Some(path)).unwrap().keyframes[0];
+    let k = key("tiles");
+    let (eye, dir) = (
+        Vec3::from(k.position),
+        (Vec3::from(k.target) - Vec3::from(k.position)).normalize(),
+    );
+    let down = (dir - Vec3::Y * 0.12).normalize();
+    let (floor, cos) = object_of(eye, down);
+    assert!(
+        floor.is_named("TileFloor") && cos < 0.2,
+        "{floor:?} at cos {cos}"
+    );
+    let k = key("mirror");
+    let (eye, dir) = (
+        Vec3::from(k.position),
+        (Vec3::from(k.target) - Vec3::from(k.position)).normalize(),
+    );
+    let pitch = (-dir.y).asin().to_degrees();
+    assert!((8.0..12.0).contains(&pitch), "mirror camera pitch {pitch}°");
+    assert!(object_of(eye, dir).0.is_named("Column"));
+    assert_eq!(object_triangles(&scene, "Column"), 36);
+}
+
+#[test]
+fn stand_in_generator_is_deterministic() {
+    check_generator(
+        "scenes/tools/make_stand_in.py",
+        "scenes/stand-in/stand-in.glb",
+    );
+}

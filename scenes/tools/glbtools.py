@@ -123,6 +123,7 @@ class GlbWriter:
         self.bin = bytearray()
         self.material_ids = {}
         self.uses_emissive_strength = False
+        self.extensions_used = set()
 
     def material(
         self,
@@ -136,10 +137,13 @@ class GlbWriter:
         emissive_texture=None,
         alpha_cutoff=None,
         double_sided=False,
+        transmission=None,
+        ior=None,
     ):
         """Adds a metallic/roughness material; `emissive` × `strength` is its radiance.
         `base_texture`/`emissive_texture`: texture indices from `texture_png`; `alpha_cutoff`:
-        alphaMode MASK with that cutoff; `double_sided`: glTF doubleSided."""
+        alphaMode MASK with that cutoff; `double_sided`: glTF doubleSided; `transmission`/`ior`:
+        KHR_materials_transmission's factor and KHR_materials_ior."""
         m = {
             "name": name,
             "pbrMetallicRoughness": {
@@ -155,6 +159,12 @@ class GlbWriter:
             if strength is not None and strength != 1.0:
                 m["extensions"] = {"KHR_materials_emissive_strength": {"emissiveStrength": f32(strength)}}
                 self.uses_emissive_strength = True
+        if transmission is not None:
+            m.setdefault("extensions", {})["KHR_materials_transmission"] = {"transmissionFactor": f32(transmission)}
+            self.extensions_used.add("KHR_materials_transmission")
+        if ior is not None:
+            m.setdefault("extensions", {})["KHR_materials_ior"] = {"ior": f32(ior)}
+            self.extensions_used.add("KHR_materials_ior")
         if emissive_texture is not None:
             m["emissiveTexture"] = {"index": emissive_texture}
         if alpha_cutoff is not None:
@@ -267,8 +277,10 @@ class GlbWriter:
         while len(self.bin) % 4:
             self.bin.append(0)
         self.doc["buffers"] = [{"byteLength": len(self.bin)}]
-        if self.uses_emissive_strength:
-            self.doc["extensionsUsed"] = ["KHR_materials_emissive_strength"]
+        used = ["KHR_materials_emissive_strength"] if self.uses_emissive_strength else []
+        used += sorted(self.extensions_used)
+        if used:
+            self.doc["extensionsUsed"] = used
         text = json.dumps(self.doc, separators=(",", ":"), ensure_ascii=True, allow_nan=False).encode("ascii")
         text += b" " * ((4 - len(text) % 4) % 4)
         total = 12 + 8 + len(text) + 8 + len(self.bin)
