@@ -290,7 +290,7 @@ fn a_cube_map_captured_in_front_of_a_pane_sees_through_it() {
         2.0 * (4.0 + (0.5f64 * 0.569_840_290_998_053_3).fract() as f32) / 8.0 - 1.0,
     );
     let dir = face_direction(face, s, t).normalize();
-    let got = cube.texels[((face * 8 + 4) * 8 + 4) as usize];
+    let got = cube.texels[(face * 8 + 4) * 8 + 4];
     let pane = bvh.closest_hit(centre, dir, f32::INFINITY).unwrap();
     let glass = scene.material_of(pane.triangle);
     assert!(glass.is_transmissive());

@@ -456,16 +456,14 @@ pub fn capture_cube(
         sum
     };
     // One ray from the centre: each surface it meets adds its D, a mirror sends it on (up
-    // to `mirror_bounces` times), any other glossy surface adds its reflection and ends it.
+    // to `mirror_bounces` times), glass lets it through (up to MAX_GLASS_LAYERS panes), any
+    // other glossy surface adds its reflection and ends it.
     let trace = |dir: Vec3, seed: u32| -> Vec3 {
         let (mut origin, mut dir) = (centre, dir);
         let mut travelled = 0.0f32;
         let (mut sum, mut weight) = (Vec3::ZERO, Vec3::ONE);
         let (mut bounces, mut panes) = (0u32, 0u32);
-        loop {
-            let Some((hit, at, skipped)) = first_hit(origin, dir) else {
-                break;
-            };
+        while let Some((hit, at, skipped)) = first_hit(origin, dir) {
             travelled += skipped;
             sum += weight
                 * shade(&Hit {
