@@ -44,7 +44,8 @@
 //! reflections table (as `--terminal-cubemaps off`).
 //!
 //! A fourth table (`aa`, [`aa_table`]) is anti-aliasing's cost: the frame table's replays
-//! (one run each) at one sample a pixel and at the default multisample count. A fifth
+//! (one run each) at one sample a pixel and at the default multisample count, with reflections
+//! off and in both modes (`GLINT_BENCH_MODES`: `off`, `geometry`, `image`). A fifth
 //! (`probes`, not in the default list) times glossy-room, its table top left undeclared, with
 //! and without the reflection probe that then lights it ([`probe_table`]).
 //!
@@ -263,11 +264,13 @@ fn frame_table(gpu: &Gpu, work: &Path, adapter: &str, repeats: usize) {
 
 /// Anti-aliasing's cost: each shipped scene's first camera path replayed as in
 /// [`frame_table`] (every frame timed, one run) at `--samples 1` and at the default sample
-/// count, the per-frame medians side by side.
+/// count, the per-frame medians side by side, with reflections off (a bundle of D alone) and
+/// on in both modes (a bundle with every stage the scene requires).
 fn aa_table(gpu: &Gpu, work: &Path) {
     let on = ViewOptions::default().samples;
     let mut rows = vec![[
         "scene".to_string(),
+        "reflections".to_string(),
         "frames".to_string(),
         "GPU median ms, 1 sample".to_string(),
         format!("GPU median ms, {on}x MSAA"),
@@ -275,46 +278,66 @@ fn aa_table(gpu: &Gpu, work: &Path) {
         "frame median ms, 1 sample".to_string(),
         format!("frame median ms, {on}x MSAA"),
     ]];
+    let modes = [
+        ("off", ReflectionMode::Off),
+        ("geometry", ReflectionMode::Geometry),
+        ("image", ReflectionMode::Image),
+    ];
+    let only = std::env::var("GLINT_BENCH_MODES").ok();
     for name in picked(&SCENES) {
-        let bundle = bake_if_needed(
-            &repo(&format!("scenes/{name}/scene.json")),
-            work,
-            name,
-            false,
-        );
-        let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
-        let run = |samples: u32| {
-            let options = ReplayOptions {
-                width: SIZE.0,
-                height: SIZE.1,
-                every: 0,
-                view: ViewOptions {
-                    samples,
-                    ..ViewOptions::default()
-                },
-                ..ReplayOptions::default()
+        let scene_json = repo(&format!("scenes/{name}/scene.json"));
+        let d_only =
+            load(&bake_if_needed(&scene_json, work, name, false)).unwrap_or_else(|e| panic!("{e}"));
+        let mut all = None;
+        for (label, mode) in modes {
+            if only
+                .as_deref()
+                .is_some_and(|o| !o.split(',').any(|w| w.trim() == label))
+            {
+                continue;
+            }
+            let data = match mode {
+                ReflectionMode::Off => &d_only,
+                _ => all.get_or_insert_with(|| {
+                    load(&bake_all_at(&scene_json, work, name, Quality::Draft))
+                        .unwrap_or_else(|e| panic!("{e}"))
+                }),
             };
-            replay_with(gpu, &data, &options, &Silent).unwrap_or_else(|e| panic!("{e}"))
-        };
-        let (off, aa) = (run(1), run(on));
-        let (a, b) = (&off.summary, &aa.summary);
-        rows.push([
-            name.to_string(),
-            off.frames.len().to_string(),
-            format!("{:.2}", a.gpu_ms.median),
-            format!("{:.2}", b.gpu_ms.median),
-            format!("{:.2}", b.gpu_ms.median / a.gpu_ms.median),
-            format!("{:.2}", a.frame_ms.median),
-            format!("{:.2}", b.frame_ms.median),
-        ]);
+            let run = |samples: u32| {
+                let options = ReplayOptions {
+                    width: SIZE.0,
+                    height: SIZE.1,
+                    every: 0,
+                    view: ViewOptions {
+                        samples,
+                        reflections: mode,
+                        ..ViewOptions::default()
+                    },
+                    ..ReplayOptions::default()
+                };
+                replay_with(gpu, data, &options, &Silent).unwrap_or_else(|e| panic!("{e}"))
+            };
+            let (off, aa) = (run(1), run(on));
+            let (a, b) = (&off.summary, &aa.summary);
+            rows.push([
+                name.to_string(),
+                label.to_string(),
+                off.frames.len().to_string(),
+                format!("{:.2}", a.gpu_ms.median),
+                format!("{:.2}", b.gpu_ms.median),
+                format!("{:.2}", b.gpu_ms.median / a.gpu_ms.median),
+                format!("{:.2}", a.frame_ms.median),
+                format!("{:.2}", b.frame_ms.median),
+            ]);
+        }
     }
     println!(
-        "\nanti-aliasing at {}x{}: every frame of each scene's first camera path (draft bake, D only), one run per sample count\n",
+        "\nanti-aliasing at {}x{}: every frame of each scene's first camera path (draft bake; reflections off: D only), one run per sample count\n",
         SIZE.0, SIZE.1
     );
     print!(
         "{}",
-        format_table(&rows, &[false, true, true, true, true, true, true])
+        format_table(&rows, &[false, false, true, true, true, true, true, true])
     );
 }
 

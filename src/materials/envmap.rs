@@ -19,6 +19,7 @@ use crate::brdf::pattern::{Pattern, lobe_area_for, mip_level};
 use crate::brdf::{Frame, Lobe, above, reflect};
 use crate::geometry::{Bvh, Hit};
 use crate::progress::{Cancelled, Progress};
+use crate::radiosity::MAX_GLASS_LAYERS;
 use crate::sampling::Rng;
 use crate::scene::{ReflectorKind, Scene};
 
@@ -372,7 +373,10 @@ fn lobe_sample_point(j: u32, n: u32, seed: u32) -> Vec2 {
 /// a mirror's D is (nearly) nothing, and what it shows is the room. At any other surface
 /// with glossy lobes it adds, besides D, what the lobes reflect of the room's D towards the
 /// ray (`settings.glossy_samples` samples of each lobe, Σ k_s · f cos θ_i / p; one bounce:
-/// the sampled rays see `shade` alone): a glossy table shows the lamp's highlight.
+/// the sampled rays see `shade` alone): a glossy table shows the lamp's highlight. Thin
+/// glass (transmissive materials) adds the same and lets the ray on straight through,
+/// weighted by its transmittance at the ray's angle, through at most [`MAX_GLASS_LAYERS`]
+/// panes.
 /// Rows are independent work items, so the result does not depend on the thread count.
 /// Advances `progress` by one per face row.
 pub fn capture_cube(
@@ -452,15 +456,14 @@ pub fn capture_cube(
         sum
     };
     // One ray from the centre: each surface it meets adds its D, a mirror sends it on (up
-    // to `mirror_bounces` times), any other glossy surface adds its reflection and ends it.
+    // to `mirror_bounces` times), glass lets it through (up to MAX_GLASS_LAYERS panes), any
+    // other glossy surface adds its reflection and ends it.
     let trace = |dir: Vec3, seed: u32| -> Vec3 {
         let (mut origin, mut dir) = (centre, dir);
         let mut travelled = 0.0f32;
         let (mut sum, mut weight) = (Vec3::ZERO, Vec3::ONE);
-        for bounce in 0..=settings.mirror_bounces {
-            let Some((hit, at, skipped)) = first_hit(origin, dir) else {
-                break;
-            };
+        let (mut bounces, mut panes) = (0u32, 0u32);
+        while let Some((hit, at, skipped)) = first_hit(origin, dir) {
             travelled += skipped;
             sum += weight
                 * shade(&Hit {
@@ -472,7 +475,8 @@ pub fn capture_cube(
             let c = -dir.dot(n);
             let p = at + dir * hit.t;
             match &mirrors[hit.triangle as usize] {
-                Some(lobes) if bounce < settings.mirror_bounces && c > 0.0 => {
+                Some(lobes) if bounces < settings.mirror_bounces && c > 0.0 => {
+                    bounces += 1;
                     weight *= lobes
                         .iter()
                         .fold(Vec3::ZERO, |acc, l| acc + l.ks * l.mirror_reflectance(c));
@@ -486,7 +490,16 @@ pub fn capture_cube(
                     if settings.glossy_samples > 0 && !lobes.is_empty() {
                         sum += weight * glossy_term(lobes, p, n, dir, seed);
                     }
-                    break;
+                    // Thin glass: what lies behind shows through, as in the viewer's frame.
+                    let m = &scene.materials[tri.material as usize];
+                    if !m.is_transmissive() || panes == MAX_GLASS_LAYERS {
+                        break;
+                    }
+                    panes += 1;
+                    weight *= m.transmission.weight(c);
+                    let next = bvh.offset_origin(p, dir);
+                    travelled += (next - at).length();
+                    origin = next;
                 }
             }
         }

@@ -21,6 +21,7 @@ use glam::{Vec2, Vec3};
 
 use crate::brdf::{Frame, Lobe};
 use crate::geometry::{Bvh, Hit};
+use crate::radiosity::MAX_GLASS_LAYERS;
 use crate::sampling::r2;
 use crate::scene::Scene;
 
@@ -29,8 +30,42 @@ pub const GLOSSY_SAMPLES: u32 = 16;
 
 /// The radiance leaving `hit` against the unit ray direction `dir`: `d(hit)` (D there, as the
 /// maps held before) plus the one-bounce reflection of its glossy lobes (module comment).
-/// Back faces and surfaces without lobes get `d(hit)` alone.
+/// Back faces and surfaces without lobes get `d(hit)` alone. Thin glass also passes what lies
+/// behind it along `dir`, times its transmittance at the ray's angle, as the viewer's frame
+/// draws it, through at most [`MAX_GLASS_LAYERS`] panes.
 pub fn exitant(
+    scene: &Scene,
+    bvh: &Bvh,
+    d: &(dyn Fn(&Hit) -> Vec3 + Sync),
+    hit: &Hit,
+    dir: Vec3,
+) -> Vec3 {
+    let mut sum = own_exitant(scene, bvh, d, hit, dir);
+    let (mut hit, mut weight) = (*hit, Vec3::ONE);
+    for _ in 0..MAX_GLASS_LAYERS {
+        let tri = &scene.triangles[hit.triangle as usize];
+        let material = &scene.materials[tri.material as usize];
+        if !material.is_transmissive() {
+            break;
+        }
+        let ng = tri.face_normal();
+        let cos = dir.dot(ng);
+        weight *= material.transmission.weight(cos);
+        if weight == Vec3::ZERO {
+            break;
+        }
+        let past = bvh.offset_origin(tri.point(hit.bary), ng * cos.signum());
+        let Some(behind) = bvh.closest_hit(past, dir, f32::INFINITY) else {
+            break;
+        };
+        sum += weight * own_exitant(scene, bvh, d, &behind, dir);
+        hit = behind;
+    }
+    sum
+}
+
+/// [`exitant`] of the surface at `hit` alone: D plus its glossy lobes' reflection.
+fn own_exitant(
     scene: &Scene,
     bvh: &Bvh,
     d: &(dyn Fn(&Hit) -> Vec3 + Sync),

@@ -13,6 +13,7 @@ pub mod map;
 mod mirror_lights;
 mod next_event;
 pub use mirror_lights::{MIRROR_ROUGHNESS, is_mirror};
+pub use transmission::MAX_LAYERS as MAX_GLASS_LAYERS;
 mod seam_solve;
 pub mod seams;
 pub mod solve;

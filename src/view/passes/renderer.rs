@@ -463,6 +463,11 @@ impl Renderer {
         &self.glass_runs
     }
 
+    /// The runs of opaque triangles, which the scene pass draws.
+    pub(crate) fn opaque_runs(&self) -> &[ShadingRun] {
+        &self.opaque_runs
+    }
+
     /// The formats the pipeline renders to.
     pub fn formats(&self) -> TargetFormats {
         self.formats

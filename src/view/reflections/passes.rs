@@ -31,6 +31,7 @@ use crate::view::gpu::target::{HDR_FORMAT, reverse_z_depth};
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
 use crate::view::passes::composite::Composite;
+use crate::view::passes::glass::MirroredGlass;
 use crate::view::passes::renderer::{
     Renderer, SURFACE_TEXTURES, frame_bind_group, frame_bind_group_layout, near_plane,
     scene_vertex_layout, uniform_buffer, view_projection,
@@ -80,6 +81,9 @@ pub struct GeometryReflections {
     /// Geometry mode: the reflectors as cube-mapped ones, for where they are seen in another
     /// one's map (the recursion's end, [`super::terminal`]); index for index.
     terminal: Option<CurvedReflections>,
+    /// Geometry mode: the scene's thin glass in the mirrored view, drawn after its opaque
+    /// surfaces (image mode's maps already see through it).
+    glass: Option<MirroredGlass>,
     width: u32,
     height: u32,
     /// The scene pass's near plane (the view [`GeometryReflections::visible`] tests against).
@@ -182,7 +186,8 @@ impl GeometryReflections {
         let mesh = crate::view::passes::renderer::SceneMesh::new(scene, &map.atlas);
         let clip = (scene.bounds.diagonal() * CLIP_FRACTION).max(1e-5);
         error_scoped(device, "creating the reflection passes", || {
-            let shader = shader(device, "glint reflection shader", &shader_source());
+            let source_text = shader_source();
+            let shader = shader(device, "glint reflection shader", &source_text);
             let frame_layout = frame_bind_group_layout(device);
             let mirror_layout = params_layout().build(device, "glint mirror params layout");
             let splat_layout = params_layout()
@@ -207,6 +212,18 @@ impl GeometryReflections {
                     .color(HDR_FORMAT, None)
                     .depth(reverse_z_depth(true, wgpu::CompareFunction::Greater))
                     .build(device);
+            let glass = matches!(source, Source::Geometry)
+                .then(|| {
+                    MirroredGlass::build(
+                        gpu,
+                        scene,
+                        renderer,
+                        &source_text,
+                        [&frame_layout, &mirror_layout],
+                        HDR_FORMAT,
+                    )
+                })
+                .flatten();
             let composite = planar_composite(
                 device,
                 renderer,
@@ -339,6 +356,7 @@ impl GeometryReflections {
                 exact,
                 pyramid_passes,
                 terminal: None,
+                glass,
                 width,
                 height,
                 near: near_plane(scene),
@@ -576,11 +594,26 @@ impl GeometryReflections {
                             renderer.index_buffer().slice(..),
                             wgpu::IndexFormat::Uint32,
                         );
-                        pass.draw_indexed(0..renderer.index_count(), 0, 0..1);
+                        match &self.glass {
+                            None => pass.draw_indexed(0..renderer.index_count(), 0, 0..1),
+                            Some(_) => {
+                                for run in renderer.opaque_runs() {
+                                    pass.draw_indexed(run.indices.clone(), 0, 0..1);
+                                }
+                            }
+                        }
                         if let (Some(c), Source::Geometry) = (curved, self.source) {
                             c.draw_mirror(&mut pass, slot);
                         }
                         self.draw_terminal(&mut pass, slot, camera);
+                        if let Some(g) = &self.glass {
+                            g.draw(
+                                &mut pass,
+                                renderer,
+                                &r.mirror_frame_group,
+                                &r.mirror_params_group,
+                            );
+                        }
                     }
                 }
             }
