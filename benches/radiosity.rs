@@ -1,12 +1,12 @@
-//! Radiosity presets on the speed-for-accuracy curve: per scene and preset, the target error,
-//! bake time (atlas with its contact boosts + solve + seam stitching) in wall and CPU seconds
-//! (the CPU seconds compare runs on a shared machine), rays, peak memory, the solver's own error
-//! estimate, and the error of D against ground truth: D path-traced at 400 probes on the diffuse faces with every
-//! transport path (`glint::eval::reference::trace_probes`; `GLINT_BENCH_PATHS` paths each,
+//! Radiosity presets on the speed-for-accuracy curve: per scene and preset, the target error, bake
+//! time (atlas with its contact boosts + solve + seam stitching) in wall and CPU seconds (the CPU
+//! seconds compare runs on a shared machine), rays, peak memory, the solver's own error estimate,
+//! and the error of D against ground truth: D path-traced at 400 probes on the diffuse faces with
+//! every transport path (`glint::eval::reference::trace_probes`; `GLINT_BENCH_PATHS` paths each,
 //! default 4096), whose own noise is printed beside it, taken out, and the same error over the
 //! probes at least half a default texel away from other surfaces. With `--converged`, also the RMS
-//! relative error of the texels against a converged solve of the same texels (4096 rays, 1024
-//! light samples, 64 bounces, another seed).
+//! relative error of the texels against a converged solve of the same texels (4096 rays, 1024 light
+//! samples, 64 bounces, another seed).
 //!
 //! After the presets, where the default preset's bake time goes per scene: the atlas, the
 //! contact probes that boost its charts, the first gathering, the refinement rounds, the
