@@ -1,11 +1,12 @@
-//! Radiosity presets on the speed-for-accuracy curve: per scene and preset, the target error,
-//! bake time (atlas with its contact boosts + solve + seam stitching), rays, peak memory, the solver's own error estimate, and the error
-//! of D against ground truth: D path-traced at 400 probes on the diffuse faces with every
-//! transport path (`glint::eval::reference::trace_probes`; `GLINT_BENCH_PATHS` paths each,
+//! Radiosity presets on the speed-for-accuracy curve: per scene and preset, the target error, bake
+//! time (atlas with its contact boosts + solve + seam stitching) in wall and CPU seconds (the CPU
+//! seconds compare runs on a shared machine), rays, peak memory, the solver's own error estimate,
+//! and the error of D against ground truth: D path-traced at 400 probes on the diffuse faces with
+//! every transport path (`glint::eval::reference::trace_probes`; `GLINT_BENCH_PATHS` paths each,
 //! default 4096), whose own noise is printed beside it, taken out, and the same error over the
 //! probes at least half a default texel away from other surfaces. With `--converged`, also the RMS
-//! relative error of the texels against a converged solve of the same texels (4096 rays, 1024
-//! light samples, 64 bounces, another seed).
+//! relative error of the texels against a converged solve of the same texels (4096 rays, 1024 light
+//! samples, 64 bounces, another seed).
 //!
 //! After the presets, where the default preset's bake time goes per scene: the atlas, the
 //! contact probes that boost its charts, the first gathering, the refinement rounds, the
@@ -189,6 +190,16 @@ fn anchor_seconds_at(front: &[(f64, f64)], error: f64) -> Option<(f64, bool)> {
     Some(((s0.ln() + t * (s1.ln() - s0.ln())).exp(), false))
 }
 
+/// The CPU seconds (user + system) this process has used so far.
+fn cpu_seconds() -> f64 {
+    // SAFETY: getrusage only writes the struct it is given.
+    let mut u: libc::rusage = unsafe { std::mem::zeroed() };
+    let rc = unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut u) };
+    assert_eq!(rc, 0, "getrusage");
+    let secs = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    secs(u.ru_utime) + secs(u.ru_stime)
+}
+
 fn luminance(c: Vec3) -> f64 {
     glint::colour::luminance(c) as f64
 }
@@ -268,6 +279,7 @@ fn main() {
         "rays/texel".into(),
         "Mrays".into(),
         "bake s".into(),
+        "CPU s".into(),
         "peak mem".into(),
         "est. err med/p95".into(),
         "vs truth RMSE".into(),
@@ -344,6 +356,7 @@ fn main() {
             let base = LIVE.load(Ordering::Relaxed);
             PEAK.store(base, Ordering::Relaxed);
             let t = Instant::now();
+            let cpu = cpu_seconds();
             // The stage's atlas: the rule's, with the preset's contact boosts (as
             // `contacts::build`, a step at a time for the breakdown).
             let rule = glint::bake::radiosity_stage::density_rule(&scene, &s)
@@ -369,6 +382,7 @@ fn main() {
             }
             let t_seams = t_seams.elapsed().as_secs_f64();
             let secs = t.elapsed().as_secs_f64();
+            let cpu = cpu_seconds() - cpu;
             let t_io = write_stage(&atlas, &sol.radiance);
             if q == Quality::Default {
                 let phase = |name: &str| {
@@ -416,6 +430,7 @@ fn main() {
                 s.rays.to_string(),
                 format!("{:.1}", st.rays_cast as f64 / 1e6),
                 format!("{secs:.2}"),
+                format!("{cpu:.2}"),
                 human_bytes(peak as u64),
                 format!("{}/{}", pct(st.error_median), pct(st.error_p95)),
                 pct(m.rel_rmse),

@@ -382,12 +382,25 @@ fn solve_gathered(
     let mut refined = vec![false; samples.len()];
     let mut error = relative_errors(&lr, &links, &gathered, &albedo, &emission);
     if let Some(target) = set.target_error {
+        // Each element's share of the surface: the probes and the eye sample D by area.
+        let area: Vec<f64> = samples
+            .par_iter()
+            .map(|s| {
+                let spacing =
+                    atlas.texel_spacing(s.triangle, &scene.triangles[s.triangle as usize]);
+                if spacing.is_finite() {
+                    (spacing as f64).powi(2)
+                } else {
+                    0.0
+                }
+            })
+            .collect();
         let mut budget = REFINE_BUDGET * rays as u64 * samples.len() as u64;
         // Bytes the links hold, kept up to date as refinement adds to them.
         let mut held: u64 = links.iter().map(Links::held).sum();
         for round in 1..=MAX_ROUNDS {
             let mut which = more_samples(&error, &gathered, target, rays, light);
-            fit_budget(&mut which, &mut budget);
+            share_budget(&mut which, &error, &gathered, &area, &mut budget);
             if which.is_empty() {
                 break;
             }
@@ -706,14 +719,55 @@ fn relative_errors(
         .collect()
 }
 
-/// Scales the added samples down, proportionally, so that their rays fit in `budget` (what
-/// is left of [`REFINE_BUDGET`]), and takes them from it. Deterministic: integer arithmetic in
-/// element order.
-fn fit_budget(which: &mut Vec<(u32, u32, u32)>, budget: &mut u64) {
+/// Fits the added samples `which` (each element's want, from [`more_samples`]) into `budget`
+/// (what is left of [`REFINE_BUDGET`]) and takes them from it. When they do not fit, each
+/// element is brought to c·√(area × per-ray variance) rays for the one c that spends the
+/// budget, within what it wants: the split that minimises the area-weighted squared error
+/// (Σ aᵢVᵢ/nᵢ for Σ nᵢ fixed), so small texels (contact boosts) and nearly converged ones
+/// no longer take rays in proportion to their want. Deterministic: the sums are integers.
+fn share_budget(
+    which: &mut Vec<(u32, u32, u32)>,
+    error: &[f64],
+    gathered: &[Gathered],
+    area: &[f64],
+    budget: &mut u64,
+) {
     let total: u64 = which.iter().map(|w| w.1 as u64).sum();
     if total > *budget {
-        for w in which.iter_mut() {
-            let rays = (w.1 as u64 * *budget / total) as u32;
+        // (have, weight) per wanting element: nᵢ·eᵢ² is its per-ray relative variance.
+        let weights: Vec<(f64, f64)> = which
+            .iter()
+            .map(|&(i, _, _)| {
+                let have = gathered[i as usize].gathering_rays as f64;
+                let w = (area[i as usize] * have).sqrt() * error[i as usize];
+                (have, if w.is_finite() { w } else { f64::MAX })
+            })
+            .collect();
+        let adds = |c: f64| -> Vec<u32> {
+            which
+                .iter()
+                .zip(&weights)
+                .map(|(w, &(have, weight))| {
+                    ((c * weight).min(1e18) - have).clamp(0.0, w.1 as f64) as u32
+                })
+                .collect()
+        };
+        let spent = |a: &[u32]| a.iter().map(|&x| x as u64).sum::<u64>();
+        // Bisection on c: the largest whose adds fit.
+        let (mut lo, mut hi) = (0.0f64, 1.0f64);
+        while spent(&adds(hi)) <= *budget && hi < 1e30 {
+            hi *= 2.0;
+        }
+        for _ in 0..64 {
+            let mid = 0.5 * (lo + hi);
+            if spent(&adds(mid)) <= *budget {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let fitted = adds(lo);
+        for (w, rays) in which.iter_mut().zip(fitted) {
             w.2 = ((w.2 as u64 * rays as u64).div_ceil(w.1.max(1) as u64)) as u32;
             w.1 = rays;
         }
@@ -808,7 +862,7 @@ fn resolve_texels(
 mod tests {
     use glam::Vec3;
 
-    use super::{Gathered, Links, fit_budget};
+    use super::{Gathered, Links, share_budget};
     use crate::radiosity::gather::Moments;
 
     fn gathered(hits: Vec<u32>) -> Gathered {
@@ -858,25 +912,34 @@ mod tests {
     }
 
     #[test]
-    fn refinement_stays_within_its_ray_budget() {
-        let mut which = vec![(0, 100, 10), (1, 300, 30), (2, 1, 1)];
-        let mut budget = 200;
-        fit_budget(&mut which, &mut budget);
-        // Proportional shares, light samples scaled alike; an element whose share rounds to
-        // no ray is dropped.
-        assert_eq!(which, vec![(0, 49, 5), (1, 149, 15)]);
-        assert_eq!(budget, 2);
-        let mut more = vec![(3, 10, 1)];
-        fit_budget(&mut more, &mut budget);
-        assert_eq!(more, vec![(3, 2, 1)]);
-        assert_eq!(budget, 0);
-        let mut none = vec![(4, 10, 1)];
-        fit_budget(&mut none, &mut budget);
+    fn refinement_spends_its_budget_by_area_times_variance_within_each_want() {
+        let have = |n: usize| gathered(vec![0; n]);
+        let gathered = [have(100), have(100), have(100), have(100)];
+        // Element 1 is a quarter-area texel (a contact boost), element 2 has half the error;
+        // element 3 wants little.
+        let error = [0.1, 0.1, 0.05, 0.1];
+        let area = [1.0, 0.25, 1.0, 1.0];
+        let wants = vec![(0, 1000, 100), (1, 1000, 100), (2, 1000, 100), (3, 20, 2)];
+        // √(a·n)·e: 1, 0.5, 0.5, 1; each brought to c·weight rays, capped at its want: with
+        // element 3 at its 20, 2c − 300 = 580, c = 440.
+        let mut which = wants.clone();
+        let mut budget = 600;
+        share_budget(&mut which, &error, &gathered, &area, &mut budget);
+        let rays: Vec<u32> = which.iter().map(|w| w.1).collect();
+        assert!(rays[0].abs_diff(340) <= 1, "{rays:?}");
+        assert!(rays[1].abs_diff(120) <= 1 && rays[1] == rays[2], "{rays:?}");
+        assert_eq!(rays[3], 20);
+        assert!(budget <= 3, "left {budget}");
+        // Light samples scale with the rays.
+        assert_eq!(which[0].2, (100 * rays[0]).div_ceil(1000));
+        // Nothing left, nothing added.
+        let mut none = wants.clone();
+        share_budget(&mut none, &error, &gathered, &area, &mut 0);
         assert!(none.is_empty());
-        // Within the budget nothing changes.
-        let mut fits = vec![(5, 10, 2)];
-        let mut big = 100;
-        fit_budget(&mut fits, &mut big);
-        assert_eq!((fits, big), (vec![(5, 10, 2)], 90));
+        // Within the budget every want is met.
+        let mut fits = wants.clone();
+        let mut big = 5000;
+        share_budget(&mut fits, &error, &gathered, &area, &mut big);
+        assert_eq!((fits, big), (wants, 5000 - 3020));
     }
 }
