@@ -163,11 +163,28 @@ fn bilinear(t: TexRef, uv: vec2<f32>, level: i32) -> vec4<f32> {
     return mix(top, bottom, f.y);
 }
 
+// Trilinear: bilinear in the two mip levels around level of detail `lod` (already clamped
+// to the image's levels), blended, as glint::scene::texture::mips::sample_trilinear.
+fn trilinear(t: TexRef, uv: vec2<f32>, lod: f32) -> vec4<f32> {
+    let l0 = floor(lod);
+    let a = bilinear(t, uv, i32(l0));
+    let f = lod - l0;
+    if f <= 0.0 {
+        return a;
+    }
+    return mix(a, bilinear(t, uv, i32(l0) + 1), f);
+}
+
+// Most trilinear taps along a footprint's longer axis (glint::scene::texture::mips::MAX_ANISOTROPY).
+const MAX_ANISOTROPY: f32 = 16.0;
+
 // Linear RGBA of texture `t` at the fragment's UVs: the transform, then (linear samplers)
-// trilinear: bilinear in the two mip levels around the level of detail that `g`, the UVs'
-// screen derivatives, give (log2 of the longer screen axis's step in level-0 texels,
-// clamped to the image's levels), blended; nearest samplers (glTF magFilter NEAREST; the
-// scene keeps no minFilter) read the nearest level-0 texel, as Image::sample.
+// anisotropic filtering as glint::scene::texture::mips::sample_anisotropic: `g`, the UVs'
+// screen derivatives in level-0 texels, span a footprint whose shorter axis picks the level
+// of detail (the ratio of the axes clamped to MAX_ANISOTROPY) and whose longer axis carries
+// ceil(ratio) trilinear taps, averaged, so a grazing view keeps detail across its
+// footprint. Nearest samplers (glTF magFilter NEAREST; the scene keeps no minFilter) read
+// the nearest level-0 texel, as Image::sample.
 fn sample_surface(t: TexRef, uv0: vec2<f32>, uv1: vec2<f32>, g: UvGrads) -> vec4<f32> {
     let uv_in = select(uv0, uv1, t.a.w > 0.5);
     let s = sin(t.b.w);
@@ -184,17 +201,23 @@ fn sample_surface(t: TexRef, uv0: vec2<f32>, uv1: vec2<f32>, g: UvGrads) -> vec4
     let qy = d.zw * t.c.zw;
     let dx = vec2<f32>(c * qx.x + s * qx.y, -s * qx.x + c * qx.y) * t.a.yz;
     let dy = vec2<f32>(c * qy.x + s * qy.y, -s * qy.x + c * qy.y) * t.a.yz;
-    let rho2 = max(dot(dx, dx), dot(dy, dy));
+    let lx = dot(dx, dx);
+    let ly = dot(dy, dy);
+    let major = select(dy, dx, lx >= ly);
+    let major2 = max(lx, ly);
+    let minor2 = min(lx, ly);
+    let ratio = clamp(sqrt(major2 / max(minor2, 1e-20)), 1.0, MAX_ANISOTROPY);
     let top = min(firstLeadingBit(u32(max(t.a.y, t.a.z))), textureNumLevels(surface_images) - 1u);
     // log2(0) is −∞: no footprint clamps to level 0.
-    let lod = clamp(0.5 * log2(rho2), 0.0, f32(top));
-    let l0 = floor(lod);
-    let a = bilinear(t, uv, i32(l0));
-    let f = lod - l0;
-    if f <= 0.0 {
-        return a;
+    let lod = clamp(0.5 * log2(major2 / (ratio * ratio)), 0.0, f32(top));
+    let n = u32(ceil(ratio));
+    let axis = major / t.a.yz;
+    var sum = vec4<f32>(0.0);
+    for (var i = 0u; i < n; i++) {
+        let k = (f32(i) + 0.5) / f32(n) - 0.5;
+        sum += trilinear(t, uv + axis * k, lod);
     }
-    return mix(a, bilinear(t, uv, i32(l0) + 1), f);
+    return sum / f32(n);
 }
 
 // Whether the fragment lies in a cut-out (alpha MASK: factor × base colour alpha < cutoff),

@@ -1,5 +1,5 @@
 //! Mip chains of texture images, for sampling a texture seen smaller than its texels without
-//! aliasing (the viewer's trilinear filter, `shaders/view.wgsl`'s `sample_surface`). Level
+//! aliasing (the viewer's anisotropic filter, `shaders/view.wgsl`'s `sample_surface`). Level
 //! k + 1 halves level k (rounding down, at least one texel a side, as a GPU texture's levels
 //! do); each of its texels is the area-weighted mean of the level-k texels it covers, in
 //! linear space (RGB decoded from sRGB, alpha as stored), so every level keeps the image's
@@ -138,19 +138,6 @@ pub fn mip_chain(image: &Image) -> Vec<Image> {
     out
 }
 
-/// The level of detail of a screen footprint whose steps to the next pixel across and down
-/// are `dx` and `dy`, in level-0 texels: log2 of the longer (isotropic, as GPUs without
-/// anisotropic filtering choose), clamped to [0, `top`].
-pub fn level_of_detail(dx: Vec2, dy: Vec2, top: u32) -> f32 {
-    let rho2 = dx.length_squared().max(dy.length_squared());
-    let lod = 0.5 * rho2.log2();
-    if lod.is_nan() {
-        0.0
-    } else {
-        lod.clamp(0.0, top as f32)
-    }
-}
-
 /// A texture's value at `uv` (after any transform) and level of detail `lod`, as the viewer
 /// filters it: [`Image::sample`] in levels ⌊lod⌋ and ⌊lod⌋ + 1 of `levels` (level 0 first,
 /// then [`mip_chain`]), blended linearly; a nearest sampler reads level 0 alone.
@@ -166,6 +153,70 @@ pub fn sample_trilinear(levels: &[Image], sampler: &Sampler, uv: Vec2, lod: f32)
         return a;
     }
     a * (1.0 - f) + levels[k + 1].sample(sampler, uv) * f
+}
+
+/// Most trilinear taps [`sample_anisotropic`] takes along a footprint's longer axis: a
+/// longer footprint raises the level of detail instead.
+pub const MAX_ANISOTROPY: f32 = 16.0;
+
+/// How the viewer filters a screen footprint whose steps to the next pixel across and down
+/// are `dx` and `dy`, in level-0 texels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Footprint {
+    /// Level of detail: log2 of the shorter step, raised where the ratio of the steps
+    /// exceeds [`MAX_ANISOTROPY`], clamped to [0, top].
+    pub lod: f32,
+    /// Trilinear taps along the longer step: the ratio of the steps, rounded up.
+    pub taps: u32,
+    /// The longer step, in level-0 texels; the taps spread evenly across it.
+    pub axis: Vec2,
+}
+
+/// The [`Footprint`] of steps `dx` and `dy` (level-0 texels) on an image with levels 0 to
+/// `top`, as `shaders/view.wgsl`'s `sample_surface` computes it.
+pub fn footprint(dx: Vec2, dy: Vec2, top: u32) -> Footprint {
+    let (lx, ly) = (dx.length_squared(), dy.length_squared());
+    let axis = if lx >= ly { dx } else { dy };
+    let (major2, minor2) = (lx.max(ly), lx.min(ly));
+    let ratio = (major2 / minor2.max(1e-20))
+        .sqrt()
+        .clamp(1.0, MAX_ANISOTROPY);
+    let lod = 0.5 * (major2 / (ratio * ratio)).log2();
+    Footprint {
+        lod: if lod.is_nan() {
+            0.0
+        } else {
+            lod.clamp(0.0, top as f32)
+        },
+        taps: ratio.ceil() as u32,
+        axis,
+    }
+}
+
+/// A texture's value at `uv` (after any transform) over the screen footprint whose steps
+/// are `dx` and `dy` in level-0 texels, as the viewer filters it: the [`footprint`]'s taps
+/// at `uv` + axis · ((i + ½)/taps − ½), each [`sample_trilinear`] at its level of detail,
+/// averaged; a nearest sampler reads level 0 alone.
+pub fn sample_anisotropic(
+    levels: &[Image],
+    sampler: &Sampler,
+    uv: Vec2,
+    dx: Vec2,
+    dy: Vec2,
+) -> Vec4 {
+    if sampler.filter == Filter::Nearest {
+        return levels[0].sample(sampler, uv);
+    }
+    let f = footprint(dx, dy, (levels.len() - 1) as u32);
+    let size = Vec2::new(levels[0].width as f32, levels[0].height as f32);
+    let axis = f.axis / size;
+    let sum: Vec4 = (0..f.taps)
+        .map(|i| {
+            let k = (i as f32 + 0.5) / f.taps as f32 - 0.5;
+            sample_trilinear(levels, sampler, uv + axis * k, f.lod)
+        })
+        .sum();
+    sum / f.taps as f32
 }
 
 #[cfg(test)]
@@ -327,15 +378,47 @@ mod tests {
             sample_trilinear(&levels, &nearest, uv, 3.0),
             img.sample(&nearest, uv)
         );
+    }
+
+    #[test]
+    fn the_shorter_step_picks_the_level_and_the_longer_carries_the_taps() {
+        let f = footprint(Vec2::new(0.0, 1.0), Vec2::new(4.0, 0.0), 5);
+        assert_eq!((f.lod, f.taps, f.axis), (0.0, 4, Vec2::new(4.0, 0.0)));
+        // Equal steps: one tap at the longer step's level, as isotropic trilinear.
+        let f = footprint(Vec2::new(3.0, 4.0), Vec2::new(4.0, -3.0), 5);
+        assert_eq!((f.taps, f.lod), (1, 5f32.log2()));
+        // A ratio past the maximum raises the level: 64 / 16 texels per tap.
+        let f = footprint(Vec2::new(64.0, 0.0), Vec2::new(0.0, 1.0), 5);
+        assert_eq!((f.lod, f.taps), (2.0, 16));
         assert_eq!(
-            level_of_detail(Vec2::new(4.0, 0.0), Vec2::new(0.0, 1.0), 5),
-            2.0
-        );
-        assert_eq!(
-            level_of_detail(Vec2::new(3.0, 4.0), Vec2::new(0.0, 1.0), 1),
+            footprint(Vec2::new(64.0, 0.0), Vec2::new(0.0, 8.0), 1).lod,
             1.0
         );
-        assert_eq!(level_of_detail(Vec2::ZERO, Vec2::ZERO, 5), 0.0);
-        assert_eq!(level_of_detail(Vec2::splat(0.5), Vec2::ZERO, 5), 0.0);
+        assert_eq!(footprint(Vec2::ZERO, Vec2::ZERO, 5).lod, 0.0);
+        assert_eq!(footprint(Vec2::ZERO, Vec2::ZERO, 5).taps, 1);
+        assert_eq!(footprint(Vec2::splat(0.5), Vec2::ZERO, 5).lod, 0.0);
+    }
+
+    #[test]
+    fn anisotropic_taps_average_trilinear_lookups_along_the_longer_step() {
+        let img = checker(8, 8, [250, 250, 250, 255], [10, 10, 10, 255]);
+        let mut levels = vec![img.clone()];
+        levels.extend(mip_chain(&img));
+        let s = Sampler::default();
+        let uv = Vec2::new(0.3, 0.55);
+        // One texel across, four along u: level 0, taps 1 texel apart at -1.5..1.5.
+        let got = sample_anisotropic(&levels, &s, uv, Vec2::new(4.0, 0.0), Vec2::new(0.0, 1.0));
+        let want = [-1.5f32, -0.5, 0.5, 1.5]
+            .iter()
+            .map(|&k| img.sample(&s, uv + Vec2::new(k / 8.0, 0.0)))
+            .sum::<Vec4>()
+            / 4.0;
+        assert!(close(got, want, 1e-6), "{got} {want}");
+        // Isotropic: the trilinear lookup itself.
+        let (dx, dy) = (Vec2::new(2.0, 0.0), Vec2::new(0.0, 2.0));
+        assert_eq!(
+            sample_anisotropic(&levels, &s, uv, dx, dy),
+            sample_trilinear(&levels, &s, uv, 1.0)
+        );
     }
 }

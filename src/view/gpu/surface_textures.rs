@@ -5,7 +5,7 @@
 //! [`MaterialRecord`] per material saying which layer its base colour and emissive textures
 //! are, with their samplers and transforms. The shader filters by hand with `textureLoad`
 //! (wrap modes and bilinear weights exactly as [`crate::scene::texture::Image::sample`] within
-//! a level; trilinear between the two levels its UV derivatives choose).
+//! a level; anisotropic over the levels, as [`crate::scene::texture::mips::sample_anisotropic`]).
 
 use bytemuck::{Pod, Zeroable};
 
