@@ -93,6 +93,7 @@ fn main() {
                     generations,
                     parallax: true,
                     self_occlusion: true,
+                    specular_aa: true,
                 };
                 // The quietest of three builds (pipelines are created each time, not timed).
                 let mut best = f64::INFINITY;

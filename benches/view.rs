@@ -791,6 +791,7 @@ fn fidelity_options(data: &glint::view::load::ViewData, quality: Quality) -> Vie
         parallax: std::env::var("GLINT_BENCH_CUBE_PARALLAX").map_or(true, |v| v != "off"),
         self_occlusion: std::env::var("GLINT_BENCH_CUBE_SELF_OCCLUSION")
             .map_or(true, |v| v != "off"),
+        specular_aa: true,
         face_size: std::env::var("GLINT_BENCH_FACE_SIZE").map_or(
             glint::view::curved::DEFAULT_FACE_SIZE,
             |v| {

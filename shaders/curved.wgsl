@@ -41,8 +41,8 @@ struct CurvedParams {
     // cast against its own triangles (`own_closest`) from this distance on; 0: they are not.
     centre: vec4<f32>,
     // x: lobes; y: 1 = regular sampling (Eq. 9), 0 = one mirror lookup; z: face size of the
-    // environment's level 0 (Eq. 16's N = z²); w: 1 = distance-corrected lookups
-    // (`curved_lookup`), 0 = lookups from the centre.
+    // environment's level 0 (Eq. 16's N = z²); w: bit 1 = distance-corrected lookups
+    // (`curved_lookup`, else lookups from the centre), bit 2 = specular anti-aliasing.
     info: vec4<u32>,
     // Inside a planar mirror's pass (`fs_curved_mirror`): the mirror's plane, xyz its normal,
     // w = normal · point + clip distance; fragments p with xyz · p ≤ w are discarded.
@@ -89,6 +89,13 @@ const ALPHA_MAX: f32 = 1.5697963;
 const PARALLAX_STEPS: u32 = 3u;
 // `own_mesh::OWN_STACK`.
 const OWN_STACK: u32 = 48u;
+// Specular anti-aliasing (`kernel_roughness2`): the pixel filter's variance σ² and the
+// most the kernel may add to α², κ (Filament's defaults).
+const SAA_SIGMA2: f32 = 0.15;
+const SAA_KAPPA: f32 = 0.2;
+// ξ₀ of the kernel's lobe in `mirror_level`: its border at slope α (e = 1), where the GGX
+// density falls to a quarter of its peak, as wide as the pixel's spread of normals.
+const SAA_XI0: f32 = 0.25;
 
 // The tangent frame of `sampling::basis` (Duff et al. 2017): columns tangent, bitangent, n.
 fn curved_basis(n: vec3<f32>) -> mat3x3<f32> {
@@ -242,7 +249,7 @@ fn sphere_exit(b: f32, c: f32, radius: f32) -> f32 {
 // (`curved::parallax_direction`, distance impostors, Szirmay-Kalos et al. 2005). `dir`
 // itself when the correction is off or nothing was seen.
 fn curved_lookup(offset: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
-    if curved.info.w == 0u {
+    if (curved.info.w & 1u) == 0u {
         return dir;
     }
     let b = dot(offset, dir);
@@ -455,15 +462,32 @@ fn curved_environment_at(offset: vec3<f32>, dir: vec3<f32>, u: vec3<f32>) -> vec
     return textureSampleLevel(env, env_sampler, u, 0.0).rgb;
 }
 
+// α² the shading normal's spread across the pixel adds to every lobe (0 where the pass has
+// no pixel footprint), so that a highlight narrower than a pixel is spread over it.
+// Tokuyoshi & Kaplanyan 2019 (Filament's specularAntiAliasing): α² += min(2σ²(|∂n/∂x|² + |∂n/∂y|²), κ).
+fn kernel_roughness2(n: vec3<f32>) -> f32 {
+    let du = dpdx(n);
+    let dv = dpdy(n);
+    return min(2.0 * SAA_SIGMA2 * (dot(du, du) + dot(dv, dv)), SAA_KAPPA);
+}
+
+// A roughness m widened by the kernel's α² (`kernel_roughness2`); m itself where it adds none.
+fn widened(m: f32, kernel2: f32) -> f32 {
+    return select(m, sqrt(m * m + kernel2), kernel2 > 0.0);
+}
+
 // Eq. 9 with a regular pattern: (1/N) Σ L(ω_i) f(ω_i, ω_o) cos θ_i / p(ω_i), p from Eq. 17–18,
-// each L at its Eq. 16 level (`envmap::specular_regular`, ks included here).
-fn specular_regular(l: CurvedLobe, frame_m: mat3x3<f32>, wo_l: vec3<f32>, offset: vec3<f32>) -> vec3<f32> {
+// each L at its Eq. 16 level (`envmap::specular_regular`, ks included here), the lobe's area
+// widened by the pixel's kernel α² `kernel2`.
+fn specular_regular(l: CurvedLobe, frame_m: mat3x3<f32>, wo_l: vec3<f32>, offset: vec3<f32>, kernel2: f32) -> vec3<f32> {
     let count = l.samples.y;
     if wo_l.z <= 0.0 || count == 0u {
         return vec3<f32>(0.0);
     }
     let n = f32(count);
-    let area = lobe_area(l.rough.x, l.rough.y, l.rough.z, wo_l, l.samples.z); // Eq. 14–15
+    let mx = widened(l.rough.x, kernel2);
+    let my = widened(l.rough.y, kernel2);
+    let area = lobe_area(mx, my, l.rough.z, wo_l, l.samples.z); // Eq. 14–15
     let face = f32(curved.info.z);
     // A sample that meets the reflector itself shows the hit's reflection by one lookup, which
     // stands for the whole lobe there: N samples' solid angle, ½·log2 N levels above Eq. 16's.
@@ -503,17 +527,31 @@ fn specular_mirror(n: vec3<f32>, wo: vec3<f32>, radiance: vec3<f32>) -> vec3<f32
     return sum * radiance;
 }
 
+// The MIP level of the mirror lookup in direction `r`: level 0 for a mirror, the Eq. 16
+// level of one sample of a GGX lobe of α² = `kernel2` (Eq. 14–15) where the pixel adds one.
+fn mirror_level(n: vec3<f32>, wo: vec3<f32>, r: vec3<f32>, kernel2: f32) -> f32 {
+    if kernel2 <= 0.0 {
+        return 0.0;
+    }
+    let a = sqrt(kernel2);
+    let area = lobe_area(a, a, SAA_XI0, wo * curved_basis(n), 1u);
+    return mip_level(area, f32(curved.info.z), 1.0, r, n);
+}
+
 // The specular radiance of every lobe at the point `offset` from the centre, with normal `n`,
-// seen from direction `wo` (unit, world).
-fn curved_specular(offset: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, regular: bool) -> vec3<f32> {
+// seen from direction `wo` (unit, world), each lobe widened by the pixel's kernel α²
+// `kernel2` (`kernel_roughness2`; 0: none).
+fn curved_specular(offset: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, regular: bool, kernel2: f32) -> vec3<f32> {
     if !regular {
-        return specular_mirror(n, wo, curved_environment(offset, reflect_about(wo, n), 0.0, 0.0));
+        let r = reflect_about(wo, n);
+        let lod = mirror_level(n, wo, r, kernel2);
+        return specular_mirror(n, wo, curved_environment(offset, r, lod, lod));
     }
     var sum = vec3<f32>(0.0);
     let frame_m = curved_basis(n);
     let wo_l = wo * frame_m; // to the tangent frame: dot with each column
     for (var i = 0u; i < min(curved.info.x, 2u); i++) {
-        sum += specular_regular(curved.lobes[i], frame_m, wo_l, offset);
+        sum += specular_regular(curved.lobes[i], frame_m, wo_l, offset, kernel2);
     }
     return sum;
 }
@@ -549,7 +587,8 @@ fn facing_normal(in: CurvedOut) -> vec3<f32> {
 fn fs_curved(in: CurvedOut) -> FragmentOut {
     let wo = normalize(curved.eye.xyz - in.world);
     let offset = in.world - curved.centre.xyz;
-    let c = curved_specular(offset, facing_normal(in), wo, curved.info.y != 0u) * frame.exposure;
+    let kernel2 = select(0.0, kernel_roughness2(normalize(in.normal)), (curved.info.w & 2u) != 0u);
+    let c = curved_specular(offset, facing_normal(in), wo, curved.info.y != 0u, kernel2) * frame.exposure;
     var out: FragmentOut;
     // Added to kd·D of the scene pass by the blend state (as `fs_composite` of reflect.wgsl).
     var color = c;
@@ -579,7 +618,7 @@ fn fs_curved_mirror(in: CurvedOut) -> @location(0) vec4<f32> {
     let u = curved_lookup(offset, r);
     var c: vec3<f32>;
     if curved.info.y != 0u {
-        c = curved_specular(offset, n, wo, true);
+        c = curved_specular(offset, n, wo, true, 0.0);
     } else {
         // One lookup for the mirror term and the hit distance below.
         c = specular_mirror(n, wo, curved_environment_at(offset, r, u));
@@ -614,7 +653,7 @@ fn fs_env(in: WorldOut) -> @location(0) vec4<f32> {
 @fragment
 fn fs_curved_env(in: CurvedOut) -> @location(0) vec4<f32> {
     let wo = normalize(curved.eye.xyz - in.world);
-    return vec4<f32>(curved_specular(in.world - curved.centre.xyz, facing_normal(in), wo, false), 0.0);
+    return vec4<f32>(curved_specular(in.world - curved.centre.xyz, facing_normal(in), wo, false, 0.0), 0.0);
 }
 
 // MIP generation of live cube maps: one face of level ℓ from level ℓ − 1 (2×2 box).
@@ -656,7 +695,7 @@ fn cs_glossy_probe(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let p = glossy_in[k];
-    glossy_out[k] = vec4<f32>(curved_specular(vec3<f32>(0.0), normalize(p.normal.xyz), normalize(p.wo.xyz), curved.info.y != 0u), 1.0);
+    glossy_out[k] = vec4<f32>(curved_specular(vec3<f32>(0.0), normalize(p.normal.xyz), normalize(p.wo.xyz), curved.info.y != 0u, 0.0), 1.0);
 }
 
 // Per input: the ray from `normal.xyz` along `wo.xyz` with t_min `normal.w`, cast against

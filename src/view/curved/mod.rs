@@ -369,8 +369,9 @@ pub struct CurvedParams {
     /// ([`own_mesh`]) from this distance on ([`own_offset`]); 0: they are not (`new` leaves
     /// it 0).
     pub centre: [f32; 4],
-    /// Lobes, 1 = regular sampling, face size of the environment's level 0, 1 =
-    /// distance-corrected lookups ([`parallax_direction`]; `new` leaves it 0).
+    /// Lobes, 1 = regular sampling, face size of the environment's level 0, bits: 1 =
+    /// distance-corrected lookups ([`parallax_direction`]), 2 = specular anti-aliasing
+    /// (`new` leaves both 0).
     pub info: [u32; 4],
     /// Inside a planar mirror's pass: the mirror's plane, normal xyz and w the sum of
     /// normal · point and the clip distance; fragments p with xyz · p ≤ w (behind the

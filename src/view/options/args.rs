@@ -92,6 +92,12 @@ pub struct ViewArgs {
     #[arg(long, value_name = "on|off", default_value = "on", value_parser = parse_on_off,
           action = clap::ArgAction::Set)]
     pub cube_self_occlusion: bool,
+    /// Curved reflectors: specular anti-aliasing (`on`): each lobe widened by the spread of
+    /// the shading normal across the pixel, so a highlight narrower than a pixel does not
+    /// fill it; `off`: every pixel shades its centre's normal only.
+    #[arg(long, value_name = "on|off", default_value = "on", value_parser = parse_on_off,
+          action = clap::ArgAction::Set)]
+    pub specular_aa: bool,
     /// Geometry reflections: recursion depth 0–4 (Nielsen & Christensen 2002 §3.1): 0 draws
     /// no reflections (as `--reflections off`), 1 mirrors the scene once per reflector (the
     /// default), 2–4 also draw the reflectors seen in each reflection, one reflection map per
@@ -217,6 +223,7 @@ impl ViewArgs {
                 generations: self.cube_generations,
                 parallax: self.cube_parallax,
                 self_occlusion: self.cube_self_occlusion,
+                specular_aa: self.specular_aa,
             },
             recursion: RecursionSettings {
                 depth: self.recursion_depth.unwrap_or(1),
@@ -294,6 +301,8 @@ mod tests {
             "off",
             "--cube-self-occlusion",
             "off",
+            "--specular-aa",
+            "off",
             "--recursion-depth",
             "3",
             "--reflection-cutoff",
@@ -327,6 +336,7 @@ mod tests {
                     generations: 3,
                     parallax: false,
                     self_occlusion: false,
+                    specular_aa: false,
                 },
                 recursion: RecursionSettings {
                     depth: 3,

@@ -397,7 +397,8 @@ impl CurvedReflections {
                         reflector.centre,
                         env_size,
                     );
-                    base_params.info[3] = u32::from(settings.parallax);
+                    base_params.info[3] = u32::from(settings.parallax)
+                        | (u32::from(settings.specular_aa) << 1);
                     if self_hits {
                         base_params.centre[3] = own_offset(bounding_radius(scene, &reflector));
                     }
