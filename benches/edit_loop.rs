@@ -20,6 +20,9 @@
 //! Each bake's CPU time (user + system, all threads) is given beside its wall time: on a
 //! machine shared with other work, the wall time follows the load, the CPU time much less.
 
+#[path = "common/cpu_time.rs"]
+mod cpu_time;
+
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::Instant;
@@ -153,16 +156,6 @@ impl Progress for Phases {
     fn advance(&self, _: u64) {}
 }
 
-/// The CPU seconds (user + system) this process has used so far.
-fn cpu_seconds() -> f64 {
-    // SAFETY: getrusage only writes the struct it is given.
-    let mut u: libc::rusage = unsafe { std::mem::zeroed() };
-    let rc = unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut u) };
-    assert_eq!(rc, 0, "getrusage");
-    let secs = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
-    secs(u.ru_utime) + secs(u.ru_stime)
-}
-
 /// A bake's wall and CPU seconds.
 #[derive(Clone, Copy)]
 struct Took {
@@ -174,7 +167,7 @@ impl Took {
     fn since(start: Instant, cpu: f64) -> Took {
         Took {
             wall: start.elapsed().as_secs_f64(),
-            cpu: cpu_seconds() - cpu,
+            cpu: cpu_time::cpu_seconds() - cpu,
         }
     }
 }
@@ -189,7 +182,7 @@ fn bake(
 ) -> (Took, Incremental) {
     let timed = Phases::new();
     let progress: &dyn Progress = if phases { &timed } else { &Silent };
-    let (start, cpu) = (Instant::now(), cpu_seconds());
+    let (start, cpu) = (Instant::now(), cpu_time::cpu_seconds());
     let scene = Scene::load(scene_json).unwrap_or_else(|e| panic!("{e}"));
     let settings = BakeSettings::resolve(&scene, quality.unwrap_or(scene.desc.bake.quality))
         .unwrap_or_else(|e| panic!("{e}"));
@@ -281,7 +274,7 @@ fn main() {
     // route costs a bake from scratch.
     let per_stage = (!no_per_stage).then(|| {
         let bundle = work.path().join("per-stage.glint");
-        let (start, cpu) = (Instant::now(), cpu_seconds());
+        let (start, cpu) = (Instant::now(), cpu_time::cpu_seconds());
         let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
         let settings = BakeSettings::resolve(&scene, quality.unwrap_or(scene.desc.bake.quality))
             .unwrap_or_else(|e| panic!("{e}"));

@@ -19,6 +19,9 @@
 //! `cargo bench --bench radiosity [-- [--converged] [--presets draft,default,high]
 //! [--anchors FILE.json ...] SCENE.json ...]` (default: the four shipped scenes, every preset).
 
+#[path = "common/cpu_time.rs"]
+mod cpu_time;
+
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -190,16 +193,6 @@ fn anchor_seconds_at(front: &[(f64, f64)], error: f64) -> Option<(f64, bool)> {
     Some(((s0.ln() + t * (s1.ln() - s0.ln())).exp(), false))
 }
 
-/// The CPU seconds (user + system) this process has used so far.
-fn cpu_seconds() -> f64 {
-    // SAFETY: getrusage only writes the struct it is given.
-    let mut u: libc::rusage = unsafe { std::mem::zeroed() };
-    let rc = unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut u) };
-    assert_eq!(rc, 0, "getrusage");
-    let secs = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
-    secs(u.ru_utime) + secs(u.ru_stime)
-}
-
 fn luminance(c: Vec3) -> f64 {
     glint::colour::luminance(c) as f64
 }
@@ -356,7 +349,7 @@ fn main() {
             let base = LIVE.load(Ordering::Relaxed);
             PEAK.store(base, Ordering::Relaxed);
             let t = Instant::now();
-            let cpu = cpu_seconds();
+            let cpu = cpu_time::cpu_seconds();
             // The stage's atlas: the rule's, with the preset's contact boosts (as
             // `contacts::build`, a step at a time for the breakdown).
             let rule = glint::bake::radiosity_stage::density_rule(&scene, &s)
@@ -382,7 +375,7 @@ fn main() {
             }
             let t_seams = t_seams.elapsed().as_secs_f64();
             let secs = t.elapsed().as_secs_f64();
-            let cpu = cpu_seconds() - cpu;
+            let cpu = cpu_time::cpu_seconds() - cpu;
             let t_io = write_stage(&atlas, &sol.radiance);
             if q == Quality::Default {
                 let phase = |name: &str| {

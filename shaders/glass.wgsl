@@ -8,17 +8,24 @@
 // reflectance at normal incidence ((n − 1)/(n + 1))².
 @group(2) @binding(0) var<storage, read> glass: array<vec4<f32>>;
 
-// Transmittance towards the eye: Schlick's Fresnel at the facet's angle (either side).
+// What the pane of `material` at `world` lets through towards the eye: tint × factor ×
+// (1 − F), Schlick's F at the facet's angle (either side). Called before any discard: the
+// facet's normal comes from screen derivatives.
+fn transmittance(material: u32, world: vec3<f32>) -> vec3<f32> {
+    let n = normalize(cross(dpdx(world), dpdy(world)));
+    let c = abs(dot(n, normalize(frame.eye.xyz - world)));
+    let g = glass[material];
+    let f = g.a + (1.0 - g.a) * pow(1.0 - min(c, 1.0), 5.0);
+    return g.rgb * (1.0 - f);
+}
+
 @fragment
 fn fs_glass_tint(in: WorldOut) -> @location(0) vec4<f32> {
-    let n = normalize(cross(dpdx(in.world), dpdy(in.world)));
+    let t = transmittance(in.material, in.world);
     if cut_out(in.material, in.uv0, in.uv1) {
         discard;
     }
-    let c = abs(dot(n, normalize(frame.eye.xyz - in.world)));
-    let g = glass[in.material];
-    let f = g.a + (1.0 - g.a) * pow(1.0 - min(c, 1.0), 5.0);
-    return vec4<f32>(g.rgb * (1.0 - f), 1.0);
+    return vec4<f32>(t, 1.0);
 }
 
 // The glass's own exitant radiance D, as the scene pass shades an opaque surface.

@@ -5,14 +5,11 @@
 
 @fragment
 fn fs_mirror_glass_tint(in: MirrorOut) -> @location(0) vec4<f32> {
-    let n = normalize(cross(dpdx(in.world), dpdy(in.world)));
+    let t = transmittance(in.material, in.world);
     if side(in.world) <= reflect_params.ks.a || cut_out(in.material, in.uv0, in.uv1) {
         discard;
     }
-    let c = abs(dot(n, normalize(frame.eye.xyz - in.world)));
-    let g = glass[in.material];
-    let f = g.a + (1.0 - g.a) * pow(1.0 - min(c, 1.0), 5.0);
-    return vec4<f32>(g.rgb * (1.0 - f), 1.0);
+    return vec4<f32>(t, 1.0);
 }
 
 @fragment

@@ -24,7 +24,7 @@ use glint::scene::Scene;
 use glint::view::load::{ViewData, load};
 use glint::view::reflections::ReflectionMode;
 
-use common::{MaterialSpec, rect};
+use common::MaterialSpec;
 
 const TINT: [f32; 3] = [0.9, 0.5, 0.2];
 const SIZE: (u32, u32) = (160, 120);
@@ -40,37 +40,15 @@ fn bake_room() -> (PathBuf, PathBuf) {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("view-glass-reflected");
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let coloured = |name, c: [f32; 3]| MaterialSpec {
-        base: [c[0], c[1], c[2], 1.0],
-        ..MaterialSpec::diffuse(name, 0.5)
-    };
-    let materials = vec![
-        coloured("Grey", [0.6, 0.6, 0.6]),
-        coloured("Red", [0.7, 0.25, 0.2]),
-        coloured("Green", [0.25, 0.65, 0.3]),
-        coloured("Blue", [0.3, 0.35, 0.7]),
-        MaterialSpec::emitter("Light", [1.0, 1.0, 1.0], 6.0),
-        coloured("Glass", TINT),
-        // A white metal of glTF roughness 0.02: a GGX mirror whose reflectance is 1 at every
-        // angle, as the viewer's R is without a materials stage.
-        MaterialSpec {
-            base: [1.0; 4],
-            metallic: 1.0,
-            roughness: 0.02,
-            ..MaterialSpec::diffuse("FloorMat", 0.0)
-        },
-    ];
-    let (x, y, z) = (Vec3::X, Vec3::Y, Vec3::Z);
-    let meshes = vec![
-        rect("Floor", 6, Vec3::new(-2.0, 0.0, 2.0), 4.0 * x, -4.0 * z),
-        rect("Ceiling", 0, Vec3::new(-2.0, 3.0, -2.0), 4.0 * x, 4.0 * z),
-        rect("Back", 3, Vec3::new(-2.0, 0.0, -2.0), 4.0 * x, 3.0 * y),
-        rect("Front", 0, Vec3::new(2.0, 0.0, 2.0), -4.0 * x, 3.0 * y),
-        rect("Left", 1, Vec3::new(-2.0, 0.0, 2.0), -4.0 * z, 3.0 * y),
-        rect("Right", 2, Vec3::new(2.0, 0.0, -2.0), 4.0 * z, 3.0 * y),
-        rect("Lamp", 4, Vec3::new(-0.5, 2.99, -0.5), x, z),
-        rect("Pane", 5, Vec3::new(-0.5, 0.3, 0.0), x, y),
-    ];
+    let (meshes, mut materials) = common::pane_room(TINT, 6, 0.3);
+    // A white metal of glTF roughness 0.02: a GGX mirror whose reflectance is 1 at every
+    // angle, as the viewer's R is without a materials stage.
+    materials.push(MaterialSpec {
+        base: [1.0; 4],
+        metallic: 1.0,
+        roughness: 0.02,
+        ..MaterialSpec::diffuse("FloorMat", 0.0)
+    });
     let gltf = common::write_gltf(&dir, "room", &meshes, &materials);
     common::add_transmission(&gltf, 5, 1.0);
     let scene_json = common::write_scene(

@@ -65,19 +65,12 @@ fn bake_room(slab: bool) -> PathBuf {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("view-slab-mirror-{name}"));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let coloured = |name, c: [f32; 3]| MaterialSpec {
-        base: [c[0], c[1], c[2], 1.0],
-        ..MaterialSpec::diffuse(name, 0.5)
-    };
-    let materials = vec![
-        coloured("Grey", [0.6, 0.6, 0.6]),
-        coloured("Red", [0.7, 0.25, 0.2]),
-        coloured("Green", [0.25, 0.65, 0.3]),
-        coloured("Blue", [0.3, 0.35, 0.7]),
-        coloured("Yellow", [0.85, 0.7, 0.1]),
+    let mut materials = common::coloured_walls();
+    materials.extend([
+        common::coloured("Yellow", [0.85, 0.7, 0.1]),
         MaterialSpec::emitter("Light", [1.0, 1.0, 1.0], 6.0),
         MaterialSpec::diffuse("MirrorMat", 0.5),
-    ];
+    ]);
     let (x, y, z) = (Vec3::X, Vec3::Y, Vec3::Z);
     let mut meshes = vec![
         rect("Floor", 0, Vec3::new(-2.0, 0.0, 2.0), 4.0 * x, -4.0 * z),

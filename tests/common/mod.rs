@@ -407,6 +407,48 @@ pub fn uv_sphere(
     }
 }
 
+/// A diffuse material of base colour `c` (glTF roughness 0.5).
+pub fn coloured(name: &'static str, c: [f32; 3]) -> MaterialSpec {
+    MaterialSpec {
+        base: [c[0], c[1], c[2], 1.0],
+        ..MaterialSpec::diffuse(name, 0.5)
+    }
+}
+
+/// The coloured rooms' walls, materials 0–3: grey, red, green and blue.
+pub fn coloured_walls() -> Vec<MaterialSpec> {
+    vec![
+        coloured("Grey", [0.6, 0.6, 0.6]),
+        coloured("Red", [0.7, 0.25, 0.2]),
+        coloured("Green", [0.25, 0.65, 0.3]),
+        coloured("Blue", [0.3, 0.35, 0.7]),
+    ]
+}
+
+/// A closed 4 × 3 × 4 m room of [`coloured_walls`] (grey floor, ceiling and front, red left,
+/// green right, blue back), a 1 × 1 m ceiling lamp (material 4) and a 1 × 1 m pane of tint
+/// `glass` (material 5; the caller makes it transmissive with [`add_transmission`]) at z = 0,
+/// its lower edge `pane_y` above the floor. The floor takes material `floor`, so a caller may
+/// append its own.
+pub fn pane_room(glass: [f32; 3], floor: usize, pane_y: f32) -> (Vec<MeshSpec>, Vec<MaterialSpec>) {
+    use glam::Vec3;
+    let mut materials = coloured_walls();
+    materials.push(MaterialSpec::emitter("Light", [1.0, 1.0, 1.0], 6.0));
+    materials.push(coloured("Glass", glass));
+    let (x, y, z) = (Vec3::X, Vec3::Y, Vec3::Z);
+    let meshes = vec![
+        rect("Floor", floor, Vec3::new(-2.0, 0.0, 2.0), 4.0 * x, -4.0 * z),
+        rect("Ceiling", 0, Vec3::new(-2.0, 3.0, -2.0), 4.0 * x, 4.0 * z),
+        rect("Back", 3, Vec3::new(-2.0, 0.0, -2.0), 4.0 * x, 3.0 * y),
+        rect("Front", 0, Vec3::new(2.0, 0.0, 2.0), -4.0 * x, 3.0 * y),
+        rect("Left", 1, Vec3::new(-2.0, 0.0, 2.0), -4.0 * z, 3.0 * y),
+        rect("Right", 2, Vec3::new(2.0, 0.0, -2.0), 4.0 * z, 3.0 * y),
+        rect("Lamp", 4, Vec3::new(-0.5, 2.99, -0.5), x, z),
+        rect("Pane", 5, Vec3::new(-0.5, pane_y, 0.0), x, y),
+    ];
+    (meshes, materials)
+}
+
 /// A rectangle corner, corner + u, corner + u + v, corner + v: facing u × v.
 pub fn rect(
     name: &'static str,
