@@ -53,7 +53,7 @@ use crate::brdf::kurt::fresnel_schlick;
 use crate::brdf::pattern::{Pattern, closest_pattern_for};
 use crate::brdf::{Lobe, reflect};
 use crate::camera::Camera;
-use crate::scene::{ReflectorKind, Scene};
+use crate::scene::{Reflector, ReflectorKind, Scene};
 
 /// WGSL of the curved-reflector passes (appended to
 /// [`crate::view::passes::renderer::SHADER_SOURCE`]).
@@ -100,28 +100,7 @@ pub fn curved_reflectors(scene: &Scene) -> Vec<CurvedReflector> {
         .reflectors
         .iter()
         .filter(|r| r.kind == ReflectorKind::Curved)
-        .filter_map(|r| {
-            let material = scene.materials.get(r.material as usize)?;
-            let mut lobes: Vec<Lobe> = material.lobes.iter().map(Lobe::from).collect();
-            lobes.retain(|l| l.ks.max_element() > 0.0);
-            if lobes.is_empty() {
-                return None;
-            }
-            if lobes.len() > MAX_LOBES {
-                log::warn!(
-                    "curved reflector {}: {} lobes, the viewer draws the first {MAX_LOBES}",
-                    r.name,
-                    lobes.len()
-                );
-                lobes.truncate(MAX_LOBES);
-            }
-            Some(CurvedReflector {
-                name: r.name.clone(),
-                triangles: r.triangles.clone(),
-                centre: crate::materials::envmap::capture_centre(scene, &r.triangles),
-                lobes,
-            })
-        })
+        .filter_map(|r| with_lobes(scene, r))
         .collect()
 }
 
@@ -134,22 +113,37 @@ pub fn near_mirrors(scene: &Scene) -> Vec<CurvedReflector> {
         .reflectors
         .iter()
         .filter(|r| r.kind == ReflectorKind::Planar)
-        .filter_map(|r| {
-            let material = scene.materials.get(r.material as usize)?;
-            if !crate::radiosity::is_mirror(material) {
-                return None;
-            }
-            let mut lobes: Vec<Lobe> = material.lobes.iter().map(Lobe::from).collect();
-            lobes.retain(|l| l.ks.max_element() > 0.0);
-            lobes.truncate(MAX_LOBES);
-            (!lobes.is_empty()).then(|| CurvedReflector {
-                name: r.name.clone(),
-                triangles: r.triangles.clone(),
-                centre: crate::materials::envmap::capture_centre(scene, &r.triangles),
-                lobes,
-            })
+        .filter(|r| {
+            let material = scene.materials.get(r.material as usize);
+            material.is_some_and(crate::radiosity::is_mirror)
         })
+        .filter_map(|r| with_lobes(scene, r))
         .collect()
+}
+
+/// Reflector `r` with its material's glossy lobes (at most [`MAX_LOBES`], with a warning
+/// beyond) and its capture centre; `None` where the material has no glossy lobe.
+fn with_lobes(scene: &Scene, r: &Reflector) -> Option<CurvedReflector> {
+    let material = scene.materials.get(r.material as usize)?;
+    let mut lobes: Vec<Lobe> = material.lobes.iter().map(Lobe::from).collect();
+    lobes.retain(|l| l.ks.max_element() > 0.0);
+    if lobes.is_empty() {
+        return None;
+    }
+    if lobes.len() > MAX_LOBES {
+        log::warn!(
+            "reflector {}: {} lobes, the viewer's cube maps draw the first {MAX_LOBES}",
+            r.name,
+            lobes.len()
+        );
+        lobes.truncate(MAX_LOBES);
+    }
+    Some(CurvedReflector {
+        name: r.name.clone(),
+        triangles: r.triangles.clone(),
+        centre: crate::materials::envmap::capture_centre(scene, &r.triangles),
+        lobes,
+    })
 }
 
 /// The 90° camera of cube face `face` (+X, −X, +Y, −Y, +Z, −Z) at `centre`, oriented as
