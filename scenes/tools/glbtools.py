@@ -5,8 +5,10 @@ bytes: no timestamps, no dict-order or float-formatting surprises (every float i
 float32 before it is written, and JSON keys keep insertion order).
 """
 
+import argparse
 import json
 import math
+import os
 import struct
 import zlib
 
@@ -358,3 +360,24 @@ def drop_degenerate(positions, indices, rel=1e-6):
         if longest > 0.0 and math.sqrt(dot(n, n)) > rel * longest:
             kept += indices[t : t + 3]
     return kept
+
+
+def write_atomically(path, chunks):
+    """Writes the byte strings `chunks` to `path` through a temporary file, so that a failed
+    run leaves the old file whole."""
+    tmp = path + ".tmp"
+    with open(tmp, "wb") as f:
+        for c in chunks:
+            f.write(c)
+    os.replace(tmp, path)
+
+
+def generator_main(doc, default_out, build):
+    """The command line of a scene generator: `--out` (default `default_out`) receives the
+    .glb that `build()` returns; `doc`'s first paragraph is the help text."""
+    parser = argparse.ArgumentParser(description=doc.split("\n\n")[0])
+    parser.add_argument("--out", default=default_out, help="output .glb (default: %(default)s)")
+    args = parser.parse_args()
+    data = build()
+    write_atomically(args.out, [data])
+    print("wrote %s (%d bytes)" % (args.out, len(data)))

@@ -36,7 +36,7 @@ from fractions import Fraction
 
 sys.dont_write_bytecode = True  # keep scenes/tools free of __pycache__
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from glbtools import ARRAY_BUFFER, CHUNK_BIN, CHUNK_JSON, ELEMENT_ARRAY_BUFFER, FLOAT, GLB_MAGIC, UINT32, f32, read_glb  # noqa: E402
+from glbtools import ARRAY_BUFFER, CHUNK_BIN, CHUNK_JSON, ELEMENT_ARRAY_BUFFER, FLOAT, GLB_MAGIC, UINT32, f32, read_glb, write_atomically  # noqa: E402
 
 SCENES = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -396,14 +396,6 @@ def build(size, seed):
         "keyframes": len(keyframes),
     }
     return w.to_bytes(), desc, counts
-
-
-def write_atomically(path, chunks):
-    tmp = path + ".tmp"
-    with open(tmp, "wb") as f:
-        for c in chunks:
-            f.write(c)
-    os.replace(tmp, path)
 
 
 def main():

@@ -10,13 +10,12 @@ z ∈ [-2.5, 2.5]; "north" is −Z (where the default cameras look).
 Usage: python3 scenes/tools/make_glossy_room.py [--out PATH]
 """
 
-import argparse
 import os
 import sys
 
 sys.dont_write_bytecode = True  # keep scenes/tools free of __pycache__
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from glbtools import Geometry, GlbWriter, drop_degenerate, read_glb_mesh  # noqa: E402
+from glbtools import drop_degenerate, generator_main, Geometry, GlbWriter, read_glb_mesh  # noqa: E402
 
 SCENE_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "glossy-room")
 TEAPOT_GLB = os.path.join(SCENE_DIR, "source", "teapot.glb")
@@ -100,15 +99,5 @@ def build():
     return w.to_bytes()
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--out", default=os.path.join(SCENE_DIR, "glossy-room.glb"), help="output .glb (default: %(default)s)")
-    args = parser.parse_args()
-    data = build()
-    with open(args.out, "wb") as f:
-        f.write(data)
-    print("wrote %s (%d bytes)" % (args.out, len(data)))
-
-
 if __name__ == "__main__":
-    main()
+    generator_main(__doc__, os.path.join(SCENE_DIR, "glossy-room.glb"), build)

@@ -12,11 +12,10 @@ Every texture is generated here (PNG, in the binary chunk). Deterministic: the s
 every run.
 """
 
-import argparse
 import math
 import os
 
-from glbtools import Geometry, GlbWriter, png_bytes
+from glbtools import generator_main, Geometry, GlbWriter, png_bytes
 
 SCENE_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "stand-in")
 
@@ -112,15 +111,5 @@ def build():
     return w.to_bytes()
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--out", default=os.path.join(SCENE_DIR, "stand-in.glb"), help="output .glb (default: %(default)s)")
-    args = parser.parse_args()
-    data = build()
-    with open(args.out, "wb") as f:
-        f.write(data)
-    print("wrote %s (%d bytes)" % (args.out, len(data)))
-
-
 if __name__ == "__main__":
-    main()
+    generator_main(__doc__, os.path.join(SCENE_DIR, "stand-in.glb"), build)

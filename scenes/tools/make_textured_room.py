@@ -10,11 +10,10 @@ Every texture is generated here (PNG, in the binary chunk). Deterministic: the s
 every run.
 """
 
-import argparse
 import math
 import os
 
-from glbtools import CLAMP, Geometry, GlbWriter, png_bytes
+from glbtools import CLAMP, generator_main, Geometry, GlbWriter, png_bytes
 
 SCENE_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "textured-room")
 
@@ -118,15 +117,5 @@ def build():
     return w.to_bytes()
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--out", default=os.path.join(SCENE_DIR, "textured-room.glb"), help="output .glb (default: %(default)s)")
-    args = parser.parse_args()
-    data = build()
-    with open(args.out, "wb") as f:
-        f.write(data)
-    print("wrote %s (%d bytes)" % (args.out, len(data)))
-
-
 if __name__ == "__main__":
-    main()
+    generator_main(__doc__, os.path.join(SCENE_DIR, "textured-room.glb"), build)
