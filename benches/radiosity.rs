@@ -159,13 +159,15 @@ struct Anchors {
     runs: Vec<AnchorRun>,
 }
 
-/// One bake of an anchor: its lightmap's side (texels) and samples, seconds and D at the
-/// probes.
+/// One bake of an anchor: its lightmap's density (texels per scene unit) and texel count,
+/// samples per texel, wall and CPU seconds, and D at the probes.
 #[derive(serde::Deserialize)]
 struct AnchorRun {
-    size: u32,
+    density: f64,
+    texels: u64,
     samples: u32,
     seconds: f64,
+    cpu_seconds: f64,
     probes: Vec<ProbeValue>,
 }
 
@@ -302,7 +304,8 @@ fn main() {
         "setting".into(),
         "vs truth RMSE".into(),
         "seconds".into(),
-        "anchor s at this error".into(),
+        "CPU s".into(),
+        "anchor CPU s at this error".into(),
         "glint faster".into(),
     ];
     let mut curves = vec![curve_header];
@@ -333,7 +336,7 @@ fn main() {
         };
         let truth_open = keep(&truth);
         // This scene's glint points (error, seconds) for the anchor curves.
-        let mut glint_curve: Vec<(String, f64, f64)> = Vec::new();
+        let mut glint_curve: Vec<(String, f64, f64, f64)> = Vec::new();
         for &q in &presets {
             let s = RadiositySettings::resolve(q, &[&scene.desc.bake.radiosity], None).unwrap();
             let set = SolveSettings {
@@ -414,7 +417,7 @@ fn main() {
             let m = compare_probes(&d, &truth).unwrap();
             let m_open = compare_probes(&keep(&d), &truth_open).unwrap();
             let pct = |x: f64| format!("{:.1}%", 100.0 * x);
-            glint_curve.push((q.name().into(), m.rel_rmse, secs));
+            glint_curve.push((q.name().into(), m.rel_rmse, secs, cpu));
             let row = [
                 scene.name.clone(),
                 q.name().into(),
@@ -439,7 +442,7 @@ fn main() {
             rows.push(row);
         }
         for (file, a) in anchors.iter().filter(|(_, a)| a.scene == scene.name) {
-            let mut scored: Vec<(String, f64, f64)> = a
+            let mut scored: Vec<(String, f64, f64, f64)> = a
                 .runs
                 .iter()
                 .map(|run| {
@@ -455,20 +458,24 @@ fn main() {
                         );
                     }
                     let m = compare_probes(&run.probes, &truth).unwrap();
-                    let setting = format!("{}² texels, {} samples", run.size, run.samples);
-                    (setting, m.rel_rmse, run.seconds)
+                    let setting = format!(
+                        "{} texels/unit ({} texels), {} samples",
+                        run.density, run.texels, run.samples
+                    );
+                    (setting, m.rel_rmse, run.seconds, run.cpu_seconds)
                 })
                 .collect();
-            scored.sort_by(|x, y| x.2.total_cmp(&y.2));
+            // CPU seconds, both sides: on a shared machine the load moves wall time more.
+            scored.sort_by(|x, y| x.3.total_cmp(&y.3));
             // The fastest-for-error front, by falling error.
             let mut front: Vec<(f64, f64)> = Vec::new();
-            for &(_, e, secs) in &scored {
+            for &(_, e, _, cpu) in &scored {
                 if front.last().is_none_or(|l| e < l.0) {
-                    front.push((e, secs));
+                    front.push((e, cpu));
                 }
             }
             let renderer = format!("{} ({} threads)", a.renderer, a.threads);
-            for (setting, e, secs) in &glint_curve {
+            for (setting, e, secs, cpu) in &glint_curve {
                 let at = anchor_seconds_at(&front, *e);
                 curves.push([
                     scene.name.clone(),
@@ -476,19 +483,21 @@ fn main() {
                     setting.clone(),
                     format!("{:.2}%", 100.0 * e),
                     format!("{secs:.2}"),
+                    format!("{cpu:.2}"),
                     at.map_or("-".into(), |(s, guess)| {
                         format!("{}{s:.1}", if guess { "≈" } else { "" })
                     }),
-                    at.map_or("-".into(), |(s, _)| format!("{:.1}×", s / secs)),
+                    at.map_or("-".into(), |(s, _)| format!("{:.1}×", s / cpu)),
                 ]);
             }
-            for (setting, e, secs) in scored {
+            for (setting, e, secs, cpu) in scored {
                 curves.push([
                     scene.name.clone(),
                     renderer.clone(),
                     setting,
                     format!("{:.2}%", 100.0 * e),
                     format!("{secs:.2}"),
+                    format!("{cpu:.2}"),
                     "-".into(),
                     "-".into(),
                 ]);
@@ -511,7 +520,7 @@ fn main() {
     }
     if curves.len() > 1 {
         println!(
-            "\nError against seconds, glint's presets beside the anchors' bakes (same probes, same truth; glint's seconds: atlas, solve and seams; the anchor's at glint's error interpolated log-log on its front, ≈ extrapolated as error⁻²):\n"
+            "\nError against seconds, glint's presets beside the anchors' bakes (same probes, same truth; glint's seconds: atlas, solve and seams; the anchor's CPU seconds at glint's error interpolated log-log on its front, ≈ extrapolated as error⁻², and the ratio taken on CPU seconds):\n"
         );
         let right = std::array::from_fn(|i| i >= 3);
         print!("{}", format_table(&curves, &right));

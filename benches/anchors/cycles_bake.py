@@ -7,13 +7,14 @@ prints both error-against-seconds curves. Not run by CI (it needs Blender).
     glint-eval probe-points scenes/cornell-box/scene.json --count 400 --seed 1 --out points.json
     blender -b --factory-startup --python benches/anchors/cycles_bake.py -- \
         --scene scenes/cornell-box/scene.json --points points.json --out cycles.json \
-        --size 64,128 --samples 256,1024,4096 --threads 2
+        --density 16,32,64 --samples 256,1024,4096 --threads 2
 
 The scene's materials are rebuilt as glint reads them (untextured scenes only): a Lambertian
 BSDF of the base colour plus, for emitters, emission of the emissive colour times its
 strength from the front face only. The lightmap is D itself: a COMBINED bake of the diffuse
-and emitted light (direct and indirect), no clamping, 64 bounces. Each run's seconds are
-the UV unwrap plus the bake, on `--threads` threads.
+and emitted light (direct and indirect), no clamping, 64 bounces, in one image per material
+at `--density` texels per scene unit. Each run's seconds (wall and CPU) are the UV unwrap plus
+the bake, on `--threads` threads.
 """
 
 import argparse
@@ -35,7 +36,11 @@ def parse_args():
     p.add_argument("--scene", required=True, help="glint scene.json")
     p.add_argument("--points", required=True, help="probe points (glint-eval probe-points)")
     p.add_argument("--out", required=True, help="output JSON")
-    p.add_argument("--size", default="64,128", help="lightmap side in texels, comma-separated")
+    p.add_argument(
+        "--density",
+        default="16,32,64",
+        help="lightmap texels per scene unit on every surface, comma-separated",
+    )
     p.add_argument("--samples", default="256,1024,4096", help="samples per texel, comma-separated")
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--bounces", type=int, default=64)
@@ -130,24 +135,47 @@ def load_scene(scene_path):
 
 
 def unwrap(obj):
-    """A fresh lightmap UV layout of the whole scene in one square."""
+    """A fresh lightmap UV layout: each material's faces unwrapped alone into the unit square
+    (its own image). Returns, per material slot, its faces' area in the scene's units² and
+    the share of the unit square their UVs cover."""
     mesh = obj.data
     while mesh.uv_layers:
         mesh.uv_layers.remove(mesh.uv_layers[0])
     mesh.uv_layers.new(name="lightmap")
     bpy.ops.object.mode_set(mode="EDIT")
-    bpy.ops.mesh.select_all(action="SELECT")
-    bpy.ops.uv.smart_project(angle_limit=math.radians(66.0), island_margin=0.02)
+    for k in range(len(obj.material_slots)):
+        bpy.ops.mesh.select_all(action="DESELECT")
+        obj.active_material_index = k
+        bpy.ops.object.material_slot_select()
+        bpy.ops.uv.smart_project(angle_limit=math.radians(66.0), island_margin=0.02)
     bpy.ops.object.mode_set(mode="OBJECT")
+    uv = mesh.uv_layers.active.data
+    areas = [[0.0, 0.0] for _ in obj.material_slots]
+    for poly in mesh.polygons:
+        a, b, c = (uv[i].uv for i in poly.loop_indices)
+        uv_area = abs((b - a).cross(c - a)) / 2.0
+        areas[poly.material_index][0] += poly.area
+        areas[poly.material_index][1] += uv_area
+    return areas
 
 
-def bake(obj, side, samples, args):
-    """Bakes D into a side × side float image per material slot; returns, per slot, (side,
-    RGBA floats, rows from the bottom)."""
+def sides(areas, density):
+    """Each material's image side for `density` texels per scene unit on its surfaces."""
+    out = []
+    for area, uv_area in areas:
+        side = density * math.sqrt(area / uv_area) if uv_area > 0.0 else 8.0
+        out.append(min(max(int(math.ceil(side)), 8), 8192))
+    return out
+
+
+def bake(obj, sides, samples, seed, args):
+    """Bakes D into one float image per material slot, `sides[k]` texels square; returns, per
+    slot, (side, RGBA floats, rows from the bottom)."""
     scene = bpy.context.scene
     scene.render.engine = "CYCLES"
     scene.cycles.device = "CPU"
     scene.cycles.samples = samples
+    scene.cycles.seed = seed
     scene.cycles.use_adaptive_sampling = False
     scene.cycles.use_denoising = False
     scene.cycles.max_bounces = args.bounces
@@ -169,6 +197,7 @@ def bake(obj, side, samples, args):
     # nearest island, which in a shared image may be another material's (the emitter's).
     images = []
     for k, slot in enumerate(obj.material_slots):
+        side = sides[k]
         image = bpy.data.images.new(f"lightmap{k}", side, side, float_buffer=True, alpha=False)
         images.append(image)
         nodes = slot.material.node_tree.nodes
@@ -187,6 +216,7 @@ def bake(obj, side, samples, args):
     )
     out = []
     for image in images:
+        side = image.size[0]
         pixels = array.array("f", bytes(4 * side * side * 4))
         image.pixels.foreach_get(pixels)
         out.append((side, pixels))
@@ -271,19 +301,28 @@ def main():
         "bounces": args.bounces,
     }
     runs = []
-    for side in [int(d) for d in args.size.split(",")]:
+    for density in [float(d) for d in args.density.split(",")]:
         for samples in [int(s) for s in args.samples.split(",")]:
-            start = time.perf_counter()
-            unwrap(obj)
-            img = bake(obj, side, samples, args)
+            start, cpu = time.perf_counter(), time.process_time()
+            areas = unwrap(obj)
+            per_material = sides(areas, density)
+            img = bake(obj, per_material, samples, 1, args)
             seconds = time.perf_counter() - start
+            cpu_seconds = time.process_time() - cpu
+            texels = sum(round(uv_area * side * side) for (_, uv_area), side in zip(areas, per_material))
             values = probe(obj, img, points, reach)
-            print(f"cycles: {side}² texels, {samples} samples: {seconds:.1f} s", flush=True)
+            print(
+                f"cycles: {density:g} texels/unit ({texels} texels), {samples} samples: "
+                f"{seconds:.1f} s, {cpu_seconds:.1f} s CPU",
+                flush=True,
+            )
             runs.append(
                 {
-                    "size": side,
+                    "density": density,
+                    "texels": texels,
                     "samples": samples,
                     "seconds": seconds,
+                    "cpu_seconds": cpu_seconds,
                     "probes": values,
                 }
             )
