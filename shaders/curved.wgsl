@@ -449,17 +449,17 @@ fn curved_environment(offset: vec3<f32>, dir: vec3<f32>, lod: f32, own_lod: f32)
     return textureSampleLevel(env, env_sampler, curved_lookup(offset, dir), lod).rgb;
 }
 
-// `curved_environment` at level 0 for a caller that has made the lookup `u` of `dir` already
-// (`fs_curved_mirror` reads the hit distance there too).
-fn curved_environment_at(offset: vec3<f32>, dir: vec3<f32>, u: vec3<f32>) -> vec3<f32> {
+// `curved_environment` at level `lod` for a caller that has made the lookup `u` of `dir`
+// already (`fs_curved_mirror` reads the hit distance there too).
+fn curved_environment_at(offset: vec3<f32>, dir: vec3<f32>, u: vec3<f32>, lod: f32) -> vec3<f32> {
     if curved.centre.w > 0.0 {
         let origin = curved.centre.xyz + offset;
         let hit = own_closest(origin, dir, own_t_min(origin));
         if hit.x >= 0.0 {
-            return own_radiance(hit, offset, dir, 0.0);
+            return own_radiance(hit, offset, dir, lod);
         }
     }
-    return textureSampleLevel(env, env_sampler, u, 0.0).rgb;
+    return textureSampleLevel(env, env_sampler, u, lod).rgb;
 }
 
 // α² the shading normal's spread across the pixel adds to every lobe (0 where the pass has
@@ -469,6 +469,12 @@ fn kernel_roughness2(n: vec3<f32>) -> f32 {
     let du = dpdx(n);
     let dv = dpdy(n);
     return min(2.0 * SAA_SIGMA2 * (dot(du, du) + dot(dv, dv)), SAA_KAPPA);
+}
+
+// `kernel_roughness2` of the interpolated `normal` where the reflector's specular AA is on
+// (`info.w` bit 1), else 0. Derivatives: call in uniform control flow, before any discard.
+fn pixel_roughness2(normal: vec3<f32>) -> f32 {
+    return select(0.0, kernel_roughness2(normalize(normal)), (curved.info.w & 2u) != 0u);
 }
 
 // A roughness m widened by the kernel's α² (`kernel_roughness2`); m itself where it adds none.
@@ -587,7 +593,7 @@ fn facing_normal(in: CurvedOut) -> vec3<f32> {
 fn fs_curved(in: CurvedOut) -> FragmentOut {
     let wo = normalize(curved.eye.xyz - in.world);
     let offset = in.world - curved.centre.xyz;
-    let kernel2 = select(0.0, kernel_roughness2(normalize(in.normal)), (curved.info.w & 2u) != 0u);
+    let kernel2 = pixel_roughness2(in.normal);
     let c = curved_specular(offset, facing_normal(in), wo, curved.info.y != 0u, kernel2) * frame.exposure;
     var out: FragmentOut;
     // Added to kd·D of the scene pass by the blend state (as `fs_composite` of reflect.wgsl).
@@ -608,6 +614,8 @@ fn fs_curved(in: CurvedOut) -> FragmentOut {
 // discarded, as `fs_mirror` does.
 @fragment
 fn fs_curved_mirror(in: CurvedOut) -> @location(0) vec4<f32> {
+    // The map M has the frame's pixels: its lobes are widened as `fs_curved` widens them.
+    let kernel2 = pixel_roughness2(in.normal);
     if dot(curved.clip.xyz, in.world) <= curved.clip.w {
         discard;
     }
@@ -618,10 +626,11 @@ fn fs_curved_mirror(in: CurvedOut) -> @location(0) vec4<f32> {
     let u = curved_lookup(offset, r);
     var c: vec3<f32>;
     if curved.info.y != 0u {
-        c = curved_specular(offset, n, wo, true, 0.0);
+        c = curved_specular(offset, n, wo, true, kernel2);
     } else {
         // One lookup for the mirror term and the hit distance below.
-        c = specular_mirror(n, wo, curved_environment_at(offset, r, u));
+        let lod = mirror_level(n, wo, r, kernel2);
+        c = specular_mirror(n, wo, curved_environment_at(offset, r, u, lod));
     }
     c = c * frame.exposure;
     // M's alpha (K's scale in the composite) for what this reflector shows: the beyond

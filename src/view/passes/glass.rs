@@ -77,6 +77,19 @@ impl GlassPasses {
         scene: &Scene,
         renderer: &Renderer,
     ) -> Result<Option<GlassPasses>, RenderError> {
+        let formats = renderer.formats();
+        Self::for_target(gpu, scene, renderer, formats.color, formats.samples)
+    }
+
+    /// [`GlassPasses::new`] into targets of `format` with `samples` samples (a cube map's
+    /// faces: [`GlassPasses::record`] with their frame groups).
+    pub fn for_target(
+        gpu: &Gpu,
+        scene: &Scene,
+        renderer: &Renderer,
+        format: wgpu::TextureFormat,
+        samples: u32,
+    ) -> Result<Option<GlassPasses>, RenderError> {
         let runs = renderer.glass_runs();
         if runs.is_empty() {
             return Ok(None);
@@ -99,8 +112,8 @@ impl GlassPasses {
                     .layout_slots(&[Some(&frame_layout), None, Some(&layout)])
                     .vertex(scene_vertex_layout())
                     .depth(reverse_z_depth(false, wgpu::CompareFunction::Greater))
-                    .color(renderer.formats().color, Some(blend))
-                    .samples(renderer.formats().samples)
+                    .color(format, Some(blend))
+                    .samples(samples)
                     .override_bool(SURFACE_TEXTURES, textures)
                     .build(device)
             };
@@ -124,9 +137,20 @@ impl GlassPasses {
         color: &wgpu::TextureView,
         depth: &wgpu::TextureView,
     ) {
-        let (vertices, indices) = (renderer.vertex_buffer(), renderer.index_buffer());
         let mut pass = overlay_pass(encoder, "glint glass passes", color, depth);
-        pass.set_bind_group(0, &self.frame_group, &[]);
+        self.record(&mut pass, renderer, &self.frame_group);
+    }
+
+    /// Records both passes into `pass` (after its opaque surfaces, depth attached) with
+    /// `frame_group` (a frame bind group: the view's camera) and `renderer`'s buffers.
+    pub fn record(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        renderer: &Renderer,
+        frame_group: &wgpu::BindGroup,
+    ) {
+        let (vertices, indices) = (renderer.vertex_buffer(), renderer.index_buffer());
+        pass.set_bind_group(0, frame_group, &[]);
         pass.set_bind_group(2, &self.bind_group, &[]);
         pass.set_vertex_buffer(0, vertices.slice(..));
         pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);

@@ -1,8 +1,8 @@
 //! Generating the live cube maps (Nielsen & Christensen 2002 §3.2, McReynolds'
 //! interreflection scheme): per generation and reflector, the scene without it and the other
 //! curved reflectors' mirror terms from the previous generation's maps into each face, and
-//! the planar near-mirrors' mirror terms from its own previous map, then the faces' MIP
-//! levels (2×2 box).
+//! the planar near-mirrors' mirror terms from its own previous map, then the scene's thin
+//! glass over all of it (the frame's glass passes), then the faces' MIP levels (2×2 box).
 
 use super::super::{CurvedParams, generation_plan};
 use super::layout::{CurvedVertex, curved_group};
@@ -11,7 +11,8 @@ use crate::view::gpu::Gpu;
 use crate::view::gpu::build::{bind_group_layout, buffer_init, render_pipeline};
 use crate::view::gpu::target::clear_pass;
 use crate::view::gpu::target::{ADDITIVE_KEEP_ALPHA, HDR_FORMAT, reverse_z_depth};
-use crate::view::passes::renderer::{SURFACE_TEXTURES, scene_vertex_layout};
+use crate::view::passes::glass::GlassPasses;
+use crate::view::passes::renderer::{Renderer, SURFACE_TEXTURES, scene_vertex_layout};
 
 impl CurvedReflections {
     /// Records every generation: per generation (written set `w`, read set `r`, never equal)
@@ -21,10 +22,11 @@ impl CurvedReflections {
         &self,
         gpu: &Gpu,
         pipes: &GenerationPipelines,
-        scene_vertices: &wgpu::Buffer,
+        renderer: &Renderer,
         encoder: &mut wgpu::CommandEncoder,
     ) {
         let device = &gpu.device;
+        let scene_vertices = renderer.vertex_buffer();
         // Interreflection parameters per ordered pair (i sees j): j's lobes seen from i's centre.
         let mut pair_params: Vec<Vec<Option<wgpu::Buffer>>> = Vec::new();
         for (i, ri) in self.reflectors.iter().enumerate() {
@@ -161,6 +163,9 @@ impl CurvedReflections {
                         pass.set_vertex_buffer(0, m.vertices.slice(..));
                         pass.draw(0..m.vertex_count, 0..1);
                     }
+                    if let Some(glass) = &pipes.glass {
+                        glass.record(&mut pass, renderer, &ri.face_groups[face]);
+                    }
                 }
                 pipes.record_mips(device, target, encoder);
             }
@@ -176,6 +181,9 @@ pub(super) struct GenerationPipelines {
     mip_layout: wgpu::BindGroupLayout,
     depth_view: wgpu::TextureView,
     _depth: wgpu::Texture,
+    /// The scene's thin glass, drawn into each face over what lies behind it (`None`: no
+    /// glass; `others` then holds every triangle).
+    pub(super) glass: Option<GlassPasses>,
 }
 
 impl GenerationPipelines {
@@ -235,6 +243,7 @@ impl GenerationPipelines {
             mip_layout,
             depth_view,
             _depth: depth,
+            glass: None,
         }
     }
 

@@ -39,9 +39,10 @@ use crate::view::gpu::target::{ADDITIVE_KEEP_ALPHA, HDR_FORMAT, reverse_z_depth}
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
 use crate::view::passes::composite::Composite;
+use crate::view::passes::glass::GlassPasses;
 use crate::view::passes::renderer::{
     Renderer, SURFACE_TEXTURES, SceneMesh, frame_bind_group, frame_bind_group_layout,
-    uniform_buffer,
+    transmissive_triangles, uniform_buffer,
 };
 
 /// Smallest buffer the curved passes make (a pattern buffer may be empty).
@@ -64,7 +65,8 @@ struct ReflectorGpu {
     reflector: CurvedReflector,
     vertices: wgpu::Buffer,
     vertex_count: u32,
-    /// The scene without this reflector (its cube map's draw).
+    /// The scene without this reflector (its cube map's draw), and without the glass,
+    /// which each face gets after it.
     others: wgpu::Buffer,
     others_count: u32,
     /// Its own triangles' BVH nodes and records (`own_closest`; stand-ins when off).
@@ -179,7 +181,10 @@ impl CurvedReflections {
         let face_size = settings
             .face_size
             .clamp(1, gpu.device.limits().max_texture_dimension_2d);
-        let built = Self::build(gpu, renderer, data, settings, face_size, reflectors, baked)?;
+        let glass = GlassPasses::for_target(gpu, &data.scene, renderer, HDR_FORMAT, 1)?;
+        let built = Self::build(
+            gpu, renderer, data, settings, face_size, reflectors, baked, glass,
+        )?;
         let start = std::time::Instant::now();
         let submission = error_scoped(&gpu.device, "rendering the cube maps", || {
             let mut encoder = gpu
@@ -189,7 +194,7 @@ impl CurvedReflections {
                 });
             built
                 .0
-                .record_generations(gpu, &built.1, renderer.vertex_buffer(), &mut encoder);
+                .record_generations(gpu, &built.1, renderer, &mut encoder);
             gpu.queue.submit([encoder.finish()])
         })?;
         gpu.device
@@ -212,6 +217,7 @@ impl CurvedReflections {
         face_size: u32,
         reflectors: Vec<CurvedReflector>,
         baked: Vec<Option<CubeTexture>>,
+        glass_passes: Option<GlassPasses>,
     ) -> Result<(CurvedReflections, GenerationPipelines), GpuError> {
         let device = &gpu.device;
         let scene = &data.scene;
@@ -262,7 +268,7 @@ impl CurvedReflections {
             .depth(reverse_z_depth(false, wgpu::CompareFunction::GreaterEqual))
             .override_bool(SURFACE_TEXTURES, textures)
             .build(device);
-            let generation = GenerationPipelines::new(
+            let mut generation = GenerationPipelines::new(
                 device,
                 &shader,
                 &frame_layout,
@@ -271,6 +277,12 @@ impl CurvedReflections {
                 textures,
                 gpu,
             );
+            // Thin glass is drawn into each face after the opaque scene, as the frame draws it.
+            let glass = match glass_passes {
+                Some(_) => transmissive_triangles(scene),
+                None => vec![false; scene.triangles.len()],
+            };
+            generation.glass = glass_passes;
             let in_reflector = {
                 let mut v = vec![usize::MAX; scene.triangles.len()];
                 for (i, r) in reflectors.iter().enumerate() {
@@ -316,7 +328,7 @@ impl CurvedReflections {
                         MIN_BUFFER,
                     );
                     let others = mesh.triangle_indices(
-                        (0..scene.triangles.len()).filter(|&t| in_reflector[t] != i),
+                        (0..scene.triangles.len()).filter(|&t| in_reflector[t] != i && !glass[t]),
                     );
                     let others_buffer = buffer_init(
                         gpu,

@@ -30,6 +30,7 @@ use crate::view::gpu::target::{ADDITIVE_KEEP_ALPHA, HDR_FORMAT, reverse_z_depth}
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
 use crate::view::passes::composite::Composite;
+use crate::view::passes::glass::MirroredGlass;
 use crate::view::passes::renderer::{
     Renderer, SURFACE_TEXTURES, frame_bind_group, frame_bind_group_layout, scene_vertex_layout,
     uniform_buffer,
@@ -74,6 +75,9 @@ pub struct RecursiveReflections {
     _spheres: Vec<wgpu::Texture>,
     sphere_views: Vec<wgpu::TextureView>,
     mirror_pipeline: wgpu::RenderPipeline,
+    /// The scene's thin glass in each mirrored view, drawn over its finished map (its opaque
+    /// surfaces and the reflectors it sees composited).
+    glass: Option<MirroredGlass>,
     /// A level-0 map onto its reflector in the frame.
     frame_composite: Composite,
     map_composite_pipeline: wgpu::RenderPipeline,
@@ -145,11 +149,8 @@ impl RecursiveReflections {
         let mesh = crate::view::passes::renderer::SceneMesh::new(&data.scene, &data.map.atlas);
         let clip = (data.scene.bounds.diagonal() * CLIP_FRACTION).max(1e-5);
         error_scoped(device, "creating the recursive reflection passes", || {
-            let shader = shader(
-                device,
-                "glint recursive reflection shader",
-                &shader_source(),
-            );
+            let source = shader_source();
+            let shader = shader(device, "glint recursive reflection shader", &source);
             let frame_layout = frame_bind_group_layout(device);
             let params_layout = params_layout().build(device, "glint recursive params layout");
             let composite_layout =
@@ -199,6 +200,14 @@ impl RecursiveReflections {
                 &frame_layout,
                 &composite_layout,
             );
+            let glass = MirroredGlass::build(
+                gpu,
+                &data.scene,
+                renderer,
+                &source,
+                [&frame_layout, &params_layout],
+                HDR_FORMAT,
+            );
             let levels: Vec<ReflectionMap> = (0..settings.depth)
                 .map(|_| ReflectionMap::new(gpu, "glint recursion level map", width, height))
                 .collect();
@@ -247,6 +256,7 @@ impl RecursiveReflections {
                 _spheres: spheres,
                 sphere_views,
                 mirror_pipeline,
+                glass,
                 frame_composite,
                 map_composite_pipeline,
                 frame_layout,
@@ -293,9 +303,11 @@ impl RecursiveReflections {
     }
 
     /// Render passes [`RecursiveReflections::draw`] records for the last prepared frame
-    /// (a scene pass, one per level of its pyramid and a composite per map).
+    /// (a scene pass, one per level of its pyramid, a composite per map, and the glass pass
+    /// of each map where the scene has glass).
     pub fn pass_count(&self) -> usize {
-        (2 + crate::view::reflections::filter::level_count(self.width, self.height) as usize)
+        (2 + usize::from(self.glass.is_some())
+            + crate::view::reflections::filter::level_count(self.width, self.height) as usize)
             * self.plan.lock().map(|p| p.nodes.len()).unwrap_or(0)
     }
 
@@ -481,7 +493,14 @@ impl RecursiveReflections {
             pass.set_bind_group(1, &slots[id].params_group, &[]);
             pass.set_vertex_buffer(0, renderer.vertex_buffer().slice(..));
             pass.set_index_buffer(renderer.index_buffer().slice(..), wgpu::IndexFormat::Uint32);
-            pass.draw_indexed(0..renderer.index_count(), 0, 0..1);
+            match &self.glass {
+                None => pass.draw_indexed(0..renderer.index_count(), 0, 0..1),
+                Some(_) => {
+                    for run in renderer.opaque_runs() {
+                        pass.draw_indexed(run.indices.clone(), 0, 0..1);
+                    }
+                }
+            }
             // Curved reflectors seen in this mirror: their specular term in the mirrored view.
             if let Some(c) = curved {
                 c.draw_mirror(&mut pass, id);
@@ -505,6 +524,16 @@ impl RecursiveReflections {
             pass.set_pipeline(&self.map_composite_pipeline);
             pass.set_bind_group(0, &slots[id].frame_group, &[]);
             self.composite(&mut pass, renderer, &plan.nodes[child], &slots[child]);
+        }
+        // Glass last, so that a mirror seen through a pane is tinted with what lies behind it.
+        if let Some(g) = &self.glass {
+            let mut pass = level.begin_over(encoder, "glint recursive mirrored glass");
+            g.draw(
+                &mut pass,
+                renderer,
+                &slots[id].frame_group,
+                &slots[id].params_group,
+            );
         }
     }
 }

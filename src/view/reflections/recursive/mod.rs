@@ -20,6 +20,10 @@
 //! exact for any plane, and it leaves the reverse-Z infinite projection (and its depth
 //! precision) untouched, which an oblique near plane would not (it tilts the near plane into
 //! the depth range and needs a finite far plane).
+//!
+//! Thin glass in a mirrored view is drawn as the single mirror pass draws it
+//! ([`crate::view::passes::glass::MirroredGlass`]), last: over the finished map, its children
+//! composited, so that a mirror seen through a pane is tinted too.
 
 use glam::{Vec3, Vec4};
 
