@@ -58,7 +58,7 @@ fn mirror_floor_edge_at_the_back_wall_has_no_dark_dots_with_msaa() {
     .unwrap_or_else(|e| panic!("{e}"))
     .linear_display();
     let gpu = common::gpu();
-    let mut off = Offscreen::with_options(&gpu, &data, SIZE.0, SIZE.1, &options).unwrap();
+    let off = Offscreen::with_options(&gpu, &data, SIZE.0, SIZE.1, &options).unwrap();
     off.render(&gpu, &camera).unwrap();
     let frame = off.read_hdr(&gpu).unwrap();
 
