@@ -96,6 +96,9 @@ struct MirrorOut {
     @location(3) uv0: vec2<f32>,
     @location(4) uv1: vec2<f32>,
     @location(5) @interpolate(flat) material: u32,
+    // `world` at a point the primitive covers: apart from `world` only at a multisampled
+    // pixel it covers in part.
+    @location(6) @interpolate(perspective, centroid) inside: vec3<f32>,
 };
 
 @vertex
@@ -105,6 +108,7 @@ fn vs_mirror(v: VertexIn) -> MirrorOut {
     out.lightmap = v.lightmap;
     out.page = v.page;
     out.world = v.position;
+    out.inside = v.position;
     out.uv0 = v.uv0;
     out.uv1 = v.uv1;
     out.material = v.material;
@@ -238,7 +242,12 @@ fn fs_composite_frame(in: MirrorOut) -> FragmentOut {
 
 fn composite(in: MirrorOut) -> FragmentOut {
     var centre = textureLoad(reflection, vec2<i32>(floor(in.clip.xy)), 0);
-    let hole = centre.a <= 0.0 && reflect_params.kernel.z > 0.5;
+    // A multisampled edge pixel whose centre lies off the reflector: M there continues the
+    // plane past the reflector's edge (behind the wall a mirror floor meets, where it holds
+    // nothing), so the covered samples read the nearest covered texels, as a hole does.
+    let off_edge =
+        distance(in.inside, in.world) > 1e-5 * distance(in.world, reflect_params.eye.xyz);
+    let hole = centre.a <= 0.0 && (reflect_params.kernel.z > 0.5 || off_edge);
     if hole {
         centre = fill_hole(vec2<i32>(floor(in.clip.xy)));
     }

@@ -25,7 +25,9 @@
 //!    per pixel, [`material`], and narrowed across the plane of incidence at grazing views,
 //!    [`filter::Grazing`]) at a cost independent of K's width, a few taps of a regular
 //!    pattern reading M's MIP pyramid ([`filter`], built per map by `pyramid`), R from the
-//!    sphere map or the 1D map ([`ReflectanceLayout`]).
+//!    sphere map or the 1D map ([`ReflectanceLayout`]). In either mode a multisampled edge
+//!    pixel whose centre lies off the reflector, where M continues the plane past its edge,
+//!    reads M's nearest covered texels, as a hole does.
 //!
 //! [`cpu_reference`] is the same equation ray traced on the CPU, for the golden-image tests.
 //!
