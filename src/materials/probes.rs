@@ -8,7 +8,9 @@
 //! ([`glossy_groups`]): the viewer reads one probe per material, with that material's lobe,
 //! so a group is the unit a probe serves. The probe stands above the group's bounding box,
 //! along the area-weighted mean of its face normals (glTF's up, +y, where those cancel, as on
-//! a closed object such as a table), a tenth of the box's diagonal off its face: there it
+//! a closed object such as a table), a tenth of the box's diagonal off its face (where that
+//! normal leans along two axes, as a cabinet's top and front make it, off the box's faces on
+//! both, so the top sees the wall behind it past the cabinet): there it
 //! sees the room the group's surfaces face, with few of their own triangles in the way, and
 //! the viewer's distance-corrected lookups move each reflected ray to the surface's own
 //! point. Where something stands on the surfaces (a teapot on a table) it goes on up, a lift
