@@ -13,7 +13,8 @@
 struct ProbeParams {
     // xyz: the probe's centre; w: 1 = distance-corrected lookups, 0 = from the centre.
     centre: vec4<f32>,
-    // x: the MIP level of the material's lobe; yzw: unused.
+    // x: the MIP level of the material's lobe; y: 1 double-sided, 0 back faces black
+    // (`probes::sides`); zw: unused.
     info: vec4<f32>,
     // ks·A at the 1D reflectance map's cosines (`reflectance::map_1d_cos`, 64 entries).
     modulation: array<vec4<f32>, 64>,
@@ -91,6 +92,9 @@ fn fs_probe(in: ProbeOut) -> @location(0) vec4<f32> {
     let wo = normalize(frame.eye.xyz - in.world);
     var n = normalize(in.normal);
     if dot(n, wo) < 0.0 {
+        if probe.info.y == 0.0 {
+            return vec4<f32>(0.0);
+        }
         n = -n;
     }
     let c = dot(n, wo);

@@ -8,7 +8,9 @@
 //! ([`glossy_groups`]): the viewer reads one probe per material, with that material's lobe,
 //! so a group is the unit a probe serves. The probe stands above the group's bounding box,
 //! along the area-weighted mean of its face normals (glTF's up, +y, where those cancel, as on
-//! a closed object such as a table), a tenth of the box's diagonal off its face: there it
+//! a closed object such as a table), a tenth of the box's diagonal off its face (where that
+//! normal leans along two axes, as a cabinet's top and front make it, off the box's faces on
+//! both, so the top sees the wall behind it past the cabinet): there it
 //! sees the room the group's surfaces face, with few of their own triangles in the way, and
 //! the viewer's distance-corrected lookups move each reflected ray to the surface's own
 //! point. Where something stands on the surfaces (a teapot on a table) it goes on up, a lift
@@ -119,9 +121,27 @@ pub fn placed(group: &Group, bounds: &Aabb, clearance: &dyn Fn(Vec3) -> f32) -> 
         Vec3::Y
     };
     let lift = (LIFT * b.diagonal()).max(MIN_LIFT);
-    // From the centre to the box's face along `up` (its support distance), then off it.
-    let first = b.center() + up * (half.dot(up.abs()) + lift);
     let inside = |p: Vec3| bounds.min.cmple(p).all() && p.cmple(bounds.max).all();
+    // From the centre to the box's face along `up` (its support distance), then off it. Where
+    // `up` leans along two axes or more (a cabinet's top and front), on out past the box's
+    // faces on each of them, if that stays inside `bounds`: short of the top's plane the
+    // probe sees the cabinet itself where the top reflects the wall behind it.
+    let support = half.dot(up.abs());
+    let leaning: Vec<usize> = (0..3).filter(|&i| up[i].abs() >= MIN_AXIS).collect();
+    let beyond = if leaning.len() > 1 {
+        leaning
+            .iter()
+            .map(|&i| half[i] / up[i].abs())
+            .fold(support, f32::max)
+    } else {
+        support
+    };
+    let at = |d: f32| b.center() + up * (d + lift);
+    let first = if inside(at(beyond)) {
+        at(beyond)
+    } else {
+        at(support)
+    };
     let clear = (0..MAX_LIFTS)
         .map(|k| first + up * (k as f32 * lift))
         .take_while(|&p| inside(p))
@@ -129,6 +149,10 @@ pub fn placed(group: &Group, bounds: &Aabb, clearance: &dyn Fn(Vec3) -> f32) -> 
     let position = clear.unwrap_or(first);
     (position, position.distance(b.center()) + half.length())
 }
+
+/// The least component along an axis of a group's mean normal for [`placed`] to count it
+/// as leaning along that axis.
+const MIN_AXIS: f32 = 0.25;
 
 /// The smallest lift off a group's box, metres (a group of one tiny triangle).
 const MIN_LIFT: f32 = 0.02;
@@ -352,6 +376,50 @@ mod tests {
         let b = Aabb::from_points([Vec3::splat(-5.0), Vec3::splat(5.0)].iter());
         let (p, _) = placed(&groups[0], &b, &open);
         assert!(p.y > 0.0, "{p}");
+    }
+
+    #[test]
+    fn a_cabinets_probe_stands_past_its_top_and_its_front() {
+        // A 1.2 × 0.85 × 0.55 m cabinet against the wall z = 0: a top (+y) and a front (+z),
+        // its mean normal between them. The top reflects the wall behind it, so the probe
+        // must stand above the top's plane, and in front of the front's.
+        let (x0, x1, y1, z1) = (0.0, 1.2, 0.85, 0.55);
+        let top = [
+            Vec3::new(x0, y1, 0.0),
+            Vec3::new(x0, y1, z1),
+            Vec3::new(x1, y1, z1),
+            Vec3::new(x1, y1, 0.0),
+        ];
+        let front = [
+            Vec3::new(x0, 0.0, z1),
+            Vec3::new(x1, 0.0, z1),
+            Vec3::new(x1, y1, z1),
+            Vec3::new(x0, y1, z1),
+        ];
+        let tris: Vec<Triangle> = [top, front]
+            .iter()
+            .flat_map(|q| {
+                [[0, 1, 2], [0, 2, 3]].map(|[a, b, c]| Triangle {
+                    p: [q[a], q[b], q[c]],
+                    n: [Vec3::ZERO; 3],
+                    uv: [Vec2::ZERO; 3],
+                    uv1: None,
+                    material: 0,
+                    object: 0,
+                })
+            })
+            .collect();
+        let groups = glossy_groups(&tris, &[true], &[false; 4]);
+        let n = groups[0].mean_normal;
+        assert!(n.y > 0.2 && n.z > 0.2 && n.x.abs() < 1e-6, "{n}");
+        let room = Aabb::from_points([Vec3::new(-2.0, 0.0, 0.0), Vec3::splat(3.0)].iter());
+        let (p, r) = placed(&groups[0], &room, &open);
+        assert!(p.y > y1 && p.z > z1, "{p}");
+        assert!(p.distance(groups[0].bounds.center()) <= r);
+        // Where past both faces lies outside the room, the probe stays inside it.
+        let low = Aabb::from_points([Vec3::new(-2.0, 0.0, 0.0), Vec3::new(3.0, 1.0, 0.9)].iter());
+        let (p, _) = placed(&groups[0], &low, &open);
+        assert!(low.min.cmple(p).all() && p.cmple(low.max).all(), "{p}");
     }
 
     #[test]

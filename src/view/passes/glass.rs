@@ -44,19 +44,21 @@ const MULTIPLY_KEEP_ALPHA: wgpu::BlendState = wgpu::BlendState {
     },
 };
 
-/// Per material: tint × transmission factor and the Fresnel F₀ (`glass` in glass.wgsl).
-pub fn glass_records(scene: &Scene) -> Vec<[f32; 4]> {
-    let mut records: Vec<[f32; 4]> = scene
+/// Per material (`GlassRecord` in glass.wgsl): tint × transmission factor and the Fresnel
+/// F₀, then 1 where the material is double-sided (0: its back faces add no light).
+pub fn glass_records(scene: &Scene) -> Vec<[[f32; 4]; 2]> {
+    let mut records: Vec<[[f32; 4]; 2]> = scene
         .materials
         .iter()
         .map(|m| {
             let t = &m.transmission;
             let c = t.tint * if m.is_transmissive() { t.factor } else { 0.0 };
-            [c.x, c.y, c.z, t.f0()]
+            let sides = if m.double_sided { 1.0 } else { 0.0 };
+            [[c.x, c.y, c.z, t.f0()], [sides, 0.0, 0.0, 0.0]]
         })
         .collect();
     // A storage buffer may not be empty.
-    records.push([0.0; 4]);
+    records.push([[0.0; 4]; 2]);
     records
 }
 

@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 
-use super::{ProbeParams, shader_source};
+use super::{ProbeParams, shader_source, sides};
 use crate::materials::MaterialsIndex;
 use crate::materials::envmap::MipPyramid;
 use crate::materials::probes::{Probe, assign, lobe_lod, scene_groups};
@@ -159,7 +159,7 @@ impl ProbeReflections {
                     );
                     let mut base = ProbeParams {
                         centre: probes[*p].position.extend(1.0).to_array(),
-                        info: [*lod, 0.0, 0.0, 0.0],
+                        info: [*lod, sides(&scene.materials[g.material as usize]), 0.0, 0.0],
                         modulation: [[0.0; 4]; MODULATION_SIZE],
                     };
                     for (m, v) in base.modulation.iter_mut().zip(modulation) {

@@ -41,10 +41,17 @@ pub const PARALLAX_STEPS: usize = 4;
 pub struct ProbeParams {
     /// xyz: the probe's centre; w: 1 distance-corrected lookups, 0 from the centre.
     pub centre: [f32; 4],
-    /// x: the lobe's MIP level.
+    /// x: the lobe's MIP level; y: 1 where the material is double-sided, 0 where its back
+    /// faces reflect nothing.
     pub info: [f32; 4],
     /// ks·A at the 1D reflectance map's cosines.
     pub modulation: [[f32; 4]; MODULATION_SIZE],
+}
+
+/// `ProbeParams::info.y` of `material`: a single-sided surface seen from behind is black, as
+/// the radiosity solver and the path tracer have it (a glass jar's far panes seen through it).
+pub fn sides(material: &crate::scene::material::Material) -> f32 {
+    if material.double_sided { 1.0 } else { 0.0 }
 }
 
 /// The direction from a probe's centre to where the ray from the point `offset` away from it

@@ -1,0 +1,182 @@
+//! The shipped stand-in's two glossy materials that no reflector declares, against the path
+//! tracer, each from the camera where it was furthest off: the glossy wooden Vanity (its
+//! specular term from the probe the bake places for it) from `room`, and the glass jar (its
+//! transmittance, its D and its probe's specular term) from `tiles`.
+//!
+//! The reference keeps the lobes of the material measured and makes every other material
+//! diffuse, and the bake's radiosity leaves glossy transport out (`glossy_depth` 0): then D
+//! is the same diffuse solution on both sides, and what differs is the viewer's term for the
+//! material itself. The pixels are those all of whose 4×4 sub-pixel rays meet the material
+//! first; the viewer draws with 4× MSAA, as `glint-view` does.
+
+#![cfg(feature = "view")]
+
+mod common;
+
+use common::*;
+use glam::Vec3;
+use glint::bake::materials::MaterialsSettings;
+use glint::camera::Camera;
+use glint::eval::reference::{RenderOptions, render};
+use glint::progress::Silent;
+use glint::scene::Scene;
+use glint::scene::desc::{Quality, RadiositySettings};
+use glint::view::headless::Offscreen;
+use glint::view::load::{ViewData, load};
+use glint::view::options::ViewOptions;
+
+/// The frame's size.
+const SIZE: (u32, u32) = (192, 128);
+/// Sub-pixel rays per axis that must all meet the material for a pixel to count as its.
+const SUPER: u32 = 4;
+/// Issue 44's bound on a glossy material's mean luminance against the path tracer's.
+const TOLERANCE: f64 = 0.10;
+
+/// stand-in at draft quality with the diffuse radiosity solution, and its probes.
+fn bundle() -> ViewData {
+    let radiosity = RadiositySettings {
+        glossy_depth: 0,
+        ..RadiositySettings::preset(Quality::Draft)
+    };
+    let bundle = shipped_bundle(
+        &Recipe::new("stand-in")
+            .then(Step::Scene)
+            .then(Step::Radiosity(radiosity))
+            .then(Step::Materials(MaterialsSettings::preset(Quality::Draft))),
+    );
+    load(&bundle).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The first keyframe of `data`'s camera path `name`.
+fn camera(data: &ViewData, name: &str) -> Camera {
+    let path = data
+        .scene
+        .camera_paths
+        .iter()
+        .find(|p| p.name == name)
+        .unwrap_or_else(|| panic!("stand-in has a camera path {name}"));
+    Camera::from_keyframe(&path.keyframes[0])
+}
+
+/// The pixels all of whose 4×4 sub-pixel rays meet `material` first.
+fn pixels_of(data: &ViewData, camera: &Camera, material: u32) -> Vec<bool> {
+    let bvh = data.scene.build_bvh();
+    let (w, h) = SIZE;
+    let (sw, sh) = (w * SUPER, h * SUPER);
+    let meets = |x: u32, y: u32| {
+        let d = camera.ray_direction(Camera::pixel_ndc(x, y, sw, sh), sw as f32 / sh as f32);
+        bvh.closest_hit(camera.position, d, f32::INFINITY)
+            .is_some_and(|hit| data.scene.triangles[hit.triangle as usize].material == material)
+    };
+    (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            (0..SUPER * SUPER).all(|k| meets(x * SUPER + k % SUPER, y * SUPER + k / SUPER))
+        })
+        .collect()
+}
+
+/// Mean luminance of `rgb` over `mask`.
+fn mean(rgb: &[Vec3], mask: &[bool]) -> f64 {
+    let count = mask.iter().filter(|m| **m).count();
+    mask.iter()
+        .zip(rgb)
+        .filter(|(m, _)| **m)
+        .map(|(_, c)| f64::from(glint::colour::luminance(*c)))
+        .sum::<f64>()
+        / count.max(1) as f64
+}
+
+/// The viewer's linear frame with probes on or off, 4× MSAA.
+fn view(data: &ViewData, camera: &Camera, probes: bool) -> Vec<Vec3> {
+    let gpu = gpu();
+    let options = ViewOptions {
+        probes,
+        samples: 4,
+        ..ViewOptions::default().linear_display()
+    };
+    let off = Offscreen::with_options(&gpu, data, SIZE.0, SIZE.1, &options).unwrap();
+    off.render(&gpu, camera).unwrap();
+    off.read_hdr(&gpu).unwrap()
+}
+
+/// The path tracer's frame (64 spp) of stand-in with `material`'s lobes alone, or none.
+fn traced(camera: &Camera, material: &str, lobes: bool) -> Vec<Vec3> {
+    let mut scene =
+        Scene::load(repo("scenes/stand-in/scene.json")).unwrap_or_else(|e| panic!("{e}"));
+    for m in &mut scene.materials {
+        if !lobes || m.name != material {
+            m.lobes.clear();
+        }
+    }
+    let bvh = scene.build_bvh();
+    let options = RenderOptions {
+        width: SIZE.0,
+        height: SIZE.1,
+        spp: 64,
+        ..RenderOptions::default()
+    };
+    render(&scene, &bvh, camera, &options, &Silent)
+        .unwrap()
+        .image
+        .rgb
+}
+
+/// `data`'s material `name` (its index).
+fn material(data: &ViewData, name: &str) -> u32 {
+    data.scene
+        .materials
+        .iter()
+        .position(|m| m.name == name)
+        .unwrap_or_else(|| panic!("stand-in has a material {name}")) as u32
+}
+
+/// Seen through its near pane, the jar's far panes are the back faces of single-sided glass:
+/// they let light through but reflect none and have no D (the path tracer and the radiosity
+/// solver make them black). The viewer added their D and their probe's specular term.
+#[test]
+fn the_glass_jar_from_tiles_is_as_bright_as_the_path_tracer() {
+    let data = bundle();
+    let camera = camera(&data, "tiles");
+    let mask = pixels_of(&data, &camera, material(&data, "Glass"));
+    let count = mask.iter().filter(|m| **m).count();
+    assert!(count > 50, "the jar covers {count} pixels");
+    // D plus what the panes let through, without the specular term.
+    let flat = mean(&view(&data, &camera, false), &mask);
+    let flat_traced = mean(&traced(&camera, "Glass", false), &mask);
+    // With the probe's specular term.
+    let lit = mean(&view(&data, &camera, true), &mask);
+    let lit_traced = mean(&traced(&camera, "Glass", true), &mask);
+    let (flat_ratio, lit_ratio) = (flat / flat_traced, lit / lit_traced);
+    eprintln!(
+        "jar from tiles, {count} px: without specular {flat:.4} vs {flat_traced:.4} ({flat_ratio:.3}), \
+         with the probe {lit:.4} vs {lit_traced:.4} ({lit_ratio:.3})"
+    );
+    assert!(
+        (flat_ratio - 1.0).abs() < 0.05,
+        "the jar's D and transmittance are {flat_ratio:.3} of the path tracer's"
+    );
+    assert!(
+        (lit_ratio - 1.0).abs() < TOLERANCE,
+        "the jar is {lit_ratio:.3} of the path tracer's"
+    );
+}
+
+/// The Vanity (a cabinet against the wall: its top and its front are glossy) from `room`,
+/// which looks down at its top: its probe must see the wall behind the top.
+#[test]
+fn the_vanity_from_room_is_as_bright_as_the_path_tracer() {
+    let data = bundle();
+    let camera = camera(&data, "room");
+    let mask = pixels_of(&data, &camera, material(&data, "Vanity"));
+    let count = mask.iter().filter(|m| **m).count();
+    assert!(count > 400, "the vanity covers {count} pixels");
+    let lit = mean(&view(&data, &camera, true), &mask);
+    let want = mean(&traced(&camera, "Vanity", true), &mask);
+    let ratio = lit / want;
+    eprintln!("vanity from room, {count} px: {lit:.4} vs {want:.4} ({ratio:.3})");
+    assert!(
+        (ratio - 1.0).abs() < TOLERANCE,
+        "the vanity is {ratio:.3} of the path tracer's"
+    );
+}
