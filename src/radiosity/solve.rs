@@ -400,7 +400,8 @@ fn solve_gathered(
         let mut held: u64 = links.iter().map(Links::held).sum();
         for round in 1..=MAX_ROUNDS {
             let mut which = more_samples(&error, &gathered, target, rays, light);
-            share_budget(&mut which, &error, &gathered, &area, &mut budget);
+            let totals: Vec<f64> = error.iter().map(|p| p.error()).collect();
+            share_budget(&mut which, &totals, &gathered, &area, &mut budget);
             if which.is_empty() {
                 break;
             }
@@ -449,7 +450,7 @@ fn solve_gathered(
         .iter()
         .zip(&gathered)
         .filter(|(_, g)| !g.inside)
-        .map(|(e, _)| *e)
+        .map(|(e, _)| e.error())
         .collect();
     valid.sort_by(f64::total_cmp);
     if !valid.is_empty() {
@@ -662,58 +663,114 @@ fn iterate(
     Ok(())
 }
 
-/// Each element's estimated relative standard error of D (luminance): the variance of its
-/// emitter samples plus that of its rays' incoming radiance (each ray's texel value read from
-/// `lr`, glossy terms counted as part of the ray, and the ray's own emission and glossy
-/// light), scaled by the albedo, over D. Elements inside geometry get 0.
+/// An element's estimated relative variance of D (luminance), in the two parts that fall at
+/// different rates as samples are added.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct ErrorParts {
+    /// From the texel values its gathering rays read: the rays are a prefix of one
+    /// low-discrepancy sequence, so this part falls as rays^-3/2.
+    sequence: f64,
+    /// From its emitter samples and what its rays bring back besides texel values (emission
+    /// hit, glossy paths, which draw at random): falls as 1/samples.
+    random: f64,
+}
+
+impl ErrorParts {
+    /// The relative standard error.
+    fn error(self) -> f64 {
+        (self.sequence + self.random).sqrt()
+    }
+
+    /// The factor on an element's samples that brings its error to `target`: the root of
+    /// sequence·x^-3/2 + random·x^-1 = target² (≥ 1).
+    fn factor_to(self, target: f64) -> f64 {
+        let t2 = target * target;
+        let at = |x: f64| self.sequence * x.powf(-1.5) + self.random / x;
+        if at(1.0) <= t2 {
+            return 1.0;
+        }
+        // Each part alone would need at most its own root; together, at most twice that.
+        let (mut lo, mut hi) = (
+            1.0f64,
+            2.0 * ((self.sequence / t2).powf(2.0 / 3.0) + self.random / t2),
+        );
+        for _ in 0..40 {
+            let mid = 0.5 * (lo + hi);
+            if at(mid) > t2 {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        hi
+    }
+}
+
+/// Each element's estimated relative variance of D (luminance), in [`ErrorParts`]: the
+/// variance over its rays of the texel values they read directly (from `lr`) over rays^3/2 (a
+/// low-discrepancy sequence's rate where the integrand has edges, as the texels seen do); what
+/// the rest of their return adds to the per-ray variance (glossy terms, the rays' own emission
+/// and glossy light), over rays; its emitter samples' variance; all scaled by the albedo, over
+/// D². Elements inside geometry get 0.
 fn relative_errors(
     lr: &[Vec3],
     links: &[Links],
     gathered: &[Gathered],
     albedo: &[Vec3],
     emission: &[Vec3],
-) -> Vec<f64> {
+) -> Vec<ErrorParts> {
     (0..links.len())
         .into_par_iter()
         .map(|i| {
             let g = &gathered[i];
             if g.inside {
-                return 0.0;
+                return ErrorParts::default();
             }
+            let frozen = &links[i].frozen;
+            let n = (links[i].rays + frozen.rays).max(1) as f64;
+            let per_ray = |s: f64, s2: f64| {
+                if n > 1.0 {
+                    (s2 / n - (s / n).powi(2)).max(0.0) * n / (n - 1.0)
+                } else {
+                    0.0
+                }
+            };
             let (mut u, mut u2) = (0.0f64, 0.0f64);
             for h in links[i].hits() {
                 let v = luminance(lr[h as usize]) as f64;
                 u += v;
                 u2 += v * v;
             }
+            // The texel values the rays read directly: a function of each ray's direction.
+            let reads = per_ray(u, u2);
             for t in links[i].terms.iter() {
                 let v = luminance(t.weight * lr[t.texel as usize]) as f64;
                 u += v;
                 u2 += v * v;
             }
-            let frozen = &links[i].frozen;
             if frozen.rays > 0 {
                 u += frozen.u;
                 u2 += frozen.u2;
             }
-            let n = (links[i].rays + frozen.rays).max(1) as f64;
+            // Everything the rays bring back, glossy paths (drawn at random) included.
             let (c, c2) = (g.moments.ray_const, g.moments.ray_const2);
-            let mean = (u + c) / n;
-            let second = (u2 + c2) / n + 2.0 * (u / n) * (c / n);
-            let ray_var = if n > 1.0 {
-                (second - mean * mean).max(0.0) * n / (n - 1.0) / n
-            } else {
-                0.0
-            };
+            let all = per_ray(u + c, u2 + c2 + 2.0 * (u / n) * c);
             let rho = luminance(albedo[i]) as f64;
-            let se = rho * (g.moments.light_var + ray_var).sqrt();
+            let sequence = rho * rho * reads / n.powf(1.5);
+            let random = rho * rho * ((all - reads).max(0.0) / n + g.moments.light_var);
             let d = luminance(emission[i] + lr[i]) as f64;
-            if se == 0.0 {
-                0.0
+            if sequence + random == 0.0 {
+                ErrorParts::default()
             } else if d > 0.0 {
-                se / d
+                ErrorParts {
+                    sequence: sequence / (d * d),
+                    random: random / (d * d),
+                }
             } else {
-                f64::INFINITY
+                ErrorParts {
+                    sequence: f64::INFINITY,
+                    random: f64::INFINITY,
+                }
             }
         })
         .collect()
@@ -778,10 +835,11 @@ fn share_budget(
 }
 
 /// The elements whose error is above `target`, with the rays and emitter samples of their next
-/// batch: enough to bring the error to the target if it falls as 1/√samples (plus 10%), at
-/// least a quarter of what they have, within [`MAX_SAMPLE_FACTOR`] × the first batch.
+/// batch: enough to bring the error to the target at the rates of its parts
+/// ([`ErrorParts::factor_to`], plus 10%), at least a quarter of what they have, within
+/// [`MAX_SAMPLE_FACTOR`] × the first batch.
 fn more_samples(
-    error: &[f64],
+    error: &[ErrorParts],
     gathered: &[Gathered],
     target: f32,
     rays: u32,
@@ -793,12 +851,17 @@ fn more_samples(
         .iter()
         .zip(gathered)
         .enumerate()
-        .filter_map(|(i, (&e, g))| {
+        .filter_map(|(i, (&p, g))| {
             let have = g.gathering_rays as u64;
+            let e = p.error();
             if g.inside || e.is_nan() || e <= target || have >= max_rays {
                 return None;
             }
-            let want = ((e / target).powi(2) * 1.1).min(MAX_SAMPLE_FACTOR as f64);
+            let want = if e.is_finite() {
+                (p.factor_to(target) * 1.1).min(MAX_SAMPLE_FACTOR as f64)
+            } else {
+                MAX_SAMPLE_FACTOR as f64
+            };
             let add = ((have as f64 * (want - 1.0)).ceil() as u64)
                 .max(have / 4)
                 .min(max_rays - have)
@@ -862,7 +925,7 @@ fn resolve_texels(
 mod tests {
     use glam::Vec3;
 
-    use super::{Gathered, Links, share_budget};
+    use super::{ErrorParts, Gathered, Links, share_budget};
     use crate::radiosity::gather::Moments;
 
     fn gathered(hits: Vec<u32>) -> Gathered {
@@ -909,6 +972,37 @@ mod tests {
         // No ray reads anything: nothing stored, every ray still counted.
         let l = Links::take(&mut gathered(vec![u32::MAX; 5]), &map);
         assert_eq!((l.rays, l.hits().count(), l.hits.len()), (5, 0, 0));
+    }
+
+    #[test]
+    fn each_part_of_the_error_falls_at_its_own_rate() {
+        let t = 0.02f64;
+        // The sequence's part alone: (e/t)^(4/3) (error ∝ rays^-3/4), not (e/t)².
+        let seq = ErrorParts {
+            sequence: 0.08f64.powi(2),
+            random: 0.0,
+        };
+        assert!((seq.factor_to(t) - 4f64.powf(4.0 / 3.0)).abs() < 1e-6);
+        let random = ErrorParts {
+            sequence: 0.0,
+            random: 0.08f64.powi(2),
+        };
+        assert!((random.factor_to(t) - 16.0).abs() < 1e-6);
+        // Both: the factor brings their sum to the target, between the two alone.
+        let both = ErrorParts {
+            sequence: 0.06f64.powi(2),
+            random: 0.04f64.powi(2),
+        };
+        let x = both.factor_to(t);
+        let at = both.sequence * x.powf(-1.5) + both.random / x;
+        assert!((at - t * t).abs() < 1e-9 * t * t, "{x}: {at}");
+        assert!((both.error() - 0.0052f64.sqrt()).abs() < 1e-12);
+        // Already at the target: nothing more.
+        let done = ErrorParts {
+            sequence: 1e-4,
+            random: 1e-4,
+        };
+        assert_eq!(done.factor_to(t), 1.0);
     }
 
     #[test]

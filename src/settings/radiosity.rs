@@ -202,7 +202,7 @@ impl RadiositySettings {
         let (texel_density, min_chart, min_scene, rays, light_samples, bounces, glossy_depth, tolerance, target, stitch) =
             match quality {
                 Quality::Draft => (8.0, 4, 32, 64, 8, 8, 2, 1e-2, 0.05, false),
-                Quality::Default => (16.0, 8, 72, 256, 32, 16, 4, 3e-3, 0.02, true),
+                Quality::Default => (16.0, 8, 72, 256, 128, 16, 4, 3e-3, 0.015, true),
                 Quality::High => (32.0, 12, 96, 1024, 128, 32, 8, 1e-3, 0.01, true),
             };
         RadiositySettings {
@@ -462,7 +462,7 @@ mod tests {
         // Presets promise an error; 0 turns refinement off.
         assert_eq!(
             RadiositySettings::preset(Quality::Default).target_error,
-            Some(0.02)
+            Some(0.015)
         );
         let off = RadiosityOverride {
             target_error: Some(0.0),
