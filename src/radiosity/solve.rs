@@ -836,7 +836,7 @@ fn share_budget(
 
 /// The elements whose error is above `target`, with the rays and emitter samples of their next
 /// batch: enough to bring the error to the target at the rates of its parts
-/// ([`ErrorParts::factor_to`], plus 10%), at least a quarter of what they have, within
+/// ([`ErrorParts::factor_to`], times 1.1), at least a quarter of what they have, within
 /// [`MAX_SAMPLE_FACTOR`] × the first batch.
 fn more_samples(
     error: &[ErrorParts],
