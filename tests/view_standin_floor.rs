@@ -78,7 +78,6 @@ fn mirror_floor_edge_at_the_back_wall_has_no_dark_dots_with_msaa() {
         h,
         1.0,
     );
-    let mirror = &reflectors[0].triangles;
     let walls: Vec<u32> = data
         .scene
         .objects
@@ -88,14 +87,7 @@ fn mirror_floor_edge_at_the_back_wall_has_no_dark_dots_with_msaa() {
         .collect();
     assert!(!walls.is_empty(), "stand-in's walls");
     let aspect = w as f32 / h as f32;
-    let on_mirror: Vec<bool> = (0..h)
-        .flat_map(|y| (0..w).map(move |x| (x, y)))
-        .map(|(x, y)| {
-            let dir = camera.ray_direction(Camera::pixel_ndc(x, y, w, h), aspect);
-            bvh.closest_hit(camera.position, dir, f32::INFINITY)
-                .is_some_and(|hit| mirror.contains(&hit.triangle))
-        })
-        .collect();
+    let on_mirror = reflections::reflector_pixels(&bvh, &reflectors, &camera, w, h);
     let s = SUPERSAMPLE as usize;
     let mut dark = Vec::new();
     let mut edge = 0;
