@@ -44,6 +44,6 @@ fn fs_glass_add(in: WorldOut, @builtin(front_facing) front: bool) -> FragmentOut
     if hidden || cut_out(in.material, in.uv0, in.uv1) {
         discard;
     }
-    let v = VertexOut(in.clip, in.lightmap, in.page, in.uv0, in.uv1, in.material);
+    let v = VertexOut(in.clip, in.lightmap, in.page, in.uv0, in.uv1, in.material, in.lightmap, in.lightmap);
     return shade(v, g);
 }

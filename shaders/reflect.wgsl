@@ -99,6 +99,9 @@ struct MirrorOut {
     // `world` at a point the primitive covers: apart from `world` only at a multisampled
     // pixel it covers in part.
     @location(6) @interpolate(perspective, centroid) inside: vec3<f32>,
+    // `lightmap` at a covered point and at the provoking corner (`lightmap_at`).
+    @location(7) @interpolate(perspective, centroid) lightmap_centroid: vec2<f32>,
+    @location(8) @interpolate(flat) lightmap_corner: vec2<f32>,
 };
 
 @vertex
@@ -109,6 +112,8 @@ fn vs_mirror(v: VertexIn) -> MirrorOut {
     out.page = v.page;
     out.world = v.position;
     out.inside = v.position;
+    out.lightmap_centroid = v.lightmap;
+    out.lightmap_corner = v.lightmap;
     out.uv0 = v.uv0;
     out.uv1 = v.uv1;
     out.material = v.material;
@@ -133,7 +138,8 @@ fn fs_mirror(in: MirrorOut) -> @location(0) vec4<f32> {
     if side(in.world) <= reflect_params.ks.a || cut_out(in.material, in.uv0, in.uv1) {
         discard;
     }
-    let q = max(sample_radiosity(in.lightmap, in.page), vec3<f32>(0.0));
+    let lightmap = lightmap_at(in.lightmap, in.lightmap_centroid, in.lightmap_corner);
+    let q = max(sample_radiosity(lightmap, in.page), vec3<f32>(0.0));
     let d = surface_d(q, in.material, in.uv0, in.uv1, g) * frame.exposure;
     return vec4<f32>(d, beyond(in.world));
 }

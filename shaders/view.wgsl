@@ -73,6 +73,9 @@ struct VertexOut {
     @location(2) uv0: vec2<f32>,
     @location(3) uv1: vec2<f32>,
     @location(4) @interpolate(flat) material: u32,
+    // `lightmap` at a covered point and at the provoking corner (`lightmap_at`).
+    @location(5) @interpolate(perspective, centroid) lightmap_centroid: vec2<f32>,
+    @location(6) @interpolate(flat) lightmap_corner: vec2<f32>,
 };
 
 @vertex
@@ -107,7 +110,25 @@ fn scene_vertex(v: VertexIn) -> VertexOut {
     out.uv0 = v.uv0;
     out.uv1 = v.uv1;
     out.material = v.material;
+    out.lightmap_centroid = v.lightmap;
+    out.lightmap_corner = v.lightmap;
     return out;
+}
+
+// Texels of the lightmap a pixel spans, along both screen axes, above which a triangle that
+// covers a multisampled pixel in part reads D at its corner (`lightmap_at`).
+const LIGHTMAP_DENSE: f32 = 4.0;
+
+// Where a fragment reads the lightmap. A multisampled pixel is shaded once, at its centre,
+// where `centre` is extrapolated past a triangle that covers the pixel in part; where the
+// pixel spans many texels (a small or distant triangle) that reaches another chart of the
+// atlas (a sliver of glossy-room's teapot read the ceiling light's D). Such a fragment reads
+// at its provoking `corner`, inside its own chart; every other one at its centre. A partly
+// covered pixel is told by its `centroid` (a covered point) lying off the centre.
+fn lightmap_at(centre: vec2<f32>, centroid: vec2<f32>, corner: vec2<f32>) -> vec2<f32> {
+    let partial = distance(centre, centroid) > 1e-3;
+    let dense = min(length(dpdx(centre)), length(dpdy(centre))) > LIGHTMAP_DENSE;
+    return select(centre, corner, partial && dense);
 }
 
 // Integer texel index i folded into [0, n) (glint::scene::texture::wrap_index).
@@ -319,7 +340,8 @@ fn fs_opaque(in: VertexOut) -> FragmentOut {
 }
 
 fn shade(in: VertexOut, g: UvGrads) -> FragmentOut {
-    let q = max(sample_radiosity(in.lightmap, in.page), vec3<f32>(0.0));
+    let lightmap = lightmap_at(in.lightmap, in.lightmap_centroid, in.lightmap_corner);
+    let q = max(sample_radiosity(lightmap, in.page), vec3<f32>(0.0));
     let d = surface_d(q, in.material, in.uv0, in.uv1, g) * frame.exposure;
     var out: FragmentOut;
     var color = d;
