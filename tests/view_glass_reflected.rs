@@ -276,7 +276,7 @@ fn a_cube_map_captured_in_front_of_a_pane_sees_through_it() {
     );
     let dir = face_direction(face, s, t).normalize();
     let got = cube.texels[(face * 8 + 4) * 8 + 4];
-    let want = pane_over_wall(&scene, &bvh, centre, dir, d);
+    let want = pane_over_wall(scene, &bvh, centre, dir, d);
     let off = ((got - want) / want).abs().max_element();
     eprintln!("through the pane: {got} against {want} ({off:.4})");
     assert!(off < 0.01, "{got} against {want}: {off:.4}");
@@ -402,7 +402,7 @@ fn a_live_cube_map_in_front_of_a_pane_sees_through_it() {
         .probe_live_map(&gpu, 0, &[[0.0, 0.0, -1.0, 0.0]])
         .unwrap()[0];
     let d = |h: &Hit| glint::view::cpu::bicubic::radiance(&data.map, h.triangle, h.bary);
-    let want = pane_over_wall(&scene, &bvh, centre, -Vec3::Z, d);
+    let want = pane_over_wall(scene, &bvh, centre, -Vec3::Z, d);
     let off_by = ((got - want) / want).abs().max_element();
     eprintln!("the live cube map through the pane: {got} against {want} ({off_by:.4})");
     assert!(off_by < 0.02, "{got} against {want}: {off_by:.4}");
