@@ -1144,13 +1144,10 @@ fn glossy_room_teapot_seen_in_the_mirror_gets_its_specular_term() {
     let face = 64u32;
     let bvh = data.scene.build_bvh();
     let env = TeapotEnvironment::new(&data, &bvh, &teapot, face);
-    let mut of_triangle = vec![0u8; data.scene.triangles.len()];
-    for &t in &teapot.triangles {
-        of_triangle[t as usize] = 1;
-    }
-    for &t in &panel.triangles {
-        of_triangle[t as usize] = 2;
-    }
+    let of_triangle = label_triangles(
+        data.scene.triangles.len(),
+        &[(&teapot.triangles, 1), (&panel.triangles, 2)],
+    );
     // Per pixel: 0 not the panel, 1 the panel reflecting the teapot (with the CPU's added
     // term), 2 the panel reflecting something else.
     let n = panel.plane.normal;

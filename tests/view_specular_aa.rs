@@ -192,13 +192,10 @@ fn teapot_highlights_seen_in_a_mirror_keep_their_mean_at_low_resolution() {
     let camera = Camera::look_at(Vec3::new(0.9, 1.2, 0.5), image, Vec3::Y, 40f32.to_radians());
 
     let bvh = data.scene.build_bvh();
-    let mut of_triangle = vec![0u8; data.scene.triangles.len()];
-    for &t in &teapot.triangles {
-        of_triangle[t as usize] = 1;
-    }
-    for &t in &panel.triangles {
-        of_triangle[t as usize] = 2;
-    }
+    let of_triangle = label_triangles(
+        data.scene.triangles.len(),
+        &[(&teapot.triangles, 1), (&panel.triangles, 2)],
+    );
     let n = panel.plane.normal;
     let mask = covered(&camera, |d| {
         let Some(hit) = bvh.closest_hit(camera.position, d, f32::INFINITY) else {

@@ -553,3 +553,14 @@ pub fn traced_with_lobes_of(
             .unwrap();
     (bvh, rendered)
 }
+
+/// A label per triangle: `label` for each triangle of each group, 0 for the rest of `count`.
+pub fn label_triangles(count: usize, groups: &[(&[u32], u8)]) -> Vec<u8> {
+    let mut of = vec![0u8; count];
+    for (triangles, label) in groups {
+        for &t in *triangles {
+            of[t as usize] = *label;
+        }
+    }
+    of
+}
