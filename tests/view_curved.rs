@@ -626,7 +626,7 @@ fn glossy_room_teapot_matches_the_reference_path_tracer() {
         .unwrap()
         .material;
     let (bvh, reference) =
-        traced_with_lobes_of(&mut reference_scene, teapot_material, &camera, (w, h));
+        traced_with_lobes_of(&mut reference_scene, &[teapot_material], &camera, (w, h));
 
     // The teapot's interior pixels: the pixel and its four neighbours hit the teapot.
     let on_teapot: Vec<bool> = {

@@ -199,12 +199,8 @@ fn a_glass_pane_reflected_in_a_mirror_floor_shows_the_wall_behind_it() {
         "{pane} pixels see the pane and {wall} the wall in the mirror"
     );
     let mut scene = Scene::load(scene_json).unwrap_or_else(|e| panic!("{e}"));
-    let floor = scene
-        .materials
-        .iter()
-        .position(|m| m.name == "FloorMat")
-        .unwrap() as u32;
-    let (_, traced) = common::traced_with_lobes_of(&mut scene, floor, &camera, SIZE);
+    let floor = common::material_id(&scene, "FloorMat");
+    let (_, traced) = common::traced_with_lobes_of(&mut scene, &[floor], &camera, SIZE);
     let traced: Vec<Vec3> = traced.image.rgb.clone();
     let traced_ratio = sum(mean(&traced, &regions, true)) / sum(mean(&traced, &regions, false));
     let frames = common::hdr_frames(
@@ -364,11 +360,7 @@ fn a_live_cube_map_in_front_of_a_pane_sees_through_it() {
     let data = load(&room().1).unwrap_or_else(|e| panic!("{e}"));
     let scene = &data.scene;
     let bvh = scene.build_bvh();
-    let floor = scene
-        .materials
-        .iter()
-        .position(|m| m.name == "FloorMat")
-        .unwrap();
+    let floor = common::material_id(scene, "FloorMat") as usize;
     let centre = Vec3::new(0.0, 0.8, 1.0);
     // The mirror floor as a cube-mapped reflector taken at `centre`: its map holds the room
     // without the floor.

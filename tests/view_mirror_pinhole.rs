@@ -11,7 +11,7 @@
 mod common;
 
 use common::*;
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use glint::camera::Camera;
 use glint::view::curved::{CurvedMode, curved_reflectors};
 use glint::view::headless::Offscreen;
@@ -66,7 +66,6 @@ fn teapot_pixels_read_no_other_chart() {
     };
     let (w, h) = SIZE;
     let off = Offscreen::with_options(&gpu, &data, w, h, &options).unwrap();
-    let aspect = w as f32 / h as f32;
     // The largest D a pixel all of whose 4×4 sub-pixel rays meet the teapot shows, over
     // cameras around it near and far (so its triangles span few and many texels a pixel).
     let mut worst = (0.0f32, String::new());
@@ -77,17 +76,13 @@ fn teapot_pixels_read_no_other_chart() {
             let camera = Camera::look_at(eye, teapot.centre, Vec3::Y, 20f32.to_radians());
             off.render(&gpu, &camera).unwrap();
             let frame = off.read_hdr(&gpu).unwrap();
+            let on_teapot = covered_pixels(&camera, SIZE, 4, |d| {
+                bvh.closest_hit(eye, d, f32::INFINITY)
+                    .is_some_and(|hit| mine[hit.triangle as usize])
+            });
             for (i, value) in frame.iter().enumerate() {
                 let (x, y) = (i as u32 % w, i as u32 / w);
-                let on_teapot = (0..16).all(|s| {
-                    let ndc = Vec2::new(
-                        2.0 * (x as f32 + (s % 4) as f32 / 4.0 + 0.125) / w as f32 - 1.0,
-                        1.0 - 2.0 * (y as f32 + (s / 4) as f32 / 4.0 + 0.125) / h as f32,
-                    );
-                    bvh.closest_hit(eye, camera.ray_direction(ndc, aspect), f32::INFINITY)
-                        .is_some_and(|hit| mine[hit.triangle as usize])
-                });
-                if on_teapot && value.max_element() > worst.0 {
+                if on_teapot[i] && value.max_element() > worst.0 {
                     worst = (
                         value.max_element(),
                         format!("camera {k} at {r} m, pixel ({x}, {y})"),

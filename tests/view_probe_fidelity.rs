@@ -17,8 +17,6 @@ use common::*;
 use glam::Vec3;
 use glint::bake::materials::MaterialsSettings;
 use glint::camera::Camera;
-use glint::eval::reference::{RenderOptions, render};
-use glint::progress::Silent;
 use glint::scene::Scene;
 use glint::scene::desc::{Quality, RadiositySettings};
 use glint::view::headless::Offscreen;
@@ -65,19 +63,10 @@ fn camera(data: &ViewData, name: &str) -> Camera {
 /// The pixels all of whose 4×4 sub-pixel rays meet `material` first.
 fn pixels_of(data: &ViewData, camera: &Camera, material: u32) -> Vec<bool> {
     let bvh = data.scene.build_bvh();
-    let (w, h) = SIZE;
-    let (sw, sh) = (w * SUPER, h * SUPER);
-    let meets = |x: u32, y: u32| {
-        let d = camera.ray_direction(Camera::pixel_ndc(x, y, sw, sh), sw as f32 / sh as f32);
+    common::covered_pixels(camera, SIZE, SUPER, |d| {
         bvh.closest_hit(camera.position, d, f32::INFINITY)
             .is_some_and(|hit| data.scene.triangles[hit.triangle as usize].material == material)
-    };
-    (0..w * h)
-        .map(|i| {
-            let (x, y) = (i % w, i / w);
-            (0..SUPER * SUPER).all(|k| meets(x * SUPER + k % SUPER, y * SUPER + k / SUPER))
-        })
-        .collect()
+    })
 }
 
 /// Mean luminance of `rgb` over `mask`.
@@ -108,31 +97,15 @@ fn view(data: &ViewData, camera: &Camera, probes: bool) -> Vec<Vec3> {
 fn traced(camera: &Camera, material: &str, lobes: bool) -> Vec<Vec3> {
     let mut scene =
         Scene::load(repo("scenes/stand-in/scene.json")).unwrap_or_else(|e| panic!("{e}"));
-    for m in &mut scene.materials {
-        if !lobes || m.name != material {
-            m.lobes.clear();
-        }
-    }
-    let bvh = scene.build_bvh();
-    let options = RenderOptions {
-        width: SIZE.0,
-        height: SIZE.1,
-        spp: 64,
-        ..RenderOptions::default()
+    let kept = if lobes {
+        vec![common::material_id(&scene, material)]
+    } else {
+        Vec::new()
     };
-    render(&scene, &bvh, camera, &options, &Silent)
-        .unwrap()
+    common::traced_with_lobes_of(&mut scene, &kept, camera, SIZE)
+        .1
         .image
         .rgb
-}
-
-/// `data`'s material `name` (its index).
-fn material(data: &ViewData, name: &str) -> u32 {
-    data.scene
-        .materials
-        .iter()
-        .position(|m| m.name == name)
-        .unwrap_or_else(|| panic!("stand-in has a material {name}")) as u32
 }
 
 /// Seen through its near pane, the jar's far panes are the back faces of single-sided glass:
@@ -142,7 +115,7 @@ fn material(data: &ViewData, name: &str) -> u32 {
 fn the_glass_jar_from_tiles_is_as_bright_as_the_path_tracer() {
     let data = bundle();
     let camera = camera(&data, "tiles");
-    let mask = pixels_of(&data, &camera, material(&data, "Glass"));
+    let mask = pixels_of(&data, &camera, common::material_id(&data.scene, "Glass"));
     let count = mask.iter().filter(|m| **m).count();
     assert!(count > 50, "the jar covers {count} pixels");
     // D plus what the panes let through, without the specular term.
@@ -172,7 +145,7 @@ fn the_glass_jar_from_tiles_is_as_bright_as_the_path_tracer() {
 fn the_vanity_from_room_is_as_bright_as_the_path_tracer() {
     let data = bundle();
     let camera = camera(&data, "room");
-    let mask = pixels_of(&data, &camera, material(&data, "Vanity"));
+    let mask = pixels_of(&data, &camera, common::material_id(&data.scene, "Vanity"));
     let count = mask.iter().filter(|m| **m).count();
     assert!(count > 400, "the vanity covers {count} pixels");
     let lit = mean(&view(&data, &camera, true), &mask);

@@ -85,7 +85,7 @@ fn the_glossy_table_reflects_its_probe_towards_the_path_tracer() {
     // solution; the probe shows that room).
     let mut reference_scene = scene;
     let (bvh, reference) =
-        traced_with_lobes_of(&mut reference_scene, group.material, &camera, (w, h));
+        traced_with_lobes_of(&mut reference_scene, &[group.material], &camera, (w, h));
 
     // The pixels whose ray and its four neighbours' hit the table top.
     let mut in_group = vec![false; reference_scene.triangles.len()];

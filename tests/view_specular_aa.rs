@@ -69,44 +69,13 @@ fn teapot_of(data: &ViewData) -> CurvedReflector {
         .expect("glossy-room has a curved teapot")
 }
 
-/// The pixels of a `SIZE` frame all of whose 4×4 sub-pixel rays from `camera` pass `sees`
-/// (given the ray's unit direction).
-fn covered(camera: &Camera, sees: impl Fn(Vec3) -> bool) -> Vec<bool> {
-    let (w, h) = SIZE;
-    let (sw, sh) = (w * SUPER, h * SUPER);
-    let ray = |x: u32, y: u32| {
-        camera.ray_direction(Camera::pixel_ndc(x, y, sw, sh), sw as f32 / sh as f32)
-    };
-    (0..w * h)
-        .map(|i| {
-            let (x, y) = (i % w, i / w);
-            (0..SUPER * SUPER).all(|k| sees(ray(x * SUPER + k % SUPER, y * SUPER + k / SUPER)))
-        })
-        .collect()
-}
-
 /// The path tracer's frame (64 spp) of glossy-room from `camera` with the glossy lobes of
 /// the `kept` materials only, every other material diffuse (D is the diffuse solution).
 fn traced(kept: &[&str], camera: &Camera) -> Rendered {
     let mut scene =
         Scene::load(repo("scenes/glossy-room/scene.json")).unwrap_or_else(|e| panic!("{e}"));
-    for name in kept {
-        assert!(scene.materials.iter().any(|m| m.name == *name), "{name}");
-    }
-    for m in &mut scene.materials {
-        if !kept.contains(&m.name.as_str()) {
-            m.lobes.clear();
-        }
-    }
-    let bvh = scene.build_bvh();
-    let options = glint::eval::reference::RenderOptions {
-        width: SIZE.0,
-        height: SIZE.1,
-        spp: 64,
-        ..Default::default()
-    };
-    glint::eval::reference::render(&scene, &bvh, camera, &options, &glint::progress::Silent)
-        .unwrap()
+    let kept: Vec<u32> = kept.iter().map(|name| material_id(&scene, name)).collect();
+    traced_with_lobes_of(&mut scene, &kept, camera, SIZE).1
 }
 
 /// The ratio of `frame`'s mean luminance over `mask` to the path tracer's, printed with the
@@ -152,7 +121,7 @@ fn teapot_highlights_keep_their_mean_at_low_resolution() {
     for &t in &teapot.triangles {
         mine[t as usize] = true;
     }
-    let mask = covered(&camera, |d| {
+    let mask = covered_pixels(&camera, SIZE, SUPER, |d| {
         bvh.closest_hit(camera.position, d, f32::INFINITY)
             .is_some_and(|hit| mine[hit.triangle as usize])
     });
@@ -197,7 +166,7 @@ fn teapot_highlights_seen_in_a_mirror_keep_their_mean_at_low_resolution() {
         &[(&teapot.triangles, 1), (&panel.triangles, 2)],
     );
     let n = panel.plane.normal;
-    let mask = covered(&camera, |d| {
+    let mask = covered_pixels(&camera, SIZE, SUPER, |d| {
         let Some(hit) = bvh.closest_hit(camera.position, d, f32::INFINITY) else {
             return false;
         };

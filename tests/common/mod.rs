@@ -527,17 +527,18 @@ pub fn copy_dir(from: &Path, to: &Path) {
     }
 }
 
-/// The path tracer's frame (64 spp) of `scene` with only `material`'s glossy lobes kept, every
-/// other material diffuse: the viewer's D is the diffuse solution, so that is the light its
-/// specular term reflects. With the BVH it traced, for masks of what each pixel sees.
+/// The path tracer's frame (64 spp) of `scene` with only the `kept` materials' glossy lobes,
+/// every other material diffuse (none kept: all diffuse): the viewer's D is the diffuse
+/// solution, so that is the light its specular term reflects. With the BVH it traced, for
+/// masks of what each pixel sees.
 pub fn traced_with_lobes_of(
     scene: &mut glint::scene::Scene,
-    material: u32,
+    kept: &[u32],
     camera: &glint::camera::Camera,
     (width, height): (u32, u32),
 ) -> (glint::geometry::Bvh, glint::eval::reference::Rendered) {
     for (i, m) in scene.materials.iter_mut().enumerate() {
-        if i as u32 != material {
+        if !kept.contains(&(i as u32)) {
             m.lobes.clear();
         }
     }
@@ -563,4 +564,34 @@ pub fn label_triangles(count: usize, groups: &[(&[u32], u8)]) -> Vec<u8> {
         }
     }
     of
+}
+
+/// The index of `scene`'s material called `name` (panics, naming it, if there is none).
+pub fn material_id(scene: &glint::scene::Scene, name: &str) -> u32 {
+    scene
+        .materials
+        .iter()
+        .position(|m| m.name == name)
+        .unwrap_or_else(|| panic!("no material {name}")) as u32
+}
+
+/// The pixels of a `width` × `height` frame from `camera` all of whose `sub` × `sub`
+/// sub-pixel rays (their directions) `sees` accepts.
+pub fn covered_pixels(
+    camera: &glint::camera::Camera,
+    (width, height): (u32, u32),
+    sub: u32,
+    sees: impl Fn(glam::Vec3) -> bool,
+) -> Vec<bool> {
+    use glint::camera::Camera;
+    let (sw, sh) = (width * sub, height * sub);
+    let ray = |x: u32, y: u32| {
+        camera.ray_direction(Camera::pixel_ndc(x, y, sw, sh), sw as f32 / sh as f32)
+    };
+    (0..width * height)
+        .map(|i| {
+            let (x, y) = (i % width, i / width);
+            (0..sub * sub).all(|k| sees(ray(x * sub + k % sub, y * sub + k / sub)))
+        })
+        .collect()
 }

@@ -20,7 +20,7 @@ use crate::view::gpu::{Gpu, RenderError, error_scoped};
 
 use super::renderer::{
     Renderer, SHADER_SOURCE, SURFACE_TEXTURES, SurfaceShading, frame_bind_group,
-    frame_bind_group_layout, scene_vertex_layout,
+    frame_bind_group_layout, scene_vertex_layout, sides,
 };
 
 /// WGSL of the glass passes, appended to [`SHADER_SOURCE`].
@@ -53,8 +53,7 @@ pub fn glass_records(scene: &Scene) -> Vec<[[f32; 4]; 2]> {
         .map(|m| {
             let t = &m.transmission;
             let c = t.tint * if m.is_transmissive() { t.factor } else { 0.0 };
-            let sides = if m.double_sided { 1.0 } else { 0.0 };
-            [[c.x, c.y, c.z, t.f0()], [sides, 0.0, 0.0, 0.0]]
+            [[c.x, c.y, c.z, t.f0()], [sides(m), 0.0, 0.0, 0.0]]
         })
         .collect();
     // A storage buffer may not be empty.

@@ -463,9 +463,17 @@ impl Renderer {
         &self.glass_runs
     }
 
-    /// The runs of opaque triangles, which the scene pass draws.
-    pub(crate) fn opaque_runs(&self) -> &[ShadingRun] {
-        &self.opaque_runs
+    /// Draws the opaque triangles into `pass` with the pipeline and buffers it has set: the
+    /// whole index buffer in one draw where the scene has no glass, else each opaque run (the
+    /// glass follows in passes of its own).
+    pub(crate) fn draw_opaque(&self, pass: &mut wgpu::RenderPass<'_>) {
+        if self.glass_runs.is_empty() {
+            pass.draw_indexed(0..self.index_count(), 0, 0..1);
+        } else {
+            for run in &self.opaque_runs {
+                pass.draw_indexed(run.indices.clone(), 0, 0..1);
+            }
+        }
     }
 
     /// The formats the pipeline renders to.
@@ -555,6 +563,13 @@ impl Renderer {
             pass.draw_indexed(run.indices.clone(), 0, 0..1);
         }
     }
+}
+
+/// How a shader is told `material`'s sides (`ProbeParams::info.y`, `GlassRecord::sides.x`):
+/// 1 double-sided, 0 single-sided, whose back seen from behind is black, as the radiosity
+/// solver and the path tracer have it (a glass jar's far panes seen through it).
+pub fn sides(material: &crate::scene::material::Material) -> f32 {
+    if material.double_sided { 1.0 } else { 0.0 }
 }
 
 #[cfg(test)]

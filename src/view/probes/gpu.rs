@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 
-use super::{ProbeParams, shader_source, sides};
+use super::{ProbeParams, shader_source};
 use crate::materials::MaterialsIndex;
 use crate::materials::envmap::MipPyramid;
 use crate::materials::probes::{Probe, assign, lobe_lod, scene_groups};
@@ -15,6 +15,7 @@ use crate::view::gpu::{Gpu, RenderError, error_scoped};
 use crate::view::load::ViewData;
 use crate::view::options::ReflectanceSettings;
 use crate::view::passes::composite::Composite;
+use crate::view::passes::renderer::sides;
 use crate::view::passes::renderer::{Renderer, frame_bind_group_layout};
 use crate::view::reflections::material::{MODULATION_SIZE, ReflectanceLayout, load_material};
 

@@ -48,12 +48,6 @@ pub struct ProbeParams {
     pub modulation: [[f32; 4]; MODULATION_SIZE],
 }
 
-/// `ProbeParams::info.y` of `material`: a single-sided surface seen from behind is black, as
-/// the radiosity solver and the path tracer have it (a glass jar's far panes seen through it).
-pub fn sides(material: &crate::scene::material::Material) -> f32 {
-    if material.double_sided { 1.0 } else { 0.0 }
-}
-
 /// The direction from a probe's centre to where the ray from the point `offset` away from it
 /// along unit `dir` meets the room (`distances`: a cube map holding, in x, the distance from
 /// the centre to what each texel sees, 0 where nothing): the stored distance in the current

@@ -594,14 +594,7 @@ impl GeometryReflections {
                             renderer.index_buffer().slice(..),
                             wgpu::IndexFormat::Uint32,
                         );
-                        match &self.glass {
-                            None => pass.draw_indexed(0..renderer.index_count(), 0, 0..1),
-                            Some(_) => {
-                                for run in renderer.opaque_runs() {
-                                    pass.draw_indexed(run.indices.clone(), 0, 0..1);
-                                }
-                            }
-                        }
+                        renderer.draw_opaque(&mut pass);
                         if let (Some(c), Source::Geometry) = (curved, self.source) {
                             c.draw_mirror(&mut pass, slot);
                         }

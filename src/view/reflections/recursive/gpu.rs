@@ -493,14 +493,7 @@ impl RecursiveReflections {
             pass.set_bind_group(1, &slots[id].params_group, &[]);
             pass.set_vertex_buffer(0, renderer.vertex_buffer().slice(..));
             pass.set_index_buffer(renderer.index_buffer().slice(..), wgpu::IndexFormat::Uint32);
-            match &self.glass {
-                None => pass.draw_indexed(0..renderer.index_count(), 0, 0..1),
-                Some(_) => {
-                    for run in renderer.opaque_runs() {
-                        pass.draw_indexed(run.indices.clone(), 0, 0..1);
-                    }
-                }
-            }
+            renderer.draw_opaque(&mut pass);
             // Curved reflectors seen in this mirror: their specular term in the mirrored view.
             if let Some(c) = curved {
                 c.draw_mirror(&mut pass, id);
