@@ -7,14 +7,17 @@
 //! On glossy-room (the default), the light is the ceiling lamp's emissive material (the scene
 //! has no area lights), and the reflector added is TableTop's (the run starts from a bundle
 //! of the scene without it). Every glossy material of glossy-room belongs to a reflector, so
-//! the roughness edited is GlossyTable's (TableTop's).
+//! the `roughness` edit (a material that is no reflector's) is measured on a second scene,
+//! stand-in (`--roughness-scene`), whose tiled floor `Tiles` is glossy and no reflector; its
+//! row is against that scene's own full bake, printed as a row of its own.
+//! `roughness-reflector` edits GlossyTable (TableTop's material) on the main scene.
 //!
 //! A full bake is also timed once stage by stage (`bake_all`, what the stage tools run) unless
 //! `--no-per-stage`.
 //!
 //! `cargo bench --no-default-features --bench edit_loop [-- [--quality Q] [--runs N]
-//! [--only EDIT,…] [--no-per-stage] [--phases]]` (edits: noop, camera, albedo, roughness,
-//! light, reflector). `--phases` prints, for every bake, the seconds of each progress phase
+//! [--only EDIT,…] [--no-per-stage] [--phases] [--roughness-scene SCENE.json] [SCENE.json]]`
+//! (edits: noop, camera, albedo, roughness, roughness-reflector, light, reflector). `--phases` prints, for every bake, the seconds of each progress phase
 //! (gathering, refining, bouncing, radiance maps…) in order: where an edit's time goes.
 //!
 //! Each bake's CPU time (user + system, all threads) is given beside its wall time: on a
@@ -41,6 +44,8 @@ struct Edit {
     apply: fn(&mut Value),
     /// Applied to the scene of the bundle each run starts from (`reflector`: without it).
     base: Option<fn(&mut Value)>,
+    /// Measured on the `--roughness-scene` rather than the main scene.
+    second_scene: bool,
 }
 
 fn edits() -> Vec<Edit> {
@@ -50,28 +55,42 @@ fn edits() -> Vec<Edit> {
             what: "nothing changed",
             apply: |_| {},
             base: None,
+            second_scene: false,
         },
         Edit {
             name: "camera",
             what: "camera path `walkthrough`: keyframe 2 moved",
             apply: |v| v["camera_paths"][0]["keyframes"][2]["position"] = json!([-2.0, 1.5, 1.2]),
             base: None,
+            second_scene: false,
         },
         Edit {
             name: "albedo",
             what: "GlossyFloor albedo",
             apply: |v| v["materials"]["GlossyFloor"]["albedo"] = json!([0.5, 0.4, 0.4]),
             base: None,
+            second_scene: false,
         },
         Edit {
             name: "roughness",
-            what: "GlossyTable roughness 0.15 → 0.2",
+            what: "second scene: Tiles (no reflector) GGX α 0.1225 → 0.16",
+            // glTF roughness 0.35 → 0.4: the lobe glint maps the glTF material to, α = r².
+            apply: |v| {
+                v["materials"]["Tiles"] = json!({ "lobes": [{ "ks": [1.0, 1.0, 1.0], "r0": 0.04, "mx": 0.16, "my": 0.16 }] });
+            },
+            base: None,
+            second_scene: true,
+        },
+        Edit {
+            name: "roughness-reflector",
+            what: "GlossyTable (TableTop reflector's) roughness 0.15 → 0.2",
             apply: |v| {
                 let lobe = &mut v["materials"]["GlossyTable"]["lobes"][0];
                 lobe["mx"] = 0.2.into();
                 lobe["my"] = 0.2.into();
             },
             base: None,
+            second_scene: false,
         },
         Edit {
             name: "light",
@@ -80,6 +99,7 @@ fn edits() -> Vec<Edit> {
                 v["materials"]["CeilingLight"] = json!({ "emission": [30.0, 28.5, 25.5] });
             },
             base: None,
+            second_scene: false,
         },
         Edit {
             name: "reflector",
@@ -91,6 +111,7 @@ fn edits() -> Vec<Edit> {
                     .expect("reflectors")
                     .retain(|r| r["mesh"] != "TableTop")
             }),
+            second_scene: false,
         },
     ]
 }
@@ -219,11 +240,78 @@ fn copy_bundle(bundle: &Path, to: &Path) {
     copy_dir(&cache_dir(bundle), &cache_dir(to));
 }
 
+/// A scene copied into the work folder, and its full bakes: the bundle each edit starts from
+/// and the median time.
+struct Baseline {
+    /// The scene's own folder, and its copy's scene.json, which the edits rewrite.
+    dir: PathBuf,
+    json: PathBuf,
+    original: Value,
+    base: PathBuf,
+    full: Took,
+}
+
+/// Copies the scene of `dir` to `work/name` and bakes it `runs` times from scratch, each
+/// into a new bundle with an empty cache; the first is every run's start.
+fn baseline(
+    dir: &Path,
+    work: &Path,
+    name: &str,
+    runs: usize,
+    quality: Option<Quality>,
+    phases: bool,
+) -> Baseline {
+    let copy = work.join(name);
+    copy_dir(dir, &copy);
+    let json = copy.join("scene.json");
+    let original: Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let base = work.join(format!("{name}-base.glint"));
+    let mut full = Vec::new();
+    for r in 0..runs {
+        let bundle = if r == 0 {
+            base.clone()
+        } else {
+            work.join(format!("{name}-full{r}.glint"))
+        };
+        let (t, _) = bake(&json, &bundle, quality, phases);
+        eprintln!(
+            "{name}: full bake {}: {:.2} s, CPU {:.2} s",
+            r + 1,
+            t.wall,
+            t.cpu
+        );
+        full.push(t);
+        if r > 0 {
+            remove(&bundle);
+            remove(&cache_dir(&bundle));
+        }
+    }
+    Baseline {
+        dir: dir.to_owned(),
+        json,
+        original,
+        base,
+        full: medians(&full),
+    }
+}
+
+/// A row's wall and CPU columns: seconds and share of `full`.
+fn of_full(t: Took, full: Took) -> [String; 4] {
+    [
+        format!("{:.2}", t.wall),
+        format!("{:.1}%", 100.0 * t.wall / full.wall),
+        format!("{:.2}", t.cpu),
+        format!("{:.1}%", 100.0 * t.cpu / full.cpu),
+    ]
+}
+
 fn main() {
     let mut args = std::env::args().skip(1).filter(|a| a != "--bench");
     let (mut quality, mut runs, mut only) = (None, 3usize, None::<Vec<String>>);
     let (mut no_per_stage, mut phases) = (false, false);
     let mut scene_dir = glint_repo().join("scenes/glossy-room");
+    let mut second_dir = glint_repo().join("scenes/stand-in");
+    let dir_of = |p: String| PathBuf::from(p).parent().unwrap().to_owned();
     while let Some(a) = args.next() {
         match a.as_str() {
             "--quality" => {
@@ -243,39 +331,24 @@ fn main() {
                         .collect(),
                 )
             }
-            p => scene_dir = PathBuf::from(p).parent().unwrap().to_owned(),
+            "--roughness-scene" => {
+                second_dir = dir_of(args.next().expect("--roughness-scene SCENE.json"))
+            }
+            _ => scene_dir = dir_of(a),
         }
     }
+    let chosen: Vec<Edit> = edits()
+        .into_iter()
+        .filter(|e| only.as_ref().is_none_or(|o| o.iter().any(|n| n == e.name)))
+        .collect();
     let work = tempfile::tempdir().unwrap();
-    let scene_copy = work.path().join("scene");
-    copy_dir(&scene_dir, &scene_copy);
-    let scene_json = scene_copy.join("scene.json");
-    let original: Value = serde_json::from_slice(&std::fs::read(&scene_json).unwrap()).unwrap();
-
-    // Full bakes, each into a new bundle with an empty cache; the first is every run's start.
-    let base = work.path().join("base.glint");
-    let mut full = Vec::new();
-    for r in 0..runs {
-        let bundle = if r == 0 {
-            base.clone()
-        } else {
-            work.path().join(format!("full{r}.glint"))
-        };
-        let (t, _) = bake(&scene_json, &bundle, quality, phases);
-        eprintln!("full bake {}: {:.2} s, CPU {:.2} s", r + 1, t.wall, t.cpu);
-        full.push(t);
-        if r > 0 {
-            remove(&bundle);
-            remove(&cache_dir(&bundle));
-        }
-    }
-    let full = medians(&full);
+    let main = baseline(&scene_dir, work.path(), "main", runs, quality, phases);
     // The same scene baked stage by stage (`bake_all`, no unit cache), once: what the units'
     // route costs a bake from scratch.
     let per_stage = (!no_per_stage).then(|| {
         let bundle = work.path().join("per-stage.glint");
         let (start, cpu) = (Instant::now(), cpu_time::cpu_seconds());
-        let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
+        let scene = Scene::load(&main.json).unwrap_or_else(|e| panic!("{e}"));
         let settings = BakeSettings::resolve(&scene, quality.unwrap_or(scene.desc.bake.quality))
             .unwrap_or_else(|e| panic!("{e}"));
         let timed = Phases::new();
@@ -290,6 +363,10 @@ fn main() {
         remove(&bundle);
         t
     });
+    let second = chosen
+        .iter()
+        .any(|e| e.second_scene)
+        .then(|| baseline(&second_dir, work.path(), "second", runs, quality, phases));
 
     let mut rows = vec![[
         "edit".to_string(),
@@ -300,15 +377,7 @@ fn main() {
         "CPU s".into(),
         "CPU vs full".into(),
     ]];
-    let of_full = |t: Took| {
-        [
-            format!("{:.2}", t.wall),
-            format!("{:.1}%", 100.0 * t.wall / full.wall),
-            format!("{:.2}", t.cpu),
-            format!("{:.1}%", 100.0 * t.cpu / full.cpu),
-        ]
-    };
-    let [w, wp, c, cp] = of_full(full);
+    let [w, wp, c, cp] = of_full(main.full, main.full);
     rows.push([
         "full".into(),
         "bake from scratch".into(),
@@ -319,7 +388,7 @@ fn main() {
         cp,
     ]);
     if let Some(t) = per_stage {
-        let [w, wp, c, cp] = of_full(t);
+        let [w, wp, c, cp] = of_full(t, main.full);
         rows.push([
             "full/stages".into(),
             "from scratch, stage by stage (bake_all), 1 run".into(),
@@ -330,19 +399,31 @@ fn main() {
             cp,
         ]);
     }
-    for e in edits() {
-        if only
-            .as_ref()
-            .is_some_and(|o| !o.iter().any(|n| n == e.name))
-        {
-            continue;
-        }
+    if let Some(b) = &second {
+        let [w, wp, c, cp] = of_full(b.full, b.full);
+        let name = b.dir.file_name().unwrap().to_string_lossy();
+        rows.push([
+            "full/second".into(),
+            format!("second scene ({name}) from scratch"),
+            "all".into(),
+            w,
+            wp,
+            c,
+            cp,
+        ]);
+    }
+    for e in chosen {
+        let at = if e.second_scene {
+            second.as_ref().expect("the second scene is baked")
+        } else {
+            &main
+        };
         let start_from = match e.base {
-            None => base.clone(),
+            None => at.base.clone(),
             Some(f) => {
                 let b = work.path().join(format!("base-{}.glint", e.name));
-                write_scene(&scene_json, &original, f);
-                bake(&scene_json, &b, quality, false);
+                write_scene(&at.json, &at.original, f);
+                bake(&at.json, &b, quality, false);
                 b
             }
         };
@@ -353,11 +434,11 @@ fn main() {
             copy_bundle(&start_from, &bundle);
             // Nothing changed: scene.json as it was, byte for byte.
             if e.name == "noop" {
-                std::fs::copy(scene_dir.join("scene.json"), &scene_json).unwrap();
+                std::fs::copy(at.dir.join("scene.json"), &at.json).unwrap();
             } else {
-                write_scene(&scene_json, &original, e.apply);
+                write_scene(&at.json, &at.original, e.apply);
             }
-            let (t, done) = bake(&scene_json, &bundle, quality, phases);
+            let (t, done) = bake(&at.json, &bundle, quality, phases);
             eprintln!("{} {}: {:.2} s, CPU {:.2} s", e.name, r + 1, t.wall, t.cpu);
             times.push(t);
             // The gathering units as one entry: there are many at higher presets.
@@ -382,13 +463,17 @@ fn main() {
                 units.join(", ")
             };
         }
-        let [w, wp, c, cp] = of_full(medians(&times));
+        let [w, wp, c, cp] = of_full(medians(&times), at.full);
         rows.push([e.name.into(), e.what.into(), rebaked, w, wp, c, cp]);
     }
     println!(
-        "edit loop: {} at {}, median of {runs}",
+        "edit loop: {} at {}, median of {runs}{}",
         scene_dir.display(),
-        quality.map_or("its own quality".into(), |q: Quality| q.name().to_string())
+        quality.map_or("its own quality".into(), |q: Quality| q.name().to_string()),
+        second.as_ref().map_or(String::new(), |b| format!(
+            "; `roughness` on {}, against its own full bake (full/second)",
+            b.dir.display()
+        ))
     );
     print!(
         "{}",
