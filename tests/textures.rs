@@ -1066,3 +1066,161 @@ fn grout_seen_at_a_grazing_angle_keeps_its_contrast() {
         "the grout fades: spread {got_sd} against the path tracer's {want_sd}, mean error {error}"
     );
 }
+
+/// A 1 m mirror floor under a ceiling 1 m up of a fine checker (cells of 1.8 cm: a 16 × 16
+/// image of 250 and 10, repeated every 28.6 cm), lit from under the mirror; one 64² map per
+/// camera, whose pixels span two cells or more at the ceiling (a little over one period of
+/// the checker from the pole camera). Each map pixel holds the ceiling's D over its
+/// footprint: the stored value times the checker's mean, so every 8 × 8 block of pixels that
+/// sees the ceiling matches that mean. Read at one point a pixel, the cells alias into moiré
+/// bands as wide as blocks, which swing far from it.
+#[test]
+fn radiance_maps_read_a_fine_texture_over_each_pixels_footprint() {
+    use glint::bake::{radiance_stage, radiosity_stage, scene_stage};
+    use glint::bundle::Bundle;
+    use glint::radiance::index::{load_cameras, read_map};
+    use glint::scene::texture::mips::LinearLevel;
+    let dir = tempfile::tempdir().unwrap();
+    let checker: Vec<[u8; 4]> = (0..256)
+        .map(|i| {
+            if (i % 16 + i / 16) % 2 == 0 {
+                [250, 250, 250, 255]
+            } else {
+                [10, 10, 10, 255]
+            }
+        })
+        .collect();
+    let meshes = vec![
+        quad(
+            "Mirror",
+            0,
+            Vec3::new(-0.5, 0.0, -0.5),
+            Vec3::Z,
+            Vec3::X,
+            1.0,
+        ),
+        quad(
+            "Ceiling",
+            1,
+            Vec3::new(-2.0, 1.0, -2.0),
+            Vec3::X * 4.0,
+            Vec3::Z * 4.0,
+            14.0,
+        ),
+        quad(
+            "Lamp",
+            2,
+            Vec3::new(-2.0, -0.1, -2.0),
+            Vec3::Z * 4.0,
+            Vec3::X * 4.0,
+            1.0,
+        ),
+    ];
+    let materials = json!([
+        {"name": "Mirror", "pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.9, 0.9, 1.0], "metallicFactor": 1.0, "roughnessFactor": 0.05}},
+        {"name": "Checker", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.0, "roughnessFactor": 1.0}},
+        {"name": "Lamp", "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0},
+         "emissiveFactor": [1.0, 1.0, 1.0]}
+    ]);
+    write_gltf(
+        dir.path(),
+        &meshes,
+        materials,
+        json!([{"source": 0, "sampler": 0}]),
+        json!([{"wrapS": 10497, "wrapT": 10497}]),
+        &[png(16, 16, &checker)],
+    );
+    let scene_json = dir.path().join("scene.json");
+    std::fs::write(
+        &scene_json,
+        r#"{ "version": 1, "geometry": "s.gltf", "reflectors": [ { "mesh": "Mirror", "kind": "planar",
+             "radiance": { "elements": [1, 1], "cameras_per_hemisphere": 9, "resolution": 64 } } ] }"#,
+    )
+    .unwrap();
+    let scene = Scene::load(scene_json).unwrap();
+    let bundle = dir.path().join("b.glint");
+    scene_stage::bake(&scene, &bundle, false).unwrap();
+    radiosity_stage::bake(&scene, &bundle, &common::quick_radiosity(1), false, &Silent).unwrap();
+    radiance_stage::bake(
+        &scene,
+        &bundle,
+        glint::scene::Quality::Draft,
+        false,
+        &Silent,
+    )
+    .unwrap();
+
+    let b = Bundle::open(&bundle).unwrap();
+    let d = RadiosityMap::load(&b).unwrap().unwrap();
+    let bvh = scene.build_bvh();
+    let mean = LinearLevel::of(&scene.textures[0]).mean().x;
+    let cameras = load_cameras(&b, "Mirror").unwrap();
+    assert_eq!(cameras.maps.len(), 9);
+    let (mut ratios, mut worst) = (Vec::new(), (0.0f32, String::new()));
+    for entry in &cameras.maps {
+        let cam = entry.view;
+        let res = cam.resolution;
+        let map = read_map(&b, "Mirror", entry).unwrap();
+        let (r, a) = (
+            map.image.channel("R").unwrap(),
+            map.image.channel("A").unwrap(),
+        );
+        // Each pixel's ceiling point, found as the bake finds it, and the stored D there.
+        let want = |x: u32, y: u32| -> Option<f32> {
+            let (q, dir) = cam.pixel_ray(x, y);
+            let o = q + dir * (4.0 * bvh.epsilon() / dir.dot(cam.normal));
+            let h = bvh.closest_hit(o, dir, f32::INFINITY)?;
+            (scene.material_of(h.triangle).name == "Checker")
+                .then(|| d.radiance(h.triangle, h.bary).x * mean)
+        };
+        for by in 0..res / 8 {
+            for bx in 0..res / 8 {
+                let (mut got, mut sum) = (0.0, 0.0);
+                let mut whole = true;
+                for y in by * 8..by * 8 + 8 {
+                    for x in bx * 8..bx * 8 + 8 {
+                        let i = (y * res + x) as usize;
+                        match want(x, y) {
+                            Some(w) if a[i] == 1.0 => {
+                                got += r[i];
+                                sum += w;
+                            }
+                            _ => whole = false,
+                        }
+                    }
+                }
+                if !whole {
+                    continue;
+                }
+                let ratio = got / sum;
+                if (ratio - 1.0).abs() > worst.0 {
+                    worst = (
+                        (ratio - 1.0).abs(),
+                        format!("{} block ({bx}, {by})", entry.file),
+                    );
+                }
+                ratios.push(ratio);
+            }
+        }
+    }
+    let n = ratios.len() as f32;
+    let m = ratios.iter().sum::<f32>() / n;
+    let sd = (ratios.iter().map(|r| (r - m) * (r - m)).sum::<f32>() / n).sqrt();
+    eprintln!(
+        "{} blocks: ratio to the checker's mean {m:.4} ± {sd:.4}, worst {:.4} at {}",
+        ratios.len(),
+        worst.0,
+        worst.1
+    );
+    assert!(
+        ratios.len() > 200,
+        "{} blocks see the ceiling",
+        ratios.len()
+    );
+    assert!(
+        worst.0 < 0.03,
+        "a block of the maps is {:.1}% off the checker's mean × D ({})",
+        100.0 * worst.0,
+        worst.1
+    );
+}

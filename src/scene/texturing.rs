@@ -27,6 +27,7 @@ use glam::{Mat2, Vec2, Vec3, Vec4};
 use super::Scene;
 use super::material::{AlphaMode, Material, TextureRef};
 use super::texture::Image;
+use super::texture::mips::{mip_chain, sample_anisotropic};
 use crate::geometry::Triangle;
 
 /// A texture's coordinate at barycentrics `b` of `tri` (its UV set, then its transform).
@@ -245,14 +246,71 @@ pub fn reconstruct_d(
     b: Vec2,
     stored: Vec3,
 ) -> Vec3 {
+    d_from(m, stored, |t| sample_at(images, t, tri, b))
+}
+
+/// D of material `m` from the stored texel value, its textures read by `read`.
+fn d_from(m: &Material, stored: Vec3, read: impl Fn(&TextureRef) -> Vec4) -> Vec3 {
     let Some(t) = &m.base_texture else {
         return stored;
     };
-    let t = sample_at(images, t, tri, b).truncate();
-    let e = m.emissive_texture.as_ref().map_or(m.emission, |t| {
-        m.emission * sample_at(images, t, tri, b).truncate()
-    });
+    let t = read(t).truncate();
+    let e = m
+        .emissive_texture
+        .as_ref()
+        .map_or(m.emission, |t| m.emission * read(t).truncate());
     stored * t + e
+}
+
+/// Every scene image's mip chain, level 0 first ([`super::texture::mips::mip_chain`]): what
+/// [`d_over`] filters a footprint with, as the viewer does.
+pub fn texture_levels(images: &[Image]) -> Vec<Vec<Image>> {
+    images
+        .iter()
+        .map(|image| {
+            std::iter::once(image.clone())
+                .chain(mip_chain(image))
+                .collect()
+        })
+        .collect()
+}
+
+/// [`reconstruct_d`] over a footprint: the textures read by the viewer's anisotropic filter
+/// ([`sample_anisotropic`]) over `db`, the barycentric steps from `b` to the neighbouring
+/// pixels' points across and down; `levels` from [`texture_levels`].
+pub fn d_over(
+    levels: &[Vec<Image>],
+    m: &Material,
+    tri: &Triangle,
+    b: Vec2,
+    db: [Vec2; 2],
+    stored: Vec3,
+) -> Vec3 {
+    d_from(m, stored, |t| {
+        let chain = &levels[t.image as usize];
+        let size = Vec2::new(chain[0].width as f32, chain[0].height as f32);
+        let uv = uv_set(t, tri);
+        // In level-0 texels; a step too long to square (a ray grazing its plane) reads the
+        // coarsest level, one that is not finite the point itself.
+        let step = |d: Vec2| {
+            let s = t
+                .transform
+                .linear((uv[1] - uv[0]) * d.x + (uv[2] - uv[0]) * d.y)
+                * size;
+            if s.is_finite() {
+                s.clamp_length_max(1e6)
+            } else {
+                Vec2::ZERO
+            }
+        };
+        sample_anisotropic(
+            chain,
+            &t.sampler,
+            texture_uv(t, tri, b),
+            step(db[0]),
+            step(db[1]),
+        )
+    })
 }
 
 /// Whether material `m` lets a ray through at `b` of `tri`: alpha (factor × base colour
