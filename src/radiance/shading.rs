@@ -72,8 +72,7 @@ pub fn exitant(
 
 /// D where a map pixel's own ray meets a surface, from `stored`, the radiosity texture's value
 /// at `hit`: a base colour texture read over the footprint of the pixel's `rays` through
-/// `levels`
-/// ([`crate::scene::texturing::texture_levels`]), as the viewer filters it on screen.
+/// `levels` ([`crate::scene::texturing::texture_levels`]), as the viewer filters it on screen.
 pub fn d_seen(
     scene: &Scene,
     levels: &[Vec<Image>],

@@ -290,17 +290,21 @@ pub fn d_over(
         let chain = &levels[t.image as usize];
         let size = Vec2::new(chain[0].width as f32, chain[0].height as f32);
         let uv = uv_set(t, tri);
-        // In level-0 texels; a step too long to square (a ray grazing its plane) reads the
-        // coarsest level, one that is not finite the point itself.
+        // In level-0 texels. A ray grazing its plane gives a step too long to square: it is
+        // shortened to a million texels (the coarsest level); one that is not finite reads
+        // the point itself.
         let step = |d: Vec2| {
             let s = t
                 .transform
                 .linear((uv[1] - uv[0]) * d.x + (uv[2] - uv[0]) * d.y)
                 * size;
-            if s.is_finite() {
-                s.clamp_length_max(1e6)
-            } else {
+            let longest = s.abs().max_element();
+            if !longest.is_finite() {
                 Vec2::ZERO
+            } else if longest > 1e6 {
+                s * (1e6 / longest)
+            } else {
+                s
             }
         };
         sample_anisotropic(
@@ -339,6 +343,63 @@ pub fn stored_radiance(surface: &TexelSurface, reflected: Vec3) -> Vec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// [`d_over`] at no step is [`reconstruct_d`] (one bilinear read); over a footprint many
+    /// texels wide it is the texture's mean, even for a step too long to square; a step that
+    /// is not finite reads the point; an untextured material gives the stored value.
+    #[test]
+    fn d_over_a_footprint_spans_the_point_to_the_mean() {
+        let checker = Image {
+            width: 8,
+            height: 8,
+            texels: (0..64)
+                .map(|i| {
+                    if (i % 8 + i / 8) % 2 == 0 {
+                        [255; 4]
+                    } else {
+                        [0, 0, 0, 255]
+                    }
+                })
+                .collect(),
+        };
+        let images = vec![checker];
+        let levels = texture_levels(&images);
+        let plain = Material::from_gltf("m", [0.8, 0.8, 0.8, 1.0], 0.0, 1.0, [0.0; 3], 1.0);
+        let m = Material {
+            base_texture: Some(TextureRef {
+                image: 0,
+                sampler: Default::default(),
+                tex_coord: 0,
+                transform: Default::default(),
+            }),
+            ..plain.clone()
+        };
+        let tri = Triangle {
+            p: [Vec3::ZERO, Vec3::X, Vec3::Y],
+            n: [Vec3::Z; 3],
+            uv: [Vec2::ZERO, Vec2::X, Vec2::Y],
+            uv1: None,
+            material: 0,
+            object: 0,
+        };
+        let (b, stored) = (Vec2::new(0.3, 0.45), Vec3::splat(2.0));
+        let at = |db: [Vec2; 2]| d_over(&levels, &m, &tri, b, db, stored);
+        assert_eq!(
+            at([Vec2::ZERO; 2]),
+            reconstruct_d(&images, &m, &tri, b, stored)
+        );
+        // Four texels a step along each axis, and a grazing step of 1e30 texels: the mean, ½.
+        for db in [[Vec2::X * 0.5, Vec2::Y * 0.5], [Vec2::X * 1e30, Vec2::ZERO]] {
+            assert!(
+                (at(db) - Vec3::ONE).abs().max_element() < 0.01,
+                "{db:?}: {}",
+                at(db)
+            );
+        }
+        let nan = [Vec2::splat(f32::NAN), Vec2::ZERO];
+        assert_eq!(at(nan), at([Vec2::ZERO; 2]));
+        assert_eq!(d_over(&levels, &plain, &tri, b, nan, stored), stored);
+    }
 
     #[test]
     fn stored_radiance_round_trips_through_d_at_a_texel_of_constant_texture() {
