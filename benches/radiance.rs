@@ -12,6 +12,7 @@ use glint::bundle::Bundle;
 use glint::bundle::stats::{format_table, human_bytes};
 use glint::image_io::{ExrCompression, Precision};
 use glint::progress::Silent;
+use glint::radiance::footprint::PixelRays;
 use glint::radiance::quadtree;
 use glint::radiance::render;
 use glint::radiance::sampling::{MapCamera, hemisphere_cameras};
@@ -72,8 +73,8 @@ fn main() {
         let d = RadiosityMap::load(&bundle).unwrap().unwrap();
         let bvh = scene.build_bvh();
         let d_at = |h: &glint::geometry::Hit| d.radiance(h.triangle, h.bary);
-        let shade = |h: &glint::geometry::Hit, dir: glam::Vec3| {
-            glint::radiance::shading::exitant(&scene, &bvh, &d_at, h, dir)
+        let shade = |h: &glint::geometry::Hit, dir: glam::Vec3, _: &PixelRays| {
+            glint::radiance::shading::exitant(&scene, &bvh, &d_at, &d_at, h, dir)
         };
         let limits = radiance_stage::quadtree_limits(&scene);
         for (ri, frame, plan) in radiance_stage::plans(&scene, Quality::Default) {

@@ -1066,3 +1066,152 @@ fn grout_seen_at_a_grazing_angle_keeps_its_contrast() {
         "the grout fades: spread {got_sd} against the path tracer's {want_sd}, mean error {error}"
     );
 }
+
+/// A 1 m mirror floor under a 4 m ceiling 1 m up, of a checker (a 16 × 16 image of 250 and
+/// 10, its UVs repeating `repeat` times across), lit from under the mirror; one element with
+/// 9 cameras of 64² maps, baked by the stage. Per map pixel that sees the ceiling, its value
+/// over what it would be if the ceiling were the checker's mean: the stored value at the
+/// pixel's hit times that mean. `None` for other pixels.
+fn checker_ceiling_in_a_mirror(repeat: f32) -> Vec<(u32, Vec<Option<f32>>)> {
+    use glint::bake::{radiance_stage, radiosity_stage, scene_stage};
+    use glint::bundle::Bundle;
+    use glint::radiance::index::{load_cameras, read_map};
+    use glint::scene::texture::mips::LinearLevel;
+    let dir = tempfile::tempdir().unwrap();
+    let checker: Vec<[u8; 4]> = (0..256)
+        .map(|i| {
+            if (i % 16 + i / 16) % 2 == 0 {
+                [250, 250, 250, 255]
+            } else {
+                [10, 10, 10, 255]
+            }
+        })
+        .collect();
+    let (x4, z4) = (Vec3::X * 4.0, Vec3::Z * 4.0);
+    let meshes = vec![
+        quad(
+            "Mirror",
+            0,
+            Vec3::new(-0.5, 0.0, -0.5),
+            Vec3::Z,
+            Vec3::X,
+            1.0,
+        ),
+        quad("Ceiling", 1, Vec3::new(-2.0, 1.0, -2.0), x4, z4, repeat),
+        quad("Lamp", 2, Vec3::new(-2.0, -0.1, -2.0), z4, x4, 1.0),
+    ];
+    let materials = json!([
+        {"name": "Mirror", "pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.9, 0.9, 1.0], "metallicFactor": 1.0, "roughnessFactor": 0.05}},
+        {"name": "Checker", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.0, "roughnessFactor": 1.0}},
+        {"name": "Lamp", "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0},
+         "emissiveFactor": [1.0, 1.0, 1.0]}
+    ]);
+    write_gltf(
+        dir.path(),
+        &meshes,
+        materials,
+        json!([{"source": 0, "sampler": 0}]),
+        json!([{"wrapS": 10497, "wrapT": 10497}]),
+        &[png(16, 16, &checker)],
+    );
+    let scene_json = dir.path().join("scene.json");
+    std::fs::write(
+        &scene_json,
+        r#"{ "version": 1, "geometry": "s.gltf", "reflectors": [ { "mesh": "Mirror", "kind": "planar",
+             "radiance": { "elements": [1, 1], "cameras_per_hemisphere": 9, "resolution": 64 } } ] }"#,
+    )
+    .unwrap();
+    let scene = Scene::load(scene_json).unwrap();
+    let bundle = dir.path().join("b.glint");
+    scene_stage::bake(&scene, &bundle, false).unwrap();
+    radiosity_stage::bake(&scene, &bundle, &common::quick_radiosity(1), false, &Silent).unwrap();
+    let quality = glint::scene::Quality::Draft;
+    radiance_stage::bake(&scene, &bundle, quality, false, &Silent).unwrap();
+
+    let b = Bundle::open(&bundle).unwrap();
+    let d = RadiosityMap::load(&b).unwrap().unwrap();
+    let bvh = scene.build_bvh();
+    let mean = LinearLevel::of(&scene.textures[0]).mean().x;
+    let cameras = load_cameras(&b, "Mirror").unwrap();
+    assert_eq!(cameras.maps.len(), 9);
+    cameras
+        .maps
+        .iter()
+        .map(|entry| {
+            let cam = entry.view;
+            let map = read_map(&b, "Mirror", entry).unwrap();
+            let (r, a) = (
+                map.image.channel("R").unwrap(),
+                map.image.channel("A").unwrap(),
+            );
+            let res = cam.resolution;
+            let ratios = (0..res * res)
+                .map(|i| {
+                    // The pixel's ceiling point, found as the bake finds it.
+                    let (q, dir) = cam.pixel_ray(i % res, i / res);
+                    let o = q + dir * (4.0 * bvh.epsilon() / dir.dot(cam.normal));
+                    let h = bvh.closest_hit(o, dir, f32::INFINITY)?;
+                    let ceiling = scene.material_of(h.triangle).name == "Checker";
+                    (ceiling && a[i as usize] == 1.0)
+                        .then(|| r[i as usize] / (d.radiance(h.triangle, h.bary).x * mean))
+                })
+                .collect();
+            (res, ratios)
+        })
+        .collect()
+}
+
+/// [`checker_ceiling_in_a_mirror`] with cells of 1.8 cm (the image repeated every 28.6 cm):
+/// a map pixel spans two cells or more at the ceiling (a little over one period of the
+/// checker from the pole camera). Each pixel holds the ceiling's D over its footprint, the
+/// checker's mean, so every 8 × 8 block of pixels that sees the ceiling matches the mean. Read
+/// at one point a pixel, the cells alias into moiré bands as wide as blocks, which swing far
+/// from it.
+#[test]
+fn radiance_maps_read_a_fine_texture_over_each_pixels_footprint() {
+    let (mut blocks, mut worst) = (0, (0.0f32, String::new()));
+    for (k, (res, ratios)) in checker_ceiling_in_a_mirror(14.0).iter().enumerate() {
+        for by in 0..res / 8 {
+            for bx in 0..res / 8 {
+                let block: Option<Vec<f32>> = (0..64)
+                    .map(|j| ratios[((by * 8 + j / 8) * res + bx * 8 + j % 8) as usize])
+                    .collect();
+                let Some(block) = block else {
+                    continue;
+                };
+                let off = (block.iter().sum::<f32>() / 64.0 - 1.0).abs();
+                if off > worst.0 {
+                    worst = (off, format!("map {k}, block ({bx}, {by})"));
+                }
+                blocks += 1;
+            }
+        }
+    }
+    eprintln!("{blocks} blocks, worst {:.4} at {}", worst.0, worst.1);
+    assert!(blocks > 150, "{blocks} blocks see the ceiling");
+    assert!(
+        worst.0 < 0.03,
+        "a block of the maps is {:.1}% off the checker's mean ({})",
+        100.0 * worst.0,
+        worst.1
+    );
+}
+
+/// [`checker_ceiling_in_a_mirror`] with cells of 25 cm: a cell spans several map pixels, and
+/// the maps still show it, not its mean (a footprint read too wide would blur it away).
+#[test]
+fn radiance_maps_keep_a_coarse_textures_cells() {
+    let ratios: Vec<f32> = checker_ceiling_in_a_mirror(1.0)
+        .into_iter()
+        .flat_map(|(_, r)| r.into_iter().flatten())
+        .collect();
+    let lo = ratios.iter().copied().fold(f32::INFINITY, f32::min);
+    let hi = ratios.iter().copied().fold(0.0, f32::max);
+    eprintln!("{} pixels: ratio {lo:.3}..{hi:.3}", ratios.len());
+    assert!(ratios.len() > 10_000, "{} pixels", ratios.len());
+    // Bilinear between the centres of one-texel cells of 250 and 10: ratios from about 0 to 2.
+    assert!(
+        lo < 0.25 && hi > 1.75,
+        "the cells do not show: ratio {lo}..{hi}"
+    );
+}

@@ -23,12 +23,15 @@ use glam::Vec3;
 use crate::bundle::{Bundle, BundleError, StageInfo, StageRecord, StageWriter};
 use crate::image_io::{self, ChannelData, ExrCompression, ImageError, Precision};
 use crate::progress::{Cancelled, Progress};
+use crate::radiance::footprint::PixelRays;
 use crate::radiance::index::{CamerasFile, MapEntry, cameras_path, reflector_folder};
 use crate::radiance::quadtree::{self, QuadtreeLimits};
 use crate::radiance::sampling::{MapCamera, ReflectorFrame, hemisphere_cameras};
+use crate::radiance::shading::{d_seen, exitant};
 use crate::radiance::{MapPlan, RadianceMap, render};
 use crate::radiosity::RadiosityMap;
 use crate::radiosity::map::MapError;
+use crate::scene::texturing::texture_levels;
 use crate::scene::{Quality, ReflectorKind, Scene};
 use crate::settings::radiance::MAX_RADIANCE_RESOLUTION;
 
@@ -202,8 +205,12 @@ pub fn bake_part(
     let bvh = scene.build_bvh();
     let d_at =
         |h: &crate::geometry::Hit| scene.d_at(h.triangle, h.bary, d.radiance(h.triangle, h.bary));
-    let shade = |h: &crate::geometry::Hit, dir: Vec3| {
-        crate::radiance::shading::exitant(scene, &bvh, &d_at, h, dir)
+    let levels = texture_levels(&scene.textures);
+    let shade = |h: &crate::geometry::Hit, dir: Vec3, rays: &PixelRays| {
+        let seen = |h: &crate::geometry::Hit| {
+            d_seen(scene, &levels, h, rays, d.radiance(h.triangle, h.bary))
+        };
+        exitant(scene, &bvh, &d_at, &seen, h, dir)
     };
     let limits = quadtree_limits(scene);
     let plans: Vec<_> = plans(scene, quality)

@@ -1,6 +1,7 @@
 //! Radiance maps with depth (Bastos et al. §8.1.3): what each glossy planar reflector sees,
 //! sampled as images with depth from cameras on hemispheres behind it.
 
+pub mod footprint;
 pub mod index;
 pub mod normals;
 pub mod quadtree;
@@ -11,6 +12,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::geometry::{Bvh, Hit, Triangle};
+use footprint::PixelRays;
 use sampling::MapCamera;
 
 pub use crate::settings::radiance::{RadianceOverride, RadianceStageOverride};
@@ -38,14 +40,15 @@ pub struct RadianceMap {
 const PACKETS_FROM: u32 = 64;
 
 /// Ray casts one map: a ray per pixel from the element through the scene (`bvh` built over
-/// `triangles`); `shade` gives the radiance leaving a hit against the ray's unit direction
-/// ([`shading::exitant`]). Deterministic; parallel over rows.
+/// `triangles`); `shade` gives the radiance leaving a hit against the ray's unit direction,
+/// over the footprint of the pixel's rays ([`shading::exitant`]). Deterministic; parallel
+/// over rows.
 pub fn render(
     cam: &MapCamera,
     bvh: &Bvh,
     triangles: &[Triangle],
     normal_offset: f32,
-    shade: &(dyn Fn(&Hit, Vec3) -> Vec3 + Sync),
+    shade: &(dyn Fn(&Hit, Vec3, &PixelRays) -> Vec3 + Sync),
 ) -> RadianceMap {
     let res = cam.resolution;
     type Pixel = (Vec3, f32, Vec3, Vec3, bool);
@@ -70,7 +73,8 @@ pub fn render(
                     Some(h) => {
                         let p = o + d * h.t;
                         let n = triangles[h.triangle as usize].face_normal();
-                        (shade(&h, d), cam.depth(p), p, n, true)
+                        let rays = cam.pixel_rays(i as u32, y);
+                        (shade(&h, d, &rays), cam.depth(p), p, n, true)
                     }
                     None => (Vec3::ZERO, 0.0, Vec3::ZERO, Vec3::ZERO, false),
                 }

@@ -8,6 +8,7 @@ use std::f32::consts::{FRAC_PI_2, TAU};
 
 use glam::{Vec2, Vec3};
 
+use super::footprint::PixelRays;
 use crate::geometry::Triangle;
 use crate::sampling::basis;
 use crate::scene::{Plane, Reflector};
@@ -89,6 +90,18 @@ impl MapCamera {
     pub fn pixel_ray(&self, x: u32, y: u32) -> (Vec3, Vec3) {
         let q = self.image_point(x as f32 + 0.5, y as f32 + 0.5);
         (q, (q - self.centre).normalize())
+    }
+
+    /// The rays through pixel (x, y)'s centre and its neighbours' across and down, from the
+    /// centre of projection.
+    pub fn pixel_rays(&self, x: u32, y: u32) -> PixelRays {
+        let r = self.resolution as f32;
+        PixelRays {
+            apex: self.centre,
+            dir: self.image_point(x as f32 + 0.5, y as f32 + 0.5) - self.centre,
+            du: self.edge_u / r,
+            dv: self.edge_v / r,
+        }
     }
 
     /// Depth of a point: its distance from the centre of projection along the normal.

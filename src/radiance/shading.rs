@@ -19,28 +19,34 @@
 
 use glam::{Vec2, Vec3};
 
+use super::footprint::PixelRays;
 use crate::brdf::{Frame, Lobe};
 use crate::geometry::{Bvh, Hit};
 use crate::radiosity::MAX_GLASS_LAYERS;
 use crate::sampling::r2;
 use crate::scene::Scene;
+use crate::scene::texture::Image;
+use crate::scene::texturing::d_over;
 
 /// Directions sampled per glossy lobe at a map pixel that meets a glossy surface.
 pub const GLOSSY_SAMPLES: u32 = 16;
 
-/// The radiance leaving `hit` against the unit ray direction `dir`: `d(hit)` (D there, as the
-/// maps held before) plus the one-bounce reflection of its glossy lobes (module comment).
-/// Back faces and surfaces without lobes get `d(hit)` alone. Thin glass also passes what lies
-/// behind it along `dir`, times its transmittance at the ray's angle, as the viewer's frame
-/// draws it, through at most [`MAX_GLASS_LAYERS`] panes.
+/// The radiance leaving `hit` against the unit ray direction `dir`: `seen(hit)` (D there, as
+/// the maps held before) plus the one-bounce reflection of its glossy lobes (module comment),
+/// D read by `d` where the lobes' rays land. `seen` reads D where the pixel's own ray meets a
+/// surface (over the pixel's footprint, textures included), `d` at a point.
+/// Back faces and surfaces without lobes get `seen(hit)` alone. Thin glass also passes what
+/// lies behind it along `dir`, times its transmittance at the ray's angle, as the viewer's
+/// frame draws it, through at most [`MAX_GLASS_LAYERS`] panes.
 pub fn exitant(
     scene: &Scene,
     bvh: &Bvh,
     d: &(dyn Fn(&Hit) -> Vec3 + Sync),
+    seen: &(dyn Fn(&Hit) -> Vec3 + Sync),
     hit: &Hit,
     dir: Vec3,
 ) -> Vec3 {
-    let mut sum = own_exitant(scene, bvh, d, hit, dir);
+    let mut sum = own_exitant(scene, bvh, d, seen, hit, dir);
     let (mut hit, mut weight) = (*hit, Vec3::ONE);
     for _ in 0..MAX_GLASS_LAYERS {
         let tri = &scene.triangles[hit.triangle as usize];
@@ -58,10 +64,32 @@ pub fn exitant(
         let Some(behind) = bvh.closest_hit(past, dir, f32::INFINITY) else {
             break;
         };
-        sum += weight * own_exitant(scene, bvh, d, &behind, dir);
+        sum += weight * own_exitant(scene, bvh, d, seen, &behind, dir);
         hit = behind;
     }
     sum
+}
+
+/// D where a map pixel's own ray meets a surface, from `stored`, the radiosity texture's value
+/// at `hit`: a base colour texture read over the footprint of the pixel's `rays` through
+/// `levels` ([`crate::scene::texturing::texture_levels`]), as the viewer filters it on screen.
+pub fn d_seen(
+    scene: &Scene,
+    levels: &[Vec<Image>],
+    hit: &Hit,
+    rays: &PixelRays,
+    stored: Vec3,
+) -> Vec3 {
+    let tri = &scene.triangles[hit.triangle as usize];
+    let m = &scene.materials[tri.material as usize];
+    d_over(
+        levels,
+        m,
+        tri,
+        hit.bary,
+        rays.bary_steps(tri, hit.bary),
+        stored,
+    )
 }
 
 /// [`exitant`] of the surface at `hit` alone: D plus its glossy lobes' reflection.
@@ -69,10 +97,11 @@ fn own_exitant(
     scene: &Scene,
     bvh: &Bvh,
     d: &(dyn Fn(&Hit) -> Vec3 + Sync),
+    seen: &(dyn Fn(&Hit) -> Vec3 + Sync),
     hit: &Hit,
     dir: Vec3,
 ) -> Vec3 {
-    let base = d(hit);
+    let base = seen(hit);
     let tri = &scene.triangles[hit.triangle as usize];
     let material = &scene.materials[tri.material as usize];
     let ng = tri.face_normal();

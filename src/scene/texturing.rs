@@ -27,6 +27,7 @@ use glam::{Mat2, Vec2, Vec3, Vec4};
 use super::Scene;
 use super::material::{AlphaMode, Material, TextureRef};
 use super::texture::Image;
+use super::texture::mips::{mip_chain, sample_anisotropic};
 use crate::geometry::Triangle;
 
 /// A texture's coordinate at barycentrics `b` of `tri` (its UV set, then its transform).
@@ -245,14 +246,75 @@ pub fn reconstruct_d(
     b: Vec2,
     stored: Vec3,
 ) -> Vec3 {
+    d_from(m, stored, |t| sample_at(images, t, tri, b))
+}
+
+/// D of material `m` from the stored texel value, its textures read by `read`.
+fn d_from(m: &Material, stored: Vec3, read: impl Fn(&TextureRef) -> Vec4) -> Vec3 {
     let Some(t) = &m.base_texture else {
         return stored;
     };
-    let t = sample_at(images, t, tri, b).truncate();
-    let e = m.emissive_texture.as_ref().map_or(m.emission, |t| {
-        m.emission * sample_at(images, t, tri, b).truncate()
-    });
+    let t = read(t).truncate();
+    let e = m
+        .emissive_texture
+        .as_ref()
+        .map_or(m.emission, |t| m.emission * read(t).truncate());
     stored * t + e
+}
+
+/// Every scene image's mip chain, level 0 first ([`super::texture::mips::mip_chain`]): what
+/// [`d_over`] filters a footprint with, as the viewer does.
+pub fn texture_levels(images: &[Image]) -> Vec<Vec<Image>> {
+    images
+        .iter()
+        .map(|image| {
+            std::iter::once(image.clone())
+                .chain(mip_chain(image))
+                .collect()
+        })
+        .collect()
+}
+
+/// [`reconstruct_d`] over a footprint: the textures read by the viewer's anisotropic filter
+/// ([`sample_anisotropic`]) over `db`, the barycentric steps from `b` to the neighbouring
+/// pixels' points across and down; `levels` from [`texture_levels`].
+pub fn d_over(
+    levels: &[Vec<Image>],
+    m: &Material,
+    tri: &Triangle,
+    b: Vec2,
+    db: [Vec2; 2],
+    stored: Vec3,
+) -> Vec3 {
+    d_from(m, stored, |t| {
+        let chain = &levels[t.image as usize];
+        let size = Vec2::new(chain[0].width as f32, chain[0].height as f32);
+        let uv = uv_set(t, tri);
+        // In level-0 texels. A ray grazing its plane gives a step too long to square: it is
+        // shortened to a million texels (the coarsest level); one that is not finite reads
+        // the point itself.
+        let step = |d: Vec2| {
+            let s = t
+                .transform
+                .linear((uv[1] - uv[0]) * d.x + (uv[2] - uv[0]) * d.y)
+                * size;
+            let longest = s.abs().max_element();
+            if !longest.is_finite() {
+                Vec2::ZERO
+            } else if longest > 1e6 {
+                s * (1e6 / longest)
+            } else {
+                s
+            }
+        };
+        sample_anisotropic(
+            chain,
+            &t.sampler,
+            texture_uv(t, tri, b),
+            step(db[0]),
+            step(db[1]),
+        )
+    })
 }
 
 /// Whether material `m` lets a ray through at `b` of `tri`: alpha (factor × base colour
@@ -281,6 +343,63 @@ pub fn stored_radiance(surface: &TexelSurface, reflected: Vec3) -> Vec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// [`d_over`] at no step is [`reconstruct_d`] (one bilinear read); over a footprint many
+    /// texels wide it is the texture's mean, even for a step too long to square; a step that
+    /// is not finite reads the point; an untextured material gives the stored value.
+    #[test]
+    fn d_over_a_footprint_spans_the_point_to_the_mean() {
+        let checker = Image {
+            width: 8,
+            height: 8,
+            texels: (0..64)
+                .map(|i| {
+                    if (i % 8 + i / 8) % 2 == 0 {
+                        [255; 4]
+                    } else {
+                        [0, 0, 0, 255]
+                    }
+                })
+                .collect(),
+        };
+        let images = vec![checker];
+        let levels = texture_levels(&images);
+        let plain = Material::from_gltf("m", [0.8, 0.8, 0.8, 1.0], 0.0, 1.0, [0.0; 3], 1.0);
+        let m = Material {
+            base_texture: Some(TextureRef {
+                image: 0,
+                sampler: Default::default(),
+                tex_coord: 0,
+                transform: Default::default(),
+            }),
+            ..plain.clone()
+        };
+        let tri = Triangle {
+            p: [Vec3::ZERO, Vec3::X, Vec3::Y],
+            n: [Vec3::Z; 3],
+            uv: [Vec2::ZERO, Vec2::X, Vec2::Y],
+            uv1: None,
+            material: 0,
+            object: 0,
+        };
+        let (b, stored) = (Vec2::new(0.3, 0.45), Vec3::splat(2.0));
+        let at = |db: [Vec2; 2]| d_over(&levels, &m, &tri, b, db, stored);
+        assert_eq!(
+            at([Vec2::ZERO; 2]),
+            reconstruct_d(&images, &m, &tri, b, stored)
+        );
+        // Four texels a step along each axis, and a grazing step of 1e30 texels: the mean, ½.
+        for db in [[Vec2::X * 0.5, Vec2::Y * 0.5], [Vec2::X * 1e30, Vec2::ZERO]] {
+            assert!(
+                (at(db) - Vec3::ONE).abs().max_element() < 0.01,
+                "{db:?}: {}",
+                at(db)
+            );
+        }
+        let nan = [Vec2::splat(f32::NAN), Vec2::ZERO];
+        assert_eq!(at(nan), at([Vec2::ZERO; 2]));
+        assert_eq!(d_over(&levels, &plain, &tri, b, nan, stored), stored);
+    }
 
     #[test]
     fn stored_radiance_round_trips_through_d_at_a_texel_of_constant_texture() {
