@@ -9,6 +9,7 @@
 // Entry points:
 // - `vs_world` (view.wgsl)/`fs_env`: D into a cube face (linear Rgba16Float, the face camera in `frame`),
 //   alpha the distance from the face camera (0 where nothing is seen);
+// - `vs_env_light`/`fs_env_light`: the scene's area lights in a cube face, added;
 // - `vs_curved`/`fs_curved_env`: another curved reflector's mirror term in that face, looked
 //   up in the previous generation's cube map (McReynolds' scheme, as Nielsen adopts it);
 // - `vs_curved`/`fs_curved`: a curved reflector's pixels in the frame, ks·(Fresnel)·cube(r)
@@ -657,6 +658,42 @@ fn fs_env(in: WorldOut) -> @location(0) vec4<f32> {
     // Alpha: the distance from the face camera (the map's centre), for `curved_lookup`.
     let distance = length(in.world - frame.eye.xyz);
     return vec4<f32>(surface_d(q, in.material, in.uv0, in.uv1, g) * frame.exposure, distance);
+}
+
+// The scene's area lights in a cube face: not geometry (nothing hides behind them, and the
+// frame never shows them), but a reflected ray that crosses one collects its radiance, as
+// the path tracer's do. Added over what lies behind (alpha, the distance, kept), depth
+// tested against the scene.
+struct LightVertexIn {
+    @location(0) position: vec3<f32>,
+    // The emitting side; zero for a light that emits from both.
+    @location(1) normal: vec3<f32>,
+    @location(2) radiance: vec3<f32>,
+};
+
+struct LightOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) @interpolate(flat) normal: vec3<f32>,
+    @location(2) @interpolate(flat) radiance: vec3<f32>,
+};
+
+@vertex
+fn vs_env_light(v: LightVertexIn) -> LightOut {
+    var out: LightOut;
+    out.clip = frame.view_proj * vec4<f32>(v.position, 1.0);
+    out.world = v.position;
+    out.normal = v.normal;
+    out.radiance = v.radiance;
+    return out;
+}
+
+@fragment
+fn fs_env_light(in: LightOut) -> @location(0) vec4<f32> {
+    if dot(in.normal, frame.eye.xyz - in.world) < 0.0 {
+        discard;
+    }
+    return vec4<f32>(in.radiance * frame.exposure, 0.0);
 }
 
 @fragment

@@ -376,7 +376,9 @@ fn lobe_sample_point(j: u32, n: u32, seed: u32) -> Vec2 {
 /// the sampled rays see `shade` alone): a glossy table shows the lamp's highlight. Thin
 /// glass (transmissive materials) adds the same and lets the ray on straight through,
 /// weighted by its transmittance at the ray's angle, through at most [`MAX_GLASS_LAYERS`]
-/// panes.
+/// panes. Every ray, from the centre or sampled at a glossy surface, also collects the
+/// scene's area lights it crosses before its hit ([`Scene::lights_along`]; they are not
+/// geometry): a window light seen in a chrome chair base.
 /// Rows are independent work items, so the result does not depend on the thread count.
 /// Advances `progress` by one per face row.
 pub fn capture_cube(
@@ -430,6 +432,16 @@ pub fn capture_cube(
         }
         None
     };
+    // The area lights a ray from `origin` crosses before the hit `first_hit` found there (all
+    // of them along it where it found none): lights are not geometry, so the ray also goes on
+    // to the surface behind, as the path tracer's rays do.
+    let lights_before = |origin: Vec3, dir: Vec3, found: Option<&(Hit, Vec3, f32)>| -> Vec3 {
+        if scene.lights.is_empty() {
+            return Vec3::ZERO;
+        }
+        let reach = found.map_or(f32::INFINITY, |(hit, _, skipped)| skipped + hit.t);
+        scene.lights_along(origin, dir, reach)
+    };
     // What the lobes of a glossy surface at `p` (face normal `n`, either side) reflect of
     // `shade` towards −`dir`.
     let glossy_term = |lobes: &[Lobe], p: Vec3, n: Vec3, dir: Vec3, seed: u32| -> Vec3 {
@@ -444,12 +456,18 @@ pub fn capture_cube(
                     continue;
                 };
                 let w = frame.to_world(wi);
-                if let Some((hit, _, travelled)) = first_hit(bvh.offset_origin(p, w), w) {
-                    lobe_sum += shade(&Hit {
+                let origin = bvh.offset_origin(p, w);
+                let found = first_hit(origin, w);
+                let mut seen = lights_before(origin, w, found.as_ref());
+                if let Some((hit, _, travelled)) = found {
+                    seen += shade(&Hit {
                         t: travelled + hit.t,
                         ..hit
-                    }) * lobe.sample_weight(wo, wi);
+                    });
+                } else if seen == Vec3::ZERO {
+                    continue;
                 }
+                lobe_sum += seen * lobe.sample_weight(wo, wi);
             }
             sum += lobe.ks * lobe_sum / count as f32;
         }
@@ -463,7 +481,15 @@ pub fn capture_cube(
         let mut travelled = 0.0f32;
         let (mut sum, mut weight) = (Vec3::ZERO, Vec3::ONE);
         let (mut bounces, mut panes) = (0u32, 0u32);
-        while let Some((hit, at, skipped)) = first_hit(origin, dir) {
+        loop {
+            let found = first_hit(origin, dir);
+            let lights = lights_before(origin, dir, found.as_ref());
+            if lights != Vec3::ZERO {
+                sum += weight * lights;
+            }
+            let Some((hit, at, skipped)) = found else {
+                break;
+            };
             travelled += skipped;
             sum += weight
                 * shade(&Hit {

@@ -278,10 +278,12 @@ pub fn capture_distances(bvh: &Bvh, centre: Vec3, size: usize) -> CubeMap {
 }
 
 /// The MIP level of a probe lookup for a lobe of roughness `m` (GGX α or Beckmann m): half the
-/// log₂ of the ratio of the reflected lobe's solid angle, about π (2m)², to a level-0 texel's,
-/// 4π / (6 size²).
+/// log₂ of the ratio of the reflected lobe's solid angle, about π (2m)², to what a trilinear
+/// lookup spans at level 0, 2×2 texels of 4π / (6 size²) each: at a level whose single texels
+/// matched the lobe, the lookup would spread a bright window over about four times its solid
+/// angle.
 pub fn lobe_lod(m: f32, size: u32) -> f32 {
-    let ratio = 6.0 * (size as f32).powi(2) * (2.0 * m).powi(2) / 4.0;
+    let ratio = 6.0 * (size as f32).powi(2) * (2.0 * m).powi(2) / 16.0;
     (0.5 * ratio.max(1.0).log2()).max(0.0)
 }
 

@@ -352,6 +352,16 @@ impl Scene {
                 .iter()
                 .any(|t| self.materials[t.material as usize].is_emissive())
     }
+
+    /// The radiance of every area light that a ray from `origin` along unit `dir` crosses
+    /// before `t_max` ([`AreaLight::seen_along`]): what a reflected ray collects from them on
+    /// its way to its hit, lights not being geometry.
+    pub fn lights_along(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Vec3 {
+        self.lights
+            .iter()
+            .map(|l| l.seen_along(origin, dir, t_max))
+            .sum()
+    }
 }
 
 /// Parses scene.json text: syntax first (with line and column), then the version, then the

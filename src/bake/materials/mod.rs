@@ -108,8 +108,8 @@ pub struct EnvShading {
 ///
 /// Environment maps are shaded with D, the radiosity baked into the bundle's `radiosity`
 /// stage: [`crate::radiosity::RadiosityMap`] at the hit (exitant radiance, emission
-/// included; quad area lights are not geometry, so rays never see them, as in the radiance
-/// stage). Returns the shader, or why environment maps cannot be baked: no radiosity stage,
+/// included; quad area lights are not geometry, so no hit is on one: the capture adds those
+/// a ray crosses, [`crate::materials::envmap::capture_cube`]). Returns the shader, or why environment maps cannot be baked: no radiosity stage,
 /// one baked from another scene, or one that cannot be read. The stage then skips the
 /// environment maps, says why, and bakes the rest. `source` (a hash of the radiosity
 /// assets) goes into the stage's settings, so a re-baked D makes this stage out of date.
@@ -161,11 +161,12 @@ pub fn recorded_settings(
 }
 
 /// How environment maps are captured, recorded in the stage's settings so that bundles
-/// captured otherwise re-bake: 3, glossy surfaces add what their lobes reflect of D
-/// ([`crate::materials::envmap::ENV_GLOSSY_SAMPLES`] samples a ray); 2, rays go on through
-/// near-mirror planar reflectors ([`crate::materials::envmap::capture_cube`]); 1, absent:
-/// they stopped there, black.
-pub const ENV_CAPTURE: u32 = 3;
+/// captured otherwise re-bake: 4, rays collect the scene.json area lights they cross
+/// ([`crate::scene::Scene::lights_along`]); 3, glossy surfaces add what their lobes reflect
+/// of D ([`crate::materials::envmap::ENV_GLOSSY_SAMPLES`] samples a ray); 2, rays go on
+/// through near-mirror planar reflectors ([`crate::materials::envmap::capture_cube`]); 1,
+/// absent: they stopped there, black.
+pub const ENV_CAPTURE: u32 = 4;
 
 /// Bakes the materials stage of `scene` into the bundle at `bundle_dir`, shading environment
 /// maps with D from the bundle ([`shade_with_d`]).

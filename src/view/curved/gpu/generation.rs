@@ -3,10 +3,15 @@
 //! curved reflectors' mirror terms from the previous generation's maps into each face, and
 //! the planar near-mirrors' mirror terms from its own previous map, then the scene's thin
 //! glass over all of it (the frame's glass passes), then the faces' MIP levels (2×2 box).
+//! The scene's area lights are drawn over the scene behind them: a reflected ray collects
+//! them on its way, as the path tracer's do.
+
+use glam::Vec3;
 
 use super::super::{CurvedParams, generation_plan};
 use super::layout::{CurvedVertex, curved_group};
 use super::{CubeTexture, CurvedReflections, MIN_BUFFER};
+use crate::scene::AreaLight;
 use crate::view::gpu::Gpu;
 use crate::view::gpu::build::{bind_group_layout, buffer_init, render_pipeline};
 use crate::view::gpu::target::clear_pass;
@@ -147,6 +152,11 @@ impl CurvedReflections {
                     pass.set_vertex_buffer(0, scene_vertices.slice(..));
                     pass.set_index_buffer(ri.others.slice(..), wgpu::IndexFormat::Uint32);
                     pass.draw_indexed(0..ri.others_count, 0, 0..1);
+                    if let Some(lights) = &pipes.lights {
+                        pass.set_pipeline(&lights.pipeline);
+                        pass.set_vertex_buffer(0, lights.vertices.slice(..));
+                        pass.draw(0..lights.count, 0..1);
+                    }
                     pass.set_pipeline(&pipes.interreflect);
                     for (j, rj) in self.reflectors.iter().enumerate() {
                         if rj.reflector.lobes.is_empty() {
@@ -173,6 +183,47 @@ impl CurvedReflections {
     }
 }
 
+/// One vertex of an area light's quad in the cube faces (`LightVertexIn` in the shader).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub(super) struct LightVertex {
+    position: [f32; 3],
+    /// The emitting side; zero where the light emits from both.
+    normal: [f32; 3],
+    radiance: [f32; 3],
+}
+
+const LIGHT_ATTRIBUTES: [wgpu::VertexAttribute; 3] =
+    wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x3];
+
+/// The scene's area lights as the cube faces draw them, two triangles each.
+pub(super) fn light_vertices(lights: &[AreaLight]) -> Vec<LightVertex> {
+    lights
+        .iter()
+        .flat_map(|l| {
+            let normal = if l.two_sided { Vec3::ZERO } else { l.normal };
+            let [a, b, c, d] = [
+                l.corner,
+                l.corner + l.edge_u,
+                l.corner + l.edge_u + l.edge_v,
+                l.corner + l.edge_v,
+            ];
+            [a, b, c, a, c, d].map(|p| LightVertex {
+                position: p.to_array(),
+                normal: normal.to_array(),
+                radiance: l.radiance.to_array(),
+            })
+        })
+        .collect()
+}
+
+/// The area lights' draw into each face (`fs_env_light`).
+pub(super) struct LightDraw {
+    pipeline: wgpu::RenderPipeline,
+    vertices: wgpu::Buffer,
+    count: u32,
+}
+
 /// The pipelines and scratch targets that render the cube maps.
 pub(super) struct GenerationPipelines {
     env: wgpu::RenderPipeline,
@@ -184,6 +235,8 @@ pub(super) struct GenerationPipelines {
     /// The scene's thin glass, drawn into each face over what lies behind it (`None`: no
     /// glass; `others` then holds every triangle).
     pub(super) glass: Option<GlassPasses>,
+    /// The scene's area lights (`None`: it has none).
+    lights: Option<LightDraw>,
 }
 
 impl GenerationPipelines {
@@ -244,7 +297,45 @@ impl GenerationPipelines {
             depth_view,
             _depth: depth,
             glass: None,
+            lights: None,
         }
+    }
+
+    /// Draws `lights` into every face from now on, over the scene behind them.
+    pub(super) fn set_lights(
+        &mut self,
+        gpu: &Gpu,
+        shader: &wgpu::ShaderModule,
+        frame_layout: &wgpu::BindGroupLayout,
+        lights: &[AreaLight],
+    ) {
+        if lights.is_empty() {
+            self.lights = None;
+            return;
+        }
+        let vertices = light_vertices(lights);
+        let layout = wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<LightVertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &LIGHT_ATTRIBUTES,
+        };
+        let pipeline = render_pipeline("glint cube lights", shader, "vs_env_light", "fs_env_light")
+            .layouts(&[frame_layout])
+            .vertex(layout)
+            .color(HDR_FORMAT, Some(ADDITIVE_KEEP_ALPHA))
+            .depth(reverse_z_depth(false, wgpu::CompareFunction::GreaterEqual))
+            .build(&gpu.device);
+        self.lights = Some(LightDraw {
+            pipeline,
+            vertices: buffer_init(
+                gpu,
+                "glint cube light vertices",
+                wgpu::BufferUsages::VERTEX,
+                bytemuck::cast_slice(&vertices),
+                MIN_BUFFER,
+            ),
+            count: vertices.len() as u32,
+        });
     }
 
     /// Levels 1 … of `target` from level 0, face by face (2×2 box).

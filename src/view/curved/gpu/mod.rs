@@ -293,6 +293,7 @@ impl CurvedReflections {
                 None => vec![false; scene.triangles.len()],
             };
             generation.glass = glass_passes;
+            generation.set_lights(gpu, &shader, &frame_layout, &scene.lights);
             let in_reflector = {
                 let mut v = vec![usize::MAX; scene.triangles.len()];
                 for (i, r) in reflectors.iter().enumerate() {
