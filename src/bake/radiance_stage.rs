@@ -158,7 +158,9 @@ fn looks(
                     }
                     let p = cam.position + dir * hit.t;
                     let r = dir - 2.0 * dir.dot(n) * n;
-                    if let Some(m) = bvh.closest_hit(p + n * 1e-4, r, f32::INFINITY) {
+                    // Off the mirror by a fraction of the eye's distance: scale-free.
+                    let q = p + n * (1e-4 * hit.t);
+                    if let Some(m) = bvh.closest_hit(q, r, f32::INFINITY) {
                         out.push(Look {
                             to_mirror: hit.t,
                             beyond: m.t,
