@@ -294,7 +294,9 @@ fn touches(input: &str, u: &Unit, change: &str) -> bool {
         "impostor" => under("impostors"),
         "probe" => under("probes") || under("materials"),
         "first_camera" => under("camera_paths"),
-        "settings" | "plan" => under("bake") || under("reflectors"),
+        "settings" => under("bake") || under("reflectors"),
+        // A mirror's map resolution follows the camera paths' looks into it.
+        "plan" => under("bake") || under("reflectors") || under("camera_paths"),
         _ => false,
     }
 }
@@ -444,6 +446,8 @@ mod tests {
         assert!(touches("reflectors", &u, "reflectors"));
         assert!(!touches("lights", &u, "camera_paths[0].fps"));
         assert!(touches("scene_files", &u, "camera_paths[0].fps"));
+        assert!(touches("plan", &u, "camera_paths[0].keyframes"));
+        assert!(!touches("settings", &u, "camera_paths[0].keyframes"));
     }
 
     #[test]

@@ -21,14 +21,16 @@ use std::time::Instant;
 use glam::Vec3;
 
 use crate::bundle::{Bundle, BundleError, StageInfo, StageRecord, StageWriter};
+use crate::camera::Camera;
 use crate::image_io::{self, ChannelData, ExrCompression, ImageError, Precision};
 use crate::progress::{Cancelled, Progress};
 use crate::radiance::footprint::PixelRays;
 use crate::radiance::index::{CamerasFile, MapEntry, cameras_path, reflector_folder};
+use crate::radiance::magnify::{self, Look};
 use crate::radiance::quadtree::{self, QuadtreeLimits};
 use crate::radiance::sampling::{MapCamera, ReflectorFrame, hemisphere_cameras};
 use crate::radiance::shading::{d_seen, exitant};
-use crate::radiance::{MapPlan, RadianceMap, render};
+use crate::radiance::{MIRROR_ROUGHNESS, MapPlan, RadianceMap, render};
 use crate::radiosity::RadiosityMap;
 use crate::radiosity::map::MapError;
 use crate::scene::texturing::texture_levels;
@@ -75,6 +77,8 @@ pub fn quadtree_limits(_scene: &Scene) -> QuadtreeLimits {
 /// The plan of each reflector that needs maps: (reflector index, frame, plan).
 pub fn plans(scene: &Scene, quality: Quality) -> Vec<(usize, ReflectorFrame, MapPlan)> {
     let scale = scene.desc.bake.radiance.scale(quality);
+    // Built only where a mirror's maps are sized from the camera paths' looks into it.
+    let bvh = std::sync::OnceLock::new();
     scene
         .reflectors
         .iter()
@@ -84,6 +88,19 @@ pub fn plans(scene: &Scene, quality: Quality) -> Vec<(usize, ReflectorFrame, Map
             let m = scene.materials[r.material as usize].sharpest_roughness()?;
             let frame = ReflectorFrame::new(r.plane.as_ref()?, r, &scene.triangles);
             let mut plan = MapPlan::for_roughness(m, frame.size, scale);
+            if m <= MIRROR_ROUGHNESS {
+                // Decided at the default preset's resolution so that every preset refines the
+                // same mirrors (docs/tuning.md#mirror-map-resolution).
+                let bvh = bvh.get_or_init(|| scene.build_bvh());
+                let looks = looks(scene, bvh, r, &frame);
+                let default = MapPlan::for_roughness(m, frame.size, 1.0).resolution;
+                let (eu, ev) = (
+                    frame.size.x / plan.elements[0] as f32,
+                    frame.size.y / plan.elements[1] as f32,
+                );
+                let f = magnify::factor(&looks, eu, ev, default);
+                plan.resolution = (plan.resolution * f).min(MAX_RADIANCE_RESOLUTION);
+            }
             if let Some(o) = &scene.desc.reflectors[r.index].radiance {
                 if let Some(e) = o.elements {
                     plan.elements = [e[0].max(1), e[1].max(1)];
@@ -98,6 +115,63 @@ pub fn plans(scene: &Scene, quality: Quality) -> Vec<(usize, ReflectorFrame, Map
             Some((i, frame, plan))
         })
         .collect()
+}
+
+/// Eye rays a camera pose casts at the mirror, across by down (the viewer's default aspect).
+const LOOK_GRID: (u32, u32) = (48, 32);
+
+/// The looks into planar reflector `reflector` (frame `frame`) from the scene's camera paths,
+/// at each keyframe and halfway between keyframes: eye rays on a [`LOOK_GRID`] whose first
+/// hit lies on the reflector and whose mirrored ray meets the scene.
+fn looks(
+    scene: &Scene,
+    bvh: &crate::geometry::Bvh,
+    reflector: &crate::scene::Reflector,
+    frame: &ReflectorFrame,
+) -> Vec<Look> {
+    let mut on_mirror = reflector.triangles.clone();
+    on_mirror.sort_unstable();
+    let n = frame.normal;
+    let (w, h) = LOOK_GRID;
+    let aspect = w as f32 / h as f32;
+    let mut out = Vec::new();
+    for path in &scene.camera_paths {
+        let times = path.keyframes.iter().map(|k| k.time);
+        let halves = path
+            .keyframes
+            .windows(2)
+            .map(|k| 0.5 * (k[0].time + k[1].time));
+        for t in times.chain(halves) {
+            if crate::camera::degenerate_pose(path, t).is_some() {
+                continue;
+            }
+            let cam = crate::camera::pose_at(path, t);
+            let eye_pixel = cam.fov_y / magnify::EYE_HEIGHT;
+            for y in 0..h {
+                for x in 0..w {
+                    let dir = cam.ray_direction(Camera::pixel_ndc(x, y, w, h), aspect);
+                    let Some(hit) = bvh.closest_hit(cam.position, dir, f32::INFINITY) else {
+                        continue;
+                    };
+                    if on_mirror.binary_search(&hit.triangle).is_err() || dir.dot(n) >= 0.0 {
+                        continue;
+                    }
+                    let p = cam.position + dir * hit.t;
+                    let r = dir - 2.0 * dir.dot(n) * n;
+                    // Off the mirror by a fraction of the eye's distance: scale-free.
+                    let q = p + n * (1e-4 * hit.t);
+                    if let Some(m) = bvh.closest_hit(q, r, f32::INFINITY) {
+                        out.push(Look {
+                            to_mirror: hit.t,
+                            beyond: m.t,
+                            eye_pixel,
+                        });
+                    }
+                }
+            }
+        }
+    }
+    out
 }
 
 /// Version of what a map holds, recorded in the stage's settings so that maps baked before
@@ -335,4 +409,49 @@ pub fn mean_radiance(map: &RadianceMap) -> Vec3 {
         .map(|(c, _)| *c)
         .sum::<Vec3>()
         / n as f32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The map resolution planned for each named reflector of a shipped scene at `quality`.
+    fn resolutions(scene: &str, quality: Quality) -> Vec<(String, u32)> {
+        let path = format!("{}/scenes/{scene}/scene.json", env!("CARGO_MANIFEST_DIR"));
+        let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        plans(&scene, quality)
+            .into_iter()
+            .map(|(i, _, p)| (scene.reflectors[i].name.clone(), p.resolution))
+            .collect()
+    }
+
+    fn resolution_of(scene: &str, reflector: &str, quality: Quality) -> u32 {
+        let all = resolutions(scene, quality);
+        all.iter()
+            .find(|(n, _)| n == reflector)
+            .unwrap_or_else(|| panic!("{scene} has no planned reflector {reflector}: {all:?}"))
+            .1
+    }
+
+    /// Mirror floors seen from a little above them get maps twice as fine at every preset;
+    /// mirrors seen from across a room keep the resolution from glossiness.
+    #[test]
+    fn mirrors_seen_magnified_get_finer_maps() {
+        for scene in ["bunny-mirror", "stand-in"] {
+            assert_eq!(resolution_of(scene, "MirrorFloor", Quality::Draft), 128);
+            assert_eq!(resolution_of(scene, "MirrorFloor", Quality::Default), 256);
+        }
+        assert_eq!(
+            resolution_of("glossy-room", "MirrorPanel", Quality::Default),
+            128
+        );
+        assert_eq!(
+            resolution_of("glossy-room", "MirrorPanel", Quality::Draft),
+            64
+        );
+        assert_eq!(
+            resolution_of("textured-room", "Mirror", Quality::Default),
+            128
+        );
+    }
 }

@@ -3,6 +3,7 @@
 
 pub mod footprint;
 pub mod index;
+pub mod magnify;
 pub mod normals;
 pub mod quadtree;
 pub mod sampling;
@@ -102,6 +103,9 @@ pub fn render(
     }
 }
 
+/// Sharpest Beckmann roughness planned as a mirror: one map pixel is all a reflected ray sees.
+pub const MIRROR_ROUGHNESS: f32 = 0.02;
+
 /// Sampling chosen for a reflector from its material's glossiness (Bastos Table 1 ranges
 /// from 32² to 128²): sharper lobes need finer maps, more elements and more cameras.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -116,7 +120,9 @@ pub struct MapPlan {
 
 impl MapPlan {
     /// The plan for a lobe of Beckmann roughness `m` on a reflector of `size` (metres along
-    /// its two axes), scaled by the preset's `scale` (0.5 draft, 1 default, 2 high).
+    /// its two axes), scaled by the preset's `scale` (0.5 draft, 1 default, 2 high). The
+    /// radiance stage doubles a mirror's resolution where the camera paths see its maps
+    /// magnified ([`magnify`]).
     pub fn for_roughness(m: f32, size: glam::Vec2, scale: f32) -> MapPlan {
         // m ≤ 0.02: mirror; ≤ 0.1: glossy; rougher: blurry, coarse maps suffice.
         // A mirror shows whatever its best map saw, so its cameras are dense (25 a hemisphere:
@@ -124,7 +130,7 @@ impl MapPlan {
         // element's nearest camera and silhouettes come out ragged
         // (docs/tuning.md#mirror-map-cameras). The viewer splats 2 maps per element whatever
         // the count, so more cameras cost bake time, bytes and GPU memory, not frame time.
-        let (res, long, cams) = if m <= 0.02 {
+        let (res, long, cams) = if m <= MIRROR_ROUGHNESS {
             (128.0, 4.0, 25.0)
         } else if m <= 0.1 {
             (64.0, 3.0, 7.0)
