@@ -8,7 +8,9 @@
 //! - [`seam_points`] places paired samples along them: the same world point as barycentrics
 //!   of either triangle; [`measure`] compares D looked up on both sides, with the bilinear
 //!   filter of [`super::RadiosityMap::radiance`] or the viewer's cubic B-spline;
-//!   [`texel_noise`] gives the scale to compare against (neighbouring texels of one chart).
+//!   [`texel_noise`] gives the scale to compare against (neighbouring texels of one chart);
+//!   [`resolvable`] keeps the points where the texels on both sides face alike (a rounded
+//!   edge narrower than a texel is a crease on the texel grid).
 //! - [`stitch`] changes the texels near seams so that both sides' lookups agree: a linear
 //!   least-squares problem, seam constraints plus a weak pull of every texel towards its
 //!   solved value (Castaño, "Lightmap parameterization", The Witness blog 2010; Liu,
@@ -164,6 +166,50 @@ pub fn seam_points(atlas: &Atlas, seams: &[SeamEdge]) -> Vec<SeamPoint> {
         }
     }
     points
+}
+
+/// The seam points at which D can be continuous on the texel grid: those where the texels
+/// that the viewer's B-spline reads on one side and on the other hold surfaces facing within
+/// [`CHART_MAX_ANGLE_DEG`] of each other (texels without an element of their own are not
+/// counted). Where a rounded edge narrower than a texel joins two faces (a picture's front
+/// and its sides), the texels on either side hold faces whose D differs as it does across a
+/// crease, and making the lookups agree there would spread one face's D over a texel of
+/// the other.
+pub fn resolvable(
+    triangles: &[Triangle],
+    atlas: &Atlas,
+    samples: &[TexelSample],
+    points: Vec<SeamPoint>,
+) -> Vec<SeamPoint> {
+    let mut normal = vec![None; atlas.texel_count()];
+    for s in samples {
+        normal[s.texel as usize] = Some(triangles[s.triangle as usize].shading_normal(s.bary));
+    }
+    let offsets = atlas.page_offsets();
+    let cos_max = CHART_MAX_ANGLE_DEG.to_radians().cos();
+    let mut read = [Vec::with_capacity(16), Vec::with_capacity(16)];
+    points
+        .into_iter()
+        .filter(|p| {
+            for (k, r) in read.iter_mut().enumerate() {
+                r.clear();
+                footprint(
+                    Filter::BSpline,
+                    atlas,
+                    &offsets,
+                    p.triangles[k],
+                    p.bary[k],
+                    1.0,
+                    r,
+                );
+            }
+            let facing = |r: &Vec<(u32, f32)>| -> Vec<Vec3> {
+                r.iter().filter_map(|&(t, _)| normal[t as usize]).collect()
+            };
+            let (a, b) = (facing(&read[0]), facing(&read[1]));
+            a.iter().all(|na| b.iter().all(|nb| na.dot(*nb) >= cos_max))
+        })
+        .collect()
 }
 
 /// Texels (global indices) and weights that `filter` reads for barycentrics `bary` of
@@ -686,7 +732,9 @@ pub fn stitch_seams(
 ) -> SeamReport {
     let start = std::time::Instant::now();
     let seams = find(triangles, atlas);
-    let points = seam_points(atlas, &seams);
+    let all = seam_points(atlas, &seams);
+    let placed = all.len();
+    let points = resolvable(triangles, atlas, samples, all);
     let charts = seam_charts(atlas, &points);
     let mut report = SeamReport {
         edges: seams.len(),
@@ -720,8 +768,9 @@ pub fn stitch_seams(
     report.after = measure(atlas, texels, &points, Filter::Bilinear);
     report.after_bspline = measure(atlas, texels, &points, Filter::BSpline);
     log::info!(
-        "seams: {} edges, jump in D p95 {:.2}% → {:.3}% (bilinear), {:.2}% → {:.3}% (B-spline); {} texels stitched in {} iterations, {:.2} s",
+        "seams: {} edges, {} of {placed} points where the texels on both sides face alike, jump in D p95 {:.2}% → {:.3}% (bilinear), {:.2}% → {:.3}% (B-spline); {} texels stitched in {} iterations, {:.2} s",
         report.edges,
+        points.len(),
         report.before.p95 * 100.0,
         report.after.p95 * 100.0,
         report.before_bspline.p95 * 100.0,
