@@ -8,9 +8,7 @@
 //! - [`seam_points`] places paired samples along them: the same world point as barycentrics
 //!   of either triangle; [`measure`] compares D looked up on both sides, with the bilinear
 //!   filter of [`super::RadiosityMap::radiance`] or the viewer's cubic B-spline;
-//!   [`texel_noise`] gives the scale to compare against (neighbouring texels of one chart);
-//!   [`resolvable`] keeps the points where the texels on both sides face alike (a rounded
-//!   edge narrower than a texel is a crease on the texel grid).
+//!   [`texel_noise`] gives the scale to compare against (neighbouring texels of one chart).
 //! - [`stitch`] changes the texels near seams so that both sides' lookups agree: a linear
 //!   least-squares problem, seam constraints plus a weak pull of every texel towards its
 //!   solved value (Castaño, "Lightmap parameterization", The Witness blog 2010; Liu,
@@ -41,6 +39,13 @@ const RELATIVE_FLOOR: f64 = 0.02;
 /// Passes of [`stitch`] in [`stitch_seams`], each weighing the seam points by what the one
 /// before left.
 const STITCH_PASSES: usize = 2;
+
+/// Radians per texel (of the coarser side): a seam edge across one of whose triangles the
+/// shading normals turn faster than this is a rounded edge narrower than a texel (a picture's front turning into
+/// its side, a chair shell's rim). The texels on its two sides hold faces whose D differs as
+/// across a crease, and making them agree would spread one face's D over a texel of the
+/// other. A curved mesh's charts get texels per radian of its turn, far under this.
+pub const MAX_TURN_PER_TEXEL: f32 = std::f32::consts::FRAC_PI_2;
 
 /// Two ends closer than this in the atlas (texels) are the same place: no seam.
 const SAME_PLACE: f32 = 1e-3;
@@ -113,13 +118,17 @@ pub fn find(triangles: &[Triangle], atlas: &Atlas) -> Vec<SeamEdge> {
                 }
                 let ia = [local(ta, a), local(ta, b)];
                 let ib = [local(tb, a), local(tb, b)];
-                // A crease (normals split) or a fold: D may jump there, it is not a seam.
+                let (ca, cb) = (atlas.tri_coords[ta as usize], atlas.tri_coords[tb as usize]);
+                // A crease (normals split), a fold, or a crease on the texel grid: D may
+                // jump there, it is not a seam.
                 if (0..2).any(|e| ra.n[ia[e]].dot(rb.n[ib[e]]) < cos_max)
                     || ra.face_normal().dot(rb.face_normal()) <= 0.0
+                    || turn_per_metre(ra, ia).max(turn_per_metre(rb, ib))
+                        * texel_span(ra, ca).max(texel_span(rb, cb))
+                        > MAX_TURN_PER_TEXEL
                 {
                     continue;
                 }
-                let (ca, cb) = (atlas.tri_coords[ta as usize], atlas.tri_coords[tb as usize]);
                 if atlas.tri_page[ta as usize] == atlas.tri_page[tb as usize]
                     && (0..2).all(|e| ca[ia[e]].distance(cb[ib[e]]) <= SAME_PLACE)
                 {
@@ -133,6 +142,31 @@ pub fn find(triangles: &[Triangle], atlas: &Atlas) -> Vec<SeamEdge> {
         }
     }
     seams
+}
+
+/// How far the shading normals of `tri` turn across it per metre: the largest angle between
+/// its vertex normals over its height from its edge between corners `edge`.
+fn turn_per_metre(tri: &Triangle, edge: [usize; 2]) -> f32 {
+    let n = tri.n;
+    let turn = [(0, 1), (1, 2), (2, 0)]
+        .map(|(i, j)| n[i].angle_between(n[j]))
+        .into_iter()
+        .fold(0.0f32, f32::max);
+    if turn == 0.0 {
+        return 0.0;
+    }
+    turn * tri.p[edge[1]].distance(tri.p[edge[0]]) / (2.0 * tri.area())
+}
+
+/// The longest a texel of `tri`'s chart spans on it, in metres: over its three edges, the
+/// edge's length over its length in the atlas (`coords`, texels).
+fn texel_span(tri: &Triangle, coords: [Vec2; 3]) -> f32 {
+    (0..3)
+        .map(|k| {
+            let j = (k + 1) % 3;
+            tri.p[j].distance(tri.p[k]) / coords[j].distance(coords[k]).max(1e-6)
+        })
+        .fold(0.0f32, f32::max)
 }
 
 /// Position of barycentrics `bary` of `triangle` on its page, in texels.
@@ -166,50 +200,6 @@ pub fn seam_points(atlas: &Atlas, seams: &[SeamEdge]) -> Vec<SeamPoint> {
         }
     }
     points
-}
-
-/// The seam points at which D can be continuous on the texel grid: those where the texels
-/// that the viewer's B-spline reads on one side and on the other hold surfaces facing within
-/// [`CHART_MAX_ANGLE_DEG`] of each other (texels without an element of their own are not
-/// counted). Where a rounded edge narrower than a texel joins two faces (a picture's front
-/// and its sides), the texels on either side hold faces whose D differs as it does across a
-/// crease, and making the lookups agree there would spread one face's D over a texel of
-/// the other.
-pub fn resolvable(
-    triangles: &[Triangle],
-    atlas: &Atlas,
-    samples: &[TexelSample],
-    points: Vec<SeamPoint>,
-) -> Vec<SeamPoint> {
-    let mut normal = vec![None; atlas.texel_count()];
-    for s in samples {
-        normal[s.texel as usize] = Some(triangles[s.triangle as usize].shading_normal(s.bary));
-    }
-    let offsets = atlas.page_offsets();
-    let cos_max = CHART_MAX_ANGLE_DEG.to_radians().cos();
-    let mut read = [Vec::with_capacity(16), Vec::with_capacity(16)];
-    points
-        .into_iter()
-        .filter(|p| {
-            for (k, r) in read.iter_mut().enumerate() {
-                r.clear();
-                footprint(
-                    Filter::BSpline,
-                    atlas,
-                    &offsets,
-                    p.triangles[k],
-                    p.bary[k],
-                    1.0,
-                    r,
-                );
-            }
-            let facing = |r: &Vec<(u32, f32)>| -> Vec<Vec3> {
-                r.iter().filter_map(|&(t, _)| normal[t as usize]).collect()
-            };
-            let (a, b) = (facing(&read[0]), facing(&read[1]));
-            a.iter().all(|na| b.iter().all(|nb| na.dot(*nb) >= cos_max))
-        })
-        .collect()
 }
 
 /// Texels (global indices) and weights that `filter` reads for barycentrics `bary` of
@@ -732,9 +722,7 @@ pub fn stitch_seams(
 ) -> SeamReport {
     let start = std::time::Instant::now();
     let seams = find(triangles, atlas);
-    let all = seam_points(atlas, &seams);
-    let placed = all.len();
-    let points = resolvable(triangles, atlas, samples, all);
+    let points = seam_points(atlas, &seams);
     let charts = seam_charts(atlas, &points);
     let mut report = SeamReport {
         edges: seams.len(),
@@ -768,9 +756,8 @@ pub fn stitch_seams(
     report.after = measure(atlas, texels, &points, Filter::Bilinear);
     report.after_bspline = measure(atlas, texels, &points, Filter::BSpline);
     log::info!(
-        "seams: {} edges, {} of {placed} points where the texels on both sides face alike, jump in D p95 {:.2}% → {:.3}% (bilinear), {:.2}% → {:.3}% (B-spline); {} texels stitched in {} iterations, {:.2} s",
+        "seams: {} edges, jump in D p95 {:.2}% → {:.3}% (bilinear), {:.2}% → {:.3}% (B-spline); {} texels stitched in {} iterations, {:.2} s",
         report.edges,
-        points.len(),
         report.before.p95 * 100.0,
         report.after.p95 * 100.0,
         report.before_bspline.p95 * 100.0,
