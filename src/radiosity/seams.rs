@@ -123,7 +123,7 @@ pub fn find(triangles: &[Triangle], atlas: &Atlas) -> Vec<SeamEdge> {
                 // jump there, it is not a seam.
                 if (0..2).any(|e| ra.n[ia[e]].dot(rb.n[ib[e]]) < cos_max)
                     || ra.face_normal().dot(rb.face_normal()) <= 0.0
-                    || turn_per_metre(ra, ia).max(turn_per_metre(rb, ib))
+                    || turn_per_metre([ra, rb], [ia, ib])
                         * texel_span(ra, ca).max(texel_span(rb, cb))
                         > MAX_TURN_PER_TEXEL
                 {
@@ -144,18 +144,32 @@ pub fn find(triangles: &[Triangle], atlas: &Atlas) -> Vec<SeamEdge> {
     seams
 }
 
-/// How far the shading normals of `tri` turn across it per metre: the largest angle between
-/// its vertex normals over its height from its edge between corners `edge`.
-fn turn_per_metre(tri: &Triangle, edge: [usize; 2]) -> f32 {
-    let n = tri.n;
-    let turn = [(0, 1), (1, 2), (2, 0)]
-        .map(|(i, j)| n[i].angle_between(n[j]))
-        .into_iter()
+/// How far the shading normals turn per metre about the edge that triangles `t[k]` share
+/// (between their corners `edge[k]`): across either triangle (the largest angle between its
+/// vertex normals over its height from the edge), and from one to the other at the edge's
+/// ends (flat-shaded facets) over the narrower one's height.
+fn turn_per_metre(t: [&Triangle; 2], edge: [[usize; 2]; 2]) -> f32 {
+    let height = |k: usize| {
+        let [a, b] = edge[k].map(|i| t[k].p[i]);
+        2.0 * t[k].area() / a.distance(b)
+    };
+    let within = |k: usize| {
+        let n = t[k].n;
+        let turn = [(0, 1), (1, 2), (2, 0)]
+            .map(|(i, j)| n[i].angle_between(n[j]))
+            .into_iter()
+            .fold(0.0f32, f32::max);
+        if turn == 0.0 { 0.0 } else { turn / height(k) }
+    };
+    let across = (0..2)
+        .map(|e| t[0].n[edge[0][e]].angle_between(t[1].n[edge[1][e]]))
         .fold(0.0f32, f32::max);
-    if turn == 0.0 {
-        return 0.0;
-    }
-    turn * tri.p[edge[1]].distance(tri.p[edge[0]]) / (2.0 * tri.area())
+    let across = if across == 0.0 {
+        0.0
+    } else {
+        across / height(0).min(height(1))
+    };
+    within(0).max(within(1)).max(across)
 }
 
 /// The longest a texel of `tri`'s chart spans on it, in metres: over its three edges, the
