@@ -4,7 +4,8 @@
 //!
 //! - [`find`] lists the seam edges: mesh edges shared by two triangles of one material whose
 //!   shading normals agree at both ends (the surface is smooth there, so D is continuous)
-//!   but whose ends lie in different places of the atlas.
+//!   and turn by less than [`MAX_TURN_PER_TEXEL`] about the edge (the texel grid can follow
+//!   the surface), but whose ends lie in different places of the atlas.
 //! - [`seam_points`] places paired samples along them: the same world point as barycentrics
 //!   of either triangle; [`measure`] compares D looked up on both sides, with the bilinear
 //!   filter of [`super::RadiosityMap::radiance`] or the viewer's cubic B-spline;
