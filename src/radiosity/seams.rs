@@ -4,7 +4,8 @@
 //!
 //! - [`find`] lists the seam edges: mesh edges shared by two triangles of one material whose
 //!   shading normals agree at both ends (the surface is smooth there, so D is continuous)
-//!   but whose ends lie in different places of the atlas.
+//!   and turn by less than [`MAX_TURN_PER_TEXEL`] about the edge (the texel grid can follow
+//!   the surface), but whose ends lie in different places of the atlas.
 //! - [`seam_points`] places paired samples along them: the same world point as barycentrics
 //!   of either triangle; [`measure`] compares D looked up on both sides, with the bilinear
 //!   filter of [`super::RadiosityMap::radiance`] or the viewer's cubic B-spline;
@@ -39,6 +40,13 @@ const RELATIVE_FLOOR: f64 = 0.02;
 /// Passes of [`stitch`] in [`stitch_seams`], each weighing the seam points by what the one
 /// before left.
 const STITCH_PASSES: usize = 2;
+
+/// Radians per texel (of the coarser side): a seam edge across one of whose triangles the
+/// shading normals turn faster than this is a rounded edge narrower than a texel (a picture's front turning into
+/// its side, a chair shell's rim). The texels on its two sides hold faces whose D differs as
+/// across a crease, and making them agree would spread one face's D over a texel of the
+/// other. A curved mesh's charts get texels per radian of its turn, far under this.
+pub const MAX_TURN_PER_TEXEL: f32 = std::f32::consts::FRAC_PI_2;
 
 /// Two ends closer than this in the atlas (texels) are the same place: no seam.
 const SAME_PLACE: f32 = 1e-3;
@@ -111,13 +119,17 @@ pub fn find(triangles: &[Triangle], atlas: &Atlas) -> Vec<SeamEdge> {
                 }
                 let ia = [local(ta, a), local(ta, b)];
                 let ib = [local(tb, a), local(tb, b)];
-                // A crease (normals split) or a fold: D may jump there, it is not a seam.
+                let (ca, cb) = (atlas.tri_coords[ta as usize], atlas.tri_coords[tb as usize]);
+                // A crease (normals split), a fold, or a crease on the texel grid: D may
+                // jump there, it is not a seam.
                 if (0..2).any(|e| ra.n[ia[e]].dot(rb.n[ib[e]]) < cos_max)
                     || ra.face_normal().dot(rb.face_normal()) <= 0.0
+                    || turn_per_metre([ra, rb], [ia, ib])
+                        * texel_span(ra, ca).max(texel_span(rb, cb))
+                        > MAX_TURN_PER_TEXEL
                 {
                     continue;
                 }
-                let (ca, cb) = (atlas.tri_coords[ta as usize], atlas.tri_coords[tb as usize]);
                 if atlas.tri_page[ta as usize] == atlas.tri_page[tb as usize]
                     && (0..2).all(|e| ca[ia[e]].distance(cb[ib[e]]) <= SAME_PLACE)
                 {
@@ -131,6 +143,45 @@ pub fn find(triangles: &[Triangle], atlas: &Atlas) -> Vec<SeamEdge> {
         }
     }
     seams
+}
+
+/// How far the shading normals turn per metre about the edge that triangles `t[k]` share
+/// (between their corners `edge[k]`): across either triangle (the largest angle between its
+/// vertex normals over its height from the edge), and from one to the other at the edge's
+/// ends (flat-shaded facets) over the narrower one's height.
+fn turn_per_metre(t: [&Triangle; 2], edge: [[usize; 2]; 2]) -> f32 {
+    let height = |k: usize| {
+        let [a, b] = edge[k].map(|i| t[k].p[i]);
+        2.0 * t[k].area() / a.distance(b)
+    };
+    let within = |k: usize| {
+        let n = t[k].n;
+        let turn = [(0, 1), (1, 2), (2, 0)]
+            .map(|(i, j)| n[i].angle_between(n[j]))
+            .into_iter()
+            .fold(0.0f32, f32::max);
+        if turn == 0.0 { 0.0 } else { turn / height(k) }
+    };
+    let across = (0..2)
+        .map(|e| t[0].n[edge[0][e]].angle_between(t[1].n[edge[1][e]]))
+        .fold(0.0f32, f32::max);
+    let across = if across == 0.0 {
+        0.0
+    } else {
+        across / height(0).min(height(1))
+    };
+    within(0).max(within(1)).max(across)
+}
+
+/// The longest a texel of `tri`'s chart spans on it, in metres: over its three edges, the
+/// edge's length over its length in the atlas (`coords`, texels).
+fn texel_span(tri: &Triangle, coords: [Vec2; 3]) -> f32 {
+    (0..3)
+        .map(|k| {
+            let j = (k + 1) % 3;
+            tri.p[j].distance(tri.p[k]) / coords[j].distance(coords[k]).max(1e-6)
+        })
+        .fold(0.0f32, f32::max)
 }
 
 /// Position of barycentrics `bary` of `triangle` on its page, in texels.
