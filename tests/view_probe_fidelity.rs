@@ -30,9 +30,11 @@ const SIZE: (u32, u32) = (192, 128);
 const SUPER: u32 = 4;
 /// Issue 44's bound on a glossy material's mean luminance against the path tracer's.
 const TOLERANCE: f64 = 0.10;
-/// The Vanity's bound: its front face still misses part of its specular term (open in issue
-/// 44), which leaves it at the edge of [`TOLERANCE`] at draft; this bound still fails with its
-/// probe inside the cabinet, below the top's plane.
+/// The Vanity's bound: its +x side misses part of its specular term (open in issue 44): its
+/// probe stands in front of the cabinet, behind that side's plane, and sees the cabinet's
+/// front where that side reflects the wall beside it. That leaves it at the edge of
+/// [`TOLERANCE`] at draft; this bound still fails with its probe inside the cabinet, below
+/// the top's plane.
 const VANITY_TOLERANCE: f64 = 0.12;
 
 /// The bound on a specular term alone against the path tracer's (the difference of two
