@@ -113,9 +113,10 @@ impl ProbeReflections {
                     w(a).total_cmp(&w(b))
                 })
                 .expect("glossy groups have lobes");
-            let lod = lobe_lod((lobe.mx * lobe.my).sqrt(), read[p].0.base_size() as u32)
+            let alpha = (lobe.mx * lobe.my).sqrt();
+            let lod = lobe_lod(alpha, read[p].0.base_size() as u32)
                 .min((read[p].0.levels.len() - 1) as f32);
-            lit.push((g, p, modulation, lod));
+            lit.push((g, p, modulation, lod, [alpha, lobe.r0]));
         }
         let shader_text = shader_source();
         let built = error_scoped(device, "creating the probe pass", || {
@@ -149,7 +150,7 @@ impl ProbeReflections {
             let mut uses = Vec::new();
             let groups: Vec<GroupGpu> = lit
                 .iter()
-                .map(|(g, p, modulation, lod)| {
+                .map(|(g, p, modulation, lod, [alpha, r0])| {
                     let verts = reflector_vertices(scene, &g.triangles);
                     let vertices = buffer_init(
                         gpu,
@@ -160,7 +161,12 @@ impl ProbeReflections {
                     );
                     let mut base = ProbeParams {
                         centre: probes[*p].position.extend(1.0).to_array(),
-                        info: [*lod, sides(&scene.materials[g.material as usize]), 0.0, 0.0],
+                        info: [
+                            *lod,
+                            sides(&scene.materials[g.material as usize]),
+                            *alpha,
+                            *r0,
+                        ],
                         modulation: [[0.0; 4]; MODULATION_SIZE],
                     };
                     for (m, v) in base.modulation.iter_mut().zip(modulation) {
