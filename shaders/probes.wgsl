@@ -151,7 +151,8 @@ fn probe_lobe(offset: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, r: vec3<f32>, alph
         // The sample's share of the lobe, 1 / (N pdf), pdf = D(h) (n·h) / (4 v·h).
         let q = cos_h * cos_h * (a2 - 1.0) + 1.0;
         let pdf = a2 / (PROBE_PI * q * q) * cos_h / (4.0 * vh);
-        let lod = 0.5 * log2(max(1.0 / (f32(PROBE_SAMPLES) * pdf * texel), 1.0));
+        // A trilinear lookup spans about 2×2 texels of its level (as `probes::lobe_lod`).
+        let lod = 0.5 * log2(max(1.0 / (4.0 * f32(PROBE_SAMPLES) * pdf * texel), 1.0));
         let u = probe_lookup(offset, wi);
         let level = probe_footprint_lod(lod, u.w);
         // f cos θ_i / pdf up to factors common to all samples: F G (ω_o·h) / (n·h).
