@@ -587,9 +587,8 @@ const BLOCK: usize = 4;
 /// The teapot's material is glTF's PolishedMetal, mapped to GGX lobes (glTF 2.0 Appendix B),
 /// whose directional albedo in the mirror limit is F(cos θ_o) with no cos θ factor: the mirror
 /// lookup (ks·F·cube) and regular sampling (Eq. 9 with the GGX lobe) estimate the same thing,
-/// and both fall short of the reference by what the viewer cannot show at all: the
-/// reference's reflections of the quad area lights (not geometry, so in neither D nor any
-/// cube map) and the energy the draft radiosity bake (3 bounces) leaves out of D.
+/// and both fall short of the reference by at least the energy the draft radiosity bake
+/// (3 bounces) leaves out of D, which the teapot's cube map reflects.
 /// Measured −0.18 (mirror lookup) and −0.09 (regular sampling, 20 samples) on lavapipe;
 /// −0.41 for the mirror lookup without self-reflection (the teapot's self-reflections of the
 /// lamp are the light it adds; −0.27 and −0.21 with the former one-shell-layer test).
