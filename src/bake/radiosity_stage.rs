@@ -520,7 +520,22 @@ pub fn bake_from(
 
 #[cfg(test)]
 mod tests {
-    use super::gather_range;
+    use super::{gather_range, settings_json};
+    use crate::settings::Quality;
+    use crate::settings::radiosity::RadiositySettings;
+
+    /// A stage is up to date only when its recorded settings, read back from the manifest,
+    /// equal what it would record now: every preset's numbers must survive the round trip
+    /// (0.015 as f64 did not, without serde_json's correctly rounded parsing).
+    #[test]
+    fn recorded_settings_read_back_equal_at_every_preset() {
+        for q in [Quality::Draft, Quality::Default, Quality::High] {
+            let recorded = settings_json(&RadiositySettings::preset(q));
+            let text = serde_json::to_string(&recorded).unwrap();
+            let back: serde_json::Value = serde_json::from_str(&text).unwrap();
+            assert_eq!(back, recorded, "{} preset: {text}", q.name());
+        }
+    }
 
     #[test]
     fn gathering_runs_tile_the_elements_in_order() {
