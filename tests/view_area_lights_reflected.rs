@@ -130,17 +130,6 @@ fn view(data: &ViewData, camera: &Camera) -> Vec<Vec3> {
     off.read_hdr(&gpu).unwrap()
 }
 
-/// Mean luminance of `rgb` over `mask`.
-fn mean(rgb: &[Vec3], mask: &[bool]) -> f64 {
-    let count = mask.iter().filter(|m| **m).count();
-    mask.iter()
-        .zip(rgb)
-        .filter(|(m, _)| **m)
-        .map(|(_, c)| f64::from(glint::colour::luminance(*c)))
-        .sum::<f64>()
-        / count.max(1) as f64
-}
-
 #[test]
 fn chrome_and_black_paint_reflect_an_area_light_as_the_path_tracer_does() {
     let dir = tempfile::tempdir().unwrap();
@@ -162,7 +151,10 @@ fn chrome_and_black_paint_reflect_an_area_light_as_the_path_tracer_does() {
             .1
             .image
             .rgb;
-        let (got, want) = (mean(&frame, &mask), mean(&traced, &mask));
+        let (got, want) = (
+            masked_luminance(&frame, &mask),
+            masked_luminance(&traced, &mask),
+        );
         let ratio = got / want;
         eprintln!("{name}, {count} px: {got:.4} vs {want:.4} ({ratio:.3})");
         if (ratio - 1.0).abs() >= TOLERANCE {

@@ -94,17 +94,6 @@ fn floor_reflecting(data: &ViewData, camera: &Camera, floor: u32, seen: u32) -> 
     })
 }
 
-/// Mean luminance of `rgb` over `mask`.
-fn mean(rgb: &[Vec3], mask: &[bool]) -> f64 {
-    let count = mask.iter().filter(|m| **m).count();
-    mask.iter()
-        .zip(rgb)
-        .filter(|(m, _)| **m)
-        .map(|(_, c)| f64::from(glint::colour::luminance(*c)))
-        .sum::<f64>()
-        / count.max(1) as f64
-}
-
 /// The viewer's linear frame with probes on or off, 4× MSAA.
 fn view(data: &ViewData, camera: &Camera, probes: bool) -> Vec<Vec3> {
     let gpu = gpu();
@@ -144,11 +133,11 @@ fn the_glass_jar_from_tiles_is_as_bright_as_the_path_tracer() {
     let count = mask.iter().filter(|m| **m).count();
     assert!(count > 50, "the jar covers {count} pixels");
     // D plus what the panes let through, without the specular term.
-    let flat = mean(&view(&data, &camera, false), &mask);
-    let flat_traced = mean(&traced(&camera, "Glass", false), &mask);
+    let flat = masked_luminance(&view(&data, &camera, false), &mask);
+    let flat_traced = masked_luminance(&traced(&camera, "Glass", false), &mask);
     // With the probe's specular term.
-    let lit = mean(&view(&data, &camera, true), &mask);
-    let lit_traced = mean(&traced(&camera, "Glass", true), &mask);
+    let lit = masked_luminance(&view(&data, &camera, true), &mask);
+    let lit_traced = masked_luminance(&traced(&camera, "Glass", true), &mask);
     let (flat_ratio, lit_ratio) = (flat / flat_traced, lit / lit_traced);
     eprintln!(
         "jar from tiles, {count} px: without specular {flat:.4} vs {flat_traced:.4} ({flat_ratio:.3}), \
@@ -173,8 +162,8 @@ fn the_vanity_from_room_is_as_bright_as_the_path_tracer() {
     let mask = pixels_of(&data, &camera, common::material_id(&data.scene, "Vanity"));
     let count = mask.iter().filter(|m| **m).count();
     assert!(count > 400, "the vanity covers {count} pixels");
-    let lit = mean(&view(&data, &camera, true), &mask);
-    let want = mean(&traced(&camera, "Vanity", true), &mask);
+    let lit = masked_luminance(&view(&data, &camera, true), &mask);
+    let want = masked_luminance(&traced(&camera, "Vanity", true), &mask);
     let ratio = lit / want;
     eprintln!("vanity from room, {count} px: {lit:.4} vs {want:.4} ({ratio:.3})");
     assert!(
@@ -201,10 +190,10 @@ fn the_floor_reflecting_the_vanity_from_tiles_is_as_bright_as_the_path_tracer() 
         count > 400,
         "the floor reflecting the vanity covers {count} pixels"
     );
-    let flat = mean(&view(&data, &camera, false), &mask);
-    let flat_traced = mean(&traced(&camera, "Tiles", false), &mask);
-    let lit = mean(&view(&data, &camera, true), &mask);
-    let want = mean(&traced(&camera, "Tiles", true), &mask);
+    let flat = masked_luminance(&view(&data, &camera, false), &mask);
+    let flat_traced = masked_luminance(&traced(&camera, "Tiles", false), &mask);
+    let lit = masked_luminance(&view(&data, &camera, true), &mask);
+    let want = masked_luminance(&traced(&camera, "Tiles", true), &mask);
     let (ratio, specular) = (lit / want, (lit - flat) / (want - flat_traced));
     eprintln!(
         "floor reflecting the vanity from tiles, {count} px: without specular {flat:.4} vs \

@@ -575,6 +575,17 @@ pub fn material_id(scene: &glint::scene::Scene, name: &str) -> u32 {
         .unwrap_or_else(|| panic!("no material {name}")) as u32
 }
 
+/// Mean luminance of `rgb` over the pixels `mask` keeps (0 where it keeps none).
+pub fn masked_luminance(rgb: &[glam::Vec3], mask: &[bool]) -> f64 {
+    let count = mask.iter().filter(|m| **m).count();
+    mask.iter()
+        .zip(rgb)
+        .filter(|(m, _)| **m)
+        .map(|(_, c)| f64::from(glint::colour::luminance(*c)))
+        .sum::<f64>()
+        / count.max(1) as f64
+}
+
 /// The pixels of a `width` × `height` frame from `camera` all of whose `sub` × `sub`
 /// sub-pixel rays (their directions) `sees` accepts.
 pub fn covered_pixels(
