@@ -6,12 +6,9 @@
 //! Anti-aliasing multisamples the main frame's geometry passes only: the scene pass and every
 //! composite drawn over it (planar, recursive, impostor and curved reflections) draw into a
 //! [`MultisampleTarget`] of the frame's sample count, resolved into the single-sampled
-//! radiance the display pass reads. The single-level planar reflectors' mirror passes draw
-//! into multisampled maps of the frame's sample count, resolved before their pyramids are
-//! built: a near-mirror's composite reads the pyramid's sharpest level, where an unresolved
-//! edge would show as a staircase. The recursion's level maps, the pyramids and the cube maps
-//! stay single-sampled: they are filtered (pyramids, MIP chains) or blurred by a rougher
-//! reflector before the frame reads them.
+//! radiance the display pass reads. The passes that draw reflection maps, their pyramids and
+//! cube maps stay single-sampled: they are filtered (pyramids, MIP chains) before the frame
+//! reads them, which smooths their edges anyway.
 
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 
@@ -223,7 +220,7 @@ pub fn texture_2d(
 
 /// A `width` × `height` 2D texture of `format` for `usage` with `samples` samples a texel: one
 /// MIP level.
-pub(crate) fn multisampled_2d(
+fn multisampled_2d(
     device: &wgpu::Device,
     label: &str,
     (width, height): (u32, u32),

@@ -200,9 +200,9 @@ pub struct MirroredGlass {
 }
 
 impl MirroredGlass {
-    /// The passes of `renderer`'s transmissive triangles into a map of `format` and `samples`
-    /// samples a texel with the mirror pass's layouts (`frame_layout`, `params_layout`) and
-    /// shader source (`reflect_source`); `None` without glass. Call inside an error scope.
+    /// The passes of `renderer`'s transmissive triangles into a map of `format` with the
+    /// mirror pass's layouts (`frame_layout`, `params_layout`) and shader source
+    /// (`reflect_source`); `None` without glass. Call inside an error scope.
     pub fn build(
         gpu: &Gpu,
         scene: &Scene,
@@ -210,7 +210,6 @@ impl MirroredGlass {
         reflect_source: &str,
         layouts: [&wgpu::BindGroupLayout; 2],
         format: wgpu::TextureFormat,
-        samples: u32,
     ) -> Option<MirroredGlass> {
         let runs = renderer.glass_runs();
         if runs.is_empty() {
@@ -228,7 +227,6 @@ impl MirroredGlass {
                 .depth(reverse_z_depth(false, wgpu::CompareFunction::Greater))
                 .color(format, Some(blend))
                 .override_bool(SURFACE_TEXTURES, textures)
-                .samples(samples)
                 .build(device)
         };
         Some(MirroredGlass {

@@ -86,8 +86,6 @@ pub struct GeometryReflections {
     glass: Option<MirroredGlass>,
     width: u32,
     height: u32,
-    /// Samples a texel of the mirror passes (the frame's).
-    samples: u32,
     /// The scene pass's near plane (the view [`GeometryReflections::visible`] tests against).
     near: f32,
 }
@@ -187,8 +185,6 @@ impl GeometryReflections {
         let device = &gpu.device;
         let mesh = crate::view::passes::renderer::SceneMesh::new(scene, &map.atlas);
         let clip = (scene.bounds.diagonal() * CLIP_FRACTION).max(1e-5);
-        // The mirror passes draw at the frame's sample count (see `gpu::target`).
-        let samples = renderer.formats().samples;
         error_scoped(device, "creating the reflection passes", || {
             let source_text = shader_source();
             let shader = shader(device, "glint reflection shader", &source_text);
@@ -209,14 +205,12 @@ impl GeometryReflections {
                     .color(HDR_FORMAT, None)
                     .depth(reverse_z_depth(true, wgpu::CompareFunction::Greater))
                     .override_bool(SURFACE_TEXTURES, renderer.surface_textures())
-                    .samples(samples)
                     .build(device);
             let splat_pipeline =
                 render_pipeline("glint splat pipeline", &shader, "vs_splat", "fs_splat")
                     .layouts(&[&frame_layout, &splat_layout])
                     .color(HDR_FORMAT, None)
                     .depth(reverse_z_depth(true, wgpu::CompareFunction::Greater))
-                    .samples(samples)
                     .build(device);
             let glass = matches!(source, Source::Geometry)
                 .then(|| {
@@ -227,7 +221,6 @@ impl GeometryReflections {
                         &source_text,
                         [&frame_layout, &mirror_layout],
                         HDR_FORMAT,
-                        samples,
                     )
                 })
                 .flatten();
@@ -239,14 +232,7 @@ impl GeometryReflections {
                 &frame_layout,
                 &composite_layout,
             );
-            let image = matches!(source, Source::Image { .. });
-            let map = ReflectionMap::multisampled(
-                gpu,
-                "glint reflection texture",
-                (width, height),
-                samples,
-                image,
-            );
+            let map = ReflectionMap::new(gpu, "glint reflection texture", width, height);
             let sampler = map_sampler(device, "glint reflection sampler");
             let pyramid_passes = PyramidPasses::new(device);
             let gap_fill = matches!(source, Source::Image { .. })
@@ -373,7 +359,6 @@ impl GeometryReflections {
                 glass,
                 width,
                 height,
-                samples,
                 near: near_plane(scene),
             }
         })
@@ -409,7 +394,7 @@ impl GeometryReflections {
             return;
         };
         let eye = mirror_point(&self.reflectors[slot].reflector.plane, camera.position);
-        t.draw_mirror_where(pass, slot, self.samples, |i| {
+        t.draw_mirror_where(pass, slot, |i| {
             i != slot && signed_distance(&self.reflectors[i].reflector.plane, eye) > 0.0
         });
     }
@@ -454,12 +439,10 @@ impl GeometryReflections {
     }
 
     /// How many render passes [`GeometryReflections::draw`] records for `camera`: per map
-    /// ([`GeometryReflections::map_count`]), the mirror pass, its resolve when multisampled,
-    /// one per level of M's pyramid and the composite.
+    /// ([`GeometryReflections::map_count`]), the mirror pass, one per level of M's pyramid
+    /// and the composite.
     pub fn pass_count(&self, camera: &Camera) -> usize {
-        let resolve = usize::from(self.map.is_multisampled());
-        (2 + resolve + super::filter::level_count(self.width, self.height) as usize)
-            * self.map_count(camera)
+        (2 + super::filter::level_count(self.width, self.height) as usize) * self.map_count(camera)
     }
 
     /// Writes each reflector's mirrored-view uniforms for `camera` and, in image mode, plans
@@ -597,7 +580,7 @@ impl GeometryReflections {
                             pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
                             pass.draw_indexed(0..*count, 0, 0..1);
                             if let Some(c) = curved {
-                                c.draw_mirror(&mut pass, slot, self.samples);
+                                c.draw_mirror(&mut pass, slot);
                             }
                             self.draw_terminal(&mut pass, slot, camera);
                         }
@@ -613,7 +596,7 @@ impl GeometryReflections {
                         );
                         renderer.draw_opaque(&mut pass);
                         if let (Some(c), Source::Geometry) = (curved, self.source) {
-                            c.draw_mirror(&mut pass, slot, self.samples);
+                            c.draw_mirror(&mut pass, slot);
                         }
                         self.draw_terminal(&mut pass, slot, camera);
                         if let Some(g) = &self.glass {
@@ -627,7 +610,6 @@ impl GeometryReflections {
                     }
                 }
             }
-            self.map.resolve(encoder);
             if let Some(g) = &self.gap_fill {
                 g.record(encoder);
             }

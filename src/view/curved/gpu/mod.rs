@@ -127,9 +127,8 @@ pub struct CurvedReflections {
     maps: [Vec<CubeTexture>; 2],
     final_set: usize,
     composite: Composite,
-    /// The composite inside a planar mirror's pass (`fs_curved_mirror`, the HDR map M), by
-    /// the map's samples a texel: 1, and the frame's when it is multisampled.
-    mirror_pipelines: Vec<(u32, wgpu::RenderPipeline)>,
+    /// The composite inside a planar mirror's pass (`fs_curved_mirror`, the HDR map M).
+    mirror_pipeline: wgpu::RenderPipeline,
     /// Mirrored views, by the slot the planar passes give them (grown as needed).
     mirror_views: Mutex<Vec<MirrorView>>,
     frame_layout: wgpu::BindGroupLayout,
@@ -251,33 +250,24 @@ impl CurvedReflections {
             // Inside a mirror pass: one linear HDR target (M), depth tested, not written; the
             // specular term added, M's alpha (the beyond fraction K's scale reads) replaced by
             // the unfolded path's (`fs_curved_mirror`).
-            let mirror_pipeline = |samples| {
-                render_pipeline(
-                    "glint curved composite in a mirror",
-                    &shader,
-                    "vs_curved",
-                    "fs_curved_mirror",
-                )
-                .layouts(&[&frame_layout, &curved_layout])
-                .vertex(CurvedVertex::layout())
-                .color(
-                    HDR_FORMAT,
-                    Some(wgpu::BlendState {
-                        color: ADDITIVE_KEEP_ALPHA.color,
-                        alpha: wgpu::BlendComponent::REPLACE,
-                    }),
-                )
-                .depth(reverse_z_depth(false, wgpu::CompareFunction::GreaterEqual))
-                .override_bool(SURFACE_TEXTURES, textures)
-                .samples(samples)
-                .build(device)
-            };
-            // Single-level mirror maps draw at the frame's sample count, the recursion's at 1.
-            let mut mirror_pipelines = vec![(1, mirror_pipeline(1))];
-            let frame_samples = renderer.formats().samples;
-            if frame_samples > 1 {
-                mirror_pipelines.push((frame_samples, mirror_pipeline(frame_samples)));
-            }
+            let mirror_pipeline = render_pipeline(
+                "glint curved composite in a mirror",
+                &shader,
+                "vs_curved",
+                "fs_curved_mirror",
+            )
+            .layouts(&[&frame_layout, &curved_layout])
+            .vertex(CurvedVertex::layout())
+            .color(
+                HDR_FORMAT,
+                Some(wgpu::BlendState {
+                    color: ADDITIVE_KEEP_ALPHA.color,
+                    alpha: wgpu::BlendComponent::REPLACE,
+                }),
+            )
+            .depth(reverse_z_depth(false, wgpu::CompareFunction::GreaterEqual))
+            .override_bool(SURFACE_TEXTURES, textures)
+            .build(device);
             let mut generation = GenerationPipelines::new(
                 device,
                 &shader,
@@ -469,7 +459,7 @@ impl CurvedReflections {
                     maps,
                     final_set,
                     composite,
-                    mirror_pipelines,
+                    mirror_pipeline,
                     mirror_views: Mutex::new(Vec::new()),
                     frame_layout,
                     curved_layout,
@@ -640,12 +630,11 @@ impl CurvedReflections {
         }
     }
 
-    /// Records, inside a planar mirror's pass (its HDR map M of `samples` samples a texel
-    /// bound as the only colour target, the mirrored scene's depth), the curved reflectors'
-    /// specular term of mirrored view `slot` ([`CurvedReflections::prepare_mirror`]), added
-    /// to their kd·D there. `samples` is 1 or the frame's.
-    pub fn draw_mirror(&self, pass: &mut wgpu::RenderPass<'_>, slot: usize, samples: u32) {
-        self.draw_mirror_where(pass, slot, samples, |_| true);
+    /// Records, inside a planar mirror's pass (its HDR map M bound as the only colour target,
+    /// the mirrored scene's depth), the curved reflectors' specular term of mirrored view
+    /// `slot` ([`CurvedReflections::prepare_mirror`]), added to their kd·D there.
+    pub fn draw_mirror(&self, pass: &mut wgpu::RenderPass<'_>, slot: usize) {
+        self.draw_mirror_where(pass, slot, |_| true);
     }
 
     /// [`CurvedReflections::draw_mirror`] for the reflectors whose index `keep` accepts.
@@ -653,7 +642,6 @@ impl CurvedReflections {
         &self,
         pass: &mut wgpu::RenderPass<'_>,
         slot: usize,
-        samples: u32,
         keep: impl Fn(usize) -> bool,
     ) {
         let Ok(views) = self.mirror_views.lock() else {
@@ -662,11 +650,7 @@ impl CurvedReflections {
         let Some(view) = views.get(slot) else {
             return;
         };
-        let Some((_, pipeline)) = self.mirror_pipelines.iter().find(|(n, _)| *n == samples) else {
-            debug_assert!(false, "no curved mirror pipeline for {samples} samples");
-            return;
-        };
-        pass.set_pipeline(pipeline);
+        pass.set_pipeline(&self.mirror_pipeline);
         pass.set_bind_group(0, &view.frame_group, &[]);
         for (i, (r, (_, group))) in self.reflectors.iter().zip(&view.reflectors).enumerate() {
             // Without lobes nothing is added.

@@ -207,7 +207,6 @@ impl RecursiveReflections {
                 &source,
                 [&frame_layout, &params_layout],
                 HDR_FORMAT,
-                1,
             );
             let levels: Vec<ReflectionMap> = (0..settings.depth)
                 .map(|_| ReflectionMap::new(gpu, "glint recursion level map", width, height))
@@ -497,13 +496,13 @@ impl RecursiveReflections {
             renderer.draw_opaque(&mut pass);
             // Curved reflectors seen in this mirror: their specular term in the mirrored view.
             if let Some(c) = curved {
-                c.draw_mirror(&mut pass, id, 1);
+                c.draw_mirror(&mut pass, id);
             }
             // Planar ones seen from their reflecting side without a map of their own (this
             // view's children get theirs below): their cube-mapped specular term.
             if let Some(t) = &self.terminal {
                 let eye = node.camera.position;
-                t.draw_mirror_where(&mut pass, id, 1, |i| {
+                t.draw_mirror_where(&mut pass, id, |i| {
                     i != node.reflector
                         && !node.children.iter().any(|&c| plan.nodes[c].reflector == i)
                         && super::super::signed_distance(&self.reflectors[i].plane, eye) > 0.0
