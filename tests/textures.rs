@@ -831,6 +831,19 @@ fn floor_hit(camera: &glint::camera::Camera, x: u32, y: u32) -> Option<(f32, Vec
     (p.x.abs() <= 9.0 && p.z.abs() <= 9.0).then_some((t, p))
 }
 
+/// A 16 × 16 image of one-texel cells, 250 and 10 alternating.
+fn black_and_white_checker() -> Vec<[u8; 4]> {
+    (0..256)
+        .map(|i| {
+            if (i % 16 + i / 16) % 2 == 0 {
+                [250, 250, 250, 255]
+            } else {
+                [10, 10, 10, 255]
+            }
+        })
+        .collect()
+}
+
 /// A fine black and white checker on [`tiled_floor`] (cells of 3.1 cm: a 16 × 16 image
 /// repeated every 0.5 m). Far away (4–8 m: a pixel spans dozens of cells along the view) the
 /// viewer's frame is the checker's mean times the stored D, smooth, not black and white
@@ -842,15 +855,7 @@ fn floor_hit(camera: &glint::camera::Camera, x: u32, y: u32) -> Option<(f32, Vec
 fn a_fine_checker_at_a_grazing_angle_filters_to_its_mean_far_away() {
     use glint::scene::texture::mips::LinearLevel;
     let dir = tempfile::tempdir().unwrap();
-    let checker: Vec<[u8; 4]> = (0..256)
-        .map(|i| {
-            if (i % 16 + i / 16) % 2 == 0 {
-                [250, 250, 250, 255]
-            } else {
-                [10, 10, 10, 255]
-            }
-        })
-        .collect();
+    let checker = black_and_white_checker();
     let (data, camera, frame, plain) = tiled_floor(
         dir.path(),
         png(16, 16, &checker),
@@ -1078,15 +1083,7 @@ fn checker_ceiling_in_a_mirror(repeat: f32) -> Vec<(u32, Vec<Option<f32>>)> {
     use glint::radiance::index::{load_cameras, read_map};
     use glint::scene::texture::mips::LinearLevel;
     let dir = tempfile::tempdir().unwrap();
-    let checker: Vec<[u8; 4]> = (0..256)
-        .map(|i| {
-            if (i % 16 + i / 16) % 2 == 0 {
-                [250, 250, 250, 255]
-            } else {
-                [10, 10, 10, 255]
-            }
-        })
-        .collect();
+    let checker = black_and_white_checker();
     let (x4, z4) = (Vec3::X * 4.0, Vec3::Z * 4.0);
     let meshes = vec![
         quad(

@@ -76,9 +76,17 @@ pub fn quadtree_limits(_scene: &Scene) -> QuadtreeLimits {
 
 /// The plan of each reflector that needs maps: (reflector index, frame, plan).
 pub fn plans(scene: &Scene, quality: Quality) -> Vec<(usize, ReflectorFrame, MapPlan)> {
+    plans_with(scene, quality, &std::sync::OnceLock::new())
+}
+
+/// [`plans`] with the scene's BVH, built into `bvh` only where a mirror's maps are sized from
+/// the camera paths' looks into it (a bake that already holds one passes it in).
+fn plans_with(
+    scene: &Scene,
+    quality: Quality,
+    bvh: &std::sync::OnceLock<crate::geometry::Bvh>,
+) -> Vec<(usize, ReflectorFrame, MapPlan)> {
     let scale = scene.desc.bake.radiance.scale(quality);
-    // Built only where a mirror's maps are sized from the camera paths' looks into it.
-    let bvh = std::sync::OnceLock::new();
     scene
         .reflectors
         .iter()
@@ -276,7 +284,8 @@ pub fn bake_part(
     if let Some(d_read) = &d_read {
         w.read_from(Stage::Radiosity.name(), d_read);
     }
-    let bvh = scene.build_bvh();
+    let built = std::sync::OnceLock::from(scene.build_bvh());
+    let bvh = built.get().expect("built above");
     let d_at =
         |h: &crate::geometry::Hit| scene.d_at(h.triangle, h.bary, d.radiance(h.triangle, h.bary));
     let levels = texture_levels(&scene.textures);
@@ -284,10 +293,10 @@ pub fn bake_part(
         let seen = |h: &crate::geometry::Hit| {
             d_seen(scene, &levels, h, rays, d.radiance(h.triangle, h.bary))
         };
-        exitant(scene, &bvh, &d_at, &seen, h, dir)
+        exitant(scene, bvh, &d_at, &seen, h, dir)
     };
     let limits = quadtree_limits(scene);
-    let plans: Vec<_> = plans(scene, quality)
+    let plans: Vec<_> = plans_with(scene, quality, &built)
         .into_iter()
         .enumerate()
         .filter(|(k, _)| part.item.takes(Item::Reflector(*k)))
@@ -324,7 +333,7 @@ pub fn bake_part(
                         normal: frame.normal,
                         resolution: plan.resolution,
                     };
-                    let map = render(&cam, &bvh, &scene.triangles, 4.0 * bvh.epsilon(), &shade);
+                    let map = render(&cam, bvh, &scene.triangles, 4.0 * bvh.epsilon(), &shade);
                     rays += (plan.resolution * plan.resolution) as u64;
                     let stem = format!("e{i}_{j}_c{k}");
                     let exr = encode_map(
