@@ -147,7 +147,8 @@ pub struct Solution {
     pub stats: SolveStats,
 }
 
-/// The random stream of element `index` in refinement round `round` (0: the first batch).
+/// The random stream of element `index`'s emitter samples in refinement round `round` (0: the
+/// first batch); its gathering rays draw from their own ([`super::gather::ray_rng`]).
 fn stream(round: u32, index: usize) -> u64 {
     ((round as u64) << 40) | index as u64
 }
@@ -181,7 +182,16 @@ fn gather_all(
                         first: have.map_or(0, |g| g[i as usize].gathering_rays),
                         shift: Rng::new(seed, stream(SHIFT_STREAM_ROUND, i as usize)).uniform2(),
                     };
-                    gather(cx, &samples[i as usize], &mut rng, seq, rays, light)
+                    gather(
+                        cx,
+                        &samples[i as usize],
+                        i,
+                        seed,
+                        &mut rng,
+                        seq,
+                        rays,
+                        light,
+                    )
                 })
                 .collect();
             progress.advance(chunk.len() as u64);
