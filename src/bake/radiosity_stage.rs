@@ -15,7 +15,7 @@ use crate::radiosity::atlas::{self, AtlasError};
 use crate::radiosity::format;
 use crate::radiosity::seams;
 use crate::radiosity::solve::{
-    GatherBatch, REFINE_BUDGET, SolveSettings, gather_batch, solve, solve_batches,
+    GatherBatch, REFINE_BUDGET, SolveSettings, gather_batch, solve, solve_batches, solve_cached,
 };
 use crate::scene::Scene;
 use crate::settings::radiosity::RadiositySettings;
@@ -244,6 +244,10 @@ pub enum Gathering<'a> {
     /// Read from the `gather` stages of these bundles (the gathering units' shards, in
     /// order), whose batches tile the elements.
     From(&'a [std::path::PathBuf]),
+    /// Gathered here through the gather cache in this file (`crate::radiosity::gather_cache`):
+    /// the rays an earlier bake kept there that the scene's changes do not touch are reused,
+    /// and the file is replaced by this bake's.
+    Cached(&'a Path),
 }
 
 /// Stage name of a gathering unit's shard (not a stage of a whole bundle).
@@ -408,6 +412,21 @@ fn read_batches(
     Ok(out)
 }
 
+/// The gather cache in `file`; `None` (and a warning when it is damaged) when there is none.
+fn read_gather_cache(file: &Path) -> Option<crate::radiosity::gather_cache::GatherCache> {
+    let bytes = match std::fs::read(file) {
+        Ok(b) => b,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return None,
+        Err(e) => {
+            log::warn!("{}: cannot read the gather cache: {e}", file.display());
+            return None;
+        }
+    };
+    crate::radiosity::gather_cache::GatherCache::decode(&bytes)
+        .inspect_err(|e| log::warn!("{}: {e}; gathering every ray", file.display()))
+        .ok()
+}
+
 /// [`bake`], with the first gathering batch from `gathering`.
 pub fn bake_from(
     scene: &Scene,
@@ -427,6 +446,21 @@ pub fn bake_from(
     progress.advance(1);
     let mut solution = match gathering {
         Gathering::Here => solve(scene, &p.bvh, &p.atlas, &p.samples, &p.solve, progress)?,
+        Gathering::Cached(file) => {
+            let prior = read_gather_cache(file);
+            let (solution, cache, _) = solve_cached(
+                scene, &p.bvh, &p.atlas, &p.samples, &p.solve, prior, progress,
+            )?;
+            let bytes = cache.encode();
+            drop(cache);
+            crate::bundle::write_atomic(file, &bytes)?;
+            log::info!(
+                "gather cache: {} ({:.1} MB)",
+                file.display(),
+                bytes.len() as f64 / 1e6
+            );
+            solution
+        }
         Gathering::From(shards) => {
             let batches = read_batches(shards, &p)?;
             solve_batches(

@@ -2,7 +2,7 @@
 //! the texels its cosine-distributed rays land on, the glossy paths they continue into
 //! ([`super::transport`]), and the sample statistics its error estimate needs. Each ray draws
 //! from its own random stream and is summed into its element in one place ([`assemble`]), so
-//! that one ray can be followed again without moving any other ray's draws.
+//! that rays can be kept from an earlier bake ([`super::gather_cache`]).
 
 use std::f32::consts::PI;
 
@@ -10,6 +10,7 @@ use glam::{Vec2, Vec3};
 
 use super::atlas::{Atlas, TexelSample};
 use super::emitters::{Emitters, luminance, power, var_of_mean};
+use super::gather_cache::KeptBatch;
 use super::many_lights::{Choice, LIGHTS_SAMPLED_EACH, ManyLights};
 use super::mirror_lights::MirrorLights;
 use super::next_event::{Arrival, At, NextEvent, Receiver, Source};
@@ -142,8 +143,8 @@ pub(super) fn ray_rng(seed: u64, element: u32, ray: u32) -> Rng {
 }
 
 /// What one gathering ray brings back to its element, before the element sums its rays
-/// ([`assemble`]), with what its result depends on beyond the scene's geometry and settings
-/// (the lobes it read, whether the batch's counts weight it).
+/// ([`assemble`]): a full gathering and one that keeps most rays from an earlier bake
+/// ([`super::gather_cache`]) sum the same records in the same order.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(super) struct RayRecord {
     /// The atlas texel hit (u32::MAX: miss or back face).
@@ -431,7 +432,8 @@ pub(super) fn sample_lights(
 }
 
 /// An element's gathering from its rays' records (in ray order, with their terms in the same
-/// order) and its emitter samples: the one place rays are summed.
+/// order) and its emitter samples: the one place rays are summed, so that rays kept from an
+/// earlier bake and rays followed now give the bytes of a full gathering.
 pub(super) fn assemble(
     records: &[RayRecord],
     terms: Vec<Term>,
@@ -478,36 +480,140 @@ pub(super) fn assemble(
     }
 }
 
-/// Gathers element `index` at sample `s` with `n_rays` cosine-distributed rays (directions
-/// from `seq`, each ray's glossy path from its own stream of `seed`) and `n_light` samples per
-/// emitter, drawn from `rng` (the element's stream of the round).
+/// An earlier bake's batches of one element ([`super::gather_cache`]) and the materials whose
+/// lobes changed since (bits `material % 64`).
+#[derive(Clone, Copy)]
+pub(super) struct Prior<'a> {
+    pub batches: &'a [KeptBatch],
+    pub changed: u64,
+}
+
+/// What gathering one batch of an element gives.
+pub(super) struct GatherOut {
+    pub gathered: Gathered,
+    /// The batch as the gather cache keeps it (when asked).
+    pub kept: Option<KeptBatch>,
+    /// Rays kept from the prior bake rather than followed.
+    pub reused: u32,
+}
+
+/// A prior batch unpacked, with where each ray's terms start.
+struct Unpacked<'a> {
+    batch: &'a KeptBatch,
+    records: Vec<RayRecord>,
+    terms: Vec<Term>,
+    term_at: Vec<usize>,
+}
+
+/// Gathers element `index` at sample `s` in refinement round `round` (0: the first batch)
+/// with `n_rays` cosine-distributed rays (directions from `seq`, each ray's glossy path from
+/// its own stream of `seed`) and `n_light` samples per emitter, drawn from `rng` (the
+/// element's stream of the round). With `prior`, the rays of an earlier bake whose paths read
+/// no changed lobes are kept rather than followed (module [`super::gather_cache`]); `keep`
+/// returns the batch as the gather cache keeps it.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn gather(
     cx: &Context,
     s: &TexelSample,
     index: u32,
     seed: u64,
+    round: u32,
     rng: &mut Rng,
     seq: RaySequence,
     n_rays: u32,
     n_light: u32,
-) -> Gathered {
+    prior: Option<Prior>,
+    keep: bool,
+) -> GatherOut {
     let n_rays = n_rays.max(1);
     let n_light = n_light.max(1);
     let el = Element::new(cx, s, index);
+    let batches = prior.map_or(&[][..], |p| p.batches);
+    let changed = prior.map_or(0, |p| p.changed);
+    // The first batch's rays also say whether the element is inside geometry: its rays are
+    // kept only when the prior first batch is this one (a ray's facing reads no lobe).
+    let same_first = batches
+        .iter()
+        .find(|b| b.round == 0)
+        .filter(|b| b.first == seq.first && b.n_rays == n_rays);
+    let usable = round != 0 || same_first.is_some();
+    let end = seq.first + n_rays;
+    let unpacked: Vec<Unpacked> = batches
+        .iter()
+        .filter(|b| usable && b.first < end && seq.first < b.first + b.n_rays)
+        .filter_map(|b| {
+            let (records, terms) = b.unpack()?;
+            let mut term_at = Vec::with_capacity(records.len() + 1);
+            term_at.push(0);
+            for r in &records {
+                term_at.push(term_at.last().copied().unwrap_or(0) + r.terms as usize);
+            }
+            (term_at.last() == Some(&terms.len())).then_some(Unpacked {
+                batch: b,
+                records,
+                terms,
+                term_at,
+            })
+        })
+        .collect();
+
     // Gathering rays (cosine-distributed about the shading normal), from a low-discrepancy
     // sequence: the incoming radiance is smooth over most of the hemisphere.
     let mut records = Vec::with_capacity(n_rays as usize);
     let mut terms = Vec::new();
     let mut exposure = Exposure::default();
+    let mut reused = 0u32;
     for k in 0..n_rays {
-        let (rec, facing) = trace_ray(cx, &el, seed, seq, k, n_rays, n_light, &mut terms);
-        records.push(rec);
-        exposure.add(facing);
+        let j = seq.first + k;
+        let old = unpacked.iter().find_map(|u| {
+            let at = j.checked_sub(u.batch.first)? as usize;
+            let r = u.records.get(at)?;
+            let counts_same = u.batch.n_rays == n_rays && u.batch.n_light == n_light;
+            (r.lobes_read & changed == 0 && (!r.weighted || counts_same))
+                .then(|| (r, &u.terms[u.term_at[at]..u.term_at[at + 1]]))
+        });
+        match old {
+            Some((r, t)) => {
+                records.push(*r);
+                terms.extend_from_slice(t);
+                reused += 1;
+            }
+            None => {
+                let (rec, facing) = trace_ray(cx, &el, seed, seq, k, n_rays, n_light, &mut terms);
+                records.push(rec);
+                exposure.add(facing);
+            }
+        }
     }
-    let lights = sample_lights(cx, &el, rng, n_rays, n_light);
-    let inside = exposure.inside(cx, s, n_rays);
-    assemble(&records, terms, &lights, inside, n_light)
+    let lights = batches
+        .iter()
+        .find(|b| {
+            b.round == round && b.first == seq.first && b.n_rays == n_rays && b.n_light == n_light
+        })
+        .map_or_else(
+            || sample_lights(cx, &el, rng, n_rays, n_light),
+            |b| b.lights,
+        );
+    // A refinement batch's own inside flag is not read (an element's is its first batch's).
+    let inside = match (round, same_first) {
+        (0, Some(b)) => b.inside,
+        (0, None) => exposure.inside(cx, s, n_rays),
+        _ => false,
+    };
+    let kept = keep.then(|| KeptBatch {
+        round,
+        first: seq.first,
+        n_rays,
+        n_light,
+        inside,
+        lights,
+        rays: KeptBatch::pack(&records, &terms),
+    });
+    GatherOut {
+        gathered: assemble(&records, terms, &lights, inside, n_light),
+        kept,
+        reused,
+    }
 }
 
 /// Irradiance/π at a point with shading normal `ns`, from [`NextEvent::estimate`]'s `n_light`

@@ -8,6 +8,7 @@ pub mod current;
 mod emitters;
 pub mod format;
 mod gather;
+pub mod gather_cache;
 mod many_lights;
 pub mod map;
 mod mirror_lights;

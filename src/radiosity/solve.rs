@@ -26,7 +26,8 @@ use rayon::prelude::*;
 use super::atlas::{Atlas, TexelSample};
 pub use super::batch::GatherBatch;
 use super::emitters::{Emitters, luminance};
-use super::gather::{Context, Gathered, RaySequence, gather};
+use super::gather::{Context, GatherOut, Gathered, Prior, RaySequence, gather};
+use super::gather_cache::{GatherCache, KeptBatch, cache_key};
 use super::many_lights::{LIGHTS_SAMPLED_EACH, ManyLights};
 use super::mirror_lights::MirrorLights;
 use super::terms::PackedTerms;
@@ -156,8 +157,19 @@ fn stream(round: u32, index: usize) -> u64 {
 /// The stream of the shift of each element's ray sequence (no refinement round gets there).
 const SHIFT_STREAM_ROUND: u32 = 0xff_ffff;
 
+/// A solve's gather cache ([`super::gather_cache`]): the earlier bake's with the materials
+/// whose lobes changed since, and the batches this solve keeps, per element.
+struct CacheRun {
+    prior: Option<(GatherCache, u64)>,
+    kept: Vec<Vec<KeptBatch>>,
+    /// Rays kept from the prior bake, and rays gathered in all.
+    reused: u64,
+    gathered: u64,
+}
+
 /// Gathers the elements `which` (indices into `samples`), in parallel, with per-element
-/// sample counts, continuing the ray sequences of what they `have`; `None` when cancelled.
+/// sample counts, continuing the ray sequences of what they `have`, keeping the batches in
+/// `cache` (and reusing its prior bake's rays) when given; `None` when cancelled.
 #[allow(clippy::too_many_arguments)]
 fn gather_all(
     cx: &Context,
@@ -166,9 +178,12 @@ fn gather_all(
     have: Option<&[Gathered]>,
     seed: u64,
     round: u32,
+    mut cache: Option<&mut CacheRun>,
     progress: &dyn Progress,
 ) -> Option<Vec<Gathered>> {
-    let chunks: Vec<Option<Vec<Gathered>>> = which
+    let keep = cache.is_some();
+    let prior = cache.as_ref().and_then(|c| c.prior.as_ref());
+    let chunks: Vec<Option<Vec<GatherOut>>> = which
         .par_chunks(CHUNK)
         .map(|chunk| {
             if progress.cancelled() {
@@ -182,15 +197,22 @@ fn gather_all(
                         first: have.map_or(0, |g| g[i as usize].gathering_rays),
                         shift: Rng::new(seed, stream(SHIFT_STREAM_ROUND, i as usize)).uniform2(),
                     };
+                    let prior = prior.map(|(c, changed)| Prior {
+                        batches: &c.elements[i as usize],
+                        changed: *changed,
+                    });
                     gather(
                         cx,
                         &samples[i as usize],
                         i,
                         seed,
+                        round,
                         &mut rng,
                         seq,
                         rays,
                         light,
+                        prior,
+                        keep,
                     )
                 })
                 .collect();
@@ -199,8 +221,17 @@ fn gather_all(
         })
         .collect();
     let mut out = Vec::with_capacity(which.len());
-    for c in chunks {
-        out.extend(c?);
+    for (c, chunk) in chunks.into_iter().zip(which.chunks(CHUNK)) {
+        for (g, &(i, _, _)) in c?.into_iter().zip(chunk) {
+            if let Some(cache) = cache.as_deref_mut() {
+                cache.reused += u64::from(g.reused);
+                cache.gathered += u64::from(g.gathered.gathering_rays);
+                if let Some(k) = g.kept {
+                    cache.kept[i as usize].push(k);
+                }
+            }
+            out.push(g.gathered);
+        }
     }
     Some(out)
 }
@@ -273,7 +304,7 @@ pub fn gather_batch(
     let offsets = atlas.page_offsets();
     let lights = Lights::new(scene, set);
     let cx = lights.context(scene, bvh, atlas, &offsets, set);
-    gather_first(&cx, samples, set, range, progress)
+    gather_first(&cx, samples, set, range, None, progress)
 }
 
 /// Solves the scene's radiosity on the atlas. `samples` come from [`super::atlas::build`].
@@ -288,8 +319,74 @@ pub fn solve(
     let offsets = atlas.page_offsets();
     let lights = Lights::new(scene, set);
     let cx = lights.context(scene, bvh, atlas, &offsets, set);
-    let all = gather_first(&cx, samples, set, 0..samples.len() as u32, progress)?;
-    solve_gathered(&cx, samples, set, vec![all], progress)
+    let all = gather_first(&cx, samples, set, 0..samples.len() as u32, None, progress)?;
+    solve_gathered(&cx, samples, set, vec![all], None, progress)
+}
+
+/// How much of a prior gather cache a solve used.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CacheUse {
+    /// Gathering rays kept from the prior bake.
+    pub kept: u64,
+    /// Gathering rays in all.
+    pub gathered: u64,
+}
+
+/// [`solve`], keeping every gathering ray in a gather cache ([`super::gather_cache`]) that it
+/// returns, and reusing the rays of `prior` (an earlier bake's) that the scene's changes since
+/// do not touch; the same bytes as [`solve`].
+pub fn solve_cached(
+    scene: &Scene,
+    bvh: &Bvh,
+    atlas: &Atlas,
+    samples: &[TexelSample],
+    set: &SolveSettings,
+    prior: Option<GatherCache>,
+    progress: &dyn Progress,
+) -> Result<(Solution, GatherCache, CacheUse), Cancelled> {
+    let (key, lobes) = cache_key(scene, samples, set);
+    let prior = prior.and_then(|c| {
+        let changed = c.changed(&key, &lobes, samples.len());
+        if changed.is_none() {
+            log::info!("gather cache: made for another scene, atlas or settings; not used");
+        }
+        changed.map(|m| (c, m))
+    });
+    let mut run = CacheRun {
+        prior,
+        kept: vec![Vec::new(); samples.len()],
+        reused: 0,
+        gathered: 0,
+    };
+    let offsets = atlas.page_offsets();
+    let lights = Lights::new(scene, set);
+    let cx = lights.context(scene, bvh, atlas, &offsets, set);
+    let all = gather_first(
+        &cx,
+        samples,
+        set,
+        0..samples.len() as u32,
+        Some(&mut run),
+        progress,
+    )?;
+    let solution = solve_gathered(&cx, samples, set, vec![all], Some(&mut run), progress)?;
+    if run.prior.is_some() {
+        log::info!(
+            "gather cache: {} of {} gathering rays kept, the rest followed again",
+            run.reused,
+            run.gathered
+        );
+    }
+    let used = CacheUse {
+        kept: run.reused,
+        gathered: run.gathered,
+    };
+    let cache = GatherCache {
+        key,
+        lobes,
+        elements: run.kept,
+    };
+    Ok((solution, cache, used))
 }
 
 /// Solves from first gathering batches that cover every element once, in order (refinement
@@ -306,7 +403,7 @@ pub fn solve_batches(
     let offsets = atlas.page_offsets();
     let lights = Lights::new(scene, set);
     let cx = lights.context(scene, bvh, atlas, &offsets, set);
-    solve_gathered(&cx, samples, set, batches, progress)
+    solve_gathered(&cx, samples, set, batches, None, progress)
 }
 
 /// [`gather_batch`] in a context.
@@ -315,6 +412,7 @@ fn gather_first(
     samples: &[TexelSample],
     set: &SolveSettings,
     range: Range<u32>,
+    cache: Option<&mut CacheRun>,
     progress: &dyn Progress,
 ) -> Result<GatherBatch, Cancelled> {
     assert!(
@@ -324,7 +422,8 @@ fn gather_first(
     let (rays, light) = (set.rays.max(1), set.light_samples.max(1));
     progress.phase("gathering", range.len() as u64);
     let which: Vec<(u32, u32, u32)> = range.clone().map(|i| (i, rays, light)).collect();
-    let elements = gather_all(cx, samples, &which, None, set.seed, 0, progress).ok_or(Cancelled)?;
+    let elements =
+        gather_all(cx, samples, &which, None, set.seed, 0, cache, progress).ok_or(Cancelled)?;
     Ok(GatherBatch { range, elements })
 }
 
@@ -334,6 +433,7 @@ fn solve_gathered(
     samples: &[TexelSample],
     set: &SolveSettings,
     batches: Vec<GatherBatch>,
+    mut cache: Option<&mut CacheRun>,
     progress: &dyn Progress,
 ) -> Result<Solution, Cancelled> {
     let mut next = 0u32;
@@ -426,6 +526,7 @@ fn solve_gathered(
                     Some(&gathered),
                     set.seed,
                     round,
+                    cache.as_deref_mut(),
                     progress,
                 )
                 .ok_or(Cancelled)?;

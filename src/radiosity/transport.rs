@@ -96,6 +96,11 @@ impl Lobes {
     }
 }
 
+/// Whether `m` reflects glossily (gathering rays that hit it follow its lobes).
+pub(super) fn is_glossy(m: &Material) -> bool {
+    Lobes::new(m).is_some()
+}
+
 /// What following glossy reflection needs, shared by every element.
 pub(super) struct Glossy<'a> {
     scene: &'a Scene,
