@@ -168,7 +168,7 @@ fn each_edit_rebakes_only_what_it_touches_and_gives_the_bytes_of_a_fresh_bake() 
         has(&baked, "radiosity") && has(&baked, "radiance.Panel"),
         "{baked:?}"
     );
-    // An albedo is in the gather cache's key: no ray is kept.
+    // An albedo is in the ray cache's key: no ray is kept.
     assert!(!log.contains("gathering rays kept"), "{log}");
     assert!(!has(&baked, "material.PanelMat"), "{baked:?}");
     assert_same_as_fresh(&scene, &bundle, &fresh("albedo"), "albedo");
@@ -181,7 +181,7 @@ fn each_edit_rebakes_only_what_it_touches_and_gives_the_bytes_of_a_fresh_bake() 
     });
     let (baked, log) = bake_units_logged(&scene, &bundle);
     assert!(has(&baked, "material.FloorMat"), "{baked:?}");
-    // The rays whose paths did not read FloorMat's lobes are kept from the gather cache.
+    // The rays whose paths did not read FloorMat's lobes are kept from the ray cache.
     assert!(log.contains("gathering rays kept"), "{log}");
     assert!(!has(&baked, "material.PanelMat"), "{baked:?}");
     assert_same_as_fresh(&scene, &bundle, &fresh("roughness"), "roughness");
@@ -332,14 +332,16 @@ fn a_shard_checked_or_written_in_this_run_is_not_hashed_again() {
     assert!(read_shard(&shard).is_ok());
 }
 
-/// Through the gather cache, a roughness edit of a glossy material that is no reflector
+/// Through the ray cache, a roughness edit of a glossy material that is no reflector
 /// follows again only the rays whose paths read its lobes, and gives the bytes of a solve from
 /// scratch of the edited scene, refinement rounds included; an albedo edit does not use it.
 #[test]
-fn the_gather_cache_keeps_the_rays_a_roughness_edit_leaves_alone() {
+fn the_ray_cache_keeps_the_rays_a_roughness_edit_leaves_alone() {
     use glint::progress::Silent;
     use glint::radiosity::atlas;
-    use glint::radiosity::solve::{CACHE_BUDGET, SolveSettings, solve, solve_cached};
+    use glint::radiosity::solve::{
+        CACHE_BUDGET, RAY_CACHE_BUDGET, SolveSettings, solve, solve_cached,
+    };
     let tmp = tempfile::tempdir().unwrap();
     let mut scene = glint::scene::Scene::load(edit_room(tmp.path())).unwrap();
     let (atlas, samples) = atlas::build(&scene.triangles, 6.0).unwrap();
@@ -354,9 +356,30 @@ fn the_gather_cache_keeps_the_rays_a_roughness_edit_leaves_alone() {
         seed: 5,
         cache_budget: CACHE_BUDGET,
     };
-    let (_, cache, used) =
-        solve_cached(&scene, &bvh, &atlas, &samples, &set, None, &Silent).unwrap();
+    let budget = RAY_CACHE_BUDGET;
+    let (first, cache, used) =
+        solve_cached(&scene, &bvh, &atlas, &samples, &set, None, budget, &Silent).unwrap();
     assert_eq!(used.kept, 0);
+    let cache = cache.expect("the cache fits its budget");
+    let bits = |v: &[glam::Vec3]| -> Vec<[u32; 3]> {
+        v.iter().map(|c| c.to_array().map(f32::to_bits)).collect()
+    };
+
+    // A cache over its budget is dropped whole; the solve's bytes are the same.
+    let size = cache.encode().len() as u64;
+    let (small, none, _) = solve_cached(
+        &scene,
+        &bvh,
+        &atlas,
+        &samples,
+        &set,
+        None,
+        size / 2,
+        &Silent,
+    )
+    .unwrap();
+    assert!(none.is_none());
+    assert!(bits(&first.radiance) == bits(&small.radiance), "D differs");
 
     let floor = scene
         .materials
@@ -367,11 +390,18 @@ fn the_gather_cache_keeps_the_rays_a_roughness_edit_leaves_alone() {
     scene.materials[floor].lobes[0].my = 0.2;
     let fresh = solve(&scene, &bvh, &atlas, &samples, &set, &Silent).unwrap();
     assert!(fresh.stats.rounds > 0, "refinement is exercised");
-    let (cached, cache, used) =
-        solve_cached(&scene, &bvh, &atlas, &samples, &set, Some(cache), &Silent).unwrap();
-    let bits = |v: &[glam::Vec3]| -> Vec<[u32; 3]> {
-        v.iter().map(|c| c.to_array().map(f32::to_bits)).collect()
-    };
+    let (cached, cache, used) = solve_cached(
+        &scene,
+        &bvh,
+        &atlas,
+        &samples,
+        &set,
+        Some(cache),
+        budget,
+        &Silent,
+    )
+    .unwrap();
+    let cache = cache.expect("the cache fits its budget");
     assert!(bits(&fresh.radiance) == bits(&cached.radiance), "D differs");
     assert_eq!(fresh.stats, cached.stats);
     assert!(
@@ -381,7 +411,16 @@ fn the_gather_cache_keeps_the_rays_a_roughness_edit_leaves_alone() {
 
     // Another albedo is in the cache's key: every ray is followed again.
     scene.materials[floor].albedo *= 0.5;
-    let (_, _, used) =
-        solve_cached(&scene, &bvh, &atlas, &samples, &set, Some(cache), &Silent).unwrap();
+    let (_, _, used) = solve_cached(
+        &scene,
+        &bvh,
+        &atlas,
+        &samples,
+        &set,
+        Some(cache),
+        budget,
+        &Silent,
+    )
+    .unwrap();
     assert_eq!(used.kept, 0);
 }

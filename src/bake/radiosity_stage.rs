@@ -15,7 +15,8 @@ use crate::radiosity::atlas::{self, AtlasError};
 use crate::radiosity::format;
 use crate::radiosity::seams;
 use crate::radiosity::solve::{
-    GatherBatch, REFINE_BUDGET, SolveSettings, gather_batch, solve, solve_batches, solve_cached,
+    GatherBatch, RAY_CACHE_BUDGET, REFINE_BUDGET, SolveSettings, gather_batch, solve,
+    solve_batches, solve_cached,
 };
 use crate::scene::Scene;
 use crate::settings::radiosity::RadiositySettings;
@@ -244,7 +245,7 @@ pub enum Gathering<'a> {
     /// Read from the `gather` stages of these bundles (the gathering units' shards, in
     /// order), whose batches tile the elements.
     From(&'a [std::path::PathBuf]),
-    /// Gathered here through the gather cache in this file (`crate::radiosity::gather_cache`):
+    /// Gathered here through the ray cache in this file (`crate::radiosity::ray_cache`):
     /// the rays an earlier bake kept there that the scene's changes do not touch are reused,
     /// and the file is replaced by this bake's.
     Cached(&'a Path),
@@ -412,17 +413,17 @@ fn read_batches(
     Ok(out)
 }
 
-/// The gather cache in `file`; `None` (and a warning when it is damaged) when there is none.
-fn read_gather_cache(file: &Path) -> Option<crate::radiosity::gather_cache::GatherCache> {
+/// The ray cache in `file`; `None` (and a warning when it is damaged) when there is none.
+fn read_ray_cache(file: &Path) -> Option<crate::radiosity::ray_cache::RayCache> {
     let bytes = match std::fs::read(file) {
         Ok(b) => b,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return None,
         Err(e) => {
-            log::warn!("{}: cannot read the gather cache: {e}", file.display());
+            log::warn!("{}: cannot read the ray cache: {e}", file.display());
             return None;
         }
     };
-    crate::radiosity::gather_cache::GatherCache::decode(&bytes)
+    crate::radiosity::ray_cache::RayCache::decode(&bytes)
         .inspect_err(|e| log::warn!("{}: {e}; gathering every ray", file.display()))
         .ok()
 }
@@ -447,18 +448,35 @@ pub fn bake_from(
     let mut solution = match gathering {
         Gathering::Here => solve(scene, &p.bvh, &p.atlas, &p.samples, &p.solve, progress)?,
         Gathering::Cached(file) => {
-            let prior = read_gather_cache(file);
+            let prior = read_ray_cache(file);
             let (solution, cache, _) = solve_cached(
-                scene, &p.bvh, &p.atlas, &p.samples, &p.solve, prior, progress,
+                scene,
+                &p.bvh,
+                &p.atlas,
+                &p.samples,
+                &p.solve,
+                prior,
+                RAY_CACHE_BUDGET,
+                progress,
             )?;
-            let bytes = cache.encode();
-            drop(cache);
-            crate::bundle::write_atomic(file, &bytes)?;
-            log::info!(
-                "gather cache: {} ({:.1} MB)",
-                file.display(),
-                bytes.len() as f64 / 1e6
-            );
+            match cache {
+                Some(cache) => {
+                    let bytes = cache.encode();
+                    drop(cache);
+                    crate::bundle::write_atomic(file, &bytes)?;
+                    log::info!(
+                        "ray cache: {} ({:.1} MB)",
+                        file.display(),
+                        bytes.len() as f64 / 1e6
+                    );
+                }
+                // An earlier bake's cache would only be read and found stale: free its disk.
+                None => match std::fs::remove_file(file) {
+                    Ok(()) => {}
+                    Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                    Err(e) => log::warn!("{}: cannot remove: {e}", file.display()),
+                },
+            }
             solution
         }
         Gathering::From(shards) => {
@@ -510,11 +528,8 @@ pub fn bake_from(
         ("elements_inside_geometry".into(), st.excluded.into()),
         ("texels_filled".into(), st.filled.into()),
         ("rays_cast".into(), st.rays_cast.into()),
-        ("gather_cache_bytes".into(), st.cache_bytes.into()),
-        (
-            "gather_cache_terms_bytes".into(),
-            st.cache_terms_bytes.into(),
-        ),
+        ("ray_cache_bytes".into(), st.cache_bytes.into()),
+        ("ray_cache_terms_bytes".into(), st.cache_terms_bytes.into()),
         ("gather_frozen_rays".into(), st.frozen_rays.into()),
         ("bounces".into(), st.bounces.into()),
         ("last_change".into(), st.last_change.into()),

@@ -2,7 +2,7 @@
 //! the texels its cosine-distributed rays land on, the glossy paths they continue into
 //! ([`super::transport`]), and the sample statistics its error estimate needs. Each ray draws
 //! from its own random stream and is summed into its element in one place ([`assemble`]), so
-//! that rays can be kept from an earlier bake ([`super::gather_cache`]).
+//! that rays can be kept from an earlier bake ([`super::ray_cache`]).
 
 use std::f32::consts::PI;
 
@@ -10,10 +10,10 @@ use glam::{Vec2, Vec3};
 
 use super::atlas::{Atlas, TexelSample};
 use super::emitters::{Emitters, luminance, power, var_of_mean};
-use super::gather_cache::KeptBatch;
 use super::many_lights::{Choice, LIGHTS_SAMPLED_EACH, ManyLights};
 use super::mirror_lights::MirrorLights;
 use super::next_event::{Arrival, At, NextEvent, Receiver, Source};
+use super::ray_cache::KeptBatch;
 use super::through_glass::{GatherCx, RayMis, RayOut, gather_ray};
 use super::transmission::{Glass, drawn_visible};
 use super::transport::{Glossy, Term};
@@ -144,7 +144,7 @@ pub(super) fn ray_rng(seed: u64, element: u32, ray: u32) -> Rng {
 
 /// What one gathering ray brings back to its element, before the element sums its rays
 /// ([`assemble`]): a full gathering and one that keeps most rays from an earlier bake
-/// ([`super::gather_cache`]) sum the same records in the same order.
+/// ([`super::ray_cache`]) sum the same records in the same order.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(super) struct RayRecord {
     /// The atlas texel hit (u32::MAX: miss or back face).
@@ -480,7 +480,7 @@ pub(super) fn assemble(
     }
 }
 
-/// An earlier bake's batches of one element ([`super::gather_cache`]) and the materials whose
+/// An earlier bake's batches of one element ([`super::ray_cache`]) and the materials whose
 /// lobes changed since (bits `material % 64`).
 #[derive(Clone, Copy)]
 pub(super) struct Prior<'a> {
@@ -491,7 +491,7 @@ pub(super) struct Prior<'a> {
 /// What gathering one batch of an element gives.
 pub(super) struct GatherOut {
     pub gathered: Gathered,
-    /// The batch as the gather cache keeps it (when asked).
+    /// The batch as the ray cache keeps it (when asked).
     pub kept: Option<KeptBatch>,
     /// Rays kept from the prior bake rather than followed.
     pub reused: u32,
@@ -509,8 +509,8 @@ struct Unpacked<'a> {
 /// with `n_rays` cosine-distributed rays (directions from `seq`, each ray's glossy path from
 /// its own stream of `seed`) and `n_light` samples per emitter, drawn from `rng` (the
 /// element's stream of the round). With `prior`, the rays of an earlier bake whose paths read
-/// no changed lobes are kept rather than followed (module [`super::gather_cache`]); `keep`
-/// returns the batch as the gather cache keeps it.
+/// no changed lobes are kept rather than followed (module [`super::ray_cache`]); `keep`
+/// returns the batch as the ray cache keeps it.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn gather(
     cx: &Context,

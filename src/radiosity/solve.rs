@@ -19,6 +19,7 @@
 
 use std::collections::VecDeque;
 use std::ops::Range;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -27,9 +28,10 @@ use super::atlas::{Atlas, TexelSample};
 pub use super::batch::GatherBatch;
 use super::emitters::{Emitters, luminance};
 use super::gather::{Context, GatherOut, Gathered, Prior, RaySequence, gather};
-use super::gather_cache::{GatherCache, KeptBatch, cache_key};
 use super::many_lights::{LIGHTS_SAMPLED_EACH, ManyLights};
 use super::mirror_lights::MirrorLights;
+pub use super::ray_cache::RAY_CACHE_BUDGET;
+use super::ray_cache::{KeptBatch, RayCache, cache_key};
 use super::terms::PackedTerms;
 use super::transmission::Glass;
 use super::transport::{Glossy, Term};
@@ -157,14 +159,23 @@ fn stream(round: u32, index: usize) -> u64 {
 /// The stream of the shift of each element's ray sequence (no refinement round gets there).
 const SHIFT_STREAM_ROUND: u32 = 0xff_ffff;
 
-/// A solve's gather cache ([`super::gather_cache`]): the earlier bake's with the materials
+/// A solve's ray cache ([`super::ray_cache`]): the earlier bake's with the materials
 /// whose lobes changed since, and the batches this solve keeps, per element.
 struct CacheRun {
-    prior: Option<(GatherCache, u64)>,
+    prior: Option<(RayCache, u64)>,
     kept: Vec<Vec<KeptBatch>>,
+    /// Bytes of the batches packed so far; past `budget` the solve keeps none.
+    bytes: AtomicU64,
+    budget: u64,
     /// Rays kept from the prior bake, and rays gathered in all.
     reused: u64,
     gathered: u64,
+}
+
+impl CacheRun {
+    fn over_budget(&self) -> bool {
+        self.bytes.load(Ordering::Relaxed) > self.budget
+    }
 }
 
 /// Gathers the elements `which` (indices into `samples`), in parallel, with per-element
@@ -183,6 +194,7 @@ fn gather_all(
 ) -> Option<Vec<Gathered>> {
     let keep = cache.is_some();
     let prior = cache.as_ref().and_then(|c| c.prior.as_ref());
+    let run = cache.as_deref();
     let chunks: Vec<Option<Vec<GatherOut>>> = which
         .par_chunks(CHUNK)
         .map(|chunk| {
@@ -201,7 +213,9 @@ fn gather_all(
                         batches: &c.elements[i as usize],
                         changed: *changed,
                     });
-                    gather(
+                    // Past the budget nothing more is packed: the whole cache is dropped.
+                    let keep = keep && run.is_some_and(|r| !r.over_budget());
+                    let out = gather(
                         cx,
                         &samples[i as usize],
                         i,
@@ -213,25 +227,33 @@ fn gather_all(
                         light,
                         prior,
                         keep,
-                    )
+                    );
+                    if let (Some(r), Some(k)) = (run, &out.kept) {
+                        r.bytes.fetch_add(k.bytes(), Ordering::Relaxed);
+                    }
+                    out
                 })
                 .collect();
             progress.advance(chunk.len() as u64);
             Some(out)
         })
         .collect();
+    let over = cache.as_ref().is_some_and(|c| c.over_budget());
     let mut out = Vec::with_capacity(which.len());
     for (c, chunk) in chunks.into_iter().zip(which.chunks(CHUNK)) {
         for (g, &(i, _, _)) in c?.into_iter().zip(chunk) {
             if let Some(cache) = cache.as_deref_mut() {
                 cache.reused += u64::from(g.reused);
                 cache.gathered += u64::from(g.gathered.gathering_rays);
-                if let Some(k) = g.kept {
+                if let Some(k) = g.kept.filter(|_| !over) {
                     cache.kept[i as usize].push(k);
                 }
             }
             out.push(g.gathered);
         }
+    }
+    if let Some(cache) = cache.filter(|_| over) {
+        cache.kept = Vec::new();
     }
     Some(out)
 }
@@ -323,7 +345,7 @@ pub fn solve(
     solve_gathered(&cx, samples, set, vec![all], None, progress)
 }
 
-/// How much of a prior gather cache a solve used.
+/// How much of a prior ray cache a solve used.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CacheUse {
     /// Gathering rays kept from the prior bake.
@@ -332,29 +354,34 @@ pub struct CacheUse {
     pub gathered: u64,
 }
 
-/// [`solve`], keeping every gathering ray in a gather cache ([`super::gather_cache`]) that it
-/// returns, and reusing the rays of `prior` (an earlier bake's) that the scene's changes since
-/// do not touch; the same bytes as [`solve`].
+/// [`solve`], keeping every gathering ray in a ray cache ([`super::ray_cache`]) that it
+/// returns (`None` when it would be larger than `budget` bytes, e.g. [`RAY_CACHE_BUDGET`]), and reusing the rays of
+/// `prior` (an earlier bake's) that the scene's changes since do not touch; the same bytes as
+/// [`solve`].
+#[allow(clippy::too_many_arguments)]
 pub fn solve_cached(
     scene: &Scene,
     bvh: &Bvh,
     atlas: &Atlas,
     samples: &[TexelSample],
     set: &SolveSettings,
-    prior: Option<GatherCache>,
+    prior: Option<RayCache>,
+    budget: u64,
     progress: &dyn Progress,
-) -> Result<(Solution, GatherCache, CacheUse), Cancelled> {
+) -> Result<(Solution, Option<RayCache>, CacheUse), Cancelled> {
     let (key, lobes) = cache_key(scene, samples, set);
     let prior = prior.and_then(|c| {
         let changed = c.changed(&key, &lobes, samples.len());
         if changed.is_none() {
-            log::info!("gather cache: made for another scene, atlas or settings; not used");
+            log::info!("ray cache: made for another scene, atlas or settings; not used");
         }
         changed.map(|m| (c, m))
     });
     let mut run = CacheRun {
         prior,
         kept: vec![Vec::new(); samples.len()],
+        bytes: AtomicU64::new(0),
+        budget,
         reused: 0,
         gathered: 0,
     };
@@ -372,7 +399,7 @@ pub fn solve_cached(
     let solution = solve_gathered(&cx, samples, set, vec![all], Some(&mut run), progress)?;
     if run.prior.is_some() {
         log::info!(
-            "gather cache: {} of {} gathering rays kept, the rest followed again",
+            "ray cache: {} of {} gathering rays kept, the rest followed again",
             run.reused,
             run.gathered
         );
@@ -381,10 +408,18 @@ pub fn solve_cached(
         kept: run.reused,
         gathered: run.gathered,
     };
-    let cache = GatherCache {
-        key,
-        lobes,
-        elements: run.kept,
+    let cache = if run.over_budget() {
+        log::info!(
+            "ray cache: over its budget of {} MiB; not kept, so the next edit follows every ray",
+            budget >> 20
+        );
+        None
+    } else {
+        Some(RayCache {
+            key,
+            lobes,
+            elements: run.kept,
+        })
     };
     Ok((solution, cache, used))
 }

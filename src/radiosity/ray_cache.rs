@@ -1,4 +1,4 @@
-//! The gather cache: every gathering ray of a bake kept with what it brought back, so that a
+//! The ray cache: every gathering ray of a bake kept with what it brought back, so that a
 //! bake after an edit of some materials' lobes (a roughness) follows again only the rays whose
 //! glossy paths evaluated those lobes, and keeps the rest.
 //!
@@ -37,12 +37,17 @@ use super::transport::{Term, is_glossy};
 use super::varint;
 use crate::scene::Scene;
 
+/// Bytes of packed batches a bake keeps at most. A bake through the cache holds the prior
+/// bake's and its own in memory, so this bounds what the cache adds to a bake's memory (twice
+/// this) and to the unit cache's disk; a larger scene keeps none.
+pub const RAY_CACHE_BUDGET: u64 = 1 << 30;
+
 /// File magic.
 pub const MAGIC: &[u8; 8] = b"GLNTRAYS";
 /// Format version written.
 pub const VERSION: u32 = 1;
 
-/// The key of a gather cache for a solve of `scene` on the atlas of `samples` with `set`:
+/// The key of a ray cache for a solve of `scene` on the atlas of `samples` with `set`:
 /// everything a gathering ray's result depends on besides the materials' lobes (module
 /// comment), and per material the BLAKE3 of its lobes.
 pub(super) fn cache_key(
@@ -170,6 +175,11 @@ impl KeptBatch {
         out
     }
 
+    /// What the batch adds to the cache's memory and file, near enough.
+    pub fn bytes(&self) -> u64 {
+        self.rays.len() as u64 + 48
+    }
+
     /// The batch's records and terms, as packed; `None` when its bytes are not `n_rays`
     /// well-formed records.
     pub fn unpack(&self) -> Option<(Vec<RayRecord>, Vec<Term>)> {
@@ -227,9 +237,9 @@ impl KeptBatch {
     }
 }
 
-/// The gather cache of one bake: per element, its batches in the order gathered.
+/// The ray cache of one bake: per element, its batches in the order gathered.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct GatherCache {
+pub struct RayCache {
     /// What every ray depends on besides the materials' lobes.
     pub(super) key: [u8; 32],
     /// Per material, BLAKE3 of its lobes.
@@ -239,10 +249,10 @@ pub struct GatherCache {
 
 /// Why a cache file cannot be read.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("corrupt gather cache: {0}")]
+#[error("corrupt ray cache: {0}")]
 pub struct CacheError(String);
 
-impl GatherCache {
+impl RayCache {
     /// Bits `material % 64` of the materials whose lobes differ from `lobes` (the current
     /// scene's); `None` when the cache was made under another key or for another count of
     /// materials or elements, and cannot be used.
@@ -303,7 +313,7 @@ impl GatherCache {
     }
 
     /// Reads a cache file (its rays are checked as they are used).
-    pub fn decode(bytes: &[u8]) -> Result<GatherCache, CacheError> {
+    pub fn decode(bytes: &[u8]) -> Result<RayCache, CacheError> {
         let mut at = 0usize;
         let err = |what: &str| CacheError(what.into());
         let mut take = |n: usize| -> Result<&[u8], CacheError> {
@@ -368,7 +378,7 @@ impl GatherCache {
         if at != bytes.len() {
             return Err(err("trailing bytes"));
         }
-        Ok(GatherCache {
+        Ok(RayCache {
             key,
             lobes,
             elements,
@@ -455,15 +465,15 @@ mod tests {
         for (a, b) in t.iter().zip(&terms) {
             assert_eq!((a.texel, bits(a.weight)), (b.texel, bits(b.weight)));
         }
-        let cache = GatherCache {
+        let cache = RayCache {
             key: [7; 32],
             lobes: vec![[1; 32], [2; 32]],
             elements: vec![vec![batch.clone()], Vec::new()],
         };
         let bytes = cache.encode();
-        assert_eq!(GatherCache::decode(&bytes).unwrap(), cache);
+        assert_eq!(RayCache::decode(&bytes).unwrap(), cache);
         for cut in [0, 9, bytes.len() / 2, bytes.len() - 1] {
-            assert!(GatherCache::decode(&bytes[..cut]).is_err(), "{cut}");
+            assert!(RayCache::decode(&bytes[..cut]).is_err(), "{cut}");
         }
         // A batch whose bytes hold fewer records than it claims is not used.
         let short = KeptBatch { n_rays: 5, ..batch };
@@ -472,7 +482,7 @@ mod tests {
 
     #[test]
     fn only_the_materials_whose_lobes_changed_are_named_and_only_under_the_same_key() {
-        let cache = GatherCache {
+        let cache = RayCache {
             key: [7; 32],
             lobes: vec![[1; 32], [2; 32], [3; 32]],
             elements: vec![Vec::new(); 4],
