@@ -84,6 +84,11 @@ fn folders(bundle: &Path) -> BTreeMap<String, String> {
 
 /// `glint-bake` at draft into `bundle`: the units it baked.
 fn bake_units(scene: &Path, bundle: &Path) -> Vec<String> {
+    bake_units_logged(scene, bundle).0
+}
+
+/// [`bake_units`], with what it logged.
+fn bake_units_logged(scene: &Path, bundle: &Path) -> (Vec<String>, String) {
     let (code, out, err) = bake(&[
         s(scene),
         "--quality",
@@ -94,13 +99,14 @@ fn bake_units(scene: &Path, bundle: &Path) -> Vec<String> {
     ]);
     assert_eq!(code, 0, "{err}");
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();
-    v["units"]
+    let units = v["units"]
         .as_array()
         .unwrap_or_else(|| panic!("no units in the report: {out}"))
         .iter()
         .filter(|u| u["baked"] == true)
         .map(|u| u["unit"].as_str().unwrap().to_string())
-        .collect()
+        .collect();
+    (units, err)
 }
 
 /// The bundle at `bundle` holds what a bake from scratch of `scene` gives, byte for byte.
@@ -157,11 +163,13 @@ fn each_edit_rebakes_only_what_it_touches_and_gives_the_bytes_of_a_fresh_bake() 
     edit(&scene, |v| {
         v["materials"]["FloorMat"]["albedo"] = serde_json::json!([0.6, 0.5, 0.4])
     });
-    let baked = bake_units(&scene, &bundle);
+    let (baked, log) = bake_units_logged(&scene, &bundle);
     assert!(
         has(&baked, "radiosity") && has(&baked, "radiance.Panel"),
         "{baked:?}"
     );
+    // An albedo is in the ray cache's key: no ray is kept.
+    assert!(!log.contains("gathering rays kept"), "{log}");
     assert!(!has(&baked, "material.PanelMat"), "{baked:?}");
     assert_same_as_fresh(&scene, &bundle, &fresh("albedo"), "albedo");
 
@@ -171,8 +179,10 @@ fn each_edit_rebakes_only_what_it_touches_and_gives_the_bytes_of_a_fresh_bake() 
         v["materials"]["FloorMat"]["lobes"][0]["mx"] = 0.2.into();
         v["materials"]["FloorMat"]["lobes"][0]["my"] = 0.2.into();
     });
-    let baked = bake_units(&scene, &bundle);
+    let (baked, log) = bake_units_logged(&scene, &bundle);
     assert!(has(&baked, "material.FloorMat"), "{baked:?}");
+    // The rays whose paths did not read FloorMat's lobes are kept from the ray cache.
+    assert!(log.contains("gathering rays kept"), "{log}");
     assert!(!has(&baked, "material.PanelMat"), "{baked:?}");
     assert_same_as_fresh(&scene, &bundle, &fresh("roughness"), "roughness");
 
@@ -320,4 +330,97 @@ fn a_shard_checked_or_written_in_this_run_is_not_hashed_again() {
         "{r:?}"
     );
     assert!(read_shard(&shard).is_ok());
+}
+
+/// Through the ray cache, a roughness edit of a glossy material that is no reflector
+/// follows again only the rays whose paths read its lobes, and gives the bytes of a solve from
+/// scratch of the edited scene, refinement rounds included; an albedo edit does not use it.
+#[test]
+fn the_ray_cache_keeps_the_rays_a_roughness_edit_leaves_alone() {
+    use glint::progress::Silent;
+    use glint::radiosity::atlas;
+    use glint::radiosity::solve::{
+        CACHE_BUDGET, RAY_CACHE_BUDGET, SolveSettings, solve, solve_cached,
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let mut scene = glint::scene::Scene::load(edit_room(tmp.path())).unwrap();
+    let (atlas, samples) = atlas::build(&scene.triangles, 6.0).unwrap();
+    let bvh = scene.build_bvh();
+    let set = SolveSettings {
+        rays: 24,
+        light_samples: 4,
+        bounces: 8,
+        glossy_depth: 3,
+        tolerance: 1e-4,
+        target_error: Some(0.01),
+        seed: 5,
+        cache_budget: CACHE_BUDGET,
+    };
+    let budget = RAY_CACHE_BUDGET;
+    let (first, cache, used) =
+        solve_cached(&scene, &bvh, &atlas, &samples, &set, None, budget, &Silent).unwrap();
+    assert_eq!(used.kept, 0);
+    let cache = cache.expect("the cache fits its budget");
+    let bits = |v: &[glam::Vec3]| -> Vec<[u32; 3]> {
+        v.iter().map(|c| c.to_array().map(f32::to_bits)).collect()
+    };
+
+    // A cache over its budget is dropped whole; the solve's bytes are the same.
+    let size = cache.encode().len() as u64;
+    let (small, none, _) = solve_cached(
+        &scene,
+        &bvh,
+        &atlas,
+        &samples,
+        &set,
+        None,
+        size / 2,
+        &Silent,
+    )
+    .unwrap();
+    assert!(none.is_none());
+    assert!(bits(&first.radiance) == bits(&small.radiance), "D differs");
+
+    let floor = scene
+        .materials
+        .iter()
+        .position(|m| m.name == "FloorMat")
+        .unwrap();
+    scene.materials[floor].lobes[0].mx = 0.2;
+    scene.materials[floor].lobes[0].my = 0.2;
+    let fresh = solve(&scene, &bvh, &atlas, &samples, &set, &Silent).unwrap();
+    assert!(fresh.stats.rounds > 0, "refinement is exercised");
+    let (cached, cache, used) = solve_cached(
+        &scene,
+        &bvh,
+        &atlas,
+        &samples,
+        &set,
+        Some(cache),
+        budget,
+        &Silent,
+    )
+    .unwrap();
+    let cache = cache.expect("the cache fits its budget");
+    assert!(bits(&fresh.radiance) == bits(&cached.radiance), "D differs");
+    assert_eq!(fresh.stats, cached.stats);
+    assert!(
+        used.kept > used.gathered / 4 && used.kept < used.gathered,
+        "{used:?}"
+    );
+
+    // Another albedo is in the cache's key: every ray is followed again.
+    scene.materials[floor].albedo *= 0.5;
+    let (_, _, used) = solve_cached(
+        &scene,
+        &bvh,
+        &atlas,
+        &samples,
+        &set,
+        Some(cache),
+        budget,
+        &Silent,
+    )
+    .unwrap();
+    assert_eq!(used.kept, 0);
 }

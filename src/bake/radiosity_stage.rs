@@ -15,7 +15,8 @@ use crate::radiosity::atlas::{self, AtlasError};
 use crate::radiosity::format;
 use crate::radiosity::seams;
 use crate::radiosity::solve::{
-    GatherBatch, REFINE_BUDGET, SolveSettings, gather_batch, solve, solve_batches,
+    GatherBatch, RAY_CACHE_BUDGET, REFINE_BUDGET, SolveSettings, gather_batch, solve,
+    solve_batches, solve_cached,
 };
 use crate::scene::Scene;
 use crate::settings::radiosity::RadiositySettings;
@@ -244,6 +245,10 @@ pub enum Gathering<'a> {
     /// Read from the `gather` stages of these bundles (the gathering units' shards, in
     /// order), whose batches tile the elements.
     From(&'a [std::path::PathBuf]),
+    /// Gathered here through the ray cache in this file (`crate::radiosity::ray_cache`):
+    /// the rays an earlier bake kept there that the scene's changes do not touch are reused,
+    /// and the file is replaced by this bake's.
+    Cached(&'a Path),
 }
 
 /// Stage name of a gathering unit's shard (not a stage of a whole bundle).
@@ -408,6 +413,21 @@ fn read_batches(
     Ok(out)
 }
 
+/// The ray cache in `file`; `None` (and a warning when it is damaged) when there is none.
+fn read_ray_cache(file: &Path) -> Option<crate::radiosity::ray_cache::RayCache> {
+    let bytes = match std::fs::read(file) {
+        Ok(b) => b,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return None,
+        Err(e) => {
+            log::warn!("{}: cannot read the ray cache: {e}", file.display());
+            return None;
+        }
+    };
+    crate::radiosity::ray_cache::RayCache::decode(&bytes)
+        .inspect_err(|e| log::warn!("{}: {e}; gathering every ray", file.display()))
+        .ok()
+}
+
 /// [`bake`], with the first gathering batch from `gathering`.
 pub fn bake_from(
     scene: &Scene,
@@ -427,6 +447,38 @@ pub fn bake_from(
     progress.advance(1);
     let mut solution = match gathering {
         Gathering::Here => solve(scene, &p.bvh, &p.atlas, &p.samples, &p.solve, progress)?,
+        Gathering::Cached(file) => {
+            let prior = read_ray_cache(file);
+            let (solution, cache, _) = solve_cached(
+                scene,
+                &p.bvh,
+                &p.atlas,
+                &p.samples,
+                &p.solve,
+                prior,
+                RAY_CACHE_BUDGET,
+                progress,
+            )?;
+            match cache {
+                Some(cache) => {
+                    let bytes = cache.encode();
+                    drop(cache);
+                    crate::bundle::write_atomic(file, &bytes)?;
+                    log::info!(
+                        "ray cache: {} ({:.1} MB)",
+                        file.display(),
+                        bytes.len() as f64 / 1e6
+                    );
+                }
+                // An earlier bake's cache would only be read and found stale: free its disk.
+                None => match std::fs::remove_file(file) {
+                    Ok(()) => {}
+                    Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                    Err(e) => log::warn!("{}: cannot remove: {e}", file.display()),
+                },
+            }
+            solution
+        }
         Gathering::From(shards) => {
             let batches = read_batches(shards, &p)?;
             solve_batches(
@@ -476,11 +528,8 @@ pub fn bake_from(
         ("elements_inside_geometry".into(), st.excluded.into()),
         ("texels_filled".into(), st.filled.into()),
         ("rays_cast".into(), st.rays_cast.into()),
-        ("gather_cache_bytes".into(), st.cache_bytes.into()),
-        (
-            "gather_cache_terms_bytes".into(),
-            st.cache_terms_bytes.into(),
-        ),
+        ("ray_cache_bytes".into(), st.cache_bytes.into()),
+        ("ray_cache_terms_bytes".into(), st.cache_terms_bytes.into()),
         ("gather_frozen_rays".into(), st.frozen_rays.into()),
         ("bounces".into(), st.bounces.into()),
         ("last_change".into(), st.last_change.into()),

@@ -483,7 +483,11 @@ fn bake_stage_part(
             } else {
                 gather_sources(unit, shard, plan)?
             };
-            let from = if gathers.is_empty() {
+            // The incremental bake keeps every gathering ray beside the shard.
+            let rays = shard.with_extension("rays");
+            let from = if gather_here {
+                Gathering::Cached(&rays)
+            } else if gathers.is_empty() {
                 Gathering::Here
             } else {
                 Gathering::From(&gathers)

@@ -1,6 +1,8 @@
 //! One element's gathering: its direct light (emitters sampled, MIS with the gathering rays),
 //! the texels its cosine-distributed rays land on, the glossy paths they continue into
-//! ([`super::transport`]), and the sample statistics its error estimate needs.
+//! ([`super::transport`]), and the sample statistics its error estimate needs. Each ray draws
+//! from its own random stream and is summed into its element in one place ([`assemble`]), so
+//! that rays can be kept from an earlier bake ([`super::ray_cache`]).
 
 use std::f32::consts::PI;
 
@@ -11,6 +13,7 @@ use super::emitters::{Emitters, luminance, power, var_of_mean};
 use super::many_lights::{Choice, LIGHTS_SAMPLED_EACH, ManyLights};
 use super::mirror_lights::MirrorLights;
 use super::next_event::{Arrival, At, NextEvent, Receiver, Source};
+use super::ray_cache::KeptBatch;
 use super::through_glass::{GatherCx, RayMis, RayOut, gather_ray};
 use super::transmission::{Glass, drawn_visible};
 use super::transport::{Glossy, Term};
@@ -125,177 +128,344 @@ pub(super) struct RaySequence {
     pub shift: Vec2,
 }
 
-/// Gathers at sample `s` with `n_rays` cosine-distributed rays (directions from `seq`) and
-/// `n_light` samples per emitter, drawing the rest from `rng`.
-pub(super) fn gather(
+/// Mixed into the bake's seed for the gathering rays' own streams ([`ray_rng`]), so that they
+/// never share a generator with an element's light samples.
+const RAY_SEED_MIX: u64 = 0x9e37_79b9_7f4a_7c15;
+
+/// The random stream of ray `ray` (its index in the element's sequence, over every batch) of
+/// element `element`: each ray draws its glossy path from its own stream, so a ray whose path
+/// changes moves no other ray's draws and can be followed again alone.
+pub(super) fn ray_rng(seed: u64, element: u32, ray: u32) -> Rng {
+    Rng::new(
+        seed ^ RAY_SEED_MIX,
+        (u64::from(element) << 32) | u64::from(ray),
+    )
+}
+
+/// What one gathering ray brings back to its element, before the element sums its rays
+/// ([`assemble`]): a full gathering and one that keeps most rays from an earlier bake
+/// ([`super::ray_cache`]) sum the same records in the same order.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct RayRecord {
+    /// The atlas texel hit (u32::MAX: miss or back face).
+    pub hit: u32,
+    /// Emission reached, MIS-weighted against the element's emitter samples (not yet over the
+    /// element's ray count).
+    pub emission: Vec3,
+    /// Radiance brought back through glossy reflection besides its terms.
+    pub glossy: Vec3,
+    /// Rays cast (this one, its glossy paths' and through glass).
+    pub rays: u32,
+    /// How many of the element's terms are this ray's (they follow the earlier rays' terms).
+    pub terms: u32,
+    /// The materials whose lobes its path evaluated, as bits `material % 64`.
+    pub lobes_read: u64,
+    /// Whether `emission` carries MIS weights, which depend on the batch's ray and
+    /// emitter-sample counts.
+    pub weighted: bool,
+}
+
+/// What an element's emitter samples (and the emitters' images in mirrors) found: drawn from
+/// the element's own stream of the round, after its rays.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct LightPart {
+    /// Irradiance/π.
+    pub direct: Vec3,
+    /// Its variance (luminance, of the mean).
+    pub var: f64,
+    /// Shadow rays cast.
+    pub rays: u64,
+}
+
+/// The per-element setup every gathering ray of one element shares.
+pub(super) struct Element<'a> {
+    /// The element's index (its rays' streams).
+    pub index: u32,
+    origin: Vec3,
+    ng: Vec3,
+    ns: Vec3,
+    t: Vec3,
+    b: Vec3,
+    many: Option<(&'a ManyLights, Choice)>,
+}
+
+impl<'a> Element<'a> {
+    /// Element `index`, at sample `s`.
+    pub fn new(cx: &Context<'a>, s: &TexelSample, index: u32) -> Element<'a> {
+        let tri = &cx.scene.triangles[s.triangle as usize];
+        let ng = tri.face_normal();
+        let ns = tri.shading_normal(s.bary);
+        let origin = cx.bvh.offset_origin(tri.point(s.bary), ng);
+        let (t, b) = basis(ns);
+        Element {
+            index,
+            origin,
+            ng,
+            ns,
+            t,
+            b,
+            many: cx.many.map(|m| (m, m.choose(origin, ns))),
+        }
+    }
+}
+
+/// What a ray's first hit says about whether its element lies inside geometry.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Facing {
+    /// A back face, at this distance.
+    Back(f32),
+    /// Open space: a front face.
+    Open,
+    /// A miss, or a ray below the surface.
+    Neither,
+}
+
+/// Follows ray `k` of `seq` (of a batch of `n_rays` rays and `n_light` emitter samples) from
+/// element `el`, drawing from the ray's own stream of `seed`: pushes its glossy terms to
+/// `terms` and returns its record.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn trace_ray(
     cx: &Context,
-    s: &TexelSample,
-    rng: &mut Rng,
+    el: &Element,
+    seed: u64,
     seq: RaySequence,
+    k: u32,
     n_rays: u32,
     n_light: u32,
-) -> Gathered {
+    terms: &mut Vec<Term>,
+) -> (RayRecord, Facing) {
     let (scene, bvh) = (cx.scene, cx.bvh);
-    let tri = &scene.triangles[s.triangle as usize];
-    let ng = tri.face_normal();
-    let ns = tri.shading_normal(s.bary);
-    let p = tri.point(s.bary);
-    let origin = bvh.offset_origin(p, ng);
-    let (t, b) = basis(ns);
-    let n_rays = n_rays.max(1);
-    let n_light = n_light.max(1);
-    let mut direct = Vec3::ZERO;
-    let mut hits = Vec::with_capacity(n_rays as usize);
-    let mut terms = Vec::new();
-    let mut moments = Moments::default();
-    // Radiance the rays bring back through glossy reflection (besides `terms`).
-    let mut via_glossy = Vec3::ZERO;
-    let mut backfaces = 0u32;
-    // Rays that reach open space: a front face (a miss may be the void below a floor).
-    let mut open = 0u32;
-    // The nearest back face's distance.
-    let mut nearest_back = f32::INFINITY;
-    let mut rays = 0u64;
-    // With many emitters, one distribution over them all, and that many samples from it.
-    let many = cx.many.map(|m| (m, m.choose(origin, ns)));
-    let n_many = n_light * LIGHTS_SAMPLED_EACH as u32;
-    let glass = cx.glass;
-
-    // Gathering rays (cosine-distributed about the shading normal), from a low-discrepancy
-    // sequence: the incoming radiance is smooth over most of the hemisphere.
-    for k in 0..n_rays {
-        let l = sample_cosine_hemisphere(r2(seq.first + k, seq.shift));
-        let d = t * l.x + b * l.y + ns * l.z;
-        rays += 1;
-        if d.dot(ng) <= 0.0 {
-            hits.push(u32::MAX);
-            continue;
-        }
-        let hit = bvh.closest_hit(origin, d, f32::INFINITY);
-        if let Some(h) = hit
-            && let Some(glass) = glass.filter(|g| g.passes(h.triangle))
-        {
-            open += 1;
-            let gcx = GatherCx {
-                glass,
-                atlas: cx.atlas,
-                offsets: cx.offsets,
-                emitters: cx.emitters,
-                glossy: cx.glossy.as_ref(),
-            };
-            let mis = RayMis {
-                n_rays,
-                p_bsdf: l.z / PI,
-                n_light,
-                many: &many,
-            };
-            let mut out = RayOut {
-                hits: &mut hits,
-                terms: &mut terms,
-                direct: &mut direct,
-                via_glossy: &mut via_glossy,
-                rays: &mut rays,
-            };
-            let c = gather_ray(&gcx, origin, d, h, &mis, rng, &mut out);
-            moments.ray_const += c;
-            moments.ray_const2 += c * c;
-            continue;
-        }
+    let index = seq.first + k;
+    let l = sample_cosine_hemisphere(r2(index, seq.shift));
+    let d = el.t * l.x + el.b * l.y + el.ns * l.z;
+    let mut rec = RayRecord {
+        hit: u32::MAX,
+        rays: 1,
+        ..Default::default()
+    };
+    if d.dot(el.ng) <= 0.0 {
+        return (rec, Facing::Neither);
+    }
+    let from = terms.len();
+    let mut rays = 1u64;
+    let mut rng = ray_rng(seed, el.index, index);
+    let hit = bvh.closest_hit(el.origin, d, f32::INFINITY);
+    let facing = if let Some(h) = hit
+        && let Some(glass) = cx.glass.filter(|g| g.passes(h.triangle))
+    {
+        let gcx = GatherCx {
+            glass,
+            atlas: cx.atlas,
+            offsets: cx.offsets,
+            emitters: cx.emitters,
+            glossy: cx.glossy.as_ref(),
+        };
+        let mis = RayMis {
+            n_rays,
+            p_bsdf: l.z / PI,
+            n_light,
+            many: &el.many,
+        };
+        let mut hits = Vec::with_capacity(1);
+        let mut out = RayOut {
+            hits: &mut hits,
+            terms,
+            emission: &mut rec.emission,
+            via_glossy: &mut rec.glossy,
+            rays: &mut rays,
+            lobes_read: &mut rec.lobes_read,
+            weighted: &mut rec.weighted,
+        };
+        gather_ray(&gcx, el.origin, d, h, &mis, &mut rng, &mut out);
+        rec.hit = hits.first().copied().unwrap_or(u32::MAX);
+        Facing::Open
+    } else {
         match hit {
             Some(h) => {
                 let ht = &scene.triangles[h.triangle as usize];
-                let hn = ht.face_normal();
-                let cos_l = -d.dot(hn);
+                let cos_l = -d.dot(ht.face_normal());
                 if cos_l <= 0.0 {
-                    backfaces += 1;
-                    nearest_back = nearest_back.min(h.t);
                     // A double-sided surface's back reflects with its (shared) texel.
-                    hits.push(if scene.material_of(h.triangle).double_sided {
-                        cx.atlas.texel_at(cx.offsets, h.triangle, h.bary)
-                    } else {
-                        u32::MAX
-                    });
-                    continue;
+                    if scene.material_of(h.triangle).double_sided {
+                        rec.hit = cx.atlas.texel_at(cx.offsets, h.triangle, h.bary);
+                    }
+                    Facing::Back(h.t)
+                } else {
+                    let e = scene.materials[ht.material as usize].emission;
+                    if e.max_element() > 0.0 {
+                        let pdf_e = e;
+                        let e = scene.emission_at(h.triangle, h.bary);
+                        // MIS against explicit emitter sampling (solid-angle densities).
+                        let (area_pdf, n_e) = match &el.many {
+                            None => (cx.emitters.area_pdf(pdf_e), n_light),
+                            Some((m, choice)) => {
+                                let k = m.emitter_of(h.triangle);
+                                (
+                                    choice.prob(k) * m.area_pdf_in_group(k, pdf_e),
+                                    n_light * LIGHTS_SAMPLED_EACH as u32,
+                                )
+                            }
+                        };
+                        let p_light = area_pdf * h.t * h.t / cos_l;
+                        let p_bsdf = l.z / PI;
+                        let w = power(n_rays as f32, p_bsdf, n_e as f32, p_light);
+                        // Irradiance/π from this ray: L · (cos/p_bsdf)/π/N = L/N.
+                        rec.emission = e * w;
+                        rec.weighted = true;
+                    }
+                    rec.hit = cx.atlas.texel_at(cx.offsets, h.triangle, h.bary);
+                    if let Some(g) = &cx.glossy
+                        && g.reflects(h.triangle)
+                    {
+                        rec.glossy =
+                            g.follow(h, d, &mut rng, terms, &mut rays, &mut rec.lobes_read);
+                    }
+                    Facing::Open
                 }
-                open += 1;
-                let mut constant = 0.0f64;
-                let e = scene.materials[ht.material as usize].emission;
-                if e.max_element() > 0.0 {
-                    let pdf_e = e;
-                    let e = scene.emission_at(h.triangle, h.bary);
-                    // MIS against explicit emitter sampling (solid-angle densities).
-                    let (area_pdf, n_e) = match &many {
-                        None => (cx.emitters.area_pdf(pdf_e), n_light),
-                        Some((m, choice)) => {
-                            let k = m.emitter_of(h.triangle);
-                            (choice.prob(k) * m.area_pdf_in_group(k, pdf_e), n_many)
-                        }
-                    };
-                    let p_light = area_pdf * h.t * h.t / cos_l;
-                    let p_bsdf = l.z / PI;
-                    let w = power(n_rays as f32, p_bsdf, n_e as f32, p_light);
-                    // Irradiance/π from this ray: L · (cos/p_bsdf)/π/N = L/N.
-                    direct += e * w / n_rays as f32;
-                    constant += luminance(e * w) as f64;
-                }
-                hits.push(cx.atlas.texel_at(cx.offsets, h.triangle, h.bary));
-                if let Some(g) = &cx.glossy
-                    && g.reflects(h.triangle)
-                {
-                    let v = g.follow(h, d, rng, &mut terms, &mut rays);
-                    via_glossy += v;
-                    constant += luminance(v) as f64;
-                }
-                moments.ray_const += constant;
-                moments.ray_const2 += constant * constant;
             }
-            None => hits.push(u32::MAX),
+            None => Facing::Neither,
+        }
+    };
+    rec.rays = rays as u32;
+    rec.terms = (terms.len() - from) as u32;
+    (rec, facing)
+}
+
+/// Whether an element lies inside geometry, from its first batch's rays' [`Facing`]s.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Exposure {
+    backfaces: u32,
+    open: u32,
+    nearest_back: f32,
+}
+
+impl Default for Exposure {
+    fn default() -> Self {
+        Exposure {
+            backfaces: 0,
+            open: 0,
+            nearest_back: f32::INFINITY,
         }
     }
-    if via_glossy != Vec3::ZERO {
-        // Mean incoming radiance over the cosine-distributed rays is irradiance/π.
-        direct += via_glossy / n_rays as f32;
+}
+
+impl Exposure {
+    pub fn add(&mut self, f: Facing) {
+        match f {
+            Facing::Back(t) => {
+                self.backfaces += 1;
+                self.nearest_back = self.nearest_back.min(t);
+            }
+            Facing::Open => self.open += 1,
+            Facing::Neither => {}
+        }
     }
 
-    match &many {
+    /// [`BACKFACE_LIMIT`], [`OPEN_LIMIT`] over `n_rays` rays at sample `s`.
+    pub fn inside(&self, cx: &Context, s: &TexelSample, n_rays: u32) -> bool {
+        let tri = &cx.scene.triangles[s.triangle as usize];
+        self.backfaces as f32 > BACKFACE_LIMIT * n_rays as f32
+            && ((self.open as f32) < OPEN_LIMIT * n_rays as f32
+                || self.nearest_back < 0.5 * cx.atlas.texel_spacing(s.triangle, tri))
+    }
+}
+
+/// The element's emitter samples: `n_light` per emitter (or drawn from its many-lights
+/// choice), then the emitters' images in mirrors, MIS-weighted against `n_rays` gathering
+/// rays, from `rng`.
+pub(super) fn sample_lights(
+    cx: &Context,
+    el: &Element,
+    rng: &mut Rng,
+    n_rays: u32,
+    n_light: u32,
+) -> LightPart {
+    let mut part = LightPart::default();
+    match &el.many {
         Some((m, choice)) => {
+            let n_many = n_light * LIGHTS_SAMPLED_EACH as u32;
             let (light, var) = sample_many(
-                cx, m, choice, origin, ns, ng, rng, n_many, n_rays, &mut rays,
+                cx,
+                m,
+                choice,
+                el.origin,
+                el.ns,
+                el.ng,
+                rng,
+                n_many,
+                n_rays,
+                &mut part.rays,
             );
-            direct += light;
-            moments.light_var += var;
+            part.direct += light;
+            part.var += var;
         }
         None => {
             let at = At {
-                from: origin,
-                origin,
-                ng,
+                from: el.origin,
+                origin: el.origin,
+                ng: el.ng,
             };
             let mut irradiance =
-                Irradiance::new(ns, n_light, n_rays, &mut direct, &mut moments.light_var);
+                Irradiance::new(el.ns, n_light, n_rays, &mut part.direct, &mut part.var);
             cx.next_event()
-                .estimate(&at, n_light, rng, &mut rays, &mut irradiance);
+                .estimate(&at, n_light, rng, &mut part.rays, &mut irradiance);
         }
     }
-
     // The emitters' images in mirrors.
     if let Some(m) = cx.mirrors {
         let (light, var) = m.direct(
-            scene,
-            bvh,
+            cx.scene,
+            cx.bvh,
             cx.emitters,
             cx.many,
-            origin,
-            ns,
-            ng,
+            el.origin,
+            el.ns,
+            el.ng,
             rng,
             n_light,
-            &mut rays,
+            &mut part.rays,
         );
-        direct += light;
-        moments.light_var += var;
+        part.direct += light;
+        part.var += var;
     }
+    part
+}
 
+/// An element's gathering from its rays' records (in ray order, with their terms in the same
+/// order) and its emitter samples: the one place rays are summed, so that rays kept from an
+/// earlier bake and rays followed now give the bytes of a full gathering.
+pub(super) fn assemble(
+    records: &[RayRecord],
+    terms: Vec<Term>,
+    lights: &LightPart,
+    inside: bool,
+    n_light: u32,
+) -> Gathered {
+    let n_rays = records.len() as u32;
+    let n = n_rays.max(1) as f32;
+    let mut direct = Vec3::ZERO;
+    // Radiance the rays bring back through glossy reflection (besides `terms`).
+    let mut via_glossy = Vec3::ZERO;
+    let mut moments = Moments::default();
+    let mut rays = 0u64;
+    let mut hits = Vec::with_capacity(records.len());
+    for r in records {
+        hits.push(r.hit);
+        direct += r.emission / n;
+        via_glossy += r.glossy;
+        let c = luminance(r.emission) as f64 + luminance(r.glossy) as f64;
+        moments.ray_const += c;
+        moments.ray_const2 += c * c;
+        rays += u64::from(r.rays);
+    }
+    if via_glossy != Vec3::ZERO {
+        // Mean incoming radiance over the cosine-distributed rays is irradiance/π.
+        direct += via_glossy / n;
+    }
+    direct += lights.direct;
+    moments.light_var += lights.var;
+    rays += lights.rays;
+    let mut terms = terms;
     // Held until the solve packs them: no growth slack.
     terms.shrink_to_fit();
     Gathered {
@@ -303,12 +473,146 @@ pub(super) fn gather(
         gathering_rays: n_rays,
         hits,
         terms,
-        inside: backfaces as f32 > BACKFACE_LIMIT * n_rays as f32
-            && ((open as f32) < OPEN_LIMIT * n_rays as f32
-                || nearest_back < 0.5 * cx.atlas.texel_spacing(s.triangle, tri)),
+        inside,
         rays,
         light_samples: n_light,
         moments,
+    }
+}
+
+/// An earlier bake's batches of one element ([`super::ray_cache`]) and the materials whose
+/// lobes changed since (bits `material % 64`).
+#[derive(Clone, Copy)]
+pub(super) struct Prior<'a> {
+    pub batches: &'a [KeptBatch],
+    pub changed: u64,
+}
+
+/// What gathering one batch of an element gives.
+pub(super) struct GatherOut {
+    pub gathered: Gathered,
+    /// The batch as the ray cache keeps it (when asked).
+    pub kept: Option<KeptBatch>,
+    /// Rays kept from the prior bake rather than followed.
+    pub reused: u32,
+}
+
+/// A prior batch unpacked, with where each ray's terms start.
+struct Unpacked<'a> {
+    batch: &'a KeptBatch,
+    records: Vec<RayRecord>,
+    terms: Vec<Term>,
+    term_at: Vec<usize>,
+}
+
+/// Gathers element `index` at sample `s` in refinement round `round` (0: the first batch)
+/// with `n_rays` cosine-distributed rays (directions from `seq`, each ray's glossy path from
+/// its own stream of `seed`) and `n_light` samples per emitter, drawn from `rng` (the
+/// element's stream of the round). With `prior`, the rays of an earlier bake whose paths read
+/// no changed lobes are kept rather than followed (module [`super::ray_cache`]); `keep`
+/// returns the batch as the ray cache keeps it.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn gather(
+    cx: &Context,
+    s: &TexelSample,
+    index: u32,
+    seed: u64,
+    round: u32,
+    rng: &mut Rng,
+    seq: RaySequence,
+    n_rays: u32,
+    n_light: u32,
+    prior: Option<Prior>,
+    keep: bool,
+) -> GatherOut {
+    let n_rays = n_rays.max(1);
+    let n_light = n_light.max(1);
+    let el = Element::new(cx, s, index);
+    let batches = prior.map_or(&[][..], |p| p.batches);
+    let changed = prior.map_or(0, |p| p.changed);
+    // The first batch's rays also say whether the element is inside geometry: its rays are
+    // kept only when the prior first batch is this one (a ray's facing reads no lobe).
+    let same_first = batches
+        .iter()
+        .find(|b| b.round == 0)
+        .filter(|b| b.first == seq.first && b.n_rays == n_rays);
+    let usable = round != 0 || same_first.is_some();
+    let end = seq.first + n_rays;
+    let unpacked: Vec<Unpacked> = batches
+        .iter()
+        .filter(|b| usable && b.first < end && seq.first < b.first + b.n_rays)
+        .filter_map(|b| {
+            let (records, terms) = b.unpack()?;
+            let mut term_at = Vec::with_capacity(records.len() + 1);
+            term_at.push(0);
+            for r in &records {
+                term_at.push(term_at.last().copied().unwrap_or(0) + r.terms as usize);
+            }
+            (term_at.last() == Some(&terms.len())).then_some(Unpacked {
+                batch: b,
+                records,
+                terms,
+                term_at,
+            })
+        })
+        .collect();
+
+    // Gathering rays (cosine-distributed about the shading normal), from a low-discrepancy
+    // sequence: the incoming radiance is smooth over most of the hemisphere.
+    let mut records = Vec::with_capacity(n_rays as usize);
+    let mut terms = Vec::new();
+    let mut exposure = Exposure::default();
+    let mut reused = 0u32;
+    for k in 0..n_rays {
+        let j = seq.first + k;
+        let old = unpacked.iter().find_map(|u| {
+            let at = j.checked_sub(u.batch.first)? as usize;
+            let r = u.records.get(at)?;
+            let counts_same = u.batch.n_rays == n_rays && u.batch.n_light == n_light;
+            (r.lobes_read & changed == 0 && (!r.weighted || counts_same))
+                .then(|| (r, &u.terms[u.term_at[at]..u.term_at[at + 1]]))
+        });
+        match old {
+            Some((r, t)) => {
+                records.push(*r);
+                terms.extend_from_slice(t);
+                reused += 1;
+            }
+            None => {
+                let (rec, facing) = trace_ray(cx, &el, seed, seq, k, n_rays, n_light, &mut terms);
+                records.push(rec);
+                exposure.add(facing);
+            }
+        }
+    }
+    let lights = batches
+        .iter()
+        .find(|b| {
+            b.round == round && b.first == seq.first && b.n_rays == n_rays && b.n_light == n_light
+        })
+        .map_or_else(
+            || sample_lights(cx, &el, rng, n_rays, n_light),
+            |b| b.lights,
+        );
+    // A refinement batch's own inside flag is not read (an element's is its first batch's).
+    let inside = match (round, same_first) {
+        (0, Some(b)) => b.inside,
+        (0, None) => exposure.inside(cx, s, n_rays),
+        _ => false,
+    };
+    let kept = keep.then(|| KeptBatch {
+        round,
+        first: seq.first,
+        n_rays,
+        n_light,
+        inside,
+        lights,
+        rays: KeptBatch::pack(&records, &terms),
+    });
+    GatherOut {
+        gathered: assemble(&records, terms, &lights, inside, n_light),
+        kept,
+        reused,
     }
 }
 

@@ -12,6 +12,7 @@ mod many_lights;
 pub mod map;
 mod mirror_lights;
 mod next_event;
+pub mod ray_cache;
 pub use mirror_lights::{MIRROR_ROUGHNESS, is_mirror};
 pub use transmission::MAX_LAYERS as MAX_GLASS_LAYERS;
 mod seam_solve;

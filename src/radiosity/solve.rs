@@ -19,6 +19,7 @@
 
 use std::collections::VecDeque;
 use std::ops::Range;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -26,9 +27,11 @@ use rayon::prelude::*;
 use super::atlas::{Atlas, TexelSample};
 pub use super::batch::GatherBatch;
 use super::emitters::{Emitters, luminance};
-use super::gather::{Context, Gathered, RaySequence, gather};
+use super::gather::{Context, GatherOut, Gathered, Prior, RaySequence, gather};
 use super::many_lights::{LIGHTS_SAMPLED_EACH, ManyLights};
 use super::mirror_lights::MirrorLights;
+pub use super::ray_cache::RAY_CACHE_BUDGET;
+use super::ray_cache::{KeptBatch, RayCache, cache_key};
 use super::terms::PackedTerms;
 use super::transmission::Glass;
 use super::transport::{Glossy, Term};
@@ -147,7 +150,8 @@ pub struct Solution {
     pub stats: SolveStats,
 }
 
-/// The random stream of element `index` in refinement round `round` (0: the first batch).
+/// The random stream of element `index`'s emitter samples in refinement round `round` (0: the
+/// first batch); its gathering rays draw from their own ([`super::gather::ray_rng`]).
 fn stream(round: u32, index: usize) -> u64 {
     ((round as u64) << 40) | index as u64
 }
@@ -155,8 +159,28 @@ fn stream(round: u32, index: usize) -> u64 {
 /// The stream of the shift of each element's ray sequence (no refinement round gets there).
 const SHIFT_STREAM_ROUND: u32 = 0xff_ffff;
 
+/// A solve's ray cache ([`super::ray_cache`]): the earlier bake's with the materials
+/// whose lobes changed since, and the batches this solve keeps, per element.
+struct CacheRun {
+    prior: Option<(RayCache, u64)>,
+    kept: Vec<Vec<KeptBatch>>,
+    /// Bytes of the batches packed so far; past `budget` the solve keeps none.
+    bytes: AtomicU64,
+    budget: u64,
+    /// Rays kept from the prior bake, and rays gathered in all.
+    reused: u64,
+    gathered: u64,
+}
+
+impl CacheRun {
+    fn over_budget(&self) -> bool {
+        self.bytes.load(Ordering::Relaxed) > self.budget
+    }
+}
+
 /// Gathers the elements `which` (indices into `samples`), in parallel, with per-element
-/// sample counts, continuing the ray sequences of what they `have`; `None` when cancelled.
+/// sample counts, continuing the ray sequences of what they `have`, keeping the batches in
+/// `cache` (and reusing its prior bake's rays) when given; `None` when cancelled.
 #[allow(clippy::too_many_arguments)]
 fn gather_all(
     cx: &Context,
@@ -165,9 +189,13 @@ fn gather_all(
     have: Option<&[Gathered]>,
     seed: u64,
     round: u32,
+    mut cache: Option<&mut CacheRun>,
     progress: &dyn Progress,
 ) -> Option<Vec<Gathered>> {
-    let chunks: Vec<Option<Vec<Gathered>>> = which
+    let keep = cache.is_some();
+    let prior = cache.as_ref().and_then(|c| c.prior.as_ref());
+    let run = cache.as_deref();
+    let chunks: Vec<Option<Vec<GatherOut>>> = which
         .par_chunks(CHUNK)
         .map(|chunk| {
             if progress.cancelled() {
@@ -181,16 +209,51 @@ fn gather_all(
                         first: have.map_or(0, |g| g[i as usize].gathering_rays),
                         shift: Rng::new(seed, stream(SHIFT_STREAM_ROUND, i as usize)).uniform2(),
                     };
-                    gather(cx, &samples[i as usize], &mut rng, seq, rays, light)
+                    let prior = prior.map(|(c, changed)| Prior {
+                        batches: &c.elements[i as usize],
+                        changed: *changed,
+                    });
+                    // Past the budget nothing more is packed: the whole cache is dropped.
+                    let keep = keep && run.is_some_and(|r| !r.over_budget());
+                    let out = gather(
+                        cx,
+                        &samples[i as usize],
+                        i,
+                        seed,
+                        round,
+                        &mut rng,
+                        seq,
+                        rays,
+                        light,
+                        prior,
+                        keep,
+                    );
+                    if let (Some(r), Some(k)) = (run, &out.kept) {
+                        r.bytes.fetch_add(k.bytes(), Ordering::Relaxed);
+                    }
+                    out
                 })
                 .collect();
             progress.advance(chunk.len() as u64);
             Some(out)
         })
         .collect();
+    let over = cache.as_ref().is_some_and(|c| c.over_budget());
     let mut out = Vec::with_capacity(which.len());
-    for c in chunks {
-        out.extend(c?);
+    for (c, chunk) in chunks.into_iter().zip(which.chunks(CHUNK)) {
+        for (g, &(i, _, _)) in c?.into_iter().zip(chunk) {
+            if let Some(cache) = cache.as_deref_mut() {
+                cache.reused += u64::from(g.reused);
+                cache.gathered += u64::from(g.gathered.gathering_rays);
+                if let Some(k) = g.kept.filter(|_| !over) {
+                    cache.kept[i as usize].push(k);
+                }
+            }
+            out.push(g.gathered);
+        }
+    }
+    if let Some(cache) = cache.filter(|_| over) {
+        cache.kept = Vec::new();
     }
     Some(out)
 }
@@ -263,7 +326,7 @@ pub fn gather_batch(
     let offsets = atlas.page_offsets();
     let lights = Lights::new(scene, set);
     let cx = lights.context(scene, bvh, atlas, &offsets, set);
-    gather_first(&cx, samples, set, range, progress)
+    gather_first(&cx, samples, set, range, None, progress)
 }
 
 /// Solves the scene's radiosity on the atlas. `samples` come from [`super::atlas::build`].
@@ -278,8 +341,87 @@ pub fn solve(
     let offsets = atlas.page_offsets();
     let lights = Lights::new(scene, set);
     let cx = lights.context(scene, bvh, atlas, &offsets, set);
-    let all = gather_first(&cx, samples, set, 0..samples.len() as u32, progress)?;
-    solve_gathered(&cx, samples, set, vec![all], progress)
+    let all = gather_first(&cx, samples, set, 0..samples.len() as u32, None, progress)?;
+    solve_gathered(&cx, samples, set, vec![all], None, progress)
+}
+
+/// How much of a prior ray cache a solve used.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CacheUse {
+    /// Gathering rays kept from the prior bake.
+    pub kept: u64,
+    /// Gathering rays in all.
+    pub gathered: u64,
+}
+
+/// [`solve`], keeping every gathering ray in a ray cache ([`super::ray_cache`]) that it
+/// returns (`None` when it would be larger than `budget` bytes, e.g. [`RAY_CACHE_BUDGET`]), and reusing the rays of
+/// `prior` (an earlier bake's) that the scene's changes since do not touch; the same bytes as
+/// [`solve`].
+#[allow(clippy::too_many_arguments)]
+pub fn solve_cached(
+    scene: &Scene,
+    bvh: &Bvh,
+    atlas: &Atlas,
+    samples: &[TexelSample],
+    set: &SolveSettings,
+    prior: Option<RayCache>,
+    budget: u64,
+    progress: &dyn Progress,
+) -> Result<(Solution, Option<RayCache>, CacheUse), Cancelled> {
+    let (key, lobes) = cache_key(scene, samples, set);
+    let prior = prior.and_then(|c| {
+        let changed = c.changed(&key, &lobes, samples.len());
+        if changed.is_none() {
+            log::info!("ray cache: made for another scene, atlas or settings; not used");
+        }
+        changed.map(|m| (c, m))
+    });
+    let mut run = CacheRun {
+        prior,
+        kept: vec![Vec::new(); samples.len()],
+        bytes: AtomicU64::new(0),
+        budget,
+        reused: 0,
+        gathered: 0,
+    };
+    let offsets = atlas.page_offsets();
+    let lights = Lights::new(scene, set);
+    let cx = lights.context(scene, bvh, atlas, &offsets, set);
+    let all = gather_first(
+        &cx,
+        samples,
+        set,
+        0..samples.len() as u32,
+        Some(&mut run),
+        progress,
+    )?;
+    let solution = solve_gathered(&cx, samples, set, vec![all], Some(&mut run), progress)?;
+    if run.prior.is_some() {
+        log::info!(
+            "ray cache: {} of {} gathering rays kept, the rest followed again",
+            run.reused,
+            run.gathered
+        );
+    }
+    let used = CacheUse {
+        kept: run.reused,
+        gathered: run.gathered,
+    };
+    let cache = if run.over_budget() {
+        log::info!(
+            "ray cache: over its budget of {} MiB; not kept, so the next edit follows every ray",
+            budget >> 20
+        );
+        None
+    } else {
+        Some(RayCache {
+            key,
+            lobes,
+            elements: run.kept,
+        })
+    };
+    Ok((solution, cache, used))
 }
 
 /// Solves from first gathering batches that cover every element once, in order (refinement
@@ -296,7 +438,7 @@ pub fn solve_batches(
     let offsets = atlas.page_offsets();
     let lights = Lights::new(scene, set);
     let cx = lights.context(scene, bvh, atlas, &offsets, set);
-    solve_gathered(&cx, samples, set, batches, progress)
+    solve_gathered(&cx, samples, set, batches, None, progress)
 }
 
 /// [`gather_batch`] in a context.
@@ -305,6 +447,7 @@ fn gather_first(
     samples: &[TexelSample],
     set: &SolveSettings,
     range: Range<u32>,
+    cache: Option<&mut CacheRun>,
     progress: &dyn Progress,
 ) -> Result<GatherBatch, Cancelled> {
     assert!(
@@ -314,7 +457,8 @@ fn gather_first(
     let (rays, light) = (set.rays.max(1), set.light_samples.max(1));
     progress.phase("gathering", range.len() as u64);
     let which: Vec<(u32, u32, u32)> = range.clone().map(|i| (i, rays, light)).collect();
-    let elements = gather_all(cx, samples, &which, None, set.seed, 0, progress).ok_or(Cancelled)?;
+    let elements =
+        gather_all(cx, samples, &which, None, set.seed, 0, cache, progress).ok_or(Cancelled)?;
     Ok(GatherBatch { range, elements })
 }
 
@@ -324,6 +468,7 @@ fn solve_gathered(
     samples: &[TexelSample],
     set: &SolveSettings,
     batches: Vec<GatherBatch>,
+    mut cache: Option<&mut CacheRun>,
     progress: &dyn Progress,
 ) -> Result<Solution, Cancelled> {
     let mut next = 0u32;
@@ -416,6 +561,7 @@ fn solve_gathered(
                     Some(&gathered),
                     set.seed,
                     round,
+                    cache.as_deref_mut(),
                     progress,
                 )
                 .ok_or(Cancelled)?;

@@ -4,7 +4,7 @@
 use glam::Vec3;
 
 use super::atlas::Atlas;
-use super::emitters::{Emitters, luminance, power};
+use super::emitters::{Emitters, power};
 use super::many_lights::{Choice, LIGHTS_SAMPLED_EACH, ManyLights};
 use super::transmission::{Glass, MAX_LAYERS};
 use super::transport::{Glossy, Term};
@@ -35,17 +35,20 @@ pub(super) struct RayMis<'a, 'b> {
 pub(super) struct RayOut<'a> {
     pub hits: &'a mut Vec<u32>,
     pub terms: &'a mut Vec<Term>,
-    /// Irradiance/π from emitters (already divided by the ray count).
-    pub direct: &'a mut Vec3,
+    /// Emission reached, MIS-weighted (not yet over the ray count).
+    pub emission: &'a mut Vec3,
     /// Radiance brought back through glossy reflection (summed over rays).
     pub via_glossy: &'a mut Vec3,
     pub rays: &'a mut u64,
+    /// The materials whose lobes its glossy paths evaluated (bits `material % 64`).
+    pub lobes_read: &'a mut u64,
+    /// Set when an emission carries MIS weights (they depend on the batch's counts).
+    pub weighted: &'a mut bool,
 }
 
 /// Follows a gathering ray from `origin` along `d` whose first hit `first` is transmissive:
 /// pushes its one entry to `hits` (the glass texel; none for a one-sided glass's back), the
-/// surfaces seen through it as terms, and adds their emission; returns the luminance of what
-/// it brought back that is not a texel's D (for the element's error estimate).
+/// surfaces seen through it as terms, and adds their emission and glossy light to `out`.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn gather_ray(
     cx: &GatherCx,
@@ -55,13 +58,12 @@ pub(super) fn gather_ray(
     mis: &RayMis,
     rng: &mut Rng,
     out: &mut RayOut,
-) -> f64 {
+) {
     let glass = cx.glass;
     let (scene, bvh) = glass.scene();
     let (mut hit, mut o, mut w) = (first, origin, Vec3::ONE);
     // Distance from the element along the (straight) ray to the current hit.
     let mut travelled = 0.0f32;
-    let mut constant = 0.0f64;
     for layer in 0..=MAX_LAYERS {
         let t_total = travelled + hit.t;
         let tri = &scene.triangles[hit.triangle as usize];
@@ -92,20 +94,18 @@ pub(super) fn gather_ray(
                 };
                 let p_light = area_pdf * t_total * t_total / cos_l;
                 let wgt = power(mis.n_rays as f32, mis.p_bsdf, n_e as f32, p_light);
-                let c = w * e * wgt;
-                *out.direct += c / mis.n_rays as f32;
-                constant += luminance(c) as f64;
+                *out.emission += w * e * wgt;
+                *out.weighted = true;
             }
             if let Some(g) = cx.glossy
                 && g.reflects(hit.triangle)
             {
                 let from = out.terms.len();
-                let v = w * g.follow(hit, d, rng, out.terms, out.rays);
+                let v = w * g.follow(hit, d, rng, out.terms, out.rays, out.lobes_read);
                 for t in &mut out.terms[from..] {
                     t.weight *= w;
                 }
                 *out.via_glossy += v;
-                constant += luminance(v) as f64;
             }
         }
         if !m.is_transmissive() || layer == MAX_LAYERS {
@@ -124,5 +124,4 @@ pub(super) fn gather_ray(
             None => break,
         }
     }
-    constant
 }

@@ -96,6 +96,11 @@ impl Lobes {
     }
 }
 
+/// Whether `m` reflects glossily (gathering rays that hit it follow its lobes).
+pub(super) fn is_glossy(m: &Material) -> bool {
+    Lobes::new(m).is_some()
+}
+
 /// What following glossy reflection needs, shared by every element.
 pub(super) struct Glossy<'a> {
     scene: &'a Scene,
@@ -150,7 +155,8 @@ impl<'a> Glossy<'a> {
     }
 
     /// L_g towards the origin of a ray travelling along `dir` (unit) that hit the front face
-    /// of a glossy triangle at `hit`: returns the constant part and pushes the L_d terms.
+    /// of a glossy triangle at `hit`: returns the constant part and pushes the L_d terms;
+    /// sets bit `material % 64` of `lobes_read` for every material whose lobes it evaluates.
     pub fn follow(
         &self,
         mut hit: Hit,
@@ -158,6 +164,7 @@ impl<'a> Glossy<'a> {
         rng: &mut Rng,
         terms: &mut Vec<Term>,
         rays: &mut u64,
+        lobes_read: &mut u64,
     ) -> Vec3 {
         let scene = self.scene;
         let mut out = Vec3::ZERO;
@@ -167,6 +174,7 @@ impl<'a> Glossy<'a> {
             let Some(lobes) = &self.lobes[tri.material as usize] else {
                 break;
             };
+            *lobes_read |= 1 << (tri.material % 64);
             let ng = tri.face_normal();
             let ns = tri.shading_normal(hit.bary);
             let frame = Frame::from_normal(ns);
