@@ -433,6 +433,9 @@ fn same_assets(
             .all(|((p, h), a)| *p == a.path && *h == a.blake3))
 }
 
+/// Files an assembly holds in memory and writes at once.
+const BATCH_FILES: usize = 64;
+
 /// Writes stage `stage` of `out` from its units' shards into a [`StageWriter`]; returns it
 /// with the stage's record (its figures left for the caller), for the merge's one commit.
 fn assemble(
@@ -447,6 +450,17 @@ fn assemble(
     let joins_index = matches!(stage, Stage::Materials | Stage::Srdm);
     let mut w = StageWriter::begin(out, name).map_err(|e| err(&e))?;
     let mut indexes = Vec::new();
+    // Files are written a batch at a time, flushed together ([`StageWriter::write_many`]).
+    let mut batch: Vec<(String, String, Vec<u8>)> = Vec::new();
+    let flush = |w: &mut StageWriter, batch: &mut Vec<(String, String, Vec<u8>)>| {
+        let files: Vec<(&str, &str, &[u8])> = batch
+            .iter()
+            .map(|(rel, kind, bytes)| (rel.as_str(), kind.as_str(), bytes.as_slice()))
+            .collect();
+        let written = w.write_many(&files).map_err(|e| err(&e));
+        batch.clear();
+        written
+    };
     for (id, shard) in units {
         let record = shard.stage(name).expect("checked by check_shards");
         for a in &record.assets {
@@ -456,9 +470,13 @@ fn assemble(
                 continue;
             }
             let rel = a.path.strip_prefix(&format!("{name}/")).unwrap_or(&a.path);
-            w.write(rel, &a.kind, &bytes).map_err(|e| err(&e))?;
+            batch.push((rel.to_owned(), a.kind.clone(), bytes));
+            if batch.len() >= BATCH_FILES {
+                flush(&mut w, &mut batch)?;
+            }
         }
     }
+    flush(&mut w, &mut batch)?;
     if joins_index {
         let bytes = match stage {
             Stage::Srdm => join_srdm(&indexes)?,

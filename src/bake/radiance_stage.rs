@@ -315,6 +315,7 @@ pub fn bake_part(
         let folder = reflector_folder(&reflector.name);
         let mut cameras = Vec::new();
         let mut bytes = 0u64;
+        let mut files: Vec<(String, &str, Vec<u8>)> = Vec::new();
         for j in 0..plan.elements[1] {
             for i in 0..plan.elements[0] {
                 let (corner, eu, ev) = frame.element(i, j, plan.elements[0], plan.elements[1]);
@@ -351,8 +352,8 @@ pub fn bake_part(
                     );
                     let qt = quadtree::encode(plan.resolution, &tree);
                     bytes += (exr.len() + qt.len()) as u64;
-                    w.write(&format!("{folder}/{stem}.exr"), "radiance-exr", &exr)?;
-                    w.write(&format!("{folder}/{stem}.qtree"), "quadtree", &qt)?;
+                    files.push((format!("{folder}/{stem}.exr"), "radiance-exr", exr));
+                    files.push((format!("{folder}/{stem}.qtree"), "quadtree", qt));
                     cameras.push(MapEntry {
                         file: stem,
                         element: [i, j],
@@ -362,6 +363,13 @@ pub fn bake_part(
                     });
                     progress.advance(1);
                 }
+                // An element's maps are written at once: their flushes overlap.
+                let batch: Vec<(&str, &str, &[u8])> = files
+                    .iter()
+                    .map(|(p, k, b)| (p.as_str(), *k, b.as_slice()))
+                    .collect();
+                w.write_many(&batch)?;
+                files.clear();
             }
         }
         let json = CamerasFile {
