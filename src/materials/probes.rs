@@ -40,6 +40,9 @@ pub struct Group {
     /// The name of its placed probe: the material's for its first group, `NAME.k` for its
     /// k-th (from 2).
     pub name: String,
+    /// Whether it is a side split off its material's first group ([`split_sides`]): its probe
+    /// serves it alone.
+    pub side: bool,
     /// Its triangles, in scene order.
     pub triangles: Vec<u32>,
     /// Their bounding box.
@@ -88,6 +91,7 @@ fn group_of(triangles: &[Triangle], material: u32, name: String, tris: Vec<u32>)
     Group {
         material,
         name,
+        side: false,
         triangles: tris,
         bounds,
         mean_normal: if area > 0.0 {
@@ -133,7 +137,11 @@ pub fn glossy_groups(
         let parts = split_sides(triangles, tris, bounds);
         let name = names.get(m).copied().unwrap_or("");
         for (k, part) in parts.into_iter().enumerate() {
-            groups.push(group_of(triangles, m as u32, group_name(name, k), part));
+            let group = group_of(triangles, m as u32, group_name(name, k), part);
+            groups.push(Group {
+                side: k > 0,
+                ..group
+            });
         }
     }
     groups
@@ -365,14 +373,19 @@ pub fn scene_probes(scene: &Scene) -> Vec<Probe> {
     place(&groups, &scene.desc.probes, &scene.bounds, &clear)
 }
 
-/// The probe a group reads: the nearest whose reach holds its box's centre, else the nearest
-/// (ties: the first). `None` without probes.
-pub fn assign(probes: &[Probe], group: &Group) -> Option<usize> {
+/// The probe group `k` of `groups` reads: the nearest to its box's centre whose reach holds
+/// it, else the nearest (ties: the first), of all but the probes of the other groups' sides
+/// (each serves its own side alone). `None` without probes.
+pub fn assign(probes: &[Probe], groups: &[Group], k: usize) -> Option<usize> {
+    let group = &groups[k];
     let c = group.bounds.center();
+    let others_side =
+        |p: &Probe| p.name != group.name && groups.iter().any(|g| g.side && g.name == p.name);
     let nearest = |reach: bool| {
         probes
             .iter()
             .enumerate()
+            .filter(|(_, p)| !others_side(p))
             .filter(|(_, p)| !reach || p.position.distance(c) <= p.radius)
             .min_by(|a, b| {
                 a.1.position
@@ -503,10 +516,8 @@ mod tests {
         assert!((probes[0].position.x - 3.5).abs() < 1e-5);
         for (p, g) in probes.iter().zip(&groups) {
             assert!(p.position.distance(g.bounds.center()) <= p.radius);
-            assert_eq!(
-                assign(&probes, g),
-                Some(groups.iter().position(|h| h == g).unwrap())
-            );
+            let k = groups.iter().position(|h| h == g).unwrap();
+            assert_eq!(assign(&probes, &groups, k), Some(k));
         }
     }
 
@@ -584,15 +595,21 @@ mod tests {
                 ("a.3", &[6, 7][..])
             ]
         );
-        let probes = place(&groups, &[], &room, &open);
-        // Every face stands in front of its own probe.
-        for (g, p) in groups.iter().zip(&probes) {
+        let mut probes = place(&groups, &[], &room, &open);
+        // Every face stands in front of its own probe, which each group reads.
+        for (k, (g, p)) in groups.iter().zip(&probes).enumerate() {
             for &t in &g.triangles {
                 let tri = &tris[t as usize];
                 let to = p.position - tri.p[0];
                 assert!(tri.face_normal().dot(to) > 0.0, "{} {t}", g.name);
             }
+            assert_eq!(assign(&probes, &groups, k), Some(k));
         }
+        // A side's probe serves that side alone, even where it reaches the others.
+        probes[1].radius = 10.0;
+        probes[1].position = groups[0].bounds.center();
+        assert_eq!(assign(&probes, &groups, 0), Some(0));
+        assert_eq!(assign(&probes, &groups, 2), Some(2));
         // Ends a tenth as deep hold too little of the cabinet's area: they keep its probe.
         let thin: Vec<Triangle> = tris
             .iter()
@@ -673,8 +690,8 @@ mod tests {
         assert_eq!(probes[0].radius, 3.0);
         assert_eq!(probes[2].name, "extra");
         // The added probe is nearer to b's surfaces than b's own and reaches them.
-        assert_eq!(assign(&probes, &groups[1]), Some(2));
-        assert_eq!(assign(&probes, &groups[0]), Some(0));
+        assert_eq!(assign(&probes, &groups, 1), Some(2));
+        assert_eq!(assign(&probes, &groups, 0), Some(0));
     }
 
     #[test]
