@@ -178,7 +178,11 @@ pub fn split_sides(triangles: &[Triangle], tris: Vec<u32>, bounds: &Aabb) -> Vec
     let mut rest = tris;
     let mut sides: Vec<Vec<u32>> = Vec::new();
     let mut done = [false; 6];
-    while total > 0.0 {
+    if total <= 0.0 {
+        return vec![rest];
+    }
+    // Each pass splits off a side not split before, or ends.
+    for _ in 0..6 {
         let probe = placed(
             &group_of(triangles, 0, String::new(), rest.clone()),
             bounds,
