@@ -69,7 +69,7 @@ const MIN_MEAN_NORMAL: f32 = 0.25;
 const LIFT: f32 = 0.1;
 
 /// The least share of a material's area that one side's faces turned away from its probe must
-/// hold for [`split_sides`] to give them their own probe.
+/// hold for [`split_sides`] to give them their own probe (docs/tuning.md#probe-sides).
 const MIN_SIDE_SHARE: f32 = 0.15;
 
 /// The least length of the mean normal of one side's faces for [`split_sides`] to give them
