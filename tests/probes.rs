@@ -70,7 +70,7 @@ fn an_undeclared_glossy_table_gets_one_probe_above_it() {
     );
     assert!(scene.bounds.min.cmple(p.position).all() && p.position.cmple(scene.bounds.max).all());
     assert!(p.position.distance(b.center()) <= p.radius);
-    assert_eq!(assign(&probes, &groups[0]), Some(0));
+    assert_eq!(assign(&probes, &groups, 0), Some(0));
 }
 
 #[test]
@@ -108,7 +108,7 @@ fn scene_json_moves_and_adds_probes() {
     assert_eq!(probes[0].radius, placed[0].radius);
     assert_eq!((probes[1].name.as_str(), probes[1].radius), ("corner", 0.5));
     // The table still reads its own probe: the added one does not reach it.
-    assert_eq!(assign(&probes, &scene_groups(&scene)[0]), Some(0));
+    assert_eq!(assign(&probes, &scene_groups(&scene), 0), Some(0));
 
     // Each probe is its own work unit, after the materials' and before the environment maps'.
     let plan = plan_units(

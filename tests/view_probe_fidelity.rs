@@ -1,6 +1,6 @@
 //! The shipped stand-in's glossy materials that no reflector declares, against the path
-//! tracer, each from the camera where it was furthest off: the glossy wooden Vanity (its
-//! specular term from the probe the bake places for it) from `room`, the glass jar (its
+//! tracer, each from the camera where it was furthest off: the glossy wooden Vanity and its
+//! +x end (their specular terms from the probes the bake places for them) from `room`, the glass jar (its
 //! transmittance, its D and its probe's specular term) from `tiles`, and from `tiles` the
 //! tiled floor where it reflects the Vanity (its probe stands far from that part of it).
 //!
@@ -30,12 +30,10 @@ const SIZE: (u32, u32) = (192, 128);
 const SUPER: u32 = 4;
 /// Issue 44's bound on a glossy material's mean luminance against the path tracer's.
 const TOLERANCE: f64 = 0.10;
-/// The Vanity's bound: its +x side misses part of its specular term (open in issue 44): its
-/// probe stands in front of the cabinet, behind that side's plane, and sees the cabinet's
-/// front where that side reflects the wall beside it. That leaves it at the edge of
-/// [`TOLERANCE`] at draft; this bound still fails with its probe inside the cabinet, below
-/// the top's plane.
-const VANITY_TOLERANCE: f64 = 0.12;
+/// The bound on the Vanity's +x end alone, at draft: its own probe, a tenth of the end's
+/// diagonal off it, still reads it darker than the path tracer at the draft preset's probe
+/// resolution (open in issue 44); without that probe the end is darker still.
+const END_TOLERANCE: f64 = 0.15;
 
 /// The bound on a specular term alone against the path tracer's (the difference of two
 /// 64 spp frames: noisier than a whole pixel's mean).
@@ -69,10 +67,24 @@ fn camera(data: &ViewData, name: &str) -> Camera {
 
 /// The pixels all of whose 4×4 sub-pixel rays meet `material` first.
 fn pixels_of(data: &ViewData, camera: &Camera, material: u32) -> Vec<bool> {
+    faces_of(data, camera, material, |_| true)
+}
+
+/// The pixels all of whose 4×4 sub-pixel rays meet first a triangle of `material` whose face
+/// normal `facing` takes.
+fn faces_of(
+    data: &ViewData,
+    camera: &Camera,
+    material: u32,
+    facing: impl Fn(Vec3) -> bool,
+) -> Vec<bool> {
     let bvh = data.scene.build_bvh();
     common::covered_pixels(camera, SIZE, SUPER, |d| {
         bvh.closest_hit(camera.position, d, f32::INFINITY)
-            .is_some_and(|hit| data.scene.triangles[hit.triangle as usize].material == material)
+            .is_some_and(|hit| {
+                let t = &data.scene.triangles[hit.triangle as usize];
+                t.material == material && facing(t.face_normal())
+            })
     })
 }
 
@@ -153,23 +165,51 @@ fn the_glass_jar_from_tiles_is_as_bright_as_the_path_tracer() {
     );
 }
 
-/// The Vanity (a cabinet against the wall: its top and its front are glossy) from `room`,
-/// which looks down at its top: its probe must see the wall behind the top.
+/// The Vanity (a cabinet against the wall: its top, its front and its ends are glossy) from
+/// `room`, which looks down at its top and front and at its +x end: the top's probe must see
+/// the wall behind the top, and the end, which reflects the room beside the cabinet, needs a
+/// probe of its own (the cabinet's one stands in front of it, behind the end's plane, and
+/// sees the cabinet's front where the end reflects the wall beside it).
 #[test]
-fn the_vanity_from_room_is_as_bright_as_the_path_tracer() {
+fn the_vanity_and_its_end_from_room_are_as_bright_as_the_path_tracer() {
     let data = bundle();
     let camera = camera(&data, "room");
-    let mask = pixels_of(&data, &camera, common::material_id(&data.scene, "Vanity"));
-    let count = mask.iter().filter(|m| **m).count();
-    assert!(count > 400, "the vanity covers {count} pixels");
-    let lit = masked_luminance(&view(&data, &camera, true), &mask);
-    let want = masked_luminance(&traced(&camera, "Vanity", true), &mask);
-    let ratio = lit / want;
-    eprintln!("vanity from room, {count} px: {lit:.4} vs {want:.4} ({ratio:.3})");
-    assert!(
-        (ratio - 1.0).abs() < VANITY_TOLERANCE,
-        "the vanity is {ratio:.3} of the path tracer's"
-    );
+    let vanity = common::material_id(&data.scene, "Vanity");
+    let lit = view(&data, &camera, true);
+    let want = traced(&camera, "Vanity", true);
+    let ratios: Vec<(&str, f64, f64)> = [
+        (
+            "the vanity",
+            pixels_of(&data, &camera, vanity),
+            400,
+            TOLERANCE,
+        ),
+        (
+            "its +x end",
+            faces_of(&data, &camera, vanity, |n| n.x > 0.9),
+            50,
+            END_TOLERANCE,
+        ),
+    ]
+    .into_iter()
+    .map(|(what, mask, least, bound)| {
+        let count = mask.iter().filter(|m| **m).count();
+        assert!(count > least, "{what} covers {count} pixels");
+        let (got, traced) = (
+            masked_luminance(&lit, &mask),
+            masked_luminance(&want, &mask),
+        );
+        let ratio = got / traced;
+        eprintln!("{what} from room, {count} px: {got:.4} vs {traced:.4} ({ratio:.3})");
+        (what, ratio, bound)
+    })
+    .collect();
+    for (what, ratio, bound) in ratios {
+        assert!(
+            (ratio - 1.0).abs() < bound,
+            "{what} is {ratio:.3} of the path tracer's"
+        );
+    }
 }
 
 /// From `tiles`, the floor in front of the Vanity reflects the cabinet at a grazing angle.

@@ -4,8 +4,12 @@
 //!
 //! # Placement ([`place`])
 //!
-//! One group per glossy material, of its triangles that belong to no declared reflector
-//! ([`glossy_groups`]): the viewer reads one probe per material, with that material's lobe,
+//! The glossy triangles that belong to no declared reflector are grouped ([`glossy_groups`]):
+//! per material; within a material, the faces that stand with their backs to its probe, where
+//! those of one side (the dominant axis of their normal) are about flat and a large share of
+//! the material's, get a group of their own ([`split_sides`]): a cabinet's end reflects the
+//! room beside it, which a probe in front of the cabinet cannot see. The viewer reads one
+//! probe per group, with its material's lobe,
 //! so a group is the unit a probe serves. The probe stands above the group's bounding box,
 //! along the area-weighted mean of its face normals (glTF's up, +y, where those cancel, as on
 //! a closed object such as a table), a tenth of the box's diagonal off its face (where that
@@ -15,9 +19,10 @@
 //! the viewer's distance-corrected lookups move each reflected ray to the surface's own
 //! point. Where something stands on the surfaces (a teapot on a table) it goes on up, a lift
 //! at a time, until nothing lies within a lift of it ([`placed`]). Its reach is its distance
-//! from the box's centre plus the box's half diagonal. scene.json's `probes` move a
-//! placed probe (same name: the material's) or add one; a scene without such a group has no
-//! probes at all.
+//! from the box's centre plus the box's half diagonal. A material's first group's probe
+//! bears the material's name, its others `NAME.2`, `NAME.3`, … ([`Group::name`]).
+//! scene.json's `probes` move a placed probe (same name) or add one; a scene without such a
+//! group has no probes at all.
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -27,11 +32,17 @@ use crate::geometry::{Aabb, Bvh, Triangle};
 use crate::scene::Scene;
 use crate::scene::desc::ProbeDesc;
 
-/// The glossy triangles of one material that no reflector declares.
+/// Glossy triangles that no reflector declares, served by one probe.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Group {
     /// The material (index into the scene's materials).
     pub material: u32,
+    /// The name of its placed probe: the material's for its first group, `NAME.k` for its
+    /// k-th (from 2).
+    pub name: String,
+    /// Whether it is a side split off its material's first group ([`split_sides`]): its probe
+    /// serves it alone.
+    pub side: bool,
     /// Its triangles, in scene order.
     pub triangles: Vec<u32>,
     /// Their bounding box.
@@ -57,42 +68,173 @@ const MIN_MEAN_NORMAL: f32 = 0.25;
 /// The lift off a group's box, as a fraction of its diagonal.
 const LIFT: f32 = 0.1;
 
-/// Per glossy material (`glossy[m]`), its triangles outside `declared` (the triangles of
-/// declared reflectors), in material order; materials with none have no group.
-pub fn glossy_groups(triangles: &[Triangle], glossy: &[bool], declared: &[bool]) -> Vec<Group> {
-    let mut groups: Vec<Option<Group>> = vec![None; glossy.len()];
-    // Per material, the area summed (the mean normal's divisor).
-    let mut areas = vec![0.0f32; glossy.len()];
+/// The least share of a material's area that one side's faces turned away from its probe must
+/// hold for [`split_sides`] to give them their own probe (docs/tuning.md#probe-sides).
+const MIN_SIDE_SHARE: f32 = 0.15;
+
+/// The least length of the mean normal of one side's faces for [`split_sides`] to give them
+/// their own probe: a flat side (a cabinet's end) has one, a quarter of a cylinder's wall
+/// about 0.9; a curved object's probe above it sees round it.
+const MIN_SIDE_FLATNESS: f32 = 0.95;
+
+/// The group of `tris` (in scene order) of `material`, named `name`.
+fn group_of(triangles: &[Triangle], material: u32, name: String, tris: Vec<u32>) -> Group {
+    let mut bounds = Aabb::EMPTY;
+    let (mut normal, mut area) = (Vec3::ZERO, 0.0f32);
+    for &t in &tris {
+        let tri = &triangles[t as usize];
+        bounds = tri.p.iter().fold(bounds, |b, p| b.grow(*p));
+        let a = tri.area();
+        normal += tri.face_normal() * a;
+        area += a;
+    }
+    Group {
+        material,
+        name,
+        side: false,
+        triangles: tris,
+        bounds,
+        mean_normal: if area > 0.0 {
+            normal / area
+        } else {
+            Vec3::ZERO
+        },
+    }
+}
+
+/// The probe name of a material's `k`-th group (from 0): the material's own, then `NAME.2`, ….
+pub fn group_name(material: &str, k: usize) -> String {
+    if k == 0 {
+        material.to_string()
+    } else {
+        format!("{material}.{}", k + 1)
+    }
+}
+
+/// The groups of glossy triangles outside `declared` (the triangles of declared reflectors),
+/// in material order, named after `names[material]` (see the module's comment): per material
+/// (`glossy[m]`), per side turned away from its probe ([`split_sides`], the probe kept inside
+/// `bounds`). Materials with none have no group.
+pub fn glossy_groups(
+    triangles: &[Triangle],
+    glossy: &[bool],
+    declared: &[bool],
+    names: &[&str],
+    bounds: &Aabb,
+) -> Vec<Group> {
+    let mut per_material: Vec<Vec<u32>> = vec![Vec::new(); glossy.len()];
     for (t, tri) in triangles.iter().enumerate() {
         let m = tri.material as usize;
-        if !glossy.get(m).copied().unwrap_or(false) || declared.get(t).copied().unwrap_or(false) {
+        if glossy.get(m).copied().unwrap_or(false) && !declared.get(t).copied().unwrap_or(false) {
+            per_material[m].push(t as u32);
+        }
+    }
+    let mut groups = Vec::new();
+    for (m, tris) in per_material.into_iter().enumerate() {
+        if tris.is_empty() {
             continue;
         }
-        let g = groups[m].get_or_insert_with(|| Group {
-            material: m as u32,
-            triangles: Vec::new(),
-            bounds: Aabb::EMPTY,
-            mean_normal: Vec3::ZERO,
-        });
-        g.triangles.push(t as u32);
-        g.bounds = tri.p.iter().fold(g.bounds, |b, p| b.grow(*p));
-        let a = tri.area();
-        g.mean_normal += tri.face_normal() * a;
-        areas[m] += a;
+        let parts = split_sides(triangles, tris, bounds);
+        let name = names.get(m).copied().unwrap_or("");
+        for (k, part) in parts.into_iter().enumerate() {
+            let group = group_of(triangles, m as u32, group_name(name, k), part);
+            groups.push(Group {
+                side: k > 0,
+                ..group
+            });
+        }
     }
     groups
-        .into_iter()
-        .zip(areas)
-        .filter_map(|(g, area)| {
-            let mut g = g?;
-            g.mean_normal = if area > 0.0 {
-                g.mean_normal / area
-            } else {
-                Vec3::ZERO
-            };
-            Some(g)
-        })
-        .collect()
+}
+
+/// The side of a face normal: its dominant axis and that component's sign (+x 0, −x 1, +y 2,
+/// −y 3, +z 4, −z 5).
+fn side(n: Vec3) -> usize {
+    let a = n.abs();
+    let axis = if a.x >= a.y && a.x >= a.z {
+        0
+    } else if a.y >= a.z {
+        1
+    } else {
+        2
+    };
+    2 * axis + usize::from(n[axis] < 0.0)
+}
+
+/// A material's triangles (`tris`, in scene order) as the parts its probes serve, the rest
+/// first: where the faces of one side (see [`side`]) that stand with their backs to the probe
+/// the rest would get (placed in the open) hold [`MIN_SIDE_SHARE`] of the material's area and
+/// are about flat ([`MIN_SIDE_FLATNESS`]), they become a part of their own, provided its own
+/// probe stands inside `bounds`; the rest's probe is placed again, until no side splits off
+/// (each side once).
+pub fn split_sides(triangles: &[Triangle], tris: Vec<u32>, bounds: &Aabb) -> Vec<Vec<u32>> {
+    let area = |ts: &[u32]| {
+        ts.iter()
+            .map(|&t| triangles[t as usize].area())
+            .sum::<f32>()
+    };
+    let total = area(&tris);
+    let inside = |p: Vec3| bounds.min.cmple(p).all() && p.cmple(bounds.max).all();
+    let mut rest = tris;
+    let mut sides: Vec<Vec<u32>> = Vec::new();
+    let mut done = [false; 6];
+    if total <= 0.0 {
+        return vec![rest];
+    }
+    // Each pass splits off a side not split before, or ends.
+    for _ in 0..6 {
+        let probe = placed(
+            &group_of(triangles, 0, String::new(), rest.clone()),
+            bounds,
+            &|_| f32::INFINITY,
+        )
+        .0;
+        // Per triangle of `rest`, its side where it turns its back to the probe, else 6.
+        let tags: Vec<usize> = rest
+            .iter()
+            .map(|&t| {
+                let tri = &triangles[t as usize];
+                let n = tri.face_normal();
+                let centroid = (tri.p[0] + tri.p[1] + tri.p[2]) / 3.0;
+                if n.dot(probe - centroid) < 0.0 {
+                    side(n)
+                } else {
+                    6
+                }
+            })
+            .collect();
+        let mut behind: [Vec<u32>; 6] = Default::default();
+        for (&t, &s) in rest.iter().zip(&tags) {
+            if s < 6 {
+                behind[s].push(t);
+            }
+        }
+        let split: Vec<usize> = (0..6)
+            .filter(|&s| !done[s] && area(&behind[s]) >= MIN_SIDE_SHARE * total)
+            .filter(|&s| {
+                let g = group_of(triangles, 0, String::new(), behind[s].clone());
+                g.mean_normal.length() >= MIN_SIDE_FLATNESS
+                    && inside(placed(&g, bounds, &|_| f32::INFINITY).0)
+            })
+            .collect();
+        let kept = rest.len() - split.iter().map(|&s| behind[s].len()).sum::<usize>();
+        if split.is_empty() || kept == 0 {
+            break;
+        }
+        rest = rest
+            .iter()
+            .zip(&tags)
+            .filter(|(_, s)| !split.contains(s))
+            .map(|(&t, _)| t)
+            .collect();
+        for &s in &split {
+            done[s] = true;
+            sides.push(std::mem::take(&mut behind[s]));
+        }
+    }
+    let mut parts = vec![rest];
+    parts.extend(sides);
+    parts
 }
 
 /// The groups of `scene` ([`glossy_groups`]).
@@ -104,7 +246,8 @@ pub fn scene_groups(scene: &Scene) -> Vec<Group> {
             declared[t as usize] = true;
         }
     }
-    glossy_groups(&scene.triangles, &glossy, &declared)
+    let names: Vec<&str> = scene.materials.iter().map(|m| m.name.as_str()).collect();
+    glossy_groups(&scene.triangles, &glossy, &declared, &names, &scene.bounds)
 }
 
 /// Where the bake puts a group's probe (see the module's comment) and its reach: off the
@@ -180,13 +323,12 @@ pub fn clearance(bvh: &Bvh, p: Vec3) -> f32 {
     nearest
 }
 
-/// The probes of a scene: one per group, named after its material (`names[material]`), then
-/// scene.json's `given` probes, each moving the placed probe of its name or added after them
-/// (reach: the given radius, else the placed one's, else `bounds`' diagonal). None without
-/// groups, whatever `given` says.
+/// The probes of a scene: one per group, named after it ([`Group::name`]), then scene.json's
+/// `given` probes, each moving the placed probe of its name or added after them (reach: the
+/// given radius, else the placed one's, else `bounds`' diagonal). None without groups,
+/// whatever `given` says.
 pub fn place(
     groups: &[Group],
-    names: &[&str],
     given: &[ProbeDesc],
     bounds: &Aabb,
     clearance: &dyn Fn(Vec3) -> f32,
@@ -199,7 +341,7 @@ pub fn place(
         .map(|g| {
             let (position, radius) = placed(g, bounds, clearance);
             Probe {
-                name: names[g.material as usize].to_string(),
+                name: g.name.clone(),
                 position,
                 radius,
             }
@@ -230,20 +372,24 @@ pub fn scene_probes(scene: &Scene) -> Vec<Probe> {
     if groups.is_empty() {
         return Vec::new();
     }
-    let names: Vec<&str> = scene.materials.iter().map(|m| m.name.as_str()).collect();
     let bvh = scene.build_bvh();
     let clear = |p: Vec3| clearance(&bvh, p);
-    place(&groups, &names, &scene.desc.probes, &scene.bounds, &clear)
+    place(&groups, &scene.desc.probes, &scene.bounds, &clear)
 }
 
-/// The probe a group reads: the nearest whose reach holds its box's centre, else the nearest
-/// (ties: the first). `None` without probes.
-pub fn assign(probes: &[Probe], group: &Group) -> Option<usize> {
+/// The probe group `k` of `groups` reads: the nearest to its box's centre whose reach holds
+/// it, else the nearest (ties: the first), of all but the probes of the other groups' sides
+/// (each serves its own side alone). `None` without probes.
+pub fn assign(probes: &[Probe], groups: &[Group], k: usize) -> Option<usize> {
+    let group = &groups[k];
     let c = group.bounds.center();
+    let others_side =
+        |p: &Probe| p.name != group.name && groups.iter().any(|g| g.side && g.name == p.name);
     let nearest = |reach: bool| {
         probes
             .iter()
             .enumerate()
+            .filter(|(_, p)| !others_side(p))
             .filter(|(_, p)| !reach || p.position.distance(c) <= p.radius)
             .min_by(|a, b| {
                 a.1.position
@@ -298,6 +444,19 @@ mod tests {
         f32::INFINITY
     }
 
+    /// Materials' names in the tests.
+    const NAMES: [&str; 3] = ["a", "b", "c"];
+
+    /// A room about the tests' surfaces.
+    fn room() -> Aabb {
+        Aabb::from_points([Vec3::splat(-10.0), Vec3::splat(10.0)].iter())
+    }
+
+    /// [`glossy_groups`] with [`NAMES`] in [`room`].
+    fn groups_of(triangles: &[Triangle], glossy: &[bool], declared: &[bool]) -> Vec<Group> {
+        glossy_groups(triangles, glossy, declared, &NAMES, &room())
+    }
+
     fn quad(material: u32, y: f32, x0: f32, up: bool) -> [Triangle; 2] {
         let p = [
             Vec3::new(x0, y, 0.0),
@@ -322,7 +481,7 @@ mod tests {
     #[test]
     fn no_glossy_material_no_probe() {
         let tris: Vec<Triangle> = quad(0, 0.0, 0.0, true).into();
-        let groups = glossy_groups(&tris, &[false], &[false; 2]);
+        let groups = groups_of(&tris, &[false], &[false; 2]);
         assert!(groups.is_empty());
         let given = [ProbeDesc {
             name: "extra".into(),
@@ -330,15 +489,15 @@ mod tests {
             radius: None,
         }];
         let b = Aabb::from_points(tris.iter().flat_map(|t| t.p.iter()));
-        assert!(place(&groups, &["m"], &given, &b, &open).is_empty());
+        assert!(place(&groups, &given, &b, &open).is_empty());
     }
 
     #[test]
     fn declared_triangles_need_no_probe() {
         let tris: Vec<Triangle> = quad(0, 0.0, 0.0, true).into();
-        assert!(glossy_groups(&tris, &[true], &[true, true]).is_empty());
+        assert!(groups_of(&tris, &[true], &[true, true]).is_empty());
         assert_eq!(
-            glossy_groups(&tris, &[true], &[true, false])[0].triangles,
+            groups_of(&tris, &[true], &[true, false])[0].triangles,
             vec![1]
         );
     }
@@ -349,11 +508,11 @@ mod tests {
         tris.extend(quad(1, 0.5, 2.0, true));
         tris.extend(quad(2, 0.5, 4.0, true)); // diffuse
         tris.extend(quad(0, 0.0, 6.0, true)); // the same material again: the same group
-        let groups = glossy_groups(&tris, &[true, true, false], &vec![false; tris.len()]);
+        let groups = groups_of(&tris, &[true, true, false], &vec![false; tris.len()]);
         assert_eq!(groups.len(), 2);
         assert_eq!(groups[0].triangles, vec![0, 1, 6, 7]);
         let b = Aabb::from_points(tris.iter().flat_map(|t| t.p.iter()));
-        let probes = place(&groups, &["a", "b", "c"], &[], &b, &open);
+        let probes = place(&groups, &[], &b, &open);
         let names: Vec<&str> = probes.iter().map(|p| p.name.as_str()).collect();
         assert_eq!(names, ["a", "b"]);
         // Above the faces they serve (normals +y), over the box's centre.
@@ -361,10 +520,8 @@ mod tests {
         assert!((probes[0].position.x - 3.5).abs() < 1e-5);
         for (p, g) in probes.iter().zip(&groups) {
             assert!(p.position.distance(g.bounds.center()) <= p.radius);
-            assert_eq!(
-                assign(&probes, g),
-                Some(groups.iter().position(|h| h == g).unwrap())
-            );
+            let k = groups.iter().position(|h| h == g).unwrap();
+            assert_eq!(assign(&probes, &groups, k), Some(k));
         }
     }
 
@@ -373,11 +530,100 @@ mod tests {
         // Faces up and down cancel: the probe goes up (+y), off the box.
         let mut tris: Vec<Triangle> = quad(0, 0.0, 0.0, true).into();
         tris.extend(quad(0, -0.2, 0.0, false));
-        let groups = glossy_groups(&tris, &[true], &[false; 4]);
-        assert!(groups[0].mean_normal.length() < 1e-6);
+        let group = group_of(&tris, 0, "a".into(), vec![0, 1, 2, 3]);
+        assert!(group.mean_normal.length() < 1e-6);
         let b = Aabb::from_points([Vec3::splat(-5.0), Vec3::splat(5.0)].iter());
-        let (p, _) = placed(&groups[0], &b, &open);
+        let (p, _) = placed(&group, &b, &open);
         assert!(p.y > 0.0, "{p}");
+        // Its underside turns its back to that probe: a group of its own, read by a probe
+        // below it; where below lies outside the room, the underside stays.
+        let groups = groups_of(&tris, &[true], &[false; 4]);
+        let parts: Vec<(&str, &[u32])> = groups
+            .iter()
+            .map(|g| (g.name.as_str(), g.triangles.as_slice()))
+            .collect();
+        assert_eq!(parts, [("a", &[0, 1][..]), ("a.2", &[2, 3][..])]);
+        let (under, _) = placed(&groups[1], &b, &open);
+        assert!(under.y < -0.2, "{under}");
+        let floor = Aabb::from_points([Vec3::new(-5.0, -0.2, -5.0), Vec3::splat(5.0)].iter());
+        assert_eq!(
+            glossy_groups(&tris, &[true], &[false; 4], &NAMES, &floor).len(),
+            1
+        );
+    }
+
+    #[test]
+    fn a_side_turned_away_from_its_probe_gets_a_probe_in_front_of_it() {
+        // A 1.2 × 0.85 × 0.55 m cabinet against the wall z = 0, glossy on its top, its front
+        // and both ends: the probe past the top and the front stands behind the ends' planes,
+        // where it sees the cabinet's front in place of the room beside each end.
+        let (x1, y1, z1) = (1.2, 0.85, 0.55);
+        let quads = [
+            // top (+y), front (+z), +x end, −x end
+            [[0.0, y1, 0.0], [0.0, y1, z1], [x1, y1, z1], [x1, y1, 0.0]],
+            [[0.0, 0.0, z1], [x1, 0.0, z1], [x1, y1, z1], [0.0, y1, z1]],
+            [[x1, 0.0, z1], [x1, 0.0, 0.0], [x1, y1, 0.0], [x1, y1, z1]],
+            [
+                [0.0, 0.0, 0.0],
+                [0.0, 0.0, z1],
+                [0.0, y1, z1],
+                [0.0, y1, 0.0],
+            ],
+        ];
+        let tris: Vec<Triangle> = quads
+            .iter()
+            .flat_map(|q| {
+                let q = q.map(Vec3::from_array);
+                [[0, 1, 2], [0, 2, 3]].map(|[a, b, c]| Triangle {
+                    p: [q[a], q[b], q[c]],
+                    n: [Vec3::ZERO; 3],
+                    uv: [Vec2::ZERO; 3],
+                    uv1: None,
+                    material: 0,
+                    object: 0,
+                })
+            })
+            .collect();
+        assert!(tris[4].face_normal().x > 0.99 && tris[6].face_normal().x < -0.99);
+        let room = Aabb::from_points([Vec3::new(-2.0, 0.0, 0.0), Vec3::splat(3.0)].iter());
+        let groups = glossy_groups(&tris, &[true], &[false; 8], &NAMES, &room);
+        let parts: Vec<(&str, &[u32])> = groups
+            .iter()
+            .map(|g| (g.name.as_str(), g.triangles.as_slice()))
+            .collect();
+        assert_eq!(
+            parts,
+            [
+                ("a", &[0, 1, 2, 3][..]),
+                ("a.2", &[4, 5][..]),
+                ("a.3", &[6, 7][..])
+            ]
+        );
+        let mut probes = place(&groups, &[], &room, &open);
+        // Every face stands in front of its own probe, which each group reads.
+        for (k, (g, p)) in groups.iter().zip(&probes).enumerate() {
+            for &t in &g.triangles {
+                let tri = &tris[t as usize];
+                let to = p.position - tri.p[0];
+                assert!(tri.face_normal().dot(to) > 0.0, "{} {t}", g.name);
+            }
+            assert_eq!(assign(&probes, &groups, k), Some(k));
+        }
+        // A side's probe serves that side alone, even where it reaches the others.
+        probes[1].radius = 10.0;
+        probes[1].position = groups[0].bounds.center();
+        assert_eq!(assign(&probes, &groups, 0), Some(0));
+        assert_eq!(assign(&probes, &groups, 2), Some(2));
+        // Ends a tenth as deep hold too little of the cabinet's area: they keep its probe.
+        let thin: Vec<Triangle> = tris
+            .iter()
+            .map(|t| Triangle {
+                p: t.p.map(|p| Vec3::new(p.x, p.y, p.z * 0.1)),
+                ..*t
+            })
+            .collect();
+        let groups = glossy_groups(&thin, &[true], &[false; 8], &NAMES, &room);
+        assert_eq!(groups.len(), 1);
     }
 
     #[test]
@@ -411,7 +657,7 @@ mod tests {
                 })
             })
             .collect();
-        let groups = glossy_groups(&tris, &[true], &[false; 4]);
+        let groups = groups_of(&tris, &[true], &[false; 4]);
         let n = groups[0].mean_normal;
         assert!(n.y > 0.2 && n.z > 0.2 && n.x.abs() < 1e-6, "{n}");
         let room = Aabb::from_points([Vec3::new(-2.0, 0.0, 0.0), Vec3::splat(3.0)].iter());
@@ -428,7 +674,7 @@ mod tests {
     fn scene_json_moves_and_adds_probes() {
         let mut tris: Vec<Triangle> = quad(0, 0.0, 0.0, true).into();
         tris.extend(quad(1, 0.0, 3.0, true));
-        let groups = glossy_groups(&tris, &[true, true], &[false; 4]);
+        let groups = groups_of(&tris, &[true, true], &[false; 4]);
         let b = Aabb::from_points(tris.iter().flat_map(|t| t.p.iter()));
         let given = [
             ProbeDesc {
@@ -442,20 +688,20 @@ mod tests {
                 radius: Some(0.5),
             },
         ];
-        let probes = place(&groups, &["a", "b"], &given, &b, &open);
+        let probes = place(&groups, &given, &b, &open);
         assert_eq!(probes.len(), 3);
         assert_eq!(probes[0].position, Vec3::new(0.5, 2.0, 0.5));
         assert_eq!(probes[0].radius, 3.0);
         assert_eq!(probes[2].name, "extra");
         // The added probe is nearer to b's surfaces than b's own and reaches them.
-        assert_eq!(assign(&probes, &groups[1]), Some(2));
-        assert_eq!(assign(&probes, &groups[0]), Some(0));
+        assert_eq!(assign(&probes, &groups, 1), Some(2));
+        assert_eq!(assign(&probes, &groups, 0), Some(0));
     }
 
     #[test]
     fn a_probe_rises_clear_of_what_stands_on_its_surfaces() {
         let tris: Vec<Triangle> = quad(0, 0.0, 0.0, true).into();
-        let groups = glossy_groups(&tris, &[true], &[false; 2]);
+        let groups = groups_of(&tris, &[true], &[false; 2]);
         let room = Aabb::from_points([Vec3::new(-3.0, 0.0, -3.0), Vec3::splat(3.0)].iter());
         // A box 0.5 m tall over the quad's middle: clear only above y = 0.5 + a lift.
         let lift = 0.1 * groups[0].bounds.diagonal();

@@ -97,8 +97,9 @@ impl ProbeReflections {
             cubes.push((env, dist));
         }
         let mut lit = Vec::new();
-        for g in scene_groups(scene) {
-            let Some(p) = assign(&probes, &g) else {
+        let groups = scene_groups(scene);
+        for (k, g) in groups.iter().enumerate() {
+            let Some(p) = assign(&probes, &groups, k) else {
                 continue;
             };
             let material = &scene.materials[g.material as usize];
@@ -116,7 +117,7 @@ impl ProbeReflections {
             let alpha = (lobe.mx * lobe.my).sqrt();
             let lod = lobe_lod(alpha, read[p].0.base_size() as u32)
                 .min((read[p].0.levels.len() - 1) as f32);
-            lit.push((g, p, modulation, lod, [alpha, lobe.r0]));
+            lit.push((g.clone(), p, modulation, lod, [alpha, lobe.r0]));
         }
         let shader_text = shader_source();
         let built = error_scoped(device, "creating the probe pass", || {
