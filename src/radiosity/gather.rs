@@ -13,7 +13,7 @@ use super::emitters::{Emitters, luminance, power, var_of_mean};
 use super::many_lights::{Choice, LIGHTS_SAMPLED_EACH, ManyLights};
 use super::mirror_lights::MirrorLights;
 use super::next_event::{Arrival, At, NextEvent, Receiver, Source};
-use super::ray_cache::KeptBatch;
+use super::ray_cache::{KeptBatch, LightPart, RayRecord};
 use super::through_glass::{GatherCx, RayMis, RayOut, gather_ray};
 use super::transmission::{Glass, drawn_visible};
 use super::transport::{Glossy, Term};
@@ -140,41 +140,6 @@ pub(super) fn ray_rng(seed: u64, element: u32, ray: u32) -> Rng {
         seed ^ RAY_SEED_MIX,
         (u64::from(element) << 32) | u64::from(ray),
     )
-}
-
-/// What one gathering ray brings back to its element, before the element sums its rays
-/// ([`assemble`]): a full gathering and one that keeps most rays from an earlier bake
-/// ([`super::ray_cache`]) sum the same records in the same order.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub(super) struct RayRecord {
-    /// The atlas texel hit (u32::MAX: miss or back face).
-    pub hit: u32,
-    /// Emission reached, MIS-weighted against the element's emitter samples (not yet over the
-    /// element's ray count).
-    pub emission: Vec3,
-    /// Radiance brought back through glossy reflection besides its terms.
-    pub glossy: Vec3,
-    /// Rays cast (this one, its glossy paths' and through glass).
-    pub rays: u32,
-    /// How many of the element's terms are this ray's (they follow the earlier rays' terms).
-    pub terms: u32,
-    /// The materials whose lobes its path evaluated, as bits `material % 64`.
-    pub lobes_read: u64,
-    /// Whether `emission` carries MIS weights, which depend on the batch's ray and
-    /// emitter-sample counts.
-    pub weighted: bool,
-}
-
-/// What an element's emitter samples (and the emitters' images in mirrors) found: drawn from
-/// the element's own stream of the round, after its rays.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub(super) struct LightPart {
-    /// Irradiance/π.
-    pub direct: Vec3,
-    /// Its variance (luminance, of the mean).
-    pub var: f64,
-    /// Shadow rays cast.
-    pub rays: u64,
 }
 
 /// The per-element setup every gathering ray of one element shares.

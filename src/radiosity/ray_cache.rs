@@ -28,14 +28,8 @@
 
 use glam::Vec3;
 
-use super::atlas::TexelSample;
-use super::batch::samples_hash;
-use super::gather::{LightPart, RayRecord};
-use super::mirror_lights::is_mirror;
-use super::solve::SolveSettings;
-use super::transport::{Term, is_glossy};
+use super::transport::Term;
 use super::varint;
-use crate::scene::Scene;
 
 /// Bytes of packed batches a bake keeps at most. A bake through the cache holds the prior
 /// bake's and its own in memory, so this bounds what the cache adds to a bake's memory (twice
@@ -47,40 +41,39 @@ pub const MAGIC: &[u8; 8] = b"GLNTRAYS";
 /// Format version written.
 pub const VERSION: u32 = 1;
 
-/// The key of a ray cache for a solve of `scene` on the atlas of `samples` with `set`:
-/// everything a gathering ray's result depends on besides the materials' lobes (module
-/// comment), and per material the BLAKE3 of its lobes.
-pub(super) fn cache_key(
-    scene: &Scene,
-    samples: &[TexelSample],
-    set: &SolveSettings,
-) -> ([u8; 32], Vec<[u8; 32]>) {
-    let mut h = blake3::Hasher::new();
-    h.update(MAGIC);
-    h.update(&VERSION.to_le_bytes());
-    h.update(crate::bundle::manifest::generator().as_bytes());
-    h.update(scene.geometry_hash.as_bytes());
-    h.update(&samples_hash(samples));
-    // Debug prints every float so that it reads back exactly.
-    h.update(format!("{set:?}").as_bytes());
-    h.update(format!("{:?}", scene.lights).as_bytes());
-    h.update(format!("{:?}", scene.reflectors).as_bytes());
-    let mut lobes = Vec::with_capacity(scene.materials.len());
-    for m in &scene.materials {
-        let mut rest = m.clone();
-        rest.lobes.clear();
-        h.update(format!("{rest:?}").as_bytes());
-        let own = *blake3::hash(format!("{:?}", m.lobes).as_bytes()).as_bytes();
-        // Every ray reads which materials reflect glossily, and mirror lights read the
-        // mirrors' lobes.
-        let mirror = is_mirror(m);
-        h.update(&[u8::from(is_glossy(m)), u8::from(mirror)]);
-        if mirror {
-            h.update(&own);
-        }
-        lobes.push(own);
-    }
-    (*h.finalize().as_bytes(), lobes)
+/// What one gathering ray brings back to its element, before the element sums its rays
+/// ([`super::gather::assemble`]): a full gathering and one that keeps most rays from an earlier bake
+/// ([`super::ray_cache`]) sum the same records in the same order.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct RayRecord {
+    /// The atlas texel hit (u32::MAX: miss or back face).
+    pub hit: u32,
+    /// Emission reached, MIS-weighted against the element's emitter samples (not yet over the
+    /// element's ray count).
+    pub emission: Vec3,
+    /// Radiance brought back through glossy reflection besides its terms.
+    pub glossy: Vec3,
+    /// Rays cast (this one, its glossy paths' and through glass).
+    pub rays: u32,
+    /// How many of the element's terms are this ray's (they follow the earlier rays' terms).
+    pub terms: u32,
+    /// The materials whose lobes its path evaluated, as bits `material % 64`.
+    pub lobes_read: u64,
+    /// Whether `emission` carries MIS weights, which depend on the batch's ray and
+    /// emitter-sample counts.
+    pub weighted: bool,
+}
+
+/// What an element's emitter samples (and the emitters' images in mirrors) found: drawn from
+/// the element's own stream of the round, after its rays.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct LightPart {
+    /// Irradiance/π.
+    pub direct: Vec3,
+    /// Its variance (luminance, of the mean).
+    pub var: f64,
+    /// Shadow rays cast.
+    pub rays: u64,
 }
 
 /// One batch of one element's gathering, as kept.

@@ -26,15 +26,16 @@ use rayon::prelude::*;
 
 use super::atlas::{Atlas, TexelSample};
 pub use super::batch::GatherBatch;
+use super::batch::samples_hash;
 use super::emitters::{Emitters, luminance};
 use super::gather::{Context, GatherOut, Gathered, Prior, RaySequence, gather};
 use super::many_lights::{LIGHTS_SAMPLED_EACH, ManyLights};
-use super::mirror_lights::MirrorLights;
+use super::mirror_lights::{MirrorLights, is_mirror};
 pub use super::ray_cache::RAY_CACHE_BUDGET;
-use super::ray_cache::{KeptBatch, RayCache, cache_key};
+use super::ray_cache::{self, KeptBatch, RayCache};
 use super::terms::PackedTerms;
 use super::transmission::Glass;
-use super::transport::{Glossy, Term};
+use super::transport::{Glossy, Term, is_glossy};
 use super::varint;
 use crate::geometry::Bvh;
 use crate::progress::{Cancelled, Progress};
@@ -343,6 +344,42 @@ pub fn solve(
     let cx = lights.context(scene, bvh, atlas, &offsets, set);
     let all = gather_first(&cx, samples, set, 0..samples.len() as u32, None, progress)?;
     solve_gathered(&cx, samples, set, vec![all], None, progress)
+}
+
+/// The key of a ray cache for a solve of `scene` on the atlas of `samples` with `set`:
+/// everything a gathering ray's result depends on besides the materials' lobes (module
+/// comment), and per material the BLAKE3 of its lobes.
+pub(super) fn cache_key(
+    scene: &Scene,
+    samples: &[TexelSample],
+    set: &SolveSettings,
+) -> ([u8; 32], Vec<[u8; 32]>) {
+    let mut h = blake3::Hasher::new();
+    h.update(ray_cache::MAGIC);
+    h.update(&ray_cache::VERSION.to_le_bytes());
+    h.update(crate::bundle::manifest::generator().as_bytes());
+    h.update(scene.geometry_hash.as_bytes());
+    h.update(&samples_hash(samples));
+    // Debug prints every float so that it reads back exactly.
+    h.update(format!("{set:?}").as_bytes());
+    h.update(format!("{:?}", scene.lights).as_bytes());
+    h.update(format!("{:?}", scene.reflectors).as_bytes());
+    let mut lobes = Vec::with_capacity(scene.materials.len());
+    for m in &scene.materials {
+        let mut rest = m.clone();
+        rest.lobes.clear();
+        h.update(format!("{rest:?}").as_bytes());
+        let own = *blake3::hash(format!("{:?}", m.lobes).as_bytes()).as_bytes();
+        // Every ray reads which materials reflect glossily, and mirror lights read the
+        // mirrors' lobes.
+        let mirror = is_mirror(m);
+        h.update(&[u8::from(is_glossy(m)), u8::from(mirror)]);
+        if mirror {
+            h.update(&own);
+        }
+        lobes.push(own);
+    }
+    (*h.finalize().as_bytes(), lobes)
 }
 
 /// How much of a prior ray cache a solve used.
