@@ -390,17 +390,20 @@ fn the_ray_cache_keeps_the_rays_a_roughness_edit_leaves_alone() {
     scene.materials[floor].lobes[0].my = 0.2;
     let fresh = solve(&scene, &bvh, &atlas, &samples, &set, &Silent).unwrap();
     assert!(fresh.stats.rounds > 0, "refinement is exercised");
-    let (cached, cache, used) = solve_cached(
-        &scene,
-        &bvh,
-        &atlas,
-        &samples,
-        &set,
-        Some(cache),
-        budget,
-        &Silent,
-    )
-    .unwrap();
+    let through = |scene: &glint::scene::Scene, cache| {
+        solve_cached(
+            scene,
+            &bvh,
+            &atlas,
+            &samples,
+            &set,
+            Some(cache),
+            budget,
+            &Silent,
+        )
+        .unwrap()
+    };
+    let (cached, cache, used) = through(&scene, cache);
     let cache = cache.expect("the cache fits its budget");
     assert!(bits(&fresh.radiance) == bits(&cached.radiance), "D differs");
     assert_eq!(fresh.stats, cached.stats);
@@ -411,16 +414,6 @@ fn the_ray_cache_keeps_the_rays_a_roughness_edit_leaves_alone() {
 
     // Another albedo is in the cache's key: every ray is followed again.
     scene.materials[floor].albedo *= 0.5;
-    let (_, _, used) = solve_cached(
-        &scene,
-        &bvh,
-        &atlas,
-        &samples,
-        &set,
-        Some(cache),
-        budget,
-        &Silent,
-    )
-    .unwrap();
+    let (_, _, used) = through(&scene, cache);
     assert_eq!(used.kept, 0);
 }

@@ -439,6 +439,23 @@ mod tests {
 
     use super::*;
 
+    /// Two triangles of material 0 per quad (corners in order), flat-shaded.
+    fn quad_triangles(quads: &[[Vec3; 4]]) -> Vec<Triangle> {
+        quads
+            .iter()
+            .flat_map(|q| {
+                [[0, 1, 2], [0, 2, 3]].map(|[a, b, c]| Triangle {
+                    p: [q[a], q[b], q[c]],
+                    n: [Vec3::ZERO; 3],
+                    uv: [Vec2::ZERO; 3],
+                    uv1: None,
+                    material: 0,
+                    object: 0,
+                })
+            })
+            .collect()
+    }
+
     /// Nothing around: every point is clear.
     fn open(_: Vec3) -> f32 {
         f32::INFINITY
@@ -570,20 +587,7 @@ mod tests {
                 [0.0, y1, 0.0],
             ],
         ];
-        let tris: Vec<Triangle> = quads
-            .iter()
-            .flat_map(|q| {
-                let q = q.map(Vec3::from_array);
-                [[0, 1, 2], [0, 2, 3]].map(|[a, b, c]| Triangle {
-                    p: [q[a], q[b], q[c]],
-                    n: [Vec3::ZERO; 3],
-                    uv: [Vec2::ZERO; 3],
-                    uv1: None,
-                    material: 0,
-                    object: 0,
-                })
-            })
-            .collect();
+        let tris = quad_triangles(&quads.map(|q| q.map(Vec3::from_array)));
         assert!(tris[4].face_normal().x > 0.99 && tris[6].face_normal().x < -0.99);
         let room = Aabb::from_points([Vec3::new(-2.0, 0.0, 0.0), Vec3::splat(3.0)].iter());
         let groups = glossy_groups(&tris, &[true], &[false; 8], &NAMES, &room);
@@ -644,19 +648,7 @@ mod tests {
             Vec3::new(x1, y1, z1),
             Vec3::new(x0, y1, z1),
         ];
-        let tris: Vec<Triangle> = [top, front]
-            .iter()
-            .flat_map(|q| {
-                [[0, 1, 2], [0, 2, 3]].map(|[a, b, c]| Triangle {
-                    p: [q[a], q[b], q[c]],
-                    n: [Vec3::ZERO; 3],
-                    uv: [Vec2::ZERO; 3],
-                    uv1: None,
-                    material: 0,
-                    object: 0,
-                })
-            })
-            .collect();
+        let tris = quad_triangles(&[top, front]);
         let groups = groups_of(&tris, &[true], &[false; 4]);
         let n = groups[0].mean_normal;
         assert!(n.y > 0.2 && n.z > 0.2 && n.x.abs() < 1e-6, "{n}");
