@@ -528,8 +528,11 @@ pub fn bake_from(
         ("elements_inside_geometry".into(), st.excluded.into()),
         ("texels_filled".into(), st.filled.into()),
         ("rays_cast".into(), st.rays_cast.into()),
-        ("ray_cache_bytes".into(), st.cache_bytes.into()),
-        ("ray_cache_terms_bytes".into(), st.cache_terms_bytes.into()),
+        ("gather_cache_bytes".into(), st.cache_bytes.into()),
+        (
+            "gather_cache_terms_bytes".into(),
+            st.cache_terms_bytes.into(),
+        ),
         ("gather_frozen_rays".into(), st.frozen_rays.into()),
         ("bounces".into(), st.bounces.into()),
         ("last_change".into(), st.last_change.into()),
