@@ -12,12 +12,8 @@ mod common;
 
 use common::*;
 use glam::Vec3;
-use glint::bake::materials::{self, MaterialsSettings};
-use glint::bake::{radiosity_stage, scene_stage};
 use glint::camera::Camera;
-use glint::progress::Silent;
 use glint::scene::Scene;
-use glint::scene::desc::Quality;
 use glint::view::curved::CurvedMode;
 use glint::view::headless::Offscreen;
 use glint::view::load::{ViewData, load};
@@ -91,17 +87,7 @@ fn bundle(dir: &std::path::Path) -> (ViewData, std::path::PathBuf) {
     );
     let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
     let bundle = dir.join("room.glint");
-    scene_stage::bake(&scene, &bundle, false).unwrap_or_else(|e| panic!("{e}"));
-    radiosity_stage::bake(&scene, &bundle, &quick_radiosity(3), false, &Silent)
-        .unwrap_or_else(|e| panic!("{e}"));
-    materials::bake(
-        &scene,
-        &bundle,
-        &MaterialsSettings::preset(Quality::Draft),
-        false,
-        &Silent,
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    bake_with_materials(&scene, &bundle, &quick_radiosity(3));
     (load(&bundle).unwrap_or_else(|e| panic!("{e}")), scene_json)
 }
 

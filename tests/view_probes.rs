@@ -10,13 +10,10 @@ mod common;
 
 use common::*;
 use glam::Vec3;
-use glint::bake::materials::{self, MaterialsSettings};
-use glint::bake::{radiosity_stage, scene_stage};
 use glint::camera::Camera;
 use glint::materials::probes::scene_groups;
-use glint::progress::Silent;
 use glint::scene::Scene;
-use glint::scene::desc::{Quality, RadiositySettings};
+use glint::scene::desc::RadiositySettings;
 use glint::view::headless::Offscreen;
 use glint::view::load::load;
 use glint::view::options::ViewOptions;
@@ -55,16 +52,7 @@ fn the_glossy_table_reflects_its_probe_towards_the_path_tracer() {
     std::fs::write(&scene_json, v.to_string()).unwrap();
     let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
     let bundle = dir.path().join("glossy-room.glint");
-    scene_stage::bake(&scene, &bundle, false).unwrap();
-    radiosity_stage::bake(&scene, &bundle, &radiosity_settings(), false, &Silent).unwrap();
-    materials::bake(
-        &scene,
-        &bundle,
-        &MaterialsSettings::preset(Quality::Draft),
-        false,
-        &Silent,
-    )
-    .unwrap();
+    bake_with_materials(&scene, &bundle, &radiosity_settings());
     let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
     let groups = scene_groups(&data.scene);
     assert_eq!(groups.len(), 1, "the undeclared table top alone");

@@ -453,11 +453,7 @@ fn assemble(
     // Files are written a batch at a time, flushed together ([`StageWriter::write_many`]).
     let mut batch: Vec<(String, String, Vec<u8>)> = Vec::new();
     let flush = |w: &mut StageWriter, batch: &mut Vec<(String, String, Vec<u8>)>| {
-        let files: Vec<(&str, &str, &[u8])> = batch
-            .iter()
-            .map(|(rel, kind, bytes)| (rel.as_str(), kind.as_str(), bytes.as_slice()))
-            .collect();
-        let written = w.write_many(&files).map_err(|e| err(&e));
+        let written = w.write_many(batch).map_err(|e| err(&e));
         batch.clear();
         written
     };

@@ -364,11 +364,7 @@ pub fn bake_part(
                     progress.advance(1);
                 }
                 // An element's maps are written at once: their flushes overlap.
-                let batch: Vec<(&str, &str, &[u8])> = files
-                    .iter()
-                    .map(|(p, k, b)| (p.as_str(), *k, b.as_slice()))
-                    .collect();
-                w.write_many(&batch)?;
+                w.write_many(&files)?;
                 files.clear();
             }
         }

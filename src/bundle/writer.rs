@@ -250,9 +250,15 @@ impl StageWriter {
     /// [`StageWriter::write`] of several files (relative path, kind, bytes), recorded in the
     /// order given. Up to [`FLUSHERS`] threads write and flush them at once: each flush waits
     /// on the disk, and flushes under way together share the file system's journal commits.
-    pub fn write_many(&mut self, files: &[(&str, &str, &[u8])]) -> Result<(), BundleError> {
+    pub fn write_many<R, K, B>(&mut self, files: &[(R, K, B)]) -> Result<(), BundleError>
+    where
+        R: AsRef<str> + Sync,
+        K: AsRef<str> + Sync,
+        B: AsRef<[u8]> + Sync,
+    {
         let mut paths = Vec::with_capacity(files.len());
         for (rel, _, _) in files {
+            let rel = rel.as_ref();
             check_relative(rel)?;
             let path = format!("{}/{rel}", self.stage);
             if self.assets.iter().any(|a| a.path == path) || paths.contains(&path) {
@@ -278,10 +284,10 @@ impl StageWriter {
         let work = || {
             loop {
                 let k = next.fetch_add(1, Ordering::Relaxed);
-                let Some(&(rel, _, bytes)) = files.get(k) else {
+                let Some((rel, _, bytes)) = files.get(k) else {
                     break;
                 };
-                let file = tmp.join(rel);
+                let (file, bytes) = (tmp.join(rel.as_ref()), bytes.as_ref());
                 let written = (|| {
                     let mut f = File::create(&file)?;
                     f.write_all(bytes)?;
@@ -303,8 +309,8 @@ impl StageWriter {
             let blake3 = hash.into_inner().expect("every file is written")?;
             self.assets.push(AssetRecord {
                 path,
-                kind: (*kind).into(),
-                bytes: bytes.len() as u64,
+                kind: kind.as_ref().into(),
+                bytes: bytes.as_ref().len() as u64,
                 blake3,
             });
         }

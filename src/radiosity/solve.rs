@@ -193,9 +193,8 @@ fn gather_all(
     mut cache: Option<&mut CacheRun>,
     progress: &dyn Progress,
 ) -> Option<Vec<Gathered>> {
-    let keep = cache.is_some();
-    let prior = cache.as_ref().and_then(|c| c.prior.as_ref());
     let run = cache.as_deref();
+    let prior = run.and_then(|c| c.prior.as_ref());
     let chunks: Vec<Option<Vec<GatherOut>>> = which
         .par_chunks(CHUNK)
         .map(|chunk| {
@@ -215,7 +214,7 @@ fn gather_all(
                         changed: *changed,
                     });
                     // Past the budget nothing more is packed: the whole cache is dropped.
-                    let keep = keep && run.is_some_and(|r| !r.over_budget());
+                    let keep = run.is_some_and(|r| !r.over_budget());
                     let out = gather(
                         cx,
                         &samples[i as usize],
@@ -339,11 +338,25 @@ pub fn solve(
     set: &SolveSettings,
     progress: &dyn Progress,
 ) -> Result<Solution, Cancelled> {
+    solve_keeping(scene, bvh, atlas, samples, set, None, progress)
+}
+
+/// [`solve`], keeping its gathering in `cache` when given.
+fn solve_keeping(
+    scene: &Scene,
+    bvh: &Bvh,
+    atlas: &Atlas,
+    samples: &[TexelSample],
+    set: &SolveSettings,
+    mut cache: Option<&mut CacheRun>,
+    progress: &dyn Progress,
+) -> Result<Solution, Cancelled> {
     let offsets = atlas.page_offsets();
     let lights = Lights::new(scene, set);
     let cx = lights.context(scene, bvh, atlas, &offsets, set);
-    let all = gather_first(&cx, samples, set, 0..samples.len() as u32, None, progress)?;
-    solve_gathered(&cx, samples, set, vec![all], None, progress)
+    let range = 0..samples.len() as u32;
+    let all = gather_first(&cx, samples, set, range, cache.as_deref_mut(), progress)?;
+    solve_gathered(&cx, samples, set, vec![all], cache, progress)
 }
 
 /// The key of a ray cache for a solve of `scene` on the atlas of `samples` with `set`:
@@ -392,9 +405,9 @@ pub struct CacheUse {
 }
 
 /// [`solve`], keeping every gathering ray in a ray cache ([`super::ray_cache`]) that it
-/// returns (`None` when it would be larger than `budget` bytes, e.g. [`RAY_CACHE_BUDGET`]), and reusing the rays of
-/// `prior` (an earlier bake's) that the scene's changes since do not touch; the same bytes as
-/// [`solve`].
+/// returns (`None` when it would be larger than `budget` bytes, e.g. [`RAY_CACHE_BUDGET`]),
+/// and reusing the rays of `prior` (an earlier bake's) that the scene's changes since do not
+/// touch; the same bytes as [`solve`].
 #[allow(clippy::too_many_arguments)]
 pub fn solve_cached(
     scene: &Scene,
@@ -422,18 +435,7 @@ pub fn solve_cached(
         reused: 0,
         gathered: 0,
     };
-    let offsets = atlas.page_offsets();
-    let lights = Lights::new(scene, set);
-    let cx = lights.context(scene, bvh, atlas, &offsets, set);
-    let all = gather_first(
-        &cx,
-        samples,
-        set,
-        0..samples.len() as u32,
-        Some(&mut run),
-        progress,
-    )?;
-    let solution = solve_gathered(&cx, samples, set, vec![all], Some(&mut run), progress)?;
+    let solution = solve_keeping(scene, bvh, atlas, samples, set, Some(&mut run), progress)?;
     if run.prior.is_some() {
         log::info!(
             "ray cache: {} of {} gathering rays kept, the rest followed again",

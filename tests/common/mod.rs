@@ -188,6 +188,24 @@ pub fn bake_with_radiance(
     .unwrap_or_else(|e| panic!("{e}"));
 }
 
+/// Bakes `scene` into `bundle`: the scene stage, radiosity with `settings` and the materials
+/// stage (kernels, environment maps, probes) at draft quality. Panics with the error.
+#[cfg(feature = "view")]
+pub fn bake_with_materials(
+    scene: &glint::scene::Scene,
+    bundle: &Path,
+    settings: &glint::scene::desc::RadiositySettings,
+) {
+    use glint::bake::materials::{self, MaterialsSettings};
+    use glint::bake::{radiosity_stage, scene_stage};
+    use glint::progress::Silent;
+    scene_stage::bake(scene, bundle, false).unwrap_or_else(|e| panic!("{e}"));
+    radiosity_stage::bake(scene, bundle, settings, false, &Silent)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let draft = MaterialsSettings::preset(glint::scene::desc::Quality::Draft);
+    materials::bake(scene, bundle, &draft, false, &Silent).unwrap_or_else(|e| panic!("{e}"));
+}
+
 /// Writes `NAME.gltf` + `NAME.bin` into `dir` and returns the .gltf path.
 pub fn write_gltf(
     dir: &Path,
