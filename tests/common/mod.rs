@@ -165,6 +165,20 @@ pub fn quick_radiosity(bounces: u32) -> glint::scene::desc::RadiositySettings {
     }
 }
 
+/// Bakes `scene` into `bundle`: the scene stage and radiosity with `settings`. Panics with
+/// the error.
+#[cfg(feature = "view")]
+fn bake_d(
+    scene: &glint::scene::Scene,
+    bundle: &Path,
+    settings: &glint::scene::desc::RadiositySettings,
+) {
+    use glint::bake::{radiosity_stage, scene_stage};
+    scene_stage::bake(scene, bundle, false).unwrap_or_else(|e| panic!("{e}"));
+    radiosity_stage::bake(scene, bundle, settings, false, &glint::progress::Silent)
+        .unwrap_or_else(|e| panic!("{e}"));
+}
+
 /// Bakes `scene` into `bundle`: the scene stage, radiosity with `settings` and the radiance
 /// maps at draft quality. Panics with the error.
 #[cfg(feature = "view")]
@@ -173,11 +187,9 @@ pub fn bake_with_radiance(
     bundle: &Path,
     settings: &glint::scene::desc::RadiositySettings,
 ) {
-    use glint::bake::{radiance_stage, radiosity_stage, scene_stage};
+    use glint::bake::radiance_stage;
     use glint::progress::Silent;
-    scene_stage::bake(scene, bundle, false).unwrap_or_else(|e| panic!("{e}"));
-    radiosity_stage::bake(scene, bundle, settings, false, &Silent)
-        .unwrap_or_else(|e| panic!("{e}"));
+    bake_d(scene, bundle, settings);
     radiance_stage::bake(
         scene,
         bundle,
@@ -197,11 +209,8 @@ pub fn bake_with_materials(
     settings: &glint::scene::desc::RadiositySettings,
 ) {
     use glint::bake::materials::{self, MaterialsSettings};
-    use glint::bake::{radiosity_stage, scene_stage};
     use glint::progress::Silent;
-    scene_stage::bake(scene, bundle, false).unwrap_or_else(|e| panic!("{e}"));
-    radiosity_stage::bake(scene, bundle, settings, false, &Silent)
-        .unwrap_or_else(|e| panic!("{e}"));
+    bake_d(scene, bundle, settings);
     let draft = MaterialsSettings::preset(glint::scene::desc::Quality::Draft);
     materials::bake(scene, bundle, &draft, false, &Silent).unwrap_or_else(|e| panic!("{e}"));
 }
