@@ -248,7 +248,7 @@ impl StageWriter {
     }
 
     /// [`StageWriter::write`] of several files (relative path, kind, bytes), recorded in the
-    /// order given. Up to [`FLUSHERS`] threads write and flush them at once: each flush waits
+    /// order given. Up to `FLUSHERS` threads write and flush them at once: each flush waits
     /// on the disk, and flushes under way together share the file system's journal commits.
     pub fn write_many<R, K, B>(&mut self, files: &[(R, K, B)]) -> Result<(), BundleError>
     where

@@ -162,9 +162,9 @@ fn side(n: Vec3) -> usize {
 }
 
 /// A material's triangles (`tris`, in scene order) as the parts its probes serve, the rest
-/// first: where the faces of one side (see [`side`]) that stand with their backs to the probe
-/// the rest would get (placed in the open) hold [`MIN_SIDE_SHARE`] of the material's area and
-/// are about flat ([`MIN_SIDE_FLATNESS`]), they become a part of their own, provided its own
+/// first: where the faces of one side (see `side`) that stand with their backs to the probe
+/// the rest would get (placed in the open) hold `MIN_SIDE_SHARE` of the material's area and
+/// are about flat (`MIN_SIDE_FLATNESS`), they become a part of their own, provided its own
 /// probe stands inside `bounds`; the rest's probe is placed again, until no side splits off
 /// (each side once).
 pub fn split_sides(triangles: &[Triangle], tris: Vec<u32>, bounds: &Aabb) -> Vec<Vec<u32>> {

@@ -2,8 +2,8 @@
 //! bake after an edit of some materials' lobes (a roughness) follows again only the rays whose
 //! glossy paths evaluated those lobes, and keeps the rest.
 //!
-//! Each ray draws from its own stream ([`super::gather::ray_rng`]) and an element's rays are
-//! summed in one place ([`super::gather::assemble`]), so a ray kept and a ray followed again
+//! Each ray draws from its own stream (`gather::ray_rng`) and an element's rays are
+//! summed in one place (`gather::assemble`), so a ray kept and a ray followed again
 //! give the bytes of a full gathering. A ray is kept when its path read no changed material's
 //! lobes and, if it reached an emitter (whose MIS weight depends on the batch's counts), its
 //! batch had the same ray and emitter-sample counts; an element's emitter samples are kept
