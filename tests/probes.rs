@@ -145,6 +145,39 @@ fn scene_json_moves_and_adds_probes() {
 }
 
 #[test]
+fn breakfast_rooms_sides_that_no_camera_sees_get_no_probe() {
+    // The undersides of the saucers and of the rough metal on the table turn their backs to
+    // their materials' probes above the table, so each is a side of its own; no camera path
+    // sees them (the table top hides them), so neither gets a probe. The skirting's side
+    // that faces the room is seen and keeps its own.
+    let scene = load(&repo("scenes/breakfast-room/scene.json"));
+    let groups = scene_groups(&scene);
+    let sides: Vec<&str> = groups
+        .iter()
+        .filter(|g| g.side)
+        .map(|g| g.name.as_str())
+        .collect();
+    for name in ["Ceramic.2", "RoughMetal.2", "SkirtWood.2"] {
+        assert!(sides.contains(&name), "{sides:?}");
+    }
+    let probes = scene_probes(&scene);
+    let names: Vec<&str> = probes.iter().map(|p| p.name.as_str()).collect();
+    assert!(names.contains(&"SkirtWood.2"), "{names:?}");
+    for name in ["Ceramic.2", "RoughMetal.2"] {
+        assert!(!names.contains(&name), "{names:?}");
+    }
+    assert_eq!(probes.len(), groups.len() - 2, "{names:?}");
+    // Each unseen side reads a probe of the rest, none of another group's side.
+    for (k, g) in groups.iter().enumerate() {
+        let p = &probes[assign(&probes, &groups, k).unwrap()];
+        let others_side = groups
+            .iter()
+            .any(|h| h.side && h.name == p.name && h.name != g.name);
+        assert!(!others_side, "{} reads {}", g.name, p.name);
+    }
+}
+
+#[test]
 fn bad_probes_are_rejected_with_file_and_field() {
     let dir = tempfile::tempdir().unwrap();
     for (i, (probes, field, says)) in [

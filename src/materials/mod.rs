@@ -15,6 +15,7 @@ pub mod kernel;
 pub mod pattern_format;
 pub mod probes;
 pub mod reflectance;
+pub mod sight;
 
 pub use crate::settings::materials::{MaterialsOverride, MaterialsSettings};
 pub use index::{MaterialsIndex, MaterialsReadError};

@@ -20,7 +20,9 @@
 //! point. Where something stands on the surfaces (a teapot on a table) it goes on up, a lift
 //! at a time, until nothing lies within a lift of it ([`placed`]). Its reach is its distance
 //! from the box's centre plus the box's half diagonal. A material's first group's probe
-//! bears the material's name, its others `NAME.2`, `NAME.3`, … ([`Group::name`]).
+//! bears the material's name, its others `NAME.2`, `NAME.3`, … ([`Group::name`]). A side
+//! that no eye ray of the scene's camera paths meets ([`super::sight`]) gets no probe: it
+//! reads the nearest of the rest, and the bake captures nothing no camera looks at.
 //! scene.json's `probes` move a placed probe (same name) or add one; a scene without such a
 //! group has no probes at all.
 
@@ -28,6 +30,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::envmap::{CubeMap, texel_direction};
+use super::sight::{Sight, eye_rays, sights};
 use crate::geometry::{Aabb, Bvh, Triangle};
 use crate::scene::Scene;
 use crate::scene::desc::ProbeDesc;
@@ -323,12 +326,15 @@ pub fn clearance(bvh: &Bvh, p: Vec3) -> f32 {
     nearest
 }
 
-/// The probes of a scene: one per group, named after it ([`Group::name`]), then scene.json's
-/// `given` probes, each moving the placed probe of its name or added after them (reach: the
-/// given radius, else the placed one's, else `bounds`' diagonal). None without groups,
-/// whatever `given` says.
+/// The probes of a scene: one per group ([`placed`]), named after it ([`Group::name`]), but
+/// none for a side ([`split_sides`]) that the camera paths do not see (`sights`, one per
+/// group; empty where the scene has no camera paths: every side keeps its probe); then
+/// scene.json's `given` probes, each moving the placed probe of its name or added after them
+/// (reach: the given radius, else the placed one's, else `bounds`' diagonal). None without
+/// groups, whatever `given` says.
 pub fn place(
     groups: &[Group],
+    sights: &[Sight],
     given: &[ProbeDesc],
     bounds: &Aabb,
     clearance: &dyn Fn(Vec3) -> f32,
@@ -338,13 +344,17 @@ pub fn place(
     }
     let mut probes: Vec<Probe> = groups
         .iter()
-        .map(|g| {
+        .enumerate()
+        .filter_map(|(k, g)| {
+            if g.side && sights.get(k).is_some_and(|s| s.rays == 0) {
+                return None;
+            }
             let (position, radius) = placed(g, bounds, clearance);
-            Probe {
+            Some(Probe {
                 name: g.name.clone(),
                 position,
                 radius,
-            }
+            })
         })
         .collect();
     for d in given {
@@ -366,20 +376,27 @@ pub fn place(
     probes
 }
 
-/// The probes of `scene` ([`place`] of [`scene_groups`]).
+/// The probes of `scene` ([`place`] of [`scene_groups`], seen from its camera paths).
 pub fn scene_probes(scene: &Scene) -> Vec<Probe> {
     let groups = scene_groups(scene);
     if groups.is_empty() {
         return Vec::new();
     }
     let bvh = scene.build_bvh();
+    let rays = eye_rays(&scene.camera_paths);
+    let seen = if rays.is_empty() {
+        Vec::new()
+    } else {
+        sights(&scene.triangles, &groups, &bvh, &rays)
+    };
     let clear = |p: Vec3| clearance(&bvh, p);
-    place(&groups, &scene.desc.probes, &scene.bounds, &clear)
+    place(&groups, &seen, &scene.desc.probes, &scene.bounds, &clear)
 }
 
 /// The probe group `k` of `groups` reads: the nearest to its box's centre whose reach holds
 /// it, else the nearest (ties: the first), of all but the probes of the other groups' sides
-/// (each serves its own side alone). `None` without probes.
+/// (each serves its own side alone; a side no camera sees has none, [`place`], and reads the
+/// nearest of the rest). `None` without probes.
 pub fn assign(probes: &[Probe], groups: &[Group], k: usize) -> Option<usize> {
     let group = &groups[k];
     let c = group.bounds.center();
@@ -506,7 +523,7 @@ mod tests {
             radius: None,
         }];
         let b = Aabb::from_points(tris.iter().flat_map(|t| t.p.iter()));
-        assert!(place(&groups, &given, &b, &open).is_empty());
+        assert!(place(&groups, &[], &given, &b, &open).is_empty());
     }
 
     #[test]
@@ -529,7 +546,7 @@ mod tests {
         assert_eq!(groups.len(), 2);
         assert_eq!(groups[0].triangles, vec![0, 1, 6, 7]);
         let b = Aabb::from_points(tris.iter().flat_map(|t| t.p.iter()));
-        let probes = place(&groups, &[], &b, &open);
+        let probes = place(&groups, &[], &[], &b, &open);
         let names: Vec<&str> = probes.iter().map(|p| p.name.as_str()).collect();
         assert_eq!(names, ["a", "b"]);
         // Above the faces they serve (normals +y), over the box's centre.
@@ -570,6 +587,35 @@ mod tests {
     }
 
     #[test]
+    fn a_side_no_camera_sees_gets_no_probe() {
+        // The closed object of `a_closed_object_gets_its_probe_above_it`: its underside is a
+        // side of its own, which eyes above never see.
+        let mut tris: Vec<Triangle> = quad(0, 0.0, 0.0, true).into();
+        tris.extend(quad(0, -0.2, 0.0, false));
+        let groups = groups_of(&tris, &[true], &[false; 4]);
+        assert_eq!(groups.len(), 2);
+        assert!(groups[1].side);
+        let bvh = Bvh::build(&tris);
+        let above: Vec<(Vec3, Vec3)> = (1..10)
+            .map(|i| (Vec3::new(i as f32 / 10.0, 2.0, 0.5), Vec3::NEG_Y))
+            .collect();
+        let seen = sights(&tris, &groups, &bvh, &above);
+        let probes = place(&groups, &seen, &[], &room(), &open);
+        let names: Vec<&str> = probes.iter().map(|p| p.name.as_str()).collect();
+        assert_eq!(names, ["a"]);
+        // The underside reads the probe above it.
+        assert_eq!(assign(&probes, &groups, 1), Some(0));
+        // Seen from below, it keeps its probe; without camera paths, every side does.
+        let below: Vec<(Vec3, Vec3)> = above
+            .iter()
+            .map(|&(o, _)| (Vec3::new(o.x, -2.0, o.z), Vec3::Y))
+            .collect();
+        let seen = sights(&tris, &groups, &bvh, &[above, below].concat());
+        assert_eq!(place(&groups, &seen, &[], &room(), &open).len(), 2);
+        assert_eq!(place(&groups, &[], &[], &room(), &open).len(), 2);
+    }
+
+    #[test]
     fn a_side_turned_away_from_its_probe_gets_a_probe_in_front_of_it() {
         // A 1.2 × 0.85 × 0.55 m cabinet against the wall z = 0, glossy on its top, its front
         // and both ends: the probe past the top and the front stands behind the ends' planes,
@@ -603,7 +649,7 @@ mod tests {
                 ("a.3", &[6, 7][..])
             ]
         );
-        let mut probes = place(&groups, &[], &room, &open);
+        let mut probes = place(&groups, &[], &[], &room, &open);
         // Every face stands in front of its own probe, which each group reads.
         for (k, (g, p)) in groups.iter().zip(&probes).enumerate() {
             for &t in &g.triangles {
@@ -680,7 +726,7 @@ mod tests {
                 radius: Some(0.5),
             },
         ];
-        let probes = place(&groups, &given, &b, &open);
+        let probes = place(&groups, &[], &given, &b, &open);
         assert_eq!(probes.len(), 3);
         assert_eq!(probes[0].position, Vec3::new(0.5, 2.0, 0.5));
         assert_eq!(probes[0].radius, 3.0);
