@@ -387,7 +387,8 @@ pub fn scene_probes(scene: &Scene) -> Vec<Probe> {
     let seen = if rays.is_empty() {
         Vec::new()
     } else {
-        sights(&scene.triangles, &groups, &bvh, &rays)
+        let sets: Vec<&[u32]> = groups.iter().map(|g| g.triangles.as_slice()).collect();
+        sights(&scene.triangles, &sets, &bvh, &rays)
     };
     let clear = |p: Vec3| clearance(&bvh, p);
     place(&groups, &seen, &scene.desc.probes, &scene.bounds, &clear)
@@ -599,7 +600,8 @@ mod tests {
         let above: Vec<(Vec3, Vec3)> = (1..10)
             .map(|i| (Vec3::new(i as f32 / 10.0, 2.0, 0.5), Vec3::NEG_Y))
             .collect();
-        let seen = sights(&tris, &groups, &bvh, &above);
+        let sets: Vec<&[u32]> = groups.iter().map(|g| g.triangles.as_slice()).collect();
+        let seen = sights(&tris, &sets, &bvh, &above);
         let probes = place(&groups, &seen, &[], &room(), &open);
         let names: Vec<&str> = probes.iter().map(|p| p.name.as_str()).collect();
         assert_eq!(names, ["a"]);
@@ -610,7 +612,7 @@ mod tests {
             .iter()
             .map(|&(o, _)| (Vec3::new(o.x, -2.0, o.z), Vec3::Y))
             .collect();
-        let seen = sights(&tris, &groups, &bvh, &[above, below].concat());
+        let seen = sights(&tris, &sets, &bvh, &[above, below].concat());
         assert_eq!(place(&groups, &seen, &[], &room(), &open).len(), 2);
         assert_eq!(place(&groups, &[], &[], &room(), &open).len(), 2);
     }

@@ -1,11 +1,10 @@
-//! What the scene's camera paths see of the probe groups ([`super::probes::Group`]): the
-//! bake places a group's probe where its seen surfaces are seen from, and gives a side of a
-//! material a probe of its own only where a camera sees it (docs/tuning.md#probe-sides).
+//! What the scene's camera paths see of sets of triangles (the probe groups,
+//! `super::probes::Group`): the bake gives a side of a material a probe of its own only where
+//! a camera sees it (docs/tuning.md#probe-sides).
 
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::probes::Group;
 use crate::camera::{Camera, CameraPath, degenerate_pose, pose_at};
 use crate::geometry::{Bvh, Triangle};
 
@@ -43,10 +42,10 @@ pub fn eye_rays(paths: &[CameraPath]) -> Vec<(Vec3, Vec3)> {
     rays
 }
 
-/// What the eye rays see of one group.
+/// What the eye rays see of one set of triangles.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Sight {
-    /// The eye rays whose first hit lies on the group.
+    /// The eye rays whose first hit lies on one of its triangles.
     pub rays: u32,
     /// The mean of the face normals they meet, each turned toward its eye (length ≤ 1).
     pub normal: Vec3,
@@ -54,17 +53,18 @@ pub struct Sight {
     pub centre: Vec3,
 }
 
-/// Per group of `groups` (over `triangles`, which `bvh` holds in the same order), what the
-/// eye `rays` see of it; sums in ray order, so the same on any thread count.
+/// Per set of `sets` (indices into `triangles`, which `bvh` holds in the same order; no
+/// triangle in two sets), what the eye `rays` see of it; sums in ray order, so the same on
+/// any thread count.
 pub fn sights(
     triangles: &[Triangle],
-    groups: &[Group],
+    sets: &[&[u32]],
     bvh: &Bvh,
     rays: &[(Vec3, Vec3)],
 ) -> Vec<Sight> {
     let mut owner = vec![u32::MAX; triangles.len()];
-    for (k, g) in groups.iter().enumerate() {
-        for &t in &g.triangles {
+    for (k, set) in sets.iter().enumerate() {
+        for &t in *set {
             owner[t as usize] = k as u32;
         }
     }
@@ -81,7 +81,7 @@ pub fn sights(
             Some((k as usize, o + d * h.t, n))
         })
         .collect();
-    let mut sums = vec![(0u32, Vec3::ZERO, Vec3::ZERO); groups.len()];
+    let mut sums = vec![(0u32, Vec3::ZERO, Vec3::ZERO); sets.len()];
     for (k, p, n) in hits.into_iter().flatten() {
         let s = &mut sums[k];
         *s = (s.0 + 1, s.1 + n, s.2 + p);
@@ -104,7 +104,6 @@ mod tests {
 
     use super::*;
     use crate::camera::Keyframe;
-    use crate::geometry::Aabb;
 
     /// A unit square at height `y` over x, z in [0, 1], its normal up or down.
     fn square(y: f32, up: bool) -> [Triangle; 2] {
@@ -126,18 +125,6 @@ mod tests {
             }
         };
         [tri(0, 1, 2), tri(0, 2, 3)]
-    }
-
-    /// A group of `triangles` named `name`.
-    fn group(name: &str, triangles: Vec<u32>) -> Group {
-        Group {
-            material: 0,
-            name: name.into(),
-            side: false,
-            triangles,
-            bounds: Aabb::EMPTY,
-            mean_normal: Vec3::ZERO,
-        }
     }
 
     #[test]
@@ -172,12 +159,12 @@ mod tests {
         let mut tris: Vec<Triangle> = square(0.2, true).into();
         tris.extend(square(0.0, false));
         let bvh = Bvh::build(&tris);
-        let groups = [group("top", vec![0, 1]), group("bottom", vec![2, 3])];
+        let sets: [&[u32]; 2] = [&[0, 1], &[2, 3]];
         let rays: Vec<(Vec3, Vec3)> = (1..10)
             .flat_map(|i| (1..10).map(move |j| (i as f32 / 10.0, j as f32 / 10.0)))
             .map(|(x, z)| (Vec3::new(x, 2.0, z), Vec3::NEG_Y))
             .collect();
-        let seen = sights(&tris, &groups, &bvh, &rays);
+        let seen = sights(&tris, &sets, &bvh, &rays);
         assert_eq!(seen[0].rays, 81);
         assert!((seen[0].normal - Vec3::Y).length() < 1e-5, "{:?}", seen[0]);
         assert!((seen[0].centre - Vec3::new(0.5, 0.2, 0.5)).length() < 1e-5);
@@ -187,7 +174,7 @@ mod tests {
             .iter()
             .map(|&(o, _)| (Vec3::new(o.x, -1.0, o.z), Vec3::Y))
             .collect();
-        let seen = sights(&tris, &groups, &bvh, &below);
+        let seen = sights(&tris, &sets, &bvh, &below);
         assert_eq!((seen[0].rays, seen[1].rays), (0, 81));
         assert!((seen[1].normal - Vec3::NEG_Y).length() < 1e-5);
     }
