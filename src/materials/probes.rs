@@ -30,7 +30,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::envmap::{CubeMap, texel_direction};
-use super::sight::{Sight, eye_rays, sights};
+use super::sight::{eye_rays, sights};
 use crate::geometry::{Aabb, Bvh, Triangle};
 use crate::scene::Scene;
 use crate::scene::desc::ProbeDesc;
@@ -327,14 +327,15 @@ pub fn clearance(bvh: &Bvh, p: Vec3) -> f32 {
 }
 
 /// The probes of a scene: one per group ([`placed`]), named after it ([`Group::name`]), but
-/// none for a side ([`split_sides`]) that the camera paths do not see (`sights`, one per
-/// group; empty where the scene has no camera paths: every side keeps its probe); then
+/// none for a side ([`split_sides`]) that the camera paths do not see (`sights`: per group,
+/// the eye rays that meet it first, [`sights`]; empty where the scene has no camera paths:
+/// every side keeps its probe); then
 /// scene.json's `given` probes, each moving the placed probe of its name or added after them
 /// (reach: the given radius, else the placed one's, else `bounds`' diagonal). None without
 /// groups, whatever `given` says.
 pub fn place(
     groups: &[Group],
-    sights: &[Sight],
+    sights: &[u32],
     given: &[ProbeDesc],
     bounds: &Aabb,
     clearance: &dyn Fn(Vec3) -> f32,
@@ -346,7 +347,7 @@ pub fn place(
         .iter()
         .enumerate()
         .filter_map(|(k, g)| {
-            if g.side && sights.get(k).is_some_and(|s| s.rays == 0) {
+            if g.side && sights.get(k) == Some(&0) {
                 return None;
             }
             let (position, radius) = placed(g, bounds, clearance);
