@@ -28,17 +28,19 @@ use crate::radiance::footprint::PixelRays;
 use crate::radiance::index::{CamerasFile, MapEntry, cameras_path, reflector_folder};
 use crate::radiance::magnify::{self, Look};
 use crate::radiance::quadtree::{self, QuadtreeLimits};
+use crate::radiance::reads::PixelWriter;
 use crate::radiance::sampling::{MapCamera, ReflectorFrame, hemisphere_cameras};
-use crate::radiance::shading::{d_seen, exitant};
-use crate::radiance::{MIRROR_ROUGHNESS, MapPlan, RadianceMap, render};
+use crate::radiance::shading::{d_point, d_seen, exitant};
+use crate::radiance::{MIRROR_ROUGHNESS, MapPlan, RadianceMap, Replay, render};
 use crate::radiosity::RadiosityMap;
 use crate::radiosity::map::MapError;
 use crate::scene::texturing::texture_levels;
 use crate::scene::{Quality, ReflectorKind, Scene};
 use crate::settings::radiance::MAX_RADIANCE_RESOLUTION;
 
-use super::Stage;
 use super::part::{Item, Part};
+use super::read_cache::{self, MaterialPrints, READS_BUDGET};
+use super::{Stage, read_cache::map_key};
 
 /// Why the radiance stage failed.
 #[derive(Debug, thiserror::Error)]
@@ -286,15 +288,17 @@ pub fn bake_part(
     }
     let built = std::sync::OnceLock::from(scene.build_bvh());
     let bvh = built.get().expect("built above");
-    let d_at =
-        |h: &crate::geometry::Hit| scene.d_at(h.triangle, h.bary, d.radiance(h.triangle, h.bary));
+    let d_at = |h: &crate::geometry::Hit| d_point(scene, h);
     let levels = texture_levels(&scene.textures);
-    let shade = |h: &crate::geometry::Hit, dir: Vec3, rays: &PixelRays| {
-        let seen = |h: &crate::geometry::Hit| {
-            d_seen(scene, &levels, h, rays, d.radiance(h.triangle, h.bary))
-        };
-        exitant(scene, bvh, &d_at, &seen, h, dir)
+    let shade = |h: &crate::geometry::Hit, dir: Vec3, rays: &PixelRays, out: &mut PixelWriter| {
+        let seen = |h: &crate::geometry::Hit| d_seen(scene, &levels, h, rays);
+        exitant(scene, bvh, &d_at, &seen, h, dir, out)
     };
+    let stored = |t: u32, b: glam::Vec2| d.radiance(t, b);
+    let normal_offset = 4.0 * bvh.epsilon();
+    let scene_key = read_cache::scene_key(scene, normal_offset);
+    let prints = MaterialPrints::of(&scene.materials);
+    let (mut shaded, mut kept_bytes) = (0u64, 0u64);
     let limits = quadtree_limits(scene);
     let plans: Vec<_> = plans_with(scene, quality, &built)
         .into_iter()
@@ -313,6 +317,8 @@ pub fn bake_part(
     for (ri, frame, plan) in &plans {
         let reflector = &scene.reflectors[*ri];
         let folder = reflector_folder(&reflector.name);
+        // The unit's records, while within their budget.
+        let mut reads_dir = part.reads;
         let mut cameras = Vec::new();
         let mut bytes = 0u64;
         let mut files: Vec<(String, &str, Vec<u8>)> = Vec::new();
@@ -334,9 +340,44 @@ pub fn bake_part(
                         normal: frame.normal,
                         resolution: plan.resolution,
                     };
-                    let map = render(&cam, bvh, &scene.triangles, 4.0 * bvh.epsilon(), &shade);
-                    rays += (plan.resolution * plan.resolution) as u64;
                     let stem = format!("e{i}_{j}_c{k}");
+                    let record = format!("{folder}.{stem}.reads");
+                    let key = map_key(&scene_key, &cam);
+                    let old = reads_dir.and_then(|dir| read_cache::read(dir, &record, &key));
+                    let changed = old.as_ref().map(|(p, _)| prints.changed_since(p));
+                    let replay = old
+                        .as_ref()
+                        .zip(changed.as_deref())
+                        .map(|((_, reads), changed)| Replay { reads, changed });
+                    let rendered = render(
+                        &cam,
+                        bvh,
+                        &scene.triangles,
+                        normal_offset,
+                        &shade,
+                        &stored,
+                        replay,
+                    );
+                    shaded += rendered.shaded;
+                    if let Some(dir) = reads_dir
+                        && (rendered.shaded > 0 || old.as_ref().is_some_and(|(p, _)| *p != prints))
+                    {
+                        let bytes = read_cache::encode(&key, &prints, &rendered.reads);
+                        kept_bytes += bytes.len() as u64;
+                        if kept_bytes > READS_BUDGET {
+                            log::info!(
+                                "{}: the records of {}'s maps pass {READS_BUDGET} bytes: none kept",
+                                dir.display(),
+                                reflector.name
+                            );
+                            read_cache::remove(dir)?;
+                            reads_dir = None;
+                        } else {
+                            read_cache::write(dir, &record, &bytes)?;
+                        }
+                    }
+                    let map = rendered.map;
+                    rays += (plan.resolution * plan.resolution) as u64;
                     let exr = encode_map(
                         plan.resolution,
                         &map,
@@ -383,6 +424,11 @@ pub fn bake_part(
             "resolution": format!("{0}x{0}", plan.resolution),
             "bytes": bytes,
         }));
+    }
+    if part.reads.is_some() {
+        log::info!(
+            "radiance maps: {shaded} of {rays} pixels traced and shaded, the rest evaluated from their records"
+        );
     }
     let stats = BTreeMap::from([
         ("reflectors".to_string(), serde_json::Value::Array(table)),
