@@ -392,10 +392,11 @@ fn a_map_evaluated_from_its_records_is_the_map_traced() {
     let render_with = |scene: &Scene, d: &(dyn Fn(u32, Vec2) -> Vec3 + Sync), replay| {
         let levels = glint::scene::texturing::texture_levels(&scene.textures);
         let d_at = |h: &glint::geometry::Hit| d_point(scene, h);
-        let shade = |h: &glint::geometry::Hit, dir: Vec3, rays: &PixelRays, out: &mut PixelWriter| {
-            let seen = |h: &glint::geometry::Hit| d_seen(scene, &levels, h, rays);
-            exitant(scene, &bvh, &d_at, &seen, h, dir, out)
-        };
+        let shade =
+            |h: &glint::geometry::Hit, dir: Vec3, rays: &PixelRays, out: &mut PixelWriter| {
+                let seen = |h: &glint::geometry::Hit| d_seen(scene, &levels, h, rays);
+                exitant(scene, &bvh, &d_at, &seen, h, dir, out)
+            };
         let offset = 4.0 * bvh.epsilon();
         render(&cam, &bvh, &scene.triangles, offset, &shade, d, replay)
     };
@@ -405,10 +406,12 @@ fn a_map_evaluated_from_its_records_is_the_map_traced() {
     assert_eq!(first.shaded, 32 * 32);
     let traced = render_with(&before, &d2, None);
     let none = vec![false; before.materials.len()];
-    let kept = |changed| Some(Replay {
-        reads: &first.reads,
-        changed,
-    });
+    let kept = |changed| {
+        Some(Replay {
+            reads: first.reads.clone(),
+            changed,
+        })
+    };
     let evaluated = render_with(&before, &d2, kept(&none));
     assert_eq!(evaluated.shaded, 0);
     assert_ne!(map_bits(&evaluated.map), map_bits(&first.map), "D changed");
@@ -416,8 +419,8 @@ fn a_map_evaluated_from_its_records_is_the_map_traced() {
     assert_eq!(evaluated.map, traced.map);
     assert_eq!(evaluated.reads, traced.reads);
 
-    let changed = MaterialPrints::of(&after.materials)
-        .changed_since(&MaterialPrints::of(&before.materials));
+    let changed =
+        MaterialPrints::of(&after.materials).changed_since(&MaterialPrints::of(&before.materials));
     assert_eq!(changed.iter().filter(|&&c| c).count(), 1);
     let traced = render_with(&after, &d2, None);
     let again = render_with(&after, &d2, kept(&changed));

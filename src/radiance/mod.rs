@@ -45,10 +45,10 @@ const PACKETS_FROM: u32 = 64;
 /// A map's kept records ([`reads`]) to evaluate with this bake's D instead of shading, and
 /// per material whether the lobes or transmission that shaped them changed since: a pixel
 /// whose layers meet such a material is traced and shaded again.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Replay<'a> {
     /// The records.
-    pub reads: &'a MapReads,
+    pub reads: MapReads,
     /// Per material index, whether it changed.
     pub changed: &'a [bool],
 }
@@ -82,15 +82,22 @@ pub fn render(
 ) -> Rendered {
     let res = cam.resolution;
     // Records of another resolution are not this map's.
-    let replay = replay.filter(|r| r.reads.rows.len() == res as usize);
+    let (old_rows, changed): (Vec<Option<Vec<u8>>>, &[bool]) = match replay {
+        Some(r) if r.reads.rows.len() == res as usize => {
+            (r.reads.rows.into_iter().map(Some).collect(), r.changed)
+        }
+        _ => (vec![None; res as usize], &[]),
+    };
     let changed = |t: u32| {
         let m = triangles[t as usize].material as usize;
-        replay.is_none_or(|r| r.changed.get(m).copied().unwrap_or(true))
+        changed.get(m).copied().unwrap_or(true)
     };
     type Pixel = (Vec3, f32, Vec3, Vec3, bool);
-    let rows: Vec<(Vec<Pixel>, Vec<u8>, u64)> = (0..res)
+    let rows: Vec<(Vec<Pixel>, Vec<u8>, u64)> = old_rows
         .into_par_iter()
-        .map(|y| {
+        .enumerate()
+        .map(|(y, old)| {
+            let y = y as u32;
             let mut origins = Vec::with_capacity(res as usize);
             let mut dirs = Vec::with_capacity(res as usize);
             for x in 0..res {
@@ -128,10 +135,13 @@ pub fn render(
                     .expect("a record just written is whole");
                 finish(i, e)
             };
-            if let Some(r) = replay {
-                let old = &r.reads.rows[y as usize];
+            if let Some(old) = old {
+                // The row's records are rebuilt from its first pixel traced again; until then,
+                // and if none is, they are the old ones.
+                let mut fresh: Option<Vec<u8>> = None;
                 let mut at = Some(0usize);
                 for i in 0..res as usize {
+                    let start = at;
                     let kept = at.and_then(|a| {
                         let e = reads::eval_pixel(&old[a..], triangles.len(), &changed, d);
                         at = e.map(|e| a + e.len);
@@ -139,16 +149,20 @@ pub fn render(
                     });
                     match kept {
                         Some((a, e)) => {
-                            bytes.extend_from_slice(&old[a..a + e.len]);
+                            if let Some(f) = &mut fresh {
+                                f.extend_from_slice(&old[a..a + e.len]);
+                            }
                             row.push(finish(i, e));
                         }
                         None => {
+                            let f = fresh.get_or_insert_with(|| old[..start.unwrap_or(0)].to_vec());
                             let hit = bvh.closest_hit(origins[i], dirs[i], f32::INFINITY);
-                            row.push(traced(i, hit, &mut bytes));
+                            row.push(traced(i, hit, f));
                             shaded += 1;
                         }
                     }
                 }
+                bytes = fresh.unwrap_or(old);
             } else if res < PACKETS_FROM {
                 for i in 0..res as usize {
                     let hit = bvh.closest_hit(origins[i], dirs[i], f32::INFINITY);
