@@ -342,10 +342,13 @@ fn main() {
         .filter(|e| only.as_ref().is_none_or(|o| o.iter().any(|n| n == e.name)))
         .collect();
     let work = tempfile::tempdir().unwrap();
-    let main = baseline(&scene_dir, work.path(), "main", runs, quality, phases);
+    // The main scene is baked only for an edit of its own or the stage-by-stage row: the
+    // `roughness` row alone needs the second scene.
+    let main = (!no_per_stage || chosen.iter().any(|e| !e.second_scene))
+        .then(|| baseline(&scene_dir, work.path(), "main", runs, quality, phases));
     // The same scene baked stage by stage (`bake_all`, no unit cache), once: what the units'
     // route costs a bake from scratch.
-    let per_stage = (!no_per_stage).then(|| {
+    let per_stage = main.as_ref().filter(|_| !no_per_stage).map(|main| {
         let bundle = work.path().join("per-stage.glint");
         let (start, cpu) = (Instant::now(), cpu_time::cpu_seconds());
         let scene = Scene::load(&main.json).unwrap_or_else(|e| panic!("{e}"));
@@ -377,17 +380,19 @@ fn main() {
         "CPU s".into(),
         "CPU vs full".into(),
     ]];
-    let [w, wp, c, cp] = of_full(main.full, main.full);
-    rows.push([
-        "full".into(),
-        "bake from scratch".into(),
-        "all".into(),
-        w,
-        wp,
-        c,
-        cp,
-    ]);
-    if let Some(t) = per_stage {
+    if let Some(main) = &main {
+        let [w, wp, c, cp] = of_full(main.full, main.full);
+        rows.push([
+            "full".into(),
+            "bake from scratch".into(),
+            "all".into(),
+            w,
+            wp,
+            c,
+            cp,
+        ]);
+    }
+    if let (Some(t), Some(main)) = (per_stage, &main) {
         let [w, wp, c, cp] = of_full(t, main.full);
         rows.push([
             "full/stages".into(),
@@ -416,7 +421,7 @@ fn main() {
         let at = if e.second_scene {
             second.as_ref().expect("the second scene is baked")
         } else {
-            &main
+            main.as_ref().expect("the main scene is baked")
         };
         let start_from = match e.base {
             None => at.base.clone(),

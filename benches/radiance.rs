@@ -14,6 +14,7 @@ use glint::image_io::{ExrCompression, Precision};
 use glint::progress::Silent;
 use glint::radiance::footprint::PixelRays;
 use glint::radiance::quadtree;
+use glint::radiance::reads::PixelWriter;
 use glint::radiance::render;
 use glint::radiance::sampling::{MapCamera, hemisphere_cameras};
 use glint::radiosity::RadiosityMap;
@@ -72,10 +73,12 @@ fn main() {
         let bundle = Bundle::open(&out).unwrap();
         let d = RadiosityMap::load(&bundle).unwrap().unwrap();
         let bvh = scene.build_bvh();
-        let d_at = |h: &glint::geometry::Hit| d.radiance(h.triangle, h.bary);
-        let shade = |h: &glint::geometry::Hit, dir: glam::Vec3, _: &PixelRays| {
-            glint::radiance::shading::exitant(&scene, &bvh, &d_at, &d_at, h, dir)
-        };
+        let d_at = |h: &glint::geometry::Hit| glint::radiance::shading::d_point(&scene, h);
+        let stored = |t: u32, b: glam::Vec2| d.radiance(t, b);
+        let shade =
+            |h: &glint::geometry::Hit, dir: glam::Vec3, _: &PixelRays, out: &mut PixelWriter| {
+                glint::radiance::shading::exitant(&scene, &bvh, &d_at, &d_at, h, dir, out)
+            };
         let limits = radiance_stage::quadtree_limits(&scene);
         for (ri, frame, plan) in radiance_stage::plans(&scene, Quality::Default) {
             let t = Instant::now();
@@ -92,7 +95,16 @@ fn main() {
                             normal: frame.normal,
                             resolution: plan.resolution,
                         };
-                        let map = render(&cam, &bvh, &scene.triangles, 4.0 * bvh.epsilon(), &shade);
+                        let map = render(
+                            &cam,
+                            &bvh,
+                            &scene.triangles,
+                            4.0 * bvh.epsilon(),
+                            &shade,
+                            &stored,
+                            None,
+                        )
+                        .map;
                         let exr = encode_map(
                             plan.resolution,
                             &map,

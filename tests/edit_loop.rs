@@ -109,6 +109,24 @@ fn bake_units_logged(scene: &Path, bundle: &Path) -> (Vec<String>, String) {
     (units, err)
 }
 
+/// From a bake's log, the radiance maps' pixels it traced and shaded, and all their pixels
+/// (the rest were evaluated from their records: `glint::bake::read_cache`).
+fn pixels_traced(log: &str) -> (u64, u64) {
+    let mut sum = (0, 0);
+    for line in log.lines() {
+        let Some((_, rest)) = line.split_once("radiance maps: ") else {
+            continue;
+        };
+        let words: Vec<&str> = rest.split_whitespace().collect();
+        if words.get(3) != Some(&"pixels") {
+            continue;
+        }
+        sum.0 += words[0].parse::<u64>().unwrap();
+        sum.1 += words[2].parse::<u64>().unwrap();
+    }
+    sum
+}
+
 /// The bundle at `bundle` holds what a bake from scratch of `scene` gives, byte for byte.
 fn assert_same_as_fresh(scene: &Path, bundle: &Path, fresh: &Path, what: &str) {
     bake_units(scene, fresh);
@@ -134,6 +152,9 @@ fn each_edit_rebakes_only_what_it_touches_and_gives_the_bytes_of_a_fresh_bake() 
     let args = [s(&scene), "--quality", "draft", "--bundle", s(&bundle)];
     let (code, _, err) = bake(&args);
     assert_eq!(code, 0, "{err}");
+    // The first bake traces every map pixel.
+    let (traced, pixels) = pixels_traced(&err);
+    assert!(traced == pixels && pixels > 0, "{err}");
 
     // Nothing changed: nothing baked, nothing written.
     let manifest = std::fs::read(bundle.join("manifest.json")).unwrap();
@@ -168,8 +189,10 @@ fn each_edit_rebakes_only_what_it_touches_and_gives_the_bytes_of_a_fresh_bake() 
         has(&baked, "radiosity") && has(&baked, "radiance.Panel"),
         "{baked:?}"
     );
-    // An albedo is in the ray cache's key: no ray is kept.
+    // An albedo is in the ray cache's key: no ray is kept. It only changes D for the radiance
+    // maps: every pixel is evaluated from its record.
     assert!(!log.contains("gathering rays kept"), "{log}");
+    assert_eq!(pixels_traced(&log), (0, pixels), "{log}");
     assert!(!has(&baked, "material.PanelMat"), "{baked:?}");
     assert_same_as_fresh(&scene, &bundle, &fresh("albedo"), "albedo");
 
@@ -181,16 +204,30 @@ fn each_edit_rebakes_only_what_it_touches_and_gives_the_bytes_of_a_fresh_bake() 
     });
     let (baked, log) = bake_units_logged(&scene, &bundle);
     assert!(has(&baked, "material.FloorMat"), "{baked:?}");
-    // The rays whose paths did not read FloorMat's lobes are kept from the ray cache.
+    // The rays whose paths did not read FloorMat's lobes are kept from the ray cache; the
+    // map pixels that see the floor are shaded again, the rest evaluated from their records.
     assert!(log.contains("gathering rays kept"), "{log}");
+    let (traced, all) = pixels_traced(&log);
+    assert!(traced > 0 && traced < all && all == pixels, "{log}");
     assert!(!has(&baked, "material.PanelMat"), "{baked:?}");
     assert_same_as_fresh(&scene, &bundle, &fresh("roughness"), "roughness");
 
-    // One light's power: D and what reads it, no material kernel.
+    // One light's power: D and what reads it, no material kernel. A map's record under another
+    // key (its first bytes past the format's name damaged) is not used: that map alone is traced.
+    let reads = tmp.path().join("out/room.glint.units/radiance.Panel.reads");
+    let mut records: Vec<_> = std::fs::read_dir(&reads)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    records.sort();
+    let mut damaged = std::fs::read(&records[0]).unwrap();
+    damaged[b"glint-reads-1".len()] ^= 1;
+    std::fs::write(&records[0], damaged).unwrap();
     edit(&scene, |v| {
         v["lights"][0]["radiance"] = serde_json::json!([8.0, 8.0, 8.0])
     });
-    let baked = bake_units(&scene, &bundle);
+    let (baked, log) = bake_units_logged(&scene, &bundle);
+    assert_eq!(pixels_traced(&log), (16 * 16, pixels), "{log}");
     assert!(has(&baked, "radiosity"), "{baked:?}");
     assert!(
         !baked.iter().any(|u| u.starts_with("material.")),

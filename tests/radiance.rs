@@ -11,6 +11,7 @@ use glint::bake::{radiance_stage, radiosity_stage};
 use glint::bundle::Bundle;
 use glint::progress::Silent;
 use glint::radiance::footprint::PixelRays;
+use glint::radiance::reads::{PixelWriter, Read};
 use glint::radiance::sampling::{MapCamera, ReflectorFrame, hemisphere_cameras};
 use glint::radiance::{RadianceMap, render};
 use glint::scene::desc::RadiositySettings;
@@ -61,10 +62,27 @@ fn cameras(scene: &Scene, count: u32, res: u32) -> Vec<MapCamera> {
 /// Radiance of the hit triangle's emission: exact D for a black emitter.
 fn render_with_emission(scene: &Scene, cam: &MapCamera) -> RadianceMap {
     let bvh = scene.build_bvh();
-    let shade = |h: &glint::geometry::Hit, _: Vec3, _: &PixelRays| {
-        scene.materials[scene.triangles[h.triangle as usize].material as usize].emission
+    let shade = |h: &glint::geometry::Hit, _: Vec3, _: &PixelRays, out: &mut PixelWriter| {
+        let read = Read {
+            triangle: h.triangle,
+            bary: h.bary,
+            factors: None,
+        };
+        out.layer(Vec3::ONE, &read);
+        out.d_alone();
     };
-    render(cam, &bvh, &scene.triangles, 4.0 * bvh.epsilon(), &shade)
+    let emission =
+        |t: u32, _| scene.materials[scene.triangles[t as usize].material as usize].emission;
+    render(
+        cam,
+        &bvh,
+        &scene.triangles,
+        4.0 * bvh.epsilon(),
+        &shade,
+        &emission,
+        None,
+    )
+    .map
 }
 
 #[test]
@@ -299,13 +317,7 @@ fn a_glossy_surface_in_a_map_shows_what_it_reflects() {
             .find(|o| o.is_named("Ceiling"))
             .unwrap();
         let ceiling = ceiling.triangles.clone();
-        move |h: &glint::geometry::Hit| {
-            Vec3::splat(if ceiling.contains(&h.triangle) {
-                1.0
-            } else {
-                0.0
-            })
-        }
+        move |t: u32, _: glam::Vec2| Vec3::splat(if ceiling.contains(&t) { 1.0 } else { 0.0 })
     };
     let down = Vec3::new(0.6, -0.8, 0.0);
     let floor_hit = |scene: &Scene, bvh: &glint::geometry::Bvh, dir: Vec3| {
@@ -319,7 +331,7 @@ fn a_glossy_surface_in_a_map_shows_what_it_reflects() {
     let bvh = metal.build_bvh();
     let h = floor_hit(&metal, &bvh, down);
     let d_metal = d(&metal);
-    let l = glint::radiance::shading::exitant(&metal, &bvh, &d_metal, &d_metal, &h, down);
+    let l = glint::radiance::shading::exitant_with(&metal, &bvh, &d_metal, &h, down);
     assert!(
         (l.x - 0.8).abs() < 0.01,
         "the mirror shows the ceiling: {l}"
@@ -329,7 +341,7 @@ fn a_glossy_surface_in_a_map_shows_what_it_reflects() {
     let glossy = load(
         r#"{ "model": "kurt", "ks": [0.5, 0.5, 0.5], "r0": 1.0, "mx": 0.2, "my": 0.2, "alpha": 0.0 }"#,
     );
-    let l = glint::radiance::shading::exitant(&glossy, &bvh, &d(&glossy), &d(&glossy), &h, down);
+    let l = glint::radiance::shading::exitant_with(&glossy, &bvh, &d(&glossy), &h, down);
     assert!(
         l.x > 0.3 && l.x < 0.41,
         "about half as much, from a lobe of k_s 0.5: {l}"
@@ -338,7 +350,7 @@ fn a_glossy_surface_in_a_map_shows_what_it_reflects() {
     let up_hit = bvh
         .closest_hit(Vec3::new(0.0, -0.5, 0.0), Vec3::Y, f32::INFINITY)
         .unwrap();
-    let l = glint::radiance::shading::exitant(&metal, &bvh, &d_metal, &d_metal, &up_hit, Vec3::Y);
+    let l = glint::radiance::shading::exitant_with(&metal, &bvh, &d_metal, &up_hit, Vec3::Y);
     assert_eq!(l, Vec3::ZERO, "a back face is D alone");
     // A floor without lobes: D alone.
     let matte = Scene::load(write_scene(
@@ -346,6 +358,79 @@ fn a_glossy_surface_in_a_map_shows_what_it_reflects() {
         r#"{ "version": 1, "geometry": "s.gltf" }"#,
     ))
     .unwrap();
-    let l = glint::radiance::shading::exitant(&matte, &bvh, &d(&matte), &d(&matte), &h, down);
+    let l = glint::radiance::shading::exitant_with(&matte, &bvh, &d(&matte), &h, down);
     assert_eq!(l, Vec3::ZERO, "a matte floor is D alone");
+}
+
+/// The bits of a map's radiance and depth.
+fn map_bits(m: &RadianceMap) -> Vec<u32> {
+    let rgb = m.rgb.iter().flat_map(|c| c.to_array()).map(f32::to_bits);
+    rgb.chain(m.depth.iter().map(|z| z.to_bits())).collect()
+}
+
+/// A map evaluated from the records of an earlier render ([`glint::radiance::reads`]) with
+/// another D has the bits of the map traced with that D; after a lobe change, the pixels that
+/// met the changed material are traced again and the map is still the traced one, which
+/// records evaluated as if nothing changed are not.
+#[test]
+fn a_map_evaluated_from_its_records_is_the_map_traced() {
+    use glint::bake::read_cache::MaterialPrints;
+    use glint::radiance::Replay;
+    use glint::radiance::shading::{d_point, d_seen, exitant};
+
+    let dir = tempfile::tempdir().unwrap();
+    write_room(dir.path());
+    let load = |alpha: f32| {
+        let json = format!(
+            r#"{{ "version": 1, "geometry": "room.gltf", "materials": {{ "FloorMat": {{ "lobes": [{{ "ks": [0.5, 0.5, 0.5], "r0": 0.04, "mx": {alpha}, "my": {alpha} }}] }} }}, "reflectors": [{{ "mesh": "Panel", "kind": "planar" }}] }}"#
+        );
+        Scene::load(write_scene(dir.path(), &json)).unwrap()
+    };
+    let (before, after) = (load(0.3), load(0.1));
+    let cam = cameras(&before, 5, 32)[2];
+    let bvh = before.build_bvh();
+    let render_with = |scene: &Scene, d: &(dyn Fn(u32, Vec2) -> Vec3 + Sync), replay| {
+        let levels = glint::scene::texturing::texture_levels(&scene.textures);
+        let d_at = |h: &glint::geometry::Hit| d_point(scene, h);
+        let shade =
+            |h: &glint::geometry::Hit, dir: Vec3, rays: &PixelRays, out: &mut PixelWriter| {
+                let seen = |h: &glint::geometry::Hit| d_seen(scene, &levels, h, rays);
+                exitant(scene, &bvh, &d_at, &seen, h, dir, out)
+            };
+        let offset = 4.0 * bvh.epsilon();
+        render(&cam, &bvh, &scene.triangles, offset, &shade, d, replay)
+    };
+    let d1 = |t: u32, b: Vec2| Vec3::new(1.0 + b.x, 2.0 * b.y, 0.1 * t as f32);
+    let d2 = |t: u32, b: Vec2| Vec3::new(0.5 + b.y * b.y, 1.0 + b.x, 0.3 * t as f32 + b.x);
+    let first = render_with(&before, &d1, None);
+    assert_eq!(first.shaded, 32 * 32);
+    let traced = render_with(&before, &d2, None);
+    let none = vec![false; before.materials.len()];
+    let kept = |changed| {
+        Some(Replay {
+            reads: first.reads.clone(),
+            changed,
+        })
+    };
+    let evaluated = render_with(&before, &d2, kept(&none));
+    assert_eq!(evaluated.shaded, 0);
+    assert_ne!(map_bits(&evaluated.map), map_bits(&first.map), "D changed");
+    assert_eq!(map_bits(&evaluated.map), map_bits(&traced.map));
+    assert_eq!(evaluated.map, traced.map);
+    assert_eq!(evaluated.reads, traced.reads);
+
+    let changed =
+        MaterialPrints::of(&after.materials).changed_since(&MaterialPrints::of(&before.materials));
+    assert_eq!(changed.iter().filter(|&&c| c).count(), 1);
+    let traced = render_with(&after, &d2, None);
+    let again = render_with(&after, &d2, kept(&changed));
+    assert!(
+        again.shaded > 0 && again.shaded < 32 * 32,
+        "{} pixels traced again",
+        again.shaded
+    );
+    assert_eq!(map_bits(&again.map), map_bits(&traced.map));
+    assert_eq!(again.reads, traced.reads);
+    let stale = render_with(&after, &d2, kept(&none));
+    assert_ne!(map_bits(&stale.map), map_bits(&traced.map));
 }

@@ -10,6 +10,7 @@ pub mod part;
 pub mod plan;
 pub mod radiance_stage;
 pub mod radiosity_stage;
+pub mod read_cache;
 pub mod report;
 pub mod run;
 pub mod scene_stage;

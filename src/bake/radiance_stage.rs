@@ -19,6 +19,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use crate::bundle::{Bundle, BundleError, StageInfo, StageRecord, StageWriter};
 use crate::camera::Camera;
@@ -28,17 +29,19 @@ use crate::radiance::footprint::PixelRays;
 use crate::radiance::index::{CamerasFile, MapEntry, cameras_path, reflector_folder};
 use crate::radiance::magnify::{self, Look};
 use crate::radiance::quadtree::{self, QuadtreeLimits};
+use crate::radiance::reads::PixelWriter;
 use crate::radiance::sampling::{MapCamera, ReflectorFrame, hemisphere_cameras};
-use crate::radiance::shading::{d_seen, exitant};
-use crate::radiance::{MIRROR_ROUGHNESS, MapPlan, RadianceMap, render};
+use crate::radiance::shading::{d_point, d_seen, exitant};
+use crate::radiance::{MIRROR_ROUGHNESS, MapPlan, RadianceMap, Replay, render};
 use crate::radiosity::RadiosityMap;
 use crate::radiosity::map::MapError;
 use crate::scene::texturing::texture_levels;
 use crate::scene::{Quality, ReflectorKind, Scene};
 use crate::settings::radiance::MAX_RADIANCE_RESOLUTION;
 
-use super::Stage;
 use super::part::{Item, Part};
+use super::read_cache::{self, MaterialPrints, READS_BUDGET};
+use super::{Stage, read_cache::map_key};
 
 /// Why the radiance stage failed.
 #[derive(Debug, thiserror::Error)]
@@ -286,15 +289,19 @@ pub fn bake_part(
     }
     let built = std::sync::OnceLock::from(scene.build_bvh());
     let bvh = built.get().expect("built above");
-    let d_at =
-        |h: &crate::geometry::Hit| scene.d_at(h.triangle, h.bary, d.radiance(h.triangle, h.bary));
+    let d_at = |h: &crate::geometry::Hit| d_point(scene, h);
     let levels = texture_levels(&scene.textures);
-    let shade = |h: &crate::geometry::Hit, dir: Vec3, rays: &PixelRays| {
-        let seen = |h: &crate::geometry::Hit| {
-            d_seen(scene, &levels, h, rays, d.radiance(h.triangle, h.bary))
-        };
-        exitant(scene, bvh, &d_at, &seen, h, dir)
+    let shade = |h: &crate::geometry::Hit, dir: Vec3, rays: &PixelRays, out: &mut PixelWriter| {
+        let seen = |h: &crate::geometry::Hit| d_seen(scene, &levels, h, rays);
+        exitant(scene, bvh, &d_at, &seen, h, dir, out)
     };
+    let stored = |t: u32, b: glam::Vec2| d.radiance(t, b);
+    let normal_offset = 4.0 * bvh.epsilon();
+    let scene_key = read_cache::scene_key(scene, normal_offset);
+    let prints = MaterialPrints::of(&scene.materials);
+    let (mut shaded, mut kept_bytes) = (0u64, 0u64);
+    // Wall seconds of reading records, rendering, writing records and encoding, summed.
+    let mut steps = [0f64; 4];
     let limits = quadtree_limits(scene);
     let plans: Vec<_> = plans_with(scene, quality, &built)
         .into_iter()
@@ -313,9 +320,13 @@ pub fn bake_part(
     for (ri, frame, plan) in &plans {
         let reflector = &scene.reflectors[*ri];
         let folder = reflector_folder(&reflector.name);
+        // The unit's records, while within their budget.
+        let mut reads_dir = part.reads;
         let mut cameras = Vec::new();
         let mut bytes = 0u64;
         let mut files: Vec<(String, &str, Vec<u8>)> = Vec::new();
+        // An element's maps, rendered: (camera, file stem, camera, map).
+        let mut maps: Vec<(usize, String, MapCamera, RadianceMap)> = Vec::new();
         for j in 0..plan.elements[1] {
             for i in 0..plan.elements[0] {
                 let (corner, eu, ev) = frame.element(i, j, plan.elements[0], plan.elements[1]);
@@ -334,23 +345,83 @@ pub fn bake_part(
                         normal: frame.normal,
                         resolution: plan.resolution,
                     };
-                    let map = render(&cam, bvh, &scene.triangles, 4.0 * bvh.epsilon(), &shade);
-                    rays += (plan.resolution * plan.resolution) as u64;
                     let stem = format!("e{i}_{j}_c{k}");
-                    let exr = encode_map(
-                        plan.resolution,
-                        &map,
-                        ExrCompression::Zip16,
-                        Precision::Float,
-                    )?;
-                    let tree = quadtree::build(
-                        plan.resolution,
-                        &map.points,
-                        &map.depth,
-                        &map.hit,
-                        &limits,
+                    let record = format!("{folder}.{stem}.reads");
+                    let key = map_key(&scene_key, &cam);
+                    let mut lap = Instant::now();
+                    let mut clock = |step: usize| {
+                        steps[step] += lap.elapsed().as_secs_f64();
+                        lap = Instant::now();
+                    };
+                    let old = reads_dir.and_then(|dir| read_cache::read(dir, &record, &key));
+                    let (reads, changed) = match old {
+                        Some((p, reads)) => (Some(reads), prints.changed_since(&p)),
+                        None => (None, Vec::new()),
+                    };
+                    let replay = reads.map(|reads| Replay {
+                        reads,
+                        changed: &changed,
+                    });
+                    clock(0);
+                    let rendered = render(
+                        &cam,
+                        bvh,
+                        &scene.triangles,
+                        normal_offset,
+                        &shade,
+                        &stored,
+                        replay,
                     );
-                    let qt = quadtree::encode(plan.resolution, &tree);
+                    clock(1);
+                    shaded += rendered.shaded;
+                    // Records of which no pixel was traced again are still right: kept as they are
+                    // (prints older than the materials only trace more next time).
+                    if let Some(dir) = reads_dir
+                        && rendered.shaded > 0
+                    {
+                        let bytes = read_cache::encode(&key, &prints, &rendered.reads);
+                        kept_bytes += bytes.len() as u64;
+                        if kept_bytes > READS_BUDGET {
+                            log::info!(
+                                "{}: the records of {}'s maps pass {READS_BUDGET} bytes: none kept",
+                                dir.display(),
+                                reflector.name
+                            );
+                            read_cache::remove(dir)?;
+                            reads_dir = None;
+                        } else {
+                            read_cache::write(dir, &record, &bytes)?;
+                        }
+                    }
+                    clock(2);
+                    rays += (plan.resolution * plan.resolution) as u64;
+                    maps.push((k, stem, cam, rendered.map));
+                    progress.advance(1);
+                }
+                // An element's maps are encoded on every thread, and written at once: their
+                // flushes overlap.
+                let lap = Instant::now();
+                let encoded: Vec<_> = maps
+                    .par_iter()
+                    .map(|(_, _, _, map)| {
+                        let exr = encode_map(
+                            plan.resolution,
+                            map,
+                            ExrCompression::Zip16,
+                            Precision::Float,
+                        );
+                        let tree = quadtree::build(
+                            plan.resolution,
+                            &map.points,
+                            &map.depth,
+                            &map.hit,
+                            &limits,
+                        );
+                        (exr, tree)
+                    })
+                    .collect();
+                for ((k, stem, cam, _), (exr, tree)) in maps.drain(..).zip(encoded) {
+                    let (exr, qt) = (exr?, quadtree::encode(plan.resolution, &tree));
                     bytes += (exr.len() + qt.len()) as u64;
                     files.push((format!("{folder}/{stem}.exr"), "radiance-exr", exr));
                     files.push((format!("{folder}/{stem}.qtree"), "quadtree", qt));
@@ -361,9 +432,8 @@ pub fn bake_part(
                         nodes: tree.len(),
                         view: cam,
                     });
-                    progress.advance(1);
                 }
-                // An element's maps are written at once: their flushes overlap.
+                steps[3] += lap.elapsed().as_secs_f64();
                 w.write_many(&files)?;
                 files.clear();
             }
@@ -383,6 +453,15 @@ pub fn bake_part(
             "resolution": format!("{0}x{0}", plan.resolution),
             "bytes": bytes,
         }));
+    }
+    if part.reads.is_some() {
+        log::info!(
+            "radiance maps: {shaded} of {rays} pixels traced and shaded, the rest evaluated from their records ({kept_bytes} bytes of records written; reading records {:.2} s, rendering {:.2} s, writing records {:.2} s, encoding {:.2} s)",
+            steps[0],
+            steps[1],
+            steps[2],
+            steps[3]
+        );
     }
     let stats = BTreeMap::from([
         ("reflectors".to_string(), serde_json::Value::Array(table)),

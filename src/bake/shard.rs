@@ -267,7 +267,8 @@ pub fn bake_unit(
 
 /// [`bake_unit`], where the `radiosity` unit gathers every element itself when `gather_here`
 /// (the same D: each element draws from its own random streams) instead of reading the
-/// gathering units' shards.
+/// gathering units' shards, and a `radiance` unit keeps its maps' records beside its shard
+/// ([`super::read_cache`]).
 /// Shards `checked` holds are not hashed again (the unit's own, the D it reads); the unit's
 /// shard is added to it, checked or written.
 #[allow(clippy::too_many_arguments)]
@@ -321,9 +322,13 @@ pub fn bake_unit_gathering(
         Err(e) => anyhow::bail!("{}: cannot remove: {e}", shard.join(MARKER).display()),
     }
     let d_path = d_source(unit, shard, d_shard, plan, checked)?;
+    // The plain `glint-bake`'s unit cache keeps radiance map records; a job engine's shards do not.
+    let reads = (gather_here && unit.stage == Stage::Radiance.name())
+        .then(|| super::read_cache::reads_dir(shard));
     let part = Part {
         item: plan.item(unit),
         d_from: d_path.as_deref(),
+        reads: reads.as_deref(),
     };
     let stage = bake_stage_part(
         scene,

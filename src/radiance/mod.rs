@@ -6,14 +6,16 @@ pub mod index;
 pub mod magnify;
 pub mod normals;
 pub mod quadtree;
+pub mod reads;
 pub mod sampling;
 pub mod shading;
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use crate::geometry::{Bvh, Hit, Triangle};
 use footprint::PixelRays;
+use reads::{Evaluated, MapReads, PixelWriter};
 use sampling::MapCamera;
 
 pub use crate::settings::radiance::{RadianceOverride, RadianceStageOverride};
@@ -40,22 +42,62 @@ pub struct RadianceMap {
 /// (docs/tuning.md#packets-from).
 const PACKETS_FROM: u32 = 64;
 
+/// A map's kept records ([`reads`]) to evaluate with this bake's D instead of shading, and
+/// per material whether the lobes or transmission that shaped them changed since: a pixel
+/// whose layers meet such a material is traced and shaded again.
+#[derive(Clone, Debug)]
+pub struct Replay<'a> {
+    /// The records.
+    pub reads: MapReads,
+    /// Per material index, whether it changed.
+    pub changed: &'a [bool],
+}
+
+/// A rendered map, its records, and how many of its pixels were traced and shaded (the rest
+/// were evaluated from kept records).
+#[derive(Clone, Debug)]
+pub struct Rendered {
+    /// The map.
+    pub map: RadianceMap,
+    /// Its pixels' records.
+    pub reads: MapReads,
+    /// Pixels traced and shaded.
+    pub shaded: u64,
+}
+
 /// Ray casts one map: a ray per pixel from the element through the scene (`bvh` built over
-/// `triangles`); `shade` gives the radiance leaving a hit against the ray's unit direction,
-/// over the footprint of the pixel's rays ([`shading::exitant`]). Deterministic; parallel
-/// over rows.
+/// `triangles`); `shade` writes the record of the radiance leaving a hit against the ray's
+/// unit direction, over the footprint of the pixel's rays ([`shading::exitant`]), and each
+/// pixel's radiance is its record evaluated with D (`d`, the stored value at barycentrics of
+/// a triangle). With `replay`, a pixel whose kept record is still valid is evaluated from it
+/// without tracing. Deterministic; parallel over rows.
 pub fn render(
     cam: &MapCamera,
     bvh: &Bvh,
     triangles: &[Triangle],
     normal_offset: f32,
-    shade: &(dyn Fn(&Hit, Vec3, &PixelRays) -> Vec3 + Sync),
-) -> RadianceMap {
+    shade: &(dyn Fn(&Hit, Vec3, &PixelRays, &mut PixelWriter) + Sync),
+    d: &(dyn Fn(u32, Vec2) -> Vec3 + Sync),
+    replay: Option<Replay>,
+) -> Rendered {
     let res = cam.resolution;
+    // Records of another resolution are not this map's.
+    let (old_rows, changed): (Vec<Option<Vec<u8>>>, &[bool]) = match replay {
+        Some(r) if r.reads.rows.len() == res as usize => {
+            (r.reads.rows.into_iter().map(Some).collect(), r.changed)
+        }
+        _ => (vec![None; res as usize], &[]),
+    };
+    let changed = |t: u32| {
+        let m = triangles[t as usize].material as usize;
+        changed.get(m).copied().unwrap_or(true)
+    };
     type Pixel = (Vec3, f32, Vec3, Vec3, bool);
-    let rows: Vec<Vec<Pixel>> = (0..res)
+    let rows: Vec<(Vec<Pixel>, Vec<u8>, u64)> = old_rows
         .into_par_iter()
-        .map(|y| {
+        .enumerate()
+        .map(|(y, old)| {
+            let y = y as u32;
             let mut origins = Vec::with_capacity(res as usize);
             let mut dirs = Vec::with_capacity(res as usize);
             for x in 0..res {
@@ -66,40 +108,95 @@ pub fn render(
                 dirs.push(d);
             }
             let mut row = Vec::with_capacity(res as usize);
-            // A row's rays are coherent enough at PACKETS_FROM pixels and more: traced in
-            // packets of eight (the same hits as one by one).
-            let pixel = |i: usize, hit: Option<Hit>| {
-                let (o, d) = (origins[i], dirs[i]);
-                match hit {
-                    Some(h) => {
-                        let p = o + d * h.t;
-                        let n = triangles[h.triangle as usize].face_normal();
-                        let rays = cam.pixel_rays(i as u32, y);
-                        (shade(&h, d, &rays), cam.depth(p), p, n, true)
+            let mut bytes = Vec::new();
+            let mut shaded = 0u64;
+            // The pixel of the record evaluated as `e`.
+            let finish = |i: usize, e: Evaluated| -> Pixel {
+                match e.hit {
+                    Some((tri, t)) => {
+                        let p = origins[i] + dirs[i] * t;
+                        let n = triangles[tri as usize].face_normal();
+                        (e.rgb, cam.depth(p), p, n, true)
                     }
                     None => (Vec3::ZERO, 0.0, Vec3::ZERO, Vec3::ZERO, false),
                 }
             };
-            if res < PACKETS_FROM {
-                for i in 0..res as usize {
-                    row.push(pixel(
-                        i,
-                        bvh.closest_hit(origins[i], dirs[i], f32::INFINITY),
-                    ));
+            // Shades pixel i's hit into `bytes` and evaluates its record.
+            let traced = |i: usize, hit: Option<Hit>, bytes: &mut Vec<u8>| -> Pixel {
+                let from = bytes.len();
+                match hit {
+                    Some(h) => {
+                        let rays = cam.pixel_rays(i as u32, y);
+                        shade(&h, dirs[i], &rays, &mut PixelWriter::hit(bytes, h.t));
+                    }
+                    None => reads::push_miss(bytes),
                 }
+                let e = reads::eval_pixel(&bytes[from..], triangles.len(), &|_| false, d)
+                    .expect("a record just written is whole");
+                finish(i, e)
+            };
+            if let Some(old) = old {
+                // The row's records are rebuilt from its first pixel traced again; until then,
+                // and if none is, they are the old ones.
+                let mut fresh: Option<Vec<u8>> = None;
+                let mut at = Some(0usize);
+                for i in 0..res as usize {
+                    let start = at;
+                    let kept = at.and_then(|a| {
+                        let e = reads::eval_pixel(&old[a..], triangles.len(), &changed, d);
+                        at = e.map(|e| a + e.len);
+                        e.filter(|e| !e.stale).map(|e| (a, e))
+                    });
+                    match kept {
+                        Some((a, e)) => {
+                            if let Some(f) = &mut fresh {
+                                f.extend_from_slice(&old[a..a + e.len]);
+                            }
+                            row.push(finish(i, e));
+                        }
+                        None => {
+                            let f = fresh.get_or_insert_with(|| old[..start.unwrap_or(0)].to_vec());
+                            let hit = bvh.closest_hit(origins[i], dirs[i], f32::INFINITY);
+                            row.push(traced(i, hit, f));
+                            shaded += 1;
+                        }
+                    }
+                }
+                bytes = fresh.unwrap_or(old);
+            } else if res < PACKETS_FROM {
+                for i in 0..res as usize {
+                    let hit = bvh.closest_hit(origins[i], dirs[i], f32::INFINITY);
+                    row.push(traced(i, hit, &mut bytes));
+                }
+                shaded = res as u64;
             } else {
-                bvh.closest_hits(&origins, &dirs, f32::INFINITY, |i, h| row.push(pixel(i, h)));
+                // A row's rays are coherent enough at PACKETS_FROM pixels and more: traced in
+                // packets of eight (the same hits as one by one).
+                bvh.closest_hits(&origins, &dirs, f32::INFINITY, |i, h| {
+                    row.push(traced(i, h, &mut bytes))
+                });
+                shaded = res as u64;
             }
-            row
+            (row, bytes, shaded)
         })
         .collect();
-    let px: Vec<_> = rows.into_iter().flatten().collect();
-    RadianceMap {
-        rgb: px.iter().map(|p| p.0).collect(),
-        depth: px.iter().map(|p| p.1).collect(),
-        points: px.iter().map(|p| p.2).collect(),
-        normals: px.iter().map(|p| p.3).collect(),
-        hit: px.iter().map(|p| p.4).collect(),
+    let shaded = rows.iter().map(|r| r.2).sum();
+    let mut px = Vec::with_capacity((res * res) as usize);
+    let mut records = Vec::with_capacity(res as usize);
+    for (row, bytes, _) in rows {
+        px.extend(row);
+        records.push(bytes);
+    }
+    Rendered {
+        map: RadianceMap {
+            rgb: px.iter().map(|p| p.0).collect(),
+            depth: px.iter().map(|p| p.1).collect(),
+            points: px.iter().map(|p| p.2).collect(),
+            normals: px.iter().map(|p| p.3).collect(),
+            hit: px.iter().map(|p| p.4).collect(),
+        },
+        reads: MapReads { rows: records },
+        shaded,
     }
 }
 

@@ -20,33 +20,36 @@
 use glam::{Vec2, Vec3};
 
 use super::footprint::PixelRays;
+use super::reads::{PixelWriter, Read};
 use crate::brdf::{Frame, Lobe};
 use crate::geometry::{Bvh, Hit};
 use crate::radiosity::MAX_GLASS_LAYERS;
 use crate::sampling::r2;
 use crate::scene::Scene;
 use crate::scene::texture::Image;
-use crate::scene::texturing::d_over;
+use crate::scene::texturing::{d_factors_at, d_factors_over};
 
 /// Directions sampled per glossy lobe at a map pixel that meets a glossy surface.
 pub const GLOSSY_SAMPLES: u32 = 16;
 
-/// The radiance leaving `hit` against the unit ray direction `dir`: `seen(hit)` (D there, as
-/// the maps held before) plus the one-bounce reflection of its glossy lobes (module comment),
-/// D read by `d` where the lobes' rays land. `seen` reads D where the pixel's own ray meets a
-/// surface (over the pixel's footprint, textures included), `d` at a point.
+/// Writes the record ([`super::reads`]) of the radiance leaving `hit` against the unit ray
+/// direction `dir`: the read of D there, `seen(hit)` (as the maps held before), plus the
+/// one-bounce reflection of its glossy lobes (module comment), D read by `d` where the lobes'
+/// rays land. `seen` reads D where the pixel's own ray meets a surface (over the pixel's
+/// footprint, textures included), `d` at a point.
 /// Back faces and surfaces without lobes get `seen(hit)` alone. Thin glass also passes what
 /// lies behind it along `dir`, times its transmittance at the ray's angle, as the viewer's
 /// frame draws it, through at most [`MAX_GLASS_LAYERS`] panes.
 pub fn exitant(
     scene: &Scene,
     bvh: &Bvh,
-    d: &(dyn Fn(&Hit) -> Vec3 + Sync),
-    seen: &(dyn Fn(&Hit) -> Vec3 + Sync),
+    d: &(dyn Fn(&Hit) -> Read + Sync),
+    seen: &(dyn Fn(&Hit) -> Read + Sync),
     hit: &Hit,
     dir: Vec3,
-) -> Vec3 {
-    let mut sum = own_exitant(scene, bvh, d, seen, hit, dir);
+    out: &mut PixelWriter,
+) {
+    own_exitant(scene, bvh, d, seen, hit, dir, Vec3::ONE, out);
     let (mut hit, mut weight) = (*hit, Vec3::ONE);
     for _ in 0..MAX_GLASS_LAYERS {
         let tri = &scene.triangles[hit.triangle as usize];
@@ -64,60 +67,70 @@ pub fn exitant(
         let Some(behind) = bvh.closest_hit(past, dir, f32::INFINITY) else {
             break;
         };
-        sum += weight * own_exitant(scene, bvh, d, seen, &behind, dir);
+        own_exitant(scene, bvh, d, seen, &behind, dir, weight, out);
         hit = behind;
     }
-    sum
 }
 
-/// D where a map pixel's own ray meets a surface, from `stored`, the radiosity texture's value
-/// at `hit`: a base colour texture read over the footprint of the pixel's `rays` through
-/// `levels` ([`crate::scene::texturing::texture_levels`]), as the viewer filters it on screen.
-pub fn d_seen(
-    scene: &Scene,
-    levels: &[Vec<Image>],
-    hit: &Hit,
-    rays: &PixelRays,
-    stored: Vec3,
-) -> Vec3 {
+/// The read of D where a map pixel's own ray meets a surface: a base colour texture read over
+/// the footprint of the pixel's `rays` through `levels`
+/// ([`crate::scene::texturing::texture_levels`]), as the viewer filters it on screen.
+pub fn d_seen(scene: &Scene, levels: &[Vec<Image>], hit: &Hit, rays: &PixelRays) -> Read {
     let tri = &scene.triangles[hit.triangle as usize];
     let m = &scene.materials[tri.material as usize];
-    d_over(
-        levels,
-        m,
-        tri,
-        hit.bary,
-        rays.bary_steps(tri, hit.bary),
-        stored,
-    )
+    // The footprint only matters to a texture.
+    let factors = m
+        .base_texture
+        .as_ref()
+        .and_then(|_| d_factors_over(levels, m, tri, hit.bary, rays.bary_steps(tri, hit.bary)));
+    Read {
+        triangle: hit.triangle,
+        bary: hit.bary,
+        factors,
+    }
 }
 
-/// [`exitant`] of the surface at `hit` alone: D plus its glossy lobes' reflection.
+/// The read of D at a point ([`Scene::d_at`]).
+pub fn d_point(scene: &Scene, hit: &Hit) -> Read {
+    let tri = &scene.triangles[hit.triangle as usize];
+    let m = &scene.materials[tri.material as usize];
+    Read {
+        triangle: hit.triangle,
+        bary: hit.bary,
+        factors: d_factors_at(&scene.textures, m, tri, hit.bary),
+    }
+}
+
+/// [`exitant`] of the surface at `hit` alone, a layer of transmittance `weight`: D plus its
+/// glossy lobes' reflection.
+#[allow(clippy::too_many_arguments)]
 fn own_exitant(
     scene: &Scene,
     bvh: &Bvh,
-    d: &(dyn Fn(&Hit) -> Vec3 + Sync),
-    seen: &(dyn Fn(&Hit) -> Vec3 + Sync),
+    d: &(dyn Fn(&Hit) -> Read + Sync),
+    seen: &(dyn Fn(&Hit) -> Read + Sync),
     hit: &Hit,
     dir: Vec3,
-) -> Vec3 {
-    let base = seen(hit);
+    weight: Vec3,
+    out: &mut PixelWriter,
+) {
+    out.layer(weight, &seen(hit));
     let tri = &scene.triangles[hit.triangle as usize];
     let material = &scene.materials[tri.material as usize];
     let ng = tri.face_normal();
     if material.lobes.is_empty() || dir.dot(ng) >= 0.0 {
-        return base;
+        return out.d_alone();
     }
     let frame = Frame::from_normal(tri.shading_normal(hit.bary));
     let wo = frame.to_local(-dir);
     if wo.z <= 0.0 {
-        return base;
+        return out.d_alone();
     }
     let origin = bvh.offset_origin(tri.point(hit.bary), ng);
-    let mut glossy = Vec3::ZERO;
+    out.lobes(material.lobes.len());
     for desc in &material.lobes {
         let lobe = Lobe::from(desc);
-        let mut sum = Vec3::ZERO;
+        out.lobe(lobe.ks);
         for k in 0..GLOSSY_SAMPLES {
             let Some(wi) = lobe.sample(wo, r2(k, Vec2::ZERO)) else {
                 continue;
@@ -137,9 +150,36 @@ fn own_exitant(
             {
                 continue;
             }
-            sum += lobe.sample_weight(wo, wi) * d(&h);
+            out.sample(lobe.sample_weight(wo, wi), &d(&h));
         }
-        glossy += lobe.ks * sum / GLOSSY_SAMPLES as f32;
     }
-    base + glossy
+}
+
+/// The radiance [`exitant`] gives at `hit` against `dir`, D read by `d` at each read's
+/// triangle and barycentrics, untextured: a map pixel's shading without a map.
+pub fn exitant_with(
+    scene: &Scene,
+    bvh: &Bvh,
+    d: &(dyn Fn(u32, Vec2) -> Vec3 + Sync),
+    hit: &Hit,
+    dir: Vec3,
+) -> Vec3 {
+    let at = |h: &Hit| Read {
+        triangle: h.triangle,
+        bary: h.bary,
+        factors: None,
+    };
+    let mut bytes = Vec::new();
+    exitant(
+        scene,
+        bvh,
+        &at,
+        &at,
+        hit,
+        dir,
+        &mut PixelWriter::hit(&mut bytes, hit.t),
+    );
+    super::reads::eval_pixel(&bytes, scene.triangles.len(), &|_| false, d)
+        .expect("a record just written is whole")
+        .rgb
 }

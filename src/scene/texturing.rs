@@ -251,15 +251,38 @@ pub fn reconstruct_d(
 
 /// D of material `m` from the stored texel value, its textures read by `read`.
 fn d_from(m: &Material, stored: Vec3, read: impl Fn(&TextureRef) -> Vec4) -> Vec3 {
-    let Some(t) = &m.base_texture else {
-        return stored;
-    };
-    let t = read(t).truncate();
+    apply_d_factors(stored, d_factors(m, read))
+}
+
+/// What D of a textured material multiplies the stored texel value by and adds to it (base
+/// colour, emission), its textures read by `read`; `None` untextured (D is the stored value).
+fn d_factors(m: &Material, read: impl Fn(&TextureRef) -> Vec4) -> Option<(Vec3, Vec3)> {
+    let t = read(m.base_texture.as_ref()?).truncate();
     let e = m
         .emissive_texture
         .as_ref()
         .map_or(m.emission, |t| m.emission * read(t).truncate());
-    stored * t + e
+    Some((t, e))
+}
+
+/// D from the stored texel value and [`d_factors_at`] or [`d_factors_over`]: the float
+/// operations of [`reconstruct_d`] and [`d_over`], so that D-independent factors kept from a
+/// bake give its values again for another D.
+pub fn apply_d_factors(stored: Vec3, factors: Option<(Vec3, Vec3)>) -> Vec3 {
+    match factors {
+        Some((t, e)) => stored * t + e,
+        None => stored,
+    }
+}
+
+/// The factors [`reconstruct_d`] applies at `b` of `tri` (material `m`).
+pub fn d_factors_at(
+    images: &[Image],
+    m: &Material,
+    tri: &Triangle,
+    b: Vec2,
+) -> Option<(Vec3, Vec3)> {
+    d_factors(m, |t| sample_at(images, t, tri, b))
 }
 
 /// Every scene image's mip chain, level 0 first ([`super::texture::mips::mip_chain`]): what
@@ -286,7 +309,18 @@ pub fn d_over(
     db: [Vec2; 2],
     stored: Vec3,
 ) -> Vec3 {
-    d_from(m, stored, |t| {
+    apply_d_factors(stored, d_factors_over(levels, m, tri, b, db))
+}
+
+/// The factors [`d_over`] applies.
+pub fn d_factors_over(
+    levels: &[Vec<Image>],
+    m: &Material,
+    tri: &Triangle,
+    b: Vec2,
+    db: [Vec2; 2],
+) -> Option<(Vec3, Vec3)> {
+    d_factors(m, |t| {
         let chain = &levels[t.image as usize];
         let size = Vec2::new(chain[0].width as f32, chain[0].height as f32);
         let uv = uv_set(t, tri);

@@ -1,0 +1,186 @@
+//! The radiance maps' records of what their pixels read of D ([`crate::radiance::reads`]),
+//! kept between bakes of a reflector's work unit by the plain `glint-bake`, in a folder beside
+//! its shard in the unit cache (`B.units/radiance.NAME.reads/`, one file per map); a job
+//! engine's shards keep none.
+//!
+//! A record is evaluated only under the key it was written with: everything its reads and
+//! weights depend on but D (so not the albedos) and the lobes and transmission of the
+//! materials met (the geometry and textures, every other material field, the map's camera,
+//! the glossy sample count, the ray offset, the code's version); the file carries the prints of those lobes
+//! ([`MaterialPrints`]), so that only the pixels that met a changed material are shaded
+//! again. A file that is missing, of another key or damaged (BLAKE3 over its body) is not
+//! used: the map is traced. A unit's records are bounded by [`READS_BUDGET`]: past it the
+//! folder is removed and the unit keeps none. Files are written whole (a temporary file, then
+//! a rename) and not flushed: a torn one fails its hash.
+
+use std::path::{Path, PathBuf};
+
+use crate::bundle::BundleError;
+use crate::radiance::reads::MapReads;
+use crate::radiance::sampling::MapCamera;
+use crate::scene::{Material, Scene};
+
+/// First bytes of a record file, with its format's version.
+const MAGIC: &[u8; 13] = b"glint-reads-1";
+
+/// Most bytes of records one reflector's unit keeps.
+pub const READS_BUDGET: u64 = 1 << 30;
+
+/// The folder of the records of the shard at `shard` (`radiance.NAME.glint` →
+/// `radiance.NAME.reads`).
+pub fn reads_dir(shard: &Path) -> PathBuf {
+    shard.with_extension("reads")
+}
+
+/// Per material, a hash of what shapes the rays cast from its surfaces and the weights of
+/// their reads: its lobes and its transmission.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct MaterialPrints(pub Vec<[u8; 32]>);
+
+impl MaterialPrints {
+    /// The prints of `materials`.
+    pub fn of(materials: &[Material]) -> MaterialPrints {
+        MaterialPrints(
+            materials
+                .iter()
+                .map(|m| {
+                    // Debug prints every float so that it reads back exactly.
+                    let text = format!("{:?} {:?}", m.lobes, m.transmission);
+                    *blake3::hash(text.as_bytes()).as_bytes()
+                })
+                .collect(),
+        )
+    }
+
+    /// Per material of `self`, whether `earlier` (the prints a record was made with) differs:
+    /// every material when the counts differ.
+    pub fn changed_since(&self, earlier: &MaterialPrints) -> Vec<bool> {
+        if self.0.len() != earlier.0.len() {
+            return vec![true; self.0.len()];
+        }
+        self.0.iter().zip(&earlier.0).map(|(a, b)| a != b).collect()
+    }
+}
+
+/// What every map's key of a bake of `scene` shares (module comment).
+pub fn scene_key(scene: &Scene, normal_offset: f32) -> blake3::Hasher {
+    let mut h = blake3::Hasher::new();
+    h.update(MAGIC);
+    h.update(crate::bundle::manifest::generator().as_bytes());
+    // The geometry's hash covers the glTF's buffers and images: the textures.
+    h.update(scene.geometry_hash.as_bytes());
+    for m in &scene.materials {
+        let mut rest = m.clone();
+        // D carries the albedo; the prints carry the lobes and transmission.
+        rest.albedo = glam::Vec3::ZERO;
+        rest.lobes.clear();
+        rest.transmission = crate::scene::material::Transmission::NONE;
+        h.update(format!("{rest:?}").as_bytes());
+    }
+    h.update(&crate::radiance::shading::GLOSSY_SAMPLES.to_le_bytes());
+    h.update(&normal_offset.to_bits().to_le_bytes());
+    h
+}
+
+/// The key of one map: [`scene_key`] with its camera.
+pub fn map_key(scene_key: &blake3::Hasher, cam: &MapCamera) -> [u8; 32] {
+    let mut h = scene_key.clone();
+    h.update(format!("{cam:?}").as_bytes());
+    *h.finalize().as_bytes()
+}
+
+/// Reads the record `name` in `dir` written under `key`: the prints it was made with and the
+/// records; `None` when missing, of another key or damaged.
+pub fn read(dir: &Path, name: &str, key: &[u8; 32]) -> Option<(MaterialPrints, MapReads)> {
+    let bytes = std::fs::read(dir.join(name)).ok()?;
+    let rest = bytes.strip_prefix(MAGIC.as_slice())?;
+    let (k, rest) = rest.split_first_chunk::<32>()?;
+    let (sum, rest) = rest.split_first_chunk::<32>()?;
+    if k != key || blake3::hash(rest).as_bytes() != sum {
+        return None;
+    }
+    let (n, mut rest) = rest.split_first_chunk::<4>()?;
+    let mut prints = Vec::new();
+    for _ in 0..u32::from_le_bytes(*n) {
+        let (p, r) = rest.split_first_chunk::<32>()?;
+        prints.push(*p);
+        rest = r;
+    }
+    Some((MaterialPrints(prints), MapReads::decode(rest)?))
+}
+
+/// The bytes of a record file: key, hash, prints and records.
+pub fn encode(key: &[u8; 32], prints: &MaterialPrints, reads: &MapReads) -> Vec<u8> {
+    let mut body = Vec::with_capacity(4 + 32 * prints.0.len() + reads.size());
+    body.extend((prints.0.len() as u32).to_le_bytes());
+    for p in &prints.0 {
+        body.extend(p);
+    }
+    body.extend(reads.encode());
+    let mut bytes = Vec::with_capacity(MAGIC.len() + 64 + body.len());
+    bytes.extend(MAGIC);
+    bytes.extend(key);
+    bytes.extend(blake3::hash(&body).as_bytes());
+    bytes.extend(body);
+    bytes
+}
+
+/// Writes a record file's `bytes` as `name` into `dir` (created if need be): a temporary
+/// file, then a rename.
+pub fn write(dir: &Path, name: &str, bytes: &[u8]) -> Result<(), BundleError> {
+    let io = |path: &Path| {
+        let path = path.to_owned();
+        move |source| BundleError::Io { path, source }
+    };
+    std::fs::create_dir_all(dir).map_err(io(dir))?;
+    let path = dir.join(name);
+    let tmp = dir.join(format!(".{name}.tmp"));
+    std::fs::write(&tmp, bytes).map_err(io(&tmp))?;
+    std::fs::rename(&tmp, &path).map_err(io(&path))
+}
+
+/// Removes the folder `dir` and what it holds (a unit over its budget keeps no records).
+pub fn remove(dir: &Path) -> Result<(), BundleError> {
+    match std::fs::remove_dir_all(dir) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(source) => Err(BundleError::Io {
+            path: dir.to_owned(),
+            source,
+        }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_record_is_read_under_its_own_key_alone_and_whole() {
+        let dir = tempfile::tempdir().unwrap();
+        let reads = MapReads {
+            rows: vec![vec![0, 0], vec![0]],
+        };
+        let prints = MaterialPrints(vec![[1; 32], [2; 32]]);
+        let key = [7u8; 32];
+        let bytes = encode(&key, &prints, &reads);
+        write(dir.path(), "m.reads", &bytes).unwrap();
+        assert_eq!(
+            read(dir.path(), "m.reads", &key),
+            Some((prints.clone(), reads))
+        );
+        assert_eq!(read(dir.path(), "m.reads", &[8u8; 32]), None);
+        let mut torn = bytes.clone();
+        *torn.last_mut().unwrap() ^= 1;
+        write(dir.path(), "m.reads", &torn).unwrap();
+        assert_eq!(read(dir.path(), "m.reads", &key), None);
+        assert_eq!(
+            MaterialPrints(vec![[1; 32], [3; 32]]).changed_since(&prints),
+            vec![false, true]
+        );
+        assert_eq!(
+            MaterialPrints(vec![[1; 32]]).changed_since(&prints),
+            vec![true]
+        );
+    }
+}
