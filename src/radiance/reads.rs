@@ -22,6 +22,10 @@ use glam::{Vec2, Vec3};
 
 use crate::scene::texturing::apply_d_factors;
 
+/// Directions sampled per glossy lobe at a map pixel that meets a glossy surface (the
+/// shading's, and the divisor of a lobe's sum when a record is evaluated).
+pub const GLOSSY_SAMPLES: u32 = 16;
+
 /// Lobe count of a layer whose surface gives D alone (no glossy lobe faces the ray).
 pub const NO_GLOSSY: u8 = u8::MAX;
 
@@ -231,7 +235,7 @@ pub fn eval_pixel(
                     let w = c.f32()?;
                     lobe_sum += w * read_d(&c.read()?);
                 }
-                glossy += ks * lobe_sum / super::shading::GLOSSY_SAMPLES as f32;
+                glossy += ks * lobe_sum / GLOSSY_SAMPLES as f32;
             }
             base + glossy
         };

@@ -20,6 +20,7 @@
 use glam::{Vec2, Vec3};
 
 use super::footprint::PixelRays;
+pub use super::reads::GLOSSY_SAMPLES;
 use super::reads::{PixelWriter, Read};
 use crate::brdf::{Frame, Lobe};
 use crate::geometry::{Bvh, Hit};
@@ -28,9 +29,6 @@ use crate::sampling::r2;
 use crate::scene::Scene;
 use crate::scene::texture::Image;
 use crate::scene::texturing::{d_factors_at, d_factors_over};
-
-/// Directions sampled per glossy lobe at a map pixel that meets a glossy surface.
-pub const GLOSSY_SAMPLES: u32 = 16;
 
 /// Writes the record ([`super::reads`]) of the radiance leaving `hit` against the unit ray
 /// direction `dir`: the read of D there, `seen(hit)` (as the maps held before), plus the
