@@ -9,7 +9,7 @@ use std::f32::consts::PI;
 use glam::{Vec2, Vec3};
 
 use super::atlas::{Atlas, TexelSample};
-use super::emitters::{Emitters, luminance, power, var_of_mean};
+use super::emitters::{Emitters, luminance, power, spread_var_of_mean, var_of_mean};
 use super::many_lights::{Choice, LIGHTS_SAMPLED_EACH, ManyLights};
 use super::mirror_lights::MirrorLights;
 use super::next_event::{Arrival, At, NextEvent, Receiver, Source};
@@ -644,7 +644,11 @@ impl Receiver for Irradiance<'_> {
             Source::Quad(light) => self.sum * (light.area / n as f32) / PI,
             Source::Triangles => self.sum / (n as f32 * PI),
         };
-        *self.var += var_of_mean(self.y, self.y2, n);
+        *self.var += match source {
+            Source::Quad(_) => var_of_mean(self.y, self.y2, n),
+            // One low-discrepancy set (`NextEvent::estimate`).
+            Source::Triangles => spread_var_of_mean(self.y, self.y2, n),
+        };
         (self.sum, self.y, self.y2) = (Vec3::ZERO, 0.0, 0.0);
     }
 }

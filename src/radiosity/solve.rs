@@ -370,6 +370,7 @@ pub(super) fn cache_key(
     let mut h = blake3::Hasher::new();
     h.update(ray_cache::MAGIC);
     h.update(&ray_cache::VERSION.to_le_bytes());
+    h.update(&GATHER_REVISION.to_le_bytes());
     h.update(crate::bundle::manifest::generator().as_bytes());
     h.update(scene.geometry_hash.as_bytes());
     h.update(&samples_hash(samples));
@@ -394,6 +395,10 @@ pub(super) fn cache_key(
     }
     (*h.finalize().as_bytes(), lobes)
 }
+
+/// Raised whenever what a gathering ray or an element's emitter samples return changes for
+/// the same scene and settings, so that a ray cache written before is not read as this one's.
+const GATHER_REVISION: u32 = 2;
 
 /// How much of a prior ray cache a solve used.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
