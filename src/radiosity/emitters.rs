@@ -44,6 +44,8 @@ pub(super) fn spread_var_of_mean(s: f64, s2: f64, n: u32) -> f64 {
 /// The emissive triangles, chosen in proportion to area × luminance.
 pub(super) struct Emitters {
     pub tris: Vec<u32>,
+    /// The face normal of each of `tris`, kept: every emitter sample reads one.
+    pub normals: Vec<Vec3>,
     cdf: Vec<f64>,
     /// Σ area × luminance.
     total: f64,
@@ -52,6 +54,7 @@ pub(super) struct Emitters {
 impl Emitters {
     pub fn new(scene: &Scene) -> Emitters {
         let mut tris = Vec::new();
+        let mut normals = Vec::new();
         let mut cdf = Vec::new();
         let mut total = 0.0f64;
         for (i, t) in scene.triangles.iter().enumerate() {
@@ -60,10 +63,16 @@ impl Emitters {
             if w > 0.0 {
                 total += w;
                 tris.push(i as u32);
+                normals.push(t.face_normal());
                 cdf.push(total);
             }
         }
-        Emitters { tris, cdf, total }
+        Emitters {
+            tris,
+            normals,
+            cdf,
+            total,
+        }
     }
 
     /// The emissive triangle for `u` in [0, 1). There must be one.
@@ -76,9 +85,10 @@ impl Emitters {
         self.tris[k]
     }
 
-    /// [`Emitters::pick`], with where `u` falls inside the triangle's share of [0, 1), as a
-    /// fraction in [0, 1): a well-spread `u` then also spreads the points within each triangle.
-    pub fn pick_spread(&self, u: f32) -> (u32, f32) {
+    /// [`Emitters::pick`] as the triangle's place in `tris`, with where `u` falls inside the
+    /// triangle's share of [0, 1), as a fraction in [0, 1): a well-spread `u` then also spreads
+    /// the points within each triangle.
+    pub fn pick_spread(&self, u: f32) -> (usize, f32) {
         let x = u as f64 * self.total;
         let k = self
             .cdf
@@ -86,7 +96,7 @@ impl Emitters {
             .min(self.tris.len() - 1);
         let lo = if k == 0 { 0.0 } else { self.cdf[k - 1] };
         let rest = ((x - lo) / (self.cdf[k] - lo)) as f32;
-        (self.tris[k], rest.clamp(0.0, 1.0 - f32::EPSILON / 2.0))
+        (k, rest.clamp(0.0, 1.0 - f32::EPSILON / 2.0))
     }
 
     /// Density (per unit area) of a point on an emissive triangle with emission `e`.
@@ -104,6 +114,7 @@ mod tests {
         // Triangles 4 and 9 with weights 1 and 3: [0, 0.25) picks 4, [0.25, 1) picks 9.
         let e = Emitters {
             tris: vec![4, 9],
+            normals: Vec::new(),
             cdf: vec![1.0, 4.0],
             total: 4.0,
         };
@@ -114,8 +125,8 @@ mod tests {
             (0.625, 9, 0.5),
             (0.999_999, 9, 0.999_998_7),
         ] {
-            let (t, a) = e.pick_spread(u);
-            assert_eq!((t, e.pick(u)), (tri, tri), "u {u}");
+            let (k, a) = e.pick_spread(u);
+            assert_eq!((e.tris[k], e.pick(u)), (tri, tri), "u {u}");
             assert!((a - along).abs() < 1e-5, "u {u}: {a} vs {along}");
             assert!((0.0..1.0).contains(&a));
         }

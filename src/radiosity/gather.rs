@@ -45,6 +45,8 @@ pub(super) struct Context<'a> {
     pub bvh: &'a Bvh,
     pub atlas: &'a Atlas,
     pub offsets: &'a [u32],
+    /// Every triangle's face normal, kept: every gathering ray's hit reads one.
+    pub normals: &'a [Vec3],
     pub emitters: &'a Emitters,
     pub glossy: Option<Glossy<'a>>,
     /// Emitters' images in near-mirror planar reflectors.
@@ -248,7 +250,7 @@ pub(super) fn trace_ray(
         match hit {
             Some(h) => {
                 let ht = &scene.triangles[h.triangle as usize];
-                let cos_l = -d.dot(ht.face_normal());
+                let cos_l = -d.dot(cx.normals[h.triangle as usize]);
                 if cos_l <= 0.0 {
                     // A double-sided surface's back reflects with its (shared) texel.
                     if scene.material_of(h.triangle).double_sided {

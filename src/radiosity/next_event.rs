@@ -132,13 +132,14 @@ impl NextEvent<'_> {
         let shift = rng.uniform2();
         for k in 0..n {
             let u = r2(k, shift);
-            let (picked, along) = self.emitters.pick_spread(u.x);
+            let (slot, along) = self.emitters.pick_spread(u.x);
+            let picked = self.emitters.tris[slot];
             let et = &scene.triangles[picked as usize];
             let b = sample_triangle(Vec2::new(along, u.y));
             let Some((d, dist, dist2)) = towards(at.from, et.point(b)) else {
                 continue;
             };
-            let cos_l = -d.dot(et.face_normal());
+            let cos_l = -d.dot(self.emitters.normals[slot]);
             if cos_l <= 0.0 || d.dot(at.ng) <= 0.0 {
                 continue;
             }

@@ -261,6 +261,8 @@ fn gather_all(
 /// The emitters gathering samples, owned for a solve's or a batch's [`Context`].
 struct Lights {
     emitters: Emitters,
+    /// Every triangle's face normal ([`Context::normals`]).
+    normals: Vec<Vec3>,
     mirrors: Option<MirrorLights>,
     many: Option<ManyLights>,
 }
@@ -270,6 +272,7 @@ impl Lights {
         let many = ManyLights::new(scene, LIGHTS_SAMPLED_EACH);
         Lights {
             emitters: Emitters::new(scene),
+            normals: scene.triangles.iter().map(|t| t.face_normal()).collect(),
             // Mirror images of emitters are part of glossy transport.
             mirrors: if set.glossy_depth > 0 {
                 MirrorLights::new(scene, many.as_ref())
@@ -293,6 +296,7 @@ impl Lights {
             bvh,
             atlas,
             offsets,
+            normals: &self.normals,
             emitters: &self.emitters,
             glossy: Glossy::new(
                 scene,
