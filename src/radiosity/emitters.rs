@@ -3,6 +3,7 @@
 
 use glam::{Vec2, Vec3};
 
+use crate::sampling::r2;
 use crate::scene::{AreaLight, Scene};
 
 pub(super) use crate::colour::luminance;
@@ -14,13 +15,12 @@ pub(super) fn power(n_a: f32, p_a: f32, n_b: f32, p_b: f32) -> f32 {
     if a + b > 0.0 { a / (a + b) } else { 0.0 }
 }
 
-/// Point `k` of `grid × grid` stratified points on `light` (cell k mod grid, ⌊k/grid⌋ mod
-/// grid), jittered by `u` in the cell.
-pub(super) fn stratified_point(light: &AreaLight, k: u32, grid: u32, u: Vec2) -> Vec3 {
-    let (i, j) = (k % grid, (k / grid) % grid);
-    light.corner
-        + light.edge_u * ((i as f32 + u.x) / grid as f32)
-        + light.edge_v * ((j as f32 + u.y) / grid as f32)
+/// Point `k` of the R2 set shifted by `shift` on `light`: any number of points spread evenly
+/// over the whole light (a ⌈√n⌉² grid's first n cells leave part of it unsampled when n is no
+/// square, and weight the rest up).
+pub(super) fn spread_point(light: &AreaLight, k: u32, shift: Vec2) -> Vec3 {
+    let u = r2(k, shift);
+    light.corner + light.edge_u * u.x + light.edge_v * u.y
 }
 
 /// Variance of the mean of `n` samples with sum `s` and sum of squares `s2`.

@@ -2,7 +2,7 @@
 //!
 //! Everything is expressed as radiance. For a texel with albedo ρ, the reflected radiance is
 //! L_r = ρ/π · E_irr, where the irradiance E_irr comes from
-//! - emitters, sampled explicitly: area lights (quads, not geometry) by stratified points,
+//! - emitters, sampled explicitly: area lights (quads, not geometry) by evenly spread points,
 //!   emissive triangles by points chosen in proportion to area × luminance, combined by
 //!   multiple importance sampling (power heuristic) with the gathering rays that hit them;
 //! - other surfaces, by cosine-distributed gathering rays whose hits read the previous
@@ -402,7 +402,7 @@ pub(super) fn cache_key(
 
 /// Raised whenever what a gathering ray or an element's emitter samples return changes for
 /// the same scene and settings, so that a ray cache written before is not read as this one's.
-const GATHER_REVISION: u32 = 2;
+const GATHER_REVISION: u32 = 3;
 
 /// How much of a prior ray cache a solve used.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
