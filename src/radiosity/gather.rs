@@ -9,7 +9,7 @@ use std::f32::consts::PI;
 use glam::{Vec2, Vec3};
 
 use super::atlas::{Atlas, TexelSample};
-use super::emitters::{Emitters, luminance, power, var_of_mean};
+use super::emitters::{Emitters, luminance, power, spread_var_of_mean, var_of_mean};
 use super::many_lights::{Choice, LIGHTS_SAMPLED_EACH, ManyLights};
 use super::mirror_lights::MirrorLights;
 use super::next_event::{Arrival, At, NextEvent, Receiver, Source};
@@ -45,6 +45,8 @@ pub(super) struct Context<'a> {
     pub bvh: &'a Bvh,
     pub atlas: &'a Atlas,
     pub offsets: &'a [u32],
+    /// Every triangle's face normal, kept: every gathering ray's hit reads one.
+    pub normals: &'a [Vec3],
     pub emitters: &'a Emitters,
     pub glossy: Option<Glossy<'a>>,
     /// Emitters' images in near-mirror planar reflectors.
@@ -248,7 +250,7 @@ pub(super) fn trace_ray(
         match hit {
             Some(h) => {
                 let ht = &scene.triangles[h.triangle as usize];
-                let cos_l = -d.dot(ht.face_normal());
+                let cos_l = -d.dot(cx.normals[h.triangle as usize]);
                 if cos_l <= 0.0 {
                     // A double-sided surface's back reflects with its (shared) texel.
                     if scene.material_of(h.triangle).double_sided {
@@ -644,7 +646,11 @@ impl Receiver for Irradiance<'_> {
             Source::Quad(light) => self.sum * (light.area / n as f32) / PI,
             Source::Triangles => self.sum / (n as f32 * PI),
         };
-        *self.var += var_of_mean(self.y, self.y2, n);
+        *self.var += match source {
+            Source::Quad(_) => var_of_mean(self.y, self.y2, n),
+            // One low-discrepancy set (`NextEvent::estimate`).
+            Source::Triangles => spread_var_of_mean(self.y, self.y2, n),
+        };
         (self.sum, self.y, self.y2) = (Vec3::ZERO, 0.0, 0.0);
     }
 }

@@ -17,7 +17,7 @@ use std::f32::consts::PI;
 
 use glam::Vec3;
 
-use super::emitters::{Emitters, luminance, stratified_point, var_of_mean};
+use super::emitters::{Emitters, luminance, spread_point, var_of_mean};
 use super::many_lights::{Choice, LIGHTS_SAMPLED_EACH, ManyLights, best_cosine, box_corners};
 use crate::brdf::Lobe;
 use crate::geometry::Bvh;
@@ -236,10 +236,10 @@ impl MirrorLights {
             };
 
             for light in &scene.lights {
-                let grid = (n_light as f32).sqrt().ceil() as u32;
+                let shift = rng.uniform2();
                 let (mut sum, mut y, mut y2) = (Vec3::ZERO, 0.0f64, 0.0f64);
                 for k in 0..n_light {
-                    let q = stratified_point(light, k, grid, rng.uniform2());
+                    let q = spread_point(light, k, shift);
                     let Some((refl, cos_s, dist2, r)) = through(q, 0.0) else {
                         continue;
                     };

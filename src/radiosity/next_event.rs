@@ -6,22 +6,24 @@
 //! ([`super::many_lights`]).
 //!
 //! Points are drawn with respect to area on the emitters: `n` uniform points on each area
-//! light (density 1/A), stratified on a ⌈√n⌉² grid, and `n` points on the emissive triangles,
-//! chosen by area × luminance ([`Emitters::area_pdf`]). At the receiver a point's density per
-//! solid angle is p_ω = p_A · dist² / cos θ_l, and a point that faces the receiver, lies above
-//! its surface and is not occluded contributes f · L_e · cos θ_i · w / p_ω (the light-sampling
-//! half of Veach's direct-lighting estimator, thesis 1997 ch. 9, w the MIS weight).
+//! light (density 1/A), a randomly shifted R2 set over it, and `n` points on the emissive
+//! triangles, with density ∝ area × luminance ([`Emitters::area_pdf`]), drawn as one randomly shifted R2
+//! set over that measure (each point uniform in it, the set evenly spread). At the receiver a
+//! point's density per solid angle is p_ω = p_A · dist² / cos θ_l, and a point that faces the
+//! receiver, lies above its surface and is not occluded contributes f · L_e · cos θ_i · w / p_ω
+//! (the light-sampling half of Veach's direct-lighting estimator, thesis 1997 ch. 9, w the MIS
+//! weight).
 //!
 //! The receiver supplies f, cos θ_i and w ([`Receiver`]): an element sums an area light's
 //! samples before scaling them by its area and weights only the emissive triangles, which
 //! its gathering rays can also hit; a glossy vertex divides each sample by p_ω.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
-use super::emitters::{Emitters, stratified_point};
+use super::emitters::{Emitters, spread_point};
 use super::transmission::{Glass, shadow};
 use crate::geometry::Bvh;
-use crate::sampling::{Rng, sample_triangle};
+use crate::sampling::{Rng, r2, sample_triangle};
 use crate::scene::{AreaLight, Scene};
 
 /// The emitters sampled one by one, and the geometry that shadows them.
@@ -89,10 +91,10 @@ impl NextEvent<'_> {
     ) {
         let (scene, bvh) = (self.scene, self.bvh);
         let glass = self.glass;
-        let grid = (n as f32).sqrt().ceil() as u32;
         for light in &scene.lights {
+            let shift = rng.uniform2();
             for k in 0..n {
-                let q = stratified_point(light, k, grid, rng.uniform2());
+                let q = spread_point(light, k, shift);
                 let Some((d, dist, dist2)) = towards(at.from, q) else {
                     continue;
                 };
@@ -125,14 +127,19 @@ impl NextEvent<'_> {
         if self.emitters.tris.is_empty() {
             return;
         }
-        for _ in 0..n {
-            let picked = self.emitters.pick(rng.uniform());
+        // A shifted low-discrepancy set over the emitters' area × luminance: each point is
+        // still uniform in it, and together they leave no part of a panel unsampled.
+        let shift = rng.uniform2();
+        for k in 0..n {
+            let u = r2(k, shift);
+            let (slot, along) = self.emitters.pick_spread(u.x);
+            let picked = self.emitters.tris[slot];
             let et = &scene.triangles[picked as usize];
-            let b = sample_triangle(rng.uniform2());
+            let b = sample_triangle(Vec2::new(along, u.y));
             let Some((d, dist, dist2)) = towards(at.from, et.point(b)) else {
                 continue;
             };
-            let cos_l = -d.dot(et.face_normal());
+            let cos_l = -d.dot(self.emitters.normals[slot]);
             if cos_l <= 0.0 || d.dot(at.ng) <= 0.0 {
                 continue;
             }
@@ -175,7 +182,7 @@ mod tests {
     use glam::Vec3;
 
     use super::{Arrival, At, NextEvent, Receiver, Source};
-    use crate::radiosity::emitters::Emitters;
+    use crate::radiosity::emitters::{Emitters, spread_var_of_mean};
     use crate::sampling::Rng;
     use crate::scene::{AreaLight, Scene};
 
@@ -200,6 +207,174 @@ mod tests {
                 Source::Quad(_) => self.quads += v,
                 Source::Triangles => self.triangles += v,
             }
+        }
+    }
+
+    /// The emissive triangles' points are spread as one low-discrepancy set: under the Cornell
+    /// box's panel 256 points give the analytic irradiance within 0.35% RMS over seeds.
+    #[test]
+    fn few_points_on_the_emissive_triangles_are_spread_over_the_panel() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box/scene.json");
+        let scene = Scene::load(path).unwrap_or_else(|e| panic!("{e}"));
+        let emitters = Emitters::new(&scene);
+        let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for &t in &emitters.tris {
+            for p in scene.triangles[t as usize].p {
+                (lo, hi) = (lo.min(p), hi.max(p));
+            }
+        }
+        let panel_l = scene.materials[scene.triangles[emitters.tris[0] as usize].material as usize]
+            .emission
+            .x;
+        let bvh = scene.build_bvh();
+        let ne = NextEvent {
+            scene: &scene,
+            bvh: &bvh,
+            emitters: &emitters,
+            glass: None,
+        };
+        let (size, below) = (hi - lo, 0.6);
+        let p = Vec3::new(0.5 * (lo.x + hi.x), hi.y - below, 0.5 * (lo.z + hi.z));
+        let at = At {
+            from: p,
+            origin: p,
+            ng: Vec3::Y,
+        };
+        let want = panel_l as f64 * form_factor(size.x, size.z, below);
+        // Independent points fail this bound.
+        let n = 256;
+        let rms = ((0..16)
+            .map(|seed| {
+                let (mut up, mut rays) = (Up::default(), 0);
+                ne.estimate(&at, n, &mut Rng::new(seed, 3), &mut rays, &mut up);
+                (up.triangles / n as f64 / want - 1.0).powi(2)
+            })
+            .sum::<f64>()
+            / 16.0)
+            .sqrt();
+        assert!(rms < 3.5e-3, "{rms}");
+    }
+
+    /// Each point's luminance-free value for [`spread_var_of_mean`].
+    #[derive(Default)]
+    struct Points(Vec<f64>);
+
+    impl Receiver for Points {
+        type Toward = f32;
+
+        fn toward(&self, d: Vec3) -> Option<f32> {
+            (d.y > 0.0).then_some(d.y)
+        }
+
+        fn add(&mut self, _: Source, a: &Arrival, cos: f32) {
+            self.0.push((a.radiance.x * cos / a.p_light) as f64);
+        }
+    }
+
+    /// Over the Cornell box's floor (lit, shadowed by the boxes and in their penumbrae), the
+    /// variance the spread points' estimate reads is at the median point no more than 1.5 times
+    /// below their mean's real variance over seeds (nor 4 times above it), and no more than 2
+    /// times below it at nine points in ten.
+    #[test]
+    fn the_spread_points_variance_estimate_follows_their_real_spread() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box/scene.json");
+        let scene = Scene::load(path).unwrap_or_else(|e| panic!("{e}"));
+        let emitters = Emitters::new(&scene);
+        let bvh = scene.build_bvh();
+        let b = bvh.bounds();
+        let ne = NextEvent {
+            scene: &scene,
+            bvh: &bvh,
+            emitters: &emitters,
+            glass: None,
+        };
+        let seeds = 48u64;
+        for n in [32u32, 128, 512] {
+            // Real over estimated variance, per lit point.
+            let mut ratios = Vec::new();
+            for i in 0..100 {
+                let (x, z) = ((i % 10) as f32 + 0.5, (i / 10) as f32 + 0.5);
+                let p = Vec3::new(
+                    b.min.x + (b.max.x - b.min.x) * x / 10.0,
+                    b.min.y + 0.01,
+                    b.min.z + (b.max.z - b.min.z) * z / 10.0,
+                );
+                let at = At {
+                    from: p,
+                    origin: p,
+                    ng: Vec3::Y,
+                };
+                let (mut s, mut s2, mut estimated) = (0.0, 0.0, 0.0);
+                for seed in 0..seeds {
+                    let (mut points, mut rays) = (Points::default(), 0);
+                    ne.estimate(&at, n, &mut Rng::new(seed, 9), &mut rays, &mut points);
+                    let sum: f64 = points.0.iter().sum();
+                    let sq: f64 = points.0.iter().map(|v| v * v).sum();
+                    let mean = sum / n as f64;
+                    (s, s2) = (s + mean, s2 + mean * mean);
+                    estimated += spread_var_of_mean(sum, sq, n);
+                }
+                let k = seeds as f64;
+                if s > 0.0 {
+                    ratios.push((s2 / k - (s / k).powi(2)) * k / (k - 1.0) / (estimated / k));
+                }
+            }
+            ratios.sort_by(f64::total_cmp);
+            let at = |q: f64| ratios[((ratios.len() - 1) as f64 * q).round() as usize];
+            let (median, q90) = (at(0.5), at(0.9));
+            assert!(ratios.len() > 50, "{} lit points", ratios.len());
+            assert!((0.25..1.5).contains(&median), "{n} points: median {median}");
+            assert!(q90 < 2.0, "{n} points: 90th percentile {q90}");
+        }
+    }
+
+    /// Any number of points on an area light gives its irradiance without bias: 128 points (no
+    /// square) under a light 0.5 m wide, 0.1 m and 0.3 m below it, average to the analytic
+    /// value within 0.5% over seeds.
+    #[test]
+    fn any_number_of_points_on_an_area_light_is_unbiased() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box/scene.json");
+        let mut scene = Scene::load(path).unwrap_or_else(|e| panic!("{e}"));
+        let emitters = Emitters::new(&scene);
+        let (side, height) = (0.5, 1.85);
+        scene.lights.push(AreaLight {
+            name: "square".into(),
+            corner: Vec3::new(-0.5 * side, height, -0.5 * side),
+            edge_u: Vec3::new(side, 0.0, 0.0),
+            edge_v: Vec3::new(0.0, 0.0, side),
+            normal: Vec3::NEG_Y,
+            area: side * side,
+            radiance: Vec3::ONE,
+            two_sided: false,
+        });
+        let bvh = scene.build_bvh();
+        let ne = NextEvent {
+            scene: &scene,
+            bvh: &bvh,
+            emitters: &emitters,
+            glass: None,
+        };
+        let (n, seeds) = (128, 64);
+        for below in [0.1f32, 0.3] {
+            let p = Vec3::new(0.0, height - below, 0.0);
+            let at = At {
+                from: p,
+                origin: p,
+                ng: Vec3::Y,
+            };
+            let mean = (0..seeds)
+                .map(|seed| {
+                    let (mut up, mut rays) = (Up::default(), 0);
+                    ne.estimate(&at, n, &mut Rng::new(seed, 1), &mut rays, &mut up);
+                    up.quads / n as f64
+                })
+                .sum::<f64>()
+                / seeds as f64;
+            let want = form_factor(side, side, below);
+            assert!(
+                (mean / want - 1.0).abs() < 5e-3,
+                "{below} m below: {mean} vs {want}"
+            );
         }
     }
 

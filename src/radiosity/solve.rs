@@ -2,7 +2,7 @@
 //!
 //! Everything is expressed as radiance. For a texel with albedo ρ, the reflected radiance is
 //! L_r = ρ/π · E_irr, where the irradiance E_irr comes from
-//! - emitters, sampled explicitly: area lights (quads, not geometry) by stratified points,
+//! - emitters, sampled explicitly: area lights (quads, not geometry) by evenly spread points,
 //!   emissive triangles by points chosen in proportion to area × luminance, combined by
 //!   multiple importance sampling (power heuristic) with the gathering rays that hit them;
 //! - other surfaces, by cosine-distributed gathering rays whose hits read the previous
@@ -261,6 +261,8 @@ fn gather_all(
 /// The emitters gathering samples, owned for a solve's or a batch's [`Context`].
 struct Lights {
     emitters: Emitters,
+    /// Every triangle's face normal ([`Context::normals`]).
+    normals: Vec<Vec3>,
     mirrors: Option<MirrorLights>,
     many: Option<ManyLights>,
 }
@@ -270,6 +272,7 @@ impl Lights {
         let many = ManyLights::new(scene, LIGHTS_SAMPLED_EACH);
         Lights {
             emitters: Emitters::new(scene),
+            normals: scene.triangles.iter().map(|t| t.face_normal()).collect(),
             // Mirror images of emitters are part of glossy transport.
             mirrors: if set.glossy_depth > 0 {
                 MirrorLights::new(scene, many.as_ref())
@@ -293,6 +296,7 @@ impl Lights {
             bvh,
             atlas,
             offsets,
+            normals: &self.normals,
             emitters: &self.emitters,
             glossy: Glossy::new(
                 scene,
@@ -370,6 +374,7 @@ pub(super) fn cache_key(
     let mut h = blake3::Hasher::new();
     h.update(ray_cache::MAGIC);
     h.update(&ray_cache::VERSION.to_le_bytes());
+    h.update(&GATHER_REVISION.to_le_bytes());
     h.update(crate::bundle::manifest::generator().as_bytes());
     h.update(scene.geometry_hash.as_bytes());
     h.update(&samples_hash(samples));
@@ -394,6 +399,10 @@ pub(super) fn cache_key(
     }
     (*h.finalize().as_bytes(), lobes)
 }
+
+/// Raised whenever what a gathering ray or an element's emitter samples return changes for
+/// the same scene and settings, so that a ray cache written before is not read as this one's.
+const GATHER_REVISION: u32 = 3;
 
 /// How much of a prior ray cache a solve used.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
