@@ -130,17 +130,18 @@ pub fn sweep(
     crate::out_dir::create_dir_all(&views).map_err(io(&views))?;
     let bundles = cfg.out.join("bundles");
     let (w, h) = (reference.width as u32, reference.height as u32);
-    let mut viewer = if cfg.use_viewer {
-        Viewer::open(w, h, cfg.frames, cfg.view_spp)
+    let (mut viewer, no_viewer) = if cfg.use_viewer {
+        match Viewer::open(w, h, cfg.frames, cfg.view_spp) {
+            Ok(v) => (Some(v), String::new()),
+            Err(why) => (None, why),
+        }
     } else {
-        None
+        (None, "the sweep was asked not to use it".to_string())
     };
     if viewer.is_none() && shows_reflections(&cfg.view, cfg.knobs) {
         return Err(SweepError::View(
             "reflections".into(),
-            "glossy reflections need the headless viewer (the `view` feature and a GPU \
-             adapter)"
-                .into(),
+            format!("glossy reflections need the headless viewer, and none opened: {no_viewer}"),
         ));
     }
     let settings = BakeSettings::resolve(scene, cfg.quality)

@@ -22,9 +22,10 @@ pub(super) struct Viewer {
 
 #[cfg(feature = "view")]
 impl Viewer {
-    pub(super) fn open(width: u32, height: u32, frames: usize, spp: u32) -> Option<Viewer> {
+    /// The viewer, or why none opens.
+    pub(super) fn open(width: u32, height: u32, frames: usize, spp: u32) -> Result<Viewer, String> {
         match crate::view::gpu::Gpu::headless_with_features(wgpu::Features::TIMESTAMP_QUERY) {
-            Ok(gpu) => Some(Viewer {
+            Ok(gpu) => Ok(Viewer {
                 gpu,
                 width,
                 height,
@@ -33,7 +34,7 @@ impl Viewer {
             }),
             Err(e) => {
                 log::warn!("no GPU for the headless viewer ({e}): views are D on the CPU, untimed");
-                None
+                Err(e.to_string())
             }
         }
     }
@@ -122,8 +123,8 @@ pub(super) struct Viewer;
 
 #[cfg(not(feature = "view"))]
 impl Viewer {
-    pub(super) fn open(_: u32, _: u32, _: usize, _: u32) -> Option<Viewer> {
-        None
+    pub(super) fn open(_: u32, _: u32, _: usize, _: u32) -> Result<Viewer, String> {
+        Err("glint was built without the `view` feature".into())
     }
 
     pub(super) fn render(
