@@ -50,8 +50,16 @@ pub use super::gather::{BACKFACE_LIMIT, OPEN_LIMIT};
 pub const MAX_ROUNDS: u32 = 4;
 
 /// Most samples an element may get under [`SolveSettings::target_error`], as a multiple of
-/// its first batch (`rays`, `light_samples`).
-pub const MAX_SAMPLE_FACTOR: u32 = 64;
+/// its first batch (`rays`, `light_samples`). The elements that ask for more are those whose
+/// error is mostly the part that falls as 1/samples (glossy paths drawn at random, emitter
+/// samples): on glossy-room they took most of the refinement's rays, and the path tracer's
+/// probes read the same D without them (docs/tuning.md#refinement-limits).
+pub const MAX_SAMPLE_FACTOR: u32 = 8;
+
+/// Gathering rays [`MAX_SAMPLE_FACTOR`] allows an element at least (its emitter samples in
+/// proportion): a coarse first batch, whose elements cost little, may still be refined to
+/// the target.
+pub const MIN_SAMPLE_CAP: u64 = 2048;
 
 /// Most gathering rays all refinement rounds together may add, as a multiple of the first
 /// batch's (elements × `rays`): the refinement's time. Its memory is bounded by
@@ -83,7 +91,8 @@ pub struct SolveSettings {
     /// [`RadiositySettings::tolerance`].
     pub tolerance: f32,
     /// [`RadiositySettings::target_error`]: refinement runs up to [`MAX_ROUNDS`] rounds and
-    /// up to [`MAX_SAMPLE_FACTOR`] × an element's first batch.
+    /// up to [`MAX_SAMPLE_FACTOR`] × an element's first batch (at least [`MIN_SAMPLE_CAP`]
+    /// rays).
     pub target_error: Option<f32>,
     /// Random seed (every texel draws from its own stream of it).
     pub seed: u64,
@@ -1031,7 +1040,7 @@ fn share_budget(
 /// The elements whose error is above `target`, with the rays and emitter samples of their next
 /// batch: enough to bring the error to the target at the rates of its parts
 /// ([`ErrorParts::factor_to`], times 1.1), at least a quarter of what they have, within
-/// [`MAX_SAMPLE_FACTOR`] × the first batch.
+/// [`MAX_SAMPLE_FACTOR`] × the first batch (at least [`MIN_SAMPLE_CAP`] rays).
 fn more_samples(
     error: &[ErrorParts],
     gathered: &[Gathered],
@@ -1040,7 +1049,7 @@ fn more_samples(
     light: u32,
 ) -> Vec<(u32, u32, u32)> {
     let target = target as f64;
-    let max_rays = rays as u64 * MAX_SAMPLE_FACTOR as u64;
+    let max_rays = (rays as u64 * MAX_SAMPLE_FACTOR as u64).max(MIN_SAMPLE_CAP);
     error
         .iter()
         .zip(gathered)
@@ -1051,15 +1060,15 @@ fn more_samples(
             if g.inside || e.is_nan() || e <= target || have >= max_rays {
                 return None;
             }
-            let want = if e.is_finite() {
-                (p.factor_to(target) * 1.1).min(MAX_SAMPLE_FACTOR as f64)
+            let room = max_rays - have;
+            let add = if e.is_finite() {
+                (have as f64 * (p.factor_to(target) * 1.1 - 1.0))
+                    .ceil()
+                    .min(room as f64) as u64
             } else {
-                MAX_SAMPLE_FACTOR as f64
+                room
             };
-            let add = ((have as f64 * (want - 1.0)).ceil() as u64)
-                .max(have / 4)
-                .min(max_rays - have)
-                .max(1);
+            let add = add.max(have / 4).min(room).max(1);
             let add_light = (add * light as u64).div_ceil(rays as u64).max(1);
             Some((i as u32, add as u32, add_light.min(u32::MAX as u64) as u32))
         })
@@ -1119,7 +1128,9 @@ fn resolve_texels(
 mod tests {
     use glam::Vec3;
 
-    use super::{ErrorParts, Gathered, Links, share_budget};
+    use super::{
+        ErrorParts, Gathered, Links, MAX_SAMPLE_FACTOR, MIN_SAMPLE_CAP, more_samples, share_budget,
+    };
     use crate::radiosity::gather::Moments;
 
     fn gathered(hits: Vec<u32>) -> Gathered {
@@ -1197,6 +1208,34 @@ mod tests {
             random: 1e-4,
         };
         assert_eq!(done.factor_to(t), 1.0);
+    }
+
+    #[test]
+    fn an_element_far_above_the_target_asks_for_at_most_eight_times_its_first_batch() {
+        // The default preset's first batch: 256 rays, 128 emitter samples. Element 0's error
+        // is the part that falls as 1/samples, at ten times the target (a hundredfold batch
+        // would reach it); element 1 is a little above the target, element 2 below it.
+        let first = |n: usize| gathered(vec![0; n]);
+        let have = [first(256), first(256), first(256)];
+        let t = 0.015f64;
+        let random = |e: f64| ErrorParts {
+            sequence: 0.0,
+            random: e * e,
+        };
+        let error = [random(10.0 * t), random(1.2 * t), random(0.9 * t)];
+        let which = more_samples(&error, &have, t as f32, 256, 128);
+        assert_eq!(MAX_SAMPLE_FACTOR, 8);
+        // Capped: the first batch and the added rays together are 8 × 256.
+        assert_eq!(which[0], (0, 7 * 256, 7 * 128), "{which:?}");
+        // Under the cap the ask brings the error to the target, times 1.1: 1.44 × 1.1.
+        assert_eq!(which[1], (1, 150, 75), "{which:?}");
+        assert_eq!(which.len(), 2, "{which:?}");
+        // At the cap, nothing more, however far above the target.
+        assert!(more_samples(&error[..1], &[first(8 * 256)], t as f32, 256, 128).is_empty());
+        // A coarse first batch (32 rays, 4 emitter samples) may go on to the floor's 2048.
+        assert_eq!(MIN_SAMPLE_CAP, 2048);
+        let coarse = more_samples(&error[..1], &[first(32)], t as f32, 32, 4);
+        assert_eq!(coarse, [(0, 2048 - 32, (2048 - 32) * 4 / 32)]);
     }
 
     #[test]

@@ -85,7 +85,7 @@ pub const CACHE_BUDGET: u64 = 2 << 30;
 pub const MAX_BOUNCES: u32 = 256;
 
 /// Largest `rays` and `light_samples` per texel: 64× and 512× the high preset's first batch,
-/// which refinement already raises by up to 64× where a texel needs it.
+/// which refinement already raises by up to 8× where a texel needs it.
 pub const MAX_SAMPLES: u32 = 65_536;
 
 /// Largest `min_chart_texels`: a chart's density is raised by at most 16× for it anyway.
