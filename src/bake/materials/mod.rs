@@ -213,7 +213,7 @@ pub fn bake_part(
         }
     };
     bake_reading(
-        scene, bundle_dir, settings, force, shading, d_read, part.item, progress,
+        scene, bundle_dir, settings, force, shading, d_read, part.item, part.reads, progress,
     )
 }
 
@@ -235,12 +235,14 @@ pub fn bake_with(
         shading,
         None,
         Item::All,
+        None,
         progress,
     )
 }
 
 /// [`bake_with`] of `item`, where `d_read` is the identity of the radiosity stage the
-/// shading read (checked again at the commit).
+/// shading read (checked again at the commit), keeping the captures' records in `reads`
+/// (a probe's or an environment map's unit folder, [`crate::bake::read_cache`]).
 #[allow(clippy::too_many_arguments)]
 fn bake_reading(
     scene: &Scene,
@@ -250,6 +252,7 @@ fn bake_reading(
     shading: Result<EnvShading, String>,
     d_read: Option<String>,
     item: Item,
+    reads: Option<&Path>,
     progress: &dyn Progress,
 ) -> Result<Outcome, MaterialsError> {
     let start = Instant::now();
@@ -289,12 +292,13 @@ fn bake_reading(
         settings,
         &shading,
         &take_probe,
+        reads,
         progress,
         &mut stats,
     )?;
     let take_env = |k: usize| item.takes(Item::EnvMap(k));
     let env = env_maps::write_env_maps(
-        &mut w, scene, settings, shading, &take_env, progress, &mut stats,
+        &mut w, scene, settings, shading, &take_env, reads, progress, &mut stats,
     )?;
     let index = MaterialsIndex {
         format: INDEX_FORMAT.into(),
