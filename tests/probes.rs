@@ -257,7 +257,6 @@ fn a_probe_evaluated_from_its_records_is_the_probe_captured() {
             "r0": 0.04, "mx": 0.16, "my": 0.16 }] });
     }));
     let tiles = material_id(&scene, "Tiles") as usize;
-    let bvh = scene.build_bvh();
     let settings = CaptureSettings {
         face_size: 8,
         supersample: 2,
@@ -268,44 +267,53 @@ fn a_probe_evaluated_from_its_records_is_the_probe_captured() {
     // D of a made-up bake, and D after an albedo edit.
     let d = |t: u32, b: Vec2| Vec3::new(0.1 + (t % 7) as f32 * 0.05 + b.x, 0.2 + b.y, 0.3);
     let edited_d = |t: u32, b: Vec2| d(t, b) * Vec3::new(1.5, 0.5, 1.0) + 0.01;
-    let direct = |scene: &Scene, at: Vec3, d: &dyn Fn(u32, Vec2) -> Vec3| {
+    let direct = |scene: &Scene, at: Vec3, d: &(dyn Fn(u32, Vec2) -> Vec3 + Sync)| {
         let shade = |h: &glint::geometry::Hit| d(h.triangle, h.bary);
         let bvh = scene.build_bvh();
         bits(&capture_cube(scene, &bvh, at, &settings, &[], &shade, &Silent).unwrap())
     };
+    let recorded = |scene: &Scene, at: Vec3, d: &(dyn Fn(u32, Vec2) -> Vec3 + Sync), replay| {
+        let bvh = scene.build_bvh();
+        capture_recorded(scene, &bvh, at, &settings, &[], d, replay, &Silent).unwrap()
+    };
+    let unchanged = vec![false; scene.materials.len()];
+    let mut changed = unchanged.clone();
+    changed[tiles] = true;
     let probes = scene_probes(&scene);
     assert!(probes.len() > 1, "{probes:?}");
     let mut retraced = Vec::new();
     for p in &probes {
         let at = p.position;
         // Recorded, every texel comes from its record: the capture's bytes.
-        let first = capture_recorded(&scene, &bvh, at, &settings, &[], &d, None, &Silent).unwrap();
+        let first = recorded(&scene, at, &d, None);
         assert_eq!(first.traced, texels as u64);
         assert_eq!(bits(&first.cube), direct(&scene, at, &d), "{}", p.name);
         // D alone changed: no texel traced, the bytes of a capture with the new D.
-        let unchanged = vec![false; scene.materials.len()];
         let replay = Replay {
             reads: first.reads.clone(),
             changed: &unchanged,
         };
-        let again =
-            capture_recorded(&scene, &bvh, at, &settings, &[], &edited_d, Some(replay), &Silent)
-                .unwrap();
+        let again = recorded(&scene, at, &edited_d, Some(replay));
         assert_eq!(again.traced, 0, "{}", p.name);
-        assert_eq!(bits(&again.cube), direct(&scene, at, &edited_d), "{}", p.name);
+        assert_eq!(
+            bits(&again.cube),
+            direct(&scene, at, &edited_d),
+            "{}",
+            p.name
+        );
         // Tiles' lobe changed too: the texels whose rays met Tiles are traced again, and the
         // cube is the edited scene's.
-        let mut changed = unchanged.clone();
-        changed[tiles] = true;
         let replay = Replay {
             reads: first.reads,
             changed: &changed,
         };
-        let bvh2 = rougher.build_bvh();
-        let edit =
-            capture_recorded(&rougher, &bvh2, at, &settings, &[], &edited_d, Some(replay), &Silent)
-                .unwrap();
-        assert_eq!(bits(&edit.cube), direct(&rougher, at, &edited_d), "{}", p.name);
+        let edit = recorded(&rougher, at, &edited_d, Some(replay));
+        assert_eq!(
+            bits(&edit.cube),
+            direct(&rougher, at, &edited_d),
+            "{}",
+            p.name
+        );
         retraced.push(edit.traced);
     }
     // Some probe sees Tiles, none sees only Tiles.

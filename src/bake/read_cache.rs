@@ -94,9 +94,9 @@ pub fn scene_key(scene: &Scene, normal_offset: f32) -> blake3::Hasher {
 }
 
 /// The key of one cube-map capture's records ([`crate::materials::capture_reads`]): besides
-/// [`materials_key`], the area lights (which its rays collect), the reflectors (which of them
-/// are near-mirrors its rays follow), the capture's settings, its point and the triangles it
-/// sees through.
+/// what every key shares (module comment), the area lights (which its rays collect), the
+/// reflectors (which of them are near-mirrors its rays follow), the capture's settings, its
+/// point and the triangles it sees through.
 pub fn capture_key(
     scene: &Scene,
     settings: &CaptureSettings,
@@ -141,6 +141,20 @@ pub fn read(dir: &Path, name: &str, key: &[u8; 32]) -> Option<(MaterialPrints, M
         rest = r;
     }
     Some((MaterialPrints(prints), MapReads::decode(rest)?))
+}
+
+/// The records `name` in `dir` kept under `key` ([`read`]; none without `dir`), and per
+/// material whether its print in `prints` differs from theirs (empty without records).
+pub fn kept(
+    dir: Option<&Path>,
+    name: &str,
+    key: &[u8; 32],
+    prints: &MaterialPrints,
+) -> (Option<MapReads>, Vec<bool>) {
+    match dir.and_then(|dir| read(dir, name, key)) {
+        Some((p, reads)) => (Some(reads), prints.changed_since(&p)),
+        None => (None, Vec::new()),
+    }
 }
 
 /// The bytes of a record file: key, hash, prints and records.

@@ -325,8 +325,8 @@ pub fn bake_unit_gathering(
     // The plain `glint-bake`'s unit cache keeps the records of radiance maps and cube-map
     // captures; a job engine's shards do not.
     let item = plan.item(unit);
-    let records = unit.stage == Stage::Radiance.name()
-        || matches!(item, Item::Probe(_) | Item::EnvMap(_));
+    let records =
+        unit.stage == Stage::Radiance.name() || matches!(item, Item::Probe(_) | Item::EnvMap(_));
     let reads = (gather_here && records).then(|| super::read_cache::reads_dir(shard));
     let part = Part {
         item,

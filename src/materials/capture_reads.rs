@@ -23,8 +23,13 @@
 //! untextured: the shading reads D through the textures itself. Little-endian.
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
-use crate::radiance::reads::{Cursor, Kept, Read, push_read, push_vec3};
+use crate::geometry::Triangle;
+use crate::progress::Progress;
+use crate::radiance::reads::{
+    Cursor, Kept, MapReads, Read, Replay, push_read, push_vec3, replay_row,
+};
 
 /// The end of a ray's record.
 pub const END: u8 = 0;
@@ -109,8 +114,8 @@ pub fn push_sample(
     count.copy_from_slice(&n.to_le_bytes());
     out.extend(weight.to_le_bytes());
     let sees_lights = !is_positive_zero(lights);
-    let flags = if sees_lights { SEES_LIGHTS } else { 0 }
-        | if lands.is_some() { SEES_SURFACE } else { 0 };
+    let flags =
+        if sees_lights { SEES_LIGHTS } else { 0 } | if lands.is_some() { SEES_SURFACE } else { 0 };
     out.push(flags);
     if sees_lights {
         push_vec3(out, lights);
@@ -183,6 +188,99 @@ pub fn eval_texel(
     })
 }
 
+/// What a capture's texel records depend on besides their bytes.
+#[derive(Clone, Copy, Debug)]
+pub struct CubeShape {
+    /// Texels per face edge.
+    pub size: usize,
+    /// Rays per texel.
+    pub rays: usize,
+    /// Samples per glossy lobe.
+    pub glossy_samples: u32,
+}
+
+/// A D lookup (the stored value at barycentrics of a triangle), and a cube's kept records.
+pub type Recorded<'a> = (&'a (dyn Fn(u32, Vec2) -> Vec3 + Sync), Option<Replay<'a>>);
+
+/// A cube map's texels (`triangles`: the scene's), one face row per work item (deterministic):
+/// `texel(face, x, y, out)` traces a texel, appends its record to `out` and gives the value its
+/// trace summed. With `recorded`, each texel's value is its record evaluated against D
+/// ([`eval_texel`]) instead, and with kept records a texel whose record is still valid is not
+/// traced. The texels, their records (empty without `recorded`) and how many were traced;
+/// `None` when cancelled.
+pub fn texel_rows(
+    shape: &CubeShape,
+    triangles: &[Triangle],
+    texel: &(dyn Fn(usize, usize, usize, &mut Vec<u8>) -> Vec3 + Sync),
+    recorded: Option<Recorded>,
+    progress: &dyn Progress,
+) -> Option<(Vec<Vec3>, MapReads, u64)> {
+    let size = shape.size;
+    let (d, replay) = match recorded {
+        Some((d, replay)) => (Some(d), replay),
+        None => (None, None),
+    };
+    let (old_rows, changed) = Replay::rows(replay, 6 * size);
+    let stale = |t: u32| {
+        let m = triangles[t as usize].material as usize;
+        changed.get(m).copied().unwrap_or(true)
+    };
+    let eval = |at: &[u8], stale: &dyn Fn(u32) -> bool, d| {
+        let (rays, samples) = (shape.rays, shape.glossy_samples);
+        eval_texel(at, rays, samples, triangles.len(), stale, d)
+    };
+    let rows: Vec<(Vec<Vec3>, Vec<u8>, u64)> = old_rows
+        .into_par_iter()
+        .enumerate()
+        .map(|(row, old)| {
+            if progress.cancelled() {
+                return (Vec::new(), Vec::new(), 0);
+            }
+            let (face, y) = (row / size, row % size);
+            let mut bytes = Vec::new();
+            let out = match (d, old) {
+                (None, _) => {
+                    let values = (0..size)
+                        .map(|x| {
+                            bytes.clear();
+                            texel(face, x, y, &mut bytes)
+                        })
+                        .collect();
+                    (values, Vec::new(), size as u64)
+                }
+                (Some(d), old) => {
+                    let traced = |x: usize, out: &mut Vec<u8>| {
+                        let from = out.len();
+                        texel(face, x, y, out);
+                        let e = eval(&out[from..], &|_| false, d);
+                        e.expect("a record just written is whole").value
+                    };
+                    match old {
+                        Some(old) => replay_row(old, size, |_, at| eval(at, &stale, d), traced),
+                        None => {
+                            let values = (0..size).map(|x| traced(x, &mut bytes)).collect();
+                            (values, bytes, size as u64)
+                        }
+                    }
+                }
+            };
+            progress.advance(1);
+            out
+        })
+        .collect();
+    if progress.cancelled() || rows.iter().any(|r| r.0.len() != size) {
+        return None;
+    }
+    let traced = rows.iter().map(|r| r.2).sum();
+    let mut texels = Vec::with_capacity(6 * size * size);
+    let mut records = Vec::with_capacity(6 * size);
+    for (values, bytes, _) in rows {
+        texels.extend(values);
+        records.push(bytes);
+    }
+    Some((texels, MapReads { rows: records }, traced))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -211,7 +309,9 @@ mod tests {
         assert_eq!(e.len, out.len());
         assert!(e.stale);
         let lobe = d(0, b) * 2.0 + lights * 4.0;
-        let ray = lights + d(1, b) + Vec3::splat(0.5) * d(2, b)
+        let ray = lights
+            + d(1, b)
+            + Vec3::splat(0.5) * d(2, b)
             + Vec3::splat(0.5) * (Vec3::splat(0.25) * lobe / 16.0);
         assert_eq!(e.value, (ray + Vec3::ZERO) / 2.0);
         // Where lobe samples land is not a surface the ray met.

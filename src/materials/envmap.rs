@@ -15,12 +15,12 @@
 use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 
+use super::capture_reads as rec;
 use crate::brdf::pattern::{Pattern, lobe_area_for, mip_level};
 use crate::brdf::{Frame, Lobe, above, reflect};
 use crate::geometry::{Bvh, Hit};
-use super::capture_reads as rec;
 use crate::progress::{Cancelled, Progress};
-use crate::radiance::reads::{MapReads, Replay, replay_row};
+use crate::radiance::reads::{MapReads, Replay};
 use crate::radiosity::MAX_GLASS_LAYERS;
 use crate::sampling::Rng;
 use crate::scene::{ReflectorKind, Scene};
@@ -395,9 +395,8 @@ pub fn capture_cube(
     let c = capture(
         scene,
         bvh,
-        centre,
+        (centre, see_through),
         settings,
-        see_through,
         shade,
         None,
         progress,
@@ -435,28 +434,26 @@ pub fn capture_recorded(
 ) -> Result<Captured, Cancelled> {
     // The texels' values come from their records: the trace's own sum is not needed.
     let zero = |_: &Hit| Vec3::ZERO;
+    let recorded = Some((d, replay));
     capture(
         scene,
         bvh,
-        centre,
+        (centre, see_through),
         settings,
-        see_through,
         &zero,
-        Some((d, replay)),
+        recorded,
         progress,
     )
 }
 
 /// [`capture_cube`], and with `recorded` [`capture_recorded`].
-#[allow(clippy::too_many_arguments)]
 fn capture(
     scene: &Scene,
     bvh: &Bvh,
-    centre: Vec3,
+    (centre, see_through): (Vec3, &[u32]),
     settings: &CaptureSettings,
-    see_through: &[u32],
     shade: &(dyn Fn(&Hit) -> Vec3 + Sync),
-    recorded: Option<(&(dyn Fn(u32, Vec2) -> Vec3 + Sync), Option<Replay>)>,
+    recorded: Option<rec::Recorded>,
     progress: &dyn Progress,
 ) -> Result<Captured, Cancelled> {
     let mut skip = vec![false; scene.triangles.len()];
@@ -513,47 +510,42 @@ fn capture(
     };
     // What the lobes of a glossy surface at `p` (face normal `n`, either side) reflect of
     // `shade` towards −`dir`, recorded into `out`.
-    let glossy_term = |lobes: &[Lobe],
-                       p: Vec3,
-                       n: Vec3,
-                       dir: Vec3,
-                       seed: u32,
-                       out: &mut Vec<u8>|
-     -> Vec3 {
-        let frame = Frame::from_normal(if n.dot(dir) < 0.0 { n } else { -n });
-        let wo = frame.to_local(-dir);
-        let count = settings.glossy_samples;
-        let mut sum = Vec3::ZERO;
-        rec::push_glossy(out, lobes.len());
-        for lobe in lobes {
-            let count_at = rec::push_lobe(out, lobe.ks);
-            let mut lobe_sum = Vec3::ZERO;
-            for j in 0..count {
-                let Some(wi) = lobe.sample(wo, lobe_sample_point(j, count, seed)) else {
-                    continue;
-                };
-                let w = frame.to_world(wi);
-                let origin = bvh.offset_origin(p, w);
-                let found = first_hit(origin, w);
-                let mut seen = lights_before(origin, w, found.as_ref());
-                let lights = seen;
-                if let Some((hit, _, travelled)) = &found {
-                    seen += shade(&Hit {
-                        t: travelled + hit.t,
-                        ..*hit
-                    });
-                } else if seen == Vec3::ZERO {
-                    continue;
+    let glossy_term =
+        |lobes: &[Lobe], p: Vec3, n: Vec3, dir: Vec3, seed: u32, out: &mut Vec<u8>| -> Vec3 {
+            let frame = Frame::from_normal(if n.dot(dir) < 0.0 { n } else { -n });
+            let wo = frame.to_local(-dir);
+            let count = settings.glossy_samples;
+            let mut sum = Vec3::ZERO;
+            rec::push_glossy(out, lobes.len());
+            for lobe in lobes {
+                let count_at = rec::push_lobe(out, lobe.ks);
+                let mut lobe_sum = Vec3::ZERO;
+                for j in 0..count {
+                    let Some(wi) = lobe.sample(wo, lobe_sample_point(j, count, seed)) else {
+                        continue;
+                    };
+                    let w = frame.to_world(wi);
+                    let origin = bvh.offset_origin(p, w);
+                    let found = first_hit(origin, w);
+                    let mut seen = lights_before(origin, w, found.as_ref());
+                    let lights = seen;
+                    if let Some((hit, _, travelled)) = &found {
+                        seen += shade(&Hit {
+                            t: travelled + hit.t,
+                            ..*hit
+                        });
+                    } else if seen == Vec3::ZERO {
+                        continue;
+                    }
+                    let weight = lobe.sample_weight(wo, wi);
+                    let lands = found.map(|(hit, _, _)| (hit.triangle, hit.bary));
+                    rec::push_sample(out, count_at, weight, lights, lands);
+                    lobe_sum += seen * weight;
                 }
-                let weight = lobe.sample_weight(wo, wi);
-                let lands = found.map(|(hit, _, _)| (hit.triangle, hit.bary));
-                rec::push_sample(out, count_at, weight, lights, lands);
-                lobe_sum += seen * weight;
+                sum += lobe.ks * lobe_sum / count as f32;
             }
-            sum += lobe.ks * lobe_sum / count as f32;
-        }
-        sum
-    };
+            sum
+        };
     // One ray from the centre: each surface it meets adds its D, a mirror sends it on (up
     // to `mirror_bounces` times), glass lets it through (up to MAX_GLASS_LAYERS panes), any
     // other glossy surface adds its reflection and ends it.
@@ -630,77 +622,16 @@ fn capture(
         }
         sum / rays as f32
     };
-    let (d, replay) = match recorded {
-        Some((d, replay)) => (Some(d), replay),
-        None => (None, None),
+    let shape = rec::CubeShape {
+        size,
+        rays,
+        glossy_samples: settings.glossy_samples,
     };
-    let (old_rows, changed) = Replay::rows(replay, 6 * size);
-    let stale = |t: u32| {
-        let m = scene.triangles[t as usize].material as usize;
-        changed.get(m).copied().unwrap_or(true)
-    };
-    let triangles = scene.triangles.len();
-    let rows: Vec<(Vec<Vec3>, Vec<u8>, u64)> = old_rows
-        .into_par_iter()
-        .enumerate()
-        .map(|(row, old)| {
-            if progress.cancelled() {
-                return (Vec::new(), Vec::new(), 0);
-            }
-            let (face, y) = (row / size, row % size);
-            let out = match d {
-                None => {
-                    let mut scratch = Vec::new();
-                    let values = (0..size)
-                        .map(|x| {
-                            scratch.clear();
-                            texel(face, x, y, &mut scratch)
-                        })
-                        .collect();
-                    (values, Vec::new(), size as u64)
-                }
-                Some(d) => {
-                    let eval = |at: &[u8], stale: &dyn Fn(u32) -> bool| {
-                        let samples = settings.glossy_samples;
-                        rec::eval_texel(at, rays, samples, triangles, stale, d)
-                    };
-                    let traced = |x: usize, out: &mut Vec<u8>| {
-                        let from = out.len();
-                        texel(face, x, y, out);
-                        let e = eval(&out[from..], &|_| false);
-                        e.expect("a record just written is whole").value
-                    };
-                    match old {
-                        Some(old) => replay_row(old, size, |_, at| eval(at, &stale), traced),
-                        None => {
-                            let mut bytes = Vec::new();
-                            let values = (0..size).map(|x| traced(x, &mut bytes)).collect();
-                            (values, bytes, size as u64)
-                        }
-                    }
-                }
-            };
-            progress.advance(1);
-            out
-        })
-        .collect();
-    if progress.cancelled() || rows.iter().any(|r| r.0.len() != size) {
-        return Err(Cancelled);
-    }
-    let traced = if d.is_some() {
-        rows.iter().map(|r| r.2).sum()
-    } else {
-        (6 * size * size) as u64
-    };
-    let mut texels = Vec::with_capacity(6 * size * size);
-    let mut records = Vec::with_capacity(6 * size);
-    for (values, bytes, _) in rows {
-        texels.extend(values);
-        records.push(bytes);
-    }
+    let rows = rec::texel_rows(&shape, &scene.triangles, &texel, recorded, progress);
+    let (texels, reads, traced) = rows.ok_or(Cancelled)?;
     Ok(Captured {
         cube: CubeMap { size, texels },
-        reads: MapReads { rows: records },
+        reads,
         traced,
     })
 }

@@ -7,18 +7,18 @@ use std::path::Path;
 
 use super::report::EnvReport;
 use super::{EnvShading, MaterialsError};
+use crate::bake::read_cache::{self, MaterialPrints, READS_BUDGET};
 use crate::bundle::StageWriter;
+use crate::geometry::{Bvh, Hit};
 use crate::image_io::{ChannelData, ExrCompression, Precision, encode_rgb_exr_with};
 use crate::materials::MaterialsSettings;
-use crate::bake::read_cache::{self, MaterialPrints, READS_BUDGET};
-use crate::geometry::{Bvh, Hit};
 use crate::materials::envmap::{
     CaptureSettings, CubeMap, ENV_GLOSSY_SAMPLES, MAX_MIRROR_BOUNCES, MipPyramid, capture_centre,
     capture_recorded,
 };
-use crate::radiance::reads::Replay;
 use crate::materials::index::{ENV_LAYOUT, IndexedEnvMap};
 use crate::progress::Progress;
+use crate::radiance::reads::Replay;
 use crate::scene::{ReflectorKind, Scene};
 
 /// What [`write_env_maps`] did.
@@ -157,16 +157,21 @@ pub fn capture_kept(
     };
     let key = read_cache::capture_key(scene, capture, centre, see_through);
     let prints = MaterialPrints::of(&scene.materials);
-    let old = dir.and_then(|dir| read_cache::read(dir, name, &key));
-    let (old, changed) = match old {
-        Some((p, reads)) => (Some(reads), prints.changed_since(&p)),
-        None => (None, Vec::new()),
-    };
+    let (old, changed) = read_cache::kept(dir, name, &key, &prints);
     let replay = old.map(|reads| Replay {
         reads,
         changed: &changed,
     });
-    let captured = capture_recorded(scene, bvh, centre, capture, see_through, &d, replay, progress)?;
+    let captured = capture_recorded(
+        scene,
+        bvh,
+        centre,
+        capture,
+        see_through,
+        &d,
+        replay,
+        progress,
+    )?;
     let texels = 6 * captured.cube.size * captured.cube.size;
     // Records of which no texel was traced again are still right: kept as they are.
     if let Some(dir) = dir

@@ -90,7 +90,9 @@ pub enum MaterialsError {
 }
 
 /// Shades an environment-map ray hit: the radiance leaving the hit point towards the capture
-/// point (D, the diffuse radiosity, for glint's bakes).
+/// point (D, the diffuse radiosity, for glint's bakes). It reads the hit's point alone (its
+/// triangle and barycentrics, not its distance): the stage evaluates its captures' records
+/// with it ([`crate::materials::capture_reads`]).
 pub type HitShader = Box<dyn Fn(&Hit) -> Vec3 + Send + Sync>;
 
 /// A shader for environment maps with the identity of what it reads (recorded in the
