@@ -202,6 +202,10 @@ pub struct CubeShape {
 /// A D lookup (the stored value at barycentrics of a triangle), and a cube's kept records.
 pub type Recorded<'a> = (&'a (dyn Fn(u32, Vec2) -> Vec3 + Sync), Option<Replay<'a>>);
 
+/// Traces texel (x, y) of a face (`face, x, y, out`), appending its record to `out`, and gives
+/// the value its trace summed.
+pub type TraceTexel<'a> = dyn Fn(usize, usize, usize, &mut Vec<u8>) -> Vec3 + Sync + 'a;
+
 /// A cube map's texels (`triangles`: the scene's), one face row per work item (deterministic):
 /// `texel(face, x, y, out)` traces a texel, appends its record to `out` and gives the value its
 /// trace summed. With `recorded`, each texel's value is its record evaluated against D
@@ -211,7 +215,7 @@ pub type Recorded<'a> = (&'a (dyn Fn(u32, Vec2) -> Vec3 + Sync), Option<Replay<'
 pub fn texel_rows(
     shape: &CubeShape,
     triangles: &[Triangle],
-    texel: &(dyn Fn(usize, usize, usize, &mut Vec<u8>) -> Vec3 + Sync),
+    texel: &TraceTexel<'_>,
     recorded: Option<Recorded>,
     progress: &dyn Progress,
 ) -> Option<(Vec<Vec3>, MapReads, u64)> {

@@ -46,6 +46,7 @@ pub fn curved_glossy_reflectors(scene: &Scene) -> Vec<usize> {
 /// (in [`curved_glossy_reflectors`] order) that `take(k)` selects, with `shading` (`Err`: the
 /// reason they are skipped), keeping their captures' records in `reads` ([`capture_kept`]),
 /// adding an `env NAME` entry to `stats` for each.
+#[allow(clippy::too_many_arguments)]
 pub fn write_env_maps(
     w: &mut StageWriter,
     scene: &Scene,

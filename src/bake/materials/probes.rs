@@ -36,6 +36,7 @@ pub fn probe_folders(scene: &Scene) -> Vec<String> {
 /// Captures, filters and writes every probe `k` that `take(k)` selects, with `shading`
 /// (`Err`: the reason they are skipped), keeping their captures' records in `reads`
 /// ([`capture_kept`]), adding a `probe NAME` entry to `stats` for each.
+#[allow(clippy::too_many_arguments)]
 pub fn write_probes(
     w: &mut StageWriter,
     scene: &Scene,
