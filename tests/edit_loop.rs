@@ -127,6 +127,21 @@ fn pixels_traced(log: &str) -> (u64, u64) {
     sum
 }
 
+/// From a bake's log, the probes' and environment maps' cube texels it traced, and all their
+/// texels (the rest were evaluated from their records).
+fn texels_traced(log: &str) -> (u64, u64) {
+    let mut sum = (0, 0);
+    for line in log.lines() {
+        let Some((head, _)) = line.split_once(" texels traced") else {
+            continue;
+        };
+        let words: Vec<&str> = head.split_whitespace().rev().take(3).collect();
+        sum.0 += words[2].parse::<u64>().unwrap();
+        sum.1 += words[0].parse::<u64>().unwrap();
+    }
+    sum
+}
+
 /// The bundle at `bundle` holds what a bake from scratch of `scene` gives, byte for byte.
 fn assert_same_as_fresh(scene: &Path, bundle: &Path, fresh: &Path, what: &str) {
     bake_units(scene, fresh);
@@ -155,6 +170,9 @@ fn each_edit_rebakes_only_what_it_touches_and_gives_the_bytes_of_a_fresh_bake() 
     // The first bake traces every map pixel.
     let (traced, pixels) = pixels_traced(&err);
     assert!(traced == pixels && pixels > 0, "{err}");
+    // And every texel of the floor's probe.
+    let (traced, texels) = texels_traced(&err);
+    assert!(traced == texels && texels > 0, "{err}");
 
     // Nothing changed: nothing baked, nothing written.
     let manifest = std::fs::read(bundle.join("manifest.json")).unwrap();
@@ -193,6 +211,9 @@ fn each_edit_rebakes_only_what_it_touches_and_gives_the_bytes_of_a_fresh_bake() 
     // maps: every pixel is evaluated from its record.
     assert!(!log.contains("gathering rays kept"), "{log}");
     assert_eq!(pixels_traced(&log), (0, pixels), "{log}");
+    // The probe is rebaked (it reads D) but captures nothing: every texel from its record.
+    assert!(has(&baked, "probe.FloorMat"), "{baked:?}");
+    assert_eq!(texels_traced(&log), (0, texels), "{log}");
     assert!(!has(&baked, "material.PanelMat"), "{baked:?}");
     assert_same_as_fresh(&scene, &bundle, &fresh("albedo"), "albedo");
 
@@ -209,6 +230,9 @@ fn each_edit_rebakes_only_what_it_touches_and_gives_the_bytes_of_a_fresh_bake() 
     assert!(log.contains("gathering rays kept"), "{log}");
     let (traced, all) = pixels_traced(&log);
     assert!(traced > 0 && traced < all && all == pixels, "{log}");
+    // The probe's texels that see the floor are captured again, the rest evaluated.
+    let (traced, all) = texels_traced(&log);
+    assert!(traced > 0 && traced < all && all == texels, "{log}");
     assert!(!has(&baked, "material.PanelMat"), "{baked:?}");
     assert_same_as_fresh(&scene, &bundle, &fresh("roughness"), "roughness");
 

@@ -223,3 +223,100 @@ fn bad_probes_are_rejected_with_file_and_field() {
         "{e}"
     );
 }
+
+/// A cube's texels as bits: equal only when byte for byte the same.
+fn bits(cube: &glint::materials::envmap::CubeMap) -> Vec<u32> {
+    cube.texels
+        .iter()
+        .flat_map(|t| t.to_array().map(f32::to_bits))
+        .collect()
+}
+
+#[test]
+fn a_probe_evaluated_from_its_records_is_the_probe_captured() {
+    use glam::{Vec2, Vec3};
+    use glint::materials::envmap::{
+        CaptureSettings, ENV_GLOSSY_SAMPLES, MAX_MIRROR_BOUNCES, capture_cube, capture_recorded,
+    };
+    use glint::progress::Silent;
+    use glint::radiance::reads::Replay;
+
+    // stand-in, with an area light under its ceiling: its probes' rays meet the light, the
+    // mirror floor, the glass and the glossy tiles.
+    let dir = tempfile::tempdir().unwrap();
+    let b = load(&repo("scenes/stand-in/scene.json")).bounds;
+    let (c, top) = (b.center(), b.max.y - 0.05);
+    let light = serde_json::json!([{ "name": "lamp", "corner": [c.x - 0.3, top, c.z - 0.3],
+        "edge_u": [0.6, 0.0, 0.0], "edge_v": [0.0, 0.0, 0.6], "radiance": [4.0, 4.0, 4.0] }]);
+    let path = edited(dir.path(), "stand-in", |v| v["lights"] = light.clone());
+    let scene = load(&path);
+    assert!(!scene.lights.is_empty());
+    let rougher = load(&edited(&dir.path().join("b"), "stand-in", |v| {
+        v["lights"] = light.clone();
+        v["materials"]["Tiles"] = serde_json::json!({ "lobes": [{ "ks": [1.0, 1.0, 1.0],
+            "r0": 0.04, "mx": 0.16, "my": 0.16 }] });
+    }));
+    let tiles = material_id(&scene, "Tiles") as usize;
+    let settings = CaptureSettings {
+        face_size: 8,
+        supersample: 2,
+        mirror_bounces: MAX_MIRROR_BOUNCES,
+        glossy_samples: ENV_GLOSSY_SAMPLES,
+    };
+    let texels = 6 * 8 * 8;
+    // D of a made-up bake, and D after an albedo edit.
+    let d = |t: u32, b: Vec2| Vec3::new(0.1 + (t % 7) as f32 * 0.05 + b.x, 0.2 + b.y, 0.3);
+    let edited_d = |t: u32, b: Vec2| d(t, b) * Vec3::new(1.5, 0.5, 1.0) + 0.01;
+    let direct = |scene: &Scene, at: Vec3, d: &(dyn Fn(u32, Vec2) -> Vec3 + Sync)| {
+        let shade = |h: &glint::geometry::Hit| d(h.triangle, h.bary);
+        let bvh = scene.build_bvh();
+        bits(&capture_cube(scene, &bvh, at, &settings, &[], &shade, &Silent).unwrap())
+    };
+    let recorded = |scene: &Scene, at: Vec3, d: &(dyn Fn(u32, Vec2) -> Vec3 + Sync), replay| {
+        let bvh = scene.build_bvh();
+        capture_recorded(scene, &bvh, at, &settings, &[], d, replay, &Silent).unwrap()
+    };
+    let unchanged = vec![false; scene.materials.len()];
+    let mut changed = unchanged.clone();
+    changed[tiles] = true;
+    let probes = scene_probes(&scene);
+    assert!(probes.len() > 1, "{probes:?}");
+    let mut retraced = Vec::new();
+    for p in &probes {
+        let at = p.position;
+        // Recorded, every texel comes from its record: the capture's bytes.
+        let first = recorded(&scene, at, &d, None);
+        assert_eq!(first.traced, texels as u64);
+        assert_eq!(bits(&first.cube), direct(&scene, at, &d), "{}", p.name);
+        // D alone changed: no texel traced, the bytes of a capture with the new D.
+        let replay = Replay {
+            reads: first.reads.clone(),
+            changed: &unchanged,
+        };
+        let again = recorded(&scene, at, &edited_d, Some(replay));
+        assert_eq!(again.traced, 0, "{}", p.name);
+        assert_eq!(
+            bits(&again.cube),
+            direct(&scene, at, &edited_d),
+            "{}",
+            p.name
+        );
+        // Tiles' lobe changed too: the texels whose rays met Tiles are traced again, and the
+        // cube is the edited scene's.
+        let replay = Replay {
+            reads: first.reads,
+            changed: &changed,
+        };
+        let edit = recorded(&rougher, at, &edited_d, Some(replay));
+        assert_eq!(
+            bits(&edit.cube),
+            direct(&rougher, at, &edited_d),
+            "{}",
+            p.name
+        );
+        retraced.push(edit.traced);
+    }
+    // Some probe sees Tiles, none sees only Tiles.
+    assert!(retraced.iter().any(|&t| t > 0), "{retraced:?}");
+    assert!(retraced.iter().all(|&t| t < texels as u64), "{retraced:?}");
+}

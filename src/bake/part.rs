@@ -43,8 +43,9 @@ pub struct Part<'a> {
     /// scene hash is not compared with the scene's: the unit's key says which D is wanted,
     /// and the merge checks that every unit read the D it assembles.
     pub d_from: Option<&'a Path>,
-    /// A folder of radiance map records to evaluate and keep ([`super::read_cache`]): a
-    /// reflector unit's, beside its shard. None: every map is traced and nothing is kept.
+    /// A folder of records to evaluate and keep ([`super::read_cache`]): a reflector unit's
+    /// radiance maps', a probe's or an environment map's capture's, beside its shard. None:
+    /// every map and cube is traced and nothing is kept.
     pub reads: Option<&'a Path>,
 }
 

@@ -353,11 +353,7 @@ pub fn bake_part(
                         steps[step] += lap.elapsed().as_secs_f64();
                         lap = Instant::now();
                     };
-                    let old = reads_dir.and_then(|dir| read_cache::read(dir, &record, &key));
-                    let (reads, changed) = match old {
-                        Some((p, reads)) => (Some(reads), prints.changed_since(&p)),
-                        None => (None, Vec::new()),
-                    };
+                    let (reads, changed) = read_cache::kept(reads_dir, &record, &key, &prints);
                     let replay = reads.map(|reads| Replay {
                         reads,
                         changed: &changed,

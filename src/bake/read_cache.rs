@@ -1,12 +1,15 @@
 //! The radiance maps' records of what their pixels read of D ([`crate::radiance::reads`]),
-//! kept between bakes of a reflector's work unit by the plain `glint-bake`, in a folder beside
-//! its shard in the unit cache (`B.units/radiance.NAME.reads/`, one file per map); a job
-//! engine's shards keep none.
+//! and the cube-map captures' of what their texels read ([`crate::materials::capture_reads`]),
+//! kept between bakes of a reflector's, a probe's or an environment map's work unit by the
+//! plain `glint-bake`, in a folder beside its shard in the unit cache
+//! (`B.units/radiance.NAME.reads/`, one file per map; `B.units/probe.NAME.reads/`,
+//! `B.units/envmap.NAME.reads/`, one file); a job engine's shards keep none.
 //!
 //! A record is evaluated only under the key it was written with: everything its reads and
 //! weights depend on but D (so not the albedos) and the lobes and transmission of the
 //! materials met (the geometry and textures, every other material field, the map's camera,
-//! the glossy sample count, the ray offset, the code's version); the file carries the prints of those lobes
+//! the glossy sample count, the ray offset, the code's version; for a capture, the area
+//! lights, the reflectors, its point and settings); the file carries the prints of those lobes
 //! ([`MaterialPrints`]), so that only the pixels that met a changed material are shaded
 //! again. A file that is missing, of another key or damaged (BLAKE3 over its body) is not
 //! used: the map is traced. A unit's records are bounded by [`READS_BUDGET`]: past it the
@@ -16,6 +19,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::bundle::BundleError;
+use crate::materials::envmap::CaptureSettings;
 use crate::radiance::reads::MapReads;
 use crate::radiance::sampling::MapCamera;
 use crate::scene::{Material, Scene};
@@ -62,8 +66,9 @@ impl MaterialPrints {
     }
 }
 
-/// What every map's key of a bake of `scene` shares (module comment).
-pub fn scene_key(scene: &Scene, normal_offset: f32) -> blake3::Hasher {
+/// What every record's key of a bake of `scene` shares: the code's version, the geometry and
+/// textures, and every material field but the albedo, lobes and transmission.
+fn materials_key(scene: &Scene) -> blake3::Hasher {
     let mut h = blake3::Hasher::new();
     h.update(MAGIC);
     h.update(crate::bundle::manifest::generator().as_bytes());
@@ -77,9 +82,38 @@ pub fn scene_key(scene: &Scene, normal_offset: f32) -> blake3::Hasher {
         rest.transmission = crate::scene::material::Transmission::NONE;
         h.update(format!("{rest:?}").as_bytes());
     }
+    h
+}
+
+/// What every map's key of a bake of `scene` shares (module comment).
+pub fn scene_key(scene: &Scene, normal_offset: f32) -> blake3::Hasher {
+    let mut h = materials_key(scene);
     h.update(&crate::radiance::shading::GLOSSY_SAMPLES.to_le_bytes());
     h.update(&normal_offset.to_bits().to_le_bytes());
     h
+}
+
+/// The key of one cube-map capture's records ([`crate::materials::capture_reads`]): besides
+/// what every key shares (module comment), the area lights (which its rays collect), the
+/// reflectors (which of them are near-mirrors its rays follow), the capture's settings, its
+/// point and the triangles it sees through.
+pub fn capture_key(
+    scene: &Scene,
+    settings: &CaptureSettings,
+    centre: glam::Vec3,
+    see_through: &[u32],
+) -> [u8; 32] {
+    let mut h = materials_key(scene);
+    h.update(b"capture");
+    // Debug prints every float so that it reads back exactly.
+    h.update(format!("{:?} {:?} {settings:?}", scene.lights, scene.reflectors).as_bytes());
+    for c in centre.to_array() {
+        h.update(&c.to_bits().to_le_bytes());
+    }
+    for t in see_through {
+        h.update(&t.to_le_bytes());
+    }
+    *h.finalize().as_bytes()
 }
 
 /// The key of one map: [`scene_key`] with its camera.
@@ -107,6 +141,20 @@ pub fn read(dir: &Path, name: &str, key: &[u8; 32]) -> Option<(MaterialPrints, M
         rest = r;
     }
     Some((MaterialPrints(prints), MapReads::decode(rest)?))
+}
+
+/// The records `name` in `dir` kept under `key` ([`read`]; none without `dir`), and per
+/// material whether its print in `prints` differs from theirs (empty without records).
+pub fn kept(
+    dir: Option<&Path>,
+    name: &str,
+    key: &[u8; 32],
+    prints: &MaterialPrints,
+) -> (Option<MapReads>, Vec<bool>) {
+    match dir.and_then(|dir| read(dir, name, key)) {
+        Some((p, reads)) => (Some(reads), prints.changed_since(&p)),
+        None => (None, Vec::new()),
+    }
 }
 
 /// The bytes of a record file: key, hash, prints and records.

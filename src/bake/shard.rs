@@ -15,7 +15,7 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use super::materials::{self, Outcome};
-use super::part::Part;
+use super::part::{Item, Part};
 use super::radiosity_stage::Gathering;
 use super::srdm_stage::{self, SrdmOutcome};
 use super::units::{GATHER, Unit, UnitPlan, kind};
@@ -322,11 +322,14 @@ pub fn bake_unit_gathering(
         Err(e) => anyhow::bail!("{}: cannot remove: {e}", shard.join(MARKER).display()),
     }
     let d_path = d_source(unit, shard, d_shard, plan, checked)?;
-    // The plain `glint-bake`'s unit cache keeps radiance map records; a job engine's shards do not.
-    let reads = (gather_here && unit.stage == Stage::Radiance.name())
-        .then(|| super::read_cache::reads_dir(shard));
+    // The plain `glint-bake`'s unit cache keeps the records of radiance maps and cube-map
+    // captures; a job engine's shards do not.
+    let item = plan.item(unit);
+    let records =
+        unit.stage == Stage::Radiance.name() || matches!(item, Item::Probe(_) | Item::EnvMap(_));
+    let reads = (gather_here && records).then(|| super::read_cache::reads_dir(shard));
     let part = Part {
-        item: plan.item(unit),
+        item,
         d_from: d_path.as_deref(),
         reads: reads.as_deref(),
     };

@@ -15,10 +15,12 @@
 use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 
+use super::capture_reads as rec;
 use crate::brdf::pattern::{Pattern, lobe_area_for, mip_level};
 use crate::brdf::{Frame, Lobe, above, reflect};
 use crate::geometry::{Bvh, Hit};
 use crate::progress::{Cancelled, Progress};
+use crate::radiance::reads::{MapReads, Replay};
 use crate::radiosity::MAX_GLASS_LAYERS;
 use crate::sampling::Rng;
 use crate::scene::{ReflectorKind, Scene};
@@ -390,6 +392,70 @@ pub fn capture_cube(
     shade: &(dyn Fn(&Hit) -> Vec3 + Sync),
     progress: &dyn Progress,
 ) -> Result<CubeMap, Cancelled> {
+    let c = capture(
+        scene,
+        bvh,
+        (centre, see_through),
+        settings,
+        shade,
+        None,
+        progress,
+    )?;
+    Ok(c.cube)
+}
+
+/// A capture with its texels' records ([`super::capture_reads`]), one row of bytes per face
+/// row, and how many texels were traced (the rest were evaluated from kept records).
+#[derive(Clone, Debug)]
+pub struct Captured {
+    /// The cube map.
+    pub cube: CubeMap,
+    /// Its texels' records.
+    pub reads: MapReads,
+    /// Texels traced.
+    pub traced: u64,
+}
+
+/// [`capture_cube`] shading with D at a point (`d`: the stored value at barycentrics of a
+/// triangle, through any texture), each texel given by its record evaluated
+/// ([`super::capture_reads::eval_texel`]), so that a cube evaluated from its kept records has
+/// the bytes of one captured again. With `replay`, a texel whose kept record is still valid
+/// (no surface its rays met has a changed material) is evaluated without tracing.
+#[allow(clippy::too_many_arguments)]
+pub fn capture_recorded(
+    scene: &Scene,
+    bvh: &Bvh,
+    centre: Vec3,
+    settings: &CaptureSettings,
+    see_through: &[u32],
+    d: &(dyn Fn(u32, Vec2) -> Vec3 + Sync),
+    replay: Option<Replay>,
+    progress: &dyn Progress,
+) -> Result<Captured, Cancelled> {
+    // The texels' values come from their records: the trace's own sum is not needed.
+    let zero = |_: &Hit| Vec3::ZERO;
+    let recorded = Some((d, replay));
+    capture(
+        scene,
+        bvh,
+        (centre, see_through),
+        settings,
+        &zero,
+        recorded,
+        progress,
+    )
+}
+
+/// [`capture_cube`], and with `recorded` [`capture_recorded`].
+fn capture(
+    scene: &Scene,
+    bvh: &Bvh,
+    (centre, see_through): (Vec3, &[u32]),
+    settings: &CaptureSettings,
+    shade: &(dyn Fn(&Hit) -> Vec3 + Sync),
+    recorded: Option<rec::Recorded>,
+    progress: &dyn Progress,
+) -> Result<Captured, Cancelled> {
     let mut skip = vec![false; scene.triangles.len()];
     for &t in see_through {
         if let Some(s) = skip.get_mut(t as usize) {
@@ -443,40 +509,48 @@ pub fn capture_cube(
         scene.lights_along(origin, dir, reach)
     };
     // What the lobes of a glossy surface at `p` (face normal `n`, either side) reflect of
-    // `shade` towards −`dir`.
-    let glossy_term = |lobes: &[Lobe], p: Vec3, n: Vec3, dir: Vec3, seed: u32| -> Vec3 {
-        let frame = Frame::from_normal(if n.dot(dir) < 0.0 { n } else { -n });
-        let wo = frame.to_local(-dir);
-        let count = settings.glossy_samples;
-        let mut sum = Vec3::ZERO;
-        for lobe in lobes {
-            let mut lobe_sum = Vec3::ZERO;
-            for j in 0..count {
-                let Some(wi) = lobe.sample(wo, lobe_sample_point(j, count, seed)) else {
-                    continue;
-                };
-                let w = frame.to_world(wi);
-                let origin = bvh.offset_origin(p, w);
-                let found = first_hit(origin, w);
-                let mut seen = lights_before(origin, w, found.as_ref());
-                if let Some((hit, _, travelled)) = found {
-                    seen += shade(&Hit {
-                        t: travelled + hit.t,
-                        ..hit
-                    });
-                } else if seen == Vec3::ZERO {
-                    continue;
+    // `shade` towards −`dir`, recorded into `out`.
+    let glossy_term =
+        |lobes: &[Lobe], p: Vec3, n: Vec3, dir: Vec3, seed: u32, out: &mut Vec<u8>| -> Vec3 {
+            let frame = Frame::from_normal(if n.dot(dir) < 0.0 { n } else { -n });
+            let wo = frame.to_local(-dir);
+            let count = settings.glossy_samples;
+            let mut sum = Vec3::ZERO;
+            rec::push_glossy(out, lobes.len());
+            for lobe in lobes {
+                let count_at = rec::push_lobe(out, lobe.ks);
+                let mut lobe_sum = Vec3::ZERO;
+                for j in 0..count {
+                    let Some(wi) = lobe.sample(wo, lobe_sample_point(j, count, seed)) else {
+                        continue;
+                    };
+                    let w = frame.to_world(wi);
+                    let origin = bvh.offset_origin(p, w);
+                    let found = first_hit(origin, w);
+                    let mut seen = lights_before(origin, w, found.as_ref());
+                    let lights = seen;
+                    if let Some((hit, _, travelled)) = &found {
+                        seen += shade(&Hit {
+                            t: travelled + hit.t,
+                            ..*hit
+                        });
+                    } else if seen == Vec3::ZERO {
+                        continue;
+                    }
+                    let weight = lobe.sample_weight(wo, wi);
+                    let lands = found.map(|(hit, _, _)| (hit.triangle, hit.bary));
+                    rec::push_sample(out, count_at, weight, lights, lands);
+                    lobe_sum += seen * weight;
                 }
-                lobe_sum += seen * lobe.sample_weight(wo, wi);
+                sum += lobe.ks * lobe_sum / count as f32;
             }
-            sum += lobe.ks * lobe_sum / count as f32;
-        }
-        sum
-    };
+            sum
+        };
     // One ray from the centre: each surface it meets adds its D, a mirror sends it on (up
     // to `mirror_bounces` times), glass lets it through (up to MAX_GLASS_LAYERS panes), any
     // other glossy surface adds its reflection and ends it.
-    let trace = |dir: Vec3, seed: u32| -> Vec3 {
+    // Records its reads into `out`.
+    let trace = |dir: Vec3, seed: u32, out: &mut Vec<u8>| -> Vec3 {
         let (mut origin, mut dir) = (centre, dir);
         let mut travelled = 0.0f32;
         let (mut sum, mut weight) = (Vec3::ZERO, Vec3::ONE);
@@ -485,12 +559,14 @@ pub fn capture_cube(
             let found = first_hit(origin, dir);
             let lights = lights_before(origin, dir, found.as_ref());
             if lights != Vec3::ZERO {
+                rec::push_lights(out, weight * lights);
                 sum += weight * lights;
             }
             let Some((hit, at, skipped)) = found else {
                 break;
             };
             travelled += skipped;
+            rec::push_surface(out, weight, hit.triangle, hit.bary);
             sum += weight
                 * shade(&Hit {
                     t: travelled + hit.t,
@@ -514,7 +590,7 @@ pub fn capture_cube(
                 _ => {
                     let lobes = &glossy[tri.material as usize];
                     if settings.glossy_samples > 0 && !lobes.is_empty() {
-                        sum += weight * glossy_term(lobes, p, n, dir, seed);
+                        sum += weight * glossy_term(lobes, p, n, dir, seed, out);
                     }
                     // Thin glass: what lies behind shows through, as in the viewer's frame.
                     let m = &scene.materials[tri.material as usize];
@@ -529,39 +605,34 @@ pub fn capture_cube(
                 }
             }
         }
+        rec::push_end(out);
         sum
     };
-    let rows: Vec<Vec<Vec3>> = (0..6 * size)
-        .into_par_iter()
-        .map(|row| {
-            if progress.cancelled() {
-                return Vec::new();
-            }
-            let (face, y) = (row / size, row % size);
-            let out = (0..size)
-                .map(|x| {
-                    let mut sum = Vec3::ZERO;
-                    let texel = ((face * size + y) * size + x) as u64;
-                    for (i, &o) in offsets.iter().enumerate() {
-                        let s = 2.0 * (x as f32 + o.x) / size as f32 - 1.0;
-                        let t = 2.0 * (y as f32 + o.y) / size as f32 - 1.0;
-                        // Wraps past 2³² rays: any distinct-enough index will do.
-                        let seed = (texel * offsets.len() as u64 + i as u64) as u32;
-                        sum += trace(face_direction(face, s, t).normalize(), seed);
-                    }
-                    sum / offsets.len() as f32
-                })
-                .collect();
-            progress.advance(1);
-            out
-        })
-        .collect();
-    if progress.cancelled() || rows.iter().any(|r| r.len() != size) {
-        return Err(Cancelled);
-    }
-    Ok(CubeMap {
+    let rays = offsets.len();
+    // Texel (x, y) of `face`: the mean of its rays, recorded into `out`.
+    let texel = |face: usize, x: usize, y: usize, out: &mut Vec<u8>| -> Vec3 {
+        let mut sum = Vec3::ZERO;
+        let index = ((face * size + y) * size + x) as u64;
+        for (i, &o) in offsets.iter().enumerate() {
+            let s = 2.0 * (x as f32 + o.x) / size as f32 - 1.0;
+            let t = 2.0 * (y as f32 + o.y) / size as f32 - 1.0;
+            // Wraps past 2³² rays: any distinct-enough index will do.
+            let seed = (index * rays as u64 + i as u64) as u32;
+            sum += trace(face_direction(face, s, t).normalize(), seed, out);
+        }
+        sum / rays as f32
+    };
+    let shape = rec::CubeShape {
         size,
-        texels: rows.concat(),
+        rays,
+        glossy_samples: settings.glossy_samples,
+    };
+    let rows = rec::texel_rows(&shape, &scene.triangles, &texel, recorded, progress);
+    let (texels, reads, traced) = rows.ok_or(Cancelled)?;
+    Ok(Captured {
+        cube: CubeMap { size, texels },
+        reads,
+        traced,
     })
 }
 

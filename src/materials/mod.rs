@@ -9,6 +9,7 @@
 //! - [`settings`](crate::settings::materials): the stage's settings; [`index`]: `materials/index.json`, typed, and its
 //!   hash-checked reader.
 
+pub mod capture_reads;
 pub mod envmap;
 pub mod index;
 pub mod kernel;

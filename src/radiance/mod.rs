@@ -15,7 +15,8 @@ use rayon::prelude::*;
 
 use crate::geometry::{Bvh, Hit, Triangle};
 use footprint::PixelRays;
-use reads::{Evaluated, MapReads, PixelWriter};
+pub use reads::Replay;
+use reads::{Evaluated, Kept, MapReads, PixelWriter};
 use sampling::MapCamera;
 
 pub use crate::settings::radiance::{RadianceOverride, RadianceStageOverride};
@@ -41,17 +42,6 @@ pub struct RadianceMap {
 /// Below it eight neighbouring pixels' rays diverge too much for packets to pay
 /// (docs/tuning.md#packets-from).
 const PACKETS_FROM: u32 = 64;
-
-/// A map's kept records ([`reads`]) to evaluate with this bake's D instead of shading, and
-/// per material whether the lobes or transmission that shaped them changed since: a pixel
-/// whose layers meet such a material is traced and shaded again.
-#[derive(Clone, Debug)]
-pub struct Replay<'a> {
-    /// The records.
-    pub reads: MapReads,
-    /// Per material index, whether it changed.
-    pub changed: &'a [bool],
-}
 
 /// A rendered map, its records, and how many of its pixels were traced and shaded (the rest
 /// were evaluated from kept records).
@@ -82,12 +72,7 @@ pub fn render(
 ) -> Rendered {
     let res = cam.resolution;
     // Records of another resolution are not this map's.
-    let (old_rows, changed): (Vec<Option<Vec<u8>>>, &[bool]) = match replay {
-        Some(r) if r.reads.rows.len() == res as usize => {
-            (r.reads.rows.into_iter().map(Some).collect(), r.changed)
-        }
-        _ => (vec![None; res as usize], &[]),
-    };
+    let (old_rows, changed) = Replay::rows(replay, res as usize);
     let changed = |t: u32| {
         let m = triangles[t as usize].material as usize;
         changed.get(m).copied().unwrap_or(true)
@@ -107,9 +92,6 @@ pub fn render(
                 origins.push(q + d * (normal_offset / d.dot(cam.normal).max(1e-3)));
                 dirs.push(d);
             }
-            let mut row = Vec::with_capacity(res as usize);
-            let mut bytes = Vec::new();
-            let mut shaded = 0u64;
             // The pixel of the record evaluated as `e`.
             let finish = |i: usize, e: Evaluated| -> Pixel {
                 match e.hit {
@@ -136,48 +118,34 @@ pub fn render(
                 finish(i, e)
             };
             if let Some(old) = old {
-                // The row's records are rebuilt from its first pixel traced again; until then,
-                // and if none is, they are the old ones.
-                let mut fresh: Option<Vec<u8>> = None;
-                let mut at = Some(0usize);
-                for i in 0..res as usize {
-                    let start = at;
-                    let kept = at.and_then(|a| {
-                        let e = reads::eval_pixel(&old[a..], triangles.len(), &changed, d);
-                        at = e.map(|e| a + e.len);
-                        e.filter(|e| !e.stale).map(|e| (a, e))
-                    });
-                    match kept {
-                        Some((a, e)) => {
-                            if let Some(f) = &mut fresh {
-                                f.extend_from_slice(&old[a..a + e.len]);
-                            }
-                            row.push(finish(i, e));
-                        }
-                        None => {
-                            let f = fresh.get_or_insert_with(|| old[..start.unwrap_or(0)].to_vec());
-                            let hit = bvh.closest_hit(origins[i], dirs[i], f32::INFINITY);
-                            row.push(traced(i, hit, f));
-                            shaded += 1;
-                        }
-                    }
-                }
-                bytes = fresh.unwrap_or(old);
-            } else if res < PACKETS_FROM {
+                let kept = |i: usize, at: &[u8]| {
+                    reads::eval_pixel(at, triangles.len(), &changed, d).map(|e| Kept {
+                        len: e.len,
+                        stale: e.stale,
+                        value: finish(i, e),
+                    })
+                };
+                let again = |i: usize, out: &mut Vec<u8>| {
+                    let hit = bvh.closest_hit(origins[i], dirs[i], f32::INFINITY);
+                    traced(i, hit, out)
+                };
+                return reads::replay_row(old, res as usize, kept, again);
+            }
+            let mut row = Vec::with_capacity(res as usize);
+            let mut bytes = Vec::new();
+            if res < PACKETS_FROM {
                 for i in 0..res as usize {
                     let hit = bvh.closest_hit(origins[i], dirs[i], f32::INFINITY);
                     row.push(traced(i, hit, &mut bytes));
                 }
-                shaded = res as u64;
             } else {
                 // A row's rays are coherent enough at PACKETS_FROM pixels and more: traced in
                 // packets of eight (the same hits as one by one).
                 bvh.closest_hits(&origins, &dirs, f32::INFINITY, |i, h| {
                     row.push(traced(i, h, &mut bytes))
                 });
-                shaded = res as u64;
             }
-            (row, bytes, shaded)
+            (row, bytes, res as u64)
         })
         .collect();
     let shaded = rows.iter().map(|r| r.2).sum();

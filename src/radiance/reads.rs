@@ -44,13 +44,15 @@ pub struct Read {
     pub factors: Option<(Vec3, Vec3)>,
 }
 
-fn push_vec3(out: &mut Vec<u8>, v: Vec3) {
+/// Appends `v` (`3 × f32`, little-endian).
+pub fn push_vec3(out: &mut Vec<u8>, v: Vec3) {
     for c in v.to_array() {
         out.extend(c.to_le_bytes());
     }
 }
 
-fn push_read(out: &mut Vec<u8>, r: &Read) {
+/// Appends a read: its triangle (top bit: textured), barycentrics and any factors.
+pub fn push_read(out: &mut Vec<u8>, r: &Read) {
     let flag = if r.factors.is_some() { TEXTURED } else { 0 };
     out.extend((r.triangle | flag).to_le_bytes());
     out.extend(r.bary.x.to_le_bytes());
@@ -141,34 +143,49 @@ pub struct Evaluated {
 
 /// Reads a record's bytes in order; `None` past their end or at a triangle not below
 /// `triangles`.
-struct Cursor<'a> {
+pub struct Cursor<'a> {
     bytes: &'a [u8],
-    at: usize,
+    /// Bytes read so far.
+    pub at: usize,
     triangles: usize,
 }
 
-impl Cursor<'_> {
-    fn u8(&mut self) -> Option<u8> {
+impl<'a> Cursor<'a> {
+    /// A cursor at the start of `bytes`, of a scene of `triangles` triangles.
+    pub fn new(bytes: &'a [u8], triangles: usize) -> Cursor<'a> {
+        Cursor {
+            bytes,
+            at: 0,
+            triangles,
+        }
+    }
+
+    /// The next byte.
+    pub fn u8(&mut self) -> Option<u8> {
         let b = *self.bytes.get(self.at)?;
         self.at += 1;
         Some(b)
     }
 
-    fn u32(&mut self) -> Option<u32> {
+    /// The next `u32`.
+    pub fn u32(&mut self) -> Option<u32> {
         let b = self.bytes.get(self.at..self.at + 4)?;
         self.at += 4;
         Some(u32::from_le_bytes(b.try_into().ok()?))
     }
 
-    fn f32(&mut self) -> Option<f32> {
+    /// The next `f32`.
+    pub fn f32(&mut self) -> Option<f32> {
         self.u32().map(f32::from_bits)
     }
 
-    fn vec3(&mut self) -> Option<Vec3> {
+    /// The next `3 × f32`.
+    pub fn vec3(&mut self) -> Option<Vec3> {
         Some(Vec3::new(self.f32()?, self.f32()?, self.f32()?))
     }
 
-    fn read(&mut self) -> Option<Read> {
+    /// The next read ([`push_read`]).
+    pub fn read(&mut self) -> Option<Read> {
         let word = self.u32()?;
         let triangle = word & !TEXTURED;
         if triangle as usize >= self.triangles {
@@ -198,11 +215,7 @@ pub fn eval_pixel(
     stale: &dyn Fn(u32) -> bool,
     d: &dyn Fn(u32, Vec2) -> Vec3,
 ) -> Option<Evaluated> {
-    let mut c = Cursor {
-        bytes,
-        at: 0,
-        triangles,
-    };
+    let mut c = Cursor::new(bytes, triangles);
     let layers = c.u8()?;
     if layers == 0 {
         return Some(Evaluated {
@@ -295,6 +308,81 @@ impl MapReads {
     pub fn size(&self) -> usize {
         4 + self.rows.iter().map(|r| 4 + r.len()).sum::<usize>()
     }
+}
+
+/// A map's or cube map's kept records to evaluate with this bake's D instead of tracing, and
+/// per material whether the lobes or transmission that shaped them changed since: an item
+/// whose surfaces meet such a material is traced again.
+#[derive(Clone, Debug)]
+pub struct Replay<'a> {
+    /// The records.
+    pub reads: MapReads,
+    /// Per material index, whether it changed.
+    pub changed: &'a [bool],
+}
+
+impl<'a> Replay<'a> {
+    /// Per row of `n`, its kept records (none without a replay, or for records of another
+    /// row count), and the changed materials (none known: every material counts as changed).
+    pub fn rows(replay: Option<Replay<'a>>, n: usize) -> (Vec<Option<Vec<u8>>>, &'a [bool]) {
+        match replay {
+            Some(r) if r.reads.rows.len() == n => {
+                (r.reads.rows.into_iter().map(Some).collect(), r.changed)
+            }
+            _ => (vec![None; n], &[]),
+        }
+    }
+}
+
+/// A kept record evaluated: its length in bytes, whether a surface it shaded is one whose
+/// material changed, and its value.
+pub struct Kept<T> {
+    /// Bytes of the record.
+    pub len: usize,
+    /// Whether it must be traced again.
+    pub stale: bool,
+    /// The item's value from the record.
+    pub value: T,
+}
+
+/// One row of `n` items (a map's pixels, a cube map's texels) from the row's kept records
+/// `old`: an item whose record evaluates (`kept(i, bytes from its record on)`) and is not
+/// stale keeps it; the others are traced again (`traced(i, out)` appends the new record to
+/// `out` and gives the value). The row's records are rebuilt from its first item traced again
+/// (until then, and if none is, they are the old ones); past a record that does not evaluate,
+/// every item is traced. Returns the values, the row's records and how many were traced.
+pub fn replay_row<T>(
+    old: Vec<u8>,
+    n: usize,
+    kept: impl Fn(usize, &[u8]) -> Option<Kept<T>>,
+    mut traced: impl FnMut(usize, &mut Vec<u8>) -> T,
+) -> (Vec<T>, Vec<u8>, u64) {
+    let mut values = Vec::with_capacity(n);
+    let mut fresh: Option<Vec<u8>> = None;
+    let mut at = Some(0usize);
+    let mut retraced = 0u64;
+    for i in 0..n {
+        let start = at;
+        let evaluated = at.and_then(|a| {
+            let e = kept(i, &old[a..]);
+            at = e.as_ref().map(|e| a + e.len);
+            e.filter(|e| !e.stale).map(|e| (a, e))
+        });
+        match evaluated {
+            Some((a, e)) => {
+                if let Some(f) = &mut fresh {
+                    f.extend_from_slice(&old[a..a + e.len]);
+                }
+                values.push(e.value);
+            }
+            None => {
+                let f = fresh.get_or_insert_with(|| old[..start.unwrap_or(0)].to_vec());
+                values.push(traced(i, f));
+                retraced += 1;
+            }
+        }
+    }
+    (values, fresh.unwrap_or(old), retraced)
 }
 
 #[cfg(test)]

@@ -3,18 +3,22 @@
 //! (`materials/env/<reflector>/mip<ℓ>.exr`, kind `env-mip`).
 
 use std::collections::BTreeMap;
+use std::path::Path;
 
 use super::report::EnvReport;
 use super::{EnvShading, MaterialsError};
+use crate::bake::read_cache::{self, MaterialPrints, READS_BUDGET};
 use crate::bundle::StageWriter;
+use crate::geometry::{Bvh, Hit};
 use crate::image_io::{ChannelData, ExrCompression, Precision, encode_rgb_exr_with};
 use crate::materials::MaterialsSettings;
 use crate::materials::envmap::{
-    CaptureSettings, ENV_GLOSSY_SAMPLES, MAX_MIRROR_BOUNCES, MipPyramid, capture_centre,
-    capture_cube,
+    CaptureSettings, CubeMap, ENV_GLOSSY_SAMPLES, MAX_MIRROR_BOUNCES, MipPyramid, capture_centre,
+    capture_recorded,
 };
 use crate::materials::index::{ENV_LAYOUT, IndexedEnvMap};
 use crate::progress::Progress;
+use crate::radiance::reads::Replay;
 use crate::scene::{ReflectorKind, Scene};
 
 /// What [`write_env_maps`] did.
@@ -40,13 +44,16 @@ pub fn curved_glossy_reflectors(scene: &Scene) -> Vec<usize> {
 
 /// Captures, filters and writes the environment map of every glossy curved reflector `k`
 /// (in [`curved_glossy_reflectors`] order) that `take(k)` selects, with `shading` (`Err`: the
-/// reason they are skipped), adding an `env NAME` entry to `stats` for each.
+/// reason they are skipped), keeping their captures' records in `reads` ([`capture_kept`]),
+/// adding an `env NAME` entry to `stats` for each.
+#[allow(clippy::too_many_arguments)]
 pub fn write_env_maps(
     w: &mut StageWriter,
     scene: &Scene,
     settings: &MaterialsSettings,
     shading: Result<EnvShading, String>,
     take: &dyn Fn(usize) -> bool,
+    reads: Option<&Path>,
     progress: &dyn Progress,
     stats: &mut BTreeMap<String, serde_json::Value>,
 ) -> Result<WrittenEnvMaps, MaterialsError> {
@@ -81,13 +88,14 @@ pub fn write_env_maps(
         }
         let refl = &scene.reflectors[r];
         let centre = capture_centre(scene, &refl.triangles);
-        let cube = capture_cube(
+        let record = format!("envmap.{}.reads", env_folders[k]);
+        let cube = capture_kept(
             scene,
             &bvh,
-            centre,
+            (centre, &refl.triangles),
+            &shading,
+            (reads, &record),
             &capture,
-            &refl.triangles,
-            &*shading.shade,
             progress,
         )?;
         let pyramid = MipPyramid::build(cube, settings.env_filter);
@@ -121,6 +129,73 @@ pub fn write_env_maps(
         });
     }
     Ok(out)
+}
+
+/// The cube seen from `at` (its point and the triangles it sees through) shaded with
+/// `shading`, each texel given by its record ([`capture_recorded`]). With `kept` (a unit's
+/// folder of records, [`read_cache`], and the file of this capture's), the records kept
+/// there under this capture's key are evaluated with this bake's D where the materials their
+/// rays met are unchanged, and the records are kept for the next bake: rewritten when a texel
+/// was traced, all removed past [`READS_BUDGET`]. The shading reads D at the hit's point
+/// alone (its triangle and barycentrics), as [`super::shade_with_d`]'s does.
+pub fn capture_kept(
+    scene: &Scene,
+    bvh: &Bvh,
+    at: (glam::Vec3, &[u32]),
+    shading: &EnvShading,
+    kept: (Option<&Path>, &str),
+    capture: &CaptureSettings,
+    progress: &dyn Progress,
+) -> Result<CubeMap, MaterialsError> {
+    let (centre, see_through) = at;
+    let (dir, name) = kept;
+    let d = |triangle: u32, bary: glam::Vec2| {
+        (shading.shade)(&Hit {
+            t: 0.0,
+            triangle,
+            bary,
+        })
+    };
+    let key = read_cache::capture_key(scene, capture, centre, see_through);
+    let prints = MaterialPrints::of(&scene.materials);
+    let (old, changed) = read_cache::kept(dir, name, &key, &prints);
+    let replay = old.map(|reads| Replay {
+        reads,
+        changed: &changed,
+    });
+    let captured = capture_recorded(
+        scene,
+        bvh,
+        centre,
+        capture,
+        see_through,
+        &d,
+        replay,
+        progress,
+    )?;
+    let texels = 6 * captured.cube.size * captured.cube.size;
+    // Records of which no texel was traced again are still right: kept as they are.
+    if let Some(dir) = dir
+        && captured.traced > 0
+    {
+        let bytes = read_cache::encode(&key, &prints, &captured.reads);
+        if bytes.len() as u64 > READS_BUDGET {
+            log::info!(
+                "{}: the records of {name} pass {READS_BUDGET} bytes: none kept",
+                dir.display()
+            );
+            read_cache::remove(dir)?;
+        } else {
+            read_cache::write(dir, name, &bytes)?;
+        }
+    }
+    if dir.is_some() {
+        log::info!(
+            "{name}: {} of {texels} texels traced, the rest evaluated from their records",
+            captured.traced
+        );
+    }
+    Ok(captured.cube)
 }
 
 /// The capture of an environment map or a reflection probe: both show the room as the curved

@@ -90,7 +90,9 @@ pub enum MaterialsError {
 }
 
 /// Shades an environment-map ray hit: the radiance leaving the hit point towards the capture
-/// point (D, the diffuse radiosity, for glint's bakes).
+/// point (D, the diffuse radiosity, for glint's bakes). It reads the hit's point alone (its
+/// triangle and barycentrics, not its distance): the stage evaluates its captures' records
+/// with it ([`crate::materials::capture_reads`]).
 pub type HitShader = Box<dyn Fn(&Hit) -> Vec3 + Send + Sync>;
 
 /// A shader for environment maps with the identity of what it reads (recorded in the
@@ -213,7 +215,7 @@ pub fn bake_part(
         }
     };
     bake_reading(
-        scene, bundle_dir, settings, force, shading, d_read, part.item, progress,
+        scene, bundle_dir, settings, force, shading, d_read, part.item, part.reads, progress,
     )
 }
 
@@ -235,12 +237,14 @@ pub fn bake_with(
         shading,
         None,
         Item::All,
+        None,
         progress,
     )
 }
 
 /// [`bake_with`] of `item`, where `d_read` is the identity of the radiosity stage the
-/// shading read (checked again at the commit).
+/// shading read (checked again at the commit), keeping the captures' records in `reads`
+/// (a probe's or an environment map's unit folder, [`crate::bake::read_cache`]).
 #[allow(clippy::too_many_arguments)]
 fn bake_reading(
     scene: &Scene,
@@ -250,6 +254,7 @@ fn bake_reading(
     shading: Result<EnvShading, String>,
     d_read: Option<String>,
     item: Item,
+    reads: Option<&Path>,
     progress: &dyn Progress,
 ) -> Result<Outcome, MaterialsError> {
     let start = Instant::now();
@@ -289,12 +294,13 @@ fn bake_reading(
         settings,
         &shading,
         &take_probe,
+        reads,
         progress,
         &mut stats,
     )?;
     let take_env = |k: usize| item.takes(Item::EnvMap(k));
     let env = env_maps::write_env_maps(
-        &mut w, scene, settings, shading, &take_env, progress, &mut stats,
+        &mut w, scene, settings, shading, &take_env, reads, progress, &mut stats,
     )?;
     let index = MaterialsIndex {
         format: INDEX_FORMAT.into(),

@@ -1,17 +1,18 @@
 //! The reflection-probe step of the materials stage: per probe the scene needs
 //! ([`crate::materials::probes::scene_probes`]), the cube map seen from it shaded with D,
-//! captured as the curved reflectors' environment maps are ([`capture_cube`]), its MIP levels
+//! captured as the curved reflectors' environment maps are ([`capture_kept`]), its MIP levels
 //! (`materials/probes/<probe>/mip<ℓ>.exr`, kind `env-mip`), level 0 with the distance to
 //! what each texel sees in channel `Z`.
 
 use std::collections::BTreeMap;
+use std::path::Path;
 
-use super::env_maps::{capture_settings, write_levels};
+use super::env_maps::{capture_kept, capture_settings, write_levels};
 use super::report::EnvReport;
 use super::{EnvShading, MaterialsError};
 use crate::bundle::StageWriter;
 use crate::materials::MaterialsSettings;
-use crate::materials::envmap::{MipPyramid, capture_cube};
+use crate::materials::envmap::MipPyramid;
 use crate::materials::index::{ENV_LAYOUT, IndexedProbe};
 use crate::materials::probes::{capture_distances, scene_probes};
 use crate::progress::Progress;
@@ -33,13 +34,16 @@ pub fn probe_folders(scene: &Scene) -> Vec<String> {
 }
 
 /// Captures, filters and writes every probe `k` that `take(k)` selects, with `shading`
-/// (`Err`: the reason they are skipped), adding a `probe NAME` entry to `stats` for each.
+/// (`Err`: the reason they are skipped), keeping their captures' records in `reads`
+/// ([`capture_kept`]), adding a `probe NAME` entry to `stats` for each.
+#[allow(clippy::too_many_arguments)]
 pub fn write_probes(
     w: &mut StageWriter,
     scene: &Scene,
     settings: &MaterialsSettings,
     shading: &Result<EnvShading, String>,
     take: &dyn Fn(usize) -> bool,
+    reads: Option<&Path>,
     progress: &dyn Progress,
     stats: &mut BTreeMap<String, serde_json::Value>,
 ) -> Result<WrittenProbes, MaterialsError> {
@@ -72,13 +76,14 @@ pub fn write_probes(
         if !take(k) {
             continue;
         }
-        let cube = capture_cube(
+        let record = format!("probe.{}.reads", folders[k]);
+        let cube = capture_kept(
             scene,
             &bvh,
-            probe.position,
+            (probe.position, &[]),
+            shading,
+            (reads, &record),
             &capture,
-            &[],
-            &*shading.shade,
             progress,
         )?;
         let distances = capture_distances(&bvh, probe.position, capture.face_size);
