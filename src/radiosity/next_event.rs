@@ -179,9 +179,10 @@ fn towards(from: Vec3, q: Vec3) -> Option<(Vec3, f32, f32)> {
 mod tests {
     use std::f32::consts::PI;
 
-    use glam::Vec3;
+    use glam::{Vec2, Vec3};
 
     use super::{Arrival, At, NextEvent, Receiver, Source};
+    use crate::geometry::Bvh;
     use crate::radiosity::emitters::{Emitters, spread_var_of_mean};
     use crate::sampling::Rng;
     use crate::scene::{AreaLight, Scene};
@@ -215,8 +216,7 @@ mod tests {
     /// over seeds (the bound asserted).
     #[test]
     fn few_points_on_the_emissive_triangles_are_spread_over_the_panel() {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box/scene.json");
-        let scene = Scene::load(path).unwrap_or_else(|e| panic!("{e}"));
+        let scene = cornell_box();
         let emitters = Emitters::new(&scene);
         let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
         for &t in &emitters.tris {
@@ -228,12 +228,7 @@ mod tests {
             .emission
             .x;
         let bvh = scene.build_bvh();
-        let ne = NextEvent {
-            scene: &scene,
-            bvh: &bvh,
-            emitters: &emitters,
-            glass: None,
-        };
+        let ne = unglazed(&scene, &bvh, &emitters);
         let (size, below) = (hi - lo, 0.6);
         let p = Vec3::new(0.5 * (lo.x + hi.x), hi.y - below, 0.5 * (lo.z + hi.z));
         let at = At {
@@ -278,17 +273,11 @@ mod tests {
     /// times below it at nine points in ten.
     #[test]
     fn the_spread_points_variance_estimate_follows_their_real_spread() {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box/scene.json");
-        let scene = Scene::load(path).unwrap_or_else(|e| panic!("{e}"));
+        let scene = cornell_box();
         let emitters = Emitters::new(&scene);
         let bvh = scene.build_bvh();
         let b = bvh.bounds();
-        let ne = NextEvent {
-            scene: &scene,
-            bvh: &bvh,
-            emitters: &emitters,
-            glass: None,
-        };
+        let ne = unglazed(&scene, &bvh, &emitters);
         let seeds = 48u64;
         for n in [32u32, 128, 512] {
             // Real over estimated variance, per lit point.
@@ -334,27 +323,15 @@ mod tests {
     /// value within a relative 5·10⁻³ over seeds (the bound asserted).
     #[test]
     fn any_number_of_points_on_an_area_light_is_unbiased() {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box/scene.json");
-        let mut scene = Scene::load(path).unwrap_or_else(|e| panic!("{e}"));
+        let mut scene = cornell_box();
         let emitters = Emitters::new(&scene);
         let (side, height) = (0.5, 1.85);
-        scene.lights.push(AreaLight {
-            name: "square".into(),
-            corner: Vec3::new(-0.5 * side, height, -0.5 * side),
-            edge_u: Vec3::new(side, 0.0, 0.0),
-            edge_v: Vec3::new(0.0, 0.0, side),
-            normal: Vec3::NEG_Y,
-            area: side * side,
-            radiance: Vec3::ONE,
-            two_sided: false,
-        });
+        let corner = Vec3::new(-0.5 * side, height, -0.5 * side);
+        scene
+            .lights
+            .push(light_facing_down(corner, Vec2::new(side, side), 1.0));
         let bvh = scene.build_bvh();
-        let ne = NextEvent {
-            scene: &scene,
-            bvh: &bvh,
-            emitters: &emitters,
-            glass: None,
-        };
+        let ne = unglazed(&scene, &bvh, &emitters);
         let (n, seeds) = (128, 64);
         for below in [0.1f32, 0.3] {
             let p = Vec3::new(0.0, height - below, 0.0);
@@ -379,6 +356,36 @@ mod tests {
         }
     }
 
+    fn cornell_box() -> Scene {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box/scene.json");
+        Scene::load(path).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// Next-event estimation in `scene` with no glass in the way.
+    fn unglazed<'a>(scene: &'a Scene, bvh: &'a Bvh, emitters: &'a Emitters) -> NextEvent<'a> {
+        NextEvent {
+            scene,
+            bvh,
+            emitters,
+            glass: None,
+        }
+    }
+
+    /// A one-sided `size.x` × `size.y` light of grey `radiance` in the plane y = `corner.y`,
+    /// spanning +x and +z from `corner` and facing down.
+    fn light_facing_down(corner: Vec3, size: Vec2, radiance: f32) -> AreaLight {
+        AreaLight {
+            name: "facing down".into(),
+            corner,
+            edge_u: Vec3::new(size.x, 0.0, 0.0),
+            edge_v: Vec3::new(0.0, 0.0, size.y),
+            normal: Vec3::NEG_Y,
+            area: size.x * size.y,
+            radiance: Vec3::splat(radiance),
+            two_sided: false,
+        }
+    }
+
     /// Form factor from a point to a parallel rectangle `a` × `b` centred above it at height
     /// `c`: four of Howell's element-to-parallel-rectangle factors, each with its normal through
     /// a corner.
@@ -394,8 +401,7 @@ mod tests {
     /// the panel's triangles do not shadow their own points.
     #[test]
     fn light_samples_give_the_irradiance_of_a_parallel_rectangle() {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box/scene.json");
-        let mut scene = Scene::load(path).unwrap_or_else(|e| panic!("{e}"));
+        let mut scene = cornell_box();
         let emitters = Emitters::new(&scene);
         assert!(!emitters.tris.is_empty());
         let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
@@ -414,17 +420,9 @@ mod tests {
         let (size, ceiling) = (hi - lo, hi.y);
         let drop = 0.05;
         let corner = Vec3::new(lo.x, ceiling - drop, lo.z);
-        let (edge_u, edge_v) = (Vec3::new(size.x, 0.0, 0.0), Vec3::new(0.0, 0.0, size.z));
-        scene.lights.push(AreaLight {
-            name: "under the panel".into(),
-            corner,
-            edge_u,
-            edge_v,
-            normal: Vec3::NEG_Y,
-            area: size.x * size.z,
-            radiance: Vec3::splat(2.0),
-            two_sided: false,
-        });
+        scene
+            .lights
+            .push(light_facing_down(corner, Vec2::new(size.x, size.z), 2.0));
         let bvh = scene.build_bvh();
         let ne = NextEvent {
             scene: &scene,
