@@ -40,7 +40,7 @@ use crate::scene::{Quality, ReflectorKind, Scene};
 use crate::settings::radiance::MAX_RADIANCE_RESOLUTION;
 
 use super::part::{Item, Part};
-use super::read_cache::{self, MaterialPrints, READS_BUDGET};
+use super::read_cache::{self, MaterialPrints};
 use super::{Stage, read_cache::map_key};
 
 /// Why the radiance stage failed.
@@ -374,20 +374,16 @@ pub fn bake_part(
                     // (prints older than the materials only trace more next time).
                     if let Some(dir) = reads_dir
                         && rendered.shaded > 0
+                        && !read_cache::keep(
+                            dir,
+                            &record,
+                            &key,
+                            &prints,
+                            &rendered.reads,
+                            &mut kept_bytes,
+                        )?
                     {
-                        let bytes = read_cache::encode(&key, &prints, &rendered.reads);
-                        kept_bytes += bytes.len() as u64;
-                        if kept_bytes > READS_BUDGET {
-                            log::info!(
-                                "{}: the records of {}'s maps pass {READS_BUDGET} bytes: none kept",
-                                dir.display(),
-                                reflector.name
-                            );
-                            read_cache::remove(dir)?;
-                            reads_dir = None;
-                        } else {
-                            read_cache::write(dir, &record, &bytes)?;
-                        }
+                        reads_dir = None;
                     }
                     clock(2);
                     rays += (plan.resolution * plan.resolution) as u64;

@@ -187,6 +187,31 @@ pub fn write(dir: &Path, name: &str, bytes: &[u8]) -> Result<(), BundleError> {
     std::fs::rename(&tmp, &path).map_err(io(&path))
 }
 
+/// Keeps `reads` as the records `name` in `dir` under `key`, adding their bytes to `spent`
+/// (what the unit keeps so far). Once a unit's records pass [`READS_BUDGET`] its folder is
+/// removed and `false` returned: none of them are kept, and the unit writes no more.
+pub fn keep(
+    dir: &Path,
+    name: &str,
+    key: &[u8; 32],
+    prints: &MaterialPrints,
+    reads: &MapReads,
+    spent: &mut u64,
+) -> Result<bool, BundleError> {
+    let bytes = encode(key, prints, reads);
+    *spent += bytes.len() as u64;
+    if *spent > READS_BUDGET {
+        log::info!(
+            "{}: the records pass {READS_BUDGET} bytes at {name}: none kept",
+            dir.display()
+        );
+        remove(dir)?;
+        return Ok(false);
+    }
+    write(dir, name, &bytes)?;
+    Ok(true)
+}
+
 /// Removes the folder `dir` and what it holds (a unit over its budget keeps no records).
 pub fn remove(dir: &Path) -> Result<(), BundleError> {
     match std::fs::remove_dir_all(dir) {

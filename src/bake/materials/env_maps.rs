@@ -7,7 +7,7 @@ use std::path::Path;
 
 use super::report::EnvReport;
 use super::{EnvShading, MaterialsError};
-use crate::bake::read_cache::{self, MaterialPrints, READS_BUDGET};
+use crate::bake::read_cache::{self, MaterialPrints};
 use crate::bundle::StageWriter;
 use crate::geometry::{Bvh, Hit};
 use crate::image_io::{ChannelData, ExrCompression, Precision, encode_rgb_exr_with};
@@ -136,7 +136,7 @@ pub fn write_env_maps(
 /// folder of records, [`read_cache`], and the file of this capture's), the records kept
 /// there under this capture's key are evaluated with this bake's D where the materials their
 /// rays met are unchanged, and the records are kept for the next bake: rewritten when a texel
-/// was traced, all removed past [`READS_BUDGET`]. The shading reads D at the hit's point
+/// was traced, all removed past [`read_cache::READS_BUDGET`]. The shading reads D at the hit's point
 /// alone (its triangle and barycentrics), as [`super::shade_with_d`]'s does.
 pub fn capture_kept(
     scene: &Scene,
@@ -178,16 +178,7 @@ pub fn capture_kept(
     if let Some(dir) = dir
         && captured.traced > 0
     {
-        let bytes = read_cache::encode(&key, &prints, &captured.reads);
-        if bytes.len() as u64 > READS_BUDGET {
-            log::info!(
-                "{}: the records of {name} pass {READS_BUDGET} bytes: none kept",
-                dir.display()
-            );
-            read_cache::remove(dir)?;
-        } else {
-            read_cache::write(dir, name, &bytes)?;
-        }
+        read_cache::keep(dir, name, &key, &prints, &captured.reads, &mut 0)?;
     }
     if dir.is_some() {
         log::info!(
