@@ -77,12 +77,7 @@ impl Emitters {
 
     /// The emissive triangle for `u` in [0, 1). There must be one.
     pub fn pick(&self, u: f32) -> u32 {
-        let x = u as f64 * self.total;
-        let k = self
-            .cdf
-            .partition_point(|&c| c <= x)
-            .min(self.tris.len() - 1);
-        self.tris[k]
+        self.tris[self.pick_spread(u).0]
     }
 
     /// [`Emitters::pick`] as the triangle's place in `tris`, with where `u` falls inside the
