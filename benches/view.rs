@@ -68,6 +68,7 @@ use glint::view::gpu::Gpu;
 use glint::view::headless::Offscreen;
 use glint::view::headless::replay::GpuTimeSource;
 use glint::view::headless::replay::schedule;
+use glint::view::headless::supersample::box_filter;
 use glint::view::headless::{ReplayOptions, replay_with};
 use glint::view::load::load;
 use glint::view::options::{CurvedSettings, RecursionSettings, ViewOptions};
@@ -84,6 +85,10 @@ const SCENES: [&str; 4] = [
     "bunny-mirror",
 ];
 const SIZE: (u32, u32) = (720, 486);
+
+/// The anti-aliasing table's supersampled column: `--supersample 2`, four shaded samples a
+/// pixel.
+const AA_SUPERSAMPLE: u32 = 2;
 const REPEATS: usize = 3;
 
 fn main() {
@@ -263,11 +268,13 @@ fn frame_table(gpu: &Gpu, work: &Path, adapter: &str, repeats: usize) {
 }
 
 /// Anti-aliasing's cost: each shipped scene's first camera path replayed as in
-/// [`frame_table`] (every frame timed, one run) at `--samples 1` and at the default sample
-/// count, the per-frame medians side by side, with reflections off (a bundle of D alone) and
-/// on in both modes (a bundle with every stage the scene requires).
+/// [`frame_table`] (every frame timed, one run) at `--samples 1`, at the default sample
+/// count, and at the default sample count with `--supersample` [`AA_SUPERSAMPLE`], the
+/// per-frame medians side by side, with reflections off (a bundle of D alone) and on in both
+/// modes (a bundle with every stage the scene requires).
 fn aa_table(gpu: &Gpu, work: &Path) {
     let on = ViewOptions::default().samples;
+    let ss = AA_SUPERSAMPLE;
     let mut rows = vec![[
         "scene".to_string(),
         "reflections".to_string(),
@@ -277,6 +284,8 @@ fn aa_table(gpu: &Gpu, work: &Path) {
         "ratio".to_string(),
         "frame median ms, 1 sample".to_string(),
         format!("frame median ms, {on}x MSAA"),
+        format!("GPU median ms, {on}x MSAA, {ss}x{ss} supersampled"),
+        "ratio".to_string(),
     ]];
     let modes = [
         ("off", ReflectionMode::Off),
@@ -303,11 +312,12 @@ fn aa_table(gpu: &Gpu, work: &Path) {
                         .unwrap_or_else(|e| panic!("{e}"))
                 }),
             };
-            let run = |samples: u32| {
+            let run = |samples: u32, supersample: u32| {
                 let options = ReplayOptions {
                     width: SIZE.0,
                     height: SIZE.1,
                     every: 0,
+                    supersample,
                     view: ViewOptions {
                         samples,
                         reflections: mode,
@@ -317,8 +327,8 @@ fn aa_table(gpu: &Gpu, work: &Path) {
                 };
                 replay_with(gpu, data, &options, &Silent).unwrap_or_else(|e| panic!("{e}"))
             };
-            let (off, aa) = (run(1), run(on));
-            let (a, b) = (&off.summary, &aa.summary);
+            let (off, aa, sup) = (run(1, 1), run(on, 1), run(on, ss));
+            let (a, b, c) = (&off.summary, &aa.summary, &sup.summary);
             rows.push([
                 name.to_string(),
                 label.to_string(),
@@ -328,16 +338,21 @@ fn aa_table(gpu: &Gpu, work: &Path) {
                 format!("{:.2}", b.gpu_ms.median / a.gpu_ms.median),
                 format!("{:.2}", a.frame_ms.median),
                 format!("{:.2}", b.frame_ms.median),
+                format!("{:.2}", c.gpu_ms.median),
+                format!("{:.2}", c.gpu_ms.median / a.gpu_ms.median),
             ]);
         }
     }
     println!(
-        "\nanti-aliasing at {}x{}: every frame of each scene's first camera path (draft bake; reflections off: D only), one run per sample count\n",
+        "\nanti-aliasing at {}x{}: every frame of each scene's first camera path (draft bake; reflections off: D only), one run per sample count; ratios to 1 sample\n",
         SIZE.0, SIZE.1
     );
     print!(
         "{}",
-        format_table(&rows, &[false, false, true, true, true, true, true, true])
+        format_table(
+            &rows,
+            &[false, false, true, true, true, true, true, true, true, true]
+        )
     );
 }
 
@@ -671,22 +686,6 @@ fn primary_hits(
             })
         })
         .collect()
-}
-
-/// The `w` × `h` image whose pixels are the means of `ss` × `ss` blocks of the row-major
-/// `(w·ss)` × `(h·ss)` image `fine`: a box filter over each pixel, the path tracer's.
-fn box_filter(fine: &[glam::Vec3], w: usize, h: usize, ss: usize) -> Vec<glam::Vec3> {
-    let stride = w * ss;
-    let mut out = vec![glam::Vec3::ZERO; w * h];
-    for (k, px) in out.iter_mut().enumerate() {
-        let (x, y) = (k % w, k / w);
-        for dy in 0..ss {
-            let row = (y * ss + dy) * stride + x * ss;
-            *px += fine[row..row + ss].iter().sum::<glam::Vec3>();
-        }
-        *px /= (ss * ss) as f32;
-    }
-    out
 }
 
 /// The path tracer's image of `camera` (`scene`'s path `path`, first keyframe) with `options`,

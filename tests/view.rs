@@ -524,6 +524,98 @@ fn frame_k_renders_one_frame_of_the_path() {
     assert!(stderr.contains("--replay"), "{stderr}");
 }
 
+/// `--supersample 2` writes the frame drawn at twice the size, box-filtered in radiance: its
+/// EXR is the mean of each 2×2 block of the 2× frame's EXR, its PNG that radiance through the
+/// display mapping (within a unit of the display pass's own frame where the frame is flat).
+#[test]
+fn supersampled_frames_are_the_box_filtered_larger_frame() {
+    let bundle = cornell_bundle().to_str().unwrap();
+    let replay = |size: &str, extra: &[&str]| {
+        let out = tempfile::tempdir().unwrap();
+        let mut args = vec![
+            bundle,
+            "--replay",
+            "ten",
+            "--frame",
+            "5",
+            "--headless",
+            "--hdr",
+        ];
+        args.extend(["--size", size, "--out", out.path().to_str().unwrap()]);
+        args.extend_from_slice(extra);
+        let (code, stdout, stderr) = glint_view(&args);
+        assert_eq!(code, 0, "stdout:\n{stdout}\nstderr:\n{stderr}");
+        let exr = glint::image_io::decode_exr(
+            &std::fs::read(out.path().join("frame_00005.exr")).unwrap(),
+        )
+        .unwrap();
+        let png = read_png(&out.path().join("frame_00005.png")).unwrap();
+        let timings: Timings = serde_json::from_str(
+            &std::fs::read_to_string(out.path().join("timings.json")).unwrap(),
+        )
+        .unwrap();
+        (exr.rgb().unwrap(), png, timings, stdout)
+    };
+    let (big, _, _, _) = replay("96x64", &[]);
+    let (small, small_png, small_t, _) = replay("48x32", &[]);
+    let (ss, ss_png, ss_t, stdout) = replay("48x32", &["--supersample", "2"]);
+    assert_eq!((ss_t.size, ss_t.supersample), ([48, 32], 2));
+    assert_eq!(small_t.supersample, 1);
+    assert!(
+        stdout.contains("at 48x32 (2x2 samples a pixel)"),
+        "{stdout}"
+    );
+    assert_eq!((ss_png.0, ss_png.1), (48, 32));
+    // The EXR holds half floats: the filtered mean is rounded once more.
+    let want = glint::view::headless::supersample::box_filter(&big, 48, 32, 2);
+    for (i, (a, b)) in ss.iter().zip(&want).enumerate() {
+        assert!(
+            (*a - *b).abs().max_element() <= 2e-3 * (1.0 + b.max_element()),
+            "pixel {i}: {a} against the 2x frame's block mean {b}"
+        );
+    }
+    // Where the one-sample frame is flat (a pixel equal to its 8 neighbours), the filtered
+    // frame's PNG matches the display pass's to a unit: the CPU mapping is the shader's.
+    let at = |png: &(u32, u32, Vec<u8>), x: usize, y: usize, c: usize| png.2[(y * 48 + x) * 4 + c];
+    let mut flat = 0;
+    for y in 1..31 {
+        for x in 1..47 {
+            let c = small[y * 48 + x];
+            let is_flat = (0..9).all(|k| {
+                let n = small[(y + k / 3 - 1) * 48 + x + k % 3 - 1];
+                (n - c).abs().max_element() <= 1e-4 * (1.0 + c.max_element())
+            });
+            if !is_flat {
+                continue;
+            }
+            flat += 1;
+            for ch in 0..3 {
+                let (a, b) = (at(&ss_png, x, y, ch), at(&small_png, x, y, ch));
+                assert!(
+                    a.abs_diff(b) <= 1,
+                    "({x}, {y}) channel {ch}: {a} against {b}"
+                );
+            }
+        }
+    }
+    assert!(flat > 50, "only {flat} flat pixels");
+    let (code, _, stderr) = glint_view(&[
+        bundle,
+        "--replay",
+        "ten",
+        "--headless",
+        "--supersample",
+        "9",
+        "--out",
+        "x",
+    ]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("1 (off) to 8"), "{stderr}");
+    let (code, _, stderr) = glint_view(&[bundle, "--supersample", "2"]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("--headless"), "{stderr}");
+}
+
 /// `--eye`, `--target` and `--fov` render one view without a path: the `ten` path's first
 /// pose given on the command line draws its frame 0; bad values name the flag and what it
 /// expected.

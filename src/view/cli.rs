@@ -26,7 +26,7 @@ use crate::progress::TerminalProgress;
     after_help = "Window keys: WASD + Q/E move (Shift: faster, mouse wheel: speed), drag with the left mouse button to look, \
 1-9 play camera path N, Space pause/resume, R start/stop recording a path, P screenshot, G reflections off/geometry/image, T reflectance sphere/1D map, I impostor reflections (planar), K impostors srdm/billboard, C curved reflectors off/cubemap/impostor, [ ] recursion depth (geometry reflections), - = exposure down/up half a stop, 0 auto exposure, M tone curve neutral/none, H help, Esc quit.\n\n\
 Reflections default to what the bundle was baked for (image-based planar reflections where it has radiance maps, cube maps for curved reflectors, impostors where it has depth maps but no radiance maps); a line at start names the modes chosen, and --reflections, --curved and --impostors override them.\n\n\
-Examples:\n  glint-view out/glossy-room.glint\n  glint-view out/glossy-room.glint --replay --headless --size 720x486 --every 10 --out out/frames/glossy-room\n  glint-view out/glossy-room.glint --replay walkthrough --frame 120 --headless --hdr --out out/frames/one\n  glint-view out/glossy-room.glint --headless --eye 1.2,1.45,1.5 --target -0.15,0.95,-1 --fov 55 --out out/frames/view\n  glint-view out/glossy-room.glint --replay --headless --reflections off --curved off --out out/frames/diffuse"
+Examples:\n  glint-view out/glossy-room.glint\n  glint-view out/glossy-room.glint --replay --headless --size 720x486 --every 10 --out out/frames/glossy-room\n  glint-view out/glossy-room.glint --replay walkthrough --frame 120 --headless --hdr --supersample 3 --out out/frames/one\n  glint-view out/glossy-room.glint --headless --eye 1.2,1.45,1.5 --target -0.15,0.95,-1 --fov 55 --out out/frames/view\n  glint-view out/glossy-room.glint --replay --headless --reflections off --curved off --out out/frames/diffuse"
 )]
 #[command(group(clap::ArgGroup::new("shot").args(["replay", "eye"])))]
 /// `glint-view`'s arguments.
@@ -77,6 +77,12 @@ pub struct Args {
     /// --exposure and --tonemap change only the PNG).
     #[arg(long)]
     hdr: bool,
+    /// Headless: render each frame at N × N samples a pixel and box-filter it down in linear
+    /// radiance, on top of --samples' multisampling (N² the GPU's work a frame). Sharp
+    /// highlights smaller than a pixel then average as a path tracer's pixels do.
+    #[arg(long, value_name = "N", value_parser = super::headless::supersample::parse_supersample,
+          default_value_t = 1, requires = "headless")]
+    supersample: u32,
     #[command(flatten)]
     view: ViewArgs,
     /// Window: save a screenshot after N frames and exit (for automation, e.g. under xvfb-run).
@@ -112,6 +118,7 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
                 frame: args.frame,
                 camera,
                 hdr: args.hdr,
+                supersample: args.supersample,
                 view,
             },
             &progress,

@@ -72,42 +72,14 @@ impl Viewer {
         } else {
             &timed
         };
-        let rgb = shown.read_hdr(gpu).map_err(|e| fail(&e))?;
-        let img = box_down(
-            &Image {
-                width: (self.width * k) as usize,
-                height: (self.height * k) as usize,
-                rgb,
-            },
-            k as usize,
-        );
+        let fine = shown.read_hdr(gpu).map_err(|e| fail(&e))?;
+        let (w, h) = (self.width as usize, self.height as usize);
+        let img = Image {
+            width: w,
+            height: h,
+            rgb: crate::view::headless::supersample::box_filter(&fine, w, h, k as usize),
+        };
         Ok((img, Some(median(&mut frame)), Some(median(&mut gpu_ms))))
-    }
-}
-
-/// The mean of every `k` × `k` block.
-#[cfg(feature = "view")]
-fn box_down(img: &Image, k: usize) -> Image {
-    if k == 1 {
-        return img.clone();
-    }
-    let (w, h) = (img.width / k, img.height / k);
-    let mut rgb = Vec::with_capacity(w * h);
-    for y in 0..h {
-        for x in 0..w {
-            let mut sum = glam::DVec3::ZERO;
-            for j in 0..k {
-                for i in 0..k {
-                    sum += img.rgb[(y * k + j) * img.width + x * k + i].as_dvec3();
-                }
-            }
-            rgb.push((sum / (k * k) as f64).as_vec3());
-        }
-    }
-    Image {
-        width: w,
-        height: h,
-        rgb,
     }
 }
 

@@ -1,9 +1,11 @@
 //! Headless replay: every frame of a camera path rendered without a window
 //! ([`Offscreen`], re-exported from [`offscreen`]), frames written as PNG (and EXR),
-//! per-frame GPU and CPU times to `timings.json`.
+//! per-frame GPU and CPU times to `timings.json`; frames may be supersampled
+//! ([`supersample`]).
 
 pub mod offscreen;
 pub mod replay;
+pub mod supersample;
 
 use std::path::{Path, PathBuf};
 
@@ -121,6 +123,9 @@ pub struct ReplayOptions {
     pub camera: Option<Keyframe>,
     /// Also write each written frame as a half-float EXR of linear radiance (never exposed).
     pub hdr: bool,
+    /// Samples a pixel along each axis: each frame is rendered at this many times its width
+    /// and height and box-filtered down in linear radiance ([`supersample`]); 1: off.
+    pub supersample: u32,
     /// What the frames show.
     pub view: ViewOptions,
 }
@@ -136,6 +141,7 @@ impl Default for ReplayOptions {
             frame: None,
             camera: None,
             hdr: false,
+            supersample: 1,
             view: ViewOptions::default(),
         }
     }
@@ -186,8 +192,14 @@ pub fn replay_with(
             source,
         })?;
     }
-    let offscreen =
-        Offscreen::with_options(gpu, data, options.width, options.height, &options.view)?;
+    let k = options.supersample.max(1);
+    let offscreen = Offscreen::with_options(
+        gpu,
+        data,
+        options.width * k,
+        options.height * k,
+        &options.view,
+    )?;
     log::info!(
         "8-bit frames: exposure {} ({:+.2} EV; auto would be {:+.2} EV), tone curve {}",
         options.view.exposure,
@@ -215,7 +227,7 @@ pub fn replay_with(
         if let Some(out) = &options.out
             && write
         {
-            files = write_frame(gpu, &offscreen, out, f.index, options.hdr)?;
+            files = write_frame(gpu, &offscreen, out, f.index, options)?;
         }
         timings.push(FrameTiming {
             frame: f.index,
@@ -236,6 +248,7 @@ pub fn replay_with(
         path_frames,
         rendered,
         size: [options.width, options.height],
+        supersample: k,
         adapter: gpu.adapter_summary(),
         gpu_time_source: offscreen.gpu_time_source(),
         warmup_ms: warmup.frame_ms,
@@ -296,28 +309,52 @@ fn path_frames(
     Ok((path.name.clone(), count, frames, rendered))
 }
 
-/// Writes the target's current frame as PNG (exposed, tone-mapped) and, when `hdr`, as EXR
-/// (linear radiance).
+/// Writes the target's current frame as PNG (exposed, tone-mapped) and, when `options.hdr`,
+/// as EXR (linear radiance); a supersampled frame is box-filtered down first, in radiance.
 fn write_frame(
     gpu: &Gpu,
     offscreen: &Offscreen,
     out: &Path,
     index: usize,
-    hdr: bool,
+    options: &ReplayOptions,
 ) -> Result<Vec<String>, ViewError> {
-    let (w, h) = (offscreen.target.width, offscreen.target.height);
+    let (w, h) = (options.width, options.height);
+    let k = options.supersample.max(1);
+    // One sample a pixel: the display pass's own 8-bit frame. Supersampled: the radiance
+    // filtered down, then the same mapping on the CPU (`DisplayMapping::apply`, held to the
+    // shader by a test), since filtering after the tone curve would darken highlights.
+    let radiance = if k > 1 || options.hdr {
+        let fine = offscreen.read_hdr(gpu)?;
+        Some(supersample::box_filter(
+            &fine, w as usize, h as usize, k as usize,
+        ))
+    } else {
+        None
+    };
+    let rgb = match (&radiance, k) {
+        (Some(radiance), 2..) => {
+            let mapping = offscreen.frame().display_mapping();
+            let byte = |v: f32| (image_io::linear_to_srgb(v) * 255.0 + 0.5) as u8;
+            radiance
+                .iter()
+                .flat_map(|&c| {
+                    let d = mapping.apply(c);
+                    [byte(d.x), byte(d.y), byte(d.z)]
+                })
+                .collect()
+        }
+        _ => rgba_to_rgb(&offscreen.read_rgba8(gpu)?),
+    };
     let mut files = Vec::new();
     let name = frame_file_name(index, "png");
     let path = out.join(&name);
-    let rgb = rgba_to_rgb(&offscreen.read_rgba8(gpu)?);
     let png = image_io::encode_png(w, h, &rgb, false).map_err(|source| ViewError::Image {
         path: path.clone(),
         source,
     })?;
     std::fs::write(&path, png).map_err(|source| ViewError::Io { path, source })?;
     files.push(name);
-    if hdr {
-        let hdr = offscreen.read_hdr(gpu)?;
+    if let (true, Some(hdr)) = (options.hdr, radiance) {
         let name = frame_file_name(index, "exr");
         let path = out.join(&name);
         let exr = image_io::encode_rgb_exr(w as usize, h as usize, &hdr).map_err(|source| {

@@ -177,6 +177,11 @@ impl Stats {
 }
 
 /// The `q`-quantile (0..=1) of sorted values, linear between closest ranks.
+/// `supersample`'s value in a timings.json written before it was recorded.
+fn one() -> u32 {
+    1
+}
+
 fn percentile(sorted: &[f64], q: f64) -> f64 {
     let pos = q.clamp(0.0, 1.0) * (sorted.len() - 1) as f64;
     let lo = pos.floor() as usize;
@@ -229,6 +234,10 @@ pub struct Timings {
     pub rendered: Rendered,
     /// Frame width and height in pixels.
     pub size: [u32; 2],
+    /// Samples a pixel along each axis (`--supersample`): the GPU drew `size` × this, and
+    /// the times are that frame's.
+    #[serde(default = "one")]
+    pub supersample: u32,
     /// The adapter: name, backend, device type, driver.
     pub adapter: String,
     /// How `gpu_ms` was measured.
@@ -269,8 +278,12 @@ impl Timings {
             Rendered::Frame(k) => format!(" (frame {k} of {})", self.path_frames),
             Rendered::Camera(_) => " (camera from the command line)".into(),
         };
+        let samples = match self.supersample {
+            0 | 1 => String::new(),
+            k => format!(" ({k}x{k} samples a pixel)"),
+        };
         let mut out = format!(
-            "{} frames of {}/{}{which} at {}x{} on {}\n{:<10} {:>10} {:>10} {:>10}\n",
+            "{} frames of {}/{}{which} at {}x{}{samples} on {}\n{:<10} {:>10} {:>10} {:>10}\n",
             self.frames.len(),
             self.scene,
             self.path,
@@ -430,6 +443,7 @@ mod tests {
             path_frames: 3,
             rendered: Rendered::All,
             size: [720, 486],
+            supersample: 1,
             adapter: "llvmpipe".into(),
             gpu_time_source: GpuTimeSource::SubmitToComplete,
             warmup_ms: 40.0,
