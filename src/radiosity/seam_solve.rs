@@ -568,14 +568,16 @@ mod tests {
                 .unwrap();
             m.swap(k, p);
             b.swap(k, p);
-            for i in k + 1..n {
-                let f = m[i][k] / m[k][k];
+            let (pivot, below) = m.split_at_mut(k + 1);
+            let (pivot, bk) = (&pivot[k], b[k]);
+            for (i, row) in below.iter_mut().enumerate() {
+                let f = row[k] / pivot[k];
                 if f != 0.0 {
-                    for j in k..n {
-                        m[i][j] -= f * m[k][j];
+                    for (x, p) in row[k..].iter_mut().zip(&pivot[k..]) {
+                        *x -= f * p;
                     }
-                    for c in 0..3 {
-                        b[i][c] -= f * b[k][c];
+                    for (x, p) in b[k + 1 + i].iter_mut().zip(bk) {
+                        *x -= f * p;
                     }
                 }
             }
