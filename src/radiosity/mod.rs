@@ -5,6 +5,7 @@ pub mod atlas;
 pub mod batch;
 pub mod contacts;
 pub mod current;
+mod dissection;
 mod emitters;
 pub mod format;
 mod gather;

@@ -14,8 +14,8 @@
 //!   least-squares problem, seam constraints plus a weak pull of every texel towards its
 //!   solved value (Castaño, "Lightmap parameterization", The Witness blog 2010; Liu,
 //!   Ferguson, Jacobson and Gingold 2017, "Seamless: seam erasure and seam-aware decoupling
-//!   of shading from geometry", §4), solved per independent part by a Cholesky factor in
-//!   reverse Cuthill–McKee order (conjugate gradients for a part too large for one).
+//!   of shading from geometry", §4), solved per independent part by a sparse Cholesky
+//!   factor in nested-dissection order (conjugate gradients for a part too large for one).
 //!
 //! Seams are visited in a fixed order and every sum is taken in a fixed order, so the result
 //! does not depend on the thread count.
