@@ -783,7 +783,7 @@ impl Links {
             let b1 = u32::from(bytes.get(at + 1).copied().unwrap_or(0));
             let more = b0 >> 7;
             if more & (b1 >> 7) == 0 {
-                last += (b0 & 0x7f) | ((b1 & 0x7f) << 7) * more;
+                last += (b0 & 0x7f) | (((b1 & 0x7f) << 7) * more);
                 at += 1 + more as usize;
             } else {
                 last += varint::read(bytes, &mut at).expect("links end on a whole varint") as u32;
