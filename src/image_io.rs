@@ -1,6 +1,11 @@
 //! Image files in memory: OpenEXR for HDR data (any channel names, half or float), PNG for
 //! previews. Encoders return bytes (stages hand them to the bundle's atomic writer) and are
 //! deterministic: single-threaded compression, scan lines in increasing order.
+//!
+//! ZIP16 files are written here ([`encode_exr`]) rather than by the `exr` crate, whose deflate
+//! (miniz_oxide at level 4) was most of a radiance map's encoding; zlib-rs at the same level
+//! gives files of about the same size in about half the time (docs/tuning.md#exr-deflate).
+//! Its output depends on no CPU feature, so the bytes are the same on every machine.
 
 use std::collections::BTreeMap;
 use std::io::Cursor;
@@ -67,7 +72,6 @@ pub fn encode_exr(
             "an image of {width}×{height} pixels has no pixels"
         )));
     }
-    let mut list = smallvec::SmallVec::<[AnyChannel<FlatSamples>; 4]>::new();
     for c in channels {
         if c.samples.len() != width * height {
             return Err(ImageError::Shape(format!(
@@ -77,6 +81,25 @@ pub fn encode_exr(
                 width * height
             )));
         }
+    }
+    match compression {
+        ExrCompression::Zip16 => encode_zip16(width, height, channels),
+        ExrCompression::None => {
+            encode_with_crate(width, height, channels, Compression::Uncompressed)
+        }
+        ExrCompression::Piz => encode_with_crate(width, height, channels, Compression::PIZ),
+    }
+}
+
+/// [`encode_exr`] by the `exr` crate, with its `compression`.
+fn encode_with_crate(
+    width: usize,
+    height: usize,
+    channels: &[ChannelData],
+    compression: Compression,
+) -> Result<Vec<u8>, ImageError> {
+    let mut list = smallvec::SmallVec::<[AnyChannel<FlatSamples>; 4]>::new();
+    for c in channels {
         let samples = match c.precision {
             Precision::Half => {
                 FlatSamples::F16(c.samples.iter().map(|&v| f16::from_f32(v)).collect())
@@ -86,11 +109,7 @@ pub fn encode_exr(
         list.push(AnyChannel::new(c.name, samples));
     }
     let encoding = Encoding {
-        compression: match compression {
-            ExrCompression::None => Compression::Uncompressed,
-            ExrCompression::Zip16 => Compression::ZIP16,
-            ExrCompression::Piz => Compression::PIZ,
-        },
+        compression,
         blocks: Blocks::ScanLines,
         line_order: LineOrder::Increasing,
     };
@@ -106,6 +125,152 @@ pub fn encode_exr(
         .non_parallel()
         .to_buffered(&mut out)?;
     Ok(out.into_inner())
+}
+
+/// Scan lines per ZIP block (OpenEXR's `ZIP_COMPRESSION`).
+const ZIP_LINES: usize = 16;
+
+/// The deflate level of ZIP blocks: the `exr` crate's, whose files these replaced.
+const ZIP_LEVEL: i32 = 4;
+
+/// Appends an OpenEXR header attribute: `name\0 type\0 size:i32 value`.
+fn push_attribute(out: &mut Vec<u8>, name: &str, kind: &str, value: &[u8]) {
+    for text in [name, kind] {
+        out.extend_from_slice(text.as_bytes());
+        out.push(0);
+    }
+    out.extend_from_slice(&(value.len() as i32).to_le_bytes());
+    out.extend_from_slice(value);
+}
+
+/// A single-part scan-line OpenEXR file with ZIP blocks of [`ZIP_LINES`] lines, laid out as
+/// the `exr` crate lays it out (its attributes in its order; channels sorted by name, each
+/// line's samples channel by channel, little-endian; a channel other than R, G, B, L, X, Y
+/// and Z marked as quantized linearly). A block's bytes are split into even and odd bytes,
+/// delta-coded and deflated (OpenEXR's ZIP predictor), or stored as they are where that is
+/// not smaller.
+fn encode_zip16(
+    width: usize,
+    height: usize,
+    channels: &[ChannelData],
+) -> Result<Vec<u8>, ImageError> {
+    let too_big = || {
+        ImageError::Shape(format!(
+            "an image of {width}×{height} pixels is too large for OpenEXR"
+        ))
+    };
+    let (w, h) = (
+        i32::try_from(width).map_err(|_| too_big())?,
+        i32::try_from(height).map_err(|_| too_big())?,
+    );
+    let mut sorted: Vec<&ChannelData> = channels.iter().collect();
+    sorted.sort_by(|a, b| a.name.as_bytes().cmp(b.name.as_bytes()));
+    let blocks = height.div_ceil(ZIP_LINES);
+    let mut out = vec![0x76, 0x2f, 0x31, 0x01, 2, 0, 0, 0];
+    push_attribute(
+        &mut out,
+        "chunkCount",
+        "int",
+        &(blocks as i32).to_le_bytes(),
+    );
+    let mut list = Vec::new();
+    for c in &sorted {
+        list.extend_from_slice(c.name.as_bytes());
+        list.push(0);
+        let kind: i32 = match c.precision {
+            Precision::Half => 1,
+            Precision::Float => 2,
+        };
+        list.extend_from_slice(&kind.to_le_bytes());
+        let linear = !["R", "G", "B", "L", "Y", "X", "Z"]
+            .iter()
+            .any(|n| n.eq_ignore_ascii_case(c.name));
+        list.extend_from_slice(&[u8::from(linear), 0, 0, 0]);
+        list.extend_from_slice(&1i32.to_le_bytes());
+        list.extend_from_slice(&1i32.to_le_bytes());
+    }
+    list.push(0);
+    push_attribute(&mut out, "channels", "chlist", &list);
+    push_attribute(&mut out, "compression", "compression", &[3]);
+    push_attribute(&mut out, "lineOrder", "lineOrder", &[0]);
+    let window: Vec<u8> = [0, 0, w - 1, h - 1]
+        .iter()
+        .flat_map(|v: &i32| v.to_le_bytes())
+        .collect();
+    push_attribute(&mut out, "displayWindow", "box2i", &window);
+    push_attribute(&mut out, "pixelAspectRatio", "float", &1f32.to_le_bytes());
+    push_attribute(&mut out, "screenWindowCenter", "v2f", &[0; 8]);
+    push_attribute(&mut out, "screenWindowWidth", "float", &1f32.to_le_bytes());
+    push_attribute(&mut out, "dataWindow", "box2i", &window);
+    push_attribute(&mut out, "type", "string", b"scanlineimage");
+    out.push(0);
+    let table = out.len();
+    out.resize(table + 8 * blocks, 0);
+    let line_bytes: usize = sorted
+        .iter()
+        .map(|c| match c.precision {
+            Precision::Half => 2,
+            Precision::Float => 4,
+        })
+        .sum::<usize>()
+        * width;
+    let (mut raw, mut split): (Vec<u8>, Vec<u8>) = (Vec::new(), Vec::new());
+    let mut deflated = vec![0u8; zlib_rs::compress_bound(ZIP_LINES * line_bytes)];
+    for b in 0..blocks {
+        let rows = b * ZIP_LINES..((b + 1) * ZIP_LINES).min(height);
+        raw.clear();
+        for y in rows.clone() {
+            for c in &sorted {
+                let line = &c.samples[y * width..(y + 1) * width];
+                let start = raw.len();
+                match c.precision {
+                    Precision::Half => {
+                        raw.resize(start + 2 * width, 0);
+                        for (d, &v) in raw[start..].chunks_exact_mut(2).zip(line) {
+                            d.copy_from_slice(&f16::from_f32(v).to_le_bytes());
+                        }
+                    }
+                    Precision::Float => {
+                        raw.resize(start + 4 * width, 0);
+                        for (d, &v) in raw[start..].chunks_exact_mut(4).zip(line) {
+                            d.copy_from_slice(&v.to_le_bytes());
+                        }
+                    }
+                }
+            }
+        }
+        // Every sample has an even number of bytes: the two halves are the same length.
+        split.resize(raw.len(), 0);
+        let (even, odd) = split.split_at_mut(raw.len() / 2);
+        for ((e, o), pair) in even.iter_mut().zip(odd).zip(raw.chunks_exact(2)) {
+            *e = pair[0];
+            *o = pair[1];
+        }
+        let mut previous = split[0];
+        for v in &mut split[1..] {
+            let here = *v;
+            *v = here.wrapping_sub(previous).wrapping_add(128);
+            previous = here;
+        }
+        let (z, code) = zlib_rs::compress_slice(
+            &mut deflated,
+            &split,
+            zlib_rs::DeflateConfig::new(ZIP_LEVEL),
+        );
+        if !matches!(code, zlib_rs::ReturnCode::Ok) {
+            return Err(ImageError::Shape(format!(
+                "deflate failed (zlib code {})",
+                code as i32
+            )));
+        }
+        let data: &[u8] = if z.len() < raw.len() { z } else { &raw };
+        let at = out.len() as u64;
+        out[table + 8 * b..table + 8 * b + 8].copy_from_slice(&at.to_le_bytes());
+        out.extend_from_slice(&(rows.start as i32).to_le_bytes());
+        out.extend_from_slice(&(data.len() as i32).to_le_bytes());
+        out.extend_from_slice(data);
+    }
+    Ok(out)
 }
 
 /// Encodes an RGB half-float EXR (ZIP16) from linear radiance.
@@ -506,6 +671,66 @@ mod tests {
         )
         .unwrap();
         assert_eq!(bytes, again);
+    }
+
+    /// glint's ZIP16 files have the `exr` crate's header and layout and the same pixels, over
+    /// several blocks (the last one short), blocks that deflate and one that does not.
+    #[test]
+    fn zip16_files_are_the_exr_crates_layout_with_the_same_pixels() {
+        let (w, h) = (37, 40);
+        let smooth: Vec<f32> = (0..w * h).map(|i| (i / w) as f32 * 0.5).collect();
+        // Bits that do not compress: every block's bytes are stored as they are.
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        let noise: Vec<f32> = (0..w * h)
+            .map(|_| {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                f32::from_bits((x as u32 & 0x007f_ffff) | 0x3f80_0000)
+            })
+            .collect();
+        let channels = [
+            ChannelData {
+                name: "Z",
+                precision: Precision::Float,
+                samples: &noise,
+            },
+            ChannelData {
+                name: "NX",
+                precision: Precision::Half,
+                samples: &smooth,
+            },
+            ChannelData {
+                name: "A",
+                precision: Precision::Half,
+                samples: &smooth,
+            },
+        ];
+        for only in [&channels[..], &channels[..1], &channels[1..]] {
+            let ours = encode_exr(w, h, only, ExrCompression::Zip16).unwrap();
+            let theirs = encode_with_crate(w, h, only, Compression::ZIP16).unwrap();
+            // The headers (attributes up to the empty name) are the same bytes.
+            let header = |b: &[u8]| {
+                let mut at = 8;
+                let text = |at: &mut usize| {
+                    let end = *at + b[*at..].iter().position(|&c| c == 0).unwrap();
+                    let empty = end == *at;
+                    *at = end + 1;
+                    empty
+                };
+                while !text(&mut at) {
+                    text(&mut at);
+                    let size = i32::from_le_bytes(b[at..at + 4].try_into().unwrap());
+                    at += 4 + size as usize;
+                }
+                b[..at].to_vec()
+            };
+            assert_eq!(header(&ours), header(&theirs));
+            let img = decode_exr(&ours).unwrap();
+            let want = decode_exr(&theirs).unwrap();
+            assert_eq!(img, want);
+            assert_eq!(ours, encode_exr(w, h, only, ExrCompression::Zip16).unwrap());
+        }
     }
 
     #[test]

@@ -354,6 +354,7 @@ pub fn bake_part(
                         lap = Instant::now();
                     };
                     let (reads, changed) = read_cache::kept(reads_dir, &record, &key, &prints);
+                    let had_record = reads.is_some();
                     let replay = reads.map(|reads| Replay {
                         reads,
                         changed: &changed,
@@ -382,6 +383,14 @@ pub fn bake_part(
                             &rendered.reads,
                             &mut kept_bytes,
                         )?
+                    {
+                        reads_dir = None;
+                    }
+                    // A record kept as it is still counts against the unit's budget.
+                    if let Some(dir) = reads_dir
+                        && rendered.shaded == 0
+                        && had_record
+                        && !read_cache::count_kept(dir, &record, &mut kept_bytes)?
                     {
                         reads_dir = None;
                     }
@@ -448,7 +457,7 @@ pub fn bake_part(
     }
     if part.reads.is_some() {
         log::info!(
-            "radiance maps: {shaded} of {rays} pixels traced and shaded, the rest evaluated from their records ({kept_bytes} bytes of records written; reading records {:.2} s, rendering {:.2} s, writing records {:.2} s, encoding {:.2} s)",
+            "radiance maps: {shaded} of {rays} pixels traced and shaded, the rest evaluated from their records ({kept_bytes} bytes of records kept; reading records {:.2} s, rendering {:.2} s, writing records {:.2} s, encoding {:.2} s)",
             steps[0],
             steps[1],
             steps[2],

@@ -164,6 +164,19 @@ pub fn density_rule(
     })
 }
 
+/// Memory the ray cache adds to a bake through it ([`Gathering::Cached`]), in bytes: the prior
+/// bake's cache, read, beside this bake's, built (and then its file), each bounded by
+/// [`RAY_CACHE_BUDGET`], at about 10 bytes a gathering ray as packed
+/// ([`crate::radiosity::ray_cache`]).
+pub fn ray_cache_memory(texels: f64, rays: u32, refine: bool) -> f64 {
+    let rounds = if refine {
+        1.0 + REFINE_BUDGET as f64
+    } else {
+        1.0
+    };
+    2.0 * (texels * rays as f64 * rounds * 10.0).min(RAY_CACHE_BUDGET as f64)
+}
+
 /// Bytes of memory available to this process (Linux `MemAvailable`), if known.
 pub fn available_memory() -> Option<f64> {
     let text = std::fs::read_to_string("/proc/meminfo").ok()?;
@@ -174,14 +187,16 @@ pub fn available_memory() -> Option<f64> {
 
 /// Checks settings and memory before anything is allocated; the densities the bake uses.
 pub fn check(scene: &Scene, s: &RadiositySettings) -> Result<Density, RadiosityError> {
-    check_share(scene, s, 1.0)
+    check_share(scene, s, 1.0, false)
 }
 
-/// [`check`] for a bake that holds `share` of the elements' gathered rays (a gathering unit).
+/// [`check`] for a bake that holds `share` of the elements' gathered rays (a gathering unit),
+/// and with `cached` a ray cache ([`ray_cache_memory`]).
 fn check_share(
     scene: &Scene,
     s: &RadiositySettings,
     share: f64,
+    cached: bool,
 ) -> Result<Density, RadiosityError> {
     if !scene.has_emitters() {
         return Err(RadiosityError::NoEmitters {
@@ -192,7 +207,11 @@ fn check_share(
         .map_err(|e| RadiosityError::Setting(e.to_string()))?;
     let density = density_rule(scene, s)?;
     let texels = density.texels() * contact_texel_factor(s);
-    let need = memory_estimate(texels, s.rays, s.target_error.is_some(), s.cache_budget()) * share;
+    let refine = s.target_error.is_some();
+    let mut need = memory_estimate(texels, s.rays, refine, s.cache_budget()) * share;
+    if cached {
+        need += ray_cache_memory(texels, s.rays, refine);
+    }
     if let Some(avail) = available_memory()
         && need > avail
     {
@@ -352,7 +371,7 @@ pub fn bake_gather(
         target_error: None,
         ..settings.clone()
     };
-    let density = check_share(scene, &first, 1.0 / n.max(1) as f64)?;
+    let density = check_share(scene, &first, 1.0 / n.max(1) as f64, false)?;
     let mut w = StageWriter::begin(shard, GATHER_STAGE)?;
     let p = prepare(scene, settings, density)?;
     let range = gather_range(p.samples.len(), k, n);
@@ -438,7 +457,8 @@ pub fn bake_from(
     progress: &dyn Progress,
 ) -> Result<StageRecord, RadiosityError> {
     let start = Instant::now();
-    let density = check(scene, settings)?;
+    let cached = matches!(gathering, Gathering::Cached(_));
+    let density = check_share(scene, settings, 1.0, cached)?;
     crate::bundle::check_scene(bundle, &scene.name, &scene.content_hash, force)?;
     // Before the compute: a bundle that cannot be written fails now.
     let mut w = StageWriter::begin(bundle, Stage::Radiosity.name())?;
@@ -572,7 +592,18 @@ pub fn bake_from(
 
 #[cfg(test)]
 mod tests {
-    use super::{gather_range, settings_json};
+    use super::{gather_range, ray_cache_memory, settings_json};
+    use crate::radiosity::solve::RAY_CACHE_BUDGET;
+
+    /// A bake through the ray cache holds two caches, each within its budget.
+    #[test]
+    fn the_ray_cache_adds_two_caches_to_a_bake_within_its_budget() {
+        let small = ray_cache_memory(10_000.0, 64, false);
+        assert!(small > 2.0 * 10_000.0 * 64.0 * 4.0, "{small}");
+        assert!(ray_cache_memory(10_000.0, 64, true) > small);
+        let huge = ray_cache_memory(1e9, 256, true);
+        assert_eq!(huge, 2.0 * RAY_CACHE_BUDGET as f64);
+    }
     use crate::settings::Quality;
     use crate::settings::radiosity::RadiositySettings;
 

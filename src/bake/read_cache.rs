@@ -212,6 +212,23 @@ pub fn keep(
     Ok(true)
 }
 
+/// Counts the record `name` kept in `dir` as it is (none of its pixels traced again) against
+/// the unit's budget as [`keep`] counts one written: a unit's records are bounded whatever
+/// share of them this bake wrote. Past [`READS_BUDGET`] the folder is removed and `false`
+/// returned.
+pub fn count_kept(dir: &Path, name: &str, spent: &mut u64) -> Result<bool, BundleError> {
+    *spent += std::fs::metadata(dir.join(name)).map_or(0, |m| m.len());
+    if *spent > READS_BUDGET {
+        log::info!(
+            "{}: the records pass {READS_BUDGET} bytes at {name}: none kept",
+            dir.display()
+        );
+        remove(dir)?;
+        return Ok(false);
+    }
+    Ok(true)
+}
+
 /// Removes the folder `dir` and what it holds (a unit over its budget keeps no records).
 pub fn remove(dir: &Path) -> Result<(), BundleError> {
     match std::fs::remove_dir_all(dir) {
@@ -227,6 +244,20 @@ pub fn remove(dir: &Path) -> Result<(), BundleError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn records_kept_as_they_are_count_against_the_budget() {
+        let dir = tempfile::tempdir().unwrap();
+        let folder = dir.path().join("radiance.M.reads");
+        write(&folder, "m.reads", &[0u8; 100]).unwrap();
+        let mut spent = 0;
+        assert!(count_kept(&folder, "m.reads", &mut spent).unwrap());
+        assert_eq!(spent, 100);
+        // What was written before this record brings the unit past its budget: none kept.
+        let mut spent = READS_BUDGET - 50;
+        assert!(!count_kept(&folder, "m.reads", &mut spent).unwrap());
+        assert!(!folder.exists());
+    }
 
     #[test]
     fn a_record_is_read_under_its_own_key_alone_and_whole() {

@@ -53,7 +53,40 @@ impl PackedTerms {
         self.bytes.shrink_to_fit();
     }
 
+    /// Calls `f` with each term's texel and weight in [`Self::iter`]'s order, exactly: the
+    /// loop every bounce runs.
+    #[inline]
+    pub fn for_each(&self, mut f: impl FnMut(u32, Vec3)) {
+        let bytes = self.bytes.as_slice();
+        let float = |at: usize| {
+            let b: [u8; 4] = bytes[at..at + 4].try_into().expect("4 bytes");
+            f32::from_bits(u32::from_le_bytes(b))
+        };
+        let (mut at, mut texel) = (0usize, 0u32);
+        while at < bytes.len() {
+            let head = match bytes[at] {
+                b if b < 0x80 => {
+                    at += 1;
+                    u64::from(b)
+                }
+                _ => varint::read(bytes, &mut at).expect("terms end on a whole varint"),
+            };
+            let zigzag = (head >> 1) as u32;
+            let delta = ((zigzag >> 1) as i32) ^ -((zigzag & 1) as i32);
+            texel = texel.wrapping_add(delta as u32);
+            let weight = if head & 1 == 1 {
+                at += 4;
+                Vec3::splat(float(at - 4))
+            } else {
+                at += 12;
+                Vec3::new(float(at - 12), float(at - 8), float(at - 4))
+            };
+            f(texel, weight);
+        }
+    }
+
     /// The terms in the order they were pushed, exactly.
+    #[cfg(test)]
     pub fn iter(&self) -> impl Iterator<Item = Term> + '_ {
         let (mut at, mut texel) = (0usize, 0u32);
         let bytes = &self.bytes;
@@ -102,8 +135,15 @@ mod tests {
         packed.extend(terms[..3].iter().copied());
         packed.extend(terms[3..].iter().copied());
         let back: Vec<Term> = packed.iter().collect();
+        let mut each = Vec::new();
+        packed.for_each(|texel, weight| each.push(Term { texel, weight }));
         assert_eq!(back.len(), terms.len());
-        for (a, b) in back.iter().zip(&terms) {
+        assert_eq!(each.len(), terms.len());
+        for ((a, b), c) in back.iter().zip(&terms).zip(&each) {
+            assert_eq!(
+                (a.texel, a.weight.to_array().map(f32::to_bits)),
+                (c.texel, c.weight.to_array().map(f32::to_bits))
+            );
             assert_eq!(a.texel, b.texel);
             // Bit for bit: -0.0 stays -0.0 and is not grey with +0.0.
             assert_eq!(
