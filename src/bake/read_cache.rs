@@ -199,7 +199,17 @@ pub fn keep(
     spent: &mut u64,
 ) -> Result<bool, BundleError> {
     let bytes = encode(key, prints, reads);
-    *spent += bytes.len() as u64;
+    if !charge(dir, name, bytes.len() as u64, spent)? {
+        return Ok(false);
+    }
+    write(dir, name, &bytes)?;
+    Ok(true)
+}
+
+/// Adds a record's `len` bytes to the unit's `spent`; past [`READS_BUDGET`] removes the
+/// unit's folder `dir` and returns `false` (none of its records is kept).
+fn charge(dir: &Path, name: &str, len: u64, spent: &mut u64) -> Result<bool, BundleError> {
+    *spent += len;
     if *spent > READS_BUDGET {
         log::info!(
             "{}: the records pass {READS_BUDGET} bytes at {name}: none kept",
@@ -208,7 +218,6 @@ pub fn keep(
         remove(dir)?;
         return Ok(false);
     }
-    write(dir, name, &bytes)?;
     Ok(true)
 }
 
@@ -217,16 +226,8 @@ pub fn keep(
 /// share of them this bake wrote. Past [`READS_BUDGET`] the folder is removed and `false`
 /// returned.
 pub fn count_kept(dir: &Path, name: &str, spent: &mut u64) -> Result<bool, BundleError> {
-    *spent += std::fs::metadata(dir.join(name)).map_or(0, |m| m.len());
-    if *spent > READS_BUDGET {
-        log::info!(
-            "{}: the records pass {READS_BUDGET} bytes at {name}: none kept",
-            dir.display()
-        );
-        remove(dir)?;
-        return Ok(false);
-    }
-    Ok(true)
+    let len = std::fs::metadata(dir.join(name)).map_or(0, |m| m.len());
+    charge(dir, name, len, spent)
 }
 
 /// Removes the folder `dir` and what it holds (a unit over its budget keeps no records).

@@ -483,6 +483,28 @@ mod tests {
         y
     }
 
+    /// `p`'s factor (its order checked to be a permutation), a smooth right-hand side b and
+    /// the factor's solution of M·x = b.
+    fn factor_and_solve(
+        p: &Problem,
+        lambda2: f64,
+        mu2: f64,
+    ) -> (Sparse, Vec<[f64; 3]>, Vec<[f64; 3]>) {
+        let n = p.neighbours.len();
+        let factor = Sparse::factor(p, lambda2, mu2).expect("small enough to factor");
+        let mut order = factor.order.clone();
+        order.sort_unstable();
+        assert_eq!(order, (0..n).collect::<Vec<_>>(), "not a permutation");
+        let b: Vec<[f64; 3]> = (0..n)
+            .map(|i| {
+                let t = i as f64;
+                [t.sin(), 1.0, -(0.3 * t).cos()]
+            })
+            .collect();
+        let x = factor.solve(&b);
+        (factor, b, x)
+    }
+
     /// Two 40-texel sides of a seam tied by constraints of weight ~1 against the stitch's
     /// weak pulls (λ² = 10⁻⁶, μ² = 9·10⁻⁶), plus a texel no constraint reads (a second
     /// connected part): the factor's solution satisfies M·x = b to rounding.
@@ -513,17 +535,7 @@ mod tests {
         let n = neighbours.len();
         let p = Problem { rows, neighbours };
         let (lambda2, mu2) = (1e-6, 9e-6);
-        let factor = Sparse::factor(&p, lambda2, mu2).expect("small enough to factor");
-        let mut order = factor.order.clone();
-        order.sort_unstable();
-        assert_eq!(order, (0..n).collect::<Vec<_>>(), "not a permutation");
-        let b: Vec<[f64; 3]> = (0..n)
-            .map(|i| {
-                let t = i as f64;
-                [t.sin(), 1.0, -(0.3 * t).cos()]
-            })
-            .collect();
-        let x = factor.solve(&b);
+        let (_, b, x) = factor_and_solve(&p, lambda2, mu2);
         let mx = apply(&p, lambda2, mu2, &x);
         for (i, (got, want)) in mx.iter().zip(&b).enumerate() {
             for c in 0..3 {
@@ -640,19 +652,9 @@ mod tests {
         }
         let p = Problem { rows, neighbours };
         let (lambda2, mu2) = (1e-6, 9e-6);
-        let factor = Sparse::factor(&p, lambda2, mu2).expect("small enough to factor");
-        let mut order = factor.order.clone();
-        order.sort_unstable();
-        assert_eq!(order, (0..n).collect::<Vec<_>>(), "not a permutation");
+        let (factor, b, x) = factor_and_solve(&p, lambda2, mu2);
         // Dissected: the unknowns are not eliminated in their own order.
         assert_ne!(factor.order, (0..n).collect::<Vec<_>>());
-        let b: Vec<[f64; 3]> = (0..n)
-            .map(|i| {
-                let t = i as f64;
-                [t.sin(), 1.0, -(0.3 * t).cos()]
-            })
-            .collect();
-        let x = factor.solve(&b);
         let mut m = vec![vec![0.0; n]; n];
         for j in 0..n {
             let mut e = vec![[0.0; 3]; n];
