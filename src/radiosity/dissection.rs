@@ -30,18 +30,7 @@ pub(super) fn nested_dissection(adj: &[Vec<usize>]) -> Vec<usize> {
                 continue;
             }
             seen[s] = true;
-            let mut nodes = vec![s];
-            let mut head = 0;
-            while head < nodes.len() {
-                let u = nodes[head];
-                head += 1;
-                for &v in &adj[u] {
-                    if !seen[v] {
-                        seen[v] = true;
-                        nodes.push(v);
-                    }
-                }
-            }
+            let nodes = flood(adj, s, |v| !std::mem::replace(&mut seen[v], true));
             let len = nodes.len();
             work.push((nodes, at));
             at += len;
@@ -160,18 +149,13 @@ pub(super) fn nested_dissection(adj: &[Vec<usize>]) -> Vec<usize> {
             let new_id = pieces;
             pieces += 1;
             piece[s] = new_id;
-            let mut part = vec![s];
-            let mut head = 0;
-            while head < part.len() {
-                let u = part[head];
-                head += 1;
-                for &v in &adj[u] {
-                    if piece[v] == id {
-                        piece[v] = new_id;
-                        part.push(v);
-                    }
+            let part = flood(adj, s, |v| {
+                let claim = piece[v] == id;
+                if claim {
+                    piece[v] = new_id;
                 }
-            }
+                claim
+            });
             let len = part.len();
             found.push((part, next_at));
             next_at += len;
@@ -180,4 +164,21 @@ pub(super) fn nested_dissection(adj: &[Vec<usize>]) -> Vec<usize> {
         work.extend(found.into_iter().rev());
     }
     order
+}
+
+/// The nodes reached breadth-first from `start` through `adj`, in the order reached, where
+/// `claim(v)` says whether an unreached neighbour `v` joins (and marks it reached).
+fn flood(adj: &[Vec<usize>], start: usize, mut claim: impl FnMut(usize) -> bool) -> Vec<usize> {
+    let mut nodes = vec![start];
+    let mut head = 0;
+    while head < nodes.len() {
+        let u = nodes[head];
+        head += 1;
+        for &v in &adj[u] {
+            if claim(v) {
+                nodes.push(v);
+            }
+        }
+    }
+    nodes
 }
