@@ -532,7 +532,6 @@ mod tests {
             }
         }
         neighbours.push((Vec::new(), 4.0));
-        let n = neighbours.len();
         let p = Problem { rows, neighbours };
         let (lambda2, mu2) = (1e-6, 9e-6);
         let (_, b, x) = factor_and_solve(&p, lambda2, mu2);
