@@ -68,7 +68,6 @@ use glint::view::gpu::Gpu;
 use glint::view::headless::Offscreen;
 use glint::view::headless::replay::GpuTimeSource;
 use glint::view::headless::replay::schedule;
-use glint::view::headless::supersample::box_filter;
 use glint::view::headless::{ReplayOptions, replay_with};
 use glint::view::load::load;
 use glint::view::options::{CurvedSettings, RecursionSettings, ViewOptions};
@@ -992,7 +991,13 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
                         set(fine);
                         fine.render(gpu, &camera).unwrap_or_else(|e| panic!("{e}"));
                         let hdr = fine.read_hdr(gpu).unwrap_or_else(|e| panic!("{e}"));
-                        image(box_filter(&hdr, w as usize, h as usize, ss as usize))
+                        image(glint::image_io::downsample(
+                            &hdr,
+                            (w * ss) as usize,
+                            (h * ss) as usize,
+                            w as usize,
+                            h as usize,
+                        ))
                     }
                     None => frame.clone(),
                 };

@@ -600,6 +600,26 @@ pub fn tonemap_preview(rgb: &[Vec3]) -> Vec<u8> {
         .collect()
 }
 
+/// `rgb` (`w` × `h`, row-major) resampled to `nw` × `nh` by the mean of the source texels each
+/// target texel covers (a box filter; `nw` ≤ `w`, `nh` ≤ `h`).
+pub fn downsample(rgb: &[Vec3], w: usize, h: usize, nw: usize, nh: usize) -> Vec<Vec3> {
+    let mut out = vec![Vec3::ZERO; nw * nh];
+    for ty in 0..nh {
+        let (y0, y1) = (ty * h / nh, ((ty + 1) * h).div_ceil(nh).min(h));
+        for tx in 0..nw {
+            let (x0, x1) = (tx * w / nw, ((tx + 1) * w).div_ceil(nw).min(w));
+            let mut sum = Vec3::ZERO;
+            for y in y0..y1 {
+                for x in x0..x1 {
+                    sum += rgb[y * w + x];
+                }
+            }
+            out[ty * nw + tx] = sum / ((y1 - y0) * (x1 - x0)).max(1) as f32;
+        }
+    }
+    out
+}
+
 /// The sRGB transfer curve for one linear value in [0, 1].
 pub fn linear_to_srgb(v: f32) -> f32 {
     let v = v.clamp(0.0, 1.0);
@@ -613,6 +633,14 @@ pub fn linear_to_srgb(v: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn downsampling_averages_each_block() {
+        let rgb: Vec<Vec3> = (0..16).map(|i| Vec3::splat(i as f32)).collect();
+        let half = downsample(&rgb, 4, 4, 2, 2);
+        assert_eq!(half[0], Vec3::splat((0.0 + 1.0 + 4.0 + 5.0) / 4.0));
+        assert_eq!(half[3], Vec3::splat((10.0 + 11.0 + 14.0 + 15.0) / 4.0));
+    }
 
     #[test]
     fn exr_round_trip_keeps_half_and_float_channels() {

@@ -372,27 +372,24 @@ pub fn bake_part(
                     clock(1);
                     shaded += rendered.shaded;
                     // Records of which no pixel was traced again are still right: kept as they are
-                    // (prints older than the materials only trace more next time).
-                    if let Some(dir) = reads_dir
-                        && rendered.shaded > 0
-                        && !read_cache::keep(
-                            dir,
-                            &record,
-                            &key,
-                            &prints,
-                            &rendered.reads,
-                            &mut kept_bytes,
-                        )?
-                    {
-                        reads_dir = None;
-                    }
-                    // A record kept as it is still counts against the unit's budget.
-                    if let Some(dir) = reads_dir
-                        && rendered.shaded == 0
-                        && had_record
-                        && !read_cache::count_kept(dir, &record, &mut kept_bytes)?
-                    {
-                        reads_dir = None;
+                    // (prints older than the materials only trace more next time), and counted
+                    // against the unit's budget as a record written is.
+                    if let Some(dir) = reads_dir {
+                        let within = if rendered.shaded > 0 {
+                            read_cache::keep(
+                                dir,
+                                &record,
+                                &key,
+                                &prints,
+                                &rendered.reads,
+                                &mut kept_bytes,
+                            )?
+                        } else {
+                            !had_record || read_cache::count_kept(dir, &record, &mut kept_bytes)?
+                        };
+                        if !within {
+                            reads_dir = None;
+                        }
                     }
                     clock(2);
                     rays += (plan.resolution * plan.resolution) as u64;

@@ -200,26 +200,6 @@ pub fn encode_srgb(v: Vec3) -> [u8; 3] {
         .map(|x| (linear_to_srgb(x) * 255.0 + 0.5) as u8)
 }
 
-/// `rgb` (`w` × `h`, row-major) resampled to `nw` × `nh` by the mean of the source texels each
-/// target texel covers (a box filter; `nw` ≤ `w`, `nh` ≤ `h`).
-pub fn downsample(rgb: &[Vec3], w: usize, h: usize, nw: usize, nh: usize) -> Vec<Vec3> {
-    let mut out = vec![Vec3::ZERO; nw * nh];
-    for ty in 0..nh {
-        let (y0, y1) = (ty * h / nh, ((ty + 1) * h).div_ceil(nh).min(h));
-        for tx in 0..nw {
-            let (x0, x1) = (tx * w / nw, ((tx + 1) * w).div_ceil(nw).min(w));
-            let mut sum = Vec3::ZERO;
-            for y in y0..y1 {
-                for x in x0..x1 {
-                    sum += rgb[y * w + x];
-                }
-            }
-            out[ty * nw + tx] = sum / ((y1 - y0) * (x1 - x0)).max(1) as f32;
-        }
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -274,13 +254,5 @@ mod tests {
             (f[12].x, f[11].x, f[7].x, f[6].x, f[0].x),
             (16.0, 4.0, 4.0, 1.0, 0.0)
         );
-    }
-
-    #[test]
-    fn downsampling_averages_each_block() {
-        let rgb: Vec<Vec3> = (0..16).map(|i| Vec3::splat(i as f32)).collect();
-        let half = downsample(&rgb, 4, 4, 2, 2);
-        assert_eq!(half[0], Vec3::splat((0.0 + 1.0 + 4.0 + 5.0) / 4.0));
-        assert_eq!(half[3], Vec3::splat((10.0 + 11.0 + 14.0 + 15.0) / 4.0));
     }
 }

@@ -180,7 +180,7 @@ pub fn export(
         scaled.push(if (nw, nh) == (w, h) {
             rgb
         } else {
-            lightmap::downsample(&rgb, w, h, nw, nh)
+            crate::image_io::downsample(&rgb, w, h, nw, nh)
         });
         sizes.push((nw as u32, nh as u32));
     }

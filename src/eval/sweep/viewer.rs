@@ -77,7 +77,7 @@ impl Viewer {
         let img = Image {
             width: w,
             height: h,
-            rgb: crate::view::headless::supersample::box_filter(&fine, w, h, k as usize),
+            rgb: crate::image_io::downsample(&fine, w * k as usize, h * k as usize, w, h),
         };
         Ok((img, Some(median(&mut frame)), Some(median(&mut gpu_ms))))
     }

@@ -9,6 +9,8 @@ pub mod supersample;
 
 use std::path::{Path, PathBuf};
 
+use glam::Vec3;
+
 use crate::camera::{Camera, Keyframe};
 use crate::image_io::{self, ImageError};
 use crate::progress::Progress;
@@ -323,28 +325,28 @@ fn write_frame(
     // One sample a pixel: the display pass's own 8-bit frame. Supersampled: the radiance
     // filtered down, then the same mapping on the CPU (`DisplayMapping::apply`, held to the
     // shader by a test), since filtering after the tone curve would darken highlights.
-    let radiance = if k > 1 || options.hdr {
-        let fine = offscreen.read_hdr(gpu)?;
-        Some(supersample::box_filter(
-            &fine, w as usize, h as usize, k as usize,
-        ))
-    } else {
-        None
-    };
-    let rgb = match (&radiance, k) {
-        (Some(radiance), 2..) => {
+    let radiance = (k > 1 || options.hdr)
+        .then(|| offscreen.read_hdr(gpu))
+        .transpose()?
+        .map(|fine| match k {
+            1 => fine,
+            _ => image_io::downsample(
+                &fine,
+                (w * k) as usize,
+                (h * k) as usize,
+                w as usize,
+                h as usize,
+            ),
+        });
+    let rgba = match &radiance {
+        Some(radiance) if k > 1 => {
             let mapping = offscreen.frame().display_mapping();
-            let byte = |v: f32| (image_io::linear_to_srgb(v) * 255.0 + 0.5) as u8;
-            radiance
-                .iter()
-                .flat_map(|&c| {
-                    let d = mapping.apply(c);
-                    [byte(d.x), byte(d.y), byte(d.z)]
-                })
-                .collect()
+            let shown: Vec<Vec3> = radiance.iter().map(|&c| mapping.apply(c)).collect();
+            crate::view::cpu::to_srgb8(&shown)
         }
-        _ => rgba_to_rgb(&offscreen.read_rgba8(gpu)?),
+        _ => offscreen.read_rgba8(gpu)?,
     };
+    let rgb = rgba_to_rgb(&rgba);
     let mut files = Vec::new();
     let name = frame_file_name(index, "png");
     let path = out.join(&name);

@@ -1,41 +1,12 @@
 //! Supersampled headless frames (`glint-view --supersample N`): a frame rendered at N × N
-//! times its pixels is box-filtered down in linear radiance, before exposure and the tone
-//! curve, so that every pixel is the mean of N² shaded samples as a path tracer's pixel is the
+//! times its pixels is box-filtered down ([`crate::image_io::downsample`]) in linear radiance,
+//! before exposure and the tone curve, so that every pixel is the mean of N² shaded samples as a path tracer's pixel is the
 //! mean of its paths. Multisampling alone shades once a pixel: a highlight smaller than a
 //! pixel on a sharp curved reflector then fills the pixel, which no resolve can undo.
-
-use glam::Vec3;
 
 /// Largest `--supersample`: 8 × 8 samples a pixel (the frame's target grows by N² and
 /// must stay within the device's texture size).
 pub const MAX_SUPERSAMPLE: u32 = 8;
-
-/// The `width` × `height` image whose pixels are the means of the `k` × `k` blocks of the
-/// row-major `(width·k)` × `(height·k)` image `fine` (a box filter over each pixel).
-pub fn box_filter(fine: &[Vec3], width: usize, height: usize, k: usize) -> Vec<Vec3> {
-    assert_eq!(
-        fine.len(),
-        width * k * height * k,
-        "a {width}×{height} frame at {k}×{k} samples a pixel"
-    );
-    if k == 1 {
-        return fine.to_vec();
-    }
-    let stride = width * k;
-    let scale = 1.0 / (k * k) as f32;
-    let mut out = Vec::with_capacity(width * height);
-    for y in 0..height {
-        for x in 0..width {
-            let mut sum = Vec3::ZERO;
-            for dy in 0..k {
-                let row = (y * k + dy) * stride + x * k;
-                sum += fine[row..row + k].iter().copied().sum::<Vec3>();
-            }
-            out.push(sum * scale);
-        }
-    }
-    out
-}
 
 /// `--supersample N`: 1 (off) to [`MAX_SUPERSAMPLE`] samples a pixel along each axis.
 pub fn parse_supersample(s: &str) -> Result<u32, String> {
@@ -50,6 +21,12 @@ pub fn parse_supersample(s: &str) -> Result<u32, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec3;
+
+    /// A `width` × `height` frame from one drawn at `k` × `k` samples a pixel.
+    fn box_filter(fine: &[Vec3], width: usize, height: usize, k: usize) -> Vec<Vec3> {
+        crate::image_io::downsample(fine, width * k, height * k, width, height)
+    }
 
     #[test]
     fn each_pixel_is_the_mean_of_its_own_block() {
