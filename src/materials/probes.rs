@@ -18,7 +18,9 @@
 //! sees the room the group's surfaces face, with few of their own triangles in the way, and
 //! the viewer's distance-corrected lookups move each reflected ray to the surface's own
 //! point. Where something stands on the surfaces (a teapot on a table) it goes on up, a lift
-//! at a time, until nothing lies within a lift of it ([`placed`]). Its reach is its distance
+//! at a time, until nothing lies within a lift of it ([`placed`]). Where off the box lies
+//! outside the room (a box that reaches the ceiling, the back of a mirror on a wall), the
+//! probe comes back to a lift inside it. Its reach is its distance
 //! from the box's centre plus the box's half diagonal. A material's first group's probe
 //! bears the material's name, its others `NAME.2`, `NAME.3`, … ([`Group::name`]). A side
 //! that no eye ray of the scene's camera paths meets ([`super::sight`]) gets no probe: it
@@ -177,7 +179,6 @@ pub fn split_sides(triangles: &[Triangle], tris: Vec<u32>, bounds: &Aabb) -> Vec
             .sum::<f32>()
     };
     let total = area(&tris);
-    let inside = |p: Vec3| bounds.min.cmple(p).all() && p.cmple(bounds.max).all();
     let mut rest = tris;
     let mut sides: Vec<Vec<u32>> = Vec::new();
     let mut done = [false; 6];
@@ -186,12 +187,7 @@ pub fn split_sides(triangles: &[Triangle], tris: Vec<u32>, bounds: &Aabb) -> Vec
     }
     // Each pass splits off a side not split before, or ends.
     for _ in 0..6 {
-        let probe = placed(
-            &group_of(triangles, 0, String::new(), rest.clone()),
-            bounds,
-            &|_| f32::INFINITY,
-        )
-        .0;
+        let probe = off_the_box(&group_of(triangles, 0, String::new(), rest.clone()), bounds);
         // Per triangle of `rest`, its side where it turns its back to the probe, else 6.
         let tags: Vec<usize> = rest
             .iter()
@@ -217,7 +213,7 @@ pub fn split_sides(triangles: &[Triangle], tris: Vec<u32>, bounds: &Aabb) -> Vec
             .filter(|&s| {
                 let g = group_of(triangles, 0, String::new(), behind[s].clone());
                 g.mean_normal.length() >= MIN_SIDE_FLATNESS
-                    && inside(placed(&g, bounds, &|_| f32::INFINITY).0)
+                    && inside(bounds, off_the_box(&g, bounds))
             })
             .collect();
         let kept = rest.len() - split.iter().map(|&s| behind[s].len()).sum::<usize>();
@@ -254,24 +250,106 @@ pub fn scene_groups(scene: &Scene) -> Vec<Group> {
 }
 
 /// Where the bake puts a group's probe (see the module's comment) and its reach: off the
-/// group's box along its normal, then further along it, a lift at a time, while something
-/// lies nearer than a lift (`clearance`: the distance from a point to the nearest surface
-/// around it), so a probe never ends up inside an object on the surface (a teapot on a
-/// table); it stays inside `bounds`, and where no point is clear, at the first.
-pub fn placed(group: &Group, bounds: &Aabb, clearance: &dyn Fn(Vec3) -> f32) -> (Vec3, f32) {
+/// group's box along its normal (`off_the_box`), then further along it, a lift at a time,
+/// while something lies nearer than a lift (`clearance`: the distance from a point to the
+/// nearest surface around it), so a probe never ends up inside an object on the surface (a
+/// teapot on a table). Where the point off the box lies outside `bounds` behind a wall (a
+/// group whose box reaches the ceiling, the back of a mirror hung on a wall: seen from there,
+/// the way back to the box's centre meets a surface from behind), it is pulled back towards
+/// the box's centre to a lift inside them, since a probe outside the room sees the room's
+/// outside and nothing the group reflects; in an open scene (an object on a ground plane) it
+/// stays above the object. Where no point is clear, it stays at the first.
+pub fn placed(group: &Group, bounds: &Aabb, around: &dyn Surroundings) -> (Vec3, f32) {
     let b = &group.bounds;
+    let lift = lift_of(group);
+    let up = up_of(group);
+    let mut first = off_the_box(group, bounds);
+    if !inside(bounds, first) && around.walled_off(first, b.center()) {
+        first = pulled_inside(first, b.center(), bounds, lift);
+    }
+    let clear = (0..MAX_LIFTS)
+        .map(|k| first + up * (k as f32 * lift))
+        .take_while(|&p| inside(bounds, p))
+        .find(|&p| around.clearance(p) >= lift);
+    let position = clear.unwrap_or(first);
     let half = 0.5 * (b.max - b.min);
-    let up = if group.mean_normal.length() >= MIN_MEAN_NORMAL {
+    (position, position.distance(b.center()) + half.length())
+}
+
+/// What [`placed`] asks of the scene around a group.
+pub trait Surroundings {
+    /// The distance from `p` to the nearest surface around it.
+    fn clearance(&self, p: Vec3) -> f32;
+    /// Whether the way from `from` (outside the scene's bounds) to `to` first meets a surface
+    /// from behind: `from` stands outside a closed room.
+    fn walled_off(&self, _from: Vec3, _to: Vec3) -> bool {
+        false
+    }
+}
+
+/// A clearance alone: nothing is walled off (an open scene).
+impl<F: Fn(Vec3) -> f32> Surroundings for F {
+    fn clearance(&self, p: Vec3) -> f32 {
+        self(p)
+    }
+}
+
+/// A scene's surroundings: [`clearance`] and back faces met by its BVH.
+pub struct SceneSurroundings<'a> {
+    /// The scene's BVH.
+    pub bvh: &'a Bvh,
+    /// Its triangles (the BVH's hits index them).
+    pub triangles: &'a [Triangle],
+}
+
+impl Surroundings for SceneSurroundings<'_> {
+    fn clearance(&self, p: Vec3) -> f32 {
+        clearance(self.bvh, p)
+    }
+
+    fn walled_off(&self, from: Vec3, to: Vec3) -> bool {
+        let d = to - from;
+        let length = d.length();
+        if length <= 0.0 {
+            return false;
+        }
+        let dir = d / length;
+        self.bvh
+            .closest_hit(from, dir, length)
+            .is_some_and(|h| self.triangles[h.triangle as usize].face_normal().dot(dir) > 0.0)
+    }
+}
+
+/// Whether `p` lies in `bounds` (faces included).
+fn inside(bounds: &Aabb, p: Vec3) -> bool {
+    bounds.min.cmple(p).all() && p.cmple(bounds.max).all()
+}
+
+/// The direction a group's probe stands off its box: its mean normal, or +y (glTF's up)
+/// where the normals cancel (a closed object).
+fn up_of(group: &Group) -> Vec3 {
+    if group.mean_normal.length() >= MIN_MEAN_NORMAL {
         group.mean_normal.normalize()
     } else {
         Vec3::Y
-    };
-    let lift = (LIFT * b.diagonal()).max(MIN_LIFT);
-    let inside = |p: Vec3| bounds.min.cmple(p).all() && p.cmple(bounds.max).all();
-    // From the centre to the box's face along `up` (its support distance), then off it. Where
-    // `up` leans along two axes or more (a cabinet's top and front), on out past the box's
-    // faces on each of them, if that stays inside `bounds`: short of the top's plane the
-    // probe sees the cabinet itself where the top reflects the wall behind it.
+    }
+}
+
+/// A group's lift: a tenth of its box's diagonal, at least [`MIN_LIFT`].
+fn lift_of(group: &Group) -> f32 {
+    (LIFT * group.bounds.diagonal()).max(MIN_LIFT)
+}
+
+/// The first point [`placed`] tries, before `bounds` and clearance move it: from the box's
+/// centre to its face along the group's up (its support distance), then a lift off it. Where
+/// up leans along two axes or more (a cabinet's top and front), on out past the box's faces
+/// on each of them, if that stays inside `bounds`: short of the top's plane the probe sees
+/// the cabinet itself where the top reflects the wall behind it.
+fn off_the_box(group: &Group, bounds: &Aabb) -> Vec3 {
+    let b = &group.bounds;
+    let half = 0.5 * (b.max - b.min);
+    let up = up_of(group);
+    let lift = lift_of(group);
     let support = half.dot(up.abs());
     let leaning: Vec<usize> = (0..3).filter(|&i| up[i].abs() >= MIN_AXIS).collect();
     let beyond = if leaning.len() > 1 {
@@ -283,17 +361,31 @@ pub fn placed(group: &Group, bounds: &Aabb, clearance: &dyn Fn(Vec3) -> f32) -> 
         support
     };
     let at = |d: f32| b.center() + up * (d + lift);
-    let first = if inside(at(beyond)) {
+    if inside(bounds, at(beyond)) {
         at(beyond)
     } else {
         at(support)
-    };
-    let clear = (0..MAX_LIFTS)
-        .map(|k| first + up * (k as f32 * lift))
-        .take_while(|&p| inside(p))
-        .find(|&p| clearance(p) >= lift);
-    let position = clear.unwrap_or(first);
-    (position, position.distance(b.center()) + half.length())
+    }
+}
+
+/// `p` (outside `bounds`) moved along the line from `from` towards it to where that line
+/// leaves `bounds` shrunk by `margin` on every side (by less where they are thinner than
+/// four margins); `from` is first clamped into the shrunk box.
+fn pulled_inside(p: Vec3, from: Vec3, bounds: &Aabb, margin: f32) -> Vec3 {
+    let extent = bounds.max - bounds.min;
+    let m = Vec3::splat(margin).min(0.25 * extent);
+    let (lo, hi) = (bounds.min + m, bounds.max - m);
+    let from = from.clamp(lo, hi);
+    let d = p - from;
+    let mut t = 1.0f32;
+    for i in 0..3 {
+        if d[i] > 0.0 {
+            t = t.min((hi[i] - from[i]) / d[i]);
+        } else if d[i] < 0.0 {
+            t = t.min((lo[i] - from[i]) / d[i]);
+        }
+    }
+    from + d * t.max(0.0)
 }
 
 /// The least component along an axis of a group's mean normal for [`placed`] to count it
@@ -338,7 +430,7 @@ pub fn place(
     sights: &[u32],
     given: &[ProbeDesc],
     bounds: &Aabb,
-    clearance: &dyn Fn(Vec3) -> f32,
+    around: &dyn Surroundings,
 ) -> Vec<Probe> {
     if groups.is_empty() {
         return Vec::new();
@@ -350,7 +442,7 @@ pub fn place(
             if g.side && sights.get(k) == Some(&0) {
                 return None;
             }
-            let (position, radius) = placed(g, bounds, clearance);
+            let (position, radius) = placed(g, bounds, around);
             Some(Probe {
                 name: g.name.clone(),
                 position,
@@ -391,8 +483,11 @@ pub fn scene_probes(scene: &Scene) -> Vec<Probe> {
         let sets: Vec<&[u32]> = groups.iter().map(|g| g.triangles.as_slice()).collect();
         sights(&scene.triangles, &sets, &bvh, &rays)
     };
-    let clear = |p: Vec3| clearance(&bvh, p);
-    place(&groups, &seen, &scene.desc.probes, &scene.bounds, &clear)
+    let around = SceneSurroundings {
+        bvh: &bvh,
+        triangles: &scene.triangles,
+    };
+    place(&groups, &seen, &scene.desc.probes, &scene.bounds, &around)
 }
 
 /// The probe group `k` of `groups` reads: the nearest to its box's centre whose reach holds
@@ -712,6 +807,62 @@ mod tests {
     }
 
     #[test]
+    fn a_probe_whose_box_reaches_the_ceiling_stays_in_the_room() {
+        // Shades hung from a 2.4 m ceiling and chairs on the floor, one glossy material (0),
+        // under a diffuse ceiling (1) facing down: off the box's top lies above the ceiling,
+        // outside the room.
+        let mut tris: Vec<Triangle> = quad(0, 0.2, 0.0, true).into();
+        tris.extend(quad(0, 0.0, 0.0, false));
+        tris.extend(quad(0, 2.35, 0.0, true));
+        tris.extend(quad(0, 2.2, 0.0, false));
+        let ceiling = [
+            Vec3::new(-3.0, 2.4, -3.0),
+            Vec3::new(3.0, 2.4, -3.0),
+            Vec3::new(3.0, 2.4, 3.0),
+            Vec3::new(-3.0, 2.4, 3.0),
+        ];
+        let mut room_tris = tris.clone();
+        room_tris.extend(
+            quad_triangles(&[ceiling])
+                .into_iter()
+                .map(|t| Triangle { material: 1, ..t }),
+        );
+        assert!(room_tris[8].face_normal().y < -0.99);
+        // The faces up (the undersides split off as a side of their own).
+        let groups = groups_of(&room_tris, &[true, false], &[false; 10]);
+        let g = &groups[0];
+        assert_eq!(g.triangles, [0, 1, 4, 5]);
+        let room = Aabb::from_points(room_tris.iter().flat_map(|t| t.p.iter()));
+        let bvh = Bvh::build(&room_tris);
+        let around = SceneSurroundings {
+            bvh: &bvh,
+            triangles: &room_tris,
+        };
+        let lift = 0.1 * g.bounds.diagonal();
+        assert!(off_the_box(g, &room).y > 2.4);
+        let (p, r) = placed(g, &room, &around);
+        // A lift under the ceiling, straight above the box's centre.
+        assert!(inside(&room, p), "{p}");
+        assert!((p.y - (2.4 - lift)).abs() < 1e-4, "{p}");
+        assert!((p - g.bounds.center()).with_y(0.0).length() < 1e-5, "{p}");
+        assert!(p.distance(g.bounds.center()) <= r);
+        // Without the ceiling the scene is open: the probe stays above the box, outside the
+        // scene's bounds, where it sees what the surfaces face.
+        let open_bounds = Aabb::from_points(tris.iter().flat_map(|t| t.p.iter()));
+        let bvh = Bvh::build(&tris);
+        let around = SceneSurroundings {
+            bvh: &bvh,
+            triangles: &tris,
+        };
+        let (p, _) = placed(
+            &groups_of(&tris, &[true], &[false; 8])[0],
+            &open_bounds,
+            &around,
+        );
+        assert!(p.y > 2.35, "{p}");
+    }
+
+    #[test]
     fn scene_json_moves_and_adds_probes() {
         let mut tris: Vec<Triangle> = quad(0, 0.0, 0.0, true).into();
         tris.extend(quad(1, 0.0, 3.0, true));
@@ -751,7 +902,7 @@ mod tests {
         assert!(p.y >= 0.5 + lift && p.y < 0.5 + 2.0 * lift + 1e-4, "{p}");
         assert!(p.distance(groups[0].bounds.center()) <= r);
         // Where nothing is clear within the room, the first point off the surface.
-        let (p, _) = placed(&groups[0], &room, &|_| 0.0);
+        let (p, _) = placed(&groups[0], &room, &|_: Vec3| 0.0);
         assert!((p.y - lift).abs() < 1e-5, "{p}");
     }
 
