@@ -15,7 +15,13 @@
 //! and 4 maps by angle (2 by distance): frame time, its ratio to the geometry-based mode, the
 //! GPU time (timestamps from the first pass's beginning to the last pass's end, reflection
 //! passes included), and the mean error against the reference path tracer and against the CPU
-//! evaluation of the same equation ([`reflection_table`]).
+//! evaluation of the same equation ([`reflection_table`]). `GLINT_BENCH_SCENES` may also name
+//! scenes outside `scenes/` by their scene.json (an entry ending in `.json`, named by its
+//! folder: a generated building), `GLINT_BENCH_PATHS` (a comma list) the camera paths timed
+//! (each its own rows; the first path when unset), `GLINT_BENCH_ERRORS=off` leaves the error
+//! columns out (the path tracer on a large building), and `GLINT_BENCH_PASSES=on` adds a
+//! table of each mode's reflection passes (mirror passes, gap fill, pyramid, composite), each
+//! timed by the frame time it saves when left out ([`SkippedPasses`]).
 //!
 //! A third table measures fidelity ([`fidelity_table`]): per shipped scene (every folder of
 //! `scenes/`), drawn as `glint-view` draws by default (its multisampling, probes and glass),
@@ -72,9 +78,11 @@ use glint::view::headless::{ReplayOptions, replay_with};
 use glint::view::load::load;
 use glint::view::options::{CurvedSettings, RecursionSettings, ViewOptions};
 use glint::view::reflections::radiance_maps::Selection;
-use glint::view::reflections::{self, ReflectionMode};
+use glint::view::reflections::{self, ReflectionMode, SkippedPasses};
 
 mod common;
+#[path = "common/cpu_time.rs"]
+mod cpu_time;
 use common::{bake_all_at, bake_if_needed, gpu, half_size, mean_diff, median, repo};
 
 const SCENES: [&str; 4] = [
@@ -370,10 +378,13 @@ fn reflection_table(gpu: &Gpu, work: &Path, repeats: usize) {
             "reflectors",
             "mode",
             "frame median ms",
+            "CPU ms",
             "× geometry",
+            "CPU × geometry",
             "GPU all passes ms",
             "splats drawn",
             "splat draw calls",
+            "splats on GPU MiB",
             "error vs path tracer",
             "error vs CPU eq.",
             "reflector px error vs CPU eq.",
@@ -442,124 +453,233 @@ fn reflection_table(gpu: &Gpu, work: &Path, repeats: usize) {
         })
         .map(|(m, _)| m)
         .collect();
-    for name in picked(&["glossy-room", "breakfast-room"]) {
-        let scene_json = repo(&format!("scenes/{name}/scene.json"));
-        let bundle = bake_all_at(&scene_json, work, name, Quality::Draft);
+    let errors = std::env::var("GLINT_BENCH_ERRORS").as_deref() != Ok("off");
+    let passes = std::env::var("GLINT_BENCH_PASSES").as_deref() == Ok("on");
+    let path_names = std::env::var("GLINT_BENCH_PATHS").ok();
+    let mut pass_rows = vec![
+        [
+            "scene",
+            "path",
+            "mode",
+            "maps",
+            "CPU ms",
+            "mirror passes ms",
+            "gap fill ms",
+            "pyramid ms",
+            "composite ms",
+            "the rest ms",
+        ]
+        .map(String::from),
+    ];
+    let mut scenes: Vec<(String, std::path::PathBuf)> = picked(&["glossy-room", "breakfast-room"])
+        .into_iter()
+        .map(|n| (n.to_string(), repo(&format!("scenes/{n}/scene.json"))))
+        .collect();
+    scenes.extend(extra_scenes());
+    for (name, scene_json) in &scenes {
+        let name = name.as_str();
+        let bundle = bake_all_at(scene_json, work, name, Quality::Draft);
         let data = load(&bundle).unwrap_or_else(|e| panic!("{e}"));
-        let path = data.scene.camera_path(None).expect("a camera path");
-        let frames = schedule(path).unwrap_or_else(|e| panic!("{e}"));
-        let timed: Vec<_> = frames
-            .iter()
-            .step_by(FRAME_STRIDE)
-            .map(|f| f.camera)
-            .collect();
-        let view = frames[frames.len() / 2].camera;
-        let bvh = Bvh::build(&data.scene.triangles);
-        let reflectors = reflections::reflectors_with_reflectance(&data);
-        let start = Instant::now();
-        let traced = reference::render(
-            &data.scene,
-            &bvh,
-            &view,
-            &RenderOptions {
-                width: SIZE.0,
-                height: SIZE.1,
-                spp: REFERENCE_SPP,
-                seed: 1,
-                ..RenderOptions::default()
-            },
-            &Silent,
-        )
-        .unwrap_or_else(|e| panic!("{e}"));
-        eprintln!(
-            "{name}: path-traced reference in {:.1} s",
-            start.elapsed().as_secs_f64()
-        );
-        let traced = half_size(&cpu::to_srgb8(&traced.image.rgb), SIZE.0, SIZE.1);
-        let equation = cpu::to_srgb8(&reflections::cpu_reference(
-            &data.scene,
-            &reflectors,
-            &bvh,
-            &data.map,
-            &view,
-            SIZE.0,
-            SIZE.1,
-            1.0,
-        ));
-        let mask = reflections::reflector_pixels(&bvh, &reflectors, &view, SIZE.0, SIZE.1);
-        let masked = |img: &[u8]| -> Vec<u8> {
-            img.chunks_exact(4)
-                .zip(&mask)
-                .filter(|(_, m)| **m)
-                .flat_map(|(p, _)| p.iter().copied())
-                .collect()
+        let paths: Vec<_> = match &path_names {
+            None => vec![data.scene.camera_path(None).expect("a camera path")],
+            Some(list) => list
+                .split(',')
+                .filter_map(|p| data.scene.camera_path(Some(p.trim())))
+                .collect(),
         };
-        let mut geometry_ms = f64::NAN;
-        for &(label, mode, selection, count, depth) in &modes {
-            let mut off =
-                Offscreen::new(gpu, &data, SIZE.0, SIZE.1).unwrap_or_else(|e| panic!("{e}"));
-            off.options.selection = selection;
-            off.options.maps = count;
-            off.options.recursion.depth = depth;
-            off.options.recursion.terminal =
-                std::env::var("GLINT_BENCH_TERMINAL").as_deref() != Ok("off");
-            off.set_reflections(gpu, &data, mode)
+        let bvh = errors.then(|| Bvh::build(&data.scene.triangles));
+        let reflectors = reflections::reflectors_with_reflectance(&data);
+        for path in paths {
+            let frames = schedule(path).unwrap_or_else(|e| panic!("{e}"));
+            let timed: Vec<_> = frames
+                .iter()
+                .step_by(FRAME_STRIDE)
+                .map(|f| f.camera)
+                .collect();
+            let view = frames[frames.len() / 2].camera;
+            let label_path = if path_names.is_some() {
+                format!("{name} ({})", path.name)
+            } else {
+                name.to_string()
+            };
+            let references = bvh.as_ref().map(|bvh| {
+                let start = Instant::now();
+                let traced = reference::render(
+                    &data.scene,
+                    bvh,
+                    &view,
+                    &RenderOptions {
+                        width: SIZE.0,
+                        height: SIZE.1,
+                        spp: REFERENCE_SPP,
+                        seed: 1,
+                        ..RenderOptions::default()
+                    },
+                    &Silent,
+                )
                 .unwrap_or_else(|e| panic!("{e}"));
-            off.render(gpu, &timed[0]).unwrap_or_else(|e| panic!("{e}")); // warm-up
-            let mut best: Option<(f64, f64, u64, usize)> = None;
-            for _ in 0..repeats {
-                let (mut frame, mut gpu_ms, mut splats) = (Vec::new(), Vec::new(), 0u64);
-                let mut draws = 0usize;
-                for c in &timed {
-                    let t = off.render(gpu, c).unwrap_or_else(|e| panic!("{e}"));
-                    frame.push(t.frame_ms);
-                    gpu_ms.push(t.gpu_ms);
-                    if let Some(r) = off.reflections() {
-                        let stats = r.frame_stats();
-                        splats += stats.iter().map(|s| s.drawn_splats).sum::<u64>();
-                        draws += stats.iter().map(|s| s.draws).sum::<usize>();
-                    }
-                }
-                let run = (
-                    median(&mut frame),
-                    median(&mut gpu_ms),
-                    splats / timed.len() as u64,
-                    draws / timed.len(),
+                eprintln!(
+                    "{label_path}: path-traced reference in {:.1} s",
+                    start.elapsed().as_secs_f64()
                 );
-                if best.is_none_or(|b| run.0 < b.0) {
-                    best = Some(run);
+                let traced = half_size(&cpu::to_srgb8(&traced.image.rgb), SIZE.0, SIZE.1);
+                let equation = cpu::to_srgb8(&reflections::cpu_reference(
+                    &data.scene,
+                    &reflectors,
+                    bvh,
+                    &data.map,
+                    &view,
+                    SIZE.0,
+                    SIZE.1,
+                    1.0,
+                ));
+                let mask = reflections::reflector_pixels(bvh, &reflectors, &view, SIZE.0, SIZE.1);
+                (traced, equation, mask)
+            });
+            let masked = |img: &[u8], mask: &[bool]| -> Vec<u8> {
+                img.chunks_exact(4)
+                    .zip(mask)
+                    .filter(|(_, m)| **m)
+                    .flat_map(|(p, _)| p.iter().copied())
+                    .collect()
+            };
+            let (mut geometry_ms, mut geometry_cpu) = (f64::NAN, f64::NAN);
+            for &(label, mode, selection, count, depth) in &modes {
+                let mut off =
+                    Offscreen::new(gpu, &data, SIZE.0, SIZE.1).unwrap_or_else(|e| panic!("{e}"));
+                off.options.selection = selection;
+                off.options.maps = count;
+                off.options.recursion.depth = depth;
+                off.options.recursion.terminal =
+                    std::env::var("GLINT_BENCH_TERMINAL").as_deref() != Ok("off");
+                off.set_reflections(gpu, &data, mode)
+                    .unwrap_or_else(|e| panic!("{e}"));
+                off.render(gpu, &timed[0]).unwrap_or_else(|e| panic!("{e}")); // warm-up
+                // (median frame ms, median GPU ms, splats, draws, CPU ms a frame), best of
+                // `repeats` runs; the CPU ms (this process's, lavapipe's threads included)
+                // are the least of the runs' means.
+                let time = |off: &Offscreen| {
+                    let mut best: Option<(f64, f64, u64, usize)> = None;
+                    let mut cpu_ms = f64::INFINITY;
+                    for _ in 0..repeats {
+                        let (mut frame, mut gpu_ms, mut splats) = (Vec::new(), Vec::new(), 0u64);
+                        let mut draws = 0usize;
+                        let cpu_start = cpu_time::cpu_seconds();
+                        for c in &timed {
+                            let t = off.render(gpu, c).unwrap_or_else(|e| panic!("{e}"));
+                            frame.push(t.frame_ms);
+                            gpu_ms.push(t.gpu_ms);
+                            if let Some(r) = off.reflections() {
+                                let stats = r.frame_stats();
+                                splats += stats.iter().map(|s| s.drawn_splats).sum::<u64>();
+                                draws += stats.iter().map(|s| s.draws).sum::<usize>();
+                            }
+                        }
+                        cpu_ms = cpu_ms
+                            .min((cpu_time::cpu_seconds() - cpu_start) * 1e3 / timed.len() as f64);
+                        let run = (
+                            median(&mut frame),
+                            median(&mut gpu_ms),
+                            splats / timed.len() as u64,
+                            draws / timed.len(),
+                        );
+                        if best.is_none_or(|b| run.0 < b.0) {
+                            best = Some(run);
+                        }
+                    }
+                    let b = best.expect("at least one run");
+                    (b.0, b.1, b.2, b.3, cpu_ms)
+                };
+                let (frame_ms, gpu_ms, splats, draws, cpu_ms) = time(&off);
+                if mode == ReflectionMode::Geometry && depth == 1 {
+                    geometry_ms = frame_ms;
+                    geometry_cpu = cpu_ms;
                 }
+                let maps = off.reflections().map(|r| r.map_count(&timed[0]));
+                if passes && let Some(r) = off.reflections() {
+                    // Each pass's cost: the CPU time a frame saves when it is left out with
+                    // every pass after it (composite, then pyramid, gap fill, mirror passes):
+                    // a pass left out alone would change what the passes after it read, and
+                    // the hole fill's and filter's loops depend on it.
+                    let mut left = SkippedPasses::default();
+                    let mut last = cpu_ms;
+                    let mut saved = |add: fn(&mut SkippedPasses)| {
+                        add(&mut left);
+                        r.skip_passes(left);
+                        let t = time(&off).4;
+                        let d = last - t;
+                        last = t;
+                        d
+                    };
+                    let composite = saved(|s| s.composite = true);
+                    let pyramid = saved(|s| s.pyramid = true);
+                    let gap = if mode == ReflectionMode::Image {
+                        saved(|s| s.gap_fill = true)
+                    } else {
+                        0.0
+                    };
+                    let mirror = saved(|s| s.mirror = true);
+                    r.skip_passes(SkippedPasses::default());
+                    pass_rows.push([
+                        name.to_string(),
+                        path.name.clone(),
+                        label.to_string(),
+                        maps.map_or("-".to_string(), |m| m.to_string()),
+                        format!("{cpu_ms:.1}"),
+                        format!("{mirror:.1}"),
+                        if mode == ReflectionMode::Image {
+                            format!("{gap:.1}")
+                        } else {
+                            "-".to_string()
+                        },
+                        format!("{pyramid:.1}"),
+                        format!("{composite:.1}"),
+                        format!("{last:.1}"),
+                    ]);
+                }
+                let errors = references.as_ref().map(|(traced, equation, mask)| {
+                    off.render(gpu, &view).unwrap_or_else(|e| panic!("{e}"));
+                    let img = off.read_rgba8(gpu).unwrap_or_else(|e| panic!("{e}"));
+                    [
+                        mean_diff(&half_size(&img, SIZE.0, SIZE.1), traced),
+                        mean_diff(&img, equation),
+                        mean_diff(&masked(&img, mask), &masked(equation, mask)),
+                    ]
+                });
+                let error = |i: usize| errors.map_or("-".to_string(), |e| format!("{:.2}", e[i]));
+                rows.push([
+                    label_path.clone(),
+                    maps.map_or_else(
+                        || reflectors.len().to_string(),
+                        |m| format!("{m} of {}", reflectors.len()),
+                    ),
+                    label.to_string(),
+                    format!("{frame_ms:.2}"),
+                    format!("{cpu_ms:.1}"),
+                    format!("{:.2}", frame_ms / geometry_ms),
+                    format!("{:.2}", cpu_ms / geometry_cpu),
+                    format!("{gpu_ms:.2}"),
+                    if mode == ReflectionMode::Image {
+                        splats.to_string()
+                    } else {
+                        "-".to_string()
+                    },
+                    if mode == ReflectionMode::Image {
+                        draws.to_string()
+                    } else {
+                        "-".to_string()
+                    },
+                    match off.reflections() {
+                        Some(r) if mode == ReflectionMode::Image => {
+                            format!("{:.1}", r.resident_bytes() as f64 / (1u64 << 20) as f64)
+                        }
+                        _ => "-".to_string(),
+                    },
+                    error(0),
+                    error(1),
+                    error(2),
+                ]);
             }
-            let (frame_ms, gpu_ms, splats, draws) = best.expect("at least one run");
-            if mode == ReflectionMode::Geometry && depth == 1 {
-                geometry_ms = frame_ms;
-            }
-            off.render(gpu, &view).unwrap_or_else(|e| panic!("{e}"));
-            let img = off.read_rgba8(gpu).unwrap_or_else(|e| panic!("{e}"));
-            rows.push([
-                name.to_string(),
-                reflectors.len().to_string(),
-                label.to_string(),
-                format!("{frame_ms:.2}"),
-                format!("{:.2}", frame_ms / geometry_ms),
-                format!("{gpu_ms:.2}"),
-                if mode == ReflectionMode::Image {
-                    splats.to_string()
-                } else {
-                    "-".to_string()
-                },
-                if mode == ReflectionMode::Image {
-                    draws.to_string()
-                } else {
-                    "-".to_string()
-                },
-                format!(
-                    "{:.2}",
-                    mean_diff(&half_size(&img, SIZE.0, SIZE.1), &traced)
-                ),
-                format!("{:.2}", mean_diff(&img, &equation)),
-                format!("{:.2}", mean_diff(&masked(&img), &masked(&equation))),
-            ]);
         }
     }
     println!(
@@ -571,10 +691,48 @@ fn reflection_table(gpu: &Gpu, work: &Path, repeats: usize) {
         format_table(
             &rows,
             &[
-                false, true, false, true, true, true, true, true, true, true, true
+                false, true, false, true, true, true, true, true, true, true, true, true, true,
+                true
             ]
         )
     );
+    if passes {
+        println!(
+            "\neach mode's reflection passes: CPU ms a frame (this process, lavapipe's threads included; the least mean of {repeats} runs), and what each pass saves when left out with the passes after it; the rest: the scene pass, the display, the frame's preparation\n"
+        );
+        print!(
+            "{}",
+            format_table(
+                &pass_rows,
+                &[
+                    false, false, false, true, true, true, true, true, true, true
+                ]
+            )
+        );
+    }
+}
+
+/// Scenes outside `scenes/` that `GLINT_BENCH_SCENES` names by their scene.json (an entry
+/// ending in `.json`), each named by its folder (e.g. a generated building,
+/// `scenes/tools/make_building.py OUT/building-1_4 --size 1/4`).
+fn extra_scenes() -> Vec<(String, std::path::PathBuf)> {
+    let Ok(list) = std::env::var("GLINT_BENCH_SCENES") else {
+        return Vec::new();
+    };
+    list.split(',')
+        .map(str::trim)
+        .filter(|e| e.ends_with(".json"))
+        .map(|e| {
+            let path = std::path::PathBuf::from(e);
+            let name = path
+                .parent()
+                .and_then(|p| p.file_name())
+                .unwrap_or_else(|| panic!("GLINT_BENCH_SCENES: {e}: no folder"))
+                .to_string_lossy()
+                .into_owned();
+            (name, path)
+        })
+        .collect()
 }
 
 /// Every how many frames of a path the reflection table times.

@@ -1,7 +1,9 @@
 //! `scenes/tools/make_building.py`, the generated building of the scale bench: the same
 //! arguments give the same bytes, the seed changes them, and at the smallest size (1/16) the
 //! scene glint loads holds what the generator says it wrote — triangles, glossy planar
-//! reflectors, curved reflectors, impostors, window and lamp lights and a camera path through it.
+//! reflectors, curved reflectors, impostors, window and lamp lights and a camera path through it;
+//! the views the view bench times reflections from see 1, 3 and 10 planar reflectors by the
+//! viewer's test (6, all there are, at 1/16 for the last).
 
 mod common;
 
@@ -47,6 +49,36 @@ fn count(counts: &serde_json::Value, key: &str) -> usize {
     counts[key]
         .as_u64()
         .unwrap_or_else(|| panic!("counts lack {key}: {counts}")) as usize
+}
+
+/// Per `mirrors-N` camera path, the planar reflectors its first frame sees as the viewer
+/// decides it (`GeometryReflections::map_count`): the eye on the reflecting side and the
+/// box of the reflector's triangles not beyond one side of the 720×486 frustum.
+#[cfg(feature = "view")]
+fn reflectors_in_view(scene: &Scene) -> Vec<usize> {
+    use glint::view::passes::renderer::{near_plane, view_projection};
+    use glint::view::reflections::signed_distance;
+    use glint::view::reflections::splats::{box_outside, frustum_planes};
+    scene
+        .camera_paths
+        .iter()
+        .filter(|p| p.name.starts_with("mirrors-"))
+        .map(|path| {
+            let camera = glint::camera::pose_at(path, 0.0);
+            let planes =
+                frustum_planes(&view_projection(&camera, 720.0 / 486.0, near_plane(scene)));
+            scene
+                .reflectors
+                .iter()
+                .filter(|r| {
+                    r.plane.as_ref().is_some_and(|plane| {
+                        signed_distance(plane, camera.position) > 0.0
+                            && !box_outside(&planes, r.bounds.min, r.bounds.max)
+                    })
+                })
+                .count()
+        })
+        .collect()
 }
 
 #[test]
@@ -157,13 +189,24 @@ fn the_smallest_building_loads_with_what_the_generator_counted() {
     assert_eq!(lamps, 3, "Glossy, Bunny and Cornell ceiling lights");
 
     // One camera path through the ground floor, a keyframe in each room, inside the building
-    // and looking at a wall's front, not from inside an object.
+    // and looking at a wall's front, not from inside an object; then the still views of the
+    // reflection modes' timings.
     let paths: Vec<(&str, usize)> = scene
         .camera_paths
         .iter()
         .map(|p| (p.name.as_str(), p.keyframes.len()))
         .collect();
-    assert_eq!(paths, [("walkthrough", count(&counts, "keyframes"))]);
+    assert_eq!(
+        paths,
+        [
+            ("walkthrough", count(&counts, "keyframes")),
+            ("mirrors-1", 2),
+            ("mirrors-3", 2),
+            ("mirrors-10", 2)
+        ]
+    );
+    #[cfg(feature = "view")]
+    assert_eq!(reflectors_in_view(&scene), [1, 3, 6]);
     assert_eq!(count(&counts, "keyframes"), 5);
     let bvh = scene.build_bvh();
     for k in &scene.camera_paths[0].keyframes {
@@ -198,6 +241,11 @@ fn a_quarter_building_has_four_bays_on_two_storeys() {
         return;
     };
     assert_eq!((count(&counts, "bays"), count(&counts, "storeys")), (4, 2));
+    #[cfg(feature = "view")]
+    {
+        let scene = Scene::load(dir.path().join("scene.json")).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(reflectors_in_view(&scene), [1, 3, 10]);
+    }
     assert_eq!(count(&counts, "planar_reflectors"), 24);
     let triangles = count(&counts, "triangles");
     assert!(

@@ -932,6 +932,96 @@ fn reflectors_out_of_view_get_no_passes() {
     }
 }
 
+/// The view bench times each reflection pass by the frame time it saves when left out
+/// ([`reflections::SkippedPasses`]): with the composite left out, glossy-room's first view is
+/// the frame without reflections, byte for byte, in both modes; with every pass drawn again it
+/// is not.
+#[test]
+fn a_frame_with_the_composite_left_out_is_the_frame_without_reflections() {
+    use glint::view::reflections::SkippedPasses;
+    let data = load(glossy_bundle()).unwrap_or_else(|e| panic!("{e}"));
+    let gpu = gpu();
+    let view = pose_at(data.scene.camera_path(None).unwrap(), 0.0);
+    let mut off = Offscreen::new(&gpu, &data, 240, 160).unwrap_or_else(|e| panic!("{e}"));
+    off.render(&gpu, &view).unwrap();
+    let plain = off.read_rgba8(&gpu).unwrap();
+    for mode in [ReflectionMode::Geometry, ReflectionMode::Image] {
+        off.set_reflections(&gpu, &data, mode)
+            .unwrap_or_else(|e| panic!("{e}"));
+        let passes = off.reflections().expect("reflection passes");
+        assert!(passes.map_count(&view) > 0, "{mode}: no reflector in view");
+        for (skipped, same) in [
+            (
+                SkippedPasses {
+                    composite: true,
+                    ..SkippedPasses::default()
+                },
+                true,
+            ),
+            (SkippedPasses::default(), false),
+        ] {
+            passes.skip_passes(skipped);
+            off.render(&gpu, &view).unwrap();
+            assert_eq!(
+                off.read_rgba8(&gpu).unwrap() == plain,
+                same,
+                "{mode}, {skipped:?}: the frame is {}the one without reflections",
+                if same { "not " } else { "" }
+            );
+        }
+    }
+}
+
+/// Image mode reads a reflector's maps when a frame first sees it, not when the passes are
+/// built, and keeps those of reflectors out of view only within its budget: looking up at
+/// glossy-room's ceiling no map is on the GPU; looking ahead, those of the reflectors in view;
+/// looking up again with no budget, none, and the frame ahead is drawn the same after its maps
+/// are read again.
+#[test]
+fn image_mode_holds_the_maps_of_the_reflectors_in_view() {
+    use glint::camera::Camera;
+    let data = load(glossy_bundle()).unwrap_or_else(|e| panic!("{e}"));
+    let gpu = gpu();
+    let ahead = pose_at(data.scene.camera_path(None).unwrap(), 0.0);
+    let up = Camera::look_at(
+        ahead.position,
+        ahead.position + Vec3::Y,
+        Vec3::Z,
+        ahead.fov_y,
+    );
+    let mut off = Offscreen::new(&gpu, &data, 240, 160).unwrap_or_else(|e| panic!("{e}"));
+    off.set_reflections(&gpu, &data, ReflectionMode::Image)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let passes = off.reflections().expect("reflection passes");
+    assert_eq!(passes.resident_maps(), 0, "maps read before any frame");
+    off.render(&gpu, &up).unwrap();
+    assert_eq!(passes.resident_maps(), 0, "maps read looking up");
+    off.render(&gpu, &ahead).unwrap();
+    let seen = passes.map_count(&ahead);
+    assert!(seen > 0, "nothing seen ahead");
+    assert_eq!(passes.resident_maps(), seen, "maps held looking ahead");
+    assert!(passes.resident_bytes() > 0);
+    let first = off.read_rgba8(&gpu).unwrap();
+    passes.set_resident_budget(0);
+    off.render(&gpu, &up).unwrap();
+    assert_eq!(
+        passes.resident_maps(),
+        0,
+        "maps kept out of view with no budget"
+    );
+    assert_eq!(passes.resident_bytes(), 0);
+    off.render(&gpu, &ahead).unwrap();
+    assert_eq!(
+        passes.resident_maps(),
+        seen,
+        "maps read again looking ahead"
+    );
+    assert!(
+        off.read_rgba8(&gpu).unwrap() == first,
+        "the frame ahead changed once its maps were read again"
+    );
+}
+
 /// How much wider (or narrower) than the reference a near-mirror's reflected edge may be.
 const EDGE_RATIO: f64 = 1.5;
 

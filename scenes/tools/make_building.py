@@ -302,6 +302,45 @@ def _le(a):
     return a.tobytes()
 
 
+def still(name, eye, target):
+    """A 2-second camera path that stands still at `eye` looking at `target`: every frame the
+    view bench times sees the same reflectors."""
+    key = {"position": [round(c, 4) for c in eye], "target": [round(c, 4) for c in target], "fov_y_deg": 60.0}
+    return {"name": name, "fps": 30, "keyframes": [dict(time=0.0, **key), dict(time=2.0, **key)]}
+
+
+def mirror_views(ground):
+    """Views for timing the reflection modes against the planar reflectors in view (the
+    viewer's test: a reflector's box in the frustum, its reflecting side towards the eye; walls
+    do not hide one), from the ground floor's rooms (`ground`: room, turn, origin, west to east):
+
+    - `mirrors-1`: the westmost room, looking west at its floor from 1.3 m (with seed 1 a bunny
+      room: its mirror floor alone);
+    - `mirrors-3`: the first glossy room, from 1.5 m before the wall opposite its mirror panel,
+      looking at the panel (its floor, panel and table top);
+    - `mirrors-10`: the sixth room (the last at 1/16), 1.5 m in from its east wall, looking west
+      along the storey 17 degrees down (with seed 1, ten reflectors at 1/4 and full size, all
+      six at 1/16).
+    """
+    views = []
+    room, turn, origin = ground[0]
+    x0 = origin[0] - room.size[0] / 2
+    views.append(still("mirrors-1", (x0 + 0.8 * room.size[0], 1.3, origin[2]), (x0, 0.2, origin[2])))
+    glossy = next((g for g in ground if g[0].kind == "Glossy"), None)
+    if glossy is not None:
+        room, turn, origin = glossy
+        point_of, dir_of = place(room, turn, origin)
+        # The panel hangs on the source room's -Z wall, facing +Z.
+        toward = dir_of((0.0, 0.0, -1.0))[2]
+        half = room.size[2] / 2
+        eye = (origin[0], 1.5, origin[2] - toward * (half - 1.5))
+        views.append(still("mirrors-3", eye, (origin[0], 0.9, origin[2] + toward * half)))
+    room, turn, origin = ground[min(5, len(ground) - 1)]
+    x1 = origin[0] + room.size[0] / 2 - 1.5
+    views.append(still("mirrors-10", (x1, 1.5, origin[2]), (x1 - 10.0, -1.5, origin[2])))
+    return views
+
+
 def parse_size(text):
     size = Fraction(text)
     if not 0 < size <= 1:
@@ -319,7 +358,7 @@ def build(size, seed):
     storeys = max(1, round(math.sqrt(bays)))
     per_storey = -(-bays // storeys)
     w = Writer()
-    lights, reflectors, impostors, walk = [], [], [], []
+    lights, reflectors, impostors, walk, ground = [], [], [], [], []
     for bay in range(bays):
         storey, column = divmod(bay, per_storey)
         order = list(range(len(rooms)))
@@ -355,6 +394,7 @@ def build(size, seed):
                 impostors.append({"mesh": "%s_%s" % (tag, mesh)})
             if storey == 0:
                 walk.append((origin, room.size[1]))
+                ground.append((room, turn, origin))
     keyframes = []
     for k, (origin, height) in enumerate(walk):
         eye = (origin[0], round(height * EYE_FRACTION, 3), origin[2] + 0.3)
@@ -379,7 +419,7 @@ def build(size, seed):
         "lights": lights,
         "reflectors": reflectors,
         "impostors": impostors,
-        "camera_paths": [{"name": "walkthrough", "fps": 30, "keyframes": keyframes}],
+        "camera_paths": [{"name": "walkthrough", "fps": 30, "keyframes": keyframes}] + mirror_views(ground),
     }
     counts = {
         "size": str(size),

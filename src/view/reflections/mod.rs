@@ -63,7 +63,7 @@ pub use material::{
     sample_modulation,
 };
 pub use params::{ReflectParams, shader_source};
-pub use passes::GeometryReflections;
+pub use passes::{GeometryReflections, RESIDENT_SPLAT_BYTES, SkippedPasses};
 pub use recursive::{RecursionSettings, RecursionStats, RecursiveReflections};
 pub use splat_maps::FrameStats;
 pub use splats::{SPLAT_OVERLAP, Splat};

@@ -3,6 +3,14 @@
 //! M, and the composite that adds ks·(M*K)·R over the reflector (in image mode filling the
 //! texels no splat covered first, [`super::splats::fill_hole`]). The math they use lives in
 //! [`super::splats`] and [`super::material`], the shader's inputs in [`super::params`].
+//!
+//! Kept in one file: the per-reflector state (`ReflectorGpu`: its uniforms, image mode's
+//! resident maps and this frame's exact-surface ranges) is written by
+//! [`GeometryReflections::prepare`] and read by [`GeometryReflections::draw`], and the maps'
+//! residency follows the same visibility test as the passes.
+
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::{Mat4, Vec2, Vec3};
 
@@ -15,7 +23,7 @@ use super::params::{
     planar_composite, shader_source, sphere_texture,
 };
 use super::pyramid::{Pyramid, PyramidPasses};
-use super::splat_maps::{FrameStats, SplatMaps, load_splat_maps};
+use super::splat_maps::{FrameStats, SplatMaps, check_map_sizes, load_splat_maps};
 use super::splats;
 use super::{
     CLIP_FRACTION, PlanarReflector, ReflectanceSettings, Source, mirror_camera, mirror_point,
@@ -42,8 +50,77 @@ use crate::view::passes::renderer::{
 /// the composite's hole fill, with room to spare.
 const WINDOW_MARGIN: f32 = 16.0;
 
+/// Which of its passes [`GeometryReflections::draw`] leaves out: the view bench times each
+/// pass by the frame time it saves, since lavapipe gives no per-pass timestamps. Every pass
+/// is drawn by default; a frame with a pass left out shows stale or missing reflections.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SkippedPasses {
+    /// The mirror pass into M (geometry mode: the scene re-rendered; image mode: the
+    /// splats and the exact surfaces).
+    pub mirror: bool,
+    /// Image mode's gap fill.
+    pub gap_fill: bool,
+    /// M's pyramid.
+    pub pyramid: bool,
+    /// The composite over the reflector.
+    pub composite: bool,
+}
+
+impl SkippedPasses {
+    fn bits(self) -> u8 {
+        u8::from(self.mirror)
+            | u8::from(self.gap_fill) << 1
+            | u8::from(self.pyramid) << 2
+            | u8::from(self.composite) << 3
+    }
+
+    fn from_bits(b: u8) -> SkippedPasses {
+        SkippedPasses {
+            mirror: b & 1 != 0,
+            gap_fill: b & 2 != 0,
+            pyramid: b & 4 != 0,
+            composite: b & 8 != 0,
+        }
+    }
+}
+
+/// Bytes of radiance-map splats image mode keeps on the GPU for reflectors the frame does not
+/// see, the least recently seen dropped first: the maps of every reflector the frame sees stay
+/// whatever their size, so memory follows the view, not the scene (the full generated
+/// building has 96 planar reflectors). A reflector seen again within the budget is not read
+/// again from the bundle.
+pub const RESIDENT_SPLAT_BYTES: u64 = 256 << 20;
+
+/// Image mode: a reflector's maps on the GPU while resident, and the last frame that saw it.
+#[derive(Default)]
+struct Resident {
+    maps: Option<SplatMaps>,
+    seen: u64,
+}
+
+/// Image mode: what reading a reflector's maps needs when a frame first sees it.
+struct SplatLoader {
+    bundle: crate::bundle::Bundle,
+    exact: super::exact::ExactSurfaces,
+    buffer_bytes: Option<u64>,
+    layout: wgpu::BindGroupLayout,
+    /// Frames prepared so far (the clock of [`Resident::seen`]).
+    frame: AtomicU64,
+    /// [`RESIDENT_SPLAT_BYTES`] unless [`GeometryReflections::set_resident_budget`] says
+    /// otherwise.
+    budget: AtomicU64,
+}
+
+/// Triangles of the exact surfaces culled together: the runs follow the scene's order, so a
+/// run mostly lies in one object, and a building's emitters and curved reflectors in rooms its
+/// mirrored views do not see are not drawn into M.
+const EXACT_CLUSTER: usize = 256;
+
 struct ReflectorGpu {
-    splats: Option<SplatMaps>,
+    resident: Mutex<Resident>,
+    /// Image mode: this frame's ranges of the exact surfaces' indices that the mirrored view
+    /// may see (the others lie wholly outside its frustum or behind the mirror).
+    exact_ranges: Mutex<Vec<std::ops::Range<u32>>>,
     reflector: PlanarReflector,
     /// Its M*K filter ([`super::filter::filter_taps`]).
     filter: Vec<FilterTap>,
@@ -77,6 +154,11 @@ pub struct GeometryReflections {
     /// Image mode: the scene's emitters and curved reflectors (indices, count), drawn into M
     /// after the splats, which leave them out ([`super::exact`]).
     exact: Option<(wgpu::Buffer, u32)>,
+    /// Image mode: the exact surfaces in runs of [`EXACT_CLUSTER`] triangles (scene order,
+    /// so mostly one object's) with their boxes, culled per mirrored view.
+    exact_clusters: Vec<Aabb>,
+    /// Image mode: reads a reflector's maps when a frame first sees it.
+    loader: Option<SplatLoader>,
     pyramid_passes: PyramidPasses,
     /// Geometry mode: the reflectors as cube-mapped ones, for where they are seen in another
     /// one's map (the recursion's end, [`super::terminal`]); index for index.
@@ -88,6 +170,9 @@ pub struct GeometryReflections {
     height: u32,
     /// The scene pass's near plane (the view [`GeometryReflections::visible`] tests against).
     near: f32,
+    /// [`SkippedPasses`] as bits: set through a shared reference, as the frame holds the
+    /// passes.
+    skipped: std::sync::atomic::AtomicU8,
 }
 
 impl GeometryReflections {
@@ -135,7 +220,6 @@ impl GeometryReflections {
     ) -> Result<GeometryReflections, RenderError> {
         let planar = reflectors_with_materials(data, reflectance);
         let terminal = super::terminal::terminal_passes(gpu, renderer, data, terminal, &planar)?;
-        let mut splats = Vec::new();
         // Image mode: what the splats leave out and the mirror pass draws as geometry, the
         // same for every reflector; with terminal cube maps, the near-mirrors too, drawn with
         // the specular term their cube map gives the mirrored eye.
@@ -146,24 +230,43 @@ impl GeometryReflections {
                 .unwrap_or_default();
             super::exact::ExactSurfaces::of_scene(&data.scene, &mirrors)
         });
-        if let Some(exact) = &exact {
+        if exact.is_some() {
             if data.bundle.stage("radiance").is_none() {
                 return Err(RenderError::Reflections(format!(
                     "bundle {}: image-based reflections need the `radiance` stage; bake it with glint-bake",
                     data.bundle.dir().display()
                 )));
             }
+            // Every reflector's camera list now, so that a bundle without one's maps, or
+            // with a map no buffer binds, is refused here, not when a frame first sees it.
             for r in &planar {
-                splats.push(Some(
-                    load_splat_maps(gpu, data, &r.name, exact, splat_buffer_bytes)
-                        .map_err(RenderError::Reflections)?,
-                ));
+                check_map_sizes(gpu, &data.bundle, &r.name, splat_buffer_bytes)
+                    .map_err(RenderError::Reflections)?;
             }
         }
-        splats.resize_with(planar.len(), || None);
-        let exact = exact.map(|e| e.triangles().to_vec()).unwrap_or_default();
+        let exact_triangles = exact
+            .as_ref()
+            .map(|e| e.triangles().to_vec())
+            .unwrap_or_default();
+        let loader = match exact {
+            Some(exact) => Some((
+                crate::bundle::Bundle::open(data.bundle.dir())
+                    .map_err(|e| RenderError::Reflections(e.to_string()))?,
+                exact,
+                splat_buffer_bytes,
+            )),
+            None => None,
+        };
         let mut built = Self::build(
-            gpu, renderer, data, width, height, source, planar, splats, &exact,
+            gpu,
+            renderer,
+            data,
+            width,
+            height,
+            source,
+            planar,
+            loader,
+            &exact_triangles,
         )?;
         built.terminal = terminal;
         Ok(built)
@@ -178,7 +281,11 @@ impl GeometryReflections {
         height: u32,
         source: Source,
         planar: Vec<PlanarReflector>,
-        splats: Vec<Option<SplatMaps>>,
+        loader: Option<(
+            crate::bundle::Bundle,
+            super::exact::ExactSurfaces,
+            Option<u64>,
+        )>,
         exact_triangles: &[u32],
     ) -> Result<GeometryReflections, GpuError> {
         let (scene, map) = (&data.scene, &data.map);
@@ -252,8 +359,7 @@ impl GeometryReflections {
             });
             let reflectors = planar
                 .into_iter()
-                .zip(splats)
-                .map(|(reflector, mut splats)| {
+                .map(|reflector| {
                     let indices =
                         mesh.triangle_indices(reflector.triangles.iter().map(|&t| t as usize));
                     let index_buffer = buffer_init(
@@ -279,37 +385,6 @@ impl GeometryReflections {
                     );
                     let mirror_params_group =
                         params_group(device, "glint mirror params", &mirror_layout, &params);
-                    if let Some(s) = &mut splats {
-                        for chunk in &mut s.chunks {
-                            chunk.group =
-                                Some(device.create_bind_group(&wgpu::BindGroupDescriptor {
-                                    label: Some("glint splat params"),
-                                    layout: &splat_layout,
-                                    entries: &[
-                                        wgpu::BindGroupEntry {
-                                            binding: 2,
-                                            resource: params.as_entire_binding(),
-                                        },
-                                        wgpu::BindGroupEntry {
-                                            binding: 6,
-                                            resource: s.nodes.as_entire_binding(),
-                                        },
-                                        wgpu::BindGroupEntry {
-                                            binding: 8,
-                                            resource: chunk.points.as_entire_binding(),
-                                        },
-                                        wgpu::BindGroupEntry {
-                                            binding: 9,
-                                            resource: chunk.kept.as_entire_binding(),
-                                        },
-                                        wgpu::BindGroupEntry {
-                                            binding: 10,
-                                            resource: s.views.as_entire_binding(),
-                                        },
-                                    ],
-                                }));
-                        }
-                    }
                     let sphere = sphere_texture(gpu, &reflector.modulation);
                     let sphere_view = sphere.create_view(&wgpu::TextureViewDescriptor::default());
                     let composite_params_group = composite_group(
@@ -328,7 +403,8 @@ impl GeometryReflections {
                             .flat_map(|&t| scene.triangles[t as usize].p.iter()),
                     );
                     ReflectorGpu {
-                        splats,
+                        resident: Mutex::new(Resident::default()),
+                        exact_ranges: Mutex::new(Vec::new()),
                         bounds,
                         filter: filter_taps(&reflector.kernel.taps, FILTER_RINGS),
                         index_count: indices.len() as u32,
@@ -354,14 +430,43 @@ impl GeometryReflections {
                 gap_fill,
                 pyramid,
                 exact,
+                exact_clusters: exact_triangles
+                    .chunks(EXACT_CLUSTER)
+                    .map(|run| {
+                        Aabb::from_points(
+                            run.iter()
+                                .flat_map(|&t| scene.triangles[t as usize].p.iter()),
+                        )
+                    })
+                    .collect(),
+                loader: loader.map(|(bundle, exact, buffer_bytes)| SplatLoader {
+                    bundle,
+                    exact,
+                    buffer_bytes,
+                    layout: splat_layout,
+                    frame: AtomicU64::new(0),
+                    budget: AtomicU64::new(RESIDENT_SPLAT_BYTES),
+                }),
                 pyramid_passes,
                 terminal: None,
                 glass,
                 width,
                 height,
                 near: near_plane(scene),
+                skipped: std::sync::atomic::AtomicU8::new(0),
             }
         })
+    }
+
+    /// Leaves `skipped` passes out of the frames drawn from now on (for timing the others).
+    pub fn skip_passes(&self, skipped: SkippedPasses) {
+        self.skipped
+            .store(skipped.bits(), std::sync::atomic::Ordering::Relaxed);
+    }
+
+    /// The passes [`GeometryReflections::draw`] leaves out.
+    pub fn skipped_passes(&self) -> SkippedPasses {
+        SkippedPasses::from_bits(self.skipped.load(std::sync::atomic::Ordering::Relaxed))
     }
 
     /// How many reflectors it draws.
@@ -380,11 +485,120 @@ impl GeometryReflections {
         self.reflectors
             .iter()
             .map(|r| {
-                r.splats.as_ref().map_or_else(FrameStats::default, |s| {
-                    s.plan.lock().map(|p| p.1).unwrap_or_default()
-                })
+                r.resident
+                    .lock()
+                    .ok()
+                    .and_then(|res| {
+                        res.maps
+                            .as_ref()
+                            .map(|s| s.plan.lock().map(|p| p.1).unwrap_or_default())
+                    })
+                    .unwrap_or_default()
             })
             .collect()
+    }
+
+    /// Image mode: how many reflectors' maps are on the GPU (read when a frame first saw
+    /// them, kept within the budget, [`RESIDENT_SPLAT_BYTES`]); 0 in geometry mode.
+    pub fn resident_maps(&self) -> usize {
+        self.reflectors
+            .iter()
+            .filter(|r| r.resident.lock().is_ok_and(|res| res.maps.is_some()))
+            .count()
+    }
+
+    /// Image mode: bytes of the GPU buffers of the resident maps.
+    pub fn resident_bytes(&self) -> u64 {
+        self.reflectors
+            .iter()
+            .filter_map(|r| {
+                r.resident
+                    .lock()
+                    .ok()
+                    .and_then(|res| res.maps.as_ref().map(SplatMaps::gpu_bytes))
+            })
+            .sum()
+    }
+
+    /// Image mode: keeps at most `bytes` of maps of reflectors a frame does not see
+    /// ([`RESIDENT_SPLAT_BYTES`] by default), from the next prepared frame on.
+    pub fn set_resident_budget(&self, bytes: u64) {
+        if let Some(l) = &self.loader {
+            l.budget.store(bytes, Ordering::Relaxed);
+        }
+    }
+
+    /// Image mode: reflector `r`'s maps read from the bundle and uploaded, with the splat
+    /// pass's bind group for each of their buffers.
+    fn load_maps(
+        &self,
+        gpu: &Gpu,
+        loader: &SplatLoader,
+        r: &ReflectorGpu,
+    ) -> Result<SplatMaps, String> {
+        let mut maps = load_splat_maps(
+            gpu,
+            &loader.bundle,
+            &r.reflector.name,
+            &loader.exact,
+            loader.buffer_bytes,
+        )?;
+        for chunk in &mut maps.chunks {
+            chunk.group = Some(gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("glint splat params"),
+                layout: &loader.layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: r.params.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 6,
+                        resource: maps.nodes.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 8,
+                        resource: chunk.points.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 9,
+                        resource: chunk.kept.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 10,
+                        resource: maps.views.as_entire_binding(),
+                    },
+                ],
+            }));
+        }
+        Ok(maps)
+    }
+
+    /// Image mode: drops the maps of reflectors not seen in `frame`, least recently seen
+    /// first, until those left fit the budget.
+    fn evict(&self, loader: &SplatLoader, frame: u64) {
+        let budget = loader.budget.load(Ordering::Relaxed);
+        let mut unseen: Vec<(u64, u64, usize)> = self
+            .reflectors
+            .iter()
+            .enumerate()
+            .filter_map(|(i, r)| {
+                let res = r.resident.lock().ok()?;
+                let maps = res.maps.as_ref()?;
+                (res.seen != frame).then(|| (res.seen, maps.gpu_bytes(), i))
+            })
+            .collect();
+        let mut kept: u64 = unseen.iter().map(|u| u.1).sum();
+        unseen.sort_unstable();
+        for (_, bytes, i) in unseen {
+            if kept <= budget {
+                break;
+            }
+            if let Ok(mut res) = self.reflectors[i].resident.lock() {
+                res.maps = None;
+            }
+            kept -= bytes;
+        }
     }
 
     /// Records, in reflector `slot`'s mirror pass for `camera`, the cube-mapped specular
@@ -459,6 +673,10 @@ impl GeometryReflections {
     ) {
         let pitch = splats::pixel_tangent(camera.fov_y, self.height);
         let frame_vp = self.frame_view_proj(camera);
+        let frame = self
+            .loader
+            .as_ref()
+            .map_or(0, |l| l.frame.fetch_add(1, Ordering::Relaxed) + 1);
         for (slot, r) in self.reflectors.iter().enumerate() {
             let mirrored = mirror_camera(camera, &r.reflector.plane);
             let seen = self.visible(r, camera);
@@ -489,7 +707,51 @@ impl GeometryReflections {
                 0.0
             };
             gpu.queue.write_buffer(&r.params, 0, bytemuck::bytes_of(&p));
-            if let (Source::Image { selection, count }, Some(maps)) = (self.source, &r.splats)
+            if seen
+                && self.exact.is_some()
+                && let Ok(mut ranges) = r.exact_ranges.lock()
+            {
+                let planes = splats::frustum_planes(&Mat4::from_cols_array_2d(&u.view_proj));
+                let clip = self.clip_plane(r);
+                ranges.clear();
+                for (k, b) in self.exact_clusters.iter().enumerate() {
+                    // Wholly behind the clip plane: every fragment would be discarded.
+                    let far = Vec3::select(clip.truncate().cmpge(Vec3::ZERO), b.max, b.min);
+                    if clip.truncate().dot(far) < clip.w - 1e-3 * self.clip
+                        || splats::box_outside(&planes, b.min, b.max)
+                    {
+                        continue;
+                    }
+                    let (start, end) = (
+                        (3 * k * EXACT_CLUSTER) as u32,
+                        (3 * ((k + 1) * EXACT_CLUSTER)) as u32,
+                    );
+                    match ranges.last_mut() {
+                        Some(last) if last.end == start => last.end = end,
+                        _ => ranges.push(start..end),
+                    }
+                }
+            }
+            let Some(loader) = &self.loader else {
+                continue;
+            };
+            let Ok(mut resident) = r.resident.lock() else {
+                continue;
+            };
+            if seen {
+                resident.seen = frame;
+                if resident.maps.is_none() {
+                    match self.load_maps(gpu, loader, r) {
+                        Ok(maps) => resident.maps = Some(maps),
+                        Err(e) => log::error!(
+                            "reflector {}: its radiance maps: {e}; drawn without them",
+                            r.reflector.name
+                        ),
+                    }
+                }
+            }
+            if let (Source::Image { selection, count }, Some(maps)) =
+                (self.source, resident.maps.as_ref())
                 && seen
             {
                 // The detail of M the composite keeps at a reflected point: its filter's
@@ -521,13 +783,16 @@ impl GeometryReflections {
                     self.height,
                     &detail,
                 );
-            } else if let Some(maps) = &r.splats
+            } else if let Some(maps) = &resident.maps
                 && let Ok(mut plan) = maps.plan.lock()
             {
                 // Not seen: no splats drawn this frame (the stats say so).
                 plan.0.iter_mut().for_each(|c| *c = 0);
                 plan.1 = FrameStats::default();
             }
+        }
+        if let Some(loader) = &self.loader {
+            self.evict(loader, frame);
         }
     }
 
@@ -553,16 +818,21 @@ impl GeometryReflections {
             .enumerate()
             .filter(|(_, r)| self.visible(r, camera))
             .collect();
+        let skipped = self.skipped_passes();
         for &(slot, r) in &visible {
-            {
+            if !skipped.mirror {
                 let mut pass = self.map.begin_mirror(encoder, "glint mirror pass", false);
-                match (self.source, &r.splats) {
-                    (Source::Image { .. }, Some(maps)) => {
-                        pass.set_pipeline(&self.splat_pipeline);
+                let resident = r.resident.lock().ok();
+                let maps = resident.as_ref().and_then(|res| res.maps.as_ref());
+                match self.source {
+                    Source::Image { .. } => {
                         pass.set_bind_group(0, &r.mirror_frame_group, &[]);
                         // Every kept splat of a chunk in one draw: 6 vertices (two
                         // triangles) each.
-                        if let Ok(plan) = maps.plan.lock() {
+                        if let Some(maps) = maps
+                            && let Ok(plan) = maps.plan.lock()
+                        {
+                            pass.set_pipeline(&self.splat_pipeline);
                             for (chunk, &count) in maps.chunks.iter().zip(&plan.0) {
                                 if count > 0 {
                                     pass.set_bind_group(1, chunk.group.as_ref(), &[]);
@@ -578,14 +848,18 @@ impl GeometryReflections {
                             pass.set_bind_group(1, &r.mirror_params_group, &[]);
                             pass.set_vertex_buffer(0, renderer.vertex_buffer().slice(..));
                             pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
-                            pass.draw_indexed(0..*count, 0, 0..1);
+                            if let Ok(ranges) = r.exact_ranges.lock() {
+                                for range in ranges.iter() {
+                                    pass.draw_indexed(range.start..range.end.min(*count), 0, 0..1);
+                                }
+                            }
                             if let Some(c) = curved {
                                 c.draw_mirror(&mut pass, slot);
                             }
                             self.draw_terminal(&mut pass, slot, camera);
                         }
                     }
-                    _ => {
+                    Source::Geometry => {
                         pass.set_pipeline(&self.mirror_pipeline);
                         pass.set_bind_group(0, &r.mirror_frame_group, &[]);
                         pass.set_bind_group(1, &r.mirror_params_group, &[]);
@@ -610,14 +884,19 @@ impl GeometryReflections {
                     }
                 }
             }
-            if let Some(g) = &self.gap_fill {
+            if let Some(g) = self.gap_fill.as_ref().filter(|_| !skipped.gap_fill) {
                 g.record(encoder);
             }
-            self.pyramid_passes.record(
-                encoder,
-                &self.pyramid,
-                matches!(self.source, Source::Image { .. }),
-            );
+            if !skipped.pyramid {
+                self.pyramid_passes.record(
+                    encoder,
+                    &self.pyramid,
+                    matches!(self.source, Source::Image { .. }),
+                );
+            }
+            if skipped.composite {
+                continue;
+            }
             let mut pass =
                 self.composite
                     .begin(encoder, "glint reflection composite pass", color, depth);

@@ -14,11 +14,11 @@ use glam::Vec3;
 
 use super::exact::ExactSurfaces;
 use super::splats::{self, MapImage, MapSplats, NodeParams, SplatView};
+use crate::bundle::Bundle;
 use crate::camera::Camera;
 use crate::radiance::index::{MapEntry, load_cameras, read_map};
 use crate::view::gpu::Gpu;
 use crate::view::gpu::build::{buffer, buffer_init};
-use crate::view::load::ViewData;
 use crate::view::reflections::radiance_maps::{Selection, select};
 
 /// What the image-based mode drew for one reflector in the last prepared frame.
@@ -93,23 +93,60 @@ pub fn chunk_maps(bytes: &[u64], limit: u64) -> Result<Vec<Range<usize>>, usize>
     Ok(chunks)
 }
 
-/// Reads reflector `reflector`'s radiance maps from the bundle and uploads their splats, less
+/// The most bytes one buffer of splats may hold: what the GPU binds in one storage buffer, or
+/// less when `buffer_bytes` says so.
+fn buffer_limit(gpu: &Gpu, buffer_bytes: Option<u64>) -> u64 {
+    let limits = gpu.device.limits();
+    let device_limit = limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size);
+    buffer_bytes.map_or(device_limit, |b| b.min(device_limit))
+}
+
+/// Refuses reflector `reflector`'s maps (its `cameras.json` in `bundle`) when one could hold
+/// more splats, one a pixel, than a buffer of at most `buffer_bytes` binds, before any map is
+/// read (image mode reads a reflector's maps when a frame first sees it).
+pub(super) fn check_map_sizes(
+    gpu: &Gpu,
+    bundle: &Bundle,
+    reflector: &str,
+    buffer_bytes: Option<u64>,
+) -> Result<(), String> {
+    let cams =
+        load_cameras(bundle, reflector).map_err(|e| format!("reflector {reflector}: {e}"))?;
+    let limit = buffer_limit(gpu, buffer_bytes);
+    let splat_bytes = std::mem::size_of::<splats::Splat>() as u64;
+    for m in &cams.maps {
+        let most = u64::from(m.view.resolution).pow(2);
+        if most * splat_bytes > limit {
+            return Err(format!(
+                "radiance/{}: up to {most} splats ({:.0} MiB), more than this GPU binds in one buffer ({:.0} MiB); bake reflector {reflector} at a lower `radiance.resolution`",
+                crate::radiance::index::map_path(reflector, &m.file, "exr"),
+                (most * splat_bytes) as f64 / (1u64 << 20) as f64,
+                limit as f64 / (1u64 << 20) as f64,
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Reads reflector `reflector`'s radiance maps from `bundle` and uploads their splats, less
 /// the points on `exact` surfaces, in buffers of at most `buffer_bytes` (`None`: what the GPU
 /// binds in one storage buffer).
 pub(super) fn load_splat_maps(
     gpu: &Gpu,
-    data: &ViewData,
+    bundle: &Bundle,
     reflector: &str,
     exact: &ExactSurfaces,
     buffer_bytes: Option<u64>,
 ) -> Result<SplatMaps, String> {
-    let cams = load_cameras(&data.bundle, reflector).map_err(|e| e.to_string())?;
+    let cams = load_cameras(bundle, reflector).map_err(|e| e.to_string())?;
     let mut per_map = Vec::new();
     let mut node_base = 0u32;
     for m in &cams.maps {
         let map_path = crate::radiance::index::map_path(reflector, &m.file, "exr");
         let at = |e: String| format!("radiance/{map_path}: {e}");
-        let stored = read_map(&data.bundle, reflector, m).map_err(|e| e.to_string())?;
+        let stored = read_map(bundle, reflector, m).map_err(|e| e.to_string())?;
         let (image, nodes) = (stored.image, stored.nodes);
         let ch = |n: &str| image.channel(n).map_err(|e| at(e.to_string()));
         let normal = match (image.channel("NX"), image.channel("NY")) {
@@ -128,11 +165,7 @@ pub(super) fn load_splat_maps(
         node_base += count;
     }
     let splat_bytes = std::mem::size_of::<splats::Splat>() as u64;
-    let limits = gpu.device.limits();
-    let device_limit = limits
-        .max_storage_buffer_binding_size
-        .min(limits.max_buffer_size);
-    let limit = buffer_bytes.map_or(device_limit, |b| b.min(device_limit));
+    let limit = buffer_limit(gpu, buffer_bytes);
     let bytes: Vec<u64> = per_map
         .iter()
         .map(|(t, _)| t.splats.len() as u64 * splat_bytes)
@@ -205,6 +238,16 @@ pub(super) fn load_splat_maps(
 }
 
 impl SplatMaps {
+    /// Bytes of its GPU buffers.
+    pub(super) fn gpu_bytes(&self) -> u64 {
+        self.chunks
+            .iter()
+            .map(|c| c.points.size() + c.kept.size())
+            .sum::<u64>()
+            + self.nodes.size()
+            + self.views.size()
+    }
+
     /// Plans the splats of the `count` maps per element best for the mirrored `eye` by
     /// `selection`, drawn from `mirrored` into a `width` × `height` map, each map's nodes
     /// culled by `cull` (to the screen window of its element): writes every node's [`NodeParams`] (the write lands before the next
