@@ -221,7 +221,7 @@ pub fn charge_record(
     charge(dir, name, len as u64, spent)
 }
 
-/// Encodes and writes the record `name` in `dir` under `key` ([`encode`], [`write`]).
+/// Encodes and writes the record `name` in `dir` under `key` ([`encode`], [`write()`]).
 pub fn write_record(
     dir: &Path,
     name: &str,
