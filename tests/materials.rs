@@ -15,7 +15,7 @@ use glint::brdf::kurt::{beckmann_d, invert_beckmann_half, sample_beckmann_half};
 use glint::brdf::pattern::{
     Spacing, closest_pattern, lobe_area, mip_level, regular_pattern, theta_max,
 };
-use glint::brdf::{Frame, KurtBrdf, Lobe, reflect};
+use glint::brdf::{Frame, KurtBrdf, Lobe, LobeModel, reflect};
 use glint::materials::envmap::{
     CaptureSettings, CubeMap, ENV_GLOSSY_SAMPLES, MAX_MIRROR_BOUNCES, MipFilter, MipPyramid,
     capture_cube, face_direction, hammersley, locate, specular_importance, specular_reference,
@@ -484,6 +484,49 @@ fn reflectance_maps_are_bounded_at_grazing_and_agree_with_each_other() {
     let (ax, ay) = (15 * 32 + 29, 2 * 32 + 16); // same radius along x and along y
     assert!((aniso.albedo[ax] - aniso.albedo[ay]).abs() > 0.01);
     assert!((iso.albedo[ax] - iso.albedo[ay]).abs() < 0.01);
+}
+
+#[test]
+fn an_isotropic_lobes_sphere_map_shares_one_albedo_per_view_cosine() {
+    let s = 64usize;
+    for lobe in [
+        Lobe::new(0.05, 0.1, 0.1, 0.0),
+        Lobe::of_model(LobeModel::Ggx, 0.95, 0.01, 0.01),
+        Lobe::of_model(LobeModel::Beckmann, 0.04, 0.3, 0.3),
+    ] {
+        let map = sphere_map(&lobe, s as u32, 32);
+        let (mut worst, mut cells) = (0.0f32, 0);
+        for y in 0..s {
+            for x in 0..s {
+                let dx = 2.0 * (x as f32 + 0.5) / s as f32 - 1.0;
+                let dy = 1.0 - 2.0 * (y as f32 + 0.5) / s as f32;
+                if dx * dx + dy * dy > 1.0 {
+                    continue;
+                }
+                let a = map.albedo[y * s + x];
+                // The texels mirrored across both axes and the diagonal see the same cosine.
+                for (mx, my) in [(s - 1 - x, y), (x, s - 1 - y), (y, x)] {
+                    assert_eq!(a.to_bits(), map.albedo[my * s + mx].to_bits(), "{lobe:?}");
+                }
+                // Against the albedo at the texel's own azimuth: the quadrature's difference.
+                let z = (1.0 - dx * dx - dy * dy).max(0.0).sqrt();
+                if z >= C_GRAZING {
+                    let own = lobe.albedo(Vec3::new(-dx, -dy, z), 32);
+                    worst = worst.max((a - own).abs() / own.max(1e-3));
+                    cells += 1;
+                }
+            }
+        }
+        eprintln!("{lobe:?}: worst relative difference {worst} over {cells} texels");
+        assert!(worst < 1e-2, "{lobe:?}: {worst}");
+        // The shared values do not depend on the thread count.
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap()
+            .install(|| sphere_map(&lobe, s as u32, 32));
+        assert_eq!(one, map);
+    }
 }
 
 #[test]

@@ -287,35 +287,52 @@ fn with_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
 fn bakes_are_byte_identical_whatever_the_thread_count() {
     let dir = tempfile::tempdir().unwrap();
     let scene = parallel_squares(dir.path(), 1.0, 0.5, 0.5);
-    let settings = RadiositySettings {
+    let plain = RadiositySettings {
         rays: 64,
         light_samples: 8,
         bounces: 3,
         ..small_settings()
     };
-    let bundles: Vec<_> = [1, 2, 3]
-        .iter()
-        .map(|&n| {
-            let out = dir.path().join(format!("t{n}.glint"));
-            with_threads(n, || {
-                radiosity_stage::bake(&scene, &out, &settings, false, &Silent).unwrap()
+    // Refined to a target the first batch misses: the rounds pack their rays into the links
+    // in parallel and their first bounces read sums the estimate took.
+    let refined = RadiositySettings {
+        rays: 16,
+        target_error: Some(0.01),
+        tolerance: 1e-4,
+        bounces: 8,
+        ..plain
+    };
+    let mut rounds = Vec::new();
+    let bundles: Vec<_> = [(1, &plain), (2, &plain), (3, &plain)]
+        .into_iter()
+        .chain([(1, &refined), (2, &refined), (3, &refined)])
+        .enumerate()
+        .map(|(k, (n, settings))| {
+            let out = dir.path().join(format!("t{k}.glint"));
+            let record = with_threads(n, || {
+                radiosity_stage::bake(&scene, &out, settings, false, &Silent).unwrap()
             });
+            rounds.push(record.stats["refine_rounds"].as_u64().unwrap());
             out
         })
         .collect();
+    assert_eq!(rounds[0], 0);
+    assert!(rounds[3] >= 1, "the refined bake ran no round");
     let read = |b: &std::path::Path, file: &str| {
         glint::bundle::Bundle::open(b)
             .unwrap()
             .read_stage_file("radiosity", file)
             .unwrap()
     };
-    for file in ["page0.exr", "atlas.bin", "page0.png"] {
-        let first = read(&bundles[0], file);
-        for b in &bundles[1..] {
-            assert!(
-                first == read(b, file),
-                "{file} differs between thread counts"
-            );
+    for group in bundles.chunks(3) {
+        for file in ["page0.exr", "atlas.bin", "page0.png"] {
+            let first = read(&group[0], file);
+            for b in &group[1..] {
+                assert!(
+                    first == read(b, file),
+                    "{file} differs between thread counts"
+                );
+            }
         }
     }
 }

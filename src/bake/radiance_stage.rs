@@ -29,7 +29,7 @@ use crate::radiance::footprint::PixelRays;
 use crate::radiance::index::{CamerasFile, MapEntry, cameras_path, reflector_folder};
 use crate::radiance::magnify::{self, Look};
 use crate::radiance::quadtree::{self, QuadtreeLimits};
-use crate::radiance::reads::PixelWriter;
+use crate::radiance::reads::{MapReads, PixelWriter};
 use crate::radiance::sampling::{MapCamera, ReflectorFrame, hemisphere_cameras};
 use crate::radiance::shading::{d_point, d_seen, exitant};
 use crate::radiance::{MIRROR_ROUGHNESS, MapPlan, RadianceMap, Replay, render};
@@ -300,7 +300,8 @@ pub fn bake_part(
     let scene_key = read_cache::scene_key(scene, normal_offset);
     let prints = MaterialPrints::of(&scene.materials);
     let (mut shaded, mut kept_bytes) = (0u64, 0u64);
-    // Wall seconds of reading records, rendering, writing records and encoding, summed.
+    // Wall seconds of reading records, rendering (the last record written meanwhile), counting
+    // and writing records, and encoding, summed.
     let mut steps = [0f64; 4];
     let limits = quadtree_limits(scene);
     let plans: Vec<_> = plans_with(scene, quality, &built)
@@ -327,6 +328,15 @@ pub fn bake_part(
         let mut files: Vec<(String, &str, Vec<u8>)> = Vec::new();
         // An element's maps, rendered: (camera, file stem, camera, map).
         let mut maps: Vec<(usize, String, MapCamera, RadianceMap)> = Vec::new();
+        // The last map's record, counted against the budget and written while the next map
+        // renders (its encoding and hashing are serial): (folder, name, key, records).
+        let mut pending: Option<(&Path, String, [u8; 32], MapReads)> = None;
+        let write_pending = |p: Option<(&Path, String, [u8; 32], MapReads)>| match p {
+            Some((dir, record, key, reads)) => {
+                read_cache::write_record(dir, &record, &key, &prints, &reads)
+            }
+            None => Ok(()),
+        };
         for j in 0..plan.elements[1] {
             for i in 0..plan.elements[0] {
                 let (corner, eu, ev) = frame.element(i, j, plan.elements[0], plan.elements[1]);
@@ -360,15 +370,21 @@ pub fn bake_part(
                         changed: &changed,
                     });
                     clock(0);
-                    let rendered = render(
-                        &cam,
-                        bvh,
-                        &scene.triangles,
-                        normal_offset,
-                        &shade,
-                        &stored,
-                        replay,
+                    let (rendered, written) = rayon::join(
+                        || {
+                            render(
+                                &cam,
+                                bvh,
+                                &scene.triangles,
+                                normal_offset,
+                                &shade,
+                                &stored,
+                                replay,
+                            )
+                        },
+                        || write_pending(pending.take()),
                     );
+                    written?;
                     clock(1);
                     shaded += rendered.shaded;
                     // Records of which no pixel was traced again are still right: kept as they are
@@ -376,14 +392,17 @@ pub fn bake_part(
                     // against the unit's budget as a record written is.
                     if let Some(dir) = reads_dir {
                         let within = if rendered.shaded > 0 {
-                            read_cache::keep(
+                            let within = read_cache::charge_record(
                                 dir,
                                 &record,
-                                &key,
                                 &prints,
                                 &rendered.reads,
                                 &mut kept_bytes,
-                            )?
+                            )?;
+                            if within {
+                                pending = Some((dir, record, key, rendered.reads));
+                            }
+                            within
                         } else {
                             !had_record || read_cache::count_kept(dir, &record, &mut kept_bytes)?
                         };
@@ -436,6 +455,9 @@ pub fn bake_part(
                 files.clear();
             }
         }
+        let lap = Instant::now();
+        write_pending(pending.take())?;
+        steps[2] += lap.elapsed().as_secs_f64();
         let json = CamerasFile {
             reflector: reflector.name.clone(),
             plan: *plan,

@@ -15,7 +15,7 @@ use crate::radiosity::atlas::{self, AtlasError};
 use crate::radiosity::format;
 use crate::radiosity::seams;
 use crate::radiosity::solve::{
-    GatherBatch, RAY_CACHE_BUDGET, REFINE_BUDGET, SolveSettings, gather_batch, solve,
+    GatherBatch, RAY_CACHE_BUDGET, REFINE_BUDGET, Solution, SolveSettings, gather_batch, solve,
     solve_batches, solve_cached,
 };
 use crate::scene::Scene;
@@ -461,10 +461,12 @@ pub fn bake_from(
     let density = check_share(scene, settings, 1.0, cached)?;
     crate::bundle::check_scene(bundle, &scene.name, &scene.content_hash, force)?;
     // Before the compute: a bundle that cannot be written fails now.
-    let mut w = StageWriter::begin(bundle, Stage::Radiosity.name())?;
+    let w = StageWriter::begin(bundle, Stage::Radiosity.name())?;
     progress.phase("building the atlas", 1);
     let p = prepare(scene, settings, density)?;
     progress.advance(1);
+    // The ray cache to write, while the rest of the stage runs: (file, cache).
+    let mut keep_rays = None;
     let mut solution = match gathering {
         Gathering::Here => solve(scene, &p.bvh, &p.atlas, &p.samples, &p.solve, progress)?,
         Gathering::Cached(file) => {
@@ -480,16 +482,7 @@ pub fn bake_from(
                 progress,
             )?;
             match cache {
-                Some(cache) => {
-                    let bytes = cache.encode();
-                    drop(cache);
-                    crate::bundle::write_atomic(file, &bytes)?;
-                    log::info!(
-                        "ray cache: {} ({:.1} MB)",
-                        file.display(),
-                        bytes.len() as f64 / 1e6
-                    );
-                }
+                Some(cache) => keep_rays = Some((file, cache)),
                 // An earlier bake's cache would only be read and found stale: free its disk.
                 None => match std::fs::remove_file(file) {
                     Ok(()) => {}
@@ -506,6 +499,53 @@ pub fn bake_from(
             )?
         }
     };
+    // The cache is encoded and written (and synced) on a thread of its own, beside the seams
+    // and the pages: its write is serial and mostly waits on the disk.
+    std::thread::scope(|s| {
+        let writer = keep_rays.map(|(file, cache)| {
+            s.spawn(move || {
+                let bytes = cache.encode();
+                drop(cache);
+                crate::bundle::write_atomic(file, &bytes)?;
+                log::info!(
+                    "ray cache: {} ({:.1} MB)",
+                    file.display(),
+                    bytes.len() as f64 / 1e6
+                );
+                Ok::<(), RadiosityError>(())
+            })
+        });
+        let record = finish(
+            scene,
+            settings,
+            &p,
+            &mut solution,
+            w,
+            start,
+            force,
+            progress,
+        );
+        if let Some(writer) = writer {
+            writer
+                .join()
+                .expect("the ray cache's writer does not panic")?;
+        }
+        record
+    })
+}
+
+/// The rest of [`bake_from`] once D is solved: seams, pages, atlas and the stage's record.
+#[allow(clippy::too_many_arguments)]
+fn finish(
+    scene: &Scene,
+    settings: &RadiositySettings,
+    p: &Prepared,
+    solution: &mut Solution,
+    mut w: StageWriter,
+    start: Instant,
+    force: bool,
+    progress: &dyn Progress,
+) -> Result<StageRecord, RadiosityError> {
     let (atlas, samples) = (&p.atlas, &p.samples);
     if settings.stitch_seams {
         progress.phase("stitching seams", 1);

@@ -157,19 +157,21 @@ pub fn kept(
     }
 }
 
-/// The bytes of a record file: key, hash, prints and records.
+/// The bytes of a record file: key, hash, prints and records (the body laid out once, then
+/// hashed in place).
 pub fn encode(key: &[u8; 32], prints: &MaterialPrints, reads: &MapReads) -> Vec<u8> {
-    let mut body = Vec::with_capacity(4 + 32 * prints.0.len() + reads.size());
-    body.extend((prints.0.len() as u32).to_le_bytes());
-    for p in &prints.0 {
-        body.extend(p);
-    }
-    body.extend(reads.encode());
-    let mut bytes = Vec::with_capacity(MAGIC.len() + 64 + body.len());
+    let head = MAGIC.len() + 64;
+    let mut bytes = Vec::with_capacity(head + 4 + 32 * prints.0.len() + reads.size());
     bytes.extend(MAGIC);
     bytes.extend(key);
-    bytes.extend(blake3::hash(&body).as_bytes());
-    bytes.extend(body);
+    bytes.extend([0u8; 32]);
+    bytes.extend((prints.0.len() as u32).to_le_bytes());
+    for p in &prints.0 {
+        bytes.extend(p);
+    }
+    reads.encode_into(&mut bytes);
+    let sum = blake3::hash(&bytes[head..]);
+    bytes[head - 32..head].copy_from_slice(sum.as_bytes());
     bytes
 }
 
@@ -198,12 +200,36 @@ pub fn keep(
     reads: &MapReads,
     spent: &mut u64,
 ) -> Result<bool, BundleError> {
-    let bytes = encode(key, prints, reads);
-    if !charge(dir, name, bytes.len() as u64, spent)? {
+    if !charge_record(dir, name, prints, reads, spent)? {
         return Ok(false);
     }
-    write(dir, name, &bytes)?;
+    write_record(dir, name, key, prints, reads)?;
     Ok(true)
+}
+
+/// [`keep`]'s count against the budget alone, before the record is encoded: `true` when it
+/// is to be written ([`write_record`]), which may then wait (the radiance stage writes a map's
+/// record while the next map renders).
+pub fn charge_record(
+    dir: &Path,
+    name: &str,
+    prints: &MaterialPrints,
+    reads: &MapReads,
+    spent: &mut u64,
+) -> Result<bool, BundleError> {
+    let len = MAGIC.len() + 64 + 4 + 32 * prints.0.len() + reads.size();
+    charge(dir, name, len as u64, spent)
+}
+
+/// Encodes and writes the record `name` in `dir` under `key` ([`encode`], [`write()`]).
+pub fn write_record(
+    dir: &Path,
+    name: &str,
+    key: &[u8; 32],
+    prints: &MaterialPrints,
+    reads: &MapReads,
+) -> Result<(), BundleError> {
+    write(dir, name, &encode(key, prints, reads))
 }
 
 /// Adds a record's `len` bytes to the unit's `spent`; past [`READS_BUDGET`] removes the

@@ -276,8 +276,14 @@ pub struct MapReads {
 impl MapReads {
     /// Bytes: the row count and each row's length (`u32`), then the rows.
     pub fn encode(&self) -> Vec<u8> {
-        let body: usize = self.rows.iter().map(Vec::len).sum();
-        let mut out = Vec::with_capacity(4 + 4 * self.rows.len() + body);
+        let mut out = Vec::with_capacity(self.size());
+        self.encode_into(&mut out);
+        out
+    }
+
+    /// Appends [`MapReads::encode`]'s bytes to `out`.
+    pub fn encode_into(&self, out: &mut Vec<u8>) {
+        out.reserve(self.size());
         out.extend((self.rows.len() as u32).to_le_bytes());
         for r in &self.rows {
             out.extend((r.len() as u32).to_le_bytes());
@@ -285,7 +291,6 @@ impl MapReads {
         for r in &self.rows {
             out.extend(r);
         }
-        out
     }
 
     /// Decodes [`MapReads::encode`]'s bytes; `None` unless they are whole.

@@ -126,29 +126,40 @@ fn own_exitant(
     }
     let origin = bvh.offset_origin(tri.point(hit.bary), ng);
     out.lobes(material.lobes.len());
+    // Each lobe's samples: the direction and what it reads, or `None` for no light. A lobe
+    // whose sampler is an earlier lobe's (same model and widths; k_s, r0 and α only weight the
+    // samples) draws the same directions, so it takes that lobe's instead of tracing them again.
+    type Samples = [Option<(Vec3, Read)>; GLOSSY_SAMPLES as usize];
+    let mut drawn: Vec<(Lobe, Samples)> = Vec::new();
     for desc in &material.lobes {
         let lobe = Lobe::from(desc);
         out.lobe(lobe.ks);
-        for k in 0..GLOSSY_SAMPLES {
-            let Some(wi) = lobe.sample(wo, r2(k, Vec2::ZERO)) else {
-                continue;
-            };
-            let w = frame.to_world(wi);
-            // Below the face (a shading normal leaning away): no light.
-            if w.dot(ng) <= 0.0 {
-                continue;
-            }
-            let Some(h) = bvh.closest_hit(origin, w, f32::INFINITY) else {
-                continue;
-            };
-            // A back face is black, as in the radiosity solver and the path tracer (a
-            // double-sided one shows its shared texels).
-            if w.dot(scene.triangles[h.triangle as usize].face_normal()) >= 0.0
-                && !scene.material_of(h.triangle).double_sided
-            {
-                continue;
-            }
-            out.sample(lobe.sample_weight(wo, wi), &d(&h));
+        let same = |l: &Lobe| l.model == lobe.model && l.mx == lobe.mx && l.my == lobe.my;
+        let samples: Samples = match drawn.iter().find(|(l, _)| same(l)) {
+            Some((_, samples)) => *samples,
+            None => std::array::from_fn(|k| {
+                let wi = lobe.sample(wo, r2(k as u32, Vec2::ZERO))?;
+                let w = frame.to_world(wi);
+                // Below the face (a shading normal leaning away): no light.
+                if w.dot(ng) <= 0.0 {
+                    return None;
+                }
+                let h = bvh.closest_hit(origin, w, f32::INFINITY)?;
+                // A back face is black, as in the radiosity solver and the path tracer (a
+                // double-sided one shows its shared texels).
+                if w.dot(scene.triangles[h.triangle as usize].face_normal()) >= 0.0
+                    && !scene.material_of(h.triangle).double_sided
+                {
+                    return None;
+                }
+                Some((wi, d(&h)))
+            }),
+        };
+        for (wi, read) in samples.iter().flatten() {
+            out.sample(lobe.sample_weight(wo, *wi), read);
+        }
+        if material.lobes.len() > 1 {
+            drawn.push((lobe, samples));
         }
     }
 }

@@ -74,6 +74,14 @@ const CHUNK: usize = 256;
 /// Elements a refinement round gathers before packing their rays into the links.
 const REFINE_SLICE: usize = 16384;
 
+/// The most bytes one ray's hit can add to an element's packed links (a LEB128 gap of a
+/// `u32`: inserting a hit splits one gap into two, neither longer than before).
+const MAX_HIT_BYTES: u64 = 5;
+
+/// The most bytes one glossy term can add ([`PackedTerms`]: a varint head of at most five
+/// bytes and three floats).
+const MAX_TERM_BYTES: u64 = 17;
+
 /// What the solver reads of [`RadiositySettings`] (the atlas's settings are used before it),
 /// with the seed and the cache budget in bytes; each field means what the setting of its name
 /// does there.
@@ -577,12 +585,12 @@ fn solve_gathered(
         .map(|(g, a)| *a * g.direct)
         .collect();
     iterate(
-        &mut lr, &links, &gathered, &albedo, set, &mut stats, progress,
+        &mut lr, &links, &gathered, &albedo, None, set, &mut stats, progress,
     )?;
 
     // Refinement: more samples where the estimated error is above the target.
     let mut refined = vec![false; samples.len()];
-    let mut error = relative_errors(&lr, &links, &gathered, &albedo, &emission);
+    let (mut error, mut sums) = relative_errors(&lr, &links, &gathered, &albedo, &emission);
     if let Some(target) = set.target_error {
         // Each element's share of the surface: the probes and the eye sample D by area.
         let area: Vec<f64> = samples
@@ -608,6 +616,11 @@ fn solve_gathered(
                 break;
             }
             progress.phase("refining", which.len() as u64);
+            // Elements whose links this round leaves alone keep the sums the estimate read.
+            let mut kept = vec![true; samples.len()];
+            for &(i, _, _) in &which {
+                kept[i as usize] = false;
+            }
             // A slice at a time: a round's raw rays (4 bytes each, and their glossy terms)
             // are packed into the links before the next slice is gathered.
             for slice in which.chunks(REFINE_SLICE) {
@@ -622,6 +635,32 @@ fn solve_gathered(
                     progress,
                 )
                 .ok_or(Cancelled)?;
+                // Where even the most the slice's rays could pack into fits the budget,
+                // every element below is extended: pack them in parallel (each element's
+                // links alone), then account in order as below.
+                let most: u64 = more
+                    .iter()
+                    .map(|g| {
+                        MAX_HIT_BYTES * g.hits.len() as u64 + MAX_TERM_BYTES * g.terms.len() as u64
+                    })
+                    .sum();
+                if held + most <= set.cache_budget {
+                    let packed: Vec<(Links, Gathered)> = slice
+                        .par_iter()
+                        .zip(more)
+                        .map(|(&(i, _, _), mut g)| {
+                            (links[i as usize].extended(&mut g, &resolve), g)
+                        })
+                        .collect();
+                    for (&(i, _, _), (l, g)) in slice.iter().zip(packed) {
+                        let i = i as usize;
+                        held = held + l.held() - links[i].held();
+                        links[i] = l;
+                        gathered[i].merge(&g);
+                        refined[i] = true;
+                    }
+                    continue;
+                }
                 for (&(i, _, _), mut g) in slice.iter().zip(more) {
                     let i = i as usize;
                     // A ray's hit packs into ~2 bytes and a glossy term into ~8.
@@ -639,10 +678,21 @@ fn solve_gathered(
                 }
             }
             stats.rounds = round;
+            let read = Read {
+                sums: &sums,
+                kept: &kept,
+            };
             iterate(
-                &mut lr, &links, &gathered, &albedo, set, &mut stats, progress,
+                &mut lr,
+                &links,
+                &gathered,
+                &albedo,
+                Some(read),
+                set,
+                &mut stats,
+                progress,
             )?;
-            error = relative_errors(&lr, &links, &gathered, &albedo, &emission);
+            (error, sums) = relative_errors(&lr, &links, &gathered, &albedo, &emission);
         }
     }
     stats.refined = refined.iter().filter(|&&r| r).count() as u64;
@@ -795,6 +845,11 @@ impl Links {
     /// Adds the links of `g`'s rays, moved out of it (exact capacity: the solve's memory is
     /// mostly these lists).
     fn extend(&mut self, g: &mut Gathered, resolve: &[u32]) {
+        *self = self.extended(g, resolve);
+    }
+
+    /// These links with `g`'s rays added, moved out of `g`.
+    fn extended(&self, g: &mut Gathered, resolve: &[u32]) -> Links {
         let resolved = |h: u32| {
             if h == u32::MAX {
                 u32::MAX
@@ -803,7 +858,7 @@ impl Links {
             }
         };
         let raw = std::mem::take(&mut g.hits);
-        self.rays += raw.len() as u32;
+        let rays = self.rays + raw.len() as u32;
         let mut hits: Vec<u32> = self.hits().collect();
         hits.extend(raw.iter().map(|&h| resolved(h)).filter(|&e| e != u32::MAX));
         drop(raw);
@@ -815,22 +870,59 @@ impl Links {
             last = h;
         }
         packed.shrink_to_fit();
-        self.hits = packed;
-        let terms = std::mem::take(&mut g.terms);
-        self.terms.extend(terms.into_iter().filter_map(|t| {
+        let mut terms = self.terms.clone();
+        terms.extend(std::mem::take(&mut g.terms).into_iter().filter_map(|t| {
             let texel = resolved(t.texel);
             (texel != u32::MAX).then_some(Term { texel, ..t })
         }));
+        Links {
+            hits: packed,
+            rays,
+            terms,
+            frozen: self.frozen,
+        }
     }
 }
 
+/// Σ over an element's cached links of the radiance they read from `lr`: its hits in order,
+/// then its glossy terms (frozen rays apart). The one order the bounces and the estimate both
+/// sum in, so that a sum the estimate read is the bounce's to the bit.
+fn links_sum(links: &Links, lr: &[Vec3]) -> [f64; 3] {
+    let mut sum = [0.0f64; 3];
+    links.for_each_hit(|h| {
+        let l = lr[h as usize];
+        sum[0] += l.x as f64;
+        sum[1] += l.y as f64;
+        sum[2] += l.z as f64;
+    });
+    links.terms.for_each(|texel, weight| {
+        let l = weight * lr[texel as usize];
+        sum[0] += l.x as f64;
+        sum[1] += l.y as f64;
+        sum[2] += l.z as f64;
+    });
+    sum
+}
+
+/// What the last error estimate read ([`relative_errors`]): each element's [`links_sum`] of
+/// the `lr` a refinement round's bounces start from, and whether the round left the
+/// element's links as they were (then its first bounce reads the sum instead of its links).
+#[derive(Clone, Copy)]
+struct Read<'a> {
+    sums: &'a [[f64; 3]],
+    kept: &'a [bool],
+}
+
 /// Jacobi iteration of L_r = ρ·(direct + mean incoming L_r) from `lr`, until a bounce changes
-/// the total by less than the tolerance or the bounces run out.
+/// the total by less than the tolerance or the bounces run out. With `read`, the first bounce
+/// takes the sums of the elements it keeps from it (same `lr`, same links: same bits).
+#[allow(clippy::too_many_arguments)]
 fn iterate(
     lr: &mut Vec<Vec3>,
     links: &[Links],
     gathered: &[Gathered],
     albedo: &[Vec3],
+    mut read: Option<Read>,
     set: &SolveSettings,
     stats: &mut SolveStats,
     progress: &dyn Progress,
@@ -840,6 +932,7 @@ fn iterate(
         if progress.cancelled() {
             return Err(Cancelled);
         }
+        let first = read.take();
         // Widened once a bounce rather than once a read: the same sums (f32 → f64 is exact).
         let wide: Vec<[f64; 3]> = lr
             .par_iter()
@@ -848,19 +941,26 @@ fn iterate(
         let next: Vec<Vec3> = (0..links.len())
             .into_par_iter()
             .map(|i| {
-                let mut sum = [0.0f64; 3];
-                links[i].for_each_hit(|h| {
-                    let l = &wide[h as usize];
-                    sum[0] += l[0];
-                    sum[1] += l[1];
-                    sum[2] += l[2];
-                });
-                links[i].terms.for_each(|texel, weight| {
-                    let l = weight * lr[texel as usize];
-                    sum[0] += l.x as f64;
-                    sum[1] += l.y as f64;
-                    sum[2] += l.z as f64;
-                });
+                // What `links_sum` adds, in its order.
+                let mut sum = match first {
+                    Some(r) if r.kept[i] => r.sums[i],
+                    _ => {
+                        let mut sum = [0.0f64; 3];
+                        links[i].for_each_hit(|h| {
+                            let l = &wide[h as usize];
+                            sum[0] += l[0];
+                            sum[1] += l[1];
+                            sum[2] += l[2];
+                        });
+                        links[i].terms.for_each(|texel, weight| {
+                            let l = weight * lr[texel as usize];
+                            sum[0] += l.x as f64;
+                            sum[1] += l.y as f64;
+                            sum[2] += l.z as f64;
+                        });
+                        sum
+                    }
+                };
                 let frozen = &links[i].frozen;
                 if frozen.rays > 0 {
                     for (s, f) in sum.iter_mut().zip(frozen.sum) {
@@ -940,22 +1040,24 @@ impl ErrorParts {
 /// low-discrepancy sequence's rate where the integrand has edges, as the texels seen do); what
 /// the rest of their return adds to the per-ray variance (glossy terms, the rays' own emission
 /// and glossy light), over rays; its emitter samples' variance; all scaled by the albedo, over
-/// D². Elements inside geometry get 0.
+/// D². Elements inside geometry get 0. With each element's [`links_sum`] of `lr`, read in the
+/// same pass ([`Read`]).
 fn relative_errors(
     lr: &[Vec3],
     links: &[Links],
     gathered: &[Gathered],
     albedo: &[Vec3],
     emission: &[Vec3],
-) -> Vec<ErrorParts> {
+) -> (Vec<ErrorParts>, Vec<[f64; 3]>) {
     // Each element's luminance once rather than once per ray that reads it.
     let lum: Vec<f64> = lr.par_iter().map(|l| luminance(*l) as f64).collect();
     (0..links.len())
         .into_par_iter()
         .map(|i| {
             let g = &gathered[i];
+            let mut sum = [0.0f64; 3];
             if g.inside {
-                return ErrorParts::default();
+                return (ErrorParts::default(), links_sum(&links[i], lr));
             }
             let frozen = &links[i].frozen;
             let n = (links[i].rays + frozen.rays).max(1) as f64;
@@ -967,7 +1069,12 @@ fn relative_errors(
                 }
             };
             let (mut u, mut u2) = (0.0f64, 0.0f64);
+            // `sum` adds what `links_sum` adds, in its order.
             links[i].for_each_hit(|h| {
+                let l = lr[h as usize];
+                sum[0] += l.x as f64;
+                sum[1] += l.y as f64;
+                sum[2] += l.z as f64;
                 let v = lum[h as usize];
                 u += v;
                 u2 += v * v;
@@ -975,7 +1082,11 @@ fn relative_errors(
             // The texel values the rays read directly: a function of each ray's direction.
             let reads = per_ray(u, u2);
             links[i].terms.for_each(|texel, weight| {
-                let v = luminance(weight * lr[texel as usize]) as f64;
+                let l = weight * lr[texel as usize];
+                sum[0] += l.x as f64;
+                sum[1] += l.y as f64;
+                sum[2] += l.z as f64;
+                let v = luminance(l) as f64;
                 u += v;
                 u2 += v * v;
             });
@@ -990,7 +1101,7 @@ fn relative_errors(
             let sequence = rho * rho * reads / n.powf(1.5);
             let random = rho * rho * ((all - reads).max(0.0) / n + g.moments.light_var);
             let d = luminance(emission[i] + lr[i]) as f64;
-            if sequence + random == 0.0 {
+            let parts = if sequence + random == 0.0 {
                 ErrorParts::default()
             } else if d > 0.0 {
                 ErrorParts {
@@ -1002,9 +1113,10 @@ fn relative_errors(
                     sequence: f64::INFINITY,
                     random: f64::INFINITY,
                 }
-            }
+            };
+            (parts, sum)
         })
-        .collect()
+        .unzip()
 }
 
 /// Fits the added samples `which` (each element's want, from [`more_samples`]) into `budget`
