@@ -890,22 +890,30 @@ fn gpu_time_spans_the_reflection_passes() {
     );
 }
 
+/// The first pose of `data`'s first camera path, and the same eye looking straight up (no
+/// planar reflector of glossy-room in view).
+fn ahead_and_up(
+    data: &glint::view::load::ViewData,
+) -> (glint::camera::Camera, glint::camera::Camera) {
+    let ahead = pose_at(data.scene.camera_path(None).unwrap(), 0.0);
+    let up = glint::camera::Camera::look_at(
+        ahead.position,
+        ahead.position + Vec3::Y,
+        Vec3::Z,
+        ahead.fov_y,
+    );
+    (ahead, up)
+}
+
 /// A reflector the camera does not see gets no passes, though it faces the camera: looking
 /// straight up from the first pose of glossy-room's path, the floor, the table top and the
 /// mirror panel all lie on their reflecting side of the eye but out of view. The frame is
 /// then the frame without reflections, byte for byte, in both modes.
 #[test]
 fn reflectors_out_of_view_get_no_passes() {
-    use glint::camera::Camera;
     let data = load(glossy_bundle()).unwrap_or_else(|e| panic!("{e}"));
     let gpu = gpu();
-    let ahead = pose_at(data.scene.camera_path(None).unwrap(), 0.0);
-    let up = Camera::look_at(
-        ahead.position,
-        ahead.position + Vec3::Y,
-        Vec3::Z,
-        ahead.fov_y,
-    );
+    let (ahead, up) = ahead_and_up(&data);
     let planar = reflections::reflectors_with_reflectance(&data);
     assert_eq!(planar.len(), 3, "glossy-room's planar reflectors");
     for r in &planar {
@@ -979,16 +987,9 @@ fn a_frame_with_the_composite_left_out_is_the_frame_without_reflections() {
 /// are read again.
 #[test]
 fn image_mode_holds_the_maps_of_the_reflectors_in_view() {
-    use glint::camera::Camera;
     let data = load(glossy_bundle()).unwrap_or_else(|e| panic!("{e}"));
     let gpu = gpu();
-    let ahead = pose_at(data.scene.camera_path(None).unwrap(), 0.0);
-    let up = Camera::look_at(
-        ahead.position,
-        ahead.position + Vec3::Y,
-        Vec3::Z,
-        ahead.fov_y,
-    );
+    let (ahead, up) = ahead_and_up(&data);
     let mut off = Offscreen::new(&gpu, &data, 240, 160).unwrap_or_else(|e| panic!("{e}"));
     off.set_reflections(&gpu, &data, ReflectionMode::Image)
         .unwrap_or_else(|e| panic!("{e}"));

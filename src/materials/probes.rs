@@ -27,6 +27,9 @@
 //! reads the nearest of the rest, and the bake captures nothing no camera looks at.
 //! scene.json's `probes` move a placed probe (same name) or add one; a scene without such a
 //! group has no probes at all.
+//!
+//! Kept in one file: grouping and placement call each other (a side is split off where the
+//! rest's probe would stand), and their tests build the same small scenes.
 
 use glam::Vec3;
 use rayon::prelude::*;
