@@ -10,7 +10,7 @@
 //! residency follows the same visibility test as the passes.
 
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
 
 use glam::{Mat4, Vec2, Vec3};
 
@@ -172,7 +172,7 @@ pub struct GeometryReflections {
     near: f32,
     /// [`SkippedPasses`] as bits: set through a shared reference, as the frame holds the
     /// passes.
-    skipped: std::sync::atomic::AtomicU8,
+    skipped: AtomicU8,
 }
 
 impl GeometryReflections {
@@ -453,20 +453,19 @@ impl GeometryReflections {
                 width,
                 height,
                 near: near_plane(scene),
-                skipped: std::sync::atomic::AtomicU8::new(0),
+                skipped: AtomicU8::new(0),
             }
         })
     }
 
     /// Leaves `skipped` passes out of the frames drawn from now on (for timing the others).
     pub fn skip_passes(&self, skipped: SkippedPasses) {
-        self.skipped
-            .store(skipped.bits(), std::sync::atomic::Ordering::Relaxed);
+        self.skipped.store(skipped.bits(), Ordering::Relaxed);
     }
 
     /// The passes [`GeometryReflections::draw`] leaves out.
     pub fn skipped_passes(&self) -> SkippedPasses {
-        SkippedPasses::from_bits(self.skipped.load(std::sync::atomic::Ordering::Relaxed))
+        SkippedPasses::from_bits(self.skipped.load(Ordering::Relaxed))
     }
 
     /// How many reflectors it draws.
