@@ -45,7 +45,7 @@
 //! `GLINT_BENCH_CUBE_PARALLAX=off` turns the curved reflectors' distance-corrected lookups off
 //! (as `glint-view --cube-parallax off`); `GLINT_BENCH_CUBE_SELF_OCCLUSION=off` likewise
 //! (`--cube-self-occlusion off`); `GLINT_BENCH_GLOSSY_SAMPLES=N` and `GLINT_BENCH_FACE_SIZE=N`
-//! set `--glossy-samples` (the preset's sample budget by default) and `--cube-size`;
+//! set `--glossy-samples` (the bake's sample budget by default, as `glint-view`) and `--cube-size`;
 //! `GLINT_BENCH_TERMINAL=off` turns the near-mirrors' terminal cube maps off in the
 //! reflections table (as `--terminal-cubemaps off`).
 //!
@@ -929,16 +929,17 @@ fn shipped_scenes() -> Vec<String> {
 /// The viewer's options for `data` as `glint-view` starts with no arguments (its default
 /// multisampling, probes and curved cube maps where baked), with the identity display
 /// mapping and the bench's curved-reflector knobs.
-fn fidelity_options(data: &glint::view::load::ViewData, quality: Quality) -> ViewOptions {
+fn fidelity_options(data: &glint::view::load::ViewData) -> ViewOptions {
     let baked = glint::view::defaults::baked(data);
     let options = ViewOptions::from_args_for(std::iter::empty::<&str>(), &baked)
         .unwrap_or_else(|e| panic!("{e}"))
         .linear_display();
     // Curved reflectors by cube maps (Nielsen §3.2), glossy ones by regular sampling of the
-    // baked MIP environment map at the preset's sample budget (Luksch §6–7).
+    // baked MIP environment map at the bake's sample budget (Luksch §6–7).
     let curved_settings = CurvedSettings {
+        // The bake's sample budget by default, as `glint-view` reads it from the bundle.
         glossy_samples: std::env::var("GLINT_BENCH_GLOSSY_SAMPLES").map_or(
-            glint::materials::MaterialsSettings::preset(quality).sample_budget,
+            options.curved_settings.glossy_samples,
             |v| {
                 v.parse()
                     .unwrap_or_else(|e| panic!("GLINT_BENCH_GLOSSY_SAMPLES={v}: {e}"))
@@ -1035,7 +1036,7 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
         let reflectors = reflections::reflectors_with_reflectance(&data);
         // With the scene's cut-out filter: the path tracer sees through alpha-masked texels.
         let bvh = data.scene.build_bvh();
-        let options = fidelity_options(&data, quality);
+        let options = fidelity_options(&data);
         let mut off =
             Offscreen::with_options(gpu, &data, w, h, &options).unwrap_or_else(|e| panic!("{e}"));
         let mut fine = (ss > 1).then(|| {

@@ -11,7 +11,9 @@
 // f cos θ_i over the density it was drawn with); each direction first moved to where
 // the ray from the fragment meets the room (the distances the probe stores), its level to
 // its footprint there as the centre sees it. At grazing view the lobe's samples that stay
-// above the surface are what it reflects, which a single mirror lookup misses.
+// above the surface are what it reflects, which a single mirror lookup misses. The result is
+// scaled by the square root of the irradiance the fragment's lightmap texel was solved with
+// over the probe's at its normal, at most 1 (`probes::Normalization`).
 //
 // Keep `ProbeParams` in sync with `view::probes::ProbeParams` (a test compares them).
 
@@ -21,6 +23,11 @@ struct ProbeParams {
     // x: the MIP level of the material's lobe; y: 1 double-sided, 0 back faces black
     // (`probes::sides`); z: the lobe's GGX α; w: its Fresnel reflectance at normal incidence.
     info: vec4<f32>,
+    // x: luminance of the material's albedo factor (0: probe light not normalized); y: the
+    // luminance of the emission its stored texels hold (`probes::Normalization`).
+    surface: vec4<f32>,
+    // The probe's irradiance over π as luminance on bands 0-2 (`probes::irradiance_sh`).
+    irradiance: array<vec4<f32>, 3>,
     // ks·A at the 1D reflectance map's cosines (`reflectance::map_1d_cos`, 64 entries).
     modulation: array<vec4<f32>, 64>,
 };
@@ -34,12 +41,18 @@ struct ProbeParams {
 struct ProbeVertexIn {
     @location(0) position: vec3<f32>,
     @location(1) normal: vec3<f32>,
+    // Lightmap coordinates in texels of the vertex's page (`probes::gpu::ProbeLightmap`).
+    @location(2) lightmap: vec2<f32>,
+    @location(3) page: u32,
 };
 
 struct ProbeOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) world: vec3<f32>,
     @location(1) normal: vec3<f32>,
+    // Centroid: a multisampled edge pixel reads D inside the triangle.
+    @location(2) @interpolate(perspective, centroid) lightmap: vec2<f32>,
+    @location(3) @interpolate(flat) page: u32,
 };
 
 // `reflectance::C_GRAZING`.
@@ -58,7 +71,32 @@ fn vs_probe(v: ProbeVertexIn) -> ProbeOut {
     out.clip = frame.view_proj * vec4<f32>(v.position, 1.0);
     out.world = v.position;
     out.normal = v.normal;
+    out.lightmap = v.lightmap;
+    out.page = v.page;
     return out;
+}
+
+// The probe's irradiance over π at unit `n` (`probes::irradiance_at`, `probes::sh_basis`).
+fn probe_irradiance(n: vec3<f32>) -> f32 {
+    let c = probe.irradiance;
+    return c[0].x * 0.282095
+        + 0.488603 * (c[0].y * n.y + c[0].z * n.z + c[0].w * n.x)
+        + 1.092548 * (c[1].x * n.x * n.y + c[1].y * n.y * n.z + c[1].w * n.x * n.z)
+        + c[1].z * 0.315392 * (3.0 * n.z * n.z - 1.0)
+        + c[2].x * 0.546274 * (n.x * n.x - n.y * n.y);
+}
+
+// The factor on the probe's light (`probes::Normalization::factor`): the square root of what
+// the surface received, from the texel the solve lit it with, over what the probe sees at its
+// normal, at most 1.
+fn probe_normalization(lightmap: vec2<f32>, page: u32, n: vec3<f32>) -> f32 {
+    let seen = probe_irradiance(n);
+    if probe.surface.x <= 0.0 || seen <= 0.0 {
+        return 1.0;
+    }
+    let stored = dot(max(sample_radiosity(lightmap, page), vec3<f32>(0.0)), vec3<f32>(0.2126, 0.7152, 0.0722));
+    let received = max(stored - probe.surface.y, 0.0) / probe.surface.x;
+    return sqrt(min(received / seen, 1.0));
 }
 
 // ks·A at view cosine `c`: the table read linearly at s = √((c − C)/(1 − C))
@@ -181,7 +219,8 @@ fn fs_probe(in: ProbeOut) -> @location(0) vec4<f32> {
     }
     let c = dot(n, wo);
     let r = 2.0 * c * n - wo;
-    let env = probe_lobe(in.world - probe.centre.xyz, n, wo, r, probe.info.z);
+    let env = probe_lobe(in.world - probe.centre.xyz, n, wo, r, probe.info.z)
+        * probe_normalization(in.lightmap, in.page, n);
     // Added to kd·D of the scene pass by the blend state.
     return vec4<f32>(env * probe_modulation(c) * frame.exposure, 0.0);
 }

@@ -39,6 +39,35 @@ fn radiosity_settings() -> RadiositySettings {
 
 #[test]
 fn the_glossy_table_reflects_its_probe_towards_the_path_tracer() {
+    let (flat, lit, want) = table_top(false);
+    assert!(flat < want, "kd·D alone is darker than the path tracer");
+    // The probe closes at least half of the gap, without overshooting by as much.
+    assert!(
+        (lit - want).abs() <= 0.5 * (flat - want).abs(),
+        "with the probe {lit:.4} is not much closer to {want:.4} than kd·D's {flat:.4}"
+    );
+}
+
+/// A probe captured next to the ceiling light sees the room far brighter than the table
+/// below receives it; normalized by the table's lightmap texels (`probes::Normalization`),
+/// its light on the table stays near the path tracer's instead of a multiple of it.
+#[test]
+fn a_probe_by_the_light_lights_the_table_as_the_lightmap_does() {
+    let (flat, lit, want) = table_top(true);
+    assert!(
+        lit >= flat,
+        "the probe adds light: {lit:.4} vs kd·D's {flat:.4}"
+    );
+    assert!(
+        lit <= want * 1.1,
+        "with the probe by the light the table reads {lit:.4} against the path tracer's {want:.4}"
+    );
+}
+
+/// The table top's mean luminance drawn with kd·D alone, with its probe, and by the path
+/// tracer; the probe placed by the bake, or (`by_the_light`) moved by scene.json to just under
+/// the ceiling light.
+fn table_top(by_the_light: bool) -> (f64, f64, f64) {
     let dir = tempfile::tempdir().unwrap();
     let folder = dir.path().join("glossy-room");
     copy_dir(&repo("scenes/glossy-room"), &folder);
@@ -50,6 +79,19 @@ fn the_glossy_table_reflects_its_probe_towards_the_path_tracer() {
         .unwrap()
         .retain(|r| r["mesh"] != "TableTop");
     std::fs::write(&scene_json, v.to_string()).unwrap();
+    if by_the_light {
+        let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
+        let light = scene
+            .triangles
+            .iter()
+            .filter(|t| scene.materials[t.material as usize].emission.max_element() > 0.0)
+            .fold(glint::geometry::Aabb::EMPTY, |b, t| {
+                t.p.iter().fold(b, |b, p| b.grow(*p))
+            });
+        let under = light.center() - Vec3::Y * 0.05;
+        v["probes"] = serde_json::json!([{ "name": "GlossyTable", "position": under.to_array() }]);
+        std::fs::write(&scene_json, v.to_string()).unwrap();
+    }
     let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
     let bundle = dir.path().join("glossy-room.glint");
     bake_with_materials(&scene, &bundle, &radiosity_settings());
@@ -130,12 +172,8 @@ fn the_glossy_table_reflects_its_probe_towards_the_path_tracer() {
     }
     let (flat, lit) = (got[0], got[1]);
     eprintln!(
-        "table top, {count} pixels: kd·D {flat:.4}, with the probe {lit:.4}, path tracer {want:.4}"
+        "table top, {count} pixels (probe by the light: {by_the_light}): kd·D {flat:.4}, with \
+         the probe {lit:.4}, path tracer {want:.4}"
     );
-    assert!(flat < want, "kd·D alone is darker than the path tracer");
-    // The probe closes at least half of the gap, without overshooting by as much.
-    assert!(
-        (lit - want).abs() <= 0.5 * (flat - want).abs(),
-        "with the probe {lit:.4} is not much closer to {want:.4} than kd·D's {flat:.4}"
-    );
+    (flat, lit, want)
 }

@@ -15,13 +15,16 @@ pub fn baked(data: &ViewData) -> Baked {
             .stage(stage)
             .is_some_and(|s| !s.assets.is_empty())
     };
+    let index = crate::materials::MaterialsIndex::load(&data.bundle)
+        .ok()
+        .flatten();
     Baked {
         radiance_maps: has("radiance") && !glossy_planar_reflectors(&data.scene).is_empty(),
         curved_reflectors: curved_reflectors(&data.scene).len(),
         impostor_captures: has("srdm") && !data.scene.impostors.is_empty(),
-        probes: crate::materials::MaterialsIndex::load(&data.bundle)
-            .ok()
-            .flatten()
-            .map_or(0, |index| index.probes.len()),
+        probes: index.as_ref().map_or(0, |index| index.probes.len()),
+        glossy_samples: index
+            .filter(|index| !index.env_maps.is_empty())
+            .map(|index| index.settings.sample_budget),
     }
 }

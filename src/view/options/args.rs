@@ -70,8 +70,9 @@ pub struct ViewArgs {
     /// Curved reflectors: regular samples per pixel and lobe (Luksch §6–7; the pattern
     /// closest to N); 0: one mirror lookup. The glossy term reads the baked MIP environment
     /// map when the bundle's materials stage has one, else the live cube map.
-    #[arg(long, value_name = "N", default_value_t = 0)]
-    pub glossy_samples: u32,
+    /// Default: the materials stage's sample budget where it baked those maps, else 0.
+    #[arg(long, value_name = "N")]
+    pub glossy_samples: Option<u32>,
     /// Curved reflectors: face size of the live cube maps, texels.
     #[arg(long, value_name = "N", default_value_t = DEFAULT_FACE_SIZE,
           value_parser = clap::value_parser!(u32).range(1..=8192))]
@@ -218,7 +219,7 @@ impl ViewArgs {
             impostor_kind: self.impostor_kind,
             curved: modes.curved,
             curved_settings: CurvedSettings {
-                glossy_samples: self.glossy_samples,
+                glossy_samples: self.glossy_samples.or(baked.glossy_samples).unwrap_or(0),
                 face_size: self.cube_size,
                 generations: self.cube_generations,
                 parallax: self.cube_parallax,
@@ -358,12 +359,20 @@ mod tests {
             curved_reflectors: 1,
             impostor_captures: true,
             probes: 1,
+            glossy_samples: Some(20),
         };
         let o = ViewOptions::from_args_for(["--maps", "4"], &baked).unwrap();
         assert_eq!(
             (o.reflections, o.curved, o.impostors, o.probes, o.maps),
             (ReflectionMode::Image, CurvedMode::Cubemap, false, true, 4)
         );
+        // The glossy curved reflectors read the baked environment maps at the bake's budget,
+        // unless told otherwise; without those maps, one mirror lookup.
+        assert_eq!(o.curved_settings.glossy_samples, 20);
+        let o = ViewOptions::from_args_for(["--glossy-samples", "4"], &baked).unwrap();
+        assert_eq!(o.curved_settings.glossy_samples, 4);
+        let o = ViewOptions::from_args_for(std::iter::empty::<&str>(), &Baked::default()).unwrap();
+        assert_eq!(o.curved_settings.glossy_samples, 0);
         let o = ViewOptions::from_args_for(["--probes", "off"], &baked).unwrap();
         assert!(!o.probes);
         let o = ViewOptions::from_args_for(

@@ -15,6 +15,9 @@ pub struct Baked {
     pub impostor_captures: bool,
     /// Reflection probes in the materials stage.
     pub probes: usize,
+    /// The materials stage's regular samples a glossy lobe (its `sample_budget`), where it
+    /// baked the MIP environment maps that the curved reflectors' glossy term reads.
+    pub glossy_samples: Option<u32>,
 }
 
 /// The reflection modes the command line asked for (`None`: not given).
@@ -128,6 +131,7 @@ mod tests {
         curved_reflectors: 1,
         impostor_captures: true,
         probes: 2,
+        glossy_samples: Some(20),
     };
 
     fn modes(d: Defaults) -> (ReflectionMode, CurvedMode, bool) {

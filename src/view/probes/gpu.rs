@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 
-use super::{ProbeParams, shader_source};
+use super::{Normalization, ProbeParams, irradiance_sh, shader_source};
 use crate::materials::MaterialsIndex;
 use crate::materials::envmap::MipPyramid;
 use crate::materials::probes::{Probe, assign, lobe_lod, scene_groups};
@@ -19,9 +19,49 @@ use crate::view::passes::renderer::sides;
 use crate::view::passes::renderer::{Renderer, frame_bind_group_layout};
 use crate::view::reflections::material::{MODULATION_SIZE, ReflectanceLayout, load_material};
 
+/// Where a corner of a group's triangle reads its lightmap: `@location(2..=3)` of
+/// `ProbeVertexIn`, in a second vertex buffer beside its [`CurvedVertex`].
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ProbeLightmap {
+    /// Lightmap coordinates in texels of the page.
+    pub lightmap: [f32; 2],
+    /// Atlas page (texture-array layer).
+    pub page: u32,
+}
+
+const LIGHTMAP_ATTRIBUTES: [wgpu::VertexAttribute; 2] =
+    wgpu::vertex_attr_array![2 => Float32x2, 3 => Uint32];
+
+impl ProbeLightmap {
+    /// The vertex buffer layout of the second buffer.
+    pub fn layout() -> wgpu::VertexBufferLayout<'static> {
+        wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<ProbeLightmap>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &LIGHTMAP_ATTRIBUTES,
+        }
+    }
+
+    /// Per corner of `triangles`, in [`reflector_vertices`]' order, its place in `atlas`.
+    pub fn of(atlas: &crate::radiosity::atlas::Atlas, triangles: &[u32]) -> Vec<ProbeLightmap> {
+        triangles
+            .iter()
+            .flat_map(|&t| {
+                let (page, coords) = (atlas.tri_page[t as usize], atlas.tri_coords[t as usize]);
+                coords.into_iter().map(move |c| ProbeLightmap {
+                    lightmap: c.to_array(),
+                    page,
+                })
+            })
+            .collect()
+    }
+}
+
 /// One glossy group as the pass draws it.
 struct GroupGpu {
     vertices: wgpu::Buffer,
+    lightmap: wgpu::Buffer,
     vertex_count: u32,
     /// Its parameters (static: the eye comes from the frame's uniforms) and textures.
     group: wgpu::BindGroup,
@@ -96,6 +136,11 @@ impl ProbeReflections {
             )?;
             cubes.push((env, dist));
         }
+        // Each probe's irradiance, for the normalization of its light (`Normalization`).
+        let irradiance: Vec<[f32; 9]> = read
+            .iter()
+            .map(|(pyramid, _)| irradiance_sh(&pyramid.levels[0]))
+            .collect();
         let mut lit = Vec::new();
         let groups = scene_groups(scene);
         for (k, g) in groups.iter().enumerate() {
@@ -146,7 +191,8 @@ impl ProbeReflections {
                 &frame_layout,
                 render_pipeline("glint probe composite", &shader, "vs_probe", "fs_probe")
                     .layouts(&[&frame_layout, &layout])
-                    .vertex(CurvedVertex::layout()),
+                    .vertex(CurvedVertex::layout())
+                    .vertex(ProbeLightmap::layout()),
             );
             let mut uses = Vec::new();
             let groups: Vec<GroupGpu> = lit
@@ -160,6 +206,16 @@ impl ProbeReflections {
                         bytemuck::cast_slice(&verts),
                         16,
                     );
+                    let lightmap = buffer_init(
+                        gpu,
+                        "glint probe lightmap coordinates",
+                        wgpu::BufferUsages::VERTEX,
+                        bytemuck::cast_slice(&ProbeLightmap::of(&data.map.atlas, &g.triangles)),
+                        16,
+                    );
+                    let material = &scene.materials[g.material as usize];
+                    let normalization = Normalization::of(material);
+                    let sh = &irradiance[*p];
                     let mut base = ProbeParams {
                         centre: probes[*p].position.extend(1.0).to_array(),
                         info: [
@@ -167,6 +223,12 @@ impl ProbeReflections {
                             sides(&scene.materials[g.material as usize]),
                             *alpha,
                             *r0,
+                        ],
+                        surface: [normalization.albedo, normalization.emission, 0.0, 0.0],
+                        irradiance: [
+                            [sh[0], sh[1], sh[2], sh[3]],
+                            [sh[4], sh[5], sh[6], sh[7]],
+                            [sh[8], 0.0, 0.0, 0.0],
                         ],
                         modulation: [[0.0; 4]; MODULATION_SIZE],
                     };
@@ -210,6 +272,7 @@ impl ProbeReflections {
                     });
                     GroupGpu {
                         vertices,
+                        lightmap,
                         vertex_count: verts.len() as u32,
                         group,
                     }
@@ -248,6 +311,7 @@ impl ProbeReflections {
         for g in &self.groups {
             pass.set_bind_group(1, &g.group, &[]);
             pass.set_vertex_buffer(0, g.vertices.slice(..));
+            pass.set_vertex_buffer(1, g.lightmap.slice(..));
             pass.draw(0..g.vertex_count, 0..1);
         }
     }
