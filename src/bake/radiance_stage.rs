@@ -29,10 +29,10 @@ use crate::radiance::footprint::PixelRays;
 use crate::radiance::index::{CamerasFile, MapEntry, cameras_path, reflector_folder};
 use crate::radiance::magnify::{self, Look};
 use crate::radiance::quadtree::{self, QuadtreeLimits};
-use crate::radiance::reads::{MapReads, PixelWriter};
+use crate::radiance::reads::PixelWriter;
 use crate::radiance::sampling::{MapCamera, ReflectorFrame, hemisphere_cameras};
 use crate::radiance::shading::{d_point, d_seen, exitant};
-use crate::radiance::{MIRROR_ROUGHNESS, MapPlan, RadianceMap, Replay, render};
+use crate::radiance::{MIRROR_ROUGHNESS, MapPlan, RadianceMap, Rendered, Replay, render};
 use crate::radiosity::RadiosityMap;
 use crate::radiosity::map::MapError;
 use crate::scene::texturing::texture_levels;
@@ -40,7 +40,7 @@ use crate::scene::{Quality, ReflectorKind, Scene};
 use crate::settings::radiance::MAX_RADIANCE_RESOLUTION;
 
 use super::part::{Item, Part};
-use super::read_cache::{self, MaterialPrints};
+use super::read_cache::{self, HeldReads, HeldRows, MaterialPrints};
 use super::{Stage, read_cache::map_key};
 
 /// Why the radiance stage failed.
@@ -330,10 +330,10 @@ pub fn bake_part(
         let mut maps: Vec<(usize, String, MapCamera, RadianceMap)> = Vec::new();
         // The last map's record, counted against the budget and written while the next map
         // renders (its encoding and hashing are serial): (folder, name, key, records).
-        let mut pending: Option<(&Path, String, [u8; 32], MapReads)> = None;
-        let write_pending = |p: Option<(&Path, String, [u8; 32], MapReads)>| match p {
-            Some((dir, record, key, reads)) => {
-                read_cache::write_record(dir, &record, &key, &prints, &reads)
+        let mut pending: Option<(&Path, String, [u8; 32], HeldReads)> = None;
+        let write_pending = |p: Option<(&Path, String, [u8; 32], HeldReads)>| match p {
+            Some((dir, record, key, held)) => {
+                read_cache::write_record(dir, &record, &key, &prints, &held.reads())
             }
             None => Ok(()),
         };
@@ -365,8 +365,8 @@ pub fn bake_part(
                     };
                     let (reads, changed) = read_cache::kept(reads_dir, &record, &key, &prints);
                     let had_record = reads.is_some();
-                    let replay = reads.map(|reads| Replay {
-                        reads,
+                    let replay = reads.as_ref().map(|file| Replay {
+                        reads: file.reads(),
                         changed: &changed,
                     });
                     clock(0);
@@ -386,21 +386,28 @@ pub fn bake_part(
                     );
                     written?;
                     clock(1);
-                    shaded += rendered.shaded;
+                    // The map apart from its records, which borrow the file read.
+                    let Rendered {
+                        map,
+                        reads: fresh,
+                        shaded: traced,
+                    } = rendered;
+                    shaded += traced;
                     // Records of which no pixel was traced again are still right: kept as they are
                     // (prints older than the materials only trace more next time), and counted
                     // against the unit's budget as a record written is.
                     if let Some(dir) = reads_dir {
-                        let within = if rendered.shaded > 0 {
+                        let within = if traced > 0 {
                             let within = read_cache::charge_record(
                                 dir,
                                 &record,
                                 &prints,
-                                &rendered.reads,
+                                &fresh,
                                 &mut kept_bytes,
                             )?;
                             if within {
-                                pending = Some((dir, record, key, rendered.reads));
+                                let rows = HeldRows::of(reads.as_ref(), fresh);
+                                pending = Some((dir, record, key, rows.with(reads)));
                             }
                             within
                         } else {
@@ -412,7 +419,7 @@ pub fn bake_part(
                     }
                     clock(2);
                     rays += (plan.resolution * plan.resolution) as u64;
-                    maps.push((k, stem, cam, rendered.map));
+                    maps.push((k, stem, cam, map));
                     progress.advance(1);
                 }
                 // An element's maps are encoded on every thread, and written at once: their

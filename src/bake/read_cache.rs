@@ -16,6 +16,9 @@
 //! folder is removed and the unit keeps none. Files are written whole (a temporary file, then
 //! a rename) and not flushed: a torn one fails its hash.
 
+use std::borrow::Cow;
+use std::io::Write;
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use crate::bundle::BundleError;
@@ -123,9 +126,102 @@ pub fn map_key(scene_key: &blake3::Hasher, cam: &MapCamera) -> [u8; 32] {
     *h.finalize().as_bytes()
 }
 
+/// A record file read whole and checked ([`read`]): the prints its records were made with,
+/// and the records, which borrow its bytes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RecordFile {
+    /// The prints of the materials when the records were made.
+    pub prints: MaterialPrints,
+    bytes: Vec<u8>,
+    /// Where the records' encoding starts in `bytes`.
+    reads_at: usize,
+}
+
+impl RecordFile {
+    /// The records, borrowing the file's bytes.
+    pub fn reads(&self) -> MapReads<'_> {
+        MapReads::decode(&self.bytes[self.reads_at..]).expect("checked when read")
+    }
+}
+
+/// Where one row of records held for a later write lies ([`HeldRows`]).
+#[derive(Clone, Debug)]
+enum HeldRow {
+    /// Bytes of the record file the records were read from.
+    Kept(Range<usize>),
+    /// The row's own bytes (traced again).
+    Fresh(Vec<u8>),
+}
+
+/// Per row of a map's records, where its bytes lie: rows kept as they were borrow the file
+/// they were read from, so the records can be held past that borrow ([`HeldRows::with`]) and
+/// written later without copying them.
+#[derive(Clone, Debug)]
+pub struct HeldRows {
+    rows: Vec<HeldRow>,
+    /// Address of the file's bytes the kept rows lie in (0 without a file).
+    base: usize,
+}
+
+impl HeldRows {
+    /// The rows of `reads`, those borrowed from `file` by their place in its bytes.
+    pub fn of(file: Option<&RecordFile>, reads: MapReads<'_>) -> HeldRows {
+        let (base, len) = file.map_or((0, 0), |f| (f.bytes.as_ptr() as usize, f.bytes.len()));
+        let rows = reads
+            .rows
+            .into_iter()
+            .map(|row| match row {
+                Cow::Owned(v) => HeldRow::Fresh(v),
+                Cow::Borrowed(s) => {
+                    let at = (s.as_ptr() as usize).wrapping_sub(base);
+                    if file.is_some() && at <= len && s.len() <= len - at {
+                        HeldRow::Kept(at..at + s.len())
+                    } else {
+                        HeldRow::Fresh(s.to_vec())
+                    }
+                }
+            })
+            .collect();
+        HeldRows { rows, base }
+    }
+
+    /// The records, holding `file`: the one [`HeldRows::of`] was given.
+    pub fn with(self, file: Option<RecordFile>) -> HeldReads {
+        let base = file.as_ref().map_or(0, |f| f.bytes.as_ptr() as usize);
+        assert_eq!(base, self.base, "the rows' own file");
+        HeldReads {
+            file,
+            rows: self.rows,
+        }
+    }
+}
+
+/// A map's records held to be written later ([`HeldRows`]).
+#[derive(Clone, Debug)]
+pub struct HeldReads {
+    file: Option<RecordFile>,
+    rows: Vec<HeldRow>,
+}
+
+impl HeldReads {
+    /// The records, borrowing what holds them.
+    pub fn reads(&self) -> MapReads<'_> {
+        let bytes = self.file.as_ref().map_or(&[][..], |f| &f.bytes[..]);
+        let rows = self
+            .rows
+            .iter()
+            .map(|r| match r {
+                HeldRow::Kept(at) => Cow::Borrowed(&bytes[at.clone()]),
+                HeldRow::Fresh(v) => Cow::Borrowed(&v[..]),
+            })
+            .collect();
+        MapReads { rows }
+    }
+}
+
 /// Reads the record `name` in `dir` written under `key`: the prints it was made with and the
 /// records; `None` when missing, of another key or damaged.
-pub fn read(dir: &Path, name: &str, key: &[u8; 32]) -> Option<(MaterialPrints, MapReads)> {
+pub fn read(dir: &Path, name: &str, key: &[u8; 32]) -> Option<RecordFile> {
     let bytes = std::fs::read(dir.join(name)).ok()?;
     let rest = bytes.strip_prefix(MAGIC.as_slice())?;
     let (k, rest) = rest.split_first_chunk::<32>()?;
@@ -140,7 +236,13 @@ pub fn read(dir: &Path, name: &str, key: &[u8; 32]) -> Option<(MaterialPrints, M
         prints.push(*p);
         rest = r;
     }
-    Some((MaterialPrints(prints), MapReads::decode(rest)?))
+    MapReads::decode(rest)?;
+    let reads_at = bytes.len() - rest.len();
+    Some(RecordFile {
+        prints: MaterialPrints(prints),
+        bytes,
+        reads_at,
+    })
 }
 
 /// The records `name` in `dir` kept under `key` ([`read`]; none without `dir`), and per
@@ -150,34 +252,73 @@ pub fn kept(
     name: &str,
     key: &[u8; 32],
     prints: &MaterialPrints,
-) -> (Option<MapReads>, Vec<bool>) {
+) -> (Option<RecordFile>, Vec<bool>) {
     match dir.and_then(|dir| read(dir, name, key)) {
-        Some((p, reads)) => (Some(reads), prints.changed_since(&p)),
+        Some(file) => {
+            let changed = prints.changed_since(&file.prints);
+            (Some(file), changed)
+        }
         None => (None, Vec::new()),
     }
 }
 
-/// The bytes of a record file: key, hash, prints and records (the body laid out once, then
-/// hashed in place).
-pub fn encode(key: &[u8; 32], prints: &MaterialPrints, reads: &MapReads) -> Vec<u8> {
-    let head = MAGIC.len() + 64;
-    let mut bytes = Vec::with_capacity(head + 4 + 32 * prints.0.len() + reads.size());
-    bytes.extend(MAGIC);
-    bytes.extend(key);
-    bytes.extend([0u8; 32]);
-    bytes.extend((prints.0.len() as u32).to_le_bytes());
+/// Writes a record file to `out`: magic, key, the BLAKE3 of the body, then the body (the
+/// prints and [`MapReads::encode`]'s bytes). The body is hashed and written piece by piece,
+/// the rows from where they lie: a probe's records run to a hundred megabytes.
+fn put_record(
+    out: &mut impl std::io::Write,
+    key: &[u8; 32],
+    prints: &MaterialPrints,
+    reads: &MapReads,
+) -> std::io::Result<()> {
+    let mut head = Vec::with_capacity(4 + 32 * prints.0.len());
+    head.extend((prints.0.len() as u32).to_le_bytes());
     for p in &prints.0 {
-        bytes.extend(p);
+        head.extend(p);
     }
-    reads.encode_into(&mut bytes);
-    let sum = blake3::hash(&bytes[head..]);
-    bytes[head - 32..head].copy_from_slice(sum.as_bytes());
+    head.extend(reads.head());
+    let mut h = blake3::Hasher::new();
+    h.update(&head);
+    for r in &reads.rows {
+        h.update(r);
+    }
+    let mut top = Vec::with_capacity(MAGIC.len() + 64 + head.len());
+    top.extend(MAGIC);
+    top.extend(key);
+    top.extend(h.finalize().as_bytes());
+    top.extend(head);
+    out.write_all(&top)?;
+    for r in &reads.rows {
+        out.write_all(r)?;
+    }
+    Ok(())
+}
+
+/// Bytes of a record file of `prints` and `reads` ([`put_record`]).
+fn record_len(prints: &MaterialPrints, reads: &MapReads) -> u64 {
+    (MAGIC.len() + 64 + 4 + 32 * prints.0.len() + reads.size()) as u64
+}
+
+/// The bytes of a record file: key, hash, prints and records.
+pub fn encode(key: &[u8; 32], prints: &MaterialPrints, reads: &MapReads) -> Vec<u8> {
+    let mut bytes = Vec::with_capacity(record_len(prints, reads) as usize);
+    put_record(&mut bytes, key, prints, reads).expect("writing to memory");
     bytes
 }
 
 /// Writes a record file's `bytes` as `name` into `dir` (created if need be): a temporary
 /// file, then a rename.
 pub fn write(dir: &Path, name: &str, bytes: &[u8]) -> Result<(), BundleError> {
+    write_with(dir, name, |f| f.write_all(bytes))
+}
+
+/// Writes the file `name` into `dir` (created if need be) with `fill`: a temporary file,
+/// then a rename.
+fn write_with(
+    dir: &Path,
+    name: &str,
+    fill: impl FnOnce(&mut std::fs::File) -> std::io::Result<()>,
+) -> Result<(), BundleError> {
     let io = |path: &Path| {
         let path = path.to_owned();
         move |source| BundleError::Io { path, source }
@@ -185,7 +326,9 @@ pub fn write(dir: &Path, name: &str, bytes: &[u8]) -> Result<(), BundleError> {
     std::fs::create_dir_all(dir).map_err(io(dir))?;
     let path = dir.join(name);
     let tmp = dir.join(format!(".{name}.tmp"));
-    std::fs::write(&tmp, bytes).map_err(io(&tmp))?;
+    let mut file = std::fs::File::create(&tmp).map_err(io(&tmp))?;
+    fill(&mut file).map_err(io(&tmp))?;
+    drop(file);
     std::fs::rename(&tmp, &path).map_err(io(&path))
 }
 
@@ -217,11 +360,11 @@ pub fn charge_record(
     reads: &MapReads,
     spent: &mut u64,
 ) -> Result<bool, BundleError> {
-    let len = MAGIC.len() + 64 + 4 + 32 * prints.0.len() + reads.size();
-    charge(dir, name, len as u64, spent)
+    charge(dir, name, record_len(prints, reads), spent)
 }
 
-/// Encodes and writes the record `name` in `dir` under `key` ([`encode`], [`write()`]).
+/// Writes the record `name` in `dir` under `key` ([`encode`]'s bytes, written as
+/// [`write()`] does), its rows from where they lie.
 pub fn write_record(
     dir: &Path,
     name: &str,
@@ -229,7 +372,7 @@ pub fn write_record(
     prints: &MaterialPrints,
     reads: &MapReads,
 ) -> Result<(), BundleError> {
-    write(dir, name, &encode(key, prints, reads))
+    write_with(dir, name, |f| put_record(f, key, prints, reads))
 }
 
 /// Adds a record's `len` bytes to the unit's `spent`; past [`READS_BUDGET`] removes the
@@ -290,16 +433,14 @@ mod tests {
     fn a_record_is_read_under_its_own_key_alone_and_whole() {
         let dir = tempfile::tempdir().unwrap();
         let reads = MapReads {
-            rows: vec![vec![0, 0], vec![0]],
+            rows: vec![vec![0, 0].into(), vec![0].into()],
         };
         let prints = MaterialPrints(vec![[1; 32], [2; 32]]);
         let key = [7u8; 32];
         let bytes = encode(&key, &prints, &reads);
         write(dir.path(), "m.reads", &bytes).unwrap();
-        assert_eq!(
-            read(dir.path(), "m.reads", &key),
-            Some((prints.clone(), reads))
-        );
+        let file = read(dir.path(), "m.reads", &key).unwrap();
+        assert_eq!((&file.prints, file.reads()), (&prints, reads));
         assert_eq!(read(dir.path(), "m.reads", &[8u8; 32]), None);
         let mut torn = bytes.clone();
         *torn.last_mut().unwrap() ^= 1;

@@ -159,8 +159,8 @@ pub fn capture_kept(
     let key = read_cache::capture_key(scene, capture, centre, see_through);
     let prints = MaterialPrints::of(&scene.materials);
     let (old, changed) = read_cache::kept(dir, name, &key, &prints);
-    let replay = old.map(|reads| Replay {
-        reads,
+    let replay = old.as_ref().map(|file| Replay {
+        reads: file.reads(),
         changed: &changed,
     });
     let captured = capture_recorded(
