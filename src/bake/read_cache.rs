@@ -23,6 +23,7 @@ use std::path::{Path, PathBuf};
 
 use crate::bundle::BundleError;
 use crate::materials::envmap::CaptureSettings;
+use crate::radiance::quadtree::{self, QuadtreeLimits};
 use crate::radiance::reads::MapReads;
 use crate::radiance::sampling::MapCamera;
 use crate::scene::{Material, Scene};
@@ -141,6 +142,14 @@ impl RecordFile {
     /// The records, borrowing the file's bytes.
     pub fn reads(&self) -> MapReads<'_> {
         MapReads::decode(&self.bytes[self.reads_at..]).expect("checked when read")
+    }
+
+    /// The BLAKE3 of its body (prints and records), as its head gives it.
+    pub fn sum(&self) -> [u8; 32] {
+        let at = MAGIC.len() + 32;
+        self.bytes[at..at + 32]
+            .try_into()
+            .expect("checked when read")
     }
 }
 
@@ -262,31 +271,43 @@ pub fn kept(
     }
 }
 
-/// Writes a record file to `out`: magic, key, the BLAKE3 of the body, then the body (the
-/// prints and [`MapReads::encode`]'s bytes). The body is hashed and written piece by piece,
-/// the rows from where they lie: a probe's records run to a hundred megabytes.
-fn put_record(
-    out: &mut impl std::io::Write,
-    key: &[u8; 32],
-    prints: &MaterialPrints,
-    reads: &MapReads,
-) -> std::io::Result<()> {
-    let mut head = Vec::with_capacity(4 + 32 * prints.0.len());
+/// The head of a record file's body: the prints, then [`MapReads::head`] (the rows follow).
+fn body_head(prints: &MaterialPrints, reads: &MapReads) -> Vec<u8> {
+    let mut head = Vec::with_capacity(4 + 32 * prints.0.len() + 4 + 4 * reads.rows.len());
     head.extend((prints.0.len() as u32).to_le_bytes());
     for p in &prints.0 {
         head.extend(p);
     }
     head.extend(reads.head());
+    head
+}
+
+/// The BLAKE3 of the body of a record file of `prints` and `reads` (the prints and
+/// [`MapReads::encode`]'s bytes; [`RecordFile::sum`] of the file written), the rows hashed
+/// where they lie: a probe's records run to a hundred megabytes.
+pub fn record_sum(prints: &MaterialPrints, reads: &MapReads) -> [u8; 32] {
     let mut h = blake3::Hasher::new();
-    h.update(&head);
+    h.update(&body_head(prints, reads));
     for r in &reads.rows {
         h.update(r);
     }
-    let mut top = Vec::with_capacity(MAGIC.len() + 64 + head.len());
+    *h.finalize().as_bytes()
+}
+
+/// Writes a record file to `out`: magic, key, `sum` (the body's [`record_sum`]), then the
+/// body, the rows from where they lie.
+fn put_record(
+    out: &mut impl std::io::Write,
+    key: &[u8; 32],
+    sum: &[u8; 32],
+    prints: &MaterialPrints,
+    reads: &MapReads,
+) -> std::io::Result<()> {
+    let mut top = Vec::with_capacity(MAGIC.len() + 64);
     top.extend(MAGIC);
     top.extend(key);
-    top.extend(h.finalize().as_bytes());
-    top.extend(head);
+    top.extend(sum);
+    top.extend(body_head(prints, reads));
     out.write_all(&top)?;
     for r in &reads.rows {
         out.write_all(r)?;
@@ -302,7 +323,8 @@ fn record_len(prints: &MaterialPrints, reads: &MapReads) -> u64 {
 /// The bytes of a record file: key, hash, prints and records.
 pub fn encode(key: &[u8; 32], prints: &MaterialPrints, reads: &MapReads) -> Vec<u8> {
     let mut bytes = Vec::with_capacity(record_len(prints, reads) as usize);
-    put_record(&mut bytes, key, prints, reads).expect("writing to memory");
+    let sum = record_sum(prints, reads);
+    put_record(&mut bytes, key, &sum, prints, reads).expect("writing to memory");
     bytes
 }
 
@@ -333,8 +355,9 @@ fn write_with(
 }
 
 /// Keeps `reads` as the records `name` in `dir` under `key`, adding their bytes to `spent`
-/// (what the unit keeps so far). Once a unit's records pass [`READS_BUDGET`] its folder is
-/// removed and `false` returned: none of them are kept, and the unit writes no more.
+/// (what the unit keeps so far): the BLAKE3 of the file's body ([`RecordFile::sum`]). Once a
+/// unit's records pass [`READS_BUDGET`] its folder is removed and `None` returned: none of
+/// them are kept, and the unit writes no more.
 pub fn keep(
     dir: &Path,
     name: &str,
@@ -342,11 +365,67 @@ pub fn keep(
     prints: &MaterialPrints,
     reads: &MapReads,
     spent: &mut u64,
+) -> Result<Option<[u8; 32]>, BundleError> {
+    if !charge(dir, name, record_len(prints, reads), spent)? {
+        return Ok(None);
+    }
+    let sum = record_sum(prints, reads);
+    write_with(dir, name, |f| put_record(f, key, &sum, prints, reads))?;
+    Ok(Some(sum))
+}
+
+/// First bytes of a map's kept quadtree file, with its format's version.
+const QUADTREE_MAGIC: &[u8; 13] = b"glint-qtree-1";
+
+/// The file of the quadtree kept beside a map's records `record` (`M.e0_0_c0.reads` →
+/// `M.e0_0_c0.qtree`).
+pub fn quadtree_name(record: &str) -> String {
+    format!("{}.qtree", record.strip_suffix(".reads").unwrap_or(record))
+}
+
+/// The key of the quadtree of a map whose records, kept under `map_key`, have the body hash
+/// `records` ([`RecordFile::sum`]): the tree is a function of its pixels' hits alone (the
+/// camera's rays and each record's distance), so of these, the `limits` and the code that
+/// builds it ([`quadtree::BUILD_VERSION`]).
+pub fn quadtree_key(map_key: &[u8; 32], records: &[u8; 32], limits: &QuadtreeLimits) -> [u8; 32] {
+    let mut h = blake3::Hasher::new();
+    h.update(QUADTREE_MAGIC);
+    h.update(map_key);
+    h.update(records);
+    h.update(format!("{limits:?}").as_bytes());
+    h.update(&quadtree::BUILD_VERSION.to_le_bytes());
+    *h.finalize().as_bytes()
+}
+
+/// The quadtree `name` in `dir` kept under `key` ([`quadtree::encode`]'s bytes); `None` when
+/// missing, of another key or damaged.
+pub fn read_quadtree(dir: &Path, name: &str, key: &[u8; 32]) -> Option<Vec<u8>> {
+    let bytes = std::fs::read(dir.join(name)).ok()?;
+    let rest = bytes.strip_prefix(QUADTREE_MAGIC.as_slice())?;
+    let (k, rest) = rest.split_first_chunk::<32>()?;
+    let (sum, rest) = rest.split_first_chunk::<32>()?;
+    (k == key && blake3::hash(rest).as_bytes() == sum).then(|| rest.to_vec())
+}
+
+/// Keeps a map's quadtree (`tree`: [`quadtree::encode`]'s bytes) as `name` in `dir` under
+/// `key`, counted against the unit's budget as its records are ([`keep`]): `false` past it.
+pub fn keep_quadtree(
+    dir: &Path,
+    name: &str,
+    key: &[u8; 32],
+    tree: &[u8],
+    spent: &mut u64,
 ) -> Result<bool, BundleError> {
-    if !charge_record(dir, name, prints, reads, spent)? {
+    let len = (QUADTREE_MAGIC.len() + 64 + tree.len()) as u64;
+    if !charge(dir, name, len, spent)? {
         return Ok(false);
     }
-    write_record(dir, name, key, prints, reads)?;
+    write_with(dir, name, |f| {
+        f.write_all(QUADTREE_MAGIC)?;
+        f.write_all(key)?;
+        f.write_all(blake3::hash(tree).as_bytes())?;
+        f.write_all(tree)
+    })?;
     Ok(true)
 }
 
@@ -364,15 +443,16 @@ pub fn charge_record(
 }
 
 /// Writes the record `name` in `dir` under `key` ([`encode`]'s bytes, written as
-/// [`write()`] does), its rows from where they lie.
+/// [`write()`] does), its rows from where they lie; `sum` is its [`record_sum`].
 pub fn write_record(
     dir: &Path,
     name: &str,
     key: &[u8; 32],
+    sum: &[u8; 32],
     prints: &MaterialPrints,
     reads: &MapReads,
 ) -> Result<(), BundleError> {
-    write_with(dir, name, |f| put_record(f, key, prints, reads))
+    write_with(dir, name, |f| put_record(f, key, sum, prints, reads))
 }
 
 /// Adds a record's `len` bytes to the unit's `spent`; past [`READS_BUDGET`] removes the
