@@ -2,8 +2,9 @@
 //! and the cube-map captures' of what their texels read ([`crate::materials::capture_reads`]),
 //! kept between bakes of a reflector's, a probe's or an environment map's work unit by the
 //! plain `glint-bake`, in a folder beside its shard in the unit cache
-//! (`B.units/radiance.NAME.reads/`, one file per map; `B.units/probe.NAME.reads/`,
-//! `B.units/envmap.NAME.reads/`, one file); a job engine's shards keep none.
+//! (`B.units/radiance.NAME.reads/`, one file per map and its quadtree, [`read_quadtree`];
+//! `B.units/probe.NAME.reads/`, `B.units/envmap.NAME.reads/`, one file); a job engine's
+//! shards keep none.
 //!
 //! A record is evaluated only under the key it was written with: everything its reads and
 //! weights depend on but D (so not the albedos) and the lobes and transmission of the
@@ -507,6 +508,52 @@ mod tests {
         let mut spent = READS_BUDGET - 50;
         assert!(!count_kept(&folder, "m.reads", &mut spent).unwrap());
         assert!(!folder.exists());
+    }
+
+    #[test]
+    fn a_kept_quadtree_is_read_under_its_records_key_alone_and_whole() {
+        let dir = tempfile::tempdir().unwrap();
+        let reads = MapReads {
+            rows: vec![vec![0, 0].into(), vec![0].into()],
+        };
+        let prints = MaterialPrints(vec![[1; 32]]);
+        let mut spent = 0;
+        let sum = keep(dir.path(), "m.reads", &[7; 32], &prints, &reads, &mut spent)
+            .unwrap()
+            .unwrap();
+        // The sum `keep` gives is the one the file holds.
+        assert_eq!(read(dir.path(), "m.reads", &[7; 32]).unwrap().sum(), sum);
+        let limits = QuadtreeLimits {
+            relative_depth_range: 0.1,
+            min_points: 64,
+        };
+        let key = quadtree_key(&[7; 32], &sum, &limits);
+        let name = quadtree_name("m.reads");
+        assert_eq!(name, "m.qtree");
+        assert!(keep_quadtree(dir.path(), &name, &key, b"tree", &mut spent).unwrap());
+        assert_eq!(
+            read_quadtree(dir.path(), &name, &key),
+            Some(b"tree".to_vec())
+        );
+        // Records of other bytes, or other limits: another key.
+        for other in [
+            quadtree_key(&[7; 32], &[0; 32], &limits),
+            quadtree_key(
+                &[7; 32],
+                &sum,
+                &QuadtreeLimits {
+                    min_points: 32,
+                    ..limits
+                },
+            ),
+        ] {
+            assert_eq!(read_quadtree(dir.path(), &name, &other), None);
+        }
+        let path = dir.path().join(&name);
+        let mut torn = std::fs::read(&path).unwrap();
+        *torn.last_mut().unwrap() ^= 1;
+        std::fs::write(&path, torn).unwrap();
+        assert_eq!(read_quadtree(dir.path(), &name, &key), None);
     }
 
     #[test]

@@ -202,7 +202,7 @@ pub struct CubeShape {
 }
 
 /// A D lookup (the stored value at barycentrics of a triangle), and a cube's kept records.
-pub type Recorded<'a> = (&'a (dyn Fn(u32, Vec2) -> Vec3 + Sync), Option<Replay<'a>>);
+pub type Recorded<'d, 'a> = (&'d (dyn Fn(u32, Vec2) -> Vec3 + Sync), Option<Replay<'a>>);
 
 /// Traces texel (x, y) of a face (`face, x, y, out`), appending its record to `out`, and gives
 /// the value its trace summed.
@@ -218,7 +218,7 @@ pub fn texel_rows<'a>(
     shape: &CubeShape,
     triangles: &[Triangle],
     texel: &TraceTexel<'_>,
-    recorded: Option<Recorded<'a>>,
+    recorded: Option<Recorded<'_, 'a>>,
     progress: &dyn Progress,
 ) -> Option<(Vec<Vec3>, MapReads<'a>, u64)> {
     let size = shape.size;

@@ -428,7 +428,7 @@ pub fn capture_recorded<'a>(
     centre: Vec3,
     settings: &CaptureSettings,
     see_through: &[u32],
-    d: &'a (dyn Fn(u32, Vec2) -> Vec3 + Sync),
+    d: &(dyn Fn(u32, Vec2) -> Vec3 + Sync),
     replay: Option<Replay<'a>>,
     progress: &dyn Progress,
 ) -> Result<Captured<'a>, Cancelled> {
@@ -453,7 +453,7 @@ fn capture<'a>(
     (centre, see_through): (Vec3, &[u32]),
     settings: &CaptureSettings,
     shade: &(dyn Fn(&Hit) -> Vec3 + Sync),
-    recorded: Option<rec::Recorded<'a>>,
+    recorded: Option<rec::Recorded<'_, 'a>>,
     progress: &dyn Progress,
 ) -> Result<Captured<'a>, Cancelled> {
     let mut skip = vec![false; scene.triangles.len()];
