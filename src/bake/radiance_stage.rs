@@ -329,8 +329,8 @@ pub fn bake_part(
         // An element's maps, rendered: (camera, file stem, camera, map, its quadtree's file
         // and key where its records are kept, the quadtree kept with them).
         type Tree = Option<(String, [u8; 32])>;
-        let mut maps: Vec<(usize, String, MapCamera, RadianceMap, Tree, Option<Vec<u8>>)> =
-            Vec::new();
+        type Done = (usize, String, MapCamera, RadianceMap, Tree, Option<Vec<u8>>);
+        let mut maps: Vec<Done> = Vec::new();
         // The last map's record, counted against the budget and hashed (its quadtree's key
         // needs the sum), written while the next map renders: (folder, name, key, sum,
         // records).

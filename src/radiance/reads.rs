@@ -321,6 +321,9 @@ impl<'a> MapReads<'a> {
     }
 }
 
+/// Per row, its kept records (`None`: none kept, the row is traced whole).
+pub type KeptRows<'a> = Vec<Option<Cow<'a, [u8]>>>;
+
 /// A map's or cube map's kept records to evaluate with this bake's D instead of tracing, and
 /// per material whether the lobes or transmission that shaped them changed since: an item
 /// whose surfaces meet such a material is traced again.
@@ -335,7 +338,7 @@ pub struct Replay<'a> {
 impl<'a> Replay<'a> {
     /// Per row of `n`, its kept records (none without a replay, or for records of another
     /// row count), and the changed materials (none known: every material counts as changed).
-    pub fn rows(replay: Option<Replay<'a>>, n: usize) -> (Vec<Option<Cow<'a, [u8]>>>, &'a [bool]) {
+    pub fn rows(replay: Option<Replay<'a>>, n: usize) -> (KeptRows<'a>, &'a [bool]) {
         match replay {
             Some(r) if r.reads.rows.len() == n => {
                 (r.reads.rows.into_iter().map(Some).collect(), r.changed)
