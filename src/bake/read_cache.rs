@@ -582,4 +582,29 @@ mod tests {
             vec![true]
         );
     }
+
+    #[test]
+    fn records_held_past_their_file_borrow_write_the_same_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let prints = MaterialPrints(vec![[1; 32]]);
+        let key = [7u8; 32];
+        let old = MapReads {
+            rows: vec![vec![1, 2, 3].into(), vec![4].into(), vec![5, 6].into()],
+        };
+        write(dir.path(), "m.reads", &encode(&key, &prints, &old)).unwrap();
+        let file = read(dir.path(), "m.reads", &key);
+        // Row 1 traced again; rows 0 and 2 kept as they were, borrowing the file.
+        let mut rows = file.as_ref().unwrap().reads().rows;
+        rows[1] = Cow::Owned(vec![9, 9]);
+        let new = MapReads { rows };
+        let (sum, expected) = (record_sum(&prints, &new), encode(&key, &prints, &new));
+        let held = HeldRows::of(file.as_ref(), new);
+        // The kept rows are places in the file, not copies.
+        let kept = held.rows.iter().filter(|r| matches!(r, HeldRow::Kept(_)));
+        assert_eq!(kept.count(), 2);
+        let held = held.with(file);
+        write_record(dir.path(), "n.reads", &key, &sum, &prints, &held.reads()).unwrap();
+        assert_eq!(std::fs::read(dir.path().join("n.reads")).unwrap(), expected);
+        assert_eq!(read(dir.path(), "n.reads", &key).unwrap().sum(), sum);
+    }
 }
