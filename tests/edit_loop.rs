@@ -256,6 +256,13 @@ fn each_edit_rebakes_only_what_it_touches_and_gives_the_bytes_of_a_fresh_bake() 
     assert!(traced > 0 && traced < all && all == texels, "{log}");
     assert!(!has(&baked, "material.PanelMat"), "{baked:?}");
     assert_same_as_fresh(&scene, &bundle, &fresh("roughness"), "roughness");
+    // The ray cache, its kept batches as they were, is the one a fresh bake writes.
+    let rays = |b: &Path| std::fs::read(b.with_extension("glint.units").join("radiosity.rays"));
+    let kept = rays(&bundle).unwrap();
+    assert!(
+        kept == rays(&fresh("roughness")).unwrap(),
+        "ray caches differ"
+    );
 
     // One light's power: D and what reads it, no material kernel. A map's record under another
     // key (its first bytes past the format's name damaged) is not used: that map alone is traced.
