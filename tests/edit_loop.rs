@@ -157,6 +157,21 @@ fn texels_traced(log: &str) -> (u64, u64) {
     sum
 }
 
+/// From a bake's log, the cube faces whose records the probes and environment maps wrote,
+/// and all their faces.
+fn faces_written(log: &str) -> (u64, u64) {
+    let mut sum = (0, 0);
+    for line in log.lines() {
+        let Some((head, _)) = line.split_once(" faces' records written") else {
+            continue;
+        };
+        let words: Vec<&str> = head.split_whitespace().rev().take(3).collect();
+        sum.0 += words[2].parse::<u64>().unwrap();
+        sum.1 += words[0].parse::<u64>().unwrap();
+    }
+    sum
+}
+
 /// The bundle at `bundle` holds what a bake from scratch of `scene` gives, byte for byte.
 fn assert_same_as_fresh(scene: &Path, bundle: &Path, fresh: &Path, what: &str) {
     bake_units(scene, fresh);
@@ -254,6 +269,9 @@ fn each_edit_rebakes_only_what_it_touches_and_gives_the_bytes_of_a_fresh_bake() 
     // The probe's texels that see the floor are captured again, the rest evaluated.
     let (traced, all) = texels_traced(&log);
     assert!(traced > 0 && traced < all && all == texels, "{log}");
+    // Only the faces with a texel traced again have their records written again.
+    let (written, faces) = faces_written(&log);
+    assert!(written > 0 && written < faces && faces == 6, "{log}");
     assert!(!has(&baked, "material.PanelMat"), "{baked:?}");
     assert_same_as_fresh(&scene, &bundle, &fresh("roughness"), "roughness");
     // The ray cache, its kept batches as they were, is the one a fresh bake writes.
@@ -263,6 +281,14 @@ fn each_edit_rebakes_only_what_it_touches_and_gives_the_bytes_of_a_fresh_bake() 
         kept == rays(&fresh("roughness")).unwrap(),
         "ray caches differ"
     );
+    // An albedo again: no lobe changed, so no probe texel is traced, on a face kept as it was
+    // by the roughness edit (its file holding the prints of before it) as on one written then.
+    edit(&scene, |v| {
+        v["materials"]["FloorMat"]["albedo"] = serde_json::json!([0.5, 0.5, 0.4])
+    });
+    let (_, log) = bake_units_logged(&scene, &bundle);
+    assert_eq!(texels_traced(&log), (0, texels), "{log}");
+    assert_eq!(faces_written(&log), (0, 6), "{log}");
 
     // One light's power: D and what reads it, no material kernel. A map's record under another
     // key (its first bytes past the format's name damaged) is not used: that map alone is traced.

@@ -370,10 +370,7 @@ pub fn bake_part(
                     };
                     let (reads, changed) = read_cache::kept(reads_dir, &record, &key, &prints);
                     let kept_sum = reads.as_ref().map(|f| f.sum());
-                    let replay = reads.as_ref().map(|file| Replay {
-                        reads: file.reads(),
-                        changed: &changed,
-                    });
+                    let replay = reads.as_ref().map(|f| Replay::of(f.reads(), &changed));
                     clock(0);
                     let (rendered, written) = rayon::join(
                         || {

@@ -480,6 +480,16 @@ pub fn count_kept(dir: &Path, name: &str, spent: &mut u64) -> Result<bool, Bundl
     charge(dir, name, len, spent)
 }
 
+/// Removes the file `name` in `dir`, if there is one.
+pub fn remove_file(dir: &Path, name: &str) -> Result<(), BundleError> {
+    let path = dir.join(name);
+    match std::fs::remove_file(&path) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(source) => Err(BundleError::Io { path, source }),
+    }
+}
+
 /// Removes the folder `dir` and what it holds (a unit over its budget keeps no records).
 pub fn remove(dir: &Path) -> Result<(), BundleError> {
     match std::fs::remove_dir_all(dir) {

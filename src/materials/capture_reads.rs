@@ -227,18 +227,19 @@ pub fn texel_rows<'a>(
         None => (None, None),
     };
     let (old_rows, changed) = Replay::rows(replay, 6 * size);
-    let stale = |t: u32| {
-        let m = triangles[t as usize].material as usize;
-        changed.get(m).copied().unwrap_or(true)
-    };
     let eval = |at: &[u8], stale: &dyn Fn(u32) -> bool, d| {
         let (rays, samples) = (shape.rays, shape.glossy_samples);
         eval_texel(at, rays, samples, triangles.len(), stale, d)
     };
     let rows: Vec<(Vec<Vec3>, Cow<'a, [u8]>, u64)> = old_rows
         .into_par_iter()
+        .zip(changed)
         .enumerate()
-        .map(|(row, old)| {
+        .map(|(row, (old, changed))| {
+            let stale = |t: u32| {
+                let m = triangles[t as usize].material as usize;
+                changed.get(m).copied().unwrap_or(true)
+            };
             if progress.cancelled() {
                 return (Vec::new(), Cow::Borrowed(&[][..]), 0);
             }

@@ -75,15 +75,16 @@ pub fn render<'a>(
     let res = cam.resolution;
     // Records of another resolution are not this map's.
     let (old_rows, changed) = Replay::rows(replay, res as usize);
-    let changed = |t: u32| {
-        let m = triangles[t as usize].material as usize;
-        changed.get(m).copied().unwrap_or(true)
-    };
     type Pixel = (Vec3, f32, Vec3, Vec3, bool);
     let rows: Vec<(Vec<Pixel>, Cow<'a, [u8]>, u64)> = old_rows
         .into_par_iter()
+        .zip(changed)
         .enumerate()
-        .map(|(y, old)| {
+        .map(|(y, (old, changed))| {
+            let changed = |t: u32| {
+                let m = triangles[t as usize].material as usize;
+                changed.get(m).copied().unwrap_or(true)
+            };
             let y = y as u32;
             let mut origins = Vec::with_capacity(res as usize);
             let mut dirs = Vec::with_capacity(res as usize);

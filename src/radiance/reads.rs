@@ -329,21 +329,34 @@ pub type KeptRows<'a> = Vec<Option<Cow<'a, [u8]>>>;
 /// whose surfaces meet such a material is traced again.
 #[derive(Clone, Debug)]
 pub struct Replay<'a> {
-    /// The records.
-    pub reads: MapReads<'a>,
-    /// Per material index, whether it changed.
-    pub changed: &'a [bool],
+    /// The records, row by row (`None`: a row none are kept of, traced whole).
+    pub rows: KeptRows<'a>,
+    /// Per material index, whether it changed since the records were made: one list for
+    /// every row, or one per equal run of rows (a cube's faces, each kept in a file of its
+    /// own).
+    pub changed: Vec<&'a [bool]>,
 }
 
 impl<'a> Replay<'a> {
+    /// Every row of `reads` kept, with the materials `changed` since they were made.
+    pub fn of(reads: MapReads<'a>, changed: &'a [bool]) -> Replay<'a> {
+        Replay {
+            rows: reads.rows.into_iter().map(Some).collect(),
+            changed: vec![changed],
+        }
+    }
+
     /// Per row of `n`, its kept records (none without a replay, or for records of another
-    /// row count), and the changed materials (none known: every material counts as changed).
-    pub fn rows(replay: Option<Replay<'a>>, n: usize) -> (KeptRows<'a>, &'a [bool]) {
+    /// row count) and the materials changed since (none known: every material counts as
+    /// changed).
+    pub fn rows(replay: Option<Replay<'a>>, n: usize) -> (KeptRows<'a>, Vec<&'a [bool]>) {
         match replay {
-            Some(r) if r.reads.rows.len() == n => {
-                (r.reads.rows.into_iter().map(Some).collect(), r.changed)
+            Some(r) if r.rows.len() == n && !r.changed.is_empty() && n % r.changed.len() == 0 => {
+                let run = n / r.changed.len();
+                let changed = (0..n).map(|row| r.changed[row / run]).collect();
+                (r.rows, changed)
             }
-            _ => (vec![None; n], &[]),
+            _ => (vec![None; n], vec![&[]; n]),
         }
     }
 }
