@@ -3,8 +3,8 @@
 //! kept between bakes of a reflector's, a probe's or an environment map's work unit by the
 //! plain `glint-bake`, in a folder beside its shard in the unit cache
 //! (`B.units/radiance.NAME.reads/`, one file per map and its quadtree, [`read_quadtree`];
-//! `B.units/probe.NAME.reads/`, `B.units/envmap.NAME.reads/`, one file); a job engine's
-//! shards keep none.
+//! `B.units/probe.NAME.reads/`, `B.units/envmap.NAME.reads/`, one file per cube face); a job
+//! engine's shards keep none.
 //!
 //! A record is evaluated only under the key it was written with: everything its reads and
 //! weights depend on but D (so not the albedos) and the lobes and transmission of the

@@ -351,7 +351,11 @@ impl<'a> Replay<'a> {
     /// changed).
     pub fn rows(replay: Option<Replay<'a>>, n: usize) -> (KeptRows<'a>, Vec<&'a [bool]>) {
         match replay {
-            Some(r) if r.rows.len() == n && !r.changed.is_empty() && n % r.changed.len() == 0 => {
+            Some(r)
+                if r.rows.len() == n
+                    && !r.changed.is_empty()
+                    && n.is_multiple_of(r.changed.len()) =>
+            {
                 let run = n / r.changed.len();
                 let changed = (0..n).map(|row| r.changed[row / run]).collect();
                 (r.rows, changed)
