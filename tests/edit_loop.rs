@@ -127,12 +127,42 @@ fn pixels_traced(log: &str) -> (u64, u64) {
     sum
 }
 
+/// From a bake's log, the radiance maps' quadtrees kept with their records (not built again),
+/// and all their quadtrees.
+fn quadtrees_kept(log: &str) -> (u64, u64) {
+    let mut sum = (0, 0);
+    for line in log.lines() {
+        let Some((head, _)) = line.split_once(" quadtrees kept") else {
+            continue;
+        };
+        let words: Vec<&str> = head.split_whitespace().rev().take(3).collect();
+        sum.0 += words[2].parse::<u64>().unwrap();
+        sum.1 += words[0].parse::<u64>().unwrap();
+    }
+    sum
+}
+
 /// From a bake's log, the probes' and environment maps' cube texels it traced, and all their
 /// texels (the rest were evaluated from their records).
 fn texels_traced(log: &str) -> (u64, u64) {
     let mut sum = (0, 0);
     for line in log.lines() {
         let Some((head, _)) = line.split_once(" texels traced") else {
+            continue;
+        };
+        let words: Vec<&str> = head.split_whitespace().rev().take(3).collect();
+        sum.0 += words[2].parse::<u64>().unwrap();
+        sum.1 += words[0].parse::<u64>().unwrap();
+    }
+    sum
+}
+
+/// From a bake's log, the cube faces whose records the probes and environment maps wrote,
+/// and all their faces.
+fn faces_written(log: &str) -> (u64, u64) {
+    let mut sum = (0, 0);
+    for line in log.lines() {
+        let Some((head, _)) = line.split_once(" faces' records written") else {
             continue;
         };
         let words: Vec<&str> = head.split_whitespace().rev().take(3).collect();
@@ -170,6 +200,10 @@ fn each_edit_rebakes_only_what_it_touches_and_gives_the_bytes_of_a_fresh_bake() 
     // The first bake traces every map pixel.
     let (traced, pixels) = pixels_traced(&err);
     assert!(traced == pixels && pixels > 0, "{err}");
+    // Every map's quadtree is built.
+    let (_, maps) = quadtrees_kept(&err);
+    assert!(maps > 0, "{err}");
+    assert_eq!(quadtrees_kept(&err), (0, maps), "{err}");
     // And every texel of the floor's probe.
     let (traced, texels) = texels_traced(&err);
     assert!(traced == texels && texels > 0, "{err}");
@@ -211,6 +245,8 @@ fn each_edit_rebakes_only_what_it_touches_and_gives_the_bytes_of_a_fresh_bake() 
     // maps: every pixel is evaluated from its record.
     assert!(!log.contains("gathering rays kept"), "{log}");
     assert_eq!(pixels_traced(&log), (0, pixels), "{log}");
+    // Records kept as they are: so are the maps' quadtrees, built from the same hits.
+    assert_eq!(quadtrees_kept(&log), (maps, maps), "{log}");
     // The probe is rebaked (it reads D) but captures nothing: every texel from its record.
     assert!(has(&baked, "probe.FloorMat"), "{baked:?}");
     assert_eq!(texels_traced(&log), (0, texels), "{log}");
@@ -233,8 +269,26 @@ fn each_edit_rebakes_only_what_it_touches_and_gives_the_bytes_of_a_fresh_bake() 
     // The probe's texels that see the floor are captured again, the rest evaluated.
     let (traced, all) = texels_traced(&log);
     assert!(traced > 0 && traced < all && all == texels, "{log}");
+    // Only the faces with a texel traced again have their records written again.
+    let (written, faces) = faces_written(&log);
+    assert!(written > 0 && written < faces && faces == 6, "{log}");
     assert!(!has(&baked, "material.PanelMat"), "{baked:?}");
     assert_same_as_fresh(&scene, &bundle, &fresh("roughness"), "roughness");
+    // The ray cache, its kept batches as they were, is the one a fresh bake writes.
+    let rays = |b: &Path| std::fs::read(b.with_extension("glint.units").join("radiosity.rays"));
+    let kept = rays(&bundle).unwrap();
+    assert!(
+        kept == rays(&fresh("roughness")).unwrap(),
+        "ray caches differ"
+    );
+    // An albedo again: no lobe changed, so no probe texel is traced, on a face kept as it was
+    // by the roughness edit (its file holding the prints of before it) as on one written then.
+    edit(&scene, |v| {
+        v["materials"]["FloorMat"]["albedo"] = serde_json::json!([0.5, 0.5, 0.4])
+    });
+    let (_, log) = bake_units_logged(&scene, &bundle);
+    assert_eq!(texels_traced(&log), (0, texels), "{log}");
+    assert_eq!(faces_written(&log), (0, 6), "{log}");
 
     // One light's power: D and what reads it, no material kernel. A map's record under another
     // key (its first bytes past the format's name damaged) is not used: that map alone is traced.
@@ -242,6 +296,7 @@ fn each_edit_rebakes_only_what_it_touches_and_gives_the_bytes_of_a_fresh_bake() 
     let mut records: Vec<_> = std::fs::read_dir(&reads)
         .unwrap()
         .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "reads"))
         .collect();
     records.sort();
     let mut damaged = std::fs::read(&records[0]).unwrap();
@@ -252,6 +307,8 @@ fn each_edit_rebakes_only_what_it_touches_and_gives_the_bytes_of_a_fresh_bake() 
     });
     let (baked, log) = bake_units_logged(&scene, &bundle);
     assert_eq!(pixels_traced(&log), (16 * 16, pixels), "{log}");
+    // The map traced again gets a quadtree built from its new records.
+    assert_eq!(quadtrees_kept(&log), (maps - 1, maps), "{log}");
     assert!(has(&baked, "radiosity"), "{baked:?}");
     assert!(
         !baked.iter().any(|u| u.starts_with("material.")),

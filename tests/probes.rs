@@ -289,10 +289,7 @@ fn a_probe_evaluated_from_its_records_is_the_probe_captured() {
         assert_eq!(first.traced, texels as u64);
         assert_eq!(bits(&first.cube), direct(&scene, at, &d), "{}", p.name);
         // D alone changed: no texel traced, the bytes of a capture with the new D.
-        let replay = Replay {
-            reads: first.reads.clone(),
-            changed: &unchanged,
-        };
+        let replay = Replay::of(first.reads.clone(), &unchanged);
         let again = recorded(&scene, at, &edited_d, Some(replay));
         assert_eq!(again.traced, 0, "{}", p.name);
         assert_eq!(
@@ -303,10 +300,7 @@ fn a_probe_evaluated_from_its_records_is_the_probe_captured() {
         );
         // Tiles' lobe changed too: the texels whose rays met Tiles are traced again, and the
         // cube is the edited scene's.
-        let replay = Replay {
-            reads: first.reads,
-            changed: &changed,
-        };
+        let replay = Replay::of(first.reads, &changed);
         let edit = recorded(&rougher, at, &edited_d, Some(replay));
         assert_eq!(
             bits(&edit.cube),

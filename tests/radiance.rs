@@ -406,12 +406,7 @@ fn a_map_evaluated_from_its_records_is_the_map_traced() {
     assert_eq!(first.shaded, 32 * 32);
     let traced = render_with(&before, &d2, None);
     let none = vec![false; before.materials.len()];
-    let kept = |changed| {
-        Some(Replay {
-            reads: first.reads.clone(),
-            changed,
-        })
-    };
+    let kept = |changed| Some(Replay::of(first.reads.clone(), changed));
     let evaluated = render_with(&before, &d2, kept(&none));
     assert_eq!(evaluated.shaded, 0);
     assert_ne!(map_bits(&evaluated.map), map_bits(&first.map), "D changed");

@@ -29,10 +29,10 @@ use crate::radiance::footprint::PixelRays;
 use crate::radiance::index::{CamerasFile, MapEntry, cameras_path, reflector_folder};
 use crate::radiance::magnify::{self, Look};
 use crate::radiance::quadtree::{self, QuadtreeLimits};
-use crate::radiance::reads::{MapReads, PixelWriter};
+use crate::radiance::reads::PixelWriter;
 use crate::radiance::sampling::{MapCamera, ReflectorFrame, hemisphere_cameras};
 use crate::radiance::shading::{d_point, d_seen, exitant};
-use crate::radiance::{MIRROR_ROUGHNESS, MapPlan, RadianceMap, Replay, render};
+use crate::radiance::{MIRROR_ROUGHNESS, MapPlan, RadianceMap, Rendered, Replay, render};
 use crate::radiosity::RadiosityMap;
 use crate::radiosity::map::MapError;
 use crate::scene::texturing::texture_levels;
@@ -40,7 +40,7 @@ use crate::scene::{Quality, ReflectorKind, Scene};
 use crate::settings::radiance::MAX_RADIANCE_RESOLUTION;
 
 use super::part::{Item, Part};
-use super::read_cache::{self, MaterialPrints};
+use super::read_cache::{self, HeldReads, HeldRows, MaterialPrints};
 use super::{Stage, read_cache::map_key};
 
 /// Why the radiance stage failed.
@@ -299,9 +299,9 @@ pub fn bake_part(
     let normal_offset = 4.0 * bvh.epsilon();
     let scene_key = read_cache::scene_key(scene, normal_offset);
     let prints = MaterialPrints::of(&scene.materials);
-    let (mut shaded, mut kept_bytes) = (0u64, 0u64);
+    let (mut shaded, mut kept_bytes, mut trees_kept) = (0u64, 0u64, 0u64);
     // Wall seconds of reading records, rendering (the last record written meanwhile), counting
-    // and writing records, and encoding, summed.
+    // and hashing records, and encoding, summed.
     let mut steps = [0f64; 4];
     let limits = quadtree_limits(scene);
     let plans: Vec<_> = plans_with(scene, quality, &built)
@@ -326,14 +326,19 @@ pub fn bake_part(
         let mut cameras = Vec::new();
         let mut bytes = 0u64;
         let mut files: Vec<(String, &str, Vec<u8>)> = Vec::new();
-        // An element's maps, rendered: (camera, file stem, camera, map).
-        let mut maps: Vec<(usize, String, MapCamera, RadianceMap)> = Vec::new();
-        // The last map's record, counted against the budget and written while the next map
-        // renders (its encoding and hashing are serial): (folder, name, key, records).
-        let mut pending: Option<(&Path, String, [u8; 32], MapReads)> = None;
-        let write_pending = |p: Option<(&Path, String, [u8; 32], MapReads)>| match p {
-            Some((dir, record, key, reads)) => {
-                read_cache::write_record(dir, &record, &key, &prints, &reads)
+        // An element's maps, rendered: (camera, file stem, camera, map, its quadtree's file
+        // and key where its records are kept, the quadtree kept with them).
+        type Tree = Option<(String, [u8; 32])>;
+        type Done = (usize, String, MapCamera, RadianceMap, Tree, Option<Vec<u8>>);
+        let mut maps: Vec<Done> = Vec::new();
+        // The last map's record, counted against the budget and hashed (its quadtree's key
+        // needs the sum), written while the next map renders: (folder, name, key, sum,
+        // records).
+        type Held<'p> = Option<(&'p Path, String, [u8; 32], [u8; 32], HeldReads)>;
+        let mut pending: Held = None;
+        let write_pending = |p: Held| match p {
+            Some((dir, record, key, sum, held)) => {
+                read_cache::write_record(dir, &record, &key, &sum, &prints, &held.reads())
             }
             None => Ok(()),
         };
@@ -364,11 +369,8 @@ pub fn bake_part(
                         lap = Instant::now();
                     };
                     let (reads, changed) = read_cache::kept(reads_dir, &record, &key, &prints);
-                    let had_record = reads.is_some();
-                    let replay = reads.map(|reads| Replay {
-                        reads,
-                        changed: &changed,
-                    });
+                    let kept_sum = reads.as_ref().map(|f| f.sum());
+                    let replay = reads.as_ref().map(|f| Replay::of(f.reads(), &changed));
                     clock(0);
                     let (rendered, written) = rayon::join(
                         || {
@@ -386,33 +388,61 @@ pub fn bake_part(
                     );
                     written?;
                     clock(1);
-                    shaded += rendered.shaded;
+                    // The map apart from its records, which borrow the file read.
+                    let Rendered {
+                        map,
+                        reads: fresh,
+                        shaded: traced,
+                    } = rendered;
+                    shaded += traced;
                     // Records of which no pixel was traced again are still right: kept as they are
                     // (prints older than the materials only trace more next time), and counted
                     // against the unit's budget as a record written is.
+                    let mut sum = None;
                     if let Some(dir) = reads_dir {
-                        let within = if rendered.shaded > 0 {
+                        let within = if traced > 0 {
                             let within = read_cache::charge_record(
                                 dir,
                                 &record,
                                 &prints,
-                                &rendered.reads,
+                                &fresh,
                                 &mut kept_bytes,
                             )?;
                             if within {
-                                pending = Some((dir, record, key, rendered.reads));
+                                let s = read_cache::record_sum(&prints, &fresh);
+                                sum = Some(s);
+                                let rows = HeldRows::of(reads.as_ref(), fresh);
+                                pending = Some((dir, record.clone(), key, s, rows.with(reads)));
                             }
                             within
                         } else {
-                            !had_record || read_cache::count_kept(dir, &record, &mut kept_bytes)?
+                            sum = kept_sum;
+                            kept_sum.is_none()
+                                || read_cache::count_kept(dir, &record, &mut kept_bytes)?
                         };
                         if !within {
                             reads_dir = None;
                         }
                     }
+                    // The quadtree of records kept as they are is the one kept with them, built
+                    // from the same hits.
+                    let tree_name = read_cache::quadtree_name(&record);
+                    let tree_key = reads_dir
+                        .zip(sum)
+                        .map(|(_, sum)| read_cache::quadtree_key(&key, &sum, &limits));
+                    let mut tree = None;
+                    if let (Some(dir), Some(k), 0) = (reads_dir, tree_key, traced) {
+                        tree = read_cache::read_quadtree(dir, &tree_name, &k);
+                        if tree.is_some()
+                            && !read_cache::count_kept(dir, &tree_name, &mut kept_bytes)?
+                        {
+                            reads_dir = None;
+                        }
+                    }
                     clock(2);
                     rays += (plan.resolution * plan.resolution) as u64;
-                    maps.push((k, stem, cam, rendered.map));
+                    let tree_keep = tree_key.map(|k| (tree_name, k));
+                    maps.push((k, stem, cam, map, tree_keep, tree));
                     progress.advance(1);
                 }
                 // An element's maps are encoded on every thread, and written at once: their
@@ -420,25 +450,42 @@ pub fn bake_part(
                 let lap = Instant::now();
                 let encoded: Vec<_> = maps
                     .par_iter()
-                    .map(|(_, _, _, map)| {
+                    .map(|(_, _, _, map, _, kept)| {
                         let exr = encode_map(
                             plan.resolution,
                             map,
                             ExrCompression::Zip16,
                             Precision::Float,
                         );
-                        let tree = quadtree::build(
-                            plan.resolution,
-                            &map.points,
-                            &map.depth,
-                            &map.hit,
-                            &limits,
-                        );
+                        // (the tree's bytes, its node count, whether it was built now)
+                        let tree = match kept.as_ref().and_then(|t| Some((t, node_count(t)?))) {
+                            Some((t, nodes)) => (t.clone(), nodes, false),
+                            None => {
+                                let tree = quadtree::build(
+                                    plan.resolution,
+                                    &map.points,
+                                    &map.depth,
+                                    &map.hit,
+                                    &limits,
+                                );
+                                (quadtree::encode(plan.resolution, &tree), tree.len(), true)
+                            }
+                        };
                         (exr, tree)
                     })
                     .collect();
-                for ((k, stem, cam, _), (exr, tree)) in maps.drain(..).zip(encoded) {
-                    let (exr, qt) = (exr?, quadtree::encode(plan.resolution, &tree));
+                for ((k, stem, cam, _, tree_keep, _), (exr, (qt, nodes, built))) in
+                    maps.drain(..).zip(encoded)
+                {
+                    let exr = exr?;
+                    trees_kept += u64::from(!built);
+                    if let (Some(dir), Some((name, key)), true) = (reads_dir, &tree_keep, built)
+                        && !read_cache::keep_quadtree(dir, name, key, &qt, &mut kept_bytes)?
+                    {
+                        // The folder is gone: the record held is not written either.
+                        reads_dir = None;
+                        pending = None;
+                    }
                     bytes += (exr.len() + qt.len()) as u64;
                     files.push((format!("{folder}/{stem}.exr"), "radiance-exr", exr));
                     files.push((format!("{folder}/{stem}.qtree"), "quadtree", qt));
@@ -446,7 +493,7 @@ pub fn bake_part(
                         file: stem,
                         element: [i, j],
                         camera: k as u32,
-                        nodes: tree.len(),
+                        nodes,
                         view: cam,
                     });
                 }
@@ -476,7 +523,7 @@ pub fn bake_part(
     }
     if part.reads.is_some() {
         log::info!(
-            "radiance maps: {shaded} of {rays} pixels traced and shaded, the rest evaluated from their records ({kept_bytes} bytes of records kept; reading records {:.2} s, rendering {:.2} s, writing records {:.2} s, encoding {:.2} s)",
+            "radiance maps: {shaded} of {rays} pixels traced and shaded, the rest evaluated from their records ({kept_bytes} bytes of records kept; {trees_kept} of {total} quadtrees kept with them; reading records {:.2} s, rendering {:.2} s, writing records {:.2} s, encoding {:.2} s)",
             steps[0],
             steps[1],
             steps[2],
@@ -496,6 +543,13 @@ pub fn bake_part(
         bake_seconds: start.elapsed().as_secs_f64(),
         force,
     })?)
+}
+
+/// The node count of a quadtree file's bytes ([`quadtree::encode`]): its head's, where the
+/// bytes hold that many nodes.
+fn node_count(tree: &[u8]) -> Option<usize> {
+    let n = u32::from_le_bytes(tree.get(12..16)?.try_into().ok()?) as usize;
+    (tree.len() == 20 + 72 * n).then_some(n)
 }
 
 /// Settings as recorded in the manifest, with `d_source`: the identity of the D the maps were

@@ -22,6 +22,8 @@
 //! weighted by the last surface's weight. A read is [`crate::radiance::reads::push_read`]'s,
 //! untextured: the shading reads D through the textures itself. Little-endian.
 
+use std::borrow::Cow;
+
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
@@ -200,7 +202,7 @@ pub struct CubeShape {
 }
 
 /// A D lookup (the stored value at barycentrics of a triangle), and a cube's kept records.
-pub type Recorded<'a> = (&'a (dyn Fn(u32, Vec2) -> Vec3 + Sync), Option<Replay<'a>>);
+pub type Recorded<'d, 'a> = (&'d (dyn Fn(u32, Vec2) -> Vec3 + Sync), Option<Replay<'a>>);
 
 /// Traces texel (x, y) of a face (`face, x, y, out`), appending its record to `out`, and gives
 /// the value its trace summed.
@@ -212,33 +214,34 @@ pub type TraceTexel<'a> = dyn Fn(usize, usize, usize, &mut Vec<u8>) -> Vec3 + Sy
 /// ([`eval_texel`]) instead, and with kept records a texel whose record is still valid is not
 /// traced. The texels, their records (empty without `recorded`) and how many were traced;
 /// `None` when cancelled.
-pub fn texel_rows(
+pub fn texel_rows<'a>(
     shape: &CubeShape,
     triangles: &[Triangle],
     texel: &TraceTexel<'_>,
-    recorded: Option<Recorded>,
+    recorded: Option<Recorded<'_, 'a>>,
     progress: &dyn Progress,
-) -> Option<(Vec<Vec3>, MapReads, u64)> {
+) -> Option<(Vec<Vec3>, MapReads<'a>, u64)> {
     let size = shape.size;
     let (d, replay) = match recorded {
         Some((d, replay)) => (Some(d), replay),
         None => (None, None),
     };
     let (old_rows, changed) = Replay::rows(replay, 6 * size);
-    let stale = |t: u32| {
-        let m = triangles[t as usize].material as usize;
-        changed.get(m).copied().unwrap_or(true)
-    };
     let eval = |at: &[u8], stale: &dyn Fn(u32) -> bool, d| {
         let (rays, samples) = (shape.rays, shape.glossy_samples);
         eval_texel(at, rays, samples, triangles.len(), stale, d)
     };
-    let rows: Vec<(Vec<Vec3>, Vec<u8>, u64)> = old_rows
+    let rows: Vec<(Vec<Vec3>, Cow<'a, [u8]>, u64)> = old_rows
         .into_par_iter()
+        .zip(changed)
         .enumerate()
-        .map(|(row, old)| {
+        .map(|(row, (old, changed))| {
+            let stale = |t: u32| {
+                let m = triangles[t as usize].material as usize;
+                changed.get(m).copied().unwrap_or(true)
+            };
             if progress.cancelled() {
-                return (Vec::new(), Vec::new(), 0);
+                return (Vec::new(), Cow::Borrowed(&[][..]), 0);
             }
             let (face, y) = (row / size, row % size);
             let mut bytes = Vec::new();
@@ -250,7 +253,7 @@ pub fn texel_rows(
                             texel(face, x, y, &mut bytes)
                         })
                         .collect();
-                    (values, Vec::new(), size as u64)
+                    (values, Cow::Borrowed(&[][..]), size as u64)
                 }
                 (Some(d), old) => {
                     let traced = |x: usize, out: &mut Vec<u8>| {
@@ -263,7 +266,7 @@ pub fn texel_rows(
                         Some(old) => replay_row(old, size, |_, at| eval(at, &stale, d), traced),
                         None => {
                             let values = (0..size).map(|x| traced(x, &mut bytes)).collect();
-                            (values, bytes, size as u64)
+                            (values, Cow::Owned(bytes), size as u64)
                         }
                     }
                 }

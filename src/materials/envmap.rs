@@ -407,11 +407,11 @@ pub fn capture_cube(
 /// A capture with its texels' records ([`super::capture_reads`]), one row of bytes per face
 /// row, and how many texels were traced (the rest were evaluated from kept records).
 #[derive(Clone, Debug)]
-pub struct Captured {
+pub struct Captured<'a> {
     /// The cube map.
     pub cube: CubeMap,
     /// Its texels' records.
-    pub reads: MapReads,
+    pub reads: MapReads<'a>,
     /// Texels traced.
     pub traced: u64,
 }
@@ -422,16 +422,16 @@ pub struct Captured {
 /// the bytes of one captured again. With `replay`, a texel whose kept record is still valid
 /// (no surface its rays met has a changed material) is evaluated without tracing.
 #[allow(clippy::too_many_arguments)]
-pub fn capture_recorded(
+pub fn capture_recorded<'a>(
     scene: &Scene,
     bvh: &Bvh,
     centre: Vec3,
     settings: &CaptureSettings,
     see_through: &[u32],
     d: &(dyn Fn(u32, Vec2) -> Vec3 + Sync),
-    replay: Option<Replay>,
+    replay: Option<Replay<'a>>,
     progress: &dyn Progress,
-) -> Result<Captured, Cancelled> {
+) -> Result<Captured<'a>, Cancelled> {
     // The texels' values come from their records: the trace's own sum is not needed.
     let zero = |_: &Hit| Vec3::ZERO;
     let recorded = Some((d, replay));
@@ -447,15 +447,15 @@ pub fn capture_recorded(
 }
 
 /// [`capture_cube`], and with `recorded` [`capture_recorded`].
-fn capture(
+fn capture<'a>(
     scene: &Scene,
     bvh: &Bvh,
     (centre, see_through): (Vec3, &[u32]),
     settings: &CaptureSettings,
     shade: &(dyn Fn(&Hit) -> Vec3 + Sync),
-    recorded: Option<rec::Recorded>,
+    recorded: Option<rec::Recorded<'_, 'a>>,
     progress: &dyn Progress,
-) -> Result<Captured, Cancelled> {
+) -> Result<Captured<'a>, Cancelled> {
     let mut skip = vec![false; scene.triangles.len()];
     for &t in see_through {
         if let Some(s) = skip.get_mut(t as usize) {

@@ -10,6 +10,8 @@ pub mod reads;
 pub mod sampling;
 pub mod shading;
 
+use std::borrow::Cow;
+
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
@@ -46,11 +48,11 @@ const PACKETS_FROM: u32 = 64;
 /// A rendered map, its records, and how many of its pixels were traced and shaded (the rest
 /// were evaluated from kept records).
 #[derive(Clone, Debug)]
-pub struct Rendered {
+pub struct Rendered<'a> {
     /// The map.
     pub map: RadianceMap,
     /// Its pixels' records.
-    pub reads: MapReads,
+    pub reads: MapReads<'a>,
     /// Pixels traced and shaded.
     pub shaded: u64,
 }
@@ -61,27 +63,28 @@ pub struct Rendered {
 /// pixel's radiance is its record evaluated with D (`d`, the stored value at barycentrics of
 /// a triangle). With `replay`, a pixel whose kept record is still valid is evaluated from it
 /// without tracing. Deterministic; parallel over rows.
-pub fn render(
+pub fn render<'a>(
     cam: &MapCamera,
     bvh: &Bvh,
     triangles: &[Triangle],
     normal_offset: f32,
     shade: &(dyn Fn(&Hit, Vec3, &PixelRays, &mut PixelWriter) + Sync),
     d: &(dyn Fn(u32, Vec2) -> Vec3 + Sync),
-    replay: Option<Replay>,
-) -> Rendered {
+    replay: Option<Replay<'a>>,
+) -> Rendered<'a> {
     let res = cam.resolution;
     // Records of another resolution are not this map's.
     let (old_rows, changed) = Replay::rows(replay, res as usize);
-    let changed = |t: u32| {
-        let m = triangles[t as usize].material as usize;
-        changed.get(m).copied().unwrap_or(true)
-    };
     type Pixel = (Vec3, f32, Vec3, Vec3, bool);
-    let rows: Vec<(Vec<Pixel>, Vec<u8>, u64)> = old_rows
+    let rows: Vec<(Vec<Pixel>, Cow<'a, [u8]>, u64)> = old_rows
         .into_par_iter()
+        .zip(changed)
         .enumerate()
-        .map(|(y, old)| {
+        .map(|(y, (old, changed))| {
+            let changed = |t: u32| {
+                let m = triangles[t as usize].material as usize;
+                changed.get(m).copied().unwrap_or(true)
+            };
             let y = y as u32;
             let mut origins = Vec::with_capacity(res as usize);
             let mut dirs = Vec::with_capacity(res as usize);
@@ -145,7 +148,7 @@ pub fn render(
                     row.push(traced(i, h, &mut bytes))
                 });
             }
-            (row, bytes, res as u64)
+            (row, Cow::Owned(bytes), res as u64)
         })
         .collect();
     let shaded = rows.iter().map(|r| r.2).sum();

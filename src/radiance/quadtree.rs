@@ -55,6 +55,11 @@ pub struct QuadtreeLimits {
     pub min_points: u32,
 }
 
+/// The version of what [`build`] gives for given inputs: a quadtree kept beside a map's
+/// records (`bake::read_cache`) is used only under the version it was built with, so a
+/// change to [`build`] must raise it.
+pub const BUILD_VERSION: u32 = 1;
+
 /// Builds the quadtree of a `res × res` map. `points[i]` is the scene point of pixel i
 /// (row-major) and `depth[i]` its depth; `hit[i]` says whether the pixel saw anything.
 pub fn build(

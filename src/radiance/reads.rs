@@ -18,6 +18,8 @@
 //! `u32` triangle (top bit: textured), barycentrics (`2 × f32`) and, textured, the factors
 //! ([`crate::scene::texturing::apply_d_factors`], `6 × f32`). Little-endian.
 
+use std::borrow::Cow;
+
 use glam::{Vec2, Vec3};
 
 use crate::scene::texturing::apply_d_factors;
@@ -266,35 +268,39 @@ pub fn eval_pixel(
     })
 }
 
-/// One map's records: each row's pixels' records, in order.
+/// One map's records: each row's pixels' records, in order. Rows kept from an earlier bake
+/// borrow the bytes of the file they were read from ([`MapReads::decode`]); rows traced again
+/// own theirs.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct MapReads {
+pub struct MapReads<'a> {
     /// Row y's bytes.
-    pub rows: Vec<Vec<u8>>,
+    pub rows: Vec<Cow<'a, [u8]>>,
 }
 
-impl MapReads {
-    /// Bytes: the row count and each row's length (`u32`), then the rows.
-    pub fn encode(&self) -> Vec<u8> {
-        let mut out = Vec::with_capacity(self.size());
-        self.encode_into(&mut out);
-        out
-    }
-
-    /// Appends [`MapReads::encode`]'s bytes to `out`.
-    pub fn encode_into(&self, out: &mut Vec<u8>) {
-        out.reserve(self.size());
+impl<'a> MapReads<'a> {
+    /// The encoding's head: the row count and each row's length (`u32`); the rows follow it.
+    pub fn head(&self) -> Vec<u8> {
+        let mut out = Vec::with_capacity(4 + 4 * self.rows.len());
         out.extend((self.rows.len() as u32).to_le_bytes());
         for r in &self.rows {
             out.extend((r.len() as u32).to_le_bytes());
         }
-        for r in &self.rows {
-            out.extend(r);
-        }
+        out
     }
 
-    /// Decodes [`MapReads::encode`]'s bytes; `None` unless they are whole.
-    pub fn decode(bytes: &[u8]) -> Option<MapReads> {
+    /// Bytes: [`MapReads::head`], then the rows.
+    pub fn encode(&self) -> Vec<u8> {
+        let mut out = self.head();
+        out.reserve(self.size() - out.len());
+        for r in &self.rows {
+            out.extend_from_slice(r);
+        }
+        out
+    }
+
+    /// Decodes [`MapReads::encode`]'s bytes, the rows borrowing them; `None` unless they are
+    /// whole.
+    pub fn decode(bytes: &'a [u8]) -> Option<MapReads<'a>> {
         let word = |i: usize| -> Option<usize> {
             Some(u32::from_le_bytes(bytes.get(4 * i..4 * i + 4)?.try_into().ok()?) as usize)
         };
@@ -303,7 +309,7 @@ impl MapReads {
         let mut at = 4 * (n + 1);
         let mut rows = Vec::with_capacity(n);
         for len in lens {
-            rows.push(bytes.get(at..at.checked_add(len)?)?.to_vec());
+            rows.push(Cow::Borrowed(bytes.get(at..at.checked_add(len)?)?));
             at += len;
         }
         (at == bytes.len()).then_some(MapReads { rows })
@@ -315,26 +321,46 @@ impl MapReads {
     }
 }
 
+/// Per row, its kept records (`None`: none kept, the row is traced whole).
+pub type KeptRows<'a> = Vec<Option<Cow<'a, [u8]>>>;
+
 /// A map's or cube map's kept records to evaluate with this bake's D instead of tracing, and
 /// per material whether the lobes or transmission that shaped them changed since: an item
 /// whose surfaces meet such a material is traced again.
 #[derive(Clone, Debug)]
 pub struct Replay<'a> {
-    /// The records.
-    pub reads: MapReads,
-    /// Per material index, whether it changed.
-    pub changed: &'a [bool],
+    /// The records, row by row (`None`: a row none are kept of, traced whole).
+    pub rows: KeptRows<'a>,
+    /// Per material index, whether it changed since the records were made: one list for
+    /// every row, or one per equal run of rows (a cube's faces, each kept in a file of its
+    /// own).
+    pub changed: Vec<&'a [bool]>,
 }
 
 impl<'a> Replay<'a> {
+    /// Every row of `reads` kept, with the materials `changed` since they were made.
+    pub fn of(reads: MapReads<'a>, changed: &'a [bool]) -> Replay<'a> {
+        Replay {
+            rows: reads.rows.into_iter().map(Some).collect(),
+            changed: vec![changed],
+        }
+    }
+
     /// Per row of `n`, its kept records (none without a replay, or for records of another
-    /// row count), and the changed materials (none known: every material counts as changed).
-    pub fn rows(replay: Option<Replay<'a>>, n: usize) -> (Vec<Option<Vec<u8>>>, &'a [bool]) {
+    /// row count) and the materials changed since (none known: every material counts as
+    /// changed).
+    pub fn rows(replay: Option<Replay<'a>>, n: usize) -> (KeptRows<'a>, Vec<&'a [bool]>) {
         match replay {
-            Some(r) if r.reads.rows.len() == n => {
-                (r.reads.rows.into_iter().map(Some).collect(), r.changed)
+            Some(r)
+                if r.rows.len() == n
+                    && !r.changed.is_empty()
+                    && n.is_multiple_of(r.changed.len()) =>
+            {
+                let run = n / r.changed.len();
+                let changed = (0..n).map(|row| r.changed[row / run]).collect();
+                (r.rows, changed)
             }
-            _ => (vec![None; n], &[]),
+            _ => (vec![None; n], vec![&[]; n]),
         }
     }
 }
@@ -356,12 +382,12 @@ pub struct Kept<T> {
 /// `out` and gives the value). The row's records are rebuilt from its first item traced again
 /// (until then, and if none is, they are the old ones); past a record that does not evaluate,
 /// every item is traced. Returns the values, the row's records and how many were traced.
-pub fn replay_row<T>(
-    old: Vec<u8>,
+pub fn replay_row<'a, T>(
+    old: Cow<'a, [u8]>,
     n: usize,
     kept: impl Fn(usize, &[u8]) -> Option<Kept<T>>,
     mut traced: impl FnMut(usize, &mut Vec<u8>) -> T,
-) -> (Vec<T>, Vec<u8>, u64) {
+) -> (Vec<T>, Cow<'a, [u8]>, u64) {
     let mut values = Vec::with_capacity(n);
     let mut fresh: Option<Vec<u8>> = None;
     let mut at = Some(0usize);
@@ -387,7 +413,7 @@ pub fn replay_row<T>(
             }
         }
     }
-    (values, fresh.unwrap_or(old), retraced)
+    (values, fresh.map_or(old, Cow::Owned), retraced)
 }
 
 #[cfg(test)]
@@ -439,7 +465,7 @@ mod tests {
     #[test]
     fn map_reads_round_trip_and_cut_bytes_are_refused() {
         let m = MapReads {
-            rows: vec![vec![0, 0], vec![], vec![1, 2, 3]],
+            rows: vec![vec![0, 0].into(), vec![].into(), vec![1, 2, 3].into()],
         };
         let bytes = m.encode();
         assert_eq!(bytes.len(), m.size());

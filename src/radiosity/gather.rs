@@ -530,28 +530,37 @@ pub(super) fn gather(
     let mut terms = Vec::new();
     let mut exposure = Exposure::default();
     let mut reused = 0u32;
+    // The prior batch every ray was kept from, while there is one.
+    let mut source = unpacked.first().map(|_| 0usize);
     for k in 0..n_rays {
         let j = seq.first + k;
-        let old = unpacked.iter().find_map(|u| {
+        let old = unpacked.iter().enumerate().find_map(|(i, u)| {
             let at = j.checked_sub(u.batch.first)? as usize;
             let r = u.records.get(at)?;
             let counts_same = u.batch.n_rays == n_rays && u.batch.n_light == n_light;
             (r.lobes_read & changed == 0 && (!r.weighted || counts_same))
-                .then(|| (r, &u.terms[u.term_at[at]..u.term_at[at + 1]]))
+                .then(|| (i, r, &u.terms[u.term_at[at]..u.term_at[at + 1]]))
         });
         match old {
-            Some((r, t)) => {
+            Some((i, r, t)) => {
                 records.push(*r);
                 terms.extend_from_slice(t);
                 reused += 1;
+                source = source.filter(|&s| s == i);
             }
             None => {
                 let (rec, facing) = trace_ray(cx, &el, seed, seq, k, n_rays, n_light, &mut terms);
                 records.push(rec);
                 exposure.add(facing);
+                source = None;
             }
         }
     }
+    // Every ray kept, in order, from one prior batch of the same rays: its packed bytes are
+    // what packing them again gives.
+    let same_rays = source
+        .map(|i| unpacked[i].batch)
+        .filter(|b| b.first == seq.first && b.n_rays == n_rays);
     let lights = batches
         .iter()
         .find(|b| {
@@ -574,7 +583,7 @@ pub(super) fn gather(
         n_light,
         inside,
         lights,
-        rays: KeptBatch::pack(&records, &terms),
+        rays: same_rays.map_or_else(|| KeptBatch::pack(&records, &terms), |b| b.rays.clone()),
     });
     GatherOut {
         gathered: assemble(&records, terms, &lights, inside, n_light),

@@ -2,6 +2,7 @@
 //! reflector, the cube map seen from its centroid shaded with D, and its MIP levels
 //! (`materials/env/<reflector>/mip<ℓ>.exr`, kind `env-mip`).
 
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -18,7 +19,7 @@ use crate::materials::envmap::{
 };
 use crate::materials::index::{ENV_LAYOUT, IndexedEnvMap};
 use crate::progress::Progress;
-use crate::radiance::reads::Replay;
+use crate::radiance::reads::{MapReads, Replay};
 use crate::scene::{ReflectorKind, Scene};
 
 /// What [`write_env_maps`] did.
@@ -133,10 +134,11 @@ pub fn write_env_maps(
 
 /// The cube seen from `at` (its point and the triangles it sees through) shaded with
 /// `shading`, each texel given by its record ([`capture_recorded`]). With `kept` (a unit's
-/// folder of records, [`read_cache`], and the file of this capture's), the records kept
-/// there under this capture's key are evaluated with this bake's D where the materials their
-/// rays met are unchanged, and the records are kept for the next bake: rewritten when a texel
-/// was traced, all removed past [`read_cache::READS_BUDGET`]. The shading reads D at the hit's point
+/// folder of records, [`read_cache`], and the name of this capture's, whose face `f` is the
+/// file `NAME.face{f}`), the records kept there under this capture's key are evaluated with
+/// this bake's D where the materials their rays met are unchanged, and the records are kept
+/// for the next bake: a face's file rewritten when a texel of it was traced, all removed past
+/// [`read_cache::READS_BUDGET`]. The shading reads D at the hit's point
 /// alone (its triangle and barycentrics), as [`super::shade_with_d`]'s does.
 pub fn capture_kept(
     scene: &Scene,
@@ -158,10 +160,27 @@ pub fn capture_kept(
     };
     let key = read_cache::capture_key(scene, capture, centre, see_through);
     let prints = MaterialPrints::of(&scene.materials);
-    let (old, changed) = read_cache::kept(dir, name, &key, &prints);
-    let replay = old.map(|reads| Replay {
-        reads,
-        changed: &changed,
+    // One file per cube face: an edit rewrites (and hashes) only the faces it traced texels
+    // of again. A texel is stale where a material its rays met changed since its face's file
+    // was written (a face kept as it is keeps the prints it was made with).
+    let size = capture.face_size.max(1);
+    let faces: Vec<(Option<read_cache::RecordFile>, Vec<bool>)> = (0..6)
+        .map(|f| read_cache::kept(dir, &face_file(name, f), &key, &prints))
+        .collect();
+    let mut rows = Vec::with_capacity(6 * size);
+    let mut read = [false; 6];
+    for (f, (file, _)) in faces.iter().enumerate() {
+        match file.as_ref().map(|file| file.reads()) {
+            Some(reads) if reads.rows.len() == size => {
+                read[f] = true;
+                rows.extend(reads.rows.into_iter().map(Some));
+            }
+            _ => rows.extend((0..size).map(|_| None)),
+        }
+    }
+    let replay = read.iter().any(|&r| r).then(|| Replay {
+        rows,
+        changed: faces.iter().map(|(_, c)| &c[..]).collect(),
     });
     let captured = capture_recorded(
         scene,
@@ -174,19 +193,40 @@ pub fn capture_kept(
         progress,
     )?;
     let texels = 6 * captured.cube.size * captured.cube.size;
-    // Records of which no texel was traced again are still right: kept as they are.
-    if let Some(dir) = dir
-        && captured.traced > 0
-    {
-        read_cache::keep(dir, name, &key, &prints, &captured.reads, &mut 0)?;
-    }
-    if dir.is_some() {
+    let mut written = 0;
+    if let Some(dir) = dir {
+        // The records of an earlier layout, one file for the cube.
+        read_cache::remove_file(dir, name)?;
+        // A face's rows are borrowed from its file where none of its texels was traced
+        // again: that file is still right, kept as it is.
+        let mut rows = captured.reads.rows.into_iter();
+        let mut spent = 0;
+        for (f, was_read) in read.into_iter().enumerate() {
+            let face: Vec<_> = rows.by_ref().take(size).collect();
+            let file = face_file(name, f);
+            if was_read && face.iter().all(|r| matches!(r, Cow::Borrowed(_))) {
+                if !read_cache::count_kept(dir, &file, &mut spent)? {
+                    break;
+                }
+                continue;
+            }
+            let reads = MapReads { rows: face };
+            if read_cache::keep(dir, &file, &key, &prints, &reads, &mut spent)?.is_none() {
+                break;
+            }
+            written += 1;
+        }
         log::info!(
-            "{name}: {} of {texels} texels traced, the rest evaluated from their records",
+            "{name}: {} of {texels} texels traced, the rest evaluated from their records; {written} of 6 faces' records written",
             captured.traced
         );
     }
     Ok(captured.cube)
+}
+
+/// The file of face `f`'s records of the capture whose records are `name`.
+fn face_file(name: &str, f: usize) -> String {
+    format!("{name}.face{f}")
 }
 
 /// The capture of an environment map or a reflection probe: both show the room as the curved
