@@ -11,7 +11,8 @@
 // f cos θ_i over the density it was drawn with); each direction first moved to where
 // the ray from the fragment meets the room (the distances the probe stores), its level to
 // its footprint there as the centre sees it. At grazing view the lobe's samples that stay
-// above the surface are what it reflects, which a single mirror lookup misses. The result is
+// above the surface are what it reflects, which a single mirror lookup misses. The lobe is
+// widened by the pixel's spread of normals (specular anti-aliasing). The result is
 // scaled by the square root of the irradiance the fragment's lightmap texel was solved with
 // over the probe's at its normal, at most 1 (`probes::Normalization`).
 //
@@ -24,7 +25,8 @@ struct ProbeParams {
     // (`probes::sides`); z: the lobe's GGX α; w: its Fresnel reflectance at normal incidence.
     info: vec4<f32>,
     // x: luminance of the material's albedo factor (0: probe light not normalized); y: the
-    // luminance of the emission its stored texels hold (`probes::Normalization`).
+    // luminance of the emission its stored texels hold (`probes::Normalization`); z: 1 with
+    // specular anti-aliasing, 0 without.
     surface: vec4<f32>,
     // The probe's irradiance over π as luminance on bands 0-2 (`probes::irradiance_sh`).
     irradiance: array<vec4<f32>, 3>,
@@ -62,6 +64,10 @@ const PROBE_STEPS: u32 = 4u;
 // Directions of the lobe read per fragment (`probes::LOBE_SAMPLES`).
 const PROBE_SAMPLES: u32 = 8u;
 const PROBE_PI: f32 = 3.14159265;
+// Specular anti-aliasing: the pixel filter's variance σ² and the most the kernel may add to
+// α², κ (Filament's defaults, as `shaders/curved.wgsl`'s SAA_SIGMA2 and SAA_KAPPA).
+const PROBE_SAA_SIGMA2: f32 = 0.15;
+const PROBE_SAA_KAPPA: f32 = 0.2;
 // `probes::MIN_FOOTPRINT_RATIO`.
 const PROBE_MIN_RATIO: f32 = 0.001;
 
@@ -211,6 +217,17 @@ fn probe_lobe(offset: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, r: vec3<f32>, alph
 fn fs_probe(in: ProbeOut) -> @location(0) vec4<f32> {
     let wo = normalize(frame.eye.xyz - in.world);
     var n = normalize(in.normal);
+    // α² the shading normal's spread across the pixel adds to the lobe, so that a highlight
+    // narrower than a pixel (a chair's chrome wire, a rim) spreads over it (Tokuyoshi and
+    // Kaplanyan 2019: α² += min(2σ²(|∂n/∂x|² + |∂n/∂y|²), κ)). Derivatives before any return.
+    let du = dpdx(n);
+    let dv = dpdy(n);
+    let kernel2 = select(
+        0.0,
+        min(2.0 * PROBE_SAA_SIGMA2 * (dot(du, du) + dot(dv, dv)), PROBE_SAA_KAPPA),
+        probe.surface.z != 0.0,
+    );
+    let alpha = sqrt(probe.info.z * probe.info.z + kernel2);
     if dot(n, wo) < 0.0 {
         if probe.info.y == 0.0 {
             return vec4<f32>(0.0);
@@ -219,7 +236,7 @@ fn fs_probe(in: ProbeOut) -> @location(0) vec4<f32> {
     }
     let c = dot(n, wo);
     let r = 2.0 * c * n - wo;
-    let env = probe_lobe(in.world - probe.centre.xyz, n, wo, r, probe.info.z)
+    let env = probe_lobe(in.world - probe.centre.xyz, n, wo, r, alpha)
         * probe_normalization(in.lightmap, in.page, n);
     // Added to kd·D of the scene pass by the blend state.
     return vec4<f32>(env * probe_modulation(c) * frame.exposure, 0.0);

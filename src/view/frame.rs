@@ -311,7 +311,13 @@ impl FramePasses {
         if groups.probes {
             self.probes = None;
             if o.probes {
-                self.probes = ProbeReflections::new(gpu, &self.renderer, data, o.reflectance)?;
+                self.probes = ProbeReflections::new(
+                    gpu,
+                    &self.renderer,
+                    data,
+                    o.reflectance,
+                    o.curved_settings.specular_aa,
+                )?;
             }
         }
         Ok(())

@@ -93,9 +93,9 @@ pub struct ViewArgs {
     #[arg(long, value_name = "on|off", default_value = "on", value_parser = parse_on_off,
           action = clap::ArgAction::Set)]
     pub cube_self_occlusion: bool,
-    /// Curved reflectors: specular anti-aliasing (`on`): each lobe widened by the spread of
-    /// the shading normal across the pixel, so a highlight narrower than a pixel does not
-    /// fill it; `off`: every pixel shades its centre's normal only.
+    /// Curved reflectors and probes: specular anti-aliasing (`on`): each lobe widened by the
+    /// spread of the shading normal across the pixel, so a highlight narrower than a pixel
+    /// does not fill it; `off`: every pixel shades its centre's normal only.
     #[arg(long, value_name = "on|off", default_value = "on", value_parser = parse_on_off,
           action = clap::ArgAction::Set)]
     pub specular_aa: bool,

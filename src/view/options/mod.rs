@@ -284,8 +284,9 @@ pub struct CurvedSettings {
     /// ([`crate::view::curved::own_mesh`]): a concave reflector (a teapot) shows its own
     /// spout, handle, lid or knob where its rays meet them, not the room behind.
     pub self_occlusion: bool,
-    /// Specular anti-aliasing of the reflector's pixels: each lobe widened by the spread of
-    /// the shading normal across the pixel (`kernel_roughness2` in `shaders/curved.wgsl`), so
+    /// Specular anti-aliasing of the curved reflectors' and the probe-lit surfaces' pixels:
+    /// each lobe widened by the spread of the shading normal across the pixel
+    /// (`kernel_roughness2` in `shaders/curved.wgsl`, `fs_probe` in `shaders/probes.wgsl`), so
     /// a highlight narrower than a pixel does not fill it.
     pub specular_aa: bool,
 }

@@ -90,12 +90,14 @@ pub struct ProbeReflections {
 impl ProbeReflections {
     /// The pass for `renderer` drawing `data`'s glossy groups with the probes its materials
     /// stage holds, R read as `reflectance` says (its channel; the 1D map, or the sphere
-    /// map's 1D form for anisotropic lobes). `Ok(None)` when the bundle has no probes.
+    /// map's 1D form for anisotropic lobes), each lobe widened by the pixel's spread of
+    /// normals where `specular_aa`. `Ok(None)` when the bundle has no probes.
     pub fn new(
         gpu: &Gpu,
         renderer: &Renderer,
         data: &ViewData,
         reflectance: ReflectanceSettings,
+        specular_aa: bool,
     ) -> Result<Option<ProbeReflections>, RenderError> {
         let err = |e: String| RenderError::Reflections(format!("reflection probes: {e}"));
         let Some(index) = MaterialsIndex::load(&data.bundle).map_err(|e| err(e.to_string()))?
@@ -224,7 +226,12 @@ impl ProbeReflections {
                             *alpha,
                             *r0,
                         ],
-                        surface: [normalization.albedo, normalization.emission, 0.0, 0.0],
+                        surface: [
+                            normalization.albedo,
+                            normalization.emission,
+                            f32::from(u8::from(specular_aa)),
+                            0.0,
+                        ],
                         irradiance: [
                             [sh[0], sh[1], sh[2], sh[3]],
                             [sh[4], sh[5], sh[6], sh[7]],

@@ -61,7 +61,8 @@ pub struct ProbeParams {
     /// What the surface receives, read from its lightmap texel ([`Normalization`]): x the
     /// luminance of the material's diffuse albedo factor (0: not normalized), y the luminance
     /// of the emission its stored texels hold (0 for a base-colour-textured material, whose
-    /// texels hold Q), zw unused.
+    /// texels hold Q); z 1 where the lobe is widened by the pixel's spread of normals
+    /// (specular anti-aliasing, `--specular-aa`), else 0; w unused.
     pub surface: [f32; 4],
     /// The probe's irradiance over π as luminance, [`irradiance_sh`]'s nine coefficients
     /// (the last three floats unused).
