@@ -64,12 +64,25 @@ fn a_probe_by_the_light_lights_the_table_as_the_lightmap_does() {
     );
 }
 
-/// The table top's mean luminance drawn with kd·D alone, with its probe, and by the path
-/// tracer; the probe placed by the bake, or (`by_the_light`) moved by scene.json to just under
-/// the ceiling light.
-fn table_top(by_the_light: bool) -> (f64, f64, f64) {
-    let dir = tempfile::tempdir().unwrap();
-    let folder = dir.path().join("glossy-room");
+/// The mean luminance of `rgb` over the pixels of `mask`.
+fn masked_mean(mask: &[bool], rgb: &[Vec3]) -> f64 {
+    let (sum, count) = mask
+        .iter()
+        .zip(rgb)
+        .filter(|(m, _)| **m)
+        .fold((0.0, 0usize), |(s, n), (_, c)| {
+            (s + f64::from(glint::colour::luminance(*c)), n + 1)
+        });
+    sum / count.max(1) as f64
+}
+
+/// A copy of glossy-room in `dir` whose scene.json declares no reflector on `mesh` (so a probe
+/// lights it): the scene.json's path and its JSON.
+fn glossy_room_without(
+    dir: &std::path::Path,
+    mesh: &str,
+) -> (std::path::PathBuf, serde_json::Value) {
+    let folder = dir.join("glossy-room");
     copy_dir(&repo("scenes/glossy-room"), &folder);
     let scene_json = folder.join("scene.json");
     let mut v: serde_json::Value =
@@ -77,8 +90,17 @@ fn table_top(by_the_light: bool) -> (f64, f64, f64) {
     v["reflectors"]
         .as_array_mut()
         .unwrap()
-        .retain(|r| r["mesh"] != "TableTop");
+        .retain(|r| r["mesh"] != mesh);
     std::fs::write(&scene_json, v.to_string()).unwrap();
+    (scene_json, v)
+}
+
+/// The table top's mean luminance drawn with kd·D alone, with its probe, and by the path
+/// tracer; the probe placed by the bake, or (`by_the_light`) moved by scene.json to just under
+/// the ceiling light.
+fn table_top(by_the_light: bool) -> (f64, f64, f64) {
+    let dir = tempfile::tempdir().unwrap();
+    let (scene_json, mut v) = glossy_room_without(dir.path(), "TableTop");
     if by_the_light {
         let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
         let light = scene
@@ -142,15 +164,7 @@ fn table_top(by_the_light: bool) -> (f64, f64, f64) {
         .collect();
     let count = mask.iter().filter(|&&m| m).count();
     assert!(count > 500, "the table top covers {count} interior pixels");
-    let lum = |c: Vec3| f64::from(glint::colour::luminance(c));
-    let mean = |rgb: &[Vec3]| -> f64 {
-        mask.iter()
-            .zip(rgb)
-            .filter(|(m, _)| **m)
-            .map(|(_, c)| lum(*c))
-            .sum::<f64>()
-            / count as f64
-    };
+    let mean = |rgb: &[Vec3]| masked_mean(&mask, rgb);
     let want = mean(&reference.image.rgb);
 
     let gpu = gpu();
@@ -186,16 +200,7 @@ fn table_top(by_the_light: bool) -> (f64, f64, f64) {
 #[test]
 fn the_probe_lit_teapot_keeps_its_mean_at_low_resolution() {
     let dir = tempfile::tempdir().unwrap();
-    let folder = dir.path().join("glossy-room");
-    copy_dir(&repo("scenes/glossy-room"), &folder);
-    let scene_json = folder.join("scene.json");
-    let mut v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&scene_json).unwrap()).unwrap();
-    v["reflectors"]
-        .as_array_mut()
-        .unwrap()
-        .retain(|r| r["mesh"] != "Teapot");
-    std::fs::write(&scene_json, v.to_string()).unwrap();
+    let (scene_json, _) = glossy_room_without(dir.path(), "Teapot");
     let scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
     let bundle = dir.path().join("glossy-room.glint");
     bake_with_materials(&scene, &bundle, &radiosity_settings());
@@ -218,15 +223,7 @@ fn the_probe_lit_teapot_keeps_its_mean_at_low_resolution() {
     });
     let count = mask.iter().filter(|&&m| m).count();
     assert!(count > 40, "the teapot covers {count} pixels");
-    let lum = |c: Vec3| f64::from(glint::colour::luminance(c));
-    let mean = |rgb: &[Vec3]| -> f64 {
-        mask.iter()
-            .zip(rgb)
-            .filter(|(m, _)| **m)
-            .map(|(_, c)| lum(*c))
-            .sum::<f64>()
-            / count as f64
-    };
+    let mean = |rgb: &[Vec3]| masked_mean(&mask, rgb);
     let mut reference_scene = Scene::load(&scene_json).unwrap_or_else(|e| panic!("{e}"));
     let (_, reference) =
         traced_with_lobes_of(&mut reference_scene, &[teapot.material], &camera, (w, h));
