@@ -90,10 +90,6 @@ const ALPHA_MAX: f32 = 1.5697963;
 const PARALLAX_STEPS: u32 = 3u;
 // `own_mesh::OWN_STACK`.
 const OWN_STACK: u32 = 48u;
-// Specular anti-aliasing (`kernel_roughness2`): the pixel filter's variance σ² and the
-// most the kernel may add to α², κ (Filament's defaults).
-const SAA_SIGMA2: f32 = 0.15;
-const SAA_KAPPA: f32 = 0.2;
 // ξ₀ of the kernel's lobe in `mirror_level`: its border at slope α (e = 1), where the GGX
 // density falls to a quarter of its peak, as wide as the pixel's spread of normals.
 const SAA_XI0: f32 = 0.25;
@@ -461,15 +457,6 @@ fn curved_environment_at(offset: vec3<f32>, dir: vec3<f32>, u: vec3<f32>, lod: f
         }
     }
     return textureSampleLevel(env, env_sampler, u, lod).rgb;
-}
-
-// α² the shading normal's spread across the pixel adds to every lobe (0 where the pass has
-// no pixel footprint), so that a highlight narrower than a pixel is spread over it.
-// Tokuyoshi & Kaplanyan 2019 (Filament's specularAntiAliasing): α² += min(2σ²(|∂n/∂x|² + |∂n/∂y|²), κ).
-fn kernel_roughness2(n: vec3<f32>) -> f32 {
-    let du = dpdx(n);
-    let dv = dpdy(n);
-    return min(2.0 * SAA_SIGMA2 * (dot(du, du) + dot(dv, dv)), SAA_KAPPA);
 }
 
 // `kernel_roughness2` of the interpolated `normal` where the reflector's specular AA is on

@@ -64,10 +64,6 @@ const PROBE_STEPS: u32 = 4u;
 // Directions of the lobe read per fragment (`probes::LOBE_SAMPLES`).
 const PROBE_SAMPLES: u32 = 8u;
 const PROBE_PI: f32 = 3.14159265;
-// Specular anti-aliasing: the pixel filter's variance σ² and the most the kernel may add to
-// α², κ (Filament's defaults, as `shaders/curved.wgsl`'s SAA_SIGMA2 and SAA_KAPPA).
-const PROBE_SAA_SIGMA2: f32 = 0.15;
-const PROBE_SAA_KAPPA: f32 = 0.2;
 // `probes::MIN_FOOTPRINT_RATIO`.
 const PROBE_MIN_RATIO: f32 = 0.001;
 
@@ -217,16 +213,10 @@ fn probe_lobe(offset: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, r: vec3<f32>, alph
 fn fs_probe(in: ProbeOut) -> @location(0) vec4<f32> {
     let wo = normalize(frame.eye.xyz - in.world);
     var n = normalize(in.normal);
-    // α² the shading normal's spread across the pixel adds to the lobe, so that a highlight
-    // narrower than a pixel (a chair's chrome wire, a rim) spreads over it (Tokuyoshi and
-    // Kaplanyan 2019: α² += min(2σ²(|∂n/∂x|² + |∂n/∂y|²), κ)). Derivatives before any return.
-    let du = dpdx(n);
-    let dv = dpdy(n);
-    let kernel2 = select(
-        0.0,
-        min(2.0 * PROBE_SAA_SIGMA2 * (dot(du, du) + dot(dv, dv)), PROBE_SAA_KAPPA),
-        probe.surface.z != 0.0,
-    );
+    // The lobe widened by the pixel's spread of normals (view.wgsl's `kernel_roughness2`), so
+    // that a highlight narrower than a pixel (a chair's chrome wire, a rim) spreads over it.
+    // Derivatives before any return.
+    let kernel2 = select(0.0, kernel_roughness2(n), probe.surface.z != 0.0);
     let alpha = sqrt(probe.info.z * probe.info.z + kernel2);
     if dot(n, wo) < 0.0 {
         if probe.info.y == 0.0 {

@@ -279,6 +279,22 @@ fn surface_d(q: vec3<f32>, material: u32, uv0: vec2<f32>, uv1: vec2<f32>, g: UvG
     return q * t + e;
 }
 
+// Specular anti-aliasing of the passes appended to this file (curved reflectors, probes):
+// the pixel filter's variance σ² and the most the kernel may add to α², κ (Filament's
+// defaults).
+const SAA_SIGMA2: f32 = 0.15;
+const SAA_KAPPA: f32 = 0.2;
+
+// α² the shading normal's spread across the pixel adds to every lobe (0 where the pass has
+// no pixel footprint), so that a highlight narrower than a pixel is spread over it.
+// Tokuyoshi & Kaplanyan 2019 (Filament's specularAntiAliasing): α² += min(2σ²(|∂n/∂x|² + |∂n/∂y|²), κ).
+// Fragment stages only (derivatives), in uniform control flow.
+fn kernel_roughness2(n: vec3<f32>) -> f32 {
+    let du = dpdx(n);
+    let dv = dpdy(n);
+    return min(2.0 * SAA_SIGMA2 * (dot(du, du) + dot(dv, dv)), SAA_KAPPA);
+}
+
 // Cubic B-spline reconstruction at continuous texel coordinates `p` of layer `page`
 // (texel (i, j) spans [i, i+1) x [j, j+1)): per axis, weights (w0, w1) and (w2, w3) of the
 // four texels around p become one bilinear tap each, placed between the pair's two texel

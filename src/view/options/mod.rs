@@ -286,7 +286,7 @@ pub struct CurvedSettings {
     pub self_occlusion: bool,
     /// Specular anti-aliasing of the curved reflectors' and the probe-lit surfaces' pixels:
     /// each lobe widened by the spread of the shading normal across the pixel
-    /// (`kernel_roughness2` in `shaders/curved.wgsl`, `fs_probe` in `shaders/probes.wgsl`), so
+    /// (`kernel_roughness2` in `shaders/view.wgsl`, which both passes call), so
     /// a highlight narrower than a pixel does not fill it.
     pub specular_aa: bool,
 }
