@@ -77,6 +77,7 @@ use glint::view::headless::replay::schedule;
 use glint::view::headless::{ReplayOptions, replay_with};
 use glint::view::load::load;
 use glint::view::options::{CurvedSettings, RecursionSettings, ViewOptions};
+use glint::view::reflections::downsample::map_factor;
 use glint::view::reflections::radiance_maps::Selection;
 use glint::view::reflections::{self, ReflectionMode, SkippedPasses};
 
@@ -1077,18 +1078,36 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
                     .map(|(x, y)| 0.5 * (*x + *y))
                     .collect(),
             );
-            let equation = (!reflectors.is_empty()).then(|| {
-                image(reflections::cpu_reference(
+            // The equation at the pixels' centres (what recursive passes draw) and, where the
+            // single-level passes draw M at a finer grid and box-filter it
+            // (`reflections::downsample`), box-filtered from that grid too.
+            let factor = map_factor(off.frame().samples());
+            let equation_at = |f: u32| {
+                let rgb = reflections::cpu_reference(
                     &data.scene,
                     &reflectors,
                     &bvh,
                     &data.map,
                     &camera,
-                    w,
-                    h,
+                    w * f,
+                    h * f,
                     1.0,
-                ))
-            });
+                );
+                image(if f > 1 {
+                    glint::image_io::downsample(
+                        &rgb,
+                        (w * f) as usize,
+                        (h * f) as usize,
+                        w as usize,
+                        h as usize,
+                    )
+                } else {
+                    rgb
+                })
+            };
+            let equation = (!reflectors.is_empty()).then(|| equation_at(1));
+            let equation_filtered =
+                (!reflectors.is_empty() && factor > 1).then(|| equation_at(factor));
             let mask = reflections::reflector_pixels(&bvh, &reflectors, &camera, w, h);
             // The CPU equation has no cube-mapped reflectors: its column leaves out the
             // pixels whose mirrored ray meets one (the teapot seen in glossy-room's mirror, or
@@ -1197,9 +1216,14 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
                     format!("{}{flag}", show(frame_out)),
                     show(reflector_error),
                     show(out(reflector_error, noise_reflector)),
-                    show(equation.as_ref().and_then(|equation| {
-                        masked.and_then(|_| rel(&frame, equation, Some(&equation_mask)))
-                    })),
+                    show(
+                        off.reflections()
+                            .and(equation_filtered.as_ref())
+                            .or(equation.as_ref())
+                            .and_then(|equation| {
+                                masked.and_then(|_| rel(&frame, equation, Some(&equation_mask)))
+                            }),
+                    ),
                     pixels.to_string(),
                 ]);
             }

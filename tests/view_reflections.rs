@@ -1412,3 +1412,121 @@ fn gap_fill_on_the_gpu_matches_its_cpu_form() {
     assert!(changed > 100, "only {changed} texels filled");
     println!("gap fill: {changed} of {} texels filled, GPU = CPU", w * h);
 }
+
+/// The mirror panel's reflection is anti-aliased in a multisampled frame, in both modes: M is
+/// drawn at 2 × 2 texels a pixel and box-filtered (`reflections::downsample`), so over the
+/// panel's pixels the frame follows the CPU equation box-filtered from 2 × 2 points a pixel
+/// more closely than the equation at the pixels' centres. Drawn one point a pixel, the
+/// reflected edges (the ceiling light's above all) were stair-stepped and the frame followed
+/// the centres' equation instead.
+#[test]
+fn near_mirror_reflections_are_anti_aliased_in_both_modes() {
+    let data = load(glossy_bundle()).unwrap_or_else(|e| panic!("{e}"));
+    let gpu = gpu();
+    let (w, h) = (192u32, 128u32);
+    let camera = pose_at(data.scene.camera_path(Some("front")).expect("front"), 0.0);
+    let bvh = Bvh::build(&data.scene.triangles);
+    let reflectors = reflections::reflectors_with_reflectance(&data);
+    let panel: Vec<_> = reflectors
+        .iter()
+        .filter(|r| r.name == "MirrorPanel")
+        .cloned()
+        .collect();
+    assert_eq!(panel.len(), 1, "glossy-room's mirror panel");
+    let mask = reflections::reflector_pixels(&bvh, &panel, &camera, w, h);
+    let equation = |f: u32| {
+        let rgb = reflections::cpu_reference(
+            &data.scene,
+            &reflectors,
+            &bvh,
+            &data.map,
+            &camera,
+            w * f,
+            h * f,
+            1.0,
+        );
+        let (sw, sh) = ((w * f) as usize, (h * f) as usize);
+        glint::image_io::downsample(&rgb, sw, sh, w as usize, h as usize)
+    };
+    let (centres, filtered) = (equation(1), equation(2));
+    // Relative RMSE over the panel's pixels (ε keeps dark pixels from dominating).
+    let error = |a: &[Vec3], b: &[Vec3]| {
+        let (sum, n) = a.iter().zip(b).zip(&mask).filter(|(_, m)| **m).fold(
+            (0.0f64, 0usize),
+            |(s, n), ((x, y), _)| {
+                let d = (*x - *y) / (y.length_squared() / 3.0 + 1e-2).sqrt();
+                (s + f64::from(d.length_squared()) / 3.0, n + 1)
+            },
+        );
+        (sum / n.max(1) as f64).sqrt()
+    };
+    // The viewer's default anti-aliasing, linear radiance out, the equation as written (a
+    // reflector seen in another's map shows kd·D alone).
+    let mut options = glint::view::options::ViewOptions::default().linear_display();
+    options.recursion.terminal = false;
+    let mut offscreen = Offscreen::with_options(&gpu, &data, w, h, &options).unwrap();
+    assert_eq!(
+        offscreen.frame().samples(),
+        4,
+        "the default: 4 samples a pixel"
+    );
+    for mode in [ReflectionMode::Geometry, ReflectionMode::Image] {
+        offscreen.set_reflections(&gpu, &data, mode).unwrap();
+        offscreen.render(&gpu, &camera).unwrap();
+        let frame = offscreen.read_hdr(&gpu).unwrap();
+        let (to_centres, to_filtered) = (error(&frame, &centres), error(&frame, &filtered));
+        eprintln!(
+            "{mode:?}: over {} panel pixels, relative RMSE {to_centres:.3} vs the equation at \
+             the centres, {to_filtered:.3} vs it box-filtered from 2 × 2 points",
+            mask.iter().filter(|m| **m).count()
+        );
+        assert!(
+            to_filtered < 0.8 * to_centres,
+            "{mode:?}: the panel follows the point-sampled equation ({to_centres:.3}) about as \
+             closely as the box-filtered one ({to_filtered:.3}): its reflection is aliased"
+        );
+    }
+}
+
+/// The downsample shader (`shaders/map_downsample.wgsl`) against its CPU form on an image
+/// with empty texels scattered through it and a pixel with none drawn to, at factors 2 and 3.
+#[test]
+fn map_downsample_on_the_gpu_matches_its_cpu_form() {
+    use glam::Vec4;
+    use glint::view::reflections::downsample::{downsample, downsample_on_gpu};
+    let gpu = gpu();
+    let (w, h) = (24u32, 16u32);
+    let f16 = |v: f32| exr::prelude::f16::from_f32(v).to_f32();
+    for factor in [2u32, 3] {
+        let (sw, sh) = (w * factor, h * factor);
+        let texels: Vec<Vec4> = (0..sw * sh)
+            .map(|i| {
+                let (x, y) = (i % sw, i / sw);
+                let empty = (x * 7 + y * 3) % 5 == 0 || (x / factor == 3 && y / factor == 2);
+                let v = Vec4::new(
+                    (x % 7) as f32 / 7.0,
+                    (y % 5) as f32 / 5.0,
+                    ((x + y) % 3) as f32,
+                    0.1 + 0.05 * (x % 9) as f32,
+                );
+                if empty {
+                    Vec4::ZERO
+                } else {
+                    Vec4::from_array(v.to_array().map(f16))
+                }
+            })
+            .collect();
+        let cpu = downsample(w, h, factor, &texels);
+        let got = downsample_on_gpu(&gpu, w, h, factor, &texels).expect("the downsample pass");
+        for (i, (g, c)) in got.iter().zip(&cpu).enumerate() {
+            assert!(
+                (*g - *c).abs().max_element() < 2e-3 * c.abs().max_element().max(1.0),
+                "factor {factor}, pixel ({}, {}): GPU {g} CPU {c}",
+                i as u32 % w,
+                i as u32 / w
+            );
+        }
+        // The pixel with no texel drawn to stays empty.
+        assert_eq!(cpu[(2 * w + 3) as usize], Vec4::ZERO);
+    }
+}

@@ -142,13 +142,15 @@ fn teapot_highlights_keep_their_mean_at_low_resolution() {
 }
 
 /// The same seen in the near-mirror panel: the mirror pass draws the teapot's term into M
-/// (`fs_curved_mirror`), one sample a pixel, so its sub-pixel highlights alias there as they
-/// did in the frame. From beside the table, its mirror image about 5 m away at a field of view
-/// that gives it the walkthrough's pixel size; over the pixels all of whose 4×4 sub-pixel rays
-/// meet the panel and then the teapot, the mean luminance at 192×128 is within 10% of the
-/// viewer's own with the highlights resolved (4× the resolution each way, specular AA off,
-/// averaged over each pixel's 4×4 block). Not against the path tracer: the resolved teapot in
-/// the mirror is itself about 28% darker than traced, and that is not aliasing.
+/// (`fs_curved_mirror`) at 2 × 2 texels a pixel, box-filtered (`reflections::downsample`),
+/// with the curved term's specular AA off there: the filter averages the highlights, and
+/// widening the lobes as well darkened them (0.83 of the resolved mean). From beside the
+/// table, its mirror image about 5 m away at a field of view that gives it the walkthrough's
+/// pixel size; over the pixels all of whose 4×4 sub-pixel rays meet the panel and then the
+/// teapot, the mean luminance at 192×128 is within 10% of the viewer's own with the
+/// highlights resolved (4× the resolution each way, specular AA off, averaged over each
+/// pixel's 4×4 block). Not against the path tracer: what is held here is the mean kept at low
+/// resolution, not the cube map's own error.
 #[test]
 fn teapot_highlights_seen_in_a_mirror_keep_their_mean_at_low_resolution() {
     let data = glossy_room();

@@ -135,6 +135,13 @@ impl<'a> RenderPipelineBuilder<'a> {
         self
     }
 
+    /// Sets the shader's pipeline-overridable number `name` (a WGSL `override` of any
+    /// numeric type) in both stages.
+    pub fn override_number(mut self, name: &'a str, value: f64) -> Self {
+        self.constants.push((name, value));
+        self
+    }
+
     /// Creates the pipeline layout and the pipeline.
     pub fn build(self, device: &wgpu::Device) -> wgpu::RenderPipeline {
         let options = || wgpu::PipelineCompilationOptions {

@@ -7,8 +7,10 @@
 //! composite drawn over it (planar, recursive, impostor and curved reflections) draw into a
 //! [`MultisampleTarget`] of the frame's sample count, resolved into the single-sampled
 //! radiance the display pass reads. The passes that draw reflection maps, their pyramids and
-//! cube maps stay single-sampled: they are filtered (pyramids, MIP chains) before the frame
-//! reads them, which smooths their edges anyway.
+//! cube maps stay single-sampled: cube maps and the deeper levels of a pyramid are filtered
+//! before the frame reads them, and a planar reflector's map, which a near-mirror reads at
+//! one texel a pixel, is drawn at 2 × 2 texels a pixel in a multisampled frame and
+//! box-filtered instead (`reflections::downsample`).
 
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 

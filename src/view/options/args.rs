@@ -125,8 +125,10 @@ pub struct ViewArgs {
           action = clap::ArgAction::Set)]
     pub probes: Option<bool>,
     /// Anti-aliasing: samples per pixel, 1 (off), 2, 4 or 8: the frame's geometry is
-    /// multisampled and resolved before the exposure and tone curve. A GPU that cannot
-    /// multisample that many draws the most it can (1 with none), with a warning.
+    /// multisampled and resolved before the exposure and tone curve, and planar reflections
+    /// are drawn at the side of that sample grid squared (2×2 texels a pixel at 4 and 8) and
+    /// box-filtered. A GPU that cannot multisample that many draws the most it can (1 with
+    /// none), with a warning.
     #[arg(long, value_name = "N", default_value_t = super::DEFAULT_SAMPLES,
           value_parser = parse_samples)]
     pub samples: u32,

@@ -42,6 +42,7 @@ use crate::scene::desc::ReflectorKind;
 use crate::scene::{Plane, Scene};
 
 mod cpu;
+pub mod downsample;
 pub mod exact;
 pub mod filter;
 pub mod gap_fill;

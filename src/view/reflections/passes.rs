@@ -14,6 +14,7 @@ use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
 
 use glam::{Mat4, Vec2, Vec3};
 
+use super::downsample::{Downsample, map_factor};
 use super::filter::{FILTER_RINGS, FilterTap, detail_pixels, filter_taps};
 use super::gap_fill::GapFill;
 use super::map_target::{ReflectionMap, map_sampler};
@@ -144,8 +145,14 @@ pub struct GeometryReflections {
     composite: Composite,
     reflectors: Vec<ReflectorGpu>,
     clip: f32,
-    /// M, reused by every reflector in turn.
+    /// M, reused by every reflector in turn, drawn at `factor` × the frame's size.
     map: ReflectionMap,
+    /// M's texels per frame pixel along each axis ([`map_factor`]: 2 in a multisampled
+    /// frame).
+    factor: u32,
+    /// With `factor` > 1: M box-filtered to the frame's pixels, which the gap fill (image
+    /// mode), the pyramid and the composite read instead of M.
+    downsample: Option<Downsample>,
     /// Image mode: M with the gaps between splats closed, which the pyramid and the composite
     /// read instead of M.
     gap_fill: Option<GapFill>,
@@ -339,12 +346,21 @@ impl GeometryReflections {
                 &frame_layout,
                 &composite_layout,
             );
-            let map = ReflectionMap::new(gpu, "glint reflection texture", width, height);
+            let factor = map_factor(renderer.formats().samples);
+            let map = ReflectionMap::new(
+                gpu,
+                "glint reflection texture",
+                width * factor,
+                height * factor,
+            );
             let sampler = map_sampler(device, "glint reflection sampler");
             let pyramid_passes = PyramidPasses::new(device);
+            let downsample =
+                (factor > 1).then(|| Downsample::new(device, &map.view, width, height, factor));
+            let drawn = downsample.as_ref().map_or(&map.view, |d| &d.view);
             let gap_fill = matches!(source, Source::Image { .. })
-                .then(|| GapFill::new(device, &map.view, width, height));
-            let m_view = gap_fill.as_ref().map_or(&map.view, |g| &g.view);
+                .then(|| GapFill::new(device, drawn, width, height));
+            let m_view = gap_fill.as_ref().map_or(drawn, |g| &g.view);
             let pyramid = pyramid_passes.pyramid(gpu, m_view, width, height);
             let exact = (!exact_triangles.is_empty()).then(|| {
                 let indices = mesh.triangle_indices(exact_triangles.iter().map(|&t| t as usize));
@@ -427,6 +443,8 @@ impl GeometryReflections {
                 reflectors,
                 clip,
                 map,
+                factor,
+                downsample,
                 gap_fill,
                 pyramid,
                 exact,
@@ -671,6 +689,8 @@ impl GeometryReflections {
         curved: Option<&CurvedReflections>,
     ) {
         let pitch = splats::pixel_tangent(camera.fov_y, self.height);
+        // M's size: what the mirrored view is drawn and its splats sized for.
+        let (map_width, map_height) = (self.width * self.factor, self.height * self.factor);
         let frame_vp = self.frame_view_proj(camera);
         let frame = self
             .loader
@@ -684,14 +704,15 @@ impl GeometryReflections {
                 for c in curved.into_iter().chain(self.terminal.as_ref()) {
                     let view = MirroredView {
                         camera: &mirrored,
-                        width: self.width,
-                        height: self.height,
+                        width: map_width,
+                        height: map_height,
                         clip: self.clip_plane(r),
+                        supersampled: self.factor > 1,
                     };
                     c.prepare_mirror(gpu, renderer, slot, &view);
                 }
             }
-            let u = renderer.uniforms(&mirrored, self.width, self.height);
+            let u = renderer.uniforms(&mirrored, map_width, map_height);
             gpu.queue
                 .write_buffer(&r.mirror_uniforms, 0, bytemuck::bytes_of(&u));
             let mut p =
@@ -754,11 +775,11 @@ impl GeometryReflections {
                 && seen
             {
                 // The detail of M the composite keeps at a reflected point: its filter's
-                // sharpest footprint at the point's beyond fraction.
+                // sharpest footprint at the point's beyond fraction, in M's texels.
                 let eye_side = signed_distance(&r.reflector.plane, camera.position);
                 let detail = |q: Vec3| {
                     let f = beyond_fraction(signed_distance(&r.reflector.plane, q), eye_side);
-                    detail_pixels(&r.filter, texel * f)
+                    detail_pixels(&r.filter, texel * f) * self.factor as f32
                 };
                 // Each map's nodes are culled to its element's window on screen, grown by
                 // the filter's reach and the gap fill's.
@@ -778,8 +799,8 @@ impl GeometryReflections {
                     mirror_point(&r.reflector.plane, camera.position),
                     selection,
                     count,
-                    self.width,
-                    self.height,
+                    map_width,
+                    map_height,
                     &detail,
                 );
             } else if let Some(maps) = &resident.maps
@@ -882,6 +903,9 @@ impl GeometryReflections {
                         }
                     }
                 }
+            }
+            if let Some(d) = &self.downsample {
+                d.record(encoder);
             }
             if let Some(g) = self.gap_fill.as_ref().filter(|_| !skipped.gap_fill) {
                 g.record(encoder);

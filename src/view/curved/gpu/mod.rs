@@ -112,7 +112,16 @@ pub struct MirroredView<'a> {
     /// The reflector's plane (normal xyz, w = normal · point + clip distance): fragments
     /// behind it are discarded.
     pub clip: Vec4,
+    /// Whether the map is drawn at more than one texel a frame pixel and box-filtered
+    /// (`reflections::downsample`): its supersampling then stands in for the curved
+    /// reflectors' specular AA, which would widen their lobes for a footprint the filter
+    /// already averages (and darken their highlights by it).
+    pub supersampled: bool,
 }
+
+/// `CurvedParams::info[3]`'s bit that turns the specular AA on (`curved.wgsl`'s
+/// `kernel2`); bit 0 is the parallax correction.
+const SPECULAR_AA_BIT: u32 = 2;
 
 /// The curved-reflector passes of one [`Renderer`]: cube maps made at construction, the
 /// composite recorded per frame ([`CurvedReflections::prepare`], [`CurvedReflections::draw`])
@@ -411,7 +420,7 @@ impl CurvedReflections {
                         env_size,
                     );
                     base_params.info[3] = u32::from(settings.parallax)
-                        | (u32::from(settings.specular_aa) << 1);
+                        | if settings.specular_aa { SPECULAR_AA_BIT } else { 0 };
                     if self_hits {
                         base_params.centre[3] = own_offset(bounding_radius(scene, &reflector));
                     }
@@ -616,6 +625,7 @@ impl CurvedReflections {
             width,
             height,
             clip,
+            supersampled,
         } = *view;
         let view = &views[slot];
         let mut u = renderer.uniforms(camera, width, height);
@@ -626,6 +636,9 @@ impl CurvedReflections {
             let mut p = r.base_params;
             p.eye = camera.position.extend(0.0).to_array();
             p.clip = clip.to_array();
+            if supersampled {
+                p.info[3] &= !SPECULAR_AA_BIT;
+            }
             gpu.queue.write_buffer(params, 0, bytemuck::bytes_of(&p));
         }
     }

@@ -383,6 +383,7 @@ impl RecursiveReflections {
                     width: self.width,
                     height: self.height,
                     clip: self.clip_plane(node.reflector),
+                    supersampled: false,
                 };
                 c.prepare_mirror(gpu, renderer, id, &view);
             }
