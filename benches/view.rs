@@ -1083,27 +1083,16 @@ fn fidelity_table(gpu: &Gpu, work: &Path) {
             // (`reflections::downsample`), box-filtered from that grid too.
             let factor = map_factor(off.frame().samples());
             let equation_at = |f: u32| {
-                let rgb = reflections::cpu_reference(
+                image(reflections::cpu_reference_box(
                     &data.scene,
                     &reflectors,
                     &bvh,
                     &data.map,
                     &camera,
-                    w * f,
-                    h * f,
-                    1.0,
-                );
-                image(if f > 1 {
-                    glint::image_io::downsample(
-                        &rgb,
-                        (w * f) as usize,
-                        (h * f) as usize,
-                        w as usize,
-                        h as usize,
-                    )
-                } else {
-                    rgb
-                })
+                    w,
+                    h,
+                    f,
+                ))
             };
             let equation = (!reflectors.is_empty()).then(|| equation_at(1));
             let equation_filtered =

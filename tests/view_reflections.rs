@@ -1435,18 +1435,7 @@ fn near_mirror_reflections_are_anti_aliased_in_both_modes() {
     assert_eq!(panel.len(), 1, "glossy-room's mirror panel");
     let mask = reflections::reflector_pixels(&bvh, &panel, &camera, w, h);
     let equation = |f: u32| {
-        let rgb = reflections::cpu_reference(
-            &data.scene,
-            &reflectors,
-            &bvh,
-            &data.map,
-            &camera,
-            w * f,
-            h * f,
-            1.0,
-        );
-        let (sw, sh) = ((w * f) as usize, (h * f) as usize);
-        glint::image_io::downsample(&rgb, sw, sh, w as usize, h as usize)
+        reflections::cpu_reference_box(&data.scene, &reflectors, &bvh, &data.map, &camera, w, h, f)
     };
     let (centres, filtered) = (equation(1), equation(2));
     // Relative RMSE over the panel's pixels (ε keeps dark pixels from dominating).

@@ -25,6 +25,7 @@
 use thiserror::Error;
 
 pub mod build;
+pub mod image_pass;
 pub mod probe;
 pub mod radiosity_textures;
 pub mod readback;

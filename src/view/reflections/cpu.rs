@@ -69,6 +69,30 @@ pub fn cpu_reference(
     )
 }
 
+/// [`cpu_reference`] (exposure 1) at `factor` × `factor` points a pixel, box-filtered: what
+/// the single-level passes draw from M at that many texels a pixel (`super::downsample`).
+#[allow(clippy::too_many_arguments)]
+pub fn cpu_reference_box(
+    scene: &Scene,
+    reflectors: &[PlanarReflector],
+    bvh: &Bvh,
+    map: &RadiosityMap,
+    camera: &Camera,
+    width: u32,
+    height: u32,
+    factor: u32,
+) -> Vec<Vec3> {
+    let (w, h) = (width * factor, height * factor);
+    let fine = cpu_reference(scene, reflectors, bvh, map, camera, w, h, 1.0);
+    crate::image_io::downsample(
+        &fine,
+        w as usize,
+        h as usize,
+        width as usize,
+        height as usize,
+    )
+}
+
 /// [`cpu_reference`] with M*K computed as `filter` says.
 #[allow(clippy::too_many_arguments)]
 pub fn cpu_reference_filtered(

@@ -11,12 +11,9 @@
 //! [`downsample`] is the CPU form the shader follows; [`downsample_on_gpu`] runs the shader on
 //! an image (for tests).
 
-use exr::prelude::f16;
 use glam::Vec4;
 
-use crate::view::gpu::build::{bind_group_layout, render_pipeline, shader};
-use crate::view::gpu::readback::read_texture_rgba16f;
-use crate::view::gpu::target::{HDR_FORMAT, clear_pass, texture_2d};
+use crate::view::gpu::image_pass::{ImagePass, run_on_texels};
 use crate::view::gpu::{Gpu, GpuError};
 
 /// WGSL of the pass.
@@ -46,88 +43,28 @@ pub fn downsample(width: u32, height: u32, factor: u32, texels: &[Vec4]) -> Vec<
         .collect()
 }
 
-/// The pass and its target: M at the frame's resolution.
-pub(super) struct Downsample {
-    pipeline: wgpu::RenderPipeline,
-    group: wgpu::BindGroup,
-    texture: wgpu::Texture,
-    /// M box-filtered to the frame's pixels.
-    pub(super) view: wgpu::TextureView,
-}
-
-impl Downsample {
-    /// The pass reading `source` (M at `factor` × (`width` × `height`)) into a `width` ×
-    /// `height` target.
-    pub(super) fn new(
-        device: &wgpu::Device,
-        source: &wgpu::TextureView,
-        width: u32,
-        height: u32,
-        factor: u32,
-    ) -> Downsample {
-        let fragment = wgpu::ShaderStages::FRAGMENT;
-        let layout = bind_group_layout()
-            .texture(0, fragment, wgpu::TextureViewDimension::D2, false)
-            .build(device, "glint reflection downsample layout");
-        let module = shader(
-            device,
-            "glint reflection downsample shader",
-            DOWNSAMPLE_SHADER_SOURCE,
-        );
-        let pipeline = render_pipeline(
-            "glint reflection downsample",
-            &module,
-            "vs_full",
-            "fs_downsample",
-        )
-        .layouts(&[&layout])
-        .color(HDR_FORMAT, None)
-        .override_number("FACTOR", f64::from(factor))
-        .build(device);
-        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("glint reflection downsample source"),
-            layout: &layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: wgpu::BindingResource::TextureView(source),
-            }],
-        });
-        let texture = texture_2d(
-            device,
-            "glint downsampled reflection",
-            width,
-            height,
-            HDR_FORMAT,
-            wgpu::TextureUsages::RENDER_ATTACHMENT
-                | wgpu::TextureUsages::TEXTURE_BINDING
-                | wgpu::TextureUsages::COPY_SRC,
-        );
-        Downsample {
-            pipeline,
-            group,
-            view: texture.create_view(&wgpu::TextureViewDescriptor::default()),
-            texture,
-        }
-    }
-
-    /// Records the pass (after M is complete).
-    pub(super) fn record(&self, encoder: &mut wgpu::CommandEncoder) {
-        let mut pass = clear_pass(
-            encoder,
-            "glint reflection downsample pass",
-            &[Some(&self.view)],
-            wgpu::Color::TRANSPARENT,
-            None,
-            None,
-        );
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &self.group, &[]);
-        pass.draw(0..3, 0..1);
-    }
+/// The pass reading `source` (M at `factor` × (`width` × `height`)) into M at the frame's
+/// `width` × `height`.
+pub(super) fn downsample_pass(
+    device: &wgpu::Device,
+    source: &wgpu::TextureView,
+    width: u32,
+    height: u32,
+    factor: u32,
+) -> ImagePass {
+    ImagePass::new(
+        device,
+        "glint reflection downsample",
+        DOWNSAMPLE_SHADER_SOURCE,
+        "fs_downsample",
+        source,
+        (width, height),
+        &[("FACTOR", f64::from(factor))],
+    )
 }
 
 /// [`downsample`] by the shader: `texels` (`factor` × (`width` × `height`), row-major)
-/// uploaded as M ([`HDR_FORMAT`], so each value is first rounded to f16), filtered, read back.
+/// uploaded as M (`HDR_FORMAT`, so each value is first rounded to f16), filtered, read back.
 pub fn downsample_on_gpu(
     gpu: &Gpu,
     width: u32,
@@ -135,40 +72,12 @@ pub fn downsample_on_gpu(
     factor: u32,
     texels: &[Vec4],
 ) -> Result<Vec<Vec4>, GpuError> {
-    let (sw, sh) = (width * factor, height * factor);
-    assert_eq!(texels.len(), (sw * sh) as usize, "factor² texels a pixel");
-    let source = texture_2d(
-        &gpu.device,
-        "glint downsample probe source",
-        sw,
-        sh,
-        HDR_FORMAT,
-        wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-    );
-    let bits: Vec<u16> = texels
-        .iter()
-        .flat_map(|v| v.to_array().map(|c| f16::from_f32(c).to_bits()))
-        .collect();
-    gpu.queue.write_texture(
-        source.as_image_copy(),
-        bytemuck::cast_slice(&bits),
-        wgpu::TexelCopyBufferLayout {
-            offset: 0,
-            bytes_per_row: Some(sw * 8),
-            rows_per_image: None,
-        },
-        source.size(),
-    );
-    let view = source.create_view(&wgpu::TextureViewDescriptor::default());
-    let pass = Downsample::new(&gpu.device, &view, width, height, factor);
-    let mut encoder = gpu
-        .device
-        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("glint downsample probe"),
-        });
-    pass.record(&mut encoder);
-    gpu.queue.submit([encoder.finish()]);
-    read_texture_rgba16f(gpu, &pass.texture)
+    run_on_texels(
+        gpu,
+        (width * factor, height * factor),
+        texels,
+        |device, source| downsample_pass(device, source, width, height, factor),
+    )
 }
 
 #[cfg(test)]

@@ -15,13 +15,10 @@
 //! [`fill`] is the CPU form the shader follows; [`fill_on_gpu`] runs the shader on an image
 //! (for tests).
 
-use exr::prelude::f16;
 use glam::Vec4;
 
 use super::splats::FILL_RING;
-use crate::view::gpu::build::{bind_group_layout, render_pipeline, shader};
-use crate::view::gpu::readback::read_texture_rgba16f;
-use crate::view::gpu::target::{HDR_FORMAT, clear_pass, texture_2d};
+use crate::view::gpu::image_pass::{ImagePass, run_on_texels};
 use crate::view::gpu::{Gpu, GpuError};
 
 /// WGSL of the pass.
@@ -70,120 +67,36 @@ pub fn fill(width: u32, height: u32, texels: &[Vec4]) -> Vec<Vec4> {
     out
 }
 
-/// The pass and its target: M with the gaps closed, which the pyramid and the composite read
-/// in image mode instead of M.
-pub(super) struct GapFill {
-    pipeline: wgpu::RenderPipeline,
-    group: wgpu::BindGroup,
-    texture: wgpu::Texture,
-    /// The filled M.
-    pub(super) view: wgpu::TextureView,
-}
-
-impl GapFill {
-    /// The pass reading `source` (M, `width` × `height`).
-    pub(super) fn new(
-        device: &wgpu::Device,
-        source: &wgpu::TextureView,
-        width: u32,
-        height: u32,
-    ) -> GapFill {
-        let fragment = wgpu::ShaderStages::FRAGMENT;
-        let layout = bind_group_layout()
-            .texture(0, fragment, wgpu::TextureViewDimension::D2, false)
-            .build(device, "glint gap fill layout");
-        let module = shader(device, "glint gap fill shader", GAP_FILL_SHADER_SOURCE);
-        let pipeline = render_pipeline("glint gap fill", &module, "vs_full", "fs_gap_fill")
-            .layouts(&[&layout])
-            .color(HDR_FORMAT, None)
-            .build(device);
-        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("glint gap fill source"),
-            layout: &layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: wgpu::BindingResource::TextureView(source),
-            }],
-        });
-        let texture = texture_2d(
-            device,
-            "glint gap-filled reflection",
-            width,
-            height,
-            HDR_FORMAT,
-            wgpu::TextureUsages::RENDER_ATTACHMENT
-                | wgpu::TextureUsages::TEXTURE_BINDING
-                | wgpu::TextureUsages::COPY_SRC,
-        );
-        GapFill {
-            pipeline,
-            group,
-            view: texture.create_view(&wgpu::TextureViewDescriptor::default()),
-            texture,
-        }
-    }
-
-    /// Records the pass (after M is complete).
-    pub(super) fn record(&self, encoder: &mut wgpu::CommandEncoder) {
-        let mut pass = clear_pass(
-            encoder,
-            "glint gap fill pass",
-            &[Some(&self.view)],
-            wgpu::Color::TRANSPARENT,
-            None,
-            None,
-        );
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &self.group, &[]);
-        pass.draw(0..3, 0..1);
-    }
+/// The pass reading `source` (M, `width` × `height`) into M with the gaps closed, which the
+/// pyramid and the composite read in image mode instead of M.
+pub(super) fn gap_fill_pass(
+    device: &wgpu::Device,
+    source: &wgpu::TextureView,
+    width: u32,
+    height: u32,
+) -> ImagePass {
+    ImagePass::new(
+        device,
+        "glint gap fill",
+        GAP_FILL_SHADER_SOURCE,
+        "fs_gap_fill",
+        source,
+        (width, height),
+        &[],
+    )
 }
 
 /// [`fill`] by the shader: `texels` (`width` × `height`, row-major) uploaded as M
-/// ([`HDR_FORMAT`], so each value is first rounded to f16), filled, read back.
+/// (`HDR_FORMAT`, so each value is first rounded to f16), filled, read back.
 pub fn fill_on_gpu(
     gpu: &Gpu,
     width: u32,
     height: u32,
     texels: &[Vec4],
 ) -> Result<Vec<Vec4>, GpuError> {
-    assert_eq!(
-        texels.len(),
-        (width * height) as usize,
-        "one texel per pixel"
-    );
-    let source = texture_2d(
-        &gpu.device,
-        "glint gap fill probe source",
-        width,
-        height,
-        HDR_FORMAT,
-        wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-    );
-    let bits: Vec<u16> = texels
-        .iter()
-        .flat_map(|v| v.to_array().map(|c| f16::from_f32(c).to_bits()))
-        .collect();
-    gpu.queue.write_texture(
-        source.as_image_copy(),
-        bytemuck::cast_slice(&bits),
-        wgpu::TexelCopyBufferLayout {
-            offset: 0,
-            bytes_per_row: Some(width * 8),
-            rows_per_image: None,
-        },
-        source.size(),
-    );
-    let view = source.create_view(&wgpu::TextureViewDescriptor::default());
-    let pass = GapFill::new(&gpu.device, &view, width, height);
-    let mut encoder = gpu
-        .device
-        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("glint gap fill probe"),
-        });
-    pass.record(&mut encoder);
-    gpu.queue.submit([encoder.finish()]);
-    read_texture_rgba16f(gpu, &pass.texture)
+    run_on_texels(gpu, (width, height), texels, |device, source| {
+        gap_fill_pass(device, source, width, height)
+    })
 }
 
 #[cfg(test)]

@@ -58,7 +58,9 @@ mod splat_maps;
 pub mod splats;
 pub mod terminal;
 
-pub use cpu::{MkFilter, cpu_reference, cpu_reference_filtered, reflector_pixels};
+pub use cpu::{
+    MkFilter, cpu_reference, cpu_reference_box, cpu_reference_filtered, reflector_pixels,
+};
 pub use material::{
     MODULATION_SIZE, Modulation, ReflectanceChannel, ReflectanceLayout, ScreenKernel,
     sample_modulation,

@@ -14,9 +14,9 @@ use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
 
 use glam::{Mat4, Vec2, Vec3};
 
-use super::downsample::{Downsample, map_factor};
+use super::downsample::{downsample_pass, map_factor};
 use super::filter::{FILTER_RINGS, FilterTap, detail_pixels, filter_taps};
-use super::gap_fill::GapFill;
+use super::gap_fill::gap_fill_pass;
 use super::map_target::{ReflectionMap, map_sampler};
 use super::material::{beyond_fraction, texel_pixels};
 use super::params::{
@@ -36,6 +36,7 @@ use crate::view::curved::CurvedSettings;
 use crate::view::curved::gpu::{CurvedReflections, MirroredView};
 use crate::view::gpu::RenderError;
 use crate::view::gpu::build::{buffer_init, render_pipeline, shader};
+use crate::view::gpu::image_pass::ImagePass;
 use crate::view::gpu::target::{HDR_FORMAT, reverse_z_depth};
 use crate::view::gpu::{Gpu, GpuError, error_scoped};
 use crate::view::load::ViewData;
@@ -152,10 +153,10 @@ pub struct GeometryReflections {
     factor: u32,
     /// With `factor` > 1: M box-filtered to the frame's pixels, which the gap fill (image
     /// mode), the pyramid and the composite read instead of M.
-    downsample: Option<Downsample>,
+    downsample: Option<ImagePass>,
     /// Image mode: M with the gaps between splats closed, which the pyramid and the composite
     /// read instead of M.
-    gap_fill: Option<GapFill>,
+    gap_fill: Option<ImagePass>,
     /// M's pyramid, rebuilt after each mirror pass.
     pyramid: Pyramid,
     /// Image mode: the scene's emitters and curved reflectors (indices, count), drawn into M
@@ -356,10 +357,10 @@ impl GeometryReflections {
             let sampler = map_sampler(device, "glint reflection sampler");
             let pyramid_passes = PyramidPasses::new(device);
             let downsample =
-                (factor > 1).then(|| Downsample::new(device, &map.view, width, height, factor));
+                (factor > 1).then(|| downsample_pass(device, &map.view, width, height, factor));
             let drawn = downsample.as_ref().map_or(&map.view, |d| &d.view);
             let gap_fill = matches!(source, Source::Image { .. })
-                .then(|| GapFill::new(device, drawn, width, height));
+                .then(|| gap_fill_pass(device, drawn, width, height));
             let m_view = gap_fill.as_ref().map_or(drawn, |g| &g.view);
             let pyramid = pyramid_passes.pyramid(gpu, m_view, width, height);
             let exact = (!exact_triangles.is_empty()).then(|| {
