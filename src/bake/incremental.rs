@@ -137,16 +137,21 @@ pub fn bake_incremental(
         // The costliest first, so that the last unit to start is a short one.
         let mut order: Vec<usize> = (0..todo.len()).collect();
         order.sort_by(|&a, &b| todo[b].cost.total_cmp(&todo[a].cost));
-        let ran = super::wave::run_wave(order.len(), progress, |k, progress| {
-            let (u, why) = (todo[order[k]], &whys[order[k]]);
-            if !why.is_empty() {
-                log::info!("{}: rebaking unit {} ({why})", u.stage, u.id);
-            }
-            let shard = shard_path(&cache, &u.id);
-            bake_unit_gathering(
-                scene, settings, plan, &u.id, &shard, None, true, &checked, progress,
-            )
-        });
+        let ran = super::wave::run_wave(
+            order.len(),
+            super::wave::units_at_once(),
+            progress,
+            |k, progress| {
+                let (u, why) = (todo[order[k]], &whys[order[k]]);
+                if !why.is_empty() {
+                    log::info!("{}: rebaking unit {} ({why})", u.stage, u.id);
+                }
+                let shard = shard_path(&cache, &u.id);
+                bake_unit_gathering(
+                    scene, settings, plan, &u.id, &shard, None, true, &checked, progress,
+                )
+            },
+        );
         let mut results: Vec<Option<anyhow::Result<_>>> = (0..todo.len()).map(|_| None).collect();
         for (k, r) in order.into_iter().zip(ran) {
             results[k] = Some(r);

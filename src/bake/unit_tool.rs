@@ -120,10 +120,15 @@ pub fn bake_every_unit(
     let last = plan.units.iter().map(|u| u.wave).max().unwrap_or(0);
     for wave in 0..=last {
         let ids: Vec<&str> = plan.wave(wave).collect();
-        let baked = super::wave::run_wave(ids.len(), progress, |i, progress| {
-            let shard = shard_path(dir, ids[i]);
-            bake_unit(scene, settings, plan, ids[i], &shard, None, progress)
-        });
+        let baked = super::wave::run_wave(
+            ids.len(),
+            super::wave::units_at_once(),
+            progress,
+            |i, progress| {
+                let shard = shard_path(dir, ids[i]);
+                bake_unit(scene, settings, plan, ids[i], &shard, None, progress)
+            },
+        );
         for r in baked {
             reports.push(r?);
         }

@@ -17,16 +17,23 @@ use crate::progress::Progress;
 /// D: up to about 1 GiB each on the largest scenes, docs/measurements.md#scale).
 pub const UNITS_AT_ONCE: usize = 2;
 
-/// Runs `bake(i, progress)` for every `i < n`, up to [`UNITS_AT_ONCE`] at a time, in order
-/// of `i` as workers free up; returns the results in order of `i`. With one unit it runs on
-/// the calling thread. The progress reported is one unit's at a time: that of the lowest
-/// `i` still running, its phase announced again when it takes over.
+/// How many units of a wave to bake at once: [`UNITS_AT_ONCE`], or one where the thread pool
+/// has one thread (`RAYON_NUM_THREADS=1` asks for one core's work).
+pub fn units_at_once() -> usize {
+    UNITS_AT_ONCE.min(rayon::current_num_threads()).max(1)
+}
+
+/// Runs `bake(i, progress)` for every `i < n`, up to `at_once` at a time, in order of `i` as
+/// workers free up; returns the results in order of `i`. With one at a time (or one unit)
+/// it runs on the calling thread. The progress reported is one unit's at a time: that of the
+/// lowest `i` still running, its phase announced again when it takes over.
 pub fn run_wave<T: Send>(
     n: usize,
+    at_once: usize,
     progress: &dyn Progress,
     bake: impl Fn(usize, &dyn Progress) -> T + Sync,
 ) -> Vec<T> {
-    if n <= 1 {
+    if n <= 1 || at_once <= 1 {
         return (0..n).map(|i| bake(i, progress)).collect();
     }
     let shown = Shown {
@@ -49,7 +56,7 @@ pub fn run_wave<T: Send>(
         }
     };
     std::thread::scope(|s| {
-        for _ in 1..n.min(UNITS_AT_ONCE) {
+        for _ in 1..n.min(at_once) {
             s.spawn(work);
         }
         work();
@@ -166,7 +173,7 @@ mod tests {
     fn every_unit_runs_once_and_results_keep_their_order() {
         let log = Log::default();
         let ran = AtomicUsize::new(0);
-        let out = run_wave(7, &log, |i, p| {
+        let out = run_wave(7, 2, &log, |i, p| {
             ran.fetch_add(1, Ordering::SeqCst);
             p.phase("unit", 2);
             p.advance(1);
@@ -185,7 +192,7 @@ mod tests {
     fn two_units_run_at_once() {
         // Each unit waits until the other has started: one at a time would never finish.
         let started = AtomicUsize::new(0);
-        let out = run_wave(2, &crate::progress::Silent, |i, _| {
+        let out = run_wave(2, 2, &crate::progress::Silent, |i, _| {
             started.fetch_add(1, Ordering::SeqCst);
             let t = std::time::Instant::now();
             while started.load(Ordering::SeqCst) < 2 {
