@@ -194,8 +194,8 @@ impl Atlas {
 /// records) takes two.
 #[inline]
 pub fn floor(x: f32) -> f32 {
-    // From 2²³ on every f32 is a whole number; NaN and the infinities fail the test too.
-    if !(x.abs() < 8_388_608.0) {
+    // From 2²³ on every f32 is a whole number (the infinities too).
+    if x.is_nan() || x.abs() >= 8_388_608.0 {
         return x;
     }
     let t = x as i32 as f32;
