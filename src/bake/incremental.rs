@@ -118,22 +118,46 @@ pub fn bake_incremental(
     let mut rebaked: BTreeSet<String> = BTreeSet::new();
     let last = plan.units.iter().map(|u| u.wave).max().unwrap_or(0);
     for wave in 0..=last {
-        for u in plan.units.iter().filter(|u| u.wave == wave) {
-            if kind(&u.id) == GATHER {
-                continue;
-            }
-            let shard = shard_path(&cache, &u.id);
-            let why = if fresh(u) {
-                String::new()
-            } else {
-                why_rebake(&shard, u, &rebaked, &scene_changes)
-            };
-            if !why.is_empty() {
-                log::info!("{}: rebaking unit {} ({why})", u.stage, u.id);
-            }
-            let r = bake_unit_gathering(
-                scene, settings, plan, &u.id, &shard, None, true, &checked, progress,
-            )?;
+        let todo: Vec<&Unit> = plan
+            .units
+            .iter()
+            .filter(|u| u.wave == wave && kind(&u.id) != GATHER)
+            .collect();
+        // The units of a wave read only earlier waves' (their `why` reads `rebaked` of those).
+        let whys: Vec<String> = todo
+            .iter()
+            .map(|u| {
+                if fresh(u) {
+                    String::new()
+                } else {
+                    why_rebake(&shard_path(&cache, &u.id), u, &rebaked, &scene_changes)
+                }
+            })
+            .collect();
+        // The costliest first, so that the last unit to start is a short one.
+        let mut order: Vec<usize> = (0..todo.len()).collect();
+        order.sort_by(|&a, &b| todo[b].cost.total_cmp(&todo[a].cost));
+        let ran = super::wave::run_wave(
+            order.len(),
+            super::wave::units_at_once(),
+            progress,
+            |k, progress| {
+                let (u, why) = (todo[order[k]], &whys[order[k]]);
+                if !why.is_empty() {
+                    log::info!("{}: rebaking unit {} ({why})", u.stage, u.id);
+                }
+                let shard = shard_path(&cache, &u.id);
+                bake_unit_gathering(
+                    scene, settings, plan, &u.id, &shard, None, true, &checked, progress,
+                )
+            },
+        );
+        let mut results: Vec<Option<anyhow::Result<_>>> = (0..todo.len()).map(|_| None).collect();
+        for (k, r) in order.into_iter().zip(ran) {
+            results[k] = Some(r);
+        }
+        for ((u, why), r) in todo.into_iter().zip(whys).zip(results) {
+            let r = r.expect("every unit ran")?;
             let seconds = match r.status {
                 StageStatus::Baked { seconds } => seconds,
                 _ => 0.0,

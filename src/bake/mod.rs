@@ -19,6 +19,7 @@ pub mod srdm_stage;
 pub mod tool;
 pub mod unit_tool;
 pub mod units;
+mod wave;
 pub mod written;
 
 use std::path::Path;

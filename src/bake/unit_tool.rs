@@ -106,7 +106,8 @@ fn run_units(
     Ok(ExitCode::SUCCESS)
 }
 
-/// Bakes every unit of `plan` into `dir`, wave by wave.
+/// Bakes every unit of `plan` into `dir`, wave by wave, the units of a wave side by side
+/// (`bake::wave`).
 pub fn bake_every_unit(
     scene: &Scene,
     settings: &BakeSettings,
@@ -118,11 +119,18 @@ pub fn bake_every_unit(
     let mut reports = Vec::new();
     let last = plan.units.iter().map(|u| u.wave).max().unwrap_or(0);
     for wave in 0..=last {
-        for id in plan.wave(wave) {
-            let shard = shard_path(dir, id);
-            reports.push(bake_unit(
-                scene, settings, plan, id, &shard, None, progress,
-            )?);
+        let ids: Vec<&str> = plan.wave(wave).collect();
+        let baked = super::wave::run_wave(
+            ids.len(),
+            super::wave::units_at_once(),
+            progress,
+            |i, progress| {
+                let shard = shard_path(dir, ids[i]);
+                bake_unit(scene, settings, plan, ids[i], &shard, None, progress)
+            },
+        );
+        for r in baked {
+            reports.push(r?);
         }
     }
     Ok(reports)

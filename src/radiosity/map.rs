@@ -4,7 +4,7 @@
 
 use glam::{Vec2, Vec3};
 
-use super::atlas::Atlas;
+use super::atlas::{Atlas, floor};
 use super::format::{self, AtlasFormatError};
 use crate::bundle::{Bundle, BundleError};
 use crate::image_io::{self, ImageError};
@@ -137,7 +137,7 @@ impl RadiosityMap {
 /// Bilinear lookup at continuous texel coordinates (texel centres at i + 0.5), clamped.
 pub fn bilinear(texels: &[Vec3], width: u32, height: u32, p: Vec2) -> Vec3 {
     let q = p - Vec2::splat(0.5);
-    let (x0, y0) = (q.x.floor(), q.y.floor());
+    let (x0, y0) = (floor(q.x), floor(q.y));
     let (fx, fy) = (q.x - x0, q.y - y0);
     let at = |x: f32, y: f32| {
         let xi = (x as i64).clamp(0, width as i64 - 1) as usize;

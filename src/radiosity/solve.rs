@@ -933,11 +933,6 @@ fn iterate(
             return Err(Cancelled);
         }
         let first = read.take();
-        // Widened once a bounce rather than once a read: the same sums (f32 → f64 is exact).
-        let wide: Vec<[f64; 3]> = lr
-            .par_iter()
-            .map(|l| [l.x as f64, l.y as f64, l.z as f64])
-            .collect();
         let next: Vec<Vec3> = (0..links.len())
             .into_par_iter()
             .map(|i| {
@@ -946,11 +941,13 @@ fn iterate(
                     Some(r) if r.kept[i] => r.sums[i],
                     _ => {
                         let mut sum = [0.0f64; 3];
+                        // Read as f32 and widened per read (exact): half the bytes of a
+                        // widened copy, which the random reads keep in cache better.
                         links[i].for_each_hit(|h| {
-                            let l = &wide[h as usize];
-                            sum[0] += l[0];
-                            sum[1] += l[1];
-                            sum[2] += l[2];
+                            let l = lr[h as usize];
+                            sum[0] += l.x as f64;
+                            sum[1] += l.y as f64;
+                            sum[2] += l.z as f64;
                         });
                         links[i].terms.for_each(|texel, weight| {
                             let l = weight * lr[texel as usize];
