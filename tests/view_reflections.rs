@@ -1475,6 +1475,19 @@ fn near_mirror_reflections_are_anti_aliased_in_both_modes() {
              closely as the box-filtered one ({to_filtered:.3}): its reflection is aliased"
         );
     }
+    // `--reflection-aa off`: one texel a pixel, the centres' equation again.
+    options.reflection_aa = false;
+    options.reflections = ReflectionMode::Geometry;
+    offscreen.set_options(&gpu, &data, &options).unwrap();
+    offscreen.render(&gpu, &camera).unwrap();
+    let frame = offscreen.read_hdr(&gpu).unwrap();
+    let (to_centres, to_filtered) = (error(&frame, &centres), error(&frame, &filtered));
+    eprintln!("reflection AA off: {to_centres:.3} vs the centres, {to_filtered:.3} vs the box");
+    assert!(
+        to_centres < 0.8 * to_filtered,
+        "with reflection AA off the panel should follow the centres' equation ({to_centres:.3}) \
+         more closely than the box-filtered one ({to_filtered:.3})"
+    );
 }
 
 /// The downsample shader (`shaders/map_downsample.wgsl`) against its CPU form on an image

@@ -71,6 +71,7 @@ impl Rebuild {
                 o.selection,
                 o.maps,
                 o.reflectance,
+                o.reflection_aa,
                 o.recursion_depth(),
                 o.recursive().then_some(o.recursion.cutoff.to_bits()),
                 // Geometry mode's terminal cube maps read the curved settings.
@@ -270,6 +271,7 @@ impl FramePasses {
                     o.reflectance,
                     o.splat_buffer_bytes,
                     o.recursion.terminal.then_some(o.curved_settings),
+                    o.reflection_aa,
                 )?;
                 self.planar = Some(r);
             }
@@ -614,7 +616,14 @@ mod tests {
         more.maps = 4;
         let mut distance = image;
         distance.selection = Selection::Distance;
-        for (a, b) in [(&base, &image), (&image, &more), (&image, &distance)] {
+        let mut aliased = image;
+        aliased.reflection_aa = false;
+        for (a, b) in [
+            (&base, &image),
+            (&image, &more),
+            (&image, &distance),
+            (&image, &aliased),
+        ] {
             let r = Rebuild::between(a, b);
             assert!(r.planar && !r.impostors && !r.curved, "{r:?}");
         }

@@ -132,6 +132,12 @@ pub struct ViewArgs {
     #[arg(long, value_name = "N", default_value_t = super::DEFAULT_SAMPLES,
           value_parser = parse_samples)]
     pub samples: u32,
+    /// Planar reflections: anti-aliased with the frame (`on`: in a multisampled frame the
+    /// reflected image is drawn at 2×2 texels a pixel and box-filtered; `off`: one texel a
+    /// pixel, cheaper, reflected edges stair-stepped).
+    #[arg(long, value_name = "on|off", default_value = "on", value_parser = parse_on_off,
+          action = clap::ArgAction::Set)]
+    pub reflection_aa: bool,
 }
 
 /// `glint-view`'s view arguments alone, for [`ViewOptions::from_args`].
@@ -236,6 +242,7 @@ impl ViewArgs {
             probes: modes.probes,
             splat_buffer_bytes: None,
             samples: self.samples,
+            reflection_aa: self.reflection_aa,
         };
         options.check()?;
         Ok(options)
@@ -316,6 +323,8 @@ mod tests {
             "on",
             "--samples",
             "2",
+            "--reflection-aa",
+            "off",
         ])
         .unwrap();
         assert_eq!(
@@ -349,6 +358,7 @@ mod tests {
                 probes: true,
                 splat_buffer_bytes: None,
                 samples: 2,
+                reflection_aa: false,
             }
         );
         assert!(o.recursive() && o.shows_reflections());

@@ -407,6 +407,10 @@ pub struct ViewOptions {
     /// the display pass), one of [`SAMPLE_COUNTS`]; 1 is off. A GPU that cannot multisample
     /// the frame's formats that many times draws fewer (`view::gpu::target::frame_samples`).
     pub samples: u32,
+    /// Planar reflections anti-aliased with the frame: M drawn at the side of the frame's
+    /// sample grid texels a pixel (2 × 2 at 4 samples) and box-filtered
+    /// (`reflections::downsample`); off, one texel a pixel.
+    pub reflection_aa: bool,
 }
 
 impl Default for ViewOptions {
@@ -426,6 +430,7 @@ impl Default for ViewOptions {
             probes: false,
             splat_buffer_bytes: None,
             samples: DEFAULT_SAMPLES,
+            reflection_aa: true,
         }
     }
 }

@@ -204,6 +204,7 @@ impl GeometryReflections {
             ReflectanceSettings::default(),
             None,
             None,
+            true,
         )
     }
 
@@ -213,7 +214,9 @@ impl GeometryReflections {
     /// a cube map made with these settings ([`super::terminal`]): in geometry mode on top of
     /// its kd·D, in image mode drawn exactly in place of its map points
     /// ([`super::exact`]), whose one glossy bounce ([`crate::radiance::shading`]) shows the
-    /// room as the map's camera, 20 cm behind glossy-room's table, saw it in the mirror.
+    /// room as the map's camera, 20 cm behind glossy-room's table, saw it in the mirror. With
+    /// `anti_aliased`, M is drawn at [`map_factor`] texels a pixel along each axis for the
+    /// renderer's sample count and box-filtered; without, at one.
     #[allow(clippy::too_many_arguments)]
     pub fn with_reflectance(
         gpu: &Gpu,
@@ -225,6 +228,7 @@ impl GeometryReflections {
         reflectance: ReflectanceSettings,
         splat_buffer_bytes: Option<u64>,
         terminal: Option<CurvedSettings>,
+        anti_aliased: bool,
     ) -> Result<GeometryReflections, RenderError> {
         let planar = reflectors_with_materials(data, reflectance);
         let terminal = super::terminal::terminal_passes(gpu, renderer, data, terminal, &planar)?;
@@ -275,6 +279,7 @@ impl GeometryReflections {
             planar,
             loader,
             &exact_triangles,
+            anti_aliased,
         )?;
         built.terminal = terminal;
         Ok(built)
@@ -295,6 +300,7 @@ impl GeometryReflections {
             Option<u64>,
         )>,
         exact_triangles: &[u32],
+        anti_aliased: bool,
     ) -> Result<GeometryReflections, GpuError> {
         let (scene, map) = (&data.scene, &data.map);
         let device = &gpu.device;
@@ -347,7 +353,11 @@ impl GeometryReflections {
                 &frame_layout,
                 &composite_layout,
             );
-            let factor = map_factor(renderer.formats().samples);
+            let factor = if anti_aliased {
+                map_factor(renderer.formats().samples)
+            } else {
+                1
+            };
             let map = ReflectionMap::new(
                 gpu,
                 "glint reflection texture",
