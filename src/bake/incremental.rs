@@ -134,15 +134,13 @@ pub fn bake_incremental(
                 }
             })
             .collect();
-        // The costliest first, so that the last unit to start is a short one.
-        let mut order: Vec<usize> = (0..todo.len()).collect();
-        order.sort_by(|&a, &b| todo[b].cost.total_cmp(&todo[a].cost));
+        let costs: Vec<f64> = todo.iter().map(|u| u.cost).collect();
         let ran = super::wave::run_wave(
-            order.len(),
+            &costs,
             super::wave::units_at_once(),
             progress,
             |k, progress| {
-                let (u, why) = (todo[order[k]], &whys[order[k]]);
+                let (u, why) = (todo[k], &whys[k]);
                 if !why.is_empty() {
                     log::info!("{}: rebaking unit {} ({why})", u.stage, u.id);
                 }
@@ -152,12 +150,8 @@ pub fn bake_incremental(
                 )
             },
         );
-        let mut results: Vec<Option<anyhow::Result<_>>> = (0..todo.len()).map(|_| None).collect();
-        for (k, r) in order.into_iter().zip(ran) {
-            results[k] = Some(r);
-        }
-        for ((u, why), r) in todo.into_iter().zip(whys).zip(results) {
-            let r = r.expect("every unit ran")?;
+        for ((u, why), r) in todo.into_iter().zip(whys).zip(ran) {
+            let r = r?;
             let seconds = match r.status {
                 StageStatus::Baked { seconds } => seconds,
                 _ => 0.0,

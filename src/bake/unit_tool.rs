@@ -7,7 +7,7 @@ use std::process::ExitCode;
 
 use super::BakeSettings;
 use super::shard::{UnitReport, bake_unit, shard_path};
-use super::units::{UnitPlan, plan_units};
+use super::units::{Unit, UnitPlan, plan_units};
 use super::written::Written;
 use crate::bundle::stats::format_table;
 use crate::cli::{BakeArgs, GlintBakeArgs};
@@ -106,8 +106,8 @@ fn run_units(
     Ok(ExitCode::SUCCESS)
 }
 
-/// Bakes every unit of `plan` into `dir`, wave by wave, the units of a wave side by side
-/// (`bake::wave`).
+/// Bakes every unit of `plan` into `dir`, wave by wave, the units of a wave side by side,
+/// the costliest first (`bake::wave`).
 pub fn bake_every_unit(
     scene: &Scene,
     settings: &BakeSettings,
@@ -119,9 +119,11 @@ pub fn bake_every_unit(
     let mut reports = Vec::new();
     let last = plan.units.iter().map(|u| u.wave).max().unwrap_or(0);
     for wave in 0..=last {
-        let ids: Vec<&str> = plan.wave(wave).collect();
+        let units: Vec<&Unit> = plan.units.iter().filter(|u| u.wave == wave).collect();
+        let ids: Vec<&str> = units.iter().map(|u| u.id.as_str()).collect();
+        let costs: Vec<f64> = units.iter().map(|u| u.cost).collect();
         let baked = super::wave::run_wave(
-            ids.len(),
+            &costs,
             super::wave::units_at_once(),
             progress,
             |i, progress| {

@@ -23,18 +23,29 @@ pub fn units_at_once() -> usize {
     UNITS_AT_ONCE.min(rayon::current_num_threads()).max(1)
 }
 
-/// Runs `bake(i, progress)` for every `i < n`, up to `at_once` at a time, in order of `i` as
-/// workers free up; returns the results in order of `i`. With one at a time (or one unit)
-/// it runs on the calling thread. The progress reported is one unit's at a time: that of the
-/// lowest `i` still running, its phase announced again when it takes over.
+/// Runs `bake(i, progress)` for every unit `i < costs.len()`, up to `at_once` at a time,
+/// the costliest first (ties in order of `i`) as workers free up, so that the last unit to
+/// start is a short one; returns the results in order of `i`. With one at a time (or one
+/// unit) it runs on the calling thread. The progress reported is one unit's at a time: that
+/// of the earliest started still running, its phase announced again when it takes over.
 pub fn run_wave<T: Send>(
-    n: usize,
+    costs: &[f64],
     at_once: usize,
     progress: &dyn Progress,
     bake: impl Fn(usize, &dyn Progress) -> T + Sync,
 ) -> Vec<T> {
+    let n = costs.len();
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| costs[b].total_cmp(&costs[a]));
     if n <= 1 || at_once <= 1 {
-        return (0..n).map(|i| bake(i, progress)).collect();
+        let mut results: Vec<Option<T>> = (0..n).map(|_| None).collect();
+        for &i in &order {
+            results[i] = Some(bake(i, progress));
+        }
+        return results
+            .into_iter()
+            .map(|r| r.expect("every unit ran"))
+            .collect();
     }
     let shown = Shown {
         outer: progress,
@@ -44,14 +55,18 @@ pub fn run_wave<T: Send>(
     let results: Vec<Mutex<Option<T>>> = (0..n).map(|_| Mutex::new(None)).collect();
     let work = || {
         loop {
-            let i = next.fetch_add(1, Ordering::SeqCst);
-            if i >= n {
+            // Units are shown by their rank in `order`: the lowest running leads.
+            let rank = next.fetch_add(1, Ordering::SeqCst);
+            let Some(&i) = order.get(rank) else {
                 break;
-            }
-            shown.start(i);
-            let unit = UnitProgress { shown: &shown, i };
+            };
+            shown.start(rank);
+            let unit = UnitProgress {
+                shown: &shown,
+                i: rank,
+            };
             let r = bake(i, &unit);
-            shown.end(i);
+            shown.end(rank);
             *results[i].lock().unwrap_or_else(|e| e.into_inner()) = Some(r);
         }
     };
@@ -76,7 +91,7 @@ type Phase = (String, u64, u64);
 
 #[derive(Default)]
 struct State {
-    /// The units running, by index, with their current phase.
+    /// The units running, by their rank in the order they start, with their current phase.
     running: Vec<(usize, Option<Phase>)>,
 }
 
@@ -121,6 +136,7 @@ impl Shown<'_> {
 /// The reporter one unit of a wave is given.
 struct UnitProgress<'a> {
     shown: &'a Shown<'a>,
+    /// The unit's rank in the order units start.
     i: usize,
 }
 
@@ -173,7 +189,7 @@ mod tests {
     fn every_unit_runs_once_and_results_keep_their_order() {
         let log = Log::default();
         let ran = AtomicUsize::new(0);
-        let out = run_wave(7, 2, &log, |i, p| {
+        let out = run_wave(&[0.0; 7], 2, &log, |i, p| {
             ran.fetch_add(1, Ordering::SeqCst);
             p.phase("unit", 2);
             p.advance(1);
@@ -192,7 +208,7 @@ mod tests {
     fn two_units_run_at_once() {
         // Each unit waits until the other has started: one at a time would never finish.
         let started = AtomicUsize::new(0);
-        let out = run_wave(2, 2, &crate::progress::Silent, |i, _| {
+        let out = run_wave(&[0.0; 2], 2, &crate::progress::Silent, |i, _| {
             started.fetch_add(1, Ordering::SeqCst);
             let t = std::time::Instant::now();
             while started.load(Ordering::SeqCst) < 2 {
@@ -205,6 +221,27 @@ mod tests {
             i
         });
         assert_eq!(out, [0, 1]);
+    }
+
+    #[test]
+    fn the_costliest_units_start_first_and_results_keep_their_order() {
+        let costs = [1.0, 5.0, 3.0, 5.0, 0.0];
+        for at_once in [1, 2] {
+            let started = Mutex::new(Vec::new());
+            let out = run_wave(&costs, at_once, &crate::progress::Silent, |i, _| {
+                started.lock().unwrap().push(i);
+                i * 10
+            });
+            assert_eq!(out, [0, 10, 20, 30, 40]);
+            let mut started = started.into_inner().unwrap();
+            if at_once == 1 {
+                // Ties keep their order. (Two workers take units in this order too, but which
+                // of two reaches `bake` first is a race.)
+                assert_eq!(started, [1, 3, 2, 0, 4]);
+            }
+            started.sort();
+            assert_eq!(started, [0, 1, 2, 3, 4]);
+        }
     }
 
     #[test]
