@@ -235,6 +235,8 @@ pub fn texel_rows<'a>(
         .into_par_iter()
         .zip(changed)
         .enumerate()
+        // A row each task: rows that see a glossy surface cost many times the others.
+        .with_max_len(1)
         .map(|(row, (old, changed))| {
             let stale = |t: u32| {
                 let m = triangles[t as usize].material as usize;

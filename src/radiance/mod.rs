@@ -80,6 +80,8 @@ pub fn render<'a>(
         .into_par_iter()
         .zip(changed)
         .enumerate()
+        // A row each task: rows that see a glossy surface cost many times the others.
+        .with_max_len(1)
         .map(|(y, (old, changed))| {
             let changed = |t: u32| {
                 let m = triangles[t as usize].material as usize;
