@@ -504,13 +504,16 @@ pub fn bake_from(
     std::thread::scope(|s| {
         let writer = keep_rays.map(|(file, cache)| {
             s.spawn(move || {
-                let bytes = cache.encode();
+                let mut bytes = 0;
+                crate::bundle::write_atomic_with(file, |f| {
+                    bytes = cache.write_to(f)?;
+                    Ok(())
+                })?;
                 drop(cache);
-                crate::bundle::write_atomic(file, &bytes)?;
                 log::info!(
                     "ray cache: {} ({:.1} MB)",
                     file.display(),
-                    bytes.len() as f64 / 1e6
+                    bytes as f64 / 1e6
                 );
                 Ok::<(), RadiosityError>(())
             })

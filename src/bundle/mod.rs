@@ -34,7 +34,9 @@ pub use manifest::{
     OLDEST_READ_MAJOR, StageRecord,
 };
 pub use names::{folder_name, unique_folders};
-pub use writer::{CommitStep, FaultHook, SceneCommit, StageInfo, StageWriter, write_atomic};
+pub use writer::{
+    CommitStep, FaultHook, SceneCommit, StageInfo, StageWriter, write_atomic, write_atomic_with,
+};
 
 /// File name of the manifest inside a bundle.
 pub const MANIFEST: &str = "manifest.json";

@@ -280,29 +280,43 @@ impl RayCache {
     /// The cache's file.
     pub fn encode(&self) -> Vec<u8> {
         let mut out = Vec::with_capacity(self.ray_bytes() as usize + 64 * self.elements.len());
-        out.extend_from_slice(MAGIC);
-        out.extend_from_slice(&VERSION.to_le_bytes());
-        out.extend_from_slice(&self.key);
-        out.extend_from_slice(&(self.lobes.len() as u32).to_le_bytes());
+        self.write_to(&mut out).expect("a Vec takes every byte");
+        out
+    }
+
+    /// Writes the cache's file ([`Self::encode`]'s bytes) to `out`, the rays from where they
+    /// lie; returns the bytes written. A large scene's cache runs to gigabytes, which a copy
+    /// in one buffer would double at the end of the solve.
+    pub fn write_to(&self, out: &mut impl std::io::Write) -> std::io::Result<u64> {
+        let mut head = Vec::with_capacity(64);
+        head.extend_from_slice(MAGIC);
+        head.extend_from_slice(&VERSION.to_le_bytes());
+        head.extend_from_slice(&self.key);
+        head.extend_from_slice(&(self.lobes.len() as u32).to_le_bytes());
         for l in &self.lobes {
-            out.extend_from_slice(l);
+            head.extend_from_slice(l);
         }
-        out.extend_from_slice(&(self.elements.len() as u32).to_le_bytes());
+        head.extend_from_slice(&(self.elements.len() as u32).to_le_bytes());
+        let mut written = 0u64;
         for batches in &self.elements {
-            out.extend_from_slice(&(batches.len() as u32).to_le_bytes());
+            head.extend_from_slice(&(batches.len() as u32).to_le_bytes());
             for b in batches {
                 for v in [b.round, b.first, b.n_rays, b.n_light] {
-                    out.extend_from_slice(&v.to_le_bytes());
+                    head.extend_from_slice(&v.to_le_bytes());
                 }
-                out.push(u8::from(b.inside));
-                put_vec3(&mut out, b.lights.direct);
-                out.extend_from_slice(&b.lights.var.to_bits().to_le_bytes());
-                out.extend_from_slice(&b.lights.rays.to_le_bytes());
-                out.extend_from_slice(&(b.rays.len() as u32).to_le_bytes());
-                out.extend_from_slice(&b.rays);
+                head.push(u8::from(b.inside));
+                put_vec3(&mut head, b.lights.direct);
+                head.extend_from_slice(&b.lights.var.to_bits().to_le_bytes());
+                head.extend_from_slice(&b.lights.rays.to_le_bytes());
+                head.extend_from_slice(&(b.rays.len() as u32).to_le_bytes());
+                out.write_all(&head)?;
+                out.write_all(&b.rays)?;
+                written += (head.len() + b.rays.len()) as u64;
+                head.clear();
             }
         }
-        out
+        out.write_all(&head)?;
+        Ok(written + head.len() as u64)
     }
 
     /// Reads a cache file (its rays are checked as they are used).
@@ -465,6 +479,10 @@ mod tests {
         };
         let bytes = cache.encode();
         assert_eq!(RayCache::decode(&bytes).unwrap(), cache);
+        // Streamed, the same bytes, counted (an element without batches included).
+        let mut streamed = std::io::Cursor::new(Vec::new());
+        assert_eq!(cache.write_to(&mut streamed).unwrap(), bytes.len() as u64);
+        assert_eq!(streamed.into_inner(), bytes);
         for cut in [0, 9, bytes.len() / 2, bytes.len() - 1] {
             assert!(RayCache::decode(&bytes[..cut]).is_err(), "{cut}");
         }
