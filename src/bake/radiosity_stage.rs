@@ -165,7 +165,7 @@ pub fn density_rule(
 }
 
 /// Memory the ray cache adds to a bake through it ([`Gathering::Cached`]), in bytes: the prior
-/// bake's cache, read, beside this bake's, built (and then its file), each bounded by
+/// bake's cache, read, beside this bake's, built (its file is streamed from it), each bounded by
 /// [`RAY_CACHE_BUDGET`], at about 10 bytes a gathering ray as packed
 /// ([`crate::radiosity::ray_cache`]).
 pub fn ray_cache_memory(texels: f64, rays: u32, refine: bool) -> f64 {
