@@ -505,7 +505,7 @@ pub fn bake_from(
         let writer = keep_rays.map(|(file, cache)| {
             s.spawn(move || {
                 let mut bytes = 0;
-                crate::bundle::write_atomic_with(file, |f| {
+                crate::bundle::writer::write_atomic_with(file, |f| {
                     bytes = cache.write_to(f)?;
                     Ok(())
                 })?;

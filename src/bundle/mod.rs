@@ -21,7 +21,7 @@ mod names;
 pub mod scene_read;
 mod scene_refs;
 pub mod stats;
-mod writer;
+pub(crate) mod writer;
 
 use std::fs::File;
 use std::path::{Path, PathBuf};
@@ -34,9 +34,7 @@ pub use manifest::{
     OLDEST_READ_MAJOR, StageRecord,
 };
 pub use names::{folder_name, unique_folders};
-pub use writer::{
-    CommitStep, FaultHook, SceneCommit, StageInfo, StageWriter, write_atomic, write_atomic_with,
-};
+pub use writer::{CommitStep, FaultHook, SceneCommit, StageInfo, StageWriter, write_atomic};
 
 /// File name of the manifest inside a bundle.
 pub const MANIFEST: &str = "manifest.json";
