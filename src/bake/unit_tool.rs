@@ -119,16 +119,15 @@ pub fn bake_every_unit(
     let mut reports = Vec::new();
     let last = plan.units.iter().map(|u| u.wave).max().unwrap_or(0);
     for wave in 0..=last {
-        let units: Vec<&Unit> = plan.units.iter().filter(|u| u.wave == wave).collect();
-        let ids: Vec<&str> = units.iter().map(|u| u.id.as_str()).collect();
+        let units: Vec<&Unit> = plan.wave(wave).collect();
         let costs: Vec<f64> = units.iter().map(|u| u.cost).collect();
         let baked = super::wave::run_wave(
             &costs,
             super::wave::units_at_once(),
             progress,
             |i, progress| {
-                let shard = shard_path(dir, ids[i]);
-                bake_unit(scene, settings, plan, ids[i], &shard, None, progress)
+                let shard = shard_path(dir, &units[i].id);
+                bake_unit(scene, settings, plan, &units[i].id, &shard, None, progress)
             },
         );
         for r in baked {
@@ -153,8 +152,8 @@ fn print_plan(
                 waves.saturating_sub(1)
             );
         }
-        for id in plan.wave(w) {
-            writeln!(out, "{id}")?;
+        for u in plan.wave(w) {
+            writeln!(out, "{}", u.id)?;
         }
         return Ok(());
     }

@@ -90,12 +90,9 @@ impl UnitPlan {
         self.units.iter().find(|u| u.id == id)
     }
 
-    /// The IDs of the units of `wave`.
-    pub fn wave(&self, wave: u32) -> impl Iterator<Item = &str> {
-        self.units
-            .iter()
-            .filter(move |u| u.wave == wave)
-            .map(|u| u.id.as_str())
+    /// The units of `wave`, in plan order.
+    pub fn wave(&self, wave: u32) -> impl Iterator<Item = &Unit> {
+        self.units.iter().filter(move |u| u.wave == wave)
     }
 
     /// The stage item a unit bakes.

@@ -63,7 +63,7 @@ pub fn run_wave<T: Send>(
             shown.start(rank);
             let unit = UnitProgress {
                 shown: &shown,
-                i: rank,
+                rank,
             };
             let r = bake(i, &unit);
             shown.end(rank);
@@ -137,14 +137,14 @@ impl Shown<'_> {
 struct UnitProgress<'a> {
     shown: &'a Shown<'a>,
     /// The unit's rank in the order units start.
-    i: usize,
+    rank: usize,
 }
 
 impl Progress for UnitProgress<'_> {
     fn phase(&self, name: &str, total: u64) {
         let mut s = self.shown.lock();
-        let lead = s.lead() == Some(self.i);
-        if let Some(r) = s.running.iter_mut().find(|r| r.0 == self.i) {
+        let lead = s.lead() == Some(self.rank);
+        if let Some(r) = s.running.iter_mut().find(|r| r.0 == self.rank) {
             r.1 = Some((name.to_owned(), total, 0));
         }
         if lead {
@@ -154,8 +154,8 @@ impl Progress for UnitProgress<'_> {
 
     fn advance(&self, n: u64) {
         let mut s = self.shown.lock();
-        let lead = s.lead() == Some(self.i);
-        if let Some((_, Some(p))) = s.running.iter_mut().find(|r| r.0 == self.i) {
+        let lead = s.lead() == Some(self.rank);
+        if let Some((_, Some(p))) = s.running.iter_mut().find(|r| r.0 == self.rank) {
             p.2 += n;
         }
         if lead {
@@ -256,11 +256,11 @@ mod tests {
         let (a, b) = (
             UnitProgress {
                 shown: &shown,
-                i: 0,
+                rank: 0,
             },
             UnitProgress {
                 shown: &shown,
-                i: 1,
+                rank: 1,
             },
         );
         a.phase("probe", 10);
