@@ -163,3 +163,92 @@ fn an_elements_rays_do_not_grow_with_the_emitters() {
         "Σ D {d_few:.1} vs {d_many:.1}"
     );
 }
+
+/// The box of [`lamps_box`] without its inner wall, 12 lamps under the ceiling of its x > 0
+/// half and the other half walled off floor to ceiling, a closet whose floor is a mirror (a
+/// planar reflector) when `mirror`, else diffuse. No light reaches the closet, so its mirror
+/// shows nothing.
+fn closet_box(dir: &Path, mirror: bool) -> Scene {
+    let mut meshes = Vec::new();
+    let names = ["X0", "X1", "Y0", "Y1", "Z0", "Z1"];
+    for axis in 0..3 {
+        meshes.push(quad(names[2 * axis], 0, axis, -0.5, 0.5));
+        meshes.push(flip(quad(names[2 * axis + 1], 0, axis, 0.5, 0.5)));
+    }
+    let both = |q: [[f32; 3]; 4]| {
+        let mut back = q;
+        back.reverse();
+        [q, back]
+    };
+    let (c, lo, hi) = (0.0f32, -0.5f32, 0.5f32);
+    meshes.push(quads(
+        "closet",
+        0,
+        &both([[c, lo, lo], [c, lo, hi], [c, hi, hi], [c, hi, lo]]),
+    ));
+    let y = -0.499;
+    meshes.push(quads(
+        "closet_floor",
+        1,
+        &[[[lo, y, lo], [lo, y, hi], [c, y, hi], [c, y, lo]]],
+    ));
+    write_gltf(
+        dir,
+        "s",
+        &meshes,
+        &[
+            MaterialSpec::diffuse("walls", 0.6),
+            MaterialSpec::diffuse("closet_floor", 0.5),
+        ],
+    );
+    let lights: Vec<String> = (0..12)
+        .map(|i| {
+            let (x, z) = (0.1 + 0.3 * (i % 4) as f32 / 3.0, -0.3 + 0.25 * (i / 4) as f32);
+            format!(
+                r#"{{ "name": "lamp{i}", "corner": [{x}, 0.45, {z}], "edge_u": [0.05, 0, 0], "edge_v": [0, 0, 0.05], "radiance": [20, 20, 20] }}"#
+            )
+        })
+        .collect();
+    let mirror_json = if mirror {
+        format!(
+            r#""materials": {{ "closet_floor": {MIRROR} }}, "reflectors": [{{ "mesh": "closet_floor", "kind": "planar" }}],"#
+        )
+    } else {
+        String::new()
+    };
+    let json = format!(
+        r#"{{ "version": 1, "geometry": "s.gltf", {mirror_json} "lights": [{}] }}"#,
+        lights.join(", ")
+    );
+    Scene::load(write_scene(dir, &json)).unwrap()
+}
+
+#[test]
+fn points_that_see_no_mirror_cast_few_rays_towards_it() {
+    // Every point of the room weighs the closet's mirror (the weights know no walls), but no
+    // point sees a lamp in it. The mirror's samples then cost a pilot and, one time in eight,
+    // the samples themselves: far fewer rays than one a sample.
+    let dir = tempfile::tempdir().unwrap();
+    let rays = |mirror: bool| {
+        let sub = dir.path().join(if mirror { "mirror" } else { "plain" });
+        std::fs::create_dir_all(&sub).unwrap();
+        let scene = closet_box(&sub, mirror);
+        let (_, sol) = solve_box(&scene, 4.0, &settings(32, 4));
+        let lit = sol.radiance.iter().map(|v| v.y as f64).sum::<f64>();
+        (sol.stats.rays_cast as f64 / sol.stats.elements as f64, lit)
+    };
+    let ((with, d_with), (without, d_without)) = (rays(true), rays(false));
+    // The mirror's samples a point draws: `light_samples` × 8 (more than 8 emitters).
+    let samples = 4.0 * 8.0;
+    let extra = with - without;
+    eprintln!("rays an element: {without:.1} without the mirror, {with:.1} with it");
+    assert!(
+        extra < 0.35 * samples,
+        "the mirror adds {extra:.1} rays an element for its {samples} samples"
+    );
+    // The mirror shows nothing, so D is the room's without it.
+    assert!(
+        (d_with / d_without - 1.0).abs() < 0.05,
+        "Σ D {d_without:.2} without the mirror, {d_with:.2} with it"
+    );
+}

@@ -293,6 +293,13 @@ impl MirrorLights {
     /// it can reflect towards the point (its emitters' weight at its centre, the best cosine
     /// it makes with `ns`, over distance² + its radius²), then an emitter from the mirror's
     /// distribution, then a point on it.
+    ///
+    /// In a building most points see no mirror at all (it hangs in another room), and the
+    /// weights cannot know it: every sample would cast a ray to find a wall. So a pilot of
+    /// `n / PILOT_DIVISOR` samples goes first; when none of them reaches an emitter, the `n`
+    /// samples are drawn only with probability [`UNSEEN_KEEP`] and then count 1/[`UNSEEN_KEEP`]
+    /// (Russian roulette: the estimate stays unbiased, and a point that sees no mirror pays
+    /// about a quarter of the rays). The pilot is not part of the estimate.
     #[allow(clippy::too_many_arguments)]
     fn direct_many(
         &self,
@@ -315,38 +322,34 @@ impl MirrorLights {
         if mirrors.is_empty() {
             return (Vec3::ZERO, 0.0);
         }
+        let at = Receiving {
+            scene,
+            bvh,
+            many,
+            mirrors: &mirrors,
+            origin,
+            ns,
+            ng,
+        };
+        let pilot = (n / PILOT_DIVISOR).max(1);
+        let seen = (0..pilot).any(|k| {
+            let u = (k as f32 + rng.uniform()) / pilot as f32;
+            self.sample(&at, u, rng, rays).is_some()
+        });
+        let scale = if seen {
+            1.0
+        } else if rng.uniform() < UNSEEN_KEEP {
+            1.0 / UNSEEN_KEEP
+        } else {
+            return (Vec3::ZERO, 0.0);
+        };
         let (mut sum, mut y, mut y2) = (Vec3::ZERO, 0.0f64, 0.0f64);
         for k in 0..n {
-            let (i, p_mirror) = mirrors.pick((k as f32 + rng.uniform()) / n as f32);
-            let (m, choice) = (&self.mirrors[i], &self.per_mirror[i]);
-            let (e, p_emitter) = choice.pick(rng.uniform());
-            let lp = many.sample(scene, e, m.reflect_point(origin), rng);
-            let reach_short = if lp.triangle.is_some() {
-                2.0 * bvh.epsilon()
-            } else {
-                0.0
-            };
-            let id = i as u32 + 1;
-            let Some((refl, cos_s, dist2, r)) = m.through(
-                id,
-                &self.mirror_of,
-                scene,
-                bvh,
-                origin,
-                ns,
-                ng,
-                lp.q,
-                reach_short,
-                rays,
-            ) else {
+            let u = (k as f32 + rng.uniform()) / n as f32;
+            let Some(c) = self.sample(&at, u, rng, rays) else {
                 continue;
             };
-            let cos_l = -r.dot(lp.normal);
-            if cos_l <= 0.0 {
-                continue;
-            }
-            let p = p_mirror * p_emitter * lp.area_pdf;
-            let c = lp.radiance * refl * (cos_s * cos_l / (dist2 * p));
+            let c = c * scale;
             sum += c;
             let v = luminance(c) as f64 / PI as f64;
             y += v;
@@ -354,6 +357,56 @@ impl MirrorLights {
         }
         (sum / (n as f32 * PI), var_of_mean(y, y2, n))
     }
+
+    /// One sample of [`MirrorLights::direct_many`]: `u` picks the mirror; the light it brings
+    /// over its density (before 1/π), `None` when it brings none.
+    fn sample(&self, at: &Receiving, u: f32, rng: &mut Rng, rays: &mut u64) -> Option<Vec3> {
+        let (i, p_mirror) = at.mirrors.pick(u);
+        let (m, choice) = (&self.mirrors[i], &self.per_mirror[i]);
+        let (e, p_emitter) = choice.pick(rng.uniform());
+        let lp = at.many.sample(at.scene, e, m.reflect_point(at.origin), rng);
+        let reach_short = if lp.triangle.is_some() {
+            2.0 * at.bvh.epsilon()
+        } else {
+            0.0
+        };
+        let (refl, cos_s, dist2, r) = m.through(
+            i as u32 + 1,
+            &self.mirror_of,
+            at.scene,
+            at.bvh,
+            at.origin,
+            at.ns,
+            at.ng,
+            lp.q,
+            reach_short,
+            rays,
+        )?;
+        let cos_l = -r.dot(lp.normal);
+        if cos_l <= 0.0 {
+            return None;
+        }
+        let p = p_mirror * p_emitter * lp.area_pdf;
+        Some(lp.radiance * refl * (cos_s * cos_l / (dist2 * p)))
+    }
+}
+
+/// A pilot's samples per [`MirrorLights::direct_many`] sample: 1 in this many.
+const PILOT_DIVISOR: u32 = 8;
+
+/// Chance that [`MirrorLights::direct_many`] draws its samples at a point where its pilot
+/// reached no emitter through any mirror.
+const UNSEEN_KEEP: f32 = 0.125;
+
+/// A receiving point of [`MirrorLights::direct_many`] and what its samples read.
+struct Receiving<'a> {
+    scene: &'a Scene,
+    bvh: &'a Bvh,
+    many: &'a ManyLights,
+    mirrors: &'a Choice,
+    origin: Vec3,
+    ns: Vec3,
+    ng: Vec3,
 }
 
 /// Weight of mirror `m` (with its emitters' distribution `choice`) for a receiver at `origin`
