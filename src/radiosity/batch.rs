@@ -5,11 +5,11 @@
 //! | bytes | field |
 //! |---|---|
 //! | 8 | magic `GLNTGATH` |
-//! | u32 | version (1) |
+//! | u32 | version (2) |
 //! | 32 | BLAKE3 of the elements' samples (the atlas they were gathered on) |
 //! | u32 | elements in the atlas |
 //! | u32, u32 | the batch's element range, start and end |
-//! | per element | 3 × f32 direct, u8 inside, u32 gathering rays, u64 rays, u32 light samples, 3 × f64 moments (light variance, Σ and Σ² of the rays' constant radiance), u32 hit count H, H × u32 hits, u32 term count T, T × (u32 texel, 3 × f32 weight) |
+//! | per element | 3 × f32 emitted, 3 × f32 glossy, u8 inside, u32 gathering rays, u64 rays, u64 light rays, u32 light samples, 3 × f64 moments (light variance, Σ and Σ² of the rays' constant radiance), u32 hit count H, H × u32 hits, u32 term count T, T × (u32 texel, 3 × f32 weight) |
 
 use std::ops::Range;
 
@@ -22,7 +22,7 @@ use super::transport::Term;
 /// File magic.
 pub const MAGIC: &[u8; 8] = b"GLNTGATH";
 /// Format version written.
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 
 /// The first gathering batch of elements `range`.
 pub struct GatherBatch {
@@ -88,12 +88,13 @@ impl GatherBatch {
         out.extend_from_slice(&self.range.start.to_le_bytes());
         out.extend_from_slice(&self.range.end.to_le_bytes());
         for g in &self.elements {
-            for c in g.direct.to_array() {
+            for c in g.emitted.to_array().into_iter().chain(g.glossy.to_array()) {
                 put_f32(&mut out, c);
             }
             out.push(u8::from(g.inside));
             out.extend_from_slice(&g.gathering_rays.to_le_bytes());
             out.extend_from_slice(&g.rays.to_le_bytes());
+            out.extend_from_slice(&g.light_rays.to_le_bytes());
             out.extend_from_slice(&g.light_samples.to_le_bytes());
             for m in [
                 g.moments.light_var,
@@ -152,7 +153,8 @@ impl GatherBatch {
         let texels_ok = |t: u32| t == u32::MAX || (t as usize) < texels;
         let mut elements = Vec::with_capacity((end - start) as usize);
         for _ in start..end {
-            let direct = Vec3::new(r.f32()?, r.f32()?, r.f32()?);
+            let emitted = Vec3::new(r.f32()?, r.f32()?, r.f32()?);
+            let glossy = Vec3::new(r.f32()?, r.f32()?, r.f32()?);
             let inside = match r.take(1)?[0] {
                 0 => false,
                 1 => true,
@@ -160,6 +162,7 @@ impl GatherBatch {
             };
             let gathering_rays = r.u32()?;
             let rays = r.u64()?;
+            let light_rays = r.u64()?;
             let light_samples = r.u32()?;
             let moments = Moments {
                 light_var: r.f64()?,
@@ -192,12 +195,14 @@ impl GatherBatch {
                 return Err(BatchError::Corrupt("a hit names no texel".into()));
             }
             elements.push(Gathered {
-                direct,
+                emitted,
+                glossy,
                 gathering_rays,
                 hits,
                 terms,
                 inside,
                 rays,
+                light_rays,
                 light_samples,
                 moments,
             });
@@ -292,7 +297,8 @@ mod tests {
 
     fn element(seed: u32, hits: Vec<u32>) -> Gathered {
         Gathered {
-            direct: Vec3::new(0.25, seed as f32, -0.0),
+            emitted: Vec3::new(0.25, seed as f32, -0.0),
+            glossy: Vec3::new(f32::MAX, 0.5, seed as f32),
             gathering_rays: hits.len() as u32,
             hits,
             terms: vec![Term {
@@ -301,6 +307,7 @@ mod tests {
             }],
             inside: seed % 2 == 1,
             rays: 1 << 40 | seed as u64,
+            light_rays: 1 << 39 | seed as u64,
             light_samples: 9,
             moments: Moments {
                 light_var: 1e-300,
@@ -312,7 +319,9 @@ mod tests {
 
     fn same(a: &Gathered, b: &Gathered) -> bool {
         let bits = |v: Vec3| v.to_array().map(f32::to_bits);
-        bits(a.direct) == bits(b.direct)
+        bits(a.emitted) == bits(b.emitted)
+            && bits(a.glossy) == bits(b.glossy)
+            && a.light_rays == b.light_rays
             && a.gathering_rays == b.gathering_rays
             && a.hits == b.hits
             && a.terms == b.terms

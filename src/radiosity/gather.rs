@@ -71,7 +71,7 @@ impl Context<'_> {
 /// Sums of one element's samples, for the variance of its estimate (luminance).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(super) struct Moments {
-    /// Variance of the emitter-sampled part of `direct` (of the mean).
+    /// Variance of the emitter samples' part of `emitted` (of the mean).
     pub light_var: f64,
     /// Σ and Σ² over rays of the radiance each ray brings back that is not a texel's reflected
     /// radiance (emission hit, light through glossy paths).
@@ -81,8 +81,12 @@ pub(super) struct Moments {
 
 /// What an element's gathering found.
 pub(super) struct Gathered {
-    /// Direct irradiance / π (so that L_r = ρ · (direct + mean incoming L_r)).
-    pub direct: Vec3,
+    /// Irradiance / π straight from the emitters: their samples (and their images in
+    /// mirrors) and the emission the gathering rays hit, MIS-weighted against each other.
+    pub emitted: Vec3,
+    /// Irradiance / π the gathering rays bring back through glossy reflection (besides
+    /// `terms`). With `emitted`, the direct light: L_r = ρ · (direct + mean incoming L_r).
+    pub glossy: Vec3,
     /// Gathering rays cast (the length of `hits` as gathered).
     pub gathering_rays: u32,
     /// Per ray, the atlas texel hit on a front face (u32::MAX: miss or back face). The solve
@@ -94,30 +98,49 @@ pub(super) struct Gathered {
     pub inside: bool,
     /// Rays cast (gathering, shadow, glossy).
     pub rays: u64,
+    /// The shadow rays among `rays`: those of the emitter samples and the mirror images.
+    pub light_rays: u64,
     /// Emitter samples per light.
     pub light_samples: u32,
     pub moments: Moments,
 }
 
 impl Gathered {
-    /// Adds another batch of the same element's samples: the estimates are averaged with
-    /// weights proportional to their gathering rays (each batch is unbiased by itself). The
-    /// batches' `hits` and `terms` are the caller's to keep (the solve's links hold them).
+    /// The direct light: irradiance / π from the emitters, straight or through glossy paths.
+    pub fn direct(&self) -> Vec3 {
+        self.emitted + self.glossy
+    }
+
+    /// Adds another batch of the same element's samples. Each batch's estimates are unbiased
+    /// by themselves, and a refinement batch may hold emitter samples and rays in another
+    /// ratio than the first, so each part is averaged with weights fixed by its own counts:
+    /// `emitted` by the batches' emitter samples (in a batch they are MIS-weighted against
+    /// its rays, so that batch's sum is what is unbiased, and it takes one weight), `glossy`
+    /// by their gathering rays. The batches' `hits` and `terms` are the caller's to keep (the
+    /// solve's links hold them).
     pub fn merge(&mut self, other: &Gathered) {
-        let (n1, n2) = (self.gathering_rays as f64, other.gathering_rays as f64);
-        let n = n1 + n2;
-        let mix = |a: f32, b: f32| ((a as f64 * n1 + b as f64 * n2) / n) as f32;
-        self.direct = Vec3::new(
-            mix(self.direct.x, other.direct.x),
-            mix(self.direct.y, other.direct.y),
-            mix(self.direct.z, other.direct.z),
-        );
-        self.moments.light_var =
-            (n1 * n1 * self.moments.light_var + n2 * n2 * other.moments.light_var) / (n * n);
+        let mix = |a: Vec3, b: Vec3, n1: f64, n2: f64| {
+            let n = n1 + n2;
+            if n == 0.0 {
+                return a;
+            }
+            let m = |a: f32, b: f32| ((a as f64 * n1 + b as f64 * n2) / n) as f32;
+            Vec3::new(m(a.x, b.x), m(a.y, b.y), m(a.z, b.z))
+        };
+        let (l1, l2) = (self.light_samples as f64, other.light_samples as f64);
+        let (r1, r2) = (self.gathering_rays as f64, other.gathering_rays as f64);
+        self.emitted = mix(self.emitted, other.emitted, l1, l2);
+        self.glossy = mix(self.glossy, other.glossy, r1, r2);
+        let l = l1 + l2;
+        if l > 0.0 {
+            self.moments.light_var =
+                (l1 * l1 * self.moments.light_var + l2 * l2 * other.moments.light_var) / (l * l);
+        }
         self.moments.ray_const += other.moments.ray_const;
         self.moments.ray_const2 += other.moments.ray_const2;
         self.gathering_rays += other.gathering_rays;
         self.rays += other.rays;
+        self.light_rays += other.light_rays;
         self.light_samples += other.light_samples;
     }
 }
@@ -410,7 +433,7 @@ pub(super) fn assemble(
 ) -> Gathered {
     let n_rays = records.len() as u32;
     let n = n_rays.max(1) as f32;
-    let mut direct = Vec3::ZERO;
+    let mut emitted = Vec3::ZERO;
     // Radiance the rays bring back through glossy reflection (besides `terms`).
     let mut via_glossy = Vec3::ZERO;
     let mut moments = Moments::default();
@@ -418,30 +441,30 @@ pub(super) fn assemble(
     let mut hits = Vec::with_capacity(records.len());
     for r in records {
         hits.push(r.hit);
-        direct += r.emission / n;
+        emitted += r.emission / n;
         via_glossy += r.glossy;
         let c = luminance(r.emission) as f64 + luminance(r.glossy) as f64;
         moments.ray_const += c;
         moments.ray_const2 += c * c;
         rays += u64::from(r.rays);
     }
-    if via_glossy != Vec3::ZERO {
-        // Mean incoming radiance over the cosine-distributed rays is irradiance/π.
-        direct += via_glossy / n;
-    }
-    direct += lights.direct;
+    // Mean incoming radiance over the cosine-distributed rays is irradiance/π.
+    let glossy = via_glossy / n;
+    emitted += lights.direct;
     moments.light_var += lights.var;
     rays += lights.rays;
     let mut terms = terms;
     // Held until the solve packs them: no growth slack.
     terms.shrink_to_fit();
     Gathered {
-        direct,
+        emitted,
+        glossy,
         gathering_rays: n_rays,
         hits,
         terms,
         inside,
         rays,
+        light_rays: lights.rays,
         light_samples: n_light,
         moments,
     }

@@ -61,6 +61,12 @@ pub const MAX_SAMPLE_FACTOR: u32 = 8;
 /// the target.
 pub const MIN_SAMPLE_CAP: u64 = 2048;
 
+/// How many times more emitter samples than [`MAX_SAMPLE_FACTOR`] allows rays an element may
+/// be refined to: a sample is a few shadow rays and holds no memory, and an element whose
+/// error is its emitter samples' (a building's rooms beside their windows) can buy it only
+/// with them.
+pub const LIGHT_CAP_FACTOR: u64 = 1;
+
 /// Most gathering rays all refinement rounds together may add, as a multiple of the first
 /// batch's (elements × `rays`): the refinement's time. Its memory is bounded by
 /// [`SolveSettings::cache_budget`] (see `bake::radiosity_stage::memory_estimate`).
@@ -586,7 +592,7 @@ fn solve_gathered(
     let mut lr: Vec<Vec3> = gathered
         .iter()
         .zip(&albedo)
-        .map(|(g, a)| *a * g.direct)
+        .map(|(g, a)| *a * g.direct())
         .collect();
     iterate(
         &mut lr, &links, &gathered, &albedo, None, set, &mut stats, progress,
@@ -974,7 +980,7 @@ fn iterate(
                     (sum[1] / n) as f32,
                     (sum[2] / n) as f32,
                 );
-                albedo[i] * (gathered[i].direct + incoming)
+                albedo[i] * (gathered[i].direct() + incoming)
             })
             .collect();
         let (mut change, mut total) = (0.0f64, 0.0f64);
@@ -993,46 +999,92 @@ fn iterate(
     Ok(())
 }
 
-/// An element's estimated relative variance of D (luminance), in the two parts that fall at
-/// different rates as samples are added.
+/// An element's estimated relative variance of D (luminance), in the three parts that fall at
+/// different rates as rays and emitter samples are added.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct ErrorParts {
     /// From the texel values its gathering rays read: the rays are a prefix of one
     /// low-discrepancy sequence, so this part falls as rays^-3/2.
     sequence: f64,
-    /// From its emitter samples and what its rays bring back besides texel values (emission
-    /// hit, glossy paths, which draw at random): falls as 1/samples.
+    /// From what its rays bring back besides texel values (emission hit, glossy paths, which
+    /// draw at random): falls as 1/rays.
     random: f64,
+    /// From its emitter samples (and the emitters' images in mirrors): falls as 1/samples.
+    light: f64,
 }
 
 impl ErrorParts {
     /// The relative standard error.
     fn error(self) -> f64 {
-        (self.sequence + self.random).sqrt()
+        (self.sequence + self.random + self.light).sqrt()
     }
 
-    /// The factor on an element's samples that brings its error to `target`: the root of
-    /// sequence·x^-3/2 + random·x^-1 = target² (≥ 1).
-    fn factor_to(self, target: f64) -> f64 {
-        let t2 = target * target;
-        let at = |x: f64| self.sequence * x.powf(-1.5) + self.random / x;
-        if at(1.0) <= t2 {
+    /// The rays' parts with the rays multiplied by `x`.
+    fn rays_at(self, x: f64) -> f64 {
+        self.sequence * x.powf(-1.5) + self.random / x
+    }
+
+    /// The factor x ≥ 1 on the rays at which their parts fall to `v` (the root of
+    /// sequence·x^-3/2 + random·x^-1 = v).
+    fn rays_to(self, v: f64) -> f64 {
+        if self.rays_at(1.0) <= v {
             return 1.0;
         }
         // Each part alone would need at most its own root; together, at most twice that.
         let (mut lo, mut hi) = (
             1.0f64,
-            2.0 * ((self.sequence / t2).powf(2.0 / 3.0) + self.random / t2),
+            2.0 * ((self.sequence / v).powf(2.0 / 3.0) + self.random / v),
         );
-        for _ in 0..40 {
+        for _ in 0..60 {
             let mid = 0.5 * (lo + hi);
-            if at(mid) > t2 {
+            if self.rays_at(mid) > v {
                 lo = mid;
             } else {
                 hi = mid;
             }
         }
         hi
+    }
+
+    /// The factors (x on the rays, y on the emitter samples, each ≥ 1) that bring the error to
+    /// `target` at the least cost, a factor x costing `ray_cost`·x and y `light_cost`·y: the
+    /// emitter samples' part is bought with emitter samples and the rays' with rays, in the
+    /// mix that costs least (the cost is convex in x along the target's curve).
+    fn factors_to(self, target: f64, ray_cost: f64, light_cost: f64) -> (f64, f64) {
+        let t2 = target * target;
+        if self.error() <= target {
+            return (1.0, 1.0);
+        }
+        if self.light <= 0.0 {
+            return (self.rays_to(t2), 1.0);
+        }
+        if self.rays_at(1.0) <= 0.0 {
+            return (1.0, self.light / t2);
+        }
+        let y_at = |x: f64| (self.light / (t2 - self.rays_at(x))).max(1.0);
+        let cost = |x: f64| ray_cost * x + light_cost * y_at(x);
+        // From just past where the rays alone reach the target to where the samples need
+        // no more (or, when they always do, where the rays' parts are a thousandth of it).
+        let lo = self.rays_to(t2) * (1.0 + 1e-9);
+        let hi = if self.light < t2 {
+            self.rays_to(t2 - self.light)
+        } else {
+            self.rays_to(1e-3 * t2)
+        }
+        .max(lo);
+        // Golden-section search for the least cost.
+        let g = 0.5 * (5f64.sqrt() - 1.0);
+        let (mut a, mut b) = (lo, hi);
+        for _ in 0..80 {
+            let (c, d) = (b - g * (b - a), a + g * (b - a));
+            if cost(c) <= cost(d) {
+                b = d;
+            } else {
+                a = c;
+            }
+        }
+        let x = 0.5 * (a + b);
+        (x, y_at(x))
     }
 }
 
@@ -1100,19 +1152,22 @@ fn relative_errors(
             let all = per_ray(u + c, u2 + c2 + 2.0 * (u / n) * c);
             let rho = luminance(albedo[i]) as f64;
             let sequence = rho * rho * reads / n.powf(1.5);
-            let random = rho * rho * ((all - reads).max(0.0) / n + g.moments.light_var);
+            let random = rho * rho * (all - reads).max(0.0) / n;
+            let light = rho * rho * g.moments.light_var;
             let d = luminance(emission[i] + lr[i]) as f64;
-            let parts = if sequence + random == 0.0 {
+            let parts = if sequence + random + light == 0.0 {
                 ErrorParts::default()
             } else if d > 0.0 {
                 ErrorParts {
                     sequence: sequence / (d * d),
                     random: random / (d * d),
+                    light: light / (d * d),
                 }
             } else {
                 ErrorParts {
                     sequence: f64::INFINITY,
                     random: f64::INFINITY,
+                    light: f64::INFINITY,
                 }
             };
             (parts, sum)
@@ -1169,19 +1224,25 @@ fn share_budget(
         }
         let fitted = adds(lo);
         for (w, rays) in which.iter_mut().zip(fitted) {
-            w.2 = ((w.2 as u64 * rays as u64).div_ceil(w.1.max(1) as u64)) as u32;
+            // Emitter samples asked with rays are cut with them; asked alone, they stay.
+            if w.1 > 0 {
+                w.2 = ((w.2 as u64 * rays as u64).div_ceil(w.1 as u64)) as u32;
+            }
             w.1 = rays;
         }
-        which.retain(|w| w.1 > 0);
+        which.retain(|w| w.1 > 0 || w.2 > 0);
     }
     let used: u64 = which.iter().map(|w| w.1 as u64).sum();
     *budget -= used.min(*budget);
 }
 
 /// The elements whose error is above `target`, with the rays and emitter samples of their next
-/// batch: enough to bring the error to the target at the rates of its parts
-/// ([`ErrorParts::factor_to`], times 1.1), at least a quarter of what they have, within
-/// [`MAX_SAMPLE_FACTOR`] × the first batch (at least [`MIN_SAMPLE_CAP`] rays).
+/// batch: each part of the error bought with its own samples at the least cost
+/// ([`ErrorParts::factors_to`], times 1.1; a gathering ray costs the rays its path casts plus
+/// one for its link, an emitter sample its shadow rays, as the element's batches so far
+/// counted them), at least a quarter of what they have of whichever is added; rays within
+/// [`MAX_SAMPLE_FACTOR`] × the first batch (at least [`MIN_SAMPLE_CAP`]), emitter samples
+/// within [`LIGHT_CAP_FACTOR`] times that multiple of the first batch's.
 fn more_samples(
     error: &[ErrorParts],
     gathered: &[Gathered],
@@ -1191,27 +1252,64 @@ fn more_samples(
 ) -> Vec<(u32, u32, u32)> {
     let target = target as f64;
     let max_rays = (rays as u64 * MAX_SAMPLE_FACTOR as u64).max(MIN_SAMPLE_CAP);
+    let max_light = (max_rays * light as u64).div_ceil(rays as u64) * LIGHT_CAP_FACTOR;
+    // What a factor f on `have` adds: at least a quarter of it, within `room`.
+    let adding = |have: u64, f: f64, room: u64| -> u64 {
+        if f <= 1.0 || room == 0 {
+            return 0;
+        }
+        let add = (have as f64 * (f * 1.1 - 1.0)).ceil().min(room as f64) as u64;
+        add.max(have / 4).min(room).max(1)
+    };
     error
         .iter()
         .zip(gathered)
         .enumerate()
         .filter_map(|(i, (&p, g))| {
             let have = g.gathering_rays as u64;
+            let have_light = g.light_samples as u64;
             let e = p.error();
-            if g.inside || e.is_nan() || e <= target || have >= max_rays {
+            if g.inside || e.is_nan() || e <= target {
                 return None;
             }
-            let room = max_rays - have;
-            let add = if e.is_finite() {
-                (have as f64 * (p.factor_to(target) * 1.1 - 1.0))
-                    .ceil()
-                    .min(room as f64) as u64
+            let room = max_rays.saturating_sub(have);
+            let light_room = max_light.saturating_sub(have_light);
+            let (add, add_light) = if !e.is_finite() {
+                (
+                    room,
+                    (room * light as u64).div_ceil(rays as u64).min(light_room),
+                )
             } else {
-                room
+                let ray_cost =
+                    have as f64 * (1.0 + (g.rays - g.light_rays) as f64 / have.max(1) as f64);
+                let light_cost = g.light_rays.max(1) as f64;
+                let (x, y) = p.factors_to(target, ray_cost, light_cost);
+                // Where one kind is at its cap, the other buys what it can of the rest.
+                let t2 = target * target;
+                let (x_cap, y_cap) = (
+                    max_rays as f64 / have.max(1) as f64,
+                    max_light as f64 / have_light.max(1) as f64,
+                );
+                // (A kind whose part is 0 cannot help.)
+                let (x, y) = if y > y_cap && p.rays_at(1.0) > 0.0 {
+                    let rest = t2 - p.light / y_cap;
+                    (if rest > 0.0 { p.rays_to(rest) } else { x_cap }, y_cap)
+                } else if x > x_cap && p.light > 0.0 {
+                    let rest = t2 - p.rays_at(x_cap);
+                    (x_cap, if rest > 0.0 { p.light / rest } else { y_cap })
+                } else {
+                    (x, y)
+                };
+                (adding(have, x, room), adding(have_light, y, light_room))
             };
-            let add = add.max(have / 4).min(room).max(1);
-            let add_light = (add * light as u64).div_ceil(rays as u64).max(1);
-            Some((i as u32, add as u32, add_light.min(u32::MAX as u64) as u32))
+            if add == 0 && add_light == 0 {
+                return None;
+            }
+            Some((
+                i as u32,
+                add.min(u32::MAX as u64) as u32,
+                add_light.min(u32::MAX as u64) as u32,
+            ))
         })
         .collect()
 }
@@ -1276,12 +1374,14 @@ mod tests {
 
     fn gathered(hits: Vec<u32>) -> Gathered {
         Gathered {
-            direct: Vec3::ZERO,
+            emitted: Vec3::ZERO,
+            glossy: Vec3::ZERO,
             gathering_rays: hits.len() as u32,
             hits,
             terms: Vec::new(),
             inside: false,
             rays: 0,
+            light_rays: 0,
             light_samples: 1,
             moments: Moments::default(),
         }
@@ -1326,60 +1426,100 @@ mod tests {
     #[test]
     fn each_part_of_the_error_falls_at_its_own_rate() {
         let t = 0.02f64;
-        // The sequence's part alone: (e/t)^(4/3) (error ∝ rays^-3/4), not (e/t)².
-        let seq = ErrorParts {
-            sequence: 0.08f64.powi(2),
-            random: 0.0,
+        let parts = |sequence: f64, random: f64, light: f64| ErrorParts {
+            sequence,
+            random,
+            light,
         };
-        assert!((seq.factor_to(t) - 4f64.powf(4.0 / 3.0)).abs() < 1e-6);
-        let random = ErrorParts {
-            sequence: 0.0,
-            random: 0.08f64.powi(2),
-        };
-        assert!((random.factor_to(t) - 16.0).abs() < 1e-6);
-        // Both: the factor brings their sum to the target, between the two alone.
-        let both = ErrorParts {
-            sequence: 0.06f64.powi(2),
-            random: 0.04f64.powi(2),
-        };
-        let x = both.factor_to(t);
-        let at = both.sequence * x.powf(-1.5) + both.random / x;
+        // The sequence's part alone: (e/t)^(4/3) more rays (error ∝ rays^-3/4), not (e/t)².
+        let seq = parts(0.08f64.powi(2), 0.0, 0.0);
+        let (x, y) = seq.factors_to(t, 1.0, 1.0);
+        assert!(
+            (x - 4f64.powf(4.0 / 3.0)).abs() < 1e-6 && y == 1.0,
+            "{x} {y}"
+        );
+        // The rays' random part alone: (e/t)² more rays, no more emitter samples.
+        let random = parts(0.0, 0.08f64.powi(2), 0.0);
+        assert_eq!(random.factors_to(t, 1.0, 1.0).1, 1.0);
+        assert!((random.factors_to(t, 1.0, 1.0).0 - 16.0).abs() < 1e-6);
+        // The emitter samples' part alone: (e/t)² more samples and no more rays.
+        let light = parts(0.0, 0.0, 0.08f64.powi(2));
+        assert_eq!(light.factors_to(t, 1.0, 1.0), (1.0, 16.0));
+        // Both rays' parts: the factor brings their sum to the target.
+        let both = parts(0.06f64.powi(2), 0.04f64.powi(2), 0.0);
+        let x = both.rays_to(t * t);
+        let at = both.rays_at(x);
         assert!((at - t * t).abs() < 1e-9 * t * t, "{x}: {at}");
         assert!((both.error() - 0.0052f64.sqrt()).abs() < 1e-12);
         // Already at the target: nothing more.
-        let done = ErrorParts {
-            sequence: 1e-4,
-            random: 1e-4,
-        };
-        assert_eq!(done.factor_to(t), 1.0);
+        assert_eq!(parts(1e-4, 1e-4, 1e-4).factors_to(t, 1.0, 1.0), (1.0, 1.0));
+        // All three: the pair reaches the target, and costs least along it (moving the rays'
+        // factor either way, with the samples that then reach the target, costs more).
+        let all = parts(0.03f64.powi(2), 0.03f64.powi(2), 0.04f64.powi(2));
+        for (ray_cost, light_cost) in [(1.0, 1.0), (1.0, 10.0), (10.0, 1.0)] {
+            let (x, y) = all.factors_to(t, ray_cost, light_cost);
+            let reached = all.rays_at(x) + all.light / y;
+            assert!((reached - t * t).abs() < 1e-6 * t * t, "{x} {y}: {reached}");
+            let cost = |x: f64| ray_cost * x + light_cost * all.light / (t * t - all.rays_at(x));
+            for dx in [0.98, 1.02] {
+                assert!(cost(x * dx) > cost(x), "{ray_cost}/{light_cost}: x {x}");
+            }
+        }
+        // Dearer samples buy more rays.
+        let (cheap, _) = all.factors_to(t, 1.0, 1.0);
+        let (dear, _) = all.factors_to(t, 1.0, 10.0);
+        assert!(dear > cheap, "{cheap} {dear}");
     }
 
     #[test]
     fn an_element_far_above_the_target_asks_for_at_most_eight_times_its_first_batch() {
         // The default preset's first batch: 256 rays, 128 emitter samples. Element 0's error
-        // is the part that falls as 1/samples, at ten times the target (a hundredfold batch
-        // would reach it); element 1 is a little above the target, element 2 below it.
-        let first = |n: usize| gathered(vec![0; n]);
-        let have = [first(256), first(256), first(256)];
+        // is its rays' random part at ten times the target (a hundredfold batch would reach
+        // it); element 1's its emitter samples' at ten times; element 2's its rays' a little
+        // above the target; element 3 is below it.
+        let first = |n: usize| {
+            let mut g = gathered(vec![0; n]);
+            g.light_samples = n as u32 / 2;
+            (g.rays, g.light_rays) = (2 * n as u64, n as u64);
+            g
+        };
+        let have = [first(256), first(256), first(256), first(256)];
         let t = 0.015f64;
         let random = |e: f64| ErrorParts {
-            sequence: 0.0,
             random: e * e,
+            ..Default::default()
         };
-        let error = [random(10.0 * t), random(1.2 * t), random(0.9 * t)];
+        let light = |e: f64| ErrorParts {
+            light: e * e,
+            ..Default::default()
+        };
+        let error = [
+            random(10.0 * t),
+            light(10.0 * t),
+            random(1.2 * t),
+            random(0.9 * t),
+        ];
         let which = more_samples(&error, &have, t as f32, 256, 128);
         assert_eq!(MAX_SAMPLE_FACTOR, 8);
-        // Capped: the first batch and the added rays together are 8 × 256.
-        assert_eq!(which[0], (0, 7 * 256, 7 * 128), "{which:?}");
+        // Capped: the first batch and the added rays together are 8 × 256; no samples.
+        assert_eq!(which[0], (0, 7 * 256, 0), "{which:?}");
+        // Emitter samples alone, capped at 8 × 128.
+        assert_eq!(which[1], (1, 0, 7 * 128), "{which:?}");
         // Under the cap the ask brings the error to the target, times 1.1: 1.44 × 1.1.
-        assert_eq!(which[1], (1, 150, 75), "{which:?}");
-        assert_eq!(which.len(), 2, "{which:?}");
+        assert_eq!(which[2], (2, 150, 0), "{which:?}");
+        assert_eq!(which.len(), 3, "{which:?}");
         // At the cap, nothing more, however far above the target.
-        assert!(more_samples(&error[..1], &[first(8 * 256)], t as f32, 256, 128).is_empty());
+        let capped = || {
+            let mut g = first(8 * 256);
+            g.light_samples = 8 * 128;
+            g
+        };
+        let at_cap = [capped(), capped()];
+        assert!(more_samples(&error[..2], &at_cap, t as f32, 256, 128).is_empty());
         // A coarse first batch (32 rays, 4 emitter samples) may go on to the floor's 2048.
         assert_eq!(MIN_SAMPLE_CAP, 2048);
         let coarse = more_samples(&error[..1], &[first(32)], t as f32, 32, 4);
-        assert_eq!(coarse, [(0, 2048 - 32, (2048 - 32) * 4 / 32)]);
+        assert_eq!(coarse, [(0, 2048 - 32, 0)]);
     }
 
     #[test]

@@ -54,7 +54,7 @@ pub struct RadiosityOverride {
     #[arg(long, value_name = "F")]
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tolerance: Option<f32>,
-    /// Relative standard error each texel's D should reach (e.g. 0.02): texels above it get more rays and emitter samples, in up to 4 rounds; 0 turns refinement off.
+    /// Relative standard error each texel's D should reach (e.g. 0.02): texels above it get more rays or emitter samples (whichever part of their error is above it), in up to 4 rounds; 0 turns refinement off.
     #[arg(long, value_name = "REL")]
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub target_error: Option<f32>,
@@ -146,7 +146,7 @@ pub struct RadiositySettings {
     /// (0: every one of `bounces` runs).
     pub tolerance: f32,
     /// Relative standard error each texel's D should reach: texels whose estimate is above it
-    /// get more rays and emitter samples (`rays` and `light_samples` are the first batch).
+    /// get more rays or emitter samples (`rays` and `light_samples` are the first batch).
     /// `None`: one batch.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub target_error: Option<f32>,
