@@ -61,10 +61,10 @@ pub const MAX_SAMPLE_FACTOR: u32 = 8;
 /// the target.
 pub const MIN_SAMPLE_CAP: u64 = 2048;
 
-/// How many times more emitter samples than [`MAX_SAMPLE_FACTOR`] allows rays an element may
-/// be refined to: a sample is a few shadow rays and holds no memory, and an element whose
-/// error is its emitter samples' (a building's rooms beside their windows) can buy it only
-/// with them.
+/// Emitter samples an element may be refined to, as a multiple of the share of them that
+/// [`MAX_SAMPLE_FACTOR`]'s rays would bring in the first batch's ratio. More buys down the
+/// elements whose error is their emitter samples' (a building's rooms beside their windows),
+/// at a cost in time (docs/tuning.md#refinement-limits).
 pub const LIGHT_CAP_FACTOR: u64 = 1;
 
 /// Most gathering rays all refinement rounds together may add, as a multiple of the first
@@ -1280,8 +1280,8 @@ fn more_samples(
                     (room * light as u64).div_ceil(rays as u64).min(light_room),
                 )
             } else {
-                let ray_cost =
-                    have as f64 * (1.0 + (g.rays - g.light_rays) as f64 / have.max(1) as f64);
+                let ray_cost = have as f64
+                    * (1.0 + g.rays.saturating_sub(g.light_rays) as f64 / have.max(1) as f64);
                 let light_cost = g.light_rays.max(1) as f64;
                 let (x, y) = p.factors_to(target, ray_cost, light_cost);
                 // Where one kind is at its cap, the other buys what it can of the rest.
