@@ -102,6 +102,14 @@ fn solve_box(scene: &Scene, density: f32, set: &SolveSettings) -> (atlas::Atlas,
     (atlas, sol)
 }
 
+/// Rays cast an element and Σ D (luminance) of a coarse solve of `scene` (32 rays, 4 emitter
+/// samples, 4 texels a metre).
+fn rays_and_light(scene: &Scene) -> (f64, f64) {
+    let (_, sol) = solve_box(scene, 4.0, &settings(32, 4));
+    let lit = sol.radiance.iter().map(|v| v.y as f64).sum::<f64>();
+    (sol.stats.rays_cast as f64 / sol.stats.elements as f64, lit)
+}
+
 #[test]
 fn many_emitters_sampled_by_their_weight_match_the_path_traced_probes() {
     // 7 lamps + 5 panels = 12 emitters: more than are sampled each on their own.
@@ -142,13 +150,7 @@ fn an_elements_rays_do_not_grow_with_the_emitters() {
     let rays_per_element = |lamps, panels| {
         let sub = dir.path().join(format!("{lamps}-{panels}"));
         std::fs::create_dir_all(&sub).unwrap();
-        let scene = lamps_box(&sub, lamps, panels);
-        let (_, sol) = solve_box(&scene, 4.0, &settings(32, 4));
-        let mean = |s: &Solution| s.radiance.iter().map(|v| v.y as f64).sum::<f64>();
-        (
-            sol.stats.rays_cast as f64 / sol.stats.elements as f64,
-            mean(&sol),
-        )
+        rays_and_light(&lamps_box(&sub, lamps, panels))
     };
     let (few, d_few) = rays_per_element(7, 5);
     let (many, d_many) = rays_per_element(28, 20);
@@ -232,10 +234,7 @@ fn points_that_see_no_mirror_cast_few_rays_towards_it() {
     let rays = |mirror: bool| {
         let sub = dir.path().join(if mirror { "mirror" } else { "plain" });
         std::fs::create_dir_all(&sub).unwrap();
-        let scene = closet_box(&sub, mirror);
-        let (_, sol) = solve_box(&scene, 4.0, &settings(32, 4));
-        let lit = sol.radiance.iter().map(|v| v.y as f64).sum::<f64>();
-        (sol.stats.rays_cast as f64 / sol.stats.elements as f64, lit)
+        rays_and_light(&closet_box(&sub, mirror))
     };
     let ((with, d_with), (without, d_without)) = (rays(true), rays(false));
     // The mirror's samples a point draws: `light_samples` × 8 (more than 8 emitters).
