@@ -23,13 +23,7 @@ const MIRROR: &str = r#"{ "albedo": [0, 0, 0], "lobes": [{ "model": "kurt", "ks"
 /// group of emissive triangles); the lamps and panels share the same total power whatever
 /// their number. The room is split by a half-height wall at x = 0.1.
 fn lamps_box(dir: &Path, lamps: usize, panels: usize) -> Scene {
-    let mut meshes = Vec::new();
-    let names = ["X0", "X1", "Y0", "Y1", "Z0", "Z1"];
-    for axis in 0..3 {
-        let m0 = if axis == 1 { 1 } else { 0 };
-        meshes.push(quad(names[2 * axis], m0, axis, -0.5, 0.5));
-        meshes.push(flip(quad(names[2 * axis + 1], 0, axis, 0.5, 0.5)));
-    }
+    let mut meshes = box_faces(1);
     // A wall from the floor to mid-height, both faces.
     let wall = [
         [0.1, -0.5, -0.5],
@@ -37,9 +31,7 @@ fn lamps_box(dir: &Path, lamps: usize, panels: usize) -> Scene {
         [0.1, 0.0, 0.5],
         [0.1, 0.0, -0.5],
     ];
-    let mut back = wall;
-    back.reverse();
-    meshes.push(quads("wall", 0, &[wall, back]));
+    meshes.push(quads("wall", 0, &both_faces(wall)));
     let strength = 12.0 / panels.max(1) as f32;
     let faces: Vec<[[f32; 3]; 4]> = (0..panels)
         .map(|i| {
@@ -81,6 +73,26 @@ fn lamps_box(dir: &Path, lamps: usize, panels: usize) -> Scene {
         lights.join(", ")
     );
     Scene::load(write_scene(dir, &json)).unwrap()
+}
+
+/// The six faces of the box of half-size 0.5, facing in, all of material 0 but the floor
+/// (`floor`).
+fn box_faces(floor: usize) -> Vec<MeshSpec> {
+    let names = ["X0", "X1", "Y0", "Y1", "Z0", "Z1"];
+    let mut meshes = Vec::new();
+    for axis in 0..3 {
+        let m0 = if axis == 1 { floor } else { 0 };
+        meshes.push(quad(names[2 * axis], m0, axis, -0.5, 0.5));
+        meshes.push(flip(quad(names[2 * axis + 1], 0, axis, 0.5, 0.5)));
+    }
+    meshes
+}
+
+/// A quad and the same quad facing the other way.
+fn both_faces(q: [[f32; 3]; 4]) -> [[[f32; 3]; 4]; 2] {
+    let mut back = q;
+    back.reverse();
+    [q, back]
 }
 
 fn settings(rays: u32, light_samples: u32) -> SolveSettings {
@@ -171,22 +183,12 @@ fn an_elements_rays_do_not_grow_with_the_emitters() {
 /// planar reflector) when `mirror`, else diffuse. No light reaches the closet, so its mirror
 /// shows nothing.
 fn closet_box(dir: &Path, mirror: bool) -> Scene {
-    let mut meshes = Vec::new();
-    let names = ["X0", "X1", "Y0", "Y1", "Z0", "Z1"];
-    for axis in 0..3 {
-        meshes.push(quad(names[2 * axis], 0, axis, -0.5, 0.5));
-        meshes.push(flip(quad(names[2 * axis + 1], 0, axis, 0.5, 0.5)));
-    }
-    let both = |q: [[f32; 3]; 4]| {
-        let mut back = q;
-        back.reverse();
-        [q, back]
-    };
+    let mut meshes = box_faces(0);
     let (c, lo, hi) = (0.0f32, -0.5f32, 0.5f32);
     meshes.push(quads(
         "closet",
         0,
-        &both([[c, lo, lo], [c, lo, hi], [c, hi, hi], [c, hi, lo]]),
+        &both_faces([[c, lo, lo], [c, lo, hi], [c, hi, hi], [c, hi, lo]]),
     ));
     let y = -0.499;
     meshes.push(quads(
