@@ -15,7 +15,7 @@ use super::mirror_lights::MirrorLights;
 use super::next_event::{Arrival, At, NextEvent, Receiver, Source};
 use super::ray_cache::{KeptBatch, LightPart, RayRecord};
 use super::through_glass::{GatherCx, RayMis, RayOut, gather_ray};
-use super::transmission::{Glass, drawn_visible};
+use super::transmission::{Glass, drawn_visible, shadow};
 use super::transport::{Glossy, Term};
 use crate::geometry::Bvh;
 use crate::sampling::{Rng, basis, r2, sample_cosine_hemisphere};
@@ -177,6 +177,8 @@ pub(super) struct Element<'a> {
     t: Vec3,
     b: Vec3,
     many: Option<(&'a ManyLights, Choice)>,
+    /// The rays `many`'s visibility test cast ([`ManyLights::choose_seeing`]).
+    test_rays: u64,
 }
 
 impl<'a> Element<'a> {
@@ -187,6 +189,20 @@ impl<'a> Element<'a> {
         let ns = tri.shading_normal(s.bary);
         let origin = cx.bvh.offset_origin(tri.point(s.bary), ng);
         let (t, b) = basis(ns);
+        let mut test_rays = 0;
+        let many = cx.many.map(|m| {
+            // Clear to a point on an emitter: a shadow ray stopping short of it, as an emitter
+            // sample's does (through glass too).
+            let sees = |q: Vec3| {
+                let w = q - origin;
+                let dist = w.length();
+                let reach = dist - 2.0 * cx.bvh.epsilon().max(dist * 1e-5);
+                dist <= 0.0 || shadow(cx.glass.as_ref(), cx.bvh, origin, w / dist, reach).is_some()
+            };
+            let (choice, rays) = m.choose_seeing(origin, ns, sees);
+            test_rays = rays;
+            (m, choice)
+        });
         Element {
             index,
             origin,
@@ -194,7 +210,8 @@ impl<'a> Element<'a> {
             ns,
             t,
             b,
-            many: cx.many.map(|m| (m, m.choose(origin, ns))),
+            many,
+            test_rays,
         }
     }
 }
@@ -370,7 +387,11 @@ pub(super) fn sample_lights(
     n_rays: u32,
     n_light: u32,
 ) -> LightPart {
-    let mut part = LightPart::default();
+    // The visibility test served the emitter samples: its rays are theirs.
+    let mut part = LightPart {
+        rays: el.test_rays,
+        ..LightPart::default()
+    };
     match &el.many {
         Some((m, choice)) => {
             let n_many = n_light * LIGHTS_SAMPLED_EACH as u32;

@@ -12,6 +12,14 @@
 //! gets weight 0 (an emitter wholly below the point's plane, or with the point behind its one
 //! emitting side, cannot).
 //!
+//! The weights know no walls: in a building, half of an element's samples went to lamps in
+//! other rooms and were blocked. So an element (not a glossy path's vertex, which draws one
+//! sample) first casts a few rays at each emitter that holds more than [`TESTED_SHARE`] of its
+//! weight: a quad's centre and four points near its corners, a group's first triangle's
+//! centroid. Each blocked ray scales the emitter's weight down towards [`UNSEEN`] of it; an
+//! emitter none of them reaches keeps that much, so a lamp seen only through a gap still gets
+//! samples and D stays unbiased.
+//!
 //! An emitter is an area light of scene.json, or a group of emissive triangles that share
 //! vertices (a lamp's panel, a window): within a group a triangle is chosen by area ×
 //! luminance, as [`super::emitters::Emitters`] does for the whole scene.
@@ -32,6 +40,16 @@ pub const LIGHTS_SAMPLED_EACH: usize = 8;
 /// Floor of the emitter-side cosine in a weight: a point just off a lamp's plane still gets
 /// samples.
 const MIN_EMITTER_COS: f32 = 0.05;
+
+/// What an emitter's weight keeps when none of an element's test rays reaches it.
+const UNSEEN: f32 = 0.05;
+
+/// An element tests the visibility of the emitters that hold more than this share of its
+/// weights; the rest keep their weights untested.
+const TESTED_SHARE: f32 = 0.02;
+
+/// How far from its centre towards each corner a quad's test points lie.
+const TEST_CORNER: f32 = 0.9;
 
 /// What an emitter is made of.
 #[derive(Clone, Debug, PartialEq)]
@@ -55,6 +73,9 @@ pub(super) struct Emitter {
     hull: Vec<Vec3>,
     /// A quad's emitting normal and whether it emits from both sides.
     facing: Option<(Vec3, bool)>,
+    /// A point on it that an element's visibility test aims at: a quad's centre, a group's
+    /// first triangle's centroid.
+    aim: Vec3,
 }
 
 /// A point on an emitter.
@@ -219,6 +240,7 @@ impl ManyLights {
                 radius2: 0.25 * (l.edge_u + l.edge_v).length_squared(),
                 hull,
                 facing: Some((l.normal, l.two_sided)),
+                aim: l.corner + 0.5 * (l.edge_u + l.edge_v),
             });
         }
         let groups = emissive_groups(scene);
@@ -243,6 +265,8 @@ impl ManyLights {
                 cdf.push(total);
             }
             let hull = box_corners(lo, hi).to_vec();
+            let first = &scene.triangles[tris[0] as usize];
+            let aim = (first.p[0] + first.p[1] + first.p[2]) / 3.0;
             emitters.push(Emitter {
                 kind: Kind::Group { tris, cdf },
                 power: total as f32,
@@ -250,6 +274,7 @@ impl ManyLights {
                 radius2: 0.25 * (hi - lo).length_squared(),
                 hull,
                 facing: None,
+                aim,
             });
         }
         Some(ManyLights { emitters, group_of })
@@ -258,6 +283,46 @@ impl ManyLights {
     /// The distribution of a receiver at `at` with unit normal `n`.
     pub fn choose(&self, at: Vec3, n: Vec3) -> Choice {
         self.choose_for(at, n, &[at])
+    }
+
+    /// [`ManyLights::choose`] for an element, each emitter's weight scaled by the share of
+    /// its test points that `sees` (is the segment from the receiver to this point clear?)
+    /// reports clear, kept at least [`UNSEEN`] of it (module doc); returns the choice and the
+    /// test rays cast.
+    pub fn choose_seeing(
+        &self,
+        at: Vec3,
+        n: Vec3,
+        mut sees: impl FnMut(Vec3) -> bool,
+    ) -> (Choice, u64) {
+        let mut cdf: Vec<f32> = self
+            .emitters
+            .iter()
+            .map(|e| e.weight(at, n, &[at]))
+            .collect();
+        let total: f32 = cdf.iter().sum();
+        let mut rays = 0u64;
+        for (e, w) in self.emitters.iter().zip(cdf.iter_mut()) {
+            if *w <= TESTED_SHARE * total {
+                continue;
+            }
+            let corners = if e.facing.is_some() { &e.hull[..] } else { &[] };
+            let points = std::iter::once(e.aim)
+                .chain(corners.iter().map(|&c| e.aim + TEST_CORNER * (c - e.aim)));
+            let (mut seen, mut tested) = (0u32, 0u32);
+            for q in points {
+                tested += 1;
+                seen += sees(q) as u32;
+            }
+            rays += tested as u64;
+            *w *= UNSEEN + (1.0 - UNSEEN) * seen as f32 / tested as f32;
+        }
+        let mut sum = 0.0f32;
+        for c in &mut cdf {
+            sum += *c;
+            *c = sum;
+        }
+        (Choice { cdf }, rays)
     }
 
     /// [`ManyLights::choose`] with the receiver's points for the emitters' facing test.
@@ -406,6 +471,7 @@ mod tests {
             radius2: 0.25 * (u + v).length_squared(),
             hull: vec![corner, corner + u, corner + u + v, corner + v],
             facing: Some((Vec3::NEG_Y, two_sided)),
+            aim: corner + 0.5 * (u + v),
         }
     }
 
@@ -463,5 +529,56 @@ mod tests {
             }
             .is_empty()
         );
+    }
+
+    #[test]
+    fn an_elements_blocked_emitters_keep_a_floor_of_their_weight() {
+        use super::{ManyLights, UNSEEN};
+        // Two equal lamps side by side above the origin and a faint one far off.
+        let at = |x: f32| {
+            let mut l = lamp(false);
+            for p in l.hull.iter_mut().chain([&mut l.centre, &mut l.aim]) {
+                p.x += x;
+            }
+            l
+        };
+        let mut faint = at(10.0);
+        faint.power *= 0.05;
+        let many = ManyLights {
+            emitters: vec![at(-0.2), at(0.2), faint],
+            group_of: Vec::new(),
+        };
+        let open = many.choose(Vec3::ZERO, Vec3::Y);
+        let (p0, p1) = (open.prob(0), open.prob(1));
+        assert!(
+            (p0 - p1).abs() < 1e-6 && open.prob(2) > 0.0,
+            "{p0} {p1} {}",
+            open.prob(2)
+        );
+
+        // Lamp 1 wholly blocked, lamp 0 clear: lamp 1 keeps UNSEEN of its weight; the faint
+        // lamp (under the tested share) is not tested. A quad has five test points.
+        let mut asked = Vec::new();
+        let (c, rays) = many.choose_seeing(Vec3::ZERO, Vec3::Y, |q| {
+            asked.push(q);
+            q.x < 0.0
+        });
+        assert_eq!(rays, 10);
+        assert!(asked.iter().all(|q| q.x.abs() < 1.0));
+        assert!((c.prob(1) / c.prob(0) - UNSEEN).abs() < 1e-5);
+        assert!(c.prob(2) > 0.0);
+
+        // Two of lamp 1's five test points clear (the corners on its far side): its weight
+        // falls between.
+        let (c, _) = many.choose_seeing(Vec3::ZERO, Vec3::Y, |q| q.x < 0.0 || q.x > 0.25);
+        let r = c.prob(1) / c.prob(0);
+        let expected = UNSEEN + (1.0 - UNSEEN) * 2.0 / 5.0;
+        assert!((r - expected).abs() < 1e-5, "{r} vs {expected}");
+
+        // Nothing clear: the tested lamps are scaled alike, and the untested faint one, which
+        // may be all the point sees, gains.
+        let (c, _) = many.choose_seeing(Vec3::ZERO, Vec3::Y, |_| false);
+        assert!((c.prob(0) - c.prob(1)).abs() < 1e-6);
+        assert!(c.prob(2) > 10.0 * open.prob(2));
     }
 }
