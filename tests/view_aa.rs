@@ -162,17 +162,20 @@ fn one_sample_draws_the_frame_of_the_viewer_without_anti_aliasing() {
         return;
     }
     let golden = read_rgb(&stored);
-    if frame != golden {
+    // lavapipe compiles shaders for the host CPU and rounds differently from one CPU to
+    // another (the same frame on two hosts: one 8-bit level in 310 of 17,280 pixels); an
+    // anti-aliased edge moves a pixel by far more than that.
+    let differ = frame
+        .chunks_exact(3)
+        .zip(golden.chunks_exact(3))
+        .filter(|(a, b)| a.iter().zip(b.iter()).any(|(x, y)| x.abs_diff(*y) > 1))
+        .count();
+    if differ > 0 {
         let dir = failure_dir("cornell-box-samples1");
         let png = glint::image_io::encode_png(w as u32, h as u32, &frame, false).unwrap();
         std::fs::write(dir.join("samples1.png"), png).unwrap();
-        let differ = frame
-            .chunks_exact(3)
-            .zip(golden.chunks_exact(3))
-            .filter(|(a, b)| a != b)
-            .count();
         panic!(
-            "--samples 1 differs from {} in {differ} pixels (frame in {})",
+            "--samples 1 differs from {} by more than one level in {differ} pixels (frame in {})",
             stored.display(),
             dir.display()
         );
