@@ -207,10 +207,11 @@ fn closet_box(dir: &Path, mirror: bool) -> Scene {
     );
     let lights: Vec<String> = (0..12)
         .map(|i| {
-            let (x, z) = (0.1 + 0.3 * (i % 4) as f32 / 3.0, -0.3 + 0.25 * (i / 4) as f32);
-            format!(
-                r#"{{ "name": "lamp{i}", "corner": [{x}, 0.45, {z}], "edge_u": [0.05, 0, 0], "edge_v": [0, 0, 0.05], "radiance": [20, 20, 20] }}"#
-            )
+            let (x, z) = (
+                0.1 + 0.3 * (i % 4) as f32 / 3.0,
+                -0.3 + 0.25 * (i / 4) as f32,
+            );
+            square_lamp(&format!("lamp{i}"), x, z)
         })
         .collect();
     let mirror_json = if mirror {
@@ -220,8 +221,22 @@ fn closet_box(dir: &Path, mirror: bool) -> Scene {
     } else {
         String::new()
     };
+    with_lights(dir, &mirror_json, &lights)
+}
+
+/// A 5 cm square area light of radiance 20 facing down just under the ceiling, its corner at
+/// (`x`, `z`).
+fn square_lamp(name: &str, x: f32, z: f32) -> String {
+    format!(
+        r#"{{ "name": "{name}", "corner": [{x}, 0.45, {z}], "edge_u": [0.05, 0, 0], "edge_v": [0, 0, 0.05], "radiance": [20, 20, 20] }}"#
+    )
+}
+
+/// The scene of `dir`'s s.gltf with `lights` and the scene.json members `extra` (each ending
+/// in a comma).
+fn with_lights(dir: &Path, extra: &str, lights: &[String]) -> Scene {
     let json = format!(
-        r#"{{ "version": 1, "geometry": "s.gltf", {mirror_json} "lights": [{}] }}"#,
+        r#"{{ "version": 1, "geometry": "s.gltf", {extra} "lights": [{}] }}"#,
         lights.join(", ")
     );
     Scene::load(write_scene(dir, &json)).unwrap()
@@ -266,18 +281,10 @@ fn two_rooms(dir: &Path) -> Scene {
         &both_faces([[c, lo, lo], [c, lo, hi], [c, hi, hi], [c, hi, lo]]),
     ));
     write_gltf(dir, "s", &meshes, &[MaterialSpec::diffuse("walls", 0.2)]);
-    let lamp = |name: String, x: f32, z: f32| {
-        format!(
-            r#"{{ "name": "{name}", "corner": [{x}, 0.45, {z}], "edge_u": [0.05, 0, 0], "edge_v": [0, 0, 0.05], "radiance": [20, 20, 20] }}"#
-        )
-    };
-    let mut lights = vec![lamp("far".into(), -0.45, -0.025)];
-    lights.extend((0..11).map(|i| lamp(format!("near{i}"), 0.27, -0.45 + 0.085 * i as f32)));
-    let json = format!(
-        r#"{{ "version": 1, "geometry": "s.gltf", "lights": [{}] }}"#,
-        lights.join(", ")
-    );
-    Scene::load(write_scene(dir, &json)).unwrap()
+    let mut lights = vec![square_lamp("far", -0.45, -0.025)];
+    lights
+        .extend((0..11).map(|i| square_lamp(&format!("near{i}"), 0.27, -0.45 + 0.085 * i as f32)));
+    with_lights(dir, "", &lights)
 }
 
 #[test]

@@ -177,8 +177,6 @@ pub(super) struct Element<'a> {
     t: Vec3,
     b: Vec3,
     many: Option<(&'a ManyLights, Choice)>,
-    /// The rays `many`'s visibility test cast ([`ManyLights::choose_seeing`]).
-    test_rays: u64,
 }
 
 impl<'a> Element<'a> {
@@ -189,7 +187,6 @@ impl<'a> Element<'a> {
         let ns = tri.shading_normal(s.bary);
         let origin = cx.bvh.offset_origin(tri.point(s.bary), ng);
         let (t, b) = basis(ns);
-        let mut test_rays = 0;
         let many = cx.many.map(|m| {
             // Clear to a point on an emitter: a shadow ray stopping short of it, as an emitter
             // sample's does (through glass too).
@@ -199,9 +196,7 @@ impl<'a> Element<'a> {
                 let reach = dist - 2.0 * cx.bvh.epsilon().max(dist * 1e-5);
                 dist <= 0.0 || shadow(cx.glass.as_ref(), cx.bvh, origin, w / dist, reach).is_some()
             };
-            let (choice, rays) = m.choose_seeing(origin, ns, sees);
-            test_rays = rays;
-            (m, choice)
+            (m, m.choose_seeing(origin, ns, sees))
         });
         Element {
             index,
@@ -211,7 +206,6 @@ impl<'a> Element<'a> {
             t,
             b,
             many,
-            test_rays,
         }
     }
 }
@@ -387,11 +381,7 @@ pub(super) fn sample_lights(
     n_rays: u32,
     n_light: u32,
 ) -> LightPart {
-    // The visibility test served the emitter samples: its rays are theirs.
-    let mut part = LightPart {
-        rays: el.test_rays,
-        ..LightPart::default()
-    };
+    let mut part = LightPart::default();
     match &el.many {
         Some((m, choice)) => {
             let n_many = n_light * LIGHTS_SAMPLED_EACH as u32;

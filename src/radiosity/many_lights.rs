@@ -287,21 +287,16 @@ impl ManyLights {
 
     /// [`ManyLights::choose`] for an element, each emitter's weight scaled by the share of
     /// its test points that `sees` (is the segment from the receiver to this point clear?)
-    /// reports clear, kept at least [`UNSEEN`] of it (module doc); returns the choice and the
-    /// test rays cast.
-    pub fn choose_seeing(
-        &self,
-        at: Vec3,
-        n: Vec3,
-        mut sees: impl FnMut(Vec3) -> bool,
-    ) -> (Choice, u64) {
+    /// reports clear, kept at least [`UNSEEN`] of it (module doc). Its rays are not counted
+    /// among the element's: they do not grow with its samples, and counted as the emitter
+    /// samples' they made those look dearer to the refinement than they are.
+    pub fn choose_seeing(&self, at: Vec3, n: Vec3, mut sees: impl FnMut(Vec3) -> bool) -> Choice {
         let mut cdf: Vec<f32> = self
             .emitters
             .iter()
             .map(|e| e.weight(at, n, &[at]))
             .collect();
         let total: f32 = cdf.iter().sum();
-        let mut rays = 0u64;
         for (e, w) in self.emitters.iter().zip(cdf.iter_mut()) {
             if *w <= TESTED_SHARE * total {
                 continue;
@@ -314,7 +309,6 @@ impl ManyLights {
                 tested += 1;
                 seen += sees(q) as u32;
             }
-            rays += tested as u64;
             *w *= UNSEEN + (1.0 - UNSEEN) * seen as f32 / tested as f32;
         }
         let mut sum = 0.0f32;
@@ -322,7 +316,7 @@ impl ManyLights {
             sum += *c;
             *c = sum;
         }
-        (Choice { cdf }, rays)
+        Choice { cdf }
     }
 
     /// [`ManyLights::choose`] with the receiver's points for the emitters' facing test.
@@ -559,25 +553,25 @@ mod tests {
         // Lamp 1 wholly blocked, lamp 0 clear: lamp 1 keeps UNSEEN of its weight; the faint
         // lamp (under the tested share) is not tested. A quad has five test points.
         let mut asked = Vec::new();
-        let (c, rays) = many.choose_seeing(Vec3::ZERO, Vec3::Y, |q| {
+        let c = many.choose_seeing(Vec3::ZERO, Vec3::Y, |q| {
             asked.push(q);
             q.x < 0.0
         });
-        assert_eq!(rays, 10);
+        assert_eq!(asked.len(), 10);
         assert!(asked.iter().all(|q| q.x.abs() < 1.0));
         assert!((c.prob(1) / c.prob(0) - UNSEEN).abs() < 1e-5);
         assert!(c.prob(2) > 0.0);
 
         // Two of lamp 1's five test points clear (the corners on its far side): its weight
         // falls between.
-        let (c, _) = many.choose_seeing(Vec3::ZERO, Vec3::Y, |q| q.x < 0.0 || q.x > 0.25);
+        let c = many.choose_seeing(Vec3::ZERO, Vec3::Y, |q| q.x < 0.0 || q.x > 0.25);
         let r = c.prob(1) / c.prob(0);
         let expected = UNSEEN + (1.0 - UNSEEN) * 2.0 / 5.0;
         assert!((r - expected).abs() < 1e-5, "{r} vs {expected}");
 
         // Nothing clear: the tested lamps are scaled alike, and the untested faint one, which
         // may be all the point sees, gains.
-        let (c, _) = many.choose_seeing(Vec3::ZERO, Vec3::Y, |_| false);
+        let c = many.choose_seeing(Vec3::ZERO, Vec3::Y, |_| false);
         assert!((c.prob(0) - c.prob(1)).abs() < 1e-6);
         assert!(c.prob(2) > 10.0 * open.prob(2));
     }
