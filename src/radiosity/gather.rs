@@ -10,7 +10,7 @@ use glam::{Vec2, Vec3};
 
 use super::atlas::{Atlas, TexelSample};
 use super::emitters::{Emitters, luminance, power, spread_var_of_mean, var_of_mean};
-use super::many_lights::{Choice, LIGHTS_SAMPLED_EACH, ManyLights};
+use super::many_lights::{Choice, LIGHTS_SAMPLED_EACH, ManyLights, short_of_surface};
 use super::mirror_lights::MirrorLights;
 use super::next_event::{Arrival, At, NextEvent, Receiver, Source};
 use super::ray_cache::{KeptBatch, LightPart, RayRecord};
@@ -193,7 +193,7 @@ impl<'a> Element<'a> {
             let sees = |q: Vec3| {
                 let w = q - origin;
                 let dist = w.length();
-                let reach = dist - 2.0 * cx.bvh.epsilon().max(dist * 1e-5);
+                let reach = short_of_surface(cx.bvh, dist);
                 dist <= 0.0 || shadow(cx.glass.as_ref(), cx.bvh, origin, w / dist, reach).is_some()
             };
             (m, m.choose_seeing(origin, ns, sees))

@@ -110,12 +110,17 @@ impl Drawn {
 
     /// How far a shadow ray towards the point goes.
     pub fn reach(&self, bvh: &Bvh) -> f32 {
-        let dist = self.dist;
         match self.point.triangle {
-            None => dist * (1.0 - 1e-5),
-            Some(_) => dist - 2.0 * bvh.epsilon().max(dist * 1e-5),
+            None => self.dist * (1.0 - 1e-5),
+            Some(_) => short_of_surface(bvh, self.dist),
         }
     }
+}
+
+/// How far a shadow ray towards a point on a surface `dist` away goes: short of it, so that
+/// the surface does not occlude itself.
+pub(super) fn short_of_surface(bvh: &Bvh, dist: f32) -> f32 {
+    dist - 2.0 * bvh.epsilon().max(dist * 1e-5)
 }
 
 /// The 8 corners of the box `lo`–`hi`.
@@ -291,13 +296,13 @@ impl ManyLights {
     /// among the element's: they do not grow with its samples, and counted as the emitter
     /// samples' they made those look dearer to the refinement than they are.
     pub fn choose_seeing(&self, at: Vec3, n: Vec3, mut sees: impl FnMut(Vec3) -> bool) -> Choice {
-        let mut cdf: Vec<f32> = self
+        let mut weights: Vec<f32> = self
             .emitters
             .iter()
             .map(|e| e.weight(at, n, &[at]))
             .collect();
-        let total: f32 = cdf.iter().sum();
-        for (e, w) in self.emitters.iter().zip(cdf.iter_mut()) {
+        let total: f32 = weights.iter().sum();
+        for (e, w) in self.emitters.iter().zip(weights.iter_mut()) {
             if *w <= TESTED_SHARE * total {
                 continue;
             }
@@ -311,12 +316,7 @@ impl ManyLights {
             }
             *w *= UNSEEN + (1.0 - UNSEEN) * seen as f32 / tested as f32;
         }
-        let mut sum = 0.0f32;
-        for c in &mut cdf {
-            sum += *c;
-            *c = sum;
-        }
-        Choice { cdf }
+        Choice::from_weights(weights.into_iter())
     }
 
     /// [`ManyLights::choose`] with the receiver's points for the emitters' facing test.
