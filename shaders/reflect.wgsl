@@ -108,12 +108,14 @@ struct MirrorOut {
 fn vs_mirror(v: VertexIn) -> MirrorOut {
     var out: MirrorOut;
     out.clip = frame.view_proj * vec4<f32>(v.position, 1.0);
-    out.lightmap = v.lightmap;
-    out.page = v.page;
+    // `frame` is the mirrored camera's: its eye is the mirrored eye.
+    let lm = lightmap_seen(v, frame.eye.xyz);
+    out.lightmap = lm.coords;
+    out.page = lm.page;
     out.world = v.position;
     out.inside = v.position;
-    out.lightmap_centroid = v.lightmap;
-    out.lightmap_corner = v.lightmap;
+    out.lightmap_centroid = lm.coords;
+    out.lightmap_corner = lm.coords;
     out.uv0 = v.uv0;
     out.uv1 = v.uv1;
     out.material = v.material;

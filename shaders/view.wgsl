@@ -64,7 +64,26 @@ struct VertexIn {
     @location(3) uv0: vec2<f32>,
     @location(4) uv1: vec2<f32>,
     @location(5) material: u32,
+    // A triangle whose back side has texels of its own (`radiosity::back_sides`): its unit
+    // face normal and the back's lightmap place; elsewhere a zero normal.
+    @location(6) face: vec3<f32>,
+    @location(7) lightmap_back: vec2<f32>,
+    @location(8) page_back: u32,
 };
+
+// Where vertex `v` reads D seen from `eye`: the back side's place when the eye is behind its
+// triangle. Every corner of a flat triangle is on its plane, so all three choose alike.
+struct LightmapPlace {
+    coords: vec2<f32>,
+    page: u32,
+};
+
+fn lightmap_seen(v: VertexIn, eye: vec3<f32>) -> LightmapPlace {
+    if dot(v.face, eye - v.position) < 0.0 {
+        return LightmapPlace(v.lightmap_back, v.page_back);
+    }
+    return LightmapPlace(v.lightmap, v.page);
+}
 
 struct VertexOut {
     @builtin(position) clip: vec4<f32>,
@@ -105,13 +124,14 @@ fn vs_world(v: VertexIn) -> WorldOut {
 fn scene_vertex(v: VertexIn) -> VertexOut {
     var out: VertexOut;
     out.clip = frame.view_proj * vec4<f32>(v.position, 1.0);
-    out.lightmap = v.lightmap;
-    out.page = v.page;
+    let lm = lightmap_seen(v, frame.eye.xyz);
+    out.lightmap = lm.coords;
+    out.page = lm.page;
     out.uv0 = v.uv0;
     out.uv1 = v.uv1;
     out.material = v.material;
-    out.lightmap_centroid = v.lightmap;
-    out.lightmap_corner = v.lightmap;
+    out.lightmap_centroid = lm.coords;
+    out.lightmap_corner = lm.coords;
     return out;
 }
 

@@ -74,6 +74,7 @@ fn two_charts(right_normal: Vec3) -> (Vec<Triangle>, Atlas) {
         texel_chart,
         charts: 2,
         from_uv1: false,
+        backs: Vec::new(),
     };
     (tris, atlas)
 }

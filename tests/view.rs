@@ -333,6 +333,7 @@ fn wgsl_bicubic_matches_the_cpu_filter() {
             texel_chart: vec![],
             charts: 0,
             from_uv1: false,
+            backs: Vec::new(),
         },
         pages: texels.clone(),
     };

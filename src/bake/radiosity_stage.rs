@@ -12,6 +12,7 @@ use crate::bundle::{BundleError, StageInfo, StageRecord, StageWriter};
 use crate::image_io::{self, ImageError};
 use crate::progress::{Cancelled, Progress};
 use crate::radiosity::atlas::{self, AtlasError};
+use crate::radiosity::back_sides;
 use crate::radiosity::format;
 use crate::radiosity::seams;
 use crate::radiosity::solve::{
@@ -286,6 +287,37 @@ pub fn bake(
     bake_from(scene, bundle, settings, force, Gathering::Here, progress)
 }
 
+/// The scene the solve works on: `scene` itself, or a copy with the twins of the back sides
+/// that get texels of their own ([`back_sides`]) after its triangles; and the ray-casting BVH
+/// of `scene`'s own triangles (twins are reached through the atlas, never hit).
+struct Sided {
+    bvh: crate::geometry::Bvh,
+    backs: Vec<u32>,
+    twinned: Option<Scene>,
+}
+
+impl Sided {
+    fn of(scene: &Scene) -> Sided {
+        let bvh = scene.build_bvh();
+        let backs = back_sides::open_backs(scene, &bvh);
+        let twinned = (!backs.is_empty()).then(|| {
+            log::info!(
+                "back sides: {} triangles of open double-sided sheets get texels of their own",
+                backs.len()
+            );
+            Scene {
+                triangles: back_sides::with_twins(&scene.triangles, &backs),
+                ..scene.clone()
+            }
+        });
+        Sided {
+            bvh,
+            backs,
+            twinned,
+        }
+    }
+}
+
 /// What every radiosity bake and gathering unit computes before gathering.
 struct Prepared {
     bvh: crate::geometry::Bvh,
@@ -294,12 +326,14 @@ struct Prepared {
     solve: SolveSettings,
 }
 
+/// The atlas (with `backs`, whose twins end `scene`'s triangles) and the solve's settings.
 fn prepare(
     scene: &Scene,
+    bvh: crate::geometry::Bvh,
+    backs: Vec<u32>,
     settings: &RadiositySettings,
     density: Density,
 ) -> Result<Prepared, RadiosityError> {
-    let bvh = scene.build_bvh();
     let Density { rule, scale, .. } = density;
     if scale < 1.0 {
         log::info!(
@@ -316,8 +350,9 @@ fn prepare(
             settings.min_scene_texels
         );
     }
-    let (atlas, samples, boosts) =
+    let (mut atlas, samples, boosts) =
         crate::radiosity::contacts::build(scene, &bvh, rule, settings.contact_boost)?;
+    atlas.backs = backs;
     if boosts.charts > 0 {
         log::info!(
             "contacts: {} texels ask for up to {}× the density; {} charts raised, {} → {} texels",
@@ -371,9 +406,15 @@ pub fn bake_gather(
         target_error: None,
         ..settings.clone()
     };
+    let Sided {
+        bvh,
+        backs,
+        twinned,
+    } = Sided::of(scene);
+    let scene = twinned.as_ref().unwrap_or(scene);
     let density = check_share(scene, &first, 1.0 / n.max(1) as f64, false)?;
     let mut w = StageWriter::begin(shard, GATHER_STAGE)?;
-    let p = prepare(scene, settings, density)?;
+    let p = prepare(scene, bvh, backs, settings, density)?;
     let range = gather_range(p.samples.len(), k, n);
     let batch = gather_batch(
         scene,
@@ -458,12 +499,18 @@ pub fn bake_from(
 ) -> Result<StageRecord, RadiosityError> {
     let start = Instant::now();
     let cached = matches!(gathering, Gathering::Cached(_));
-    let density = check_share(scene, settings, 1.0, cached)?;
     crate::bundle::check_scene(bundle, &scene.name, &scene.content_hash, force)?;
+    progress.phase("building the atlas", 1);
+    let Sided {
+        bvh,
+        backs,
+        twinned,
+    } = Sided::of(scene);
+    let scene = twinned.as_ref().unwrap_or(scene);
+    let density = check_share(scene, settings, 1.0, cached)?;
     // Before the compute: a bundle that cannot be written fails now.
     let w = StageWriter::begin(bundle, Stage::Radiosity.name())?;
-    progress.phase("building the atlas", 1);
-    let p = prepare(scene, settings, density)?;
+    let p = prepare(scene, bvh, backs, settings, density)?;
     progress.advance(1);
     // The ray cache to write, while the rest of the stage runs: (file, cache).
     let mut keep_rays = None;
@@ -587,6 +634,7 @@ fn finish(
         ("pages".to_string(), atlas.pages.len().into()),
         ("charts".into(), atlas.charts.into()),
         ("atlas_texels".into(), atlas.texel_count().into()),
+        ("back_sides".into(), atlas.backs.len().into()),
         ("elements".into(), st.elements.into()),
         ("elements_inside_geometry".into(), st.excluded.into()),
         ("texels_filled".into(), st.filled.into()),

@@ -4,7 +4,8 @@
 //!
 //! The surface of a probe is found by a short ray: from `position + reach · normal` towards
 //! `−normal`, over at most `2 · reach`; the first front face (whose face normal points to the
-//! probe's side) it meets is the probed surface. The reach is bounded by the scene: no
+//! probe's side) it meets is the probed surface, or the back face of a sheet whose back side
+//! is a surface of its own ([`crate::radiosity::back_sides`]). The reach is bounded by the scene: no
 //! surface lies farther from the probe than the farthest corner of the scene's bounding box,
 //! so a larger reach finds nothing more and would only lose the precision of the ray's origin.
 
@@ -115,11 +116,22 @@ pub struct Surface {
     pub bary: glam::Vec2,
     /// Signed distance of the probe above it, along the normal (metres).
     pub offset: f32,
+    /// Whether it is the triangle's back side (one of `backs` in [`find_surface`]).
+    pub back: bool,
 }
 
 /// The surface under a probe at `p` with unit normal `n` (see the module comment): the first
-/// front face a ray from `p + reach·n` towards `−n` meets within `2·reach`.
-pub fn find_surface(scene: &Scene, bvh: &Bvh, p: Vec3, n: Vec3, reach: f32) -> Option<Surface> {
+/// front face a ray from `p + reach·n` towards `−n` meets within `2·reach`, or back face of
+/// one of `backs` (ascending triangle indices: the sheets whose back sides have D of their
+/// own, [`crate::radiosity::atlas::Atlas::backs`]).
+pub fn find_surface(
+    scene: &Scene,
+    bvh: &Bvh,
+    p: Vec3,
+    n: Vec3,
+    reach: f32,
+    backs: &[u32],
+) -> Option<Surface> {
     let reach = bounded_reach(scene, p, reach);
     let origin = p + n * reach;
     let mut start = origin;
@@ -129,11 +141,13 @@ pub fn find_surface(scene: &Scene, bvh: &Bvh, p: Vec3, n: Vec3, reach: f32) -> O
         let h = bvh.closest_hit(start, -n, 2.0 * reach - travelled)?;
         travelled += h.t;
         let tri = &scene.triangles[h.triangle as usize];
-        if tri.face_normal().dot(n) > 0.0 {
+        let front = tri.face_normal().dot(n) > 0.0;
+        if front || backs.binary_search(&h.triangle).is_ok() {
             return Some(Surface {
                 triangle: h.triangle,
                 bary: h.bary,
                 offset: travelled - reach,
+                back: !front,
             });
         }
         start = origin - n * (travelled + bvh.epsilon());
@@ -186,9 +200,10 @@ pub fn probe(
         .iter()
         .map(|pt| {
             let p = Vec3::from_array(pt.position);
-            let surface = find_surface(scene, bvh, p, unit_normal(pt), reach);
+            let surface = find_surface(scene, bvh, p, unit_normal(pt), reach, &map.atlas.backs);
             answer(pt, surface, |s| {
-                scene.d_at(s.triangle, s.bary, map.radiance(s.triangle, s.bary))
+                let (t, b) = map.atlas.side(s.triangle, s.bary, s.back);
+                scene.d_at(s.triangle, s.bary, map.radiance(t, b))
             })
         })
         .collect())

@@ -413,11 +413,14 @@ impl<'a> Tracer<'a> {
     /// One estimate of the diffuse exitant radiance at barycentrics `bary` of `triangle`
     /// (front side): its emission plus k_d/π × the irradiance from every path, the rest of
     /// each path through the full BRDFs.
-    fn exitant_diffuse(&self, triangle: u32, bary: Vec2, rng: &mut Rng) -> Vec3 {
+    fn exitant_diffuse(&self, triangle: u32, bary: Vec2, back: bool, rng: &mut Rng) -> Vec3 {
         let tri = &self.scene.triangles[triangle as usize];
         let mat = &self.scene.materials[tri.material as usize];
-        let ng = tri.face_normal();
-        let frame = Frame::from_normal(tri.shading_normal(bary));
+        // A double-sided surface's back faces the other way and does not emit, as in
+        // `trace`.
+        let side = if back { -1.0 } else { 1.0 };
+        let ng = side * tri.face_normal();
+        let frame = Frame::from_normal(side * tri.shading_normal(bary));
         let shader = Shader::new(Brdf {
             kd: self.scene.albedo_at(triangle, bary),
             lobes: Vec::new(),
@@ -427,6 +430,7 @@ impl<'a> Tracer<'a> {
         // The diffuse BRDF does not depend on ω_o: any direction above the surface does.
         let wo = Vec3::Z;
         let emission = match mat.emissive_texture {
+            _ if back => Vec3::ZERO,
             None => mat.emission,
             Some(_) => self.scene.emission_at(triangle, bary),
         };
@@ -650,6 +654,9 @@ pub fn trace_probes(
     };
     let tracer = Tracer::new(scene, bvh, &render);
     let n = opts.paths.max(1);
+    // The back sides a bake gives D of their own, so that a probe finds the surface it does
+    // in the bake ([`probe::probe`]).
+    let backs = crate::radiosity::back_sides::open_backs(scene, bvh);
     progress.phase("probes", points.len() as u64);
     let out: Vec<Option<ProbeValue>> = points
         .par_iter()
@@ -659,13 +666,13 @@ pub fn trace_probes(
                 return None;
             }
             let p = Vec3::from_array(pt.position);
-            let surface = probe::find_surface(scene, bvh, p, probe::unit_normal(pt), reach);
+            let surface = probe::find_surface(scene, bvh, p, probe::unit_normal(pt), reach, &backs);
             let mut se = None;
             let mut v = probe::answer(pt, surface, |s| {
                 let mut rng = Rng::new(opts.seed, i as u64);
                 let (mut sum, mut sum2) = ([0.0f64; 3], [0.0f64; 3]);
                 for _ in 0..n {
-                    let x = tracer.exitant_diffuse(s.triangle, s.bary, &mut rng);
+                    let x = tracer.exitant_diffuse(s.triangle, s.bary, s.back, &mut rng);
                     let x = if x.is_finite() { x } else { Vec3::ZERO };
                     for k in 0..3 {
                         sum[k] += x[k] as f64;

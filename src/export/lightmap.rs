@@ -93,7 +93,12 @@ pub fn texel_owners(atlas: &Atlas, page: usize, shown: &dyn Fn(u32) -> bool) -> 
     let size = atlas.pages[page];
     let (w, h) = (size.width as usize, size.height as usize);
     let mut owner = vec![u32::MAX; w * h];
-    for (t, c) in atlas.tri_coords.iter().enumerate() {
+    // Back sides ([`Atlas::backs`]) are not exported: a glTF triangle has one lightmap
+    // place for both its sides.
+    for (t, c) in atlas.tri_coords[..atlas.scene_triangles()]
+        .iter()
+        .enumerate()
+    {
         if atlas.tri_page[t] as usize != page {
             continue;
         }

@@ -136,10 +136,10 @@ pub fn export(
             source,
         })?
         .expect("checked above");
-    if map.atlas.tri_coords.len() != scene.triangles.len() {
+    if map.atlas.scene_triangles() != scene.triangles.len() {
         return Err(inconsistent(format!(
             "the atlas covers {} triangles, the scene has {}: re-bake the radiosity stage",
-            map.atlas.tri_coords.len(),
+            map.atlas.scene_triangles(),
             scene.triangles.len()
         )));
     }

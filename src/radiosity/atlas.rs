@@ -141,6 +141,10 @@ pub struct Atlas {
     pub charts: u32,
     /// Whether the glTF's TEXCOORD_1 was used.
     pub from_uv1: bool,
+    /// The scene triangles whose back sides have texels of their own ([`super::back_sides`]),
+    /// ascending. The back of `backs[k]` is atlas triangle `S + k`, `S` the scene's
+    /// triangle count: `tri_page` and `tri_coords` hold the scene's triangles, then these.
+    pub backs: Vec<u32>,
 }
 
 impl Atlas {
@@ -174,6 +178,29 @@ impl Atlas {
             (tri.area() / texels).sqrt()
         } else {
             f32::INFINITY
+        }
+    }
+
+    /// The scene's triangle count: the atlas's triangles without the back sides.
+    pub fn scene_triangles(&self) -> usize {
+        self.tri_page.len().saturating_sub(self.backs.len())
+    }
+
+    /// The atlas triangle holding the back side of scene triangle `triangle`, if it has one.
+    pub fn back_of(&self, triangle: u32) -> Option<u32> {
+        self.backs
+            .binary_search(&triangle)
+            .ok()
+            .map(|k| (self.scene_triangles() + k) as u32)
+    }
+
+    /// Where to read D for point `bary` of scene triangle `triangle`, seen from its front or
+    /// (`back`) from behind: the triangle itself, or its back side's twin (whose
+    /// barycentrics are swapped, [`super::back_sides::twin`]).
+    pub fn side(&self, triangle: u32, bary: Vec2, back: bool) -> (u32, Vec2) {
+        match back.then(|| self.back_of(triangle)).flatten() {
+            Some(twin) => (twin, Vec2::new(bary.y, bary.x)),
+            None => (triangle, bary),
         }
     }
 
@@ -395,6 +422,7 @@ pub fn build_boosted(
         texel_chart: Vec::new(),
         charts: charts.len() as u32,
         from_uv1: false,
+        backs: Vec::new(),
     };
     atlas.texel_chart = vec![u32::MAX; atlas.texel_count()];
     let offsets = atlas.page_offsets();
@@ -783,6 +811,7 @@ fn from_uv1(triangles: &[Triangle], density: f32) -> Option<(Atlas, Vec<TexelSam
         texel_chart: vec![0; (side * side) as usize],
         charts: 0,
         from_uv1: true,
+        backs: Vec::new(),
     };
     let offsets = [0];
     // Texels whose centre lies inside a triangle: two different triangles on one is overlap.

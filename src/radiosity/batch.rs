@@ -284,6 +284,7 @@ mod tests {
             texel_chart: vec![0; 8],
             charts: 1,
             from_uv1: false,
+            backs: Vec::new(),
         };
         let samples = (0..3)
             .map(|i| TexelSample {

@@ -4,13 +4,15 @@
 //! | bytes | field |
 //! |---|---|
 //! | 8 | magic `GLNTATLS` |
-//! | u16 | version (1) |
+//! | u16 | version: 1, or 2 when some triangles' back sides have texels of their own |
 //! | u16 | flags: bit 0 = coordinates come from the glTF's TEXCOORD_1 |
 //! | u32 | page count P |
-//! | u32 | triangle count T (the scene's triangles, in the order the scene stage loads them) |
+//! | u32 | triangle count T (the scene's triangles, in the order the scene stage loads them, then the back sides) |
 //! | f32 | texel density requested, texels per metre |
 //! | P × (u32, u32) | page width and height in texels |
 //! | T × (u32, 6 × f32) | page of the triangle, then (x, y) of its three vertices in texel units of that page (texel (i, j) spans [i, i+1) × [j, j+1); divide by the page size for UVs) |
+//! | u32 | version 2 only: back-side count B |
+//! | B × u32 | version 2 only: the scene triangles whose back sides are the last B triangles, ascending |
 
 use glam::Vec2;
 
@@ -18,8 +20,11 @@ use super::atlas::{Atlas, PageSize};
 
 /// File magic.
 pub const MAGIC: &[u8; 8] = b"GLNTATLS";
-/// Format version written.
+/// Format version written for an atlas without back sides (every shipped scene's but
+/// breakfast-room's): such atlases keep the bytes they had before back sides existed.
 pub const VERSION: u16 = 1;
+/// Format version written for an atlas with back sides, and the newest read.
+pub const VERSION_BACKS: u16 = 2;
 
 /// Why an atlas file cannot be read.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -28,7 +33,9 @@ pub enum AtlasFormatError {
     #[error("not a glint atlas (bad magic)")]
     Magic,
     /// A version this build does not read.
-    #[error("atlas format version {found}, this glint reads version {VERSION}")]
+    #[error(
+        "atlas format version {found}, this glint reads versions {VERSION} and {VERSION_BACKS}"
+    )]
     Version {
         /// Version in the file.
         found: u16,
@@ -45,7 +52,12 @@ pub enum AtlasFormatError {
 pub fn encode(atlas: &Atlas) -> Vec<u8> {
     let mut out = Vec::with_capacity(28 + atlas.pages.len() * 8 + atlas.tri_page.len() * 28);
     out.extend_from_slice(MAGIC);
-    out.extend_from_slice(&VERSION.to_le_bytes());
+    let version = if atlas.backs.is_empty() {
+        VERSION
+    } else {
+        VERSION_BACKS
+    };
+    out.extend_from_slice(&version.to_le_bytes());
     out.extend_from_slice(&(atlas.from_uv1 as u16).to_le_bytes());
     out.extend_from_slice(&(atlas.pages.len() as u32).to_le_bytes());
     out.extend_from_slice(&(atlas.tri_page.len() as u32).to_le_bytes());
@@ -61,6 +73,12 @@ pub fn encode(atlas: &Atlas) -> Vec<u8> {
             out.extend_from_slice(&v.y.to_le_bytes());
         }
     }
+    if !atlas.backs.is_empty() {
+        out.extend_from_slice(&(atlas.backs.len() as u32).to_le_bytes());
+        for t in &atlas.backs {
+            out.extend_from_slice(&t.to_le_bytes());
+        }
+    }
     out
 }
 
@@ -71,14 +89,24 @@ pub fn decode(bytes: &[u8]) -> Result<Atlas, AtlasFormatError> {
         return Err(AtlasFormatError::Magic);
     }
     let version = r.u16()?;
-    if version != VERSION {
+    if version != VERSION && version != VERSION_BACKS {
         return Err(AtlasFormatError::Version { found: version });
     }
     let flags = r.u16()?;
     let pages = r.u32()? as usize;
     let tris = r.u32()? as usize;
     let density = r.f32()?;
-    let expected = 24 + pages * 8 + tris * 28;
+    let mut expected = 24 + pages * 8 + tris * 28;
+    let backs_at = expected;
+    let backs = if version == VERSION_BACKS {
+        let n = bytes.get(backs_at..backs_at + 4).map_or(0, |b| {
+            u32::from_le_bytes(b.try_into().expect("4 bytes")) as usize
+        });
+        expected += 4 + 4 * n;
+        n
+    } else {
+        0
+    };
     if bytes.len() != expected {
         return Err(AtlasFormatError::Size(format!(
             "{} bytes, the header implies {expected}",
@@ -102,6 +130,22 @@ pub fn decode(bytes: &[u8]) -> Result<Atlas, AtlasFormatError> {
             *v = Vec2::new(r.f32()?, r.f32()?);
         }
         tri_coords.push(c);
+    }
+    let backs = if version == VERSION_BACKS {
+        r.u32()?;
+        (0..backs).map(|_| r.u32()).collect::<Result<Vec<_>, _>>()?
+    } else {
+        Vec::new()
+    };
+    let scene_tris = tris.checked_sub(backs.len()).ok_or_else(|| {
+        AtlasFormatError::Invalid(format!("{} back sides of {tris} triangles", backs.len()))
+    })?;
+    if backs.windows(2).any(|w| w[0] >= w[1])
+        || backs.last().is_some_and(|&t| t as usize >= scene_tris)
+    {
+        return Err(AtlasFormatError::Invalid(format!(
+            "the back sides' triangles are not ascending scene triangles (below {scene_tris})"
+        )));
     }
     if let Some((i, p)) = pages
         .iter()
@@ -127,6 +171,7 @@ pub fn decode(bytes: &[u8]) -> Result<Atlas, AtlasFormatError> {
         texel_chart: Vec::new(),
         charts: 0,
         from_uv1: flags & 1 != 0,
+        backs,
     })
 }
 
@@ -191,6 +236,7 @@ mod tests {
             texel_chart: Vec::new(),
             charts: 0,
             from_uv1: true,
+            backs: Vec::new(),
         };
         let bytes = encode(&atlas);
         assert_eq!(decode(&bytes).unwrap(), atlas);
@@ -213,5 +259,23 @@ mod tests {
         far.tri_page[1] = 2;
         let e = decode(&encode(&far)).unwrap_err().to_string();
         assert!(e.contains("refers to page 2 of 2"), "{e}");
+        // Back sides: version 2, the list after the triangles.
+        let mut two = atlas.clone();
+        two.tri_page.push(0);
+        two.tri_coords.push(atlas.tri_coords[0]);
+        two.backs = vec![1];
+        let b2 = encode(&two);
+        assert_eq!(u16::from_le_bytes([b2[8], b2[9]]), VERSION_BACKS);
+        assert_eq!(b2.len(), bytes.len() + 28 + 8);
+        assert_eq!(decode(&b2).unwrap(), two);
+        assert!(
+            decode(&b2[..b2.len() - 2])
+                .unwrap_err()
+                .to_string()
+                .contains("truncated")
+        );
+        two.backs = vec![2];
+        let e = decode(&encode(&two)).unwrap_err().to_string();
+        assert!(e.contains("not ascending scene triangles"), "{e}");
     }
 }

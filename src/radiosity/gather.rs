@@ -286,9 +286,11 @@ pub(super) fn trace_ray(
                 let ht = &scene.triangles[h.triangle as usize];
                 let cos_l = -d.dot(cx.normals[h.triangle as usize]);
                 if cos_l <= 0.0 {
-                    // A double-sided surface's back reflects with its (shared) texel.
+                    // A double-sided surface's back reflects with its back side's texel
+                    // (the front's, for a sheet whose back shares them).
                     if scene.material_of(h.triangle).double_sided {
-                        rec.hit = cx.atlas.texel_at(cx.offsets, h.triangle, h.bary);
+                        let (t, b) = cx.atlas.side(h.triangle, h.bary, true);
+                        rec.hit = cx.atlas.texel_at(cx.offsets, t, b);
                     }
                     Facing::Back(h.t)
                 } else {

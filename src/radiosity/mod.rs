@@ -2,6 +2,7 @@
 //! diffuse light D, solved on lightmap texels and looked up by every other stage.
 
 pub mod atlas;
+pub mod back_sides;
 pub mod batch;
 pub mod contacts;
 pub mod current;

@@ -70,7 +70,8 @@ pub(super) fn gather_ray(
         let cos_l = -d.dot(tri.face_normal());
         let m = scene.material_of(hit.triangle);
         let texel = if cos_l > 0.0 || m.double_sided {
-            cx.atlas.texel_at(cx.offsets, hit.triangle, hit.bary)
+            let (t, b) = cx.atlas.side(hit.triangle, hit.bary, cos_l <= 0.0);
+            cx.atlas.texel_at(cx.offsets, t, b)
         } else {
             u32::MAX
         };

@@ -236,10 +236,11 @@ impl<'a> Glossy<'a> {
             let m = &scene.materials[ht.material as usize];
             if cos_l <= 0.0 {
                 // A back face is black, as for gathering rays; a double-sided one reflects
-                // with its (shared) texel.
+                // with its back side's texel.
                 if m.double_sided && m.albedo.max_element() > 0.0 {
+                    let (t, b) = self.atlas.side(h.triangle, h.bary, true);
                     terms.push(Term {
-                        texel: self.atlas.texel_at(self.offsets, h.triangle, h.bary),
+                        texel: self.atlas.texel_at(self.offsets, t, b),
                         weight: beta,
                     });
                 }

@@ -122,6 +122,7 @@ impl Object {
 }
 
 /// A loaded, validated scene.
+#[derive(Clone)]
 pub struct Scene {
     /// Path of scene.json.
     pub path: PathBuf,

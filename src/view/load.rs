@@ -243,12 +243,13 @@ pub fn load(dir: &Path) -> Result<ViewData, LoadError> {
 /// existing pages, and the pages must hold finite radiance.
 fn check_map(scene: &Scene, map: &RadiosityMap) -> Result<(), String> {
     let atlas = &map.atlas;
-    if atlas.tri_page.len() != scene.triangles.len()
-        || atlas.tri_coords.len() != atlas.tri_page.len()
+    if atlas.tri_coords.len() != atlas.tri_page.len()
+        || atlas.tri_page.len() < atlas.backs.len()
+        || atlas.scene_triangles() != scene.triangles.len()
     {
         return Err(format!(
             "the radiosity atlas has {} triangles, the scene {}: the stages come from different geometry; re-bake",
-            atlas.tri_page.len(),
+            atlas.tri_page.len().saturating_sub(atlas.backs.len()),
             scene.triangles.len()
         ));
     }

@@ -64,7 +64,7 @@ pub struct FrameUniforms {
     pub eye: [f32; 4],
 }
 
-/// One vertex of the scene (44 bytes): `@location(0..=5)` of `VertexIn` in the shader.
+/// One vertex of the scene (68 bytes): `@location(0..=8)` of `VertexIn` in the shader.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct Vertex {
@@ -80,11 +80,19 @@ pub struct Vertex {
     pub uv1: [f32; 2],
     /// Material index (into the material records of [`crate::view::gpu::surface_textures`]).
     pub material: u32,
+    /// The triangle's unit face normal where its back side has texels of its own
+    /// ([`Atlas::backs`]), zero elsewhere: seen from behind it, an eye reads the back's.
+    pub face: [f32; 3],
+    /// The back side's lightmap coordinates (`lightmap` where the sides share texels).
+    pub lightmap_back: [f32; 2],
+    /// The back side's page (`page` where the sides share texels).
+    pub page_back: u32,
 }
 
 /// The vertex attributes of [`Vertex`].
-const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 6] = wgpu::vertex_attr_array![
-    0 => Float32x3, 1 => Float32x2, 2 => Uint32, 3 => Float32x2, 4 => Float32x2, 5 => Uint32
+const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 9] = wgpu::vertex_attr_array![
+    0 => Float32x3, 1 => Float32x2, 2 => Uint32, 3 => Float32x2, 4 => Float32x2, 5 => Uint32,
+    6 => Float32x3, 7 => Float32x2, 8 => Uint32
 ];
 
 /// The vertex buffer layout of a [`SceneMesh`], for every pass that draws scene triangles.
@@ -106,17 +114,31 @@ pub struct SceneMesh {
 }
 
 impl SceneMesh {
-    /// The mesh of `scene`'s triangles with `atlas`'s lightmap coordinates; corners equal in
-    /// every attribute (bit for bit) share a vertex.
+    /// The mesh of `scene`'s triangles with `atlas`'s lightmap coordinates (both sides'
+    /// where the back has texels of its own); corners equal in every attribute (bit for bit)
+    /// share a vertex.
     pub fn new(scene: &Scene, atlas: &Atlas) -> SceneMesh {
         let mut mesh = SceneMesh::default();
-        let mut ids: std::collections::HashMap<[u32; 11], u32> = std::collections::HashMap::new();
-        for (t, (&page, c)) in scene
+        let mut ids: std::collections::HashMap<[u32; 17], u32> = std::collections::HashMap::new();
+        for (i, (t, (&page, c))) in scene
             .triangles
             .iter()
             .zip(atlas.tri_page.iter().zip(&atlas.tri_coords))
+            .enumerate()
         {
             let uv1 = t.uv1.unwrap_or([glam::Vec2::ZERO; 3]);
+            // The twin's corners are this triangle's in the order 0, 2, 1.
+            let (face, back_page, back) = match atlas.back_of(i as u32) {
+                Some(twin) => {
+                    let b = atlas.tri_coords[twin as usize];
+                    (
+                        t.face_normal(),
+                        atlas.tri_page[twin as usize],
+                        [b[0], b[2], b[1]],
+                    )
+                }
+                None => (glam::Vec3::ZERO, page, *c),
+            };
             for (k, (p, uv)) in t.p.iter().zip(c).enumerate() {
                 let v = Vertex {
                     position: p.to_array(),
@@ -125,8 +147,11 @@ impl SceneMesh {
                     uv0: t.uv[k].to_array(),
                     uv1: uv1[k].to_array(),
                     material: t.material,
+                    face: face.to_array(),
+                    lightmap_back: back[k].to_array(),
+                    page_back: back_page,
                 };
-                let key = bytemuck::cast::<Vertex, [u32; 11]>(v);
+                let key = bytemuck::cast::<Vertex, [u32; 17]>(v);
                 let next = mesh.vertices.len() as u32;
                 let id = *ids.entry(key).or_insert(next);
                 if id == next {
@@ -605,6 +630,9 @@ mod tests {
                 std::mem::offset_of!(Vertex, uv0),
                 std::mem::offset_of!(Vertex, uv1),
                 std::mem::offset_of!(Vertex, material),
+                std::mem::offset_of!(Vertex, face),
+                std::mem::offset_of!(Vertex, lightmap_back),
+                std::mem::offset_of!(Vertex, page_back),
             ],
             SHADER_SOURCE,
             "VertexIn",

@@ -135,6 +135,7 @@ fn curved_probe(
             texel_chart: Vec::new(),
             charts: 0,
             from_uv1: false,
+            backs: Vec::new(),
         },
         pages: vec![vec![Vec3::ZERO]],
     };

@@ -1,0 +1,211 @@
+//! Back sides with texels of their own. A double-sided sheet open to the room (a lamp shade, a
+//! chair's one-layer shell, a leaf) is lit differently on its two sides: under a pendant shade
+//! the bulb, above it the ceiling. One set of texels for both would show the lit side's light
+//! on the dark side. Such a sheet's back side is solved as a surface of its own: a *twin* of
+//! each of its triangles, facing the other way, with its own chart in the atlas and its own
+//! elements. Twins are not in the ray-casting BVH: a ray meeting a sheet's back face reads the
+//! twin's texel ([`super::atlas::Atlas::side`]).
+//!
+//! Only sheets whose back sees the lit scene get twins: a closed double-sided mesh (a cup with
+//! walls of some thickness, a table top) sees only its own inside from its back faces, and a
+//! room's one-sided walls see nothing behind them; both keep one set of texels.
+
+use glam::Vec2;
+use rayon::prelude::*;
+
+use super::atlas::weld;
+use crate::geometry::{Bvh, Triangle};
+use crate::sampling::{basis, r2, sample_cosine_hemisphere};
+use crate::scene::Scene;
+
+/// Rays cast from each triangle's back side to tell whether its sheet is open.
+pub const BACK_RAYS: u32 = 8;
+
+/// A sheet is open when at least this share of its back rays meet the front face of some
+/// surface (rays that leave the scene, or meet a back face, see nothing lit).
+pub const OPEN_SHARE: f32 = 0.25;
+
+/// The triangles whose back sides get texels of their own, ascending: every triangle of each
+/// open sheet of double-sided, non-emitting, reflecting material. None when every triangle
+/// has TEXCOORD_1: the glTF's own lightmap layout has one place for each triangle.
+pub fn open_backs(scene: &Scene, bvh: &Bvh) -> Vec<u32> {
+    let tris = &scene.triangles;
+    if tris.iter().all(|t| t.uv1.is_some()) {
+        return Vec::new();
+    }
+    let candidate = |t: &Triangle| {
+        let m = &scene.materials[t.material as usize];
+        m.double_sided
+            && m.emission.max_element() <= 0.0
+            && m.albedo.max_element() > 0.0
+            && t.area() > 0.0
+    };
+    let is: Vec<bool> = tris.iter().map(candidate).collect();
+    if !is.contains(&true) {
+        return Vec::new();
+    }
+    let sheet = sheets(tris, &is);
+    // Per candidate triangle: how many of its back rays meet a front face.
+    let seen: Vec<u32> = (0..tris.len() as u32)
+        .into_par_iter()
+        .map(|t| {
+            if is[t as usize] {
+                front_faces_seen(tris, bvh, t)
+            } else {
+                0
+            }
+        })
+        .collect();
+    // Integer sums per sheet: the same whatever the thread count.
+    let mut rays = vec![0u64; tris.len()];
+    let mut hits = vec![0u64; tris.len()];
+    for t in 0..tris.len() {
+        if is[t] {
+            rays[sheet[t] as usize] += BACK_RAYS as u64;
+            hits[sheet[t] as usize] += seen[t] as u64;
+        }
+    }
+    (0..tris.len() as u32)
+        .filter(|&t| {
+            let s = sheet[t as usize] as usize;
+            is[t as usize] && hits[s] as f64 >= OPEN_SHARE as f64 * rays[s] as f64
+        })
+        .collect()
+}
+
+/// How many of [`BACK_RAYS`] cosine-distributed rays from the back of triangle `t`'s
+/// centroid meet a front face.
+fn front_faces_seen(tris: &[Triangle], bvh: &Bvh, t: u32) -> u32 {
+    let tri = &tris[t as usize];
+    let n = -tri.face_normal();
+    let (u, v) = basis(n);
+    let origin = bvh.offset_origin(tri.point(Vec2::splat(1.0 / 3.0)), n);
+    // A shift of the pattern per triangle, so that a sheet's triangles look different ways.
+    let shift = r2(t.wrapping_mul(0x9e37_79b9), Vec2::ZERO);
+    (0..BACK_RAYS)
+        .filter(|&k| {
+            let l = sample_cosine_hemisphere(r2(k, shift));
+            let d = u * l.x + v * l.y + n * l.z;
+            bvh.closest_hit(origin, d, f32::INFINITY)
+                .is_some_and(|h| d.dot(tris[h.triangle as usize].face_normal()) < 0.0)
+        })
+        .count() as u32
+}
+
+/// Per triangle, its sheet: the smallest index of the candidate triangles joined to it
+/// through shared edges (positions welded) of one material. Non-candidates are their own.
+fn sheets(tris: &[Triangle], is: &[bool]) -> Vec<u32> {
+    let vid = weld(tris);
+    let mut parent: Vec<u32> = (0..tris.len() as u32).collect();
+    fn root(parent: &mut [u32], mut x: u32) -> u32 {
+        while parent[x as usize] != x {
+            let up = parent[parent[x as usize] as usize];
+            parent[x as usize] = up;
+            x = up;
+        }
+        x
+    }
+    let mut first_on_edge: std::collections::HashMap<(u32, u32, u32), u32> =
+        std::collections::HashMap::new();
+    for (t, ids) in vid.iter().enumerate() {
+        if !is[t] {
+            continue;
+        }
+        for e in 0..3 {
+            let (a, b) = (ids[e], ids[(e + 1) % 3]);
+            let key = (a.min(b), a.max(b), tris[t].material);
+            match first_on_edge.get(&key) {
+                Some(&other) => {
+                    let (ra, rb) = (root(&mut parent, t as u32), root(&mut parent, other));
+                    // The smaller root wins: roots are each sheet's smallest index.
+                    let (lo, hi) = (ra.min(rb), ra.max(rb));
+                    parent[hi as usize] = lo;
+                }
+                None => {
+                    first_on_edge.insert(key, t as u32);
+                }
+            }
+        }
+    }
+    (0..tris.len() as u32)
+        .map(|t| root(&mut parent, t))
+        .collect()
+}
+
+/// Triangle `t` seen from behind: the same points wound the other way, normals reversed.
+/// Barycentrics (u, v) on `t` are (v, u) on its twin.
+pub fn twin(t: &Triangle) -> Triangle {
+    let swap = |a: [Vec2; 3]| [a[0], a[2], a[1]];
+    Triangle {
+        p: [t.p[0], t.p[2], t.p[1]],
+        n: [-t.n[0], -t.n[2], -t.n[1]],
+        uv: swap(t.uv),
+        uv1: t.uv1.map(swap),
+        material: t.material,
+        object: t.object,
+    }
+}
+
+/// `scene`'s triangles followed by the twins of `backs`, in that order: what the atlas and
+/// the solve work on.
+pub fn with_twins(triangles: &[Triangle], backs: &[u32]) -> Vec<Triangle> {
+    let mut out = Vec::with_capacity(triangles.len() + backs.len());
+    out.extend_from_slice(triangles);
+    out.extend(backs.iter().map(|&t| twin(&triangles[t as usize])));
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+
+    use super::*;
+
+    fn tri(p: [Vec3; 3], material: u32) -> Triangle {
+        let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
+        Triangle {
+            p,
+            n: [n; 3],
+            uv: [Vec2::ZERO, Vec2::X, Vec2::Y],
+            uv1: None,
+            material,
+            object: 0,
+        }
+    }
+
+    #[test]
+    fn a_twin_is_the_same_point_with_barycentrics_swapped_and_faces_away() {
+        let t = tri([Vec3::ZERO, Vec3::X, Vec3::Z * 2.0], 3);
+        let w = twin(&t);
+        assert_eq!(w.face_normal(), -t.face_normal());
+        assert_eq!(
+            w.normal(Vec2::new(0.2, 0.3)),
+            -t.normal(Vec2::new(0.2, 0.3))
+        );
+        for b in [Vec2::new(0.1, 0.7), Vec2::new(0.5, 0.25), Vec2::ZERO] {
+            assert!(t.point(b).distance(w.point(Vec2::new(b.y, b.x))) < 1e-6);
+        }
+        assert_eq!(w.material, 3);
+        let all = with_twins(&[t, t], &[1]);
+        assert_eq!(all.len(), 3);
+        assert_eq!(all[2].p, w.p);
+    }
+
+    #[test]
+    fn sheets_join_across_shared_edges_of_one_material_only() {
+        let (a, b, c, d) = (Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ONE);
+        let e = Vec3::new(5.0, 0.0, 0.0);
+        let tris = [
+            tri([a, b, c], 0),
+            tri([b, d, c], 0),                        // shares b–c: same sheet
+            tri([b, e, d], 1),                        // shares b–d, other material
+            tri([e + a, e + b, e + c], 0),            // apart
+            tri([c, d, Vec3::new(0.0, 2.0, 0.0)], 0), // shares c–d with 1
+        ];
+        let s = sheets(&tris, &[true; 5]);
+        assert_eq!(s, vec![0, 0, 2, 3, 0]);
+        // A non-candidate joins nothing.
+        let s = sheets(&tris, &[true, false, true, true, true]);
+        assert_eq!(s, vec![0, 1, 2, 3, 4]);
+    }
+}
