@@ -139,16 +139,23 @@ fn scene_vertex(v: VertexIn) -> VertexOut {
 // covers a multisampled pixel in part reads D at its corner (`lightmap_at`).
 const LIGHTMAP_DENSE: f32 = 4.0;
 
+// Texels past a covered point that a partly covered pixel's centre may lie and still be read
+// there (`lightmap_at`).
+const LIGHTMAP_REACH: f32 = 10.0;
+
 // Where a fragment reads the lightmap. A multisampled pixel is shaded once, at its centre,
 // where `centre` is extrapolated past a triangle that covers the pixel in part; where the
-// pixel spans many texels (a small or distant triangle) that reaches another chart of the
-// atlas (a sliver of glossy-room's teapot read the ceiling light's D). Such a fragment reads
-// at its provoking `corner`, inside its own chart; every other one at its centre. A partly
-// covered pixel is told by its `centroid` (a covered point) lying off the centre.
+// pixel spans many texels (a small or distant triangle), or the centre lies far past the
+// covered part (a thin chart seen edge-on: a window slat), that reaches other charts of the
+// atlas (a sliver of glossy-room's teapot read the ceiling light's D; slats showed white
+// specks from whatever chart the packing put beside theirs). Such a fragment reads at its
+// provoking `corner`, inside its own chart; every other one at its centre. A partly covered
+// pixel is told by its `centroid` (a covered point) lying off the centre.
 fn lightmap_at(centre: vec2<f32>, centroid: vec2<f32>, corner: vec2<f32>) -> vec2<f32> {
     let partial = distance(centre, centroid) > 1e-3;
     let dense = min(length(dpdx(centre)), length(dpdy(centre))) > LIGHTMAP_DENSE;
-    return select(centre, corner, partial && dense);
+    let far = distance(centre, centroid) > LIGHTMAP_REACH;
+    return select(centre, corner, partial && (dense || far));
 }
 
 // Integer texel index i folded into [0, n) (glint::scene::texture::wrap_index).

@@ -10,7 +10,7 @@
 //! walls of some thickness, a table top) sees only its own inside from its back faces, and a
 //! room's one-sided walls see nothing behind them; both keep one set of texels.
 
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::atlas::weld;
@@ -22,8 +22,14 @@ use crate::scene::Scene;
 pub const BACK_RAYS: u32 = 8;
 
 /// A sheet is open when at least this share of its back rays meet the front face of some
-/// surface (rays that leave the scene, or meet a back face, see nothing lit).
+/// surface at least [`OPEN_GAP`] away (rays that leave the scene, or meet a back face, see
+/// nothing lit).
 pub const OPEN_SHARE: f32 = 0.25;
+
+/// A back ray that meets a front face nearer than this fraction of its sheet's size (the
+/// diagonal of its bounding box) sees into a gap no eye sees into: a painting's canvas in
+/// front of its wall, a decal on a cup, a rubber foot capping a chair's leg.
+pub const OPEN_GAP: f32 = 0.1;
 
 /// The triangles whose back sides get texels of their own, ascending: every triangle of each
 /// open sheet of double-sided, non-emitting, reflecting material. None when every triangle
@@ -45,12 +51,21 @@ pub fn open_backs(scene: &Scene, bvh: &Bvh) -> Vec<u32> {
         return Vec::new();
     }
     let sheet = sheets(tris, &is);
-    // Per candidate triangle: how many of its back rays meet a front face.
+    // Each sheet's size: the diagonal of its triangles' bounding box.
+    let mut bounds = vec![(Vec3::INFINITY, Vec3::NEG_INFINITY); tris.len()];
+    for (t, tri) in tris.iter().enumerate().filter(|(t, _)| is[*t]) {
+        let b = &mut bounds[sheet[t] as usize];
+        for p in tri.p {
+            *b = (b.0.min(p), b.1.max(p));
+        }
+    }
+    // Per candidate triangle: how many of its back rays meet a front face across a gap.
     let seen: Vec<u32> = (0..tris.len() as u32)
         .into_par_iter()
         .map(|t| {
             if is[t as usize] {
-                front_faces_seen(tris, bvh, t)
+                let (lo, hi) = bounds[sheet[t as usize] as usize];
+                front_faces_seen(tris, bvh, t, OPEN_GAP * (hi - lo).length())
             } else {
                 0
             }
@@ -74,8 +89,8 @@ pub fn open_backs(scene: &Scene, bvh: &Bvh) -> Vec<u32> {
 }
 
 /// How many of [`BACK_RAYS`] cosine-distributed rays from the back of triangle `t`'s
-/// centroid meet a front face.
-fn front_faces_seen(tris: &[Triangle], bvh: &Bvh, t: u32) -> u32 {
+/// centroid meet a front face at least `gap` away.
+fn front_faces_seen(tris: &[Triangle], bvh: &Bvh, t: u32, gap: f32) -> u32 {
     let tri = &tris[t as usize];
     let n = -tri.face_normal();
     let (u, v) = basis(n);
@@ -87,7 +102,7 @@ fn front_faces_seen(tris: &[Triangle], bvh: &Bvh, t: u32) -> u32 {
             let l = sample_cosine_hemisphere(r2(k, shift));
             let d = u * l.x + v * l.y + n * l.z;
             bvh.closest_hit(origin, d, f32::INFINITY)
-                .is_some_and(|h| d.dot(tris[h.triangle as usize].face_normal()) < 0.0)
+                .is_some_and(|h| h.t >= gap && d.dot(tris[h.triangle as usize].face_normal()) < 0.0)
         })
         .count() as u32
 }
@@ -157,8 +172,6 @@ pub fn with_twins(triangles: &[Triangle], backs: &[u32]) -> Vec<Triangle> {
 
 #[cfg(test)]
 mod tests {
-    use glam::Vec3;
-
     use super::*;
 
     fn tri(p: [Vec3; 3], material: u32) -> Triangle {
