@@ -406,14 +406,18 @@ pub fn bake_gather(
         target_error: None,
         ..settings.clone()
     };
+    let share = 1.0 / n.max(1) as f64;
+    let density = check_share(scene, &first, share, false)?;
+    let mut w = StageWriter::begin(shard, GATHER_STAGE)?;
     let Sided {
         bvh,
         backs,
         twinned,
     } = Sided::of(scene);
-    let scene = twinned.as_ref().unwrap_or(scene);
-    let density = check_share(scene, &first, 1.0 / n.max(1) as f64, false)?;
-    let mut w = StageWriter::begin(shard, GATHER_STAGE)?;
+    let (scene, density) = match &twinned {
+        Some(t) => (t, check_share(t, &first, share, false)?),
+        None => (scene, density),
+    };
     let p = prepare(scene, bvh, backs, settings, density)?;
     let range = gather_range(p.samples.len(), k, n);
     let batch = gather_batch(
@@ -499,17 +503,21 @@ pub fn bake_from(
 ) -> Result<StageRecord, RadiosityError> {
     let start = Instant::now();
     let cached = matches!(gathering, Gathering::Cached(_));
+    let density = check_share(scene, settings, 1.0, cached)?;
     crate::bundle::check_scene(bundle, &scene.name, &scene.content_hash, force)?;
+    // Before the compute: a bundle that cannot be written fails now.
+    let w = StageWriter::begin(bundle, Stage::Radiosity.name())?;
     progress.phase("building the atlas", 1);
     let Sided {
         bvh,
         backs,
         twinned,
     } = Sided::of(scene);
-    let scene = twinned.as_ref().unwrap_or(scene);
-    let density = check_share(scene, settings, 1.0, cached)?;
-    // Before the compute: a bundle that cannot be written fails now.
-    let w = StageWriter::begin(bundle, Stage::Radiosity.name())?;
+    // The back sides' texels count towards the density's and the memory's limits.
+    let (scene, density) = match &twinned {
+        Some(t) => (t, check_share(t, settings, 1.0, cached)?),
+        None => (scene, density),
+    };
     let p = prepare(scene, bvh, backs, settings, density)?;
     progress.advance(1);
     // The ray cache to write, while the rest of the stage runs: (file, cache).
