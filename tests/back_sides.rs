@@ -113,8 +113,7 @@ fn settings() -> glint::scene::desc::RadiositySettings {
     glint::scene::desc::RadiositySettings {
         rays: 256,
         light_samples: 16,
-        bounces: 16,
-        ..quick_radiosity_settings()
+        ..quick_radiosity(16)
     }
 }
 
@@ -126,26 +125,6 @@ fn bake(scene: &Scene, dir: &Path) -> PathBuf {
     radiosity_stage::bake(scene, &bundle, &settings(), false, &Silent)
         .unwrap_or_else(|e| panic!("{e}"));
     bundle
-}
-
-/// Reduced settings: 8 texels a metre, no refinement, no contact boosts, no seam stitching.
-fn quick_radiosity_settings() -> glint::scene::desc::RadiositySettings {
-    glint::scene::desc::RadiositySettings {
-        texel_density: 8.0,
-        min_chart_texels: 0,
-        min_scene_texels: 0,
-        contact_boost: 0.0,
-        texels_per_radian: 0.0,
-        rays: 32,
-        light_samples: 4,
-        bounces: 4,
-        tolerance: 1e-3,
-        glossy_depth: 0,
-        target_error: None,
-        stitch_seams: false,
-        cache_budget_mib: 512,
-        max_elements: 0,
-    }
 }
 
 fn triangles_of(scene: &Scene, mesh: &str) -> Vec<u32> {

@@ -316,6 +316,23 @@ impl Sided {
             twinned,
         }
     }
+
+    /// [`Sided::of`], with `density` ([`check_share`] of `scene` at `(share, cached)`)
+    /// checked again when back sides add texels: they count towards the density's and the
+    /// memory's limits.
+    fn checked(
+        scene: &Scene,
+        settings: &RadiositySettings,
+        (share, cached): (f64, bool),
+        density: Density,
+    ) -> Result<(Sided, Density), RadiosityError> {
+        let sided = Sided::of(scene);
+        let density = match &sided.twinned {
+            Some(t) => check_share(t, settings, share, cached)?,
+            None => density,
+        };
+        Ok((sided, density))
+    }
 }
 
 /// What every radiosity bake and gathering unit computes before gathering.
@@ -409,16 +426,9 @@ pub fn bake_gather(
     let share = 1.0 / n.max(1) as f64;
     let density = check_share(scene, &first, share, false)?;
     let mut w = StageWriter::begin(shard, GATHER_STAGE)?;
-    let Sided {
-        bvh,
-        backs,
-        twinned,
-    } = Sided::of(scene);
-    let (scene, density) = match &twinned {
-        Some(t) => (t, check_share(t, &first, share, false)?),
-        None => (scene, density),
-    };
-    let p = prepare(scene, bvh, backs, settings, density)?;
+    let (sided, density) = Sided::checked(scene, &first, (share, false), density)?;
+    let scene = sided.twinned.as_ref().unwrap_or(scene);
+    let p = prepare(scene, sided.bvh, sided.backs, settings, density)?;
     let range = gather_range(p.samples.len(), k, n);
     let batch = gather_batch(
         scene,
@@ -508,17 +518,9 @@ pub fn bake_from(
     // Before the compute: a bundle that cannot be written fails now.
     let w = StageWriter::begin(bundle, Stage::Radiosity.name())?;
     progress.phase("building the atlas", 1);
-    let Sided {
-        bvh,
-        backs,
-        twinned,
-    } = Sided::of(scene);
-    // The back sides' texels count towards the density's and the memory's limits.
-    let (scene, density) = match &twinned {
-        Some(t) => (t, check_share(t, settings, 1.0, cached)?),
-        None => (scene, density),
-    };
-    let p = prepare(scene, bvh, backs, settings, density)?;
+    let (sided, density) = Sided::checked(scene, settings, (1.0, cached), density)?;
+    let scene = sided.twinned.as_ref().unwrap_or(scene);
+    let p = prepare(scene, sided.bvh, sided.backs, settings, density)?;
     progress.advance(1);
     // The ray cache to write, while the rest of the stage runs: (file, cache).
     let mut keep_rays = None;

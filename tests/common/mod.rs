@@ -145,7 +145,6 @@ pub fn quads(name: &'static str, material: usize, faces: &[[[f32; 3]; 4]]) -> Me
 
 /// The reduced radiosity settings of the reflection tests (texel density 8, 32 rays, 4 light
 /// samples, `bounces`, no glossy transport, no refinement).
-#[cfg(feature = "view")]
 pub fn quick_radiosity(bounces: u32) -> glint::scene::desc::RadiositySettings {
     glint::scene::desc::RadiositySettings {
         texel_density: 8.0,
