@@ -5,7 +5,8 @@
 //! The scene: a closed 2 m room (albedo 0.5) lit by one small lamp on its floor, facing up; a
 //! horizontal 1 × 1 m double-sided sheet (albedo 0.8) at mid-height, its front facing the
 //! ceiling, so its back faces the lamp; a closed double-sided box on the floor, whose back
-//! faces see only its own inside; and a double-sided canvas 1 cm in front of a wall.
+//! faces see only its own inside; a double-sided canvas 1 cm in front of a wall; and a 4 cm
+//! double-sided chip above the sheet.
 
 mod common;
 
@@ -73,6 +74,8 @@ fn sheet_room(dir: &Path, mirror: bool) -> Scene {
     meshes.push(quad("Sheet", 1, 1, 0.0, 0.5));
     // A canvas 1 cm in front of the −X wall: its back sees only the wall across that gap.
     meshes.push(quad("Canvas", 1, 0, -0.99, 0.3));
+    // A 4 cm chip above the sheet: open below, but under 2% of the room's size.
+    meshes.push(quad("Chip", 1, 1, 0.6, 0.02));
     meshes.push(quad("Lamp", 2, 1, -0.98, 0.1));
     meshes.push(quads(
         "Block",
@@ -144,7 +147,8 @@ fn a_sheet_open_to_the_room_is_lit_on_each_side_by_what_that_side_sees() {
     let scene = sheet_room(dir.path(), false);
     let map = map_of(&bake(&scene, dir.path()));
     // Only the open sheet's back gets texels of its own: not the closed box's, not the
-    // canvas's (whose back sees the wall 1 cm away), not the single-sided walls'.
+    // canvas's (whose back sees the wall 1 cm away), not the chip's (too small to matter), not
+    // the single-sided walls'.
     let sheet = triangles_of(&scene, "Sheet");
     assert_eq!(sheet.len(), 2);
     assert_eq!(map.atlas.backs, sheet);

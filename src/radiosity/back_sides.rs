@@ -31,6 +31,11 @@ pub const OPEN_SHARE: f32 = 0.25;
 /// front of its wall, a decal on a cup, a rubber foot capping a chair's leg.
 pub const OPEN_GAP: f32 = 0.1;
 
+/// A sheet smaller than this fraction of the scene's size (bounding-box diagonals) keeps one
+/// set of texels: its two sides' difference is too small to see for the texels it would
+/// cost (a chair leg's rubber cap, whose inside only shows edge-on).
+pub const MIN_SHEET: f32 = 0.02;
+
 /// The triangles whose back sides get texels of their own, ascending: every triangle of each
 /// open sheet of double-sided, non-emitting, reflecting material. None when every triangle
 /// has TEXCOORD_1: the glTF's own lightmap layout has one place for each triangle.
@@ -80,10 +85,14 @@ pub fn open_backs(scene: &Scene, bvh: &Bvh) -> Vec<u32> {
             hits[sheet[t] as usize] += seen[t] as u64;
         }
     }
+    let min_size = MIN_SHEET * scene.bounds.diagonal();
     (0..tris.len() as u32)
         .filter(|&t| {
             let s = sheet[t as usize] as usize;
-            is[t as usize] && hits[s] as f64 >= OPEN_SHARE as f64 * rays[s] as f64
+            let (lo, hi) = bounds[s];
+            is[t as usize]
+                && (hi - lo).length() >= min_size
+                && hits[s] as f64 >= OPEN_SHARE as f64 * rays[s] as f64
         })
         .collect()
 }
