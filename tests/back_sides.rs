@@ -221,13 +221,49 @@ fn open_backs_are_the_same_whatever_the_thread_count() {
     assert_eq!(one, triangles_of(&scene, "Sheet"));
 }
 
+/// Over the pixels where `shows(x, y)` names a sheet hit and the side seen, and where the four
+/// neighbours' do too (no edges): the means of the frame's luminance, of the seen side's
+/// bicubic D and of the other side's, the pixel count and how many saw the back.
+#[cfg(feature = "view")]
+fn side_means(
+    data: &glint::view::load::ViewData,
+    frame: &[Vec3],
+    size: (u32, u32),
+    shows: impl Fn(i32, i32) -> Option<(glint::geometry::Hit, bool)>,
+) -> (f64, f64, f64, usize, usize) {
+    use glint::view::cpu::bicubic;
+    let (mut got, mut seen, mut other, mut n, mut backs) = (0.0f64, 0.0f64, 0.0f64, 0, 0);
+    for y in 1..size.1 as i32 - 1 {
+        for x in 1..size.0 as i32 - 1 {
+            let Some((h, back)) = shows(x, y) else {
+                continue;
+            };
+            if [(1, 0), (-1, 0), (0, 1), (0, -1)]
+                .iter()
+                .any(|(dx, dy)| shows(x + dx, y + dy).is_none())
+            {
+                continue;
+            }
+            let (t, b) = data.map.atlas.side(h.triangle, h.bary, back);
+            let (u, c) = data.map.atlas.side(h.triangle, h.bary, !back);
+            assert_ne!(t, u, "the sheet has two sides in the atlas");
+            got += frame[(y as u32 * size.0 + x as u32) as usize].y as f64;
+            seen += bicubic::radiance(&data.map, t, b).y as f64;
+            other += bicubic::radiance(&data.map, u, c).y as f64;
+            n += 1;
+            backs += back as usize;
+        }
+    }
+    let m = n.max(1) as f64;
+    (got / m, seen / m, other / m, n, backs)
+}
+
 /// The viewer reads each side's D: seen from under the sheet, its pixels show the back side's
 /// texels (lit by the lamp), from above the front's.
 #[cfg(feature = "view")]
 #[test]
 fn the_viewer_shows_each_side_of_a_sheet_its_own_light() {
     use glint::camera::Camera;
-    use glint::view::cpu::bicubic;
     use glint::view::reflections::ReflectionMode;
     let dir = tempfile::tempdir().unwrap();
     let scene = sheet_room(dir.path(), false);
@@ -243,33 +279,14 @@ fn the_viewer_shows_each_side_of_a_sheet_its_own_light() {
         let camera = Camera::look_at(eye, Vec3::ZERO, Vec3::Y, 60f32.to_radians());
         let frame = &hdr_frames(&data, &camera, SIZE, &[ReflectionMode::Off])[0];
         let aspect = SIZE.0 as f32 / SIZE.1 as f32;
-        // Pixels whose ray and its four neighbours' rays all meet the sheet (no edges).
         let on_sheet = |x: i32, y: i32| {
             let ndc = Camera::pixel_ndc(x as u32, y as u32, SIZE.0, SIZE.1);
             bvh.closest_hit(eye, camera.ray_direction(ndc, aspect), f32::INFINITY)
                 .filter(|h| sheet.contains(&h.triangle))
+                .map(|h| (h, from_below))
         };
-        let (mut got, mut seen, mut other, mut n) = (0.0f64, 0.0f64, 0.0f64, 0);
-        for y in 1..SIZE.1 as i32 - 1 {
-            for x in 1..SIZE.0 as i32 - 1 {
-                let Some(h) = on_sheet(x, y) else { continue };
-                if [(1, 0), (-1, 0), (0, 1), (0, -1)]
-                    .iter()
-                    .any(|(dx, dy)| on_sheet(x + dx, y + dy).is_none())
-                {
-                    continue;
-                }
-                let (t, b) = data.map.atlas.side(h.triangle, h.bary, from_below);
-                let (u, c) = data.map.atlas.side(h.triangle, h.bary, !from_below);
-                assert_ne!(t, u, "the sheet has two sides in the atlas");
-                got += frame[(y as u32 * SIZE.0 + x as u32) as usize].y as f64;
-                seen += bicubic::radiance(&data.map, t, b).y as f64;
-                other += bicubic::radiance(&data.map, u, c).y as f64;
-                n += 1;
-            }
-        }
+        let (got, seen, other, n, _) = side_means(&data, frame, SIZE, on_sheet);
         assert!(n > 200, "{n} sheet pixels");
-        let (got, seen, other) = (got / n as f64, seen / n as f64, other / n as f64);
         eprintln!(
             "from {}: frame {got:.4}, this side's D {seen:.4}, the other side's {other:.4}",
             if from_below { "below" } else { "above" }
@@ -307,7 +324,6 @@ fn a_twin_is_read_with_swapped_barycentrics() {
 #[test]
 fn a_mirror_shows_the_side_of_a_sheet_its_mirrored_eye_sees() {
     use glint::camera::Camera;
-    use glint::view::cpu::bicubic;
     use glint::view::reflections::ReflectionMode;
     let dir = tempfile::tempdir().unwrap();
     let scene = sheet_room(dir.path(), true);
@@ -340,30 +356,9 @@ fn a_mirror_shows_the_side_of_a_sheet_its_mirrored_eye_sees() {
         let back = r.dot(data.scene.triangles[s.triangle as usize].face_normal()) > 0.0;
         Some((s, back))
     };
-    let (mut got, mut seen, mut other, mut n, mut backs) = (0.0f64, 0.0f64, 0.0f64, 0, 0);
-    for y in 1..SIZE.1 as i32 - 1 {
-        for x in 1..SIZE.0 as i32 - 1 {
-            let Some((s, back)) = in_mirror(x, y) else {
-                continue;
-            };
-            if [(1, 0), (-1, 0), (0, 1), (0, -1)]
-                .iter()
-                .any(|(dx, dy)| in_mirror(x + dx, y + dy).is_none())
-            {
-                continue;
-            }
-            let (t, b) = data.map.atlas.side(s.triangle, s.bary, back);
-            let (u, c) = data.map.atlas.side(s.triangle, s.bary, !back);
-            got += frame[(y as u32 * SIZE.0 + x as u32) as usize].y as f64;
-            seen += bicubic::radiance(&data.map, t, b).y as f64;
-            other += bicubic::radiance(&data.map, u, c).y as f64;
-            n += 1;
-            backs += back as usize;
-        }
-    }
+    let (got, seen, other, n, backs) = side_means(&data, frame, SIZE, in_mirror);
     assert!(n > 100, "{n} pixels see the sheet in the mirror");
     assert_eq!(backs, n, "the mirrored eye sees the sheet's underside");
-    let (got, seen, other) = (got / n as f64, seen / n as f64, other / n as f64);
     eprintln!("in the mirror: frame {got:.4}, the underside's D {seen:.4}, the top's {other:.4}");
     assert!((got / seen - 1.0).abs() < 0.1, "{got} vs {seen}");
     assert!(seen > 3.0 * other, "{seen} vs {other}");

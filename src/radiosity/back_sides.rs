@@ -64,13 +64,19 @@ pub fn open_backs(scene: &Scene, bvh: &Bvh) -> Vec<u32> {
             *b = (b.0.min(p), b.1.max(p));
         }
     }
-    // Per candidate triangle: how many of its back rays meet a front face across a gap.
+    // Sheets too small to matter cast no rays.
+    let size = |t: usize| {
+        let (lo, hi) = bounds[sheet[t] as usize];
+        (hi - lo).length()
+    };
+    let min_size = MIN_SHEET * scene.bounds.diagonal();
+    let tested = |t: usize| is[t] && size(t) >= min_size;
+    // Per tested triangle: how many of its back rays meet a front face across a gap.
     let seen: Vec<u32> = (0..tris.len() as u32)
         .into_par_iter()
         .map(|t| {
-            if is[t as usize] {
-                let (lo, hi) = bounds[sheet[t as usize] as usize];
-                front_faces_seen(tris, bvh, t, OPEN_GAP * (hi - lo).length())
+            if tested(t as usize) {
+                front_faces_seen(tris, bvh, t, OPEN_GAP * size(t as usize))
             } else {
                 0
             }
@@ -79,20 +85,14 @@ pub fn open_backs(scene: &Scene, bvh: &Bvh) -> Vec<u32> {
     // Integer sums per sheet: the same whatever the thread count.
     let mut rays = vec![0u64; tris.len()];
     let mut hits = vec![0u64; tris.len()];
-    for t in 0..tris.len() {
-        if is[t] {
-            rays[sheet[t] as usize] += BACK_RAYS as u64;
-            hits[sheet[t] as usize] += seen[t] as u64;
-        }
+    for t in (0..tris.len()).filter(|&t| tested(t)) {
+        rays[sheet[t] as usize] += BACK_RAYS as u64;
+        hits[sheet[t] as usize] += seen[t] as u64;
     }
-    let min_size = MIN_SHEET * scene.bounds.diagonal();
     (0..tris.len() as u32)
         .filter(|&t| {
             let s = sheet[t as usize] as usize;
-            let (lo, hi) = bounds[s];
-            is[t as usize]
-                && (hi - lo).length() >= min_size
-                && hits[s] as f64 >= OPEN_SHARE as f64 * rays[s] as f64
+            tested(t as usize) && hits[s] as f64 >= OPEN_SHARE as f64 * rays[s] as f64
         })
         .collect()
 }
