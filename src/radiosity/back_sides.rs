@@ -120,40 +120,18 @@ fn front_faces_seen(tris: &[Triangle], bvh: &Bvh, t: u32, gap: f32) -> u32 {
 /// through shared edges (positions welded) of one material. Non-candidates are their own.
 fn sheets(tris: &[Triangle], is: &[bool]) -> Vec<u32> {
     let vid = weld(tris);
-    let mut parent: Vec<u32> = (0..tris.len() as u32).collect();
-    fn root(parent: &mut [u32], mut x: u32) -> u32 {
-        while parent[x as usize] != x {
-            let up = parent[parent[x as usize] as usize];
-            parent[x as usize] = up;
-            x = up;
-        }
-        x
-    }
-    let mut first_on_edge: std::collections::HashMap<(u32, u32, u32), u32> =
+    let mut sets = super::disjoint::Sets::new(tris.len());
+    let mut first_on_edge: std::collections::HashMap<(u32, u32, u32), usize> =
         std::collections::HashMap::new();
-    for (t, ids) in vid.iter().enumerate() {
-        if !is[t] {
-            continue;
-        }
+    for (t, ids) in vid.iter().enumerate().filter(|(t, _)| is[*t]) {
         for e in 0..3 {
             let (a, b) = (ids[e], ids[(e + 1) % 3]);
             let key = (a.min(b), a.max(b), tris[t].material);
-            match first_on_edge.get(&key) {
-                Some(&other) => {
-                    let (ra, rb) = (root(&mut parent, t as u32), root(&mut parent, other));
-                    // The smaller root wins: roots are each sheet's smallest index.
-                    let (lo, hi) = (ra.min(rb), ra.max(rb));
-                    parent[hi as usize] = lo;
-                }
-                None => {
-                    first_on_edge.insert(key, t as u32);
-                }
-            }
+            let other = *first_on_edge.entry(key).or_insert(t);
+            sets.join(t, other);
         }
     }
-    (0..tris.len() as u32)
-        .map(|t| root(&mut parent, t))
-        .collect()
+    (0..tris.len()).map(|t| sets.root(t) as u32).collect()
 }
 
 /// Triangle `t` seen from behind: the same points wound the other way, normals reversed.

@@ -417,28 +417,20 @@ fn emissive_groups(scene: &Scene) -> Vec<Vec<u32>> {
             tri.area() > 0.0 && luminance(e) > 0.0
         })
         .collect();
-    let mut parent: Vec<usize> = (0..emissive.len()).collect();
-    fn root(parent: &mut [usize], mut i: usize) -> usize {
-        while parent[i] != i {
-            parent[i] = parent[parent[i]];
-            i = parent[i];
-        }
-        i
-    }
+    // The smaller index becomes the root: groups come out in triangle order.
+    let mut sets = super::disjoint::Sets::new(emissive.len());
     let mut first_at: HashMap<[u32; 3], usize> = HashMap::new();
     for (i, &t) in emissive.iter().enumerate() {
         for v in scene.triangles[t as usize].p {
             let key = v.to_array().map(f32::to_bits);
             let j = *first_at.entry(key).or_insert(i);
-            let (a, b) = (root(&mut parent, i), root(&mut parent, j));
-            // The smaller index becomes the root: groups come out in triangle order.
-            parent[a.max(b)] = a.min(b);
+            sets.join(i, j);
         }
     }
     let mut index_of_root: HashMap<usize, usize> = HashMap::new();
     let mut groups: Vec<Vec<u32>> = Vec::new();
     for (i, &t) in emissive.iter().enumerate() {
-        let r = root(&mut parent, i);
+        let r = sets.root(i);
         let g = *index_of_root.entry(r).or_insert_with(|| {
             groups.push(Vec::new());
             groups.len() - 1

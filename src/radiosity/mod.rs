@@ -6,6 +6,7 @@ pub mod back_sides;
 pub mod batch;
 pub mod contacts;
 pub mod current;
+mod disjoint;
 mod dissection;
 mod emitters;
 pub mod format;

@@ -640,21 +640,9 @@ struct Components {
 }
 
 fn components(n: usize, rows: &[&[(usize, f64)]], neighbours: &[(Vec<usize>, f64)]) -> Components {
-    let mut parent: Vec<usize> = (0..n).collect();
-    fn root(parent: &mut [usize], mut i: usize) -> usize {
-        while parent[i] != i {
-            parent[i] = parent[parent[i]];
-            i = parent[i];
-        }
-        i
-    }
-    let mut join = |a: usize, b: usize| {
-        let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
-        // The smaller index is the root: components are found in a fixed order.
-        if ra != rb {
-            parent[ra.max(rb)] = ra.min(rb);
-        }
-    };
+    // The smaller index is the root: components are found in a fixed order.
+    let mut sets = super::disjoint::Sets::new(n);
+    let mut join = |a: usize, b: usize| sets.join(a, b);
     for row in rows {
         for w in row.windows(2) {
             join(w[0].0, w[1].0);
@@ -669,7 +657,7 @@ fn components(n: usize, rows: &[&[(usize, f64)]], neighbours: &[(Vec<usize>, f64
     let mut members: Vec<Vec<usize>> = Vec::new();
     let mut local = vec![0; n];
     for (i, slot) in local.iter_mut().enumerate() {
-        let r = root(&mut parent, i);
+        let r = sets.root(i);
         if id[r] == usize::MAX {
             id[r] = members.len();
             members.push(Vec::new());
@@ -680,7 +668,7 @@ fn components(n: usize, rows: &[&[(usize, f64)]], neighbours: &[(Vec<usize>, f64
     let mut part_rows = vec![Vec::new(); members.len()];
     for (r, row) in rows.iter().enumerate() {
         if let Some(&(i, _)) = row.first() {
-            part_rows[id[root(&mut parent, i)]].push(r);
+            part_rows[id[sets.root(i)]].push(r);
         }
     }
     Components {
