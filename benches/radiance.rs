@@ -73,7 +73,8 @@ fn main() {
         let bundle = Bundle::open(&out).unwrap();
         let d = RadiosityMap::load(&bundle).unwrap().unwrap();
         let bvh = scene.build_bvh();
-        let d_at = |h: &glint::geometry::Hit| glint::radiance::shading::d_point(&scene, h);
+        let d_at =
+            |h: &glint::geometry::Hit, _back: bool| glint::radiance::shading::d_point(&scene, h);
         let stored = |t: u32, b: glam::Vec2| d.radiance(t, b);
         let shade =
             |h: &glint::geometry::Hit, dir: glam::Vec3, _: &PixelRays, out: &mut PixelWriter| {

@@ -317,9 +317,161 @@ fn a_twin_is_read_with_swapped_barycentrics() {
     assert_eq!(map.atlas.side(0, b, true), (0, b));
 }
 
+/// An environment map (a curved reflector's, a probe's) captured under the sheet shows its
+/// lit underside: the capture's rays meet the sheet's back and read its back side's texels,
+/// through the bake's own shading of D.
+#[test]
+fn an_environment_map_under_a_sheet_shows_its_underside() {
+    use glint::bake::materials::shade_with_d;
+    use glint::materials::envmap::{
+        CaptureSettings, ENV_GLOSSY_SAMPLES, MAX_MIRROR_BOUNCES, capture_recorded, face_direction,
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let scene = sheet_room(dir.path(), false);
+    let bundle = bake(&scene, dir.path());
+    let map = map_of(&bundle);
+    let shading = shade_with_d(&bundle, &scene).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(shading.sides.backs, map.atlas.backs);
+    let d = |t: u32, b: Vec2| {
+        (shading.shade)(&glint::geometry::Hit {
+            t: 0.0,
+            triangle: t,
+            bary: b,
+        })
+    };
+    let bvh = scene.build_bvh();
+    let settings = CaptureSettings {
+        face_size: 16,
+        supersample: 1,
+        mirror_bounces: MAX_MIRROR_BOUNCES,
+        glossy_samples: ENV_GLOSSY_SAMPLES,
+    };
+    let centre = Vec3::new(0.1, -0.4, -0.1);
+    let captured = capture_recorded(
+        &scene,
+        &bvh,
+        centre,
+        &settings,
+        &[],
+        (&shading.sides, &d),
+        None,
+        &Silent,
+    )
+    .unwrap();
+    let sheet = triangles_of(&scene, "Sheet");
+    // The +Y face's middle texels: each ray meets the sheet from below.
+    let (size, face) = (settings.face_size, 2);
+    let (mut got, mut under, mut top, mut n) = (0.0, 0.0, 0.0, 0);
+    for y in size / 4..3 * size / 4 {
+        for x in size / 4..3 * size / 4 {
+            let st = |i: usize| 2.0 * (i as f32 + 0.5) / size as f32 - 1.0;
+            let dir = face_direction(face, st(x), st(y)).normalize();
+            let h = bvh.closest_hit(centre, dir, f32::INFINITY).unwrap();
+            assert!(
+                sheet.contains(&h.triangle),
+                "texel ({x}, {y}) sees the sheet"
+            );
+            let (twin, b) = map.atlas.side(h.triangle, h.bary, true);
+            under += map.radiance(twin, b).element_sum() / 3.0;
+            top += map.radiance(h.triangle, h.bary).element_sum() / 3.0;
+            got += captured.cube.texels[(face * size + y) * size + x].element_sum() / 3.0;
+            n += 1;
+        }
+    }
+    let (got, under, top) = (got / n as f32, under / n as f32, top / n as f32);
+    eprintln!(
+        "environment map under the sheet: {got:.4}, the underside's D {under:.4}, the top's {top:.4}"
+    );
+    assert!((got / under - 1.0).abs() < 0.1, "{got} vs {under}");
+    assert!(under > 3.0 * top, "{under} vs {top}");
+}
+
+/// The exported glTF writes a sheet with a back side as two one-sided layers, each with its
+/// own lightmap place, so an engine shows each side its own light; a double-sided surface
+/// without one (the canvas) stays one double-sided layer.
+#[test]
+fn export_writes_a_sheet_with_a_back_side_as_two_one_sided_layers() {
+    use glint::export::lightmap::LightmapFormat;
+    use glint::export::{ExportOptions, export};
+    let dir = tempfile::tempdir().unwrap();
+    let scene = sheet_room(dir.path(), false);
+    let bundle = bake(&scene, dir.path());
+    let glb = dir.path().join("sheet.glb");
+    let opts = ExportOptions {
+        max_page: 0,
+        format: LightmapFormat::Rgbd,
+    };
+    export(&bundle, &glb, &opts).unwrap_or_else(|e| panic!("{e}"));
+    let bytes = std::fs::read(&glb).unwrap();
+    let json: serde_json::Value =
+        serde_json::from_slice(&gltf::Glb::from_slice(&bytes).unwrap().json).unwrap();
+    // Per mesh: (material name, doubleSided, index count) of each primitive.
+    let prims = |mesh: &str| -> Vec<(String, bool, u64)> {
+        let m = json["meshes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|m| m["name"] == mesh)
+            .unwrap_or_else(|| panic!("no mesh {mesh}"));
+        m["primitives"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| {
+                let mat = &json["materials"][p["material"].as_u64().unwrap() as usize];
+                let count = json["accessors"][p["indices"].as_u64().unwrap() as usize]["count"]
+                    .as_u64()
+                    .unwrap();
+                let name = mat["name"].as_str().unwrap_or("").to_string();
+                (name, mat["doubleSided"] == true, count)
+            })
+            .collect()
+    };
+    let sheet = prims("Sheet");
+    let layers: u64 = sheet.iter().map(|p| p.2).sum();
+    assert_eq!(
+        layers,
+        2 * 3 * 2,
+        "{sheet:?}: two triangles, each front and back"
+    );
+    assert!(
+        sheet
+            .iter()
+            .all(|(name, double, _)| !double && name.ends_with("(one side)")),
+        "{sheet:?}"
+    );
+    let canvas = prims("Canvas");
+    assert!(
+        canvas.iter().all(|(_, double, n)| *double && *n == 6),
+        "{canvas:?}"
+    );
+}
+
+/// An impostor's colour from D is the side its capture ray meets.
+#[test]
+fn an_impostor_reads_the_side_its_ray_meets() {
+    use glint::srdm::capture::ColourSource;
+    let dir = tempfile::tempdir().unwrap();
+    let scene = sheet_room(dir.path(), false);
+    let bundle = bake(&scene, dir.path());
+    let map = map_of(&bundle);
+    let t = triangles_of(&scene, "Sheet")[0];
+    let bary = Vec2::new(0.3, 0.2);
+    let (twin, swapped) = map.atlas.side(t, bary, true);
+    let (under, top) = (map.radiance(twin, swapped), map.radiance(t, bary));
+    let colour = ColourSource::Radiosity(Box::new(map));
+    assert_eq!(colour.colour(&scene, t, bary, true), under);
+    assert_eq!(colour.colour(&scene, t, bary, false), top);
+    assert!(
+        under.element_sum() > 3.0 * top.element_sum(),
+        "{under} vs {top}"
+    );
+}
+
 /// A mirror shows the side of the sheet its mirrored eye sees: from a camera above the sheet,
-/// the mirror floor reflects the sheet's underside, lit by the lamp (geometry mode draws the
-/// scene mirrored, its eye mirrored below the floor).
+/// the mirror floor reflects the sheet's underside, lit by the lamp, in both modes (geometry
+/// mode draws the scene mirrored, its eye mirrored below the floor; image mode shows the
+/// radiance maps, whose rays meet the sheet's back and read its back side's texels).
 #[cfg(feature = "view")]
 #[test]
 fn a_mirror_shows_the_side_of_a_sheet_its_mirrored_eye_sees() {
@@ -329,6 +481,9 @@ fn a_mirror_shows_the_side_of_a_sheet_its_mirrored_eye_sees() {
     let scene = sheet_room(dir.path(), true);
     let bundle = dir.path().join("mirror.glint");
     bake_with_materials(&scene, &bundle, &settings());
+    let draft = glint::scene::desc::Quality::Draft;
+    glint::bake::radiance_stage::bake(&scene, &bundle, draft, false, &Silent)
+        .unwrap_or_else(|e| panic!("{e}"));
     let data = glint::view::load::load(&bundle).unwrap_or_else(|e| panic!("{e}"));
     let bvh = data.scene.build_bvh();
     let (sheet, mirror) = (
@@ -339,7 +494,8 @@ fn a_mirror_shows_the_side_of_a_sheet_its_mirrored_eye_sees() {
     // The real eye is above the sheet, the mirrored one below it.
     let eye = Vec3::new(0.0, 0.5, 0.95);
     let camera = Camera::look_at(eye, Vec3::new(0.0, -1.0, 0.4), Vec3::Y, 70f32.to_radians());
-    let frame = &hdr_frames(&data, &camera, SIZE, &[ReflectionMode::Geometry])[0];
+    let modes = [ReflectionMode::Geometry, ReflectionMode::Image];
+    let frames = hdr_frames(&data, &camera, SIZE, &modes);
     let aspect = SIZE.0 as f32 / SIZE.1 as f32;
     // What a pixel's ray shows in the mirror: the sheet's triangle, barycentrics and side.
     let in_mirror = |x: i32, y: i32| {
@@ -356,10 +512,14 @@ fn a_mirror_shows_the_side_of_a_sheet_its_mirrored_eye_sees() {
         let back = r.dot(data.scene.triangles[s.triangle as usize].face_normal()) > 0.0;
         Some((s, back))
     };
-    let (got, seen, other, n, backs) = side_means(&data, frame, SIZE, in_mirror);
-    assert!(n > 100, "{n} pixels see the sheet in the mirror");
-    assert_eq!(backs, n, "the mirrored eye sees the sheet's underside");
-    eprintln!("in the mirror: frame {got:.4}, the underside's D {seen:.4}, the top's {other:.4}");
-    assert!((got / seen - 1.0).abs() < 0.1, "{got} vs {seen}");
-    assert!(seen > 3.0 * other, "{seen} vs {other}");
+    for (mode, frame) in modes.iter().zip(&frames) {
+        let (got, seen, other, n, backs) = side_means(&data, frame, SIZE, in_mirror);
+        assert!(n > 100, "{n} pixels see the sheet in the mirror");
+        assert_eq!(backs, n, "the mirrored eye sees the sheet's underside");
+        eprintln!(
+            "in the mirror ({mode:?}): frame {got:.4}, the underside's D {seen:.4}, the top's {other:.4}"
+        );
+        assert!((got / seen - 1.0).abs() < 0.1, "{mode:?}: {got} vs {seen}");
+        assert!(seen > 3.0 * other, "{seen} vs {other}");
+    }
 }

@@ -197,6 +197,7 @@ fn shading(scene: &Scene) -> EnvShading {
         .collect();
     EnvShading {
         shade: Box::new(move |hit| Vec3::splat(mats[hit.triangle as usize])),
+        sides: Default::default(),
         source: "test".into(),
     }
 }

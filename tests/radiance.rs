@@ -391,10 +391,10 @@ fn a_map_evaluated_from_its_records_is_the_map_traced() {
     let bvh = before.build_bvh();
     let render_with = |scene: &Scene, d: &(dyn Fn(u32, Vec2) -> Vec3 + Sync), replay| {
         let levels = glint::scene::texturing::texture_levels(&scene.textures);
-        let d_at = |h: &glint::geometry::Hit| d_point(scene, h);
+        let d_at = |h: &glint::geometry::Hit, _back: bool| d_point(scene, h);
         let shade =
             |h: &glint::geometry::Hit, dir: Vec3, rays: &PixelRays, out: &mut PixelWriter| {
-                let seen = |h: &glint::geometry::Hit| d_seen(scene, &levels, h, rays);
+                let seen = |h: &glint::geometry::Hit, _back: bool| d_seen(scene, &levels, h, rays);
                 exitant(scene, &bvh, &d_at, &seen, h, dir, out)
             };
         let offset = 4.0 * bvh.epsilon();

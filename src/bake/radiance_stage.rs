@@ -29,7 +29,7 @@ use crate::radiance::footprint::PixelRays;
 use crate::radiance::index::{CamerasFile, MapEntry, cameras_path, reflector_folder};
 use crate::radiance::magnify::{self, Look};
 use crate::radiance::quadtree::{self, QuadtreeLimits};
-use crate::radiance::reads::PixelWriter;
+use crate::radiance::reads::{PixelWriter, Read};
 use crate::radiance::sampling::{MapCamera, ReflectorFrame, hemisphere_cameras};
 use crate::radiance::shading::{d_point, d_seen, exitant};
 use crate::radiance::{MIRROR_ROUGHNESS, MapPlan, RadianceMap, Rendered, Replay, render};
@@ -289,13 +289,26 @@ pub fn bake_part(
     }
     let built = std::sync::OnceLock::from(scene.build_bvh());
     let bvh = built.get().expect("built above");
-    let d_at = |h: &crate::geometry::Hit| d_point(scene, h);
+    // A read of a double-sided sheet's back reads its back side's texels (the atlas's
+    // twin, after the scene's triangles), its texture still read on the scene's triangle.
+    let sides = d.atlas.sides();
+    let sided = |r: Read, back: bool| {
+        let (triangle, bary) = sides.side(r.triangle, r.bary, back);
+        Read {
+            triangle,
+            bary,
+            ..r
+        }
+    };
+    let d_at = |h: &crate::geometry::Hit, back: bool| sided(d_point(scene, h), back);
     let levels = texture_levels(&scene.textures);
     let shade = |h: &crate::geometry::Hit, dir: Vec3, rays: &PixelRays, out: &mut PixelWriter| {
-        let seen = |h: &crate::geometry::Hit| d_seen(scene, &levels, h, rays);
+        let seen = |h: &crate::geometry::Hit, back| sided(d_seen(scene, &levels, h, rays), back);
         exitant(scene, bvh, &d_at, &seen, h, dir, out)
     };
     let stored = |t: u32, b: glam::Vec2| d.radiance(t, b);
+    // Records name the atlas's triangles: the twins' materials are their fronts'.
+    let triangles = sides.sided(&scene.triangles);
     let normal_offset = 4.0 * bvh.epsilon();
     let scene_key = read_cache::scene_key(scene, normal_offset);
     let prints = MaterialPrints::of(&scene.materials);
@@ -377,7 +390,7 @@ pub fn bake_part(
                             render(
                                 &cam,
                                 bvh,
-                                &scene.triangles,
+                                &triangles,
                                 normal_offset,
                                 &shade,
                                 &stored,

@@ -3,7 +3,11 @@
 //! (vertices are welded only where position, normal, UVs and lightmap coordinates all agree,
 //! so a chart seam splits them); the source glTF's materials, textures and images kept, each
 //! material bound to its page's lightmap by `MSFT_lightmap` and the same binding in `extras`;
-//! every camera path's first keyframe as a camera node. Pure: bytes in, bytes out.
+//! every camera path's first keyframe as a camera node. A double-sided sheet whose back side
+//! has texels of its own ([`crate::radiosity::back_sides`]) is written as two one-sided layers,
+//! the front and its twin, each with its own lightmap coordinates, under a one-sided copy of its
+//! material: an engine culls the layer it sees from behind and shows each side its light. Pure:
+//! bytes in, bytes out.
 
 use std::collections::HashMap;
 
@@ -11,6 +15,7 @@ use glam::{Mat3, Quat, Vec2, Vec3};
 use serde_json::{Value, json};
 
 use crate::radiosity::atlas::Atlas;
+use crate::radiosity::back_sides::twin;
 use crate::scene::Scene;
 
 /// How the lightmaps are bound and what reproduces glint's frame, recorded in `extras`.
@@ -254,18 +259,28 @@ pub fn build(
         ));
     }
 
-    // One material per (source material, page).
-    let mut material_of: HashMap<(u32, u32), usize> = HashMap::new();
-    let mut material_for = |out: &mut Out, m: u32, page: u32| -> usize {
-        if let Some(&i) = material_of.get(&(m, page)) {
+    // One material per (source material, page, one-sided): a double-sided sheet with a back
+    // side is written as two one-sided layers, each with its own lightmap place.
+    let mut material_of: HashMap<(u32, u32, bool), usize> = HashMap::new();
+    let mut material_for = |out: &mut Out, (m, page, one_sided): (u32, u32, bool)| -> usize {
+        if let Some(&i) = material_of.get(&(m, page, one_sided)) {
             return i;
         }
         let mut v = materials[m as usize].clone();
         move_texcoord_1(&mut v);
         let tex = page_texture[page as usize];
-        if material_of.keys().any(|&(mm, _)| mm == m) {
-            let name = v.get("name").and_then(Value::as_str).unwrap_or("material");
-            v["name"] = json!(format!("{name} (lightmap page {page})"));
+        let mut name = v
+            .get("name")
+            .and_then(Value::as_str)
+            .unwrap_or("material")
+            .to_string();
+        if material_of.keys().any(|&(mm, p, _)| mm == m && p != page) {
+            name = format!("{name} (lightmap page {page})");
+            v["name"] = json!(name);
+        }
+        if one_sided {
+            v["name"] = json!(format!("{name} (one side)"));
+            v["doubleSided"] = json!(false);
         }
         let info = json!({ "index": tex, "texCoord": 1 });
         v.as_object_mut()
@@ -284,19 +299,26 @@ pub fn build(
             "texture": tex, "texCoord": 1, "encoding": binding.encoding, "scale": binding.scale, "source_material": m
         });
         let i = out.push("materials", v);
-        material_of.insert((m, page), i);
+        material_of.insert((m, page, one_sided), i);
         i
     };
 
     let mut nodes = Vec::new();
     for (o, object) in scene.objects.iter().enumerate() {
-        let mut prims: Vec<((u32, u32), Prim)> = Vec::new();
-        for t in object.triangles.clone() {
-            let tri = &scene.triangles[t as usize];
+        let mut prims: Vec<((u32, u32, bool), Prim)> = Vec::new();
+        // Each scene triangle, and after one with a back side its twin (atlas triangle).
+        let layers = object.triangles.clone().flat_map(|t| {
+            let back = atlas.back_of(t);
+            let front = (t, scene.triangles[t as usize], back.is_some());
+            let twin = back.map(|b| (b, twin(&scene.triangles[t as usize]), true));
+            std::iter::once(front).chain(twin)
+        });
+        for (t, tri, one_sided) in layers {
+            let tri = &tri;
             let page = atlas.tri_page[t as usize];
             let size = atlas.pages[page as usize];
             let inv = Vec2::new(1.0 / size.width as f32, 1.0 / size.height as f32);
-            let key = (tri.material, page);
+            let key = (tri.material, page, one_sided);
             let k = match prims.iter().position(|(k, _)| *k == key) {
                 Some(k) => k,
                 None => {
@@ -319,8 +341,8 @@ pub fn build(
             continue;
         }
         let mut primitives = Vec::new();
-        for ((m, page), p) in prims {
-            let material = material_for(&mut out, m, page);
+        for ((m, page, one_sided), p) in prims {
+            let material = material_for(&mut out, (m, page, one_sided));
             let pos = out.floats(&p.pos, 3, "VEC3", true);
             let nrm = out.floats(&p.nrm, 3, "VEC3", false);
             // TEXCOORD_0 always: glTF numbers a semantic's sets from 0 without gaps.

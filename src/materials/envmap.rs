@@ -22,6 +22,7 @@ use crate::geometry::{Bvh, Hit};
 use crate::progress::{Cancelled, Progress};
 use crate::radiance::reads::{MapReads, Replay};
 use crate::radiosity::MAX_GLASS_LAYERS;
+use crate::radiosity::back_sides::Sides;
 use crate::sampling::Rng;
 use crate::scene::{ReflectorKind, Scene};
 
@@ -398,7 +399,7 @@ pub fn capture_cube(
         (centre, see_through),
         settings,
         shade,
-        None,
+        (&Sides::default(), None),
         progress,
     )?;
     Ok(c.cube)
@@ -416,8 +417,9 @@ pub struct Captured<'a> {
     pub traced: u64,
 }
 
-/// [`capture_cube`] shading with D at a point (`d`: the stored value at barycentrics of a
-/// triangle, through any texture), each texel given by its record evaluated
+/// [`capture_cube`] shading with D at a point (`d`: the stored value at barycentrics of an
+/// atlas triangle, through any texture; a ray meeting the back of a triangle with a back side
+/// reads its twin, `sides`), each texel given by its record evaluated
 /// ([`super::capture_reads::eval_texel`]), so that a cube evaluated from its kept records has
 /// the bytes of one captured again. With `replay`, a texel whose kept record is still valid
 /// (no surface its rays met has a changed material) is evaluated without tracing.
@@ -428,7 +430,7 @@ pub fn capture_recorded<'a>(
     centre: Vec3,
     settings: &CaptureSettings,
     see_through: &[u32],
-    d: &(dyn Fn(u32, Vec2) -> Vec3 + Sync),
+    (sides, d): (&Sides, &(dyn Fn(u32, Vec2) -> Vec3 + Sync)),
     replay: Option<Replay<'a>>,
     progress: &dyn Progress,
 ) -> Result<Captured<'a>, Cancelled> {
@@ -441,7 +443,7 @@ pub fn capture_recorded<'a>(
         (centre, see_through),
         settings,
         &zero,
-        recorded,
+        (sides, recorded),
         progress,
     )
 }
@@ -453,9 +455,19 @@ fn capture<'a>(
     (centre, see_through): (Vec3, &[u32]),
     settings: &CaptureSettings,
     shade: &(dyn Fn(&Hit) -> Vec3 + Sync),
-    recorded: Option<rec::Recorded<'_, 'a>>,
+    (sides, recorded): (&Sides, Option<rec::Recorded<'_, 'a>>),
     progress: &dyn Progress,
 ) -> Result<Captured<'a>, Cancelled> {
+    // Where a ray meets a surface, D is read on the side it meets ([`Sides::side`]).
+    let sided = |hit: &Hit, dir: Vec3| {
+        let n = scene.triangles[hit.triangle as usize].face_normal();
+        let (triangle, bary) = sides.side(hit.triangle, hit.bary, dir.dot(n) > 0.0);
+        Hit {
+            triangle,
+            bary,
+            ..*hit
+        }
+    };
     let mut skip = vec![false; scene.triangles.len()];
     for &t in see_through {
         if let Some(s) = skip.get_mut(t as usize) {
@@ -529,16 +541,17 @@ fn capture<'a>(
                     let found = first_hit(origin, w);
                     let mut seen = lights_before(origin, w, found.as_ref());
                     let lights = seen;
-                    if let Some((hit, _, travelled)) = &found {
-                        seen += shade(&Hit {
-                            t: travelled + hit.t,
-                            ..*hit
-                        });
+                    let found = found.map(|(hit, _, travelled)| Hit {
+                        t: travelled + hit.t,
+                        ..sided(&hit, w)
+                    });
+                    if let Some(hit) = &found {
+                        seen += shade(hit);
                     } else if seen == Vec3::ZERO {
                         continue;
                     }
                     let weight = lobe.sample_weight(wo, wi);
-                    let lands = found.map(|(hit, _, _)| (hit.triangle, hit.bary));
+                    let lands = found.map(|hit| (hit.triangle, hit.bary));
                     rec::push_sample(out, count_at, weight, lights, lands);
                     lobe_sum += seen * weight;
                 }
@@ -566,11 +579,12 @@ fn capture<'a>(
                 break;
             };
             travelled += skipped;
-            rec::push_surface(out, weight, hit.triangle, hit.bary);
+            let seen = sided(&hit, dir);
+            rec::push_surface(out, weight, seen.triangle, seen.bary);
             sum += weight
                 * shade(&Hit {
                     t: travelled + hit.t,
-                    ..hit
+                    ..seen
                 });
             let tri = &scene.triangles[hit.triangle as usize];
             let n = tri.face_normal();
@@ -627,7 +641,9 @@ fn capture<'a>(
         rays,
         glossy_samples: settings.glossy_samples,
     };
-    let rows = rec::texel_rows(&shape, &scene.triangles, &texel, recorded, progress);
+    // Records name the atlas's triangles, twins included.
+    let triangles = sides.sided(&scene.triangles);
+    let rows = rec::texel_rows(&shape, &triangles, &texel, recorded, progress);
     let (texels, reads, traced) = rows.ok_or(Cancelled)?;
     Ok(Captured {
         cube: CubeMap { size, texels },

@@ -34,15 +34,17 @@ use crate::scene::texturing::{d_factors_at, d_factors_over};
 /// direction `dir`: the read of D there, `seen(hit)` (as the maps held before), plus the
 /// one-bounce reflection of its glossy lobes (module comment), D read by `d` where the lobes'
 /// rays land. `seen` reads D where the pixel's own ray meets a surface (over the pixel's
-/// footprint, textures included), `d` at a point.
+/// footprint, textures included), `d` at a point; both are told whether the ray meets the
+/// surface's back (a double-sided sheet's back may have texels of its own,
+/// [`crate::radiosity::Atlas::side`]).
 /// Back faces and surfaces without lobes get `seen(hit)` alone. Thin glass also passes what
 /// lies behind it along `dir`, times its transmittance at the ray's angle, as the viewer's
 /// frame draws it, through at most [`MAX_GLASS_LAYERS`] panes.
 pub fn exitant(
     scene: &Scene,
     bvh: &Bvh,
-    d: &(dyn Fn(&Hit) -> Read + Sync),
-    seen: &(dyn Fn(&Hit) -> Read + Sync),
+    d: &(dyn Fn(&Hit, bool) -> Read + Sync),
+    seen: &(dyn Fn(&Hit, bool) -> Read + Sync),
     hit: &Hit,
     dir: Vec3,
     out: &mut PixelWriter,
@@ -105,17 +107,17 @@ pub fn d_point(scene: &Scene, hit: &Hit) -> Read {
 fn own_exitant(
     scene: &Scene,
     bvh: &Bvh,
-    d: &(dyn Fn(&Hit) -> Read + Sync),
-    seen: &(dyn Fn(&Hit) -> Read + Sync),
+    d: &(dyn Fn(&Hit, bool) -> Read + Sync),
+    seen: &(dyn Fn(&Hit, bool) -> Read + Sync),
     hit: &Hit,
     dir: Vec3,
     weight: Vec3,
     out: &mut PixelWriter,
 ) {
-    out.layer(weight, &seen(hit));
     let tri = &scene.triangles[hit.triangle as usize];
     let material = &scene.materials[tri.material as usize];
     let ng = tri.face_normal();
+    out.layer(weight, &seen(hit, dir.dot(ng) >= 0.0));
     if material.lobes.is_empty() || dir.dot(ng) >= 0.0 {
         return out.d_alone();
     }
@@ -146,13 +148,12 @@ fn own_exitant(
                 }
                 let h = bvh.closest_hit(origin, w, f32::INFINITY)?;
                 // A back face is black, as in the radiosity solver and the path tracer (a
-                // double-sided one shows its shared texels).
-                if w.dot(scene.triangles[h.triangle as usize].face_normal()) >= 0.0
-                    && !scene.material_of(h.triangle).double_sided
-                {
+                // double-sided one shows its back side's texels, or the shared ones).
+                let back = w.dot(scene.triangles[h.triangle as usize].face_normal()) >= 0.0;
+                if back && !scene.material_of(h.triangle).double_sided {
                     return None;
                 }
-                Some((wi, d(&h)))
+                Some((wi, d(&h, back)))
             }),
         };
         for (wi, read) in samples.iter().flatten() {
@@ -173,7 +174,7 @@ pub fn exitant_with(
     hit: &Hit,
     dir: Vec3,
 ) -> Vec3 {
-    let at = |h: &Hit| Read {
+    let at = |h: &Hit, _back: bool| Read {
         triangle: h.triangle,
         bary: h.bary,
         factors: None,

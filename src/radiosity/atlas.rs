@@ -188,10 +188,7 @@ impl Atlas {
 
     /// The atlas triangle holding the back side of scene triangle `triangle`, if it has one.
     pub fn back_of(&self, triangle: u32) -> Option<u32> {
-        self.backs
-            .binary_search(&triangle)
-            .ok()
-            .map(|k| (self.scene_triangles() + k) as u32)
+        super::back_sides::back_in(&self.backs, self.scene_triangles(), triangle)
     }
 
     /// Where to read D for point `bary` of scene triangle `triangle`, seen from its front or
@@ -201,6 +198,14 @@ impl Atlas {
         match back.then(|| self.back_of(triangle)).flatten() {
             Some(twin) => (twin, Vec2::new(bary.y, bary.x)),
             None => (triangle, bary),
+        }
+    }
+
+    /// What a stage reading D after the solve needs to know of the back sides.
+    pub fn sides(&self) -> super::back_sides::Sides {
+        super::back_sides::Sides {
+            scene_triangles: self.scene_triangles(),
+            backs: self.backs.clone(),
         }
     }
 

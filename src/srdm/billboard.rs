@@ -178,9 +178,10 @@ pub fn capture(
                 None => (target + axis * lift, -axis),
             };
             if let Some(hit) = bvh.closest_hit(origin, dir, f32::INFINITY) {
-                let c = colour.colour(scene, ids[hit.triangle as usize], hit.bary);
-                col[y * w + x] = [c.x, c.y, c.z, 1.0];
                 let t = &tris[hit.triangle as usize];
+                let back = dir.dot(t.face_normal()) > 0.0;
+                let c = colour.colour(scene, ids[hit.triangle as usize], hit.bary, back);
+                col[y * w + x] = [c.x, c.y, c.z, 1.0];
                 let Vec2 { x: bu, y: bv } = hit.bary;
                 let mut n = (t.n[0] * (1.0 - bu - bv) + t.n[1] * bu + t.n[2] * bv)
                     .try_normalize()

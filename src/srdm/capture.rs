@@ -71,11 +71,16 @@ impl ColourSource {
         }
     }
 
-    /// The colour at barycentrics `bary` of scene triangle `triangle`.
-    pub fn colour(&self, scene: &Scene, triangle: u32, bary: Vec2) -> Vec3 {
+    /// The colour at barycentrics `bary` of scene triangle `triangle`, seen from its front
+    /// or (`back`) from behind: D of a double-sided sheet's back is its back side's
+    /// ([`crate::radiosity::Atlas::side`]).
+    pub fn colour(&self, scene: &Scene, triangle: u32, bary: Vec2, back: bool) -> Vec3 {
         match self {
             ColourSource::Albedo => scene.albedo_at(triangle, bary),
-            ColourSource::Radiosity(d) => scene.d_at(triangle, bary, d.radiance(triangle, bary)),
+            ColourSource::Radiosity(d) => {
+                let (t, b) = d.atlas.side(triangle, bary, back);
+                scene.d_at(triangle, bary, d.radiance(t, b))
+            }
         }
     }
 }
@@ -220,7 +225,9 @@ pub fn capture(
                 if let Some(hit) = bvh.closest_hit(camera.view.position, dir, f32::INFINITY) {
                     let z = hit.t * dir.dot(camera.view.forward);
                     drow[x] = camera.depth_of_z(z).clamp(MIN_DEPTH, 1.0);
-                    crow[x] = colour.colour(scene, ids[hit.triangle as usize], hit.bary);
+                    let t = ids[hit.triangle as usize];
+                    let back = dir.dot(scene.triangles[t as usize].face_normal()) > 0.0;
+                    crow[x] = colour.colour(scene, t, hit.bary, back);
                 }
             }
             progress.advance(1);

@@ -188,7 +188,7 @@ pub fn capture_kept(
         centre,
         capture,
         see_through,
-        &d,
+        (&shading.sides, &d),
         replay,
         progress,
     )?;

@@ -52,6 +52,8 @@ use crate::image_io::ImageError;
 use crate::materials::index::{INDEX_FILE, INDEX_FORMAT, MaterialsIndex};
 use crate::progress::{Cancelled, Progress};
 use crate::radiosity::CurrentD;
+use crate::radiosity::RadiosityMap;
+use crate::radiosity::back_sides::Sides;
 use crate::scene::Scene;
 
 use super::part::{Item, Part};
@@ -100,6 +102,8 @@ pub type HitShader = Box<dyn Fn(&Hit) -> Vec3 + Send + Sync>;
 pub struct EnvShading {
     /// The shader.
     pub shade: HitShader,
+    /// The back sides its D has: a hit's triangle may be a twin ([`Sides::side`]).
+    pub sides: Sides,
     /// Identity of its data (e.g. a hash of the radiosity stage's assets).
     pub source: String,
 }
@@ -135,18 +139,32 @@ pub fn shade_with_d(bundle_dir: &Path, scene: &Scene) -> Result<EnvShading, Stri
         .load()
         .map_err(|e| format!("cannot read D from the `radiosity` stage: {e}"))?
         .ok_or_else(missing)?;
-    // Textured surfaces: D at full texture resolution (scene::texturing).
-    let textured = scene.textured_surfaces();
-    Ok(EnvShading {
-        shade: Box::new(move |hit: &Hit| {
-            let stored = map.radiance(hit.triangle, hit.bary);
-            match &textured {
-                Some(t) => t.d_at(hit.triangle, hit.bary, stored),
-                None => stored,
-            }
-        }),
-        source,
-    })
+    Ok(EnvShading::with(scene, map, source))
+}
+
+impl EnvShading {
+    /// Shading with D of `map` (identity `source`): at a textured surface, D at full texture
+    /// resolution (scene::texturing), the texture read on the scene's triangle where the hit
+    /// is on a twin.
+    fn with(scene: &Scene, map: RadiosityMap, source: String) -> EnvShading {
+        let textured = scene.textured_surfaces();
+        let sides = map.atlas.sides();
+        let fronts = sides.clone();
+        EnvShading {
+            shade: Box::new(move |hit: &Hit| {
+                let stored = map.radiance(hit.triangle, hit.bary);
+                match &textured {
+                    Some(t) => {
+                        let (triangle, bary) = fronts.front_of(hit.triangle, hit.bary);
+                        t.d_at(triangle, bary, stored)
+                    }
+                    None => stored,
+                }
+            }),
+            sides,
+            source,
+        }
+    }
 }
 
 /// The settings the stage records in the manifest: `settings` plus `d_source`, the identity
@@ -196,10 +214,7 @@ pub fn bake_part(
     let (shading, d_read) = match (part.d_from, part.item) {
         (Some(from), _) => {
             let shading = crate::bake::part::require_d(from)
-                .map(|(map, source)| EnvShading {
-                    shade: Box::new(move |hit: &Hit| map.radiance(hit.triangle, hit.bary)),
-                    source,
-                })
+                .map(|(map, source)| EnvShading::with(scene, map, source))
                 .map_err(|e| format!("cannot read D from {}: {e}", from.display()));
             (shading, None)
         }
