@@ -274,7 +274,7 @@ fn a_probe_evaluated_from_its_records_is_the_probe_captured() {
     };
     let recorded = |scene: &Scene, at: Vec3, d: &(dyn Fn(u32, Vec2) -> Vec3 + Sync), replay| {
         let bvh = scene.build_bvh();
-        let none = glint::radiosity::back_sides::Sides::default();
+        let none = glint::radiosity::sides::Sides::default();
         capture_recorded(scene, &bvh, at, &settings, &[], (&none, d), replay, &Silent).unwrap()
     };
     let unchanged = vec![false; scene.materials.len()];

@@ -15,6 +15,7 @@ use crate::radiosity::atlas::{self, AtlasError};
 use crate::radiosity::back_sides;
 use crate::radiosity::format;
 use crate::radiosity::seams;
+use crate::radiosity::sides;
 use crate::radiosity::solve::{
     GatherBatch, RAY_CACHE_BUDGET, REFINE_BUDGET, Solution, SolveSettings, gather_batch, solve,
     solve_batches, solve_cached,
@@ -306,7 +307,7 @@ impl Sided {
                 backs.len()
             );
             Scene {
-                triangles: back_sides::with_twins(&scene.triangles, &backs),
+                triangles: sides::with_twins(&scene.triangles, &backs),
                 ..scene.clone()
             }
         });

@@ -15,7 +15,7 @@ use glam::{Mat3, Quat, Vec2, Vec3};
 use serde_json::{Value, json};
 
 use crate::radiosity::atlas::Atlas;
-use crate::radiosity::back_sides::twin;
+use crate::radiosity::sides::twin;
 use crate::scene::Scene;
 
 /// How the lightmaps are bound and what reproduces glint's frame, recorded in `extras`.

@@ -22,7 +22,7 @@ use crate::geometry::{Bvh, Hit};
 use crate::progress::{Cancelled, Progress};
 use crate::radiance::reads::{MapReads, Replay};
 use crate::radiosity::MAX_GLASS_LAYERS;
-use crate::radiosity::back_sides::Sides;
+use crate::radiosity::sides::Sides;
 use crate::sampling::Rng;
 use crate::scene::{ReflectorKind, Scene};
 

@@ -188,12 +188,12 @@ impl Atlas {
 
     /// The atlas triangle holding the back side of scene triangle `triangle`, if it has one.
     pub fn back_of(&self, triangle: u32) -> Option<u32> {
-        super::back_sides::back_in(&self.backs, self.scene_triangles(), triangle)
+        super::sides::back_in(&self.backs, self.scene_triangles(), triangle)
     }
 
     /// Where to read D for point `bary` of scene triangle `triangle`, seen from its front or
     /// (`back`) from behind: the triangle itself, or its back side's twin (whose
-    /// barycentrics are swapped, [`super::back_sides::twin`]).
+    /// barycentrics are swapped, [`super::sides::twin`]).
     pub fn side(&self, triangle: u32, bary: Vec2, back: bool) -> (u32, Vec2) {
         match back.then(|| self.back_of(triangle)).flatten() {
             Some(twin) => (twin, Vec2::new(bary.y, bary.x)),
@@ -202,8 +202,8 @@ impl Atlas {
     }
 
     /// What a stage reading D after the solve needs to know of the back sides.
-    pub fn sides(&self) -> super::back_sides::Sides {
-        super::back_sides::Sides {
+    pub fn sides(&self) -> super::sides::Sides {
+        super::sides::Sides {
             scene_triangles: self.scene_triangles(),
             backs: self.backs.clone(),
         }

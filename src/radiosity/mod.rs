@@ -20,6 +20,7 @@ pub use mirror_lights::{MIRROR_ROUGHNESS, is_mirror};
 pub use transmission::MAX_LAYERS as MAX_GLASS_LAYERS;
 mod seam_solve;
 pub mod seams;
+pub mod sides;
 pub mod solve;
 mod terms;
 mod through_glass;

@@ -53,7 +53,7 @@ use crate::materials::index::{INDEX_FILE, INDEX_FORMAT, MaterialsIndex};
 use crate::progress::{Cancelled, Progress};
 use crate::radiosity::CurrentD;
 use crate::radiosity::RadiosityMap;
-use crate::radiosity::back_sides::Sides;
+use crate::radiosity::sides::Sides;
 use crate::scene::Scene;
 
 use super::part::{Item, Part};
