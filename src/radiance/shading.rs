@@ -36,7 +36,7 @@ use crate::scene::texturing::{d_factors_at, d_factors_over};
 /// rays land. `seen` reads D where the pixel's own ray meets a surface (over the pixel's
 /// footprint, textures included), `d` at a point; both are told whether the ray meets the
 /// surface's back (a double-sided sheet's back may have texels of its own,
-/// [`crate::radiosity::Atlas::side`]).
+/// [`crate::radiosity::sides::Sides::side`]).
 /// Back faces and surfaces without lobes get `seen(hit)` alone. Thin glass also passes what
 /// lies behind it along `dir`, times its transmittance at the ray's angle, as the viewer's
 /// frame draws it, through at most [`MAX_GLASS_LAYERS`] panes.

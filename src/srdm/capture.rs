@@ -73,7 +73,7 @@ impl ColourSource {
 
     /// The colour at barycentrics `bary` of scene triangle `triangle`, seen from its front
     /// or (`back`) from behind: D of a double-sided sheet's back is its back side's
-    /// ([`crate::radiosity::Atlas::side`]).
+    /// ([`crate::radiosity::sides::Sides::side`]).
     pub fn colour(&self, scene: &Scene, triangle: u32, bary: Vec2, back: bool) -> Vec3 {
         match self {
             ColourSource::Albedo => scene.albedo_at(triangle, bary),
