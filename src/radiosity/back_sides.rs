@@ -137,18 +137,7 @@ fn sheets(tris: &[Triangle], is: &[bool]) -> Vec<u32> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn tri(p: [Vec3; 3], material: u32) -> Triangle {
-        let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
-        Triangle {
-            p,
-            n: [n; 3],
-            uv: [Vec2::ZERO, Vec2::X, Vec2::Y],
-            uv1: None,
-            material,
-            object: 0,
-        }
-    }
+    use crate::radiosity::sides::tests::tri;
 
     #[test]
     fn sheets_join_across_shared_edges_of_one_material_only() {

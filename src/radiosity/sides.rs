@@ -88,11 +88,12 @@ pub fn with_twins(triangles: &[Triangle], backs: &[u32]) -> Vec<Triangle> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use glam::Vec3;
 
-    fn tri(p: [Vec3; 3], material: u32) -> Triangle {
+    /// A flat triangle of `material` through `p` (also the back sides' tests').
+    pub(in crate::radiosity) fn tri(p: [Vec3; 3], material: u32) -> Triangle {
         let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
         Triangle {
             p,
