@@ -314,7 +314,6 @@ pub fn build(
             std::iter::once(front).chain(twin)
         });
         for (t, tri, one_sided) in layers {
-            let tri = &tri;
             let page = atlas.tri_page[t as usize];
             let size = atlas.pages[page as usize];
             let inv = Vec2::new(1.0 / size.width as f32, 1.0 / size.height as f32);

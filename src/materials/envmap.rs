@@ -460,6 +460,9 @@ fn capture<'a>(
 ) -> Result<Captured<'a>, Cancelled> {
     // Where a ray meets a surface, D is read on the side it meets ([`Sides::side`]).
     let sided = |hit: &Hit, dir: Vec3| {
+        if sides.backs.is_empty() {
+            return *hit;
+        }
         let n = scene.triangles[hit.triangle as usize].face_normal();
         let (triangle, bary) = sides.side(hit.triangle, hit.bary, dir.dot(n) > 0.0);
         Hit {

@@ -195,10 +195,8 @@ impl Atlas {
     /// (`back`) from behind: the triangle itself, or its back side's twin (whose
     /// barycentrics are swapped, [`super::sides::twin`]).
     pub fn side(&self, triangle: u32, bary: Vec2, back: bool) -> (u32, Vec2) {
-        match back.then(|| self.back_of(triangle)).flatten() {
-            Some(twin) => (twin, Vec2::new(bary.y, bary.x)),
-            None => (triangle, bary),
-        }
+        let scene = self.scene_triangles();
+        super::sides::side_in(&self.backs, scene, (triangle, bary), back)
     }
 
     /// What a stage reading D after the solve needs to know of the back sides.

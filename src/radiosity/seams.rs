@@ -642,15 +642,14 @@ struct Components {
 fn components(n: usize, rows: &[&[(usize, f64)]], neighbours: &[(Vec<usize>, f64)]) -> Components {
     // The smaller index is the root: components are found in a fixed order.
     let mut sets = super::disjoint::Sets::new(n);
-    let mut join = |a: usize, b: usize| sets.join(a, b);
     for row in rows {
         for w in row.windows(2) {
-            join(w[0].0, w[1].0);
+            sets.join(w[0].0, w[1].0);
         }
     }
     for (i, (nbrs, _)) in neighbours.iter().enumerate() {
         for &j in nbrs {
-            join(i, j);
+            sets.join(i, j);
         }
     }
     let mut id = vec![usize::MAX; n];

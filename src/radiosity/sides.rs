@@ -16,6 +16,24 @@ pub fn back_in(backs: &[u32], scene_triangles: usize, triangle: u32) -> Option<u
         .map(|k| (scene_triangles + k) as u32)
 }
 
+/// Where to read D for point `bary` of scene triangle `triangle`, seen from its front or
+/// (`back`) from behind: the triangle itself, or the twin of its back side ([`back_in`]),
+/// whose barycentrics are swapped ([`twin`]).
+pub fn side_in(
+    backs: &[u32],
+    scene_triangles: usize,
+    (triangle, bary): (u32, Vec2),
+    back: bool,
+) -> (u32, Vec2) {
+    match back
+        .then(|| back_in(backs, scene_triangles, triangle))
+        .flatten()
+    {
+        Some(twin) => (twin, Vec2::new(bary.y, bary.x)),
+        None => (triangle, bary),
+    }
+}
+
 /// Which texels a ray meeting a scene triangle reads: the triangle's own, or, at the back of
 /// a triangle with a back side, its twin's. What the stages that read D after the solve
 /// (radiance maps, environment maps and probes) need of the atlas ([`Atlas::sides`]).
@@ -32,15 +50,9 @@ pub struct Sides {
 
 impl Sides {
     /// Where to read D for point `bary` of scene triangle `triangle`, seen from its front or
-    /// (`back`) from behind ([`super::atlas::Atlas::side`]).
+    /// (`back`) from behind ([`side_in`]).
     pub fn side(&self, triangle: u32, bary: Vec2, back: bool) -> (u32, Vec2) {
-        match back
-            .then(|| back_in(&self.backs, self.scene_triangles, triangle))
-            .flatten()
-        {
-            Some(twin) => (twin, Vec2::new(bary.y, bary.x)),
-            None => (triangle, bary),
-        }
+        side_in(&self.backs, self.scene_triangles, (triangle, bary), back)
     }
 
     /// The scene triangle and its barycentrics of atlas triangle `triangle`'s point `bary`
