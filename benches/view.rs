@@ -47,7 +47,9 @@
 //! (`--cube-self-occlusion off`); `GLINT_BENCH_GLOSSY_SAMPLES=N` and `GLINT_BENCH_FACE_SIZE=N`
 //! set `--glossy-samples` (the bake's sample budget by default, as `glint-view`) and `--cube-size`;
 //! `GLINT_BENCH_TERMINAL=off` turns the near-mirrors' terminal cube maps off in the
-//! reflections table (as `--terminal-cubemaps off`).
+//! reflections table (as `--terminal-cubemaps off`); `GLINT_BENCH_VIEW_ARGS` passes further
+//! `glint-view` flags to the fidelity table's viewer (`"--probes off"`: how much of a
+//! scene's error the probes carry).
 //!
 //! A fourth table (`aa`, [`aa_table`]) is anti-aliasing's cost: the frame table's replays
 //! (one run each) at one sample a pixel and at the default multisample count, with reflections
@@ -932,7 +934,9 @@ fn shipped_scenes() -> Vec<String> {
 /// mapping and the bench's curved-reflector knobs.
 fn fidelity_options(data: &glint::view::load::ViewData) -> ViewOptions {
     let baked = glint::view::defaults::baked(data);
-    let options = ViewOptions::from_args_for(std::iter::empty::<&str>(), &baked)
+    // Flags as on glint-view's command line (`GLINT_BENCH_VIEW_ARGS`).
+    let extra = std::env::var("GLINT_BENCH_VIEW_ARGS").unwrap_or_default();
+    let options = ViewOptions::from_args_for(extra.split_whitespace(), &baked)
         .unwrap_or_else(|e| panic!("{e}"))
         .linear_display();
     // Curved reflectors by cube maps (Nielsen §3.2), glossy ones by regular sampling of the
