@@ -783,7 +783,9 @@ fn fidelity_settings() -> (Quality, (u32, u32), u32, u32) {
 /// Where `GLINT_BENCH_FIDELITY_DUMP` asks the fidelity table to write its images, for
 /// per-pixel study: raw little-endian `f32` RGB rows (`STEM-ref-a.f32`, `-ref-b`, `-equation`,
 /// one per mode), the primary hit's material and object per pixel centre (`STEM-hits.u32`,
-/// two `u32` a pixel, `u32::MAX` for a miss) and the materials' names (`STEM-materials.txt`).
+/// two `u32` a pixel, `u32::MAX` for a miss), the materials' and the objects' names
+/// (`STEM-materials.txt`, `STEM-objects.txt`: glTF node names). `benches/tools/fidelity_dump.py`
+/// reads them.
 fn dump_dir() -> Option<std::path::PathBuf> {
     let dir = std::env::var_os("GLINT_BENCH_FIDELITY_DUMP").filter(|v| !v.is_empty())?;
     let dir = std::path::PathBuf::from(dir);
@@ -818,6 +820,12 @@ fn dump_hits(stem: &Path, scene: &Scene, objects: &[[u32; 2]]) {
     std::fs::write(
         stem.with_file_name(format!("{name}-materials.txt")),
         names.join("\n"),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let objects: Vec<&str> = scene.objects.iter().map(|o| o.node_name.as_str()).collect();
+    std::fs::write(
+        stem.with_file_name(format!("{name}-objects.txt")),
+        objects.join("\n"),
     )
     .unwrap_or_else(|e| panic!("{e}"));
 }
