@@ -814,20 +814,20 @@ fn dump_hits(stem: &Path, scene: &Scene, objects: &[[u32; 2]]) {
         .flat_map(u32::to_le_bytes)
         .collect();
     let name = stem.file_name().unwrap().to_string_lossy().to_string();
-    std::fs::write(stem.with_file_name(format!("{name}-hits.u32")), bytes)
-        .unwrap_or_else(|e| panic!("{e}"));
-    let names: Vec<String> = scene.materials.iter().map(|m| m.name.clone()).collect();
-    std::fs::write(
-        stem.with_file_name(format!("{name}-materials.txt")),
-        names.join("\n"),
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
-    let objects: Vec<&str> = scene.objects.iter().map(|o| o.node_name.as_str()).collect();
-    std::fs::write(
-        stem.with_file_name(format!("{name}-objects.txt")),
-        objects.join("\n"),
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    let write = |what: &str, bytes: Vec<u8>| {
+        let file = stem.with_file_name(format!("{name}-{what}"));
+        std::fs::write(&file, bytes).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
+    };
+    write("hits.u32", bytes);
+    let lines = |names: Vec<&str>| names.join("\n").into_bytes();
+    write(
+        "materials.txt",
+        lines(scene.materials.iter().map(|m| m.name.as_str()).collect()),
+    );
+    write(
+        "objects.txt",
+        lines(scene.objects.iter().map(|o| o.node_name.as_str()).collect()),
+    );
 }
 
 /// Per pixel centre of `camera`'s `w` × `h` frame, the material and object of the primary

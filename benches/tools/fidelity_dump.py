@@ -38,8 +38,9 @@ MISS = 0xFFFFFFFF
 EPSILON = 1e-2  # glint::eval::compare::REL_EPSILON
 
 
-def read_f32(path):
-    a = array.array("f")
+def read_array(path, code):
+    """A little-endian array of `code` ("f": f32, "I": u32) from `path`."""
+    a = array.array(code)
     with open(path, "rb") as f:
         a.frombytes(f.read())
     if sys.byteorder != "little":
@@ -47,29 +48,29 @@ def read_f32(path):
     return a
 
 
+def read_lines(path):
+    """The lines of `path`, none where it does not exist."""
+    if not os.path.exists(path):
+        return []
+    with open(path) as f:
+        return f.read().split("\n")
+
+
 class Dump:
     def __init__(self, folder, stem, mode, size):
         self.w, self.h = size
         base = os.path.join(folder, stem)
-        self.frame = read_f32(f"{base}-{mode}.f32")
-        a, b = read_f32(f"{base}-ref-a.f32"), read_f32(f"{base}-ref-b.f32")
+        self.frame = read_array(f"{base}-{mode}.f32", "f")
+        a, b = read_array(f"{base}-ref-a.f32", "f"), read_array(f"{base}-ref-b.f32", "f")
         self.ref = array.array("f", ((x + y) / 2 for x, y in zip(a, b)))
         n = self.w * self.h
         if len(self.frame) != 3 * n:
             sys.exit(f"{base}-{mode}.f32 holds {len(self.frame) // 3} pixels, not {self.w}×{self.h}: pass --size")
-        hits = array.array("I")
-        with open(f"{base}-hits.u32", "rb") as f:
-            hits.frombytes(f.read())
-        if sys.byteorder != "little":
-            hits.byteswap()
+        hits = read_array(f"{base}-hits.u32", "I")
         self.material = hits[0::2]
         self.object = hits[1::2]
-        with open(f"{base}-materials.txt") as f:
-            self.names = f.read().split("\n")
-        self.objects = []
-        if os.path.exists(f"{base}-objects.txt"):
-            with open(f"{base}-objects.txt") as f:
-                self.objects = f.read().split("\n")
+        self.names = read_lines(f"{base}-materials.txt")
+        self.objects = read_lines(f"{base}-objects.txt")
 
     def name(self, i):
         m = self.material[i]
@@ -132,7 +133,8 @@ def grouped(args, key, keep):
     first = dumps[0]
     n = first.w * first.h
     rows = {}
-    totals = [sum(d.sq(i) for i in range(n)) for d in dumps]
+    errors = [[d.sq(i) for i in range(n)] for d in dumps]
+    totals = [sum(e) for e in errors]
     for i in range(n):
         if not keep(first, i):
             continue
@@ -140,7 +142,7 @@ def grouped(args, key, keep):
         r[0] += 1
         r[1] += lum(first.ref, i)
         for k, d in enumerate(dumps):
-            r[2 + k][0] += d.sq(i)
+            r[2 + k][0] += errors[k][i]
             r[2 + k][1] += lum(d.frame, i)
     names = [os.path.basename(f.rstrip("/")) for f in args.dir.split(",")]
     for label, r in sorted(rows.items(), key=lambda kv: -kv[1][2][0]):
